@@ -1,0 +1,22 @@
+# Warnings and sanitizers travel as INTERFACE targets linked PRIVATE, so they never leak to consumers.
+add_library(swarmloc_warnings INTERFACE)
+target_compile_options(swarmloc_warnings INTERFACE
+  -Wall -Wextra -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wdouble-promotion -Werror)
+
+add_library(swarmloc_sanitizers INTERFACE)
+if(SWARMLOC_SANITIZERS)
+  target_compile_options(swarmloc_sanitizers INTERFACE -fsanitize=${SWARMLOC_SANITIZERS} -fno-omit-frame-pointer)
+  target_link_options(swarmloc_sanitizers INTERFACE -fsanitize=${SWARMLOC_SANITIZERS})
+endif()
+
+# swarmloc_library(NAME <lib> DEPS <targets...>)
+# Builds common/<lib>/src/*.cpp into swarmloc_<lib> with public headers in common/<lib>/include.
+function(swarmloc_library)
+  cmake_parse_arguments(ARG "" "NAME" "DEPS;PRIVATE_DEPS" ${ARGN})
+  file(GLOB_RECURSE sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${ARG_NAME}/src/*.cpp)
+  add_library(swarmloc_${ARG_NAME} STATIC ${sources})
+  add_library(swarmloc::${ARG_NAME} ALIAS swarmloc_${ARG_NAME})
+  target_include_directories(swarmloc_${ARG_NAME} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/${ARG_NAME}/include
+                                                  PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/${ARG_NAME}/src)
+  target_link_libraries(swarmloc_${ARG_NAME} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS} swarmloc_warnings swarmloc_sanitizers)
+endfunction()

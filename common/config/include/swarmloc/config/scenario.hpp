@@ -1,0 +1,122 @@
+#pragma once
+// The validated scenario (DESIGN.md §6). config/ is the only place that knows the YAML format; every
+// other layer consumes these structs. Defaults live here, in-class, and are documented in
+// docs/scenario.md key by key.
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "swarmloc/core/types.hpp"
+
+namespace swarmloc::config {
+
+/// Thrown for any invalid scenario or override; what() names the key path, e.g.
+/// "network.loss: 1.4 is outside [0, 1]". Maps to exit code 2.
+class ScenarioError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+enum class Placement { kUniform, kGrid, kFile };
+enum class Motion { kStatic, kRandomWalk };
+enum class RunMode { kFreeRun, kLockstep };
+enum class InitialGuess { kNoisyTruth, kUniform };
+enum class Reliability { kBestEffort, kReliable };
+enum class Durability { kVolatile, kTransientLocal };
+
+struct QosSettings {
+  Reliability reliability = Reliability::kBestEffort;
+  int history_depth = 1;
+  Durability durability = Durability::kVolatile;
+  double deadline_s = 0.0;          ///< 0 = infinite
+  double liveliness_lease_s = 0.0;  ///< 0 = infinite
+};
+
+struct Scenario {
+  std::uint64_t seed = 1;
+  std::string name = "default";
+
+  struct Algorithm {
+    std::string name = "ieif";
+    double process_noise_std_m = 0.01;
+    double initial_information = 1e-6;
+    double initial_std_m = 8.66;
+    bool inflate_stale = true;
+  } algorithm;
+
+  struct World {
+    int agents = 30;
+    int anchors = 8;
+    double area_m = 40.0;              ///< square side
+    double comm_radius_m = 15.0;       ///< communication = sensing radius
+    Placement placement = Placement::kUniform;
+    std::string positions_file;        ///< CSV "x,y" per line when placement = file
+    Motion motion = Motion::kStatic;
+    double motion_std_m = 0.0;         ///< random-walk step std per world step
+    InitialGuess initial_guess = InitialGuess::kNoisyTruth;
+    double initial_guess_std_m = 2.0;
+    bool require_connected = true;     ///< redraw placement until every agent reaches an anchor
+  } world;
+
+  struct Noise {
+    double range_std_m = 0.1;
+    double anchor_fix_std_m = 0.0;     ///< 0 = anchors know their position exactly
+  } noise;
+
+  struct Network {
+    double loss = 0.0;                 ///< Bernoulli loss at the receiver, [0, 1]
+  } network;
+
+  struct Clock {
+    double drift_ppm = 0.0;
+    double offset_max_s = 0.0;
+  } clock;
+
+  struct Run {
+    int steps = 300;
+    double rate_hz = 10.0;
+    RunMode mode = RunMode::kFreeRun;
+    double startup_timeout_s = 30.0;   ///< agents must report within this time
+    double settle_s = 1.0;             ///< extra time after the last step for final estimates
+  } run;
+
+  struct Qos {
+    QosSettings measurements{Reliability::kReliable, 4, Durability::kVolatile, 0.0, 0.0};
+    QosSettings state{Reliability::kBestEffort, 1, Durability::kVolatile, 0.0, 0.0};
+    QosSettings information{Reliability::kBestEffort, 1, Durability::kVolatile, 0.0, 0.0};
+    QosSettings consensus{Reliability::kBestEffort, 8, Durability::kVolatile, 0.0, 0.0};
+    QosSettings belief{Reliability::kBestEffort, 1, Durability::kVolatile, 0.0, 0.0};
+    QosSettings estimate{Reliability::kReliable, 4, Durability::kVolatile, 0.0, 0.0};
+    QosSettings control{Reliability::kReliable, 4, Durability::kTransientLocal, 0.0, 0.0};
+  } qos;
+
+  struct Dds {
+    int domain_id = 0;
+    std::string interface = "lo";      ///< network interface for Cyclone
+    bool neighbour_discovery = true;   ///< unicast, per-agent Peers lists (DESIGN.md §4)
+    std::string peer_address = "127.0.0.1";
+  } dds;
+};
+
+/// Loads and validates a scenario file; `overrides` are "key.path=value" strings applied before
+/// validation. Throws ScenarioError naming the key path.
+Scenario load_scenario(const std::string& path, const std::vector<std::string>& overrides = {});
+
+/// Parses YAML text (same rules as load_scenario; `origin` names the source in errors).
+Scenario parse_scenario(const std::string& yaml_text, const std::vector<std::string>& overrides = {},
+                        const std::string& origin = "<string>");
+
+/// Checks every cross-field rule (anchors <= agents, loss in [0,1], …). Throws ScenarioError.
+void validate(const Scenario& scenario);
+
+/// Serializes the full scenario with every default filled in (the run directory's scenario.yaml).
+std::string to_yaml(const Scenario& scenario);
+
+/// Stable 64-bit hash of to_yaml(scenario) (carried by the Control topic).
+std::uint64_t scenario_hash(const Scenario& scenario);
+
+/// Every canonical key path accepted by --set (for --help and tests).
+const std::vector<std::string>& known_keys();
+
+}  // namespace swarmloc::config

@@ -1,0 +1,16 @@
+#pragma once
+// Plain value types shared by every layer. No transport, clock or I/O types here.
+#include <Eigen/Core>
+#include <cstdint>
+
+namespace swarmloc {
+
+using AgentId = std::int32_t;
+inline constexpr AgentId kOrchestratorId = -1;
+
+using Vec2 = Eigen::Vector2d;
+using Mat2 = Eigen::Matrix2d;
+using VecX = Eigen::VectorXd;
+using MatX = Eigen::MatrixXd;
+
+}  // namespace swarmloc

@@ -1,0 +1,101 @@
+#pragma once
+// The DDS layer's public face. Cyclone headers are included only in common/dds/src; these classes
+// hide every DDS entity behind a pimpl. Errors throw DdsError (with dds_strretcode's text).
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/sim/envelope.hpp"
+
+namespace swarmloc::dds {
+
+class DdsError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Who this participant is and whom it must discover.
+struct Topology {
+  AgentId self = kOrchestratorId;           ///< kOrchestratorId for the orchestrator
+  int agent_count = 0;
+  std::vector<AgentId> neighbours;          ///< agent: its neighbours; orchestrator: ignored (all agents)
+};
+
+/// The Cyclone XML for this participant: loopback/interface, multicast off and a Peers list of the
+/// neighbours + orchestrator when scenario.dds.neighbour_discovery is on (agent i's discovery port is
+/// 7410 + 2i; index i % 100 with Ports/Base shifted per block of 100 — reference/discovery.md).
+std::string cyclone_config(const config::Scenario& scenario, const Topology& topology);
+
+/// One inbound inter-agent sample before loss injection and validation (those belong to the runtime).
+template <typename Message>
+struct Inbound {
+  sim::Header header;
+  Message message;
+  bool well_formed = true;  ///< false if the wire sample had wrong sizes / bad enums (message invalid)
+};
+
+/// Everything taken in one wait.
+struct AgentInbound {
+  std::vector<Inbound<estimators::StateMessage>> states;
+  std::vector<Inbound<estimators::InformationMessage>> information;
+  std::vector<Inbound<estimators::ConsensusMessage>> consensus;
+  std::vector<Inbound<estimators::BeliefMessage>> beliefs;
+  std::vector<std::pair<sim::Header, estimators::MeasurementBatch>> batches;
+  std::vector<sim::ControlMessage> control;
+};
+
+/// Agent side: writes its own families in partition "a<id>", reads its neighbours' partitions,
+/// reads its measurement batches (partition "m<id>") and control; writes estimates.
+class AgentTransport {
+ public:
+  AgentTransport(const config::Scenario& scenario, const Topology& topology);
+  ~AgentTransport();
+  AgentTransport(const AgentTransport&) = delete;
+  AgentTransport& operator=(const AgentTransport&) = delete;
+
+  void publish_state(const sim::Header& header, const estimators::StateMessage& message);
+  void publish_information(const sim::Header& header, const estimators::InformationMessage& message);
+  void publish_consensus(const sim::Header& header, const estimators::ConsensusMessage& message);
+  void publish_belief(const sim::Header& header, const estimators::BeliefMessage& message);
+  void publish_estimate(const sim::EstimateReport& report);
+
+  /// Blocks up to timeout_s (or until data arrives), then takes everything available.
+  AgentInbound wait_and_take(double timeout_s);
+
+  /// Number of neighbours whose State writer is currently matched (discovery progress).
+  [[nodiscard]] int matched_neighbours() const;
+  /// True once the orchestrator's measurement writer is matched.
+  [[nodiscard]] bool orchestrator_matched() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Orchestrator side: one measurement writer per agent partition, control writer, estimate reader.
+class OrchestratorTransport {
+ public:
+  OrchestratorTransport(const config::Scenario& scenario, int agent_count);
+  ~OrchestratorTransport();
+  OrchestratorTransport(const OrchestratorTransport&) = delete;
+  OrchestratorTransport& operator=(const OrchestratorTransport&) = delete;
+
+  void publish_batch(AgentId agent, const sim::Header& header, const estimators::MeasurementBatch& batch);
+  void publish_control(const sim::ControlMessage& message);
+
+  /// Blocks up to timeout_s, then takes every estimate report available (well-formed ones only;
+  /// malformed reports are counted in rejected_reports()).
+  std::vector<sim::EstimateReport> wait_and_take_estimates(double timeout_s);
+  [[nodiscard]] std::uint64_t rejected_reports() const;
+
+  /// Agents whose estimate writer is matched.
+  [[nodiscard]] int matched_agents() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace swarmloc::dds

@@ -1,0 +1,102 @@
+#pragma once
+// Transport-free message and measurement types. The DDS layer converts IDL samples to and from these
+// in one file (common/dds/src/convert.cpp); estimators never see a wire type.
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "swarmloc/core/types.hpp"
+
+namespace swarmloc::estimators {
+
+// ---- Measurements an agent receives for one world step ----
+struct RangeMeasurement {
+  AgentId peer = 0;
+  double range_m = 0.0;
+  double std_m = 0.0;
+};
+
+struct AbsoluteFix {
+  Vec2 position_m = Vec2::Zero();
+  Mat2 covariance = Mat2::Zero();  ///< zero = exactly known (anchor)
+};
+
+struct MotionInput {
+  Vec2 velocity_mps = Vec2::Zero();
+  double dt_s = 0.0;
+  Mat2 process_cov = Mat2::Zero();
+};
+
+struct MeasurementBatch {
+  std::int64_t world_step = -1;  ///< -1: no batch this step
+  double world_time_s = 0.0;
+  std::vector<RangeMeasurement> ranges;
+  std::optional<AbsoluteFix> fix;
+  std::optional<MotionInput> motion;
+  std::vector<AgentId> neighbours;
+};
+
+// ---- Inter-agent messages (one struct per family of DESIGN.md §3) ----
+/// STATE + COV of the sender's own position.
+struct StateMessage {
+  Vec2 mean_m = Vec2::Zero();
+  Mat2 covariance = Mat2::Zero();
+  bool anchor = false;
+  bool active = true;
+  std::uint16_t degree = 0;
+};
+
+/// INFO-VEC + INFO-MAT (DLE priors).
+struct InformationMessage {
+  std::int32_t target = 0;
+  VecX info_vec;
+  MatX info_mat;
+};
+
+/// CONS scalars with (update τ, round t).
+struct ConsensusMessage {
+  std::int64_t tau = 0;
+  std::int32_t round = 0;
+  std::vector<double> values;
+};
+
+/// BELIEF of the sender's own position.
+struct BeliefMessage {
+  std::int64_t iteration = 0;
+  Vec2 mean_m = Vec2::Zero();
+  Mat2 information = Mat2::Zero();
+  bool infinite_information = false;
+};
+
+/// A received message with the sender's identity and step (the mailbox keeps the newest per sender).
+template <typename Message>
+struct Received {
+  AgentId sender = 0;
+  std::int64_t sender_step = 0;
+  Message message;
+};
+
+/// Everything an agent has from its neighbours at the moment it steps: the newest sample per sender.
+struct Inbox {
+  std::vector<Received<StateMessage>> states;
+  std::vector<Received<InformationMessage>> information;
+  std::vector<Received<ConsensusMessage>> consensus;
+  std::vector<Received<BeliefMessage>> beliefs;
+};
+
+/// What an estimator wants published after a step (each family optional).
+struct Outbox {
+  std::optional<StateMessage> state;
+  std::optional<InformationMessage> information;
+  std::vector<ConsensusMessage> consensus;
+  std::optional<BeliefMessage> belief;
+};
+
+/// Position estimate of the agent itself.
+struct Estimate {
+  Vec2 mean_m = Vec2::Zero();
+  Mat2 covariance = Mat2::Identity() * 1e12;
+  bool valid = false;
+};
+
+}  // namespace swarmloc::estimators

@@ -1,0 +1,1 @@
+/* Anchor translation unit: the generated swarmloc.c is added by idlc_generate. */
