@@ -1,1 +1,239 @@
-// placeholder translation unit; replaced by the real implementation
+// Scenario files: reading, walking the YAML tree against the key table, --set overrides, serialization.
+#include "swarmloc/config/scenario.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <array>
+#include <cerrno>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string_view>
+#include <system_error>
+
+#include "scenario_keys.hpp"
+
+namespace swarmloc::config {
+namespace {
+
+using detail::KeySpec;
+
+/// Where each key's value came from, as the suffix appended to errors about it:
+/// " at scenarios/x.yaml:12:9" or " (from --set network.loss=1.4)".
+using Sources = std::map<std::string, std::string>;
+
+std::string at(const std::string& origin, const YAML::Mark& mark) {
+  if (mark.is_null()) return " in " + origin;
+  return " at " + origin + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+}
+
+std::string join_path(const std::string& section, const std::string& name) {
+  return section.empty() ? name : section + "." + name;
+}
+
+std::string list_keys_of(const std::string& section) {
+  std::string list;
+  for (const auto& child : detail::children_of(section))
+    list += (list.empty() ? "" : ", ") + join_path(section, child);
+  return list;
+}
+
+void apply_map(Scenario& scenario, const YAML::Node& map, const std::string& section,
+               const std::string& origin, Sources& sources) {
+  std::set<std::string> seen;
+  for (const auto& entry : map) {
+    const YAML::Node& key_node = entry.first;
+    const YAML::Node& value = entry.second;
+    const std::string key_at = at(origin, key_node.Mark());
+    if (!key_node.IsScalar()) {
+      throw ScenarioError((section.empty() ? origin : section) + ": keys must be plain names, got " +
+                          detail::describe(key_node) + key_at);
+    }
+    const std::string& name = key_node.Scalar();
+    const std::string path = join_path(section, name);
+    if (!seen.insert(name).second) throw ScenarioError(path + ": duplicate key" + key_at);
+    if (name.find('.') != std::string::npos) {
+      throw ScenarioError(path + ": dotted names are for --set; in a file nest each part as a map" + key_at);
+    }
+    if (const KeySpec* key = detail::find_key(path)) {
+      const std::string value_at = value.Mark().is_null() ? key_at : at(origin, value.Mark());
+      try {
+        key->read(scenario, value);
+      } catch (const ScenarioError& error) {
+        throw ScenarioError(error.what() + value_at);
+      }
+      sources[path] = value_at;
+    } else if (detail::is_section(path)) {
+      if (value.IsNull()) continue;  // "qos:" with nothing under it keeps every default
+      if (!value.IsMap()) {
+        throw ScenarioError(path + ": expected a map with keys " + list_keys_of(path) + ", got " +
+                            detail::describe(value) + key_at);
+      }
+      apply_map(scenario, value, path, origin, sources);
+    } else {
+      throw ScenarioError(path + ": unknown key" + detail::suggestion_for(path) + key_at);
+    }
+  }
+}
+
+void apply_override(Scenario& scenario, const std::string& text, Sources& sources) {
+  const auto equals = text.find('=');
+  const auto first = equals == std::string::npos ? std::string::npos : text.find_first_not_of(" \t");
+  if (equals == std::string::npos || first >= equals) {
+    throw ScenarioError("--set '" + text + "': expected key.path=value, e.g. --set world.agents=40");
+  }
+  const std::string path = text.substr(first, text.find_last_not_of(" \t", equals - 1) - first + 1);
+  const std::string value = text.substr(equals + 1);
+  const std::string from = " (from --set " + text + ")";
+  const KeySpec* key = detail::find_key(path);
+  if (key == nullptr) {
+    if (detail::is_section(path)) {
+      throw ScenarioError(path + ": is a section, not a key; set one of " + list_keys_of(path) + from);
+    }
+    throw ScenarioError(path + ": unknown key" + detail::suggestion_for(path) + from);
+  }
+  YAML::Node node;
+  try {
+    node = YAML::Load(value);
+  } catch (const YAML::Exception& error) {
+    throw ScenarioError(path + ": cannot read '" + value + "' as a YAML value (" + error.msg + ")" + from);
+  }
+  try {
+    key->read(scenario, node);
+  } catch (const ScenarioError& error) {
+    throw ScenarioError(error.what() + from);
+  }
+  sources[path] = from;
+}
+
+/// Parses, resolves, overrides and validates. `subject` opens file-level errors ("scenario file 'x'");
+/// `origin` prefixes line:column locations; `base_dir` resolves a relative world.positions_file.
+Scenario parse(const std::string& yaml_text, const std::vector<std::string>& overrides,
+               const std::string& origin, const std::string& subject,
+               const std::optional<std::filesystem::path>& base_dir) {
+  std::vector<YAML::Node> documents;
+  try {
+    documents = YAML::LoadAll(yaml_text);
+  } catch (const YAML::Exception& error) {
+    std::string where;
+    if (!error.mark.is_null()) {
+      where = " at line " + std::to_string(error.mark.line + 1) + ", column " +
+              std::to_string(error.mark.column + 1);
+    }
+    throw ScenarioError(subject + ": YAML syntax error" + where + ": " + error.msg);
+  }
+  if (documents.size() > 1) {
+    throw ScenarioError(subject + ": expected one YAML document, found " + std::to_string(documents.size()));
+  }
+
+  Scenario scenario;
+  Sources sources;
+  if (!documents.empty() && !documents.front().IsNull()) {
+    const YAML::Node& root = documents.front();
+    if (!root.IsMap()) {
+      throw ScenarioError(subject + ": expected a map of scenario keys at the top level, got " +
+                          detail::describe(root));
+    }
+    apply_map(scenario, root, "", origin, sources);
+  }
+
+  // A relative positions file in a scenario file means "next to the scenario file". Made absolute so the
+  // run directory's scenario.yaml still points at it.
+  auto& positions = scenario.world.positions_file;
+  if (base_dir && !positions.empty() && std::filesystem::path(positions).is_relative()) {
+    std::error_code error;
+    auto resolved = std::filesystem::absolute(*base_dir / positions, error);
+    if (error) resolved = *base_dir / positions;
+    positions = resolved.lexically_normal().string();
+  }
+
+  for (const auto& text : overrides) apply_override(scenario, text, sources);
+
+  try {
+    validate(scenario);
+  } catch (const ScenarioError& error) {
+    const std::string message = error.what();
+    const auto source = sources.find(message.substr(0, message.find(": ")));
+    if (source == sources.end()) throw;
+    throw ScenarioError(message + source->second);
+  }
+  return scenario;
+}
+
+std::string read_file(const std::string& path) {
+  const auto cannot_read = [&](int error) {
+    return ScenarioError("scenario file '" + path + "': cannot be read (" +
+                         std::generic_category().message(error) + ")");
+  };
+  errno = 0;
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!file) throw cannot_read(errno != 0 ? errno : EIO);
+  std::string text;
+  std::array<char, 65536> buffer{};
+  std::size_t count = 0;
+  while ((count = std::fread(buffer.data(), 1, buffer.size(), file.get())) > 0)
+    text.append(buffer.data(), count);
+  if (std::ferror(file.get()) != 0) throw cannot_read(errno != 0 ? errno : EIO);
+  return text;
+}
+
+}  // namespace
+
+Scenario load_scenario(const std::string& path, const std::vector<std::string>& overrides) {
+  const std::string text = read_file(path);
+  return parse(text, overrides, path, "scenario file '" + path + "'",
+               std::filesystem::path(path).parent_path());
+}
+
+Scenario parse_scenario(const std::string& yaml_text, const std::vector<std::string>& overrides,
+                        const std::string& origin) {
+  return parse(yaml_text, overrides, origin, origin, std::nullopt);
+}
+
+std::string to_yaml(const Scenario& scenario) {
+  std::string out;
+  std::vector<std::string> open;  // the sections the previous key was in
+  for (const auto& key : detail::key_specs()) {
+    std::vector<std::string> parts;
+    for (std::size_t begin = 0;;) {
+      const auto dot = key.path.find('.', begin);
+      parts.push_back(key.path.substr(begin, dot - begin));
+      if (dot == std::string::npos) break;
+      begin = dot + 1;
+    }
+    const std::size_t depth = parts.size() - 1;
+    std::size_t common = 0;
+    while (common < open.size() && common < depth && open[common] == parts[common]) ++common;
+    open.resize(common);
+    for (std::size_t level = common; level < depth; ++level) {
+      out += std::string(2 * level, ' ') + parts[level] + ":\n";
+      open.push_back(parts[level]);
+    }
+    out += std::string(2 * depth, ' ') + parts.back() + ": " + key.write(scenario) + "\n";
+  }
+  return out;
+}
+
+std::uint64_t scenario_hash(const Scenario& scenario) {
+  // FNV-1a, 64 bit.
+  std::uint64_t hash = 14695981039346656037ULL;
+  for (const char c : to_yaml(scenario)) {
+    hash ^= static_cast<unsigned char>(c);
+    hash *= 1099511628211ULL;
+  }
+  return hash;
+}
+
+const std::vector<std::string>& known_keys() {
+  static const std::vector<std::string> keys = [] {
+    std::vector<std::string> paths;
+    for (const auto& key : detail::key_specs()) paths.push_back(key.path);
+    return paths;
+  }();
+  return keys;
+}
+
+}  // namespace swarmloc::config

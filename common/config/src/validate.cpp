@@ -1,0 +1,130 @@
+// validate(): every range and cross-field rule, in document order, each message starting with the key path.
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <string_view>
+
+#include "scenario_keys.hpp"
+#include "swarmloc/config/scenario.hpp"
+
+namespace swarmloc::config {
+namespace {
+
+using detail::format_number;
+
+[[noreturn]] void fail(std::string_view path, const std::string& message) {
+  throw ScenarioError(std::string(path) + ": " + message);
+}
+
+void require_finite(double value, std::string_view path) {
+  if (!std::isfinite(value)) fail(path, format_number(value) + " is not a finite number");
+}
+
+void require_positive(double value, std::string_view path) {
+  require_finite(value, path);
+  if (!(value > 0.0)) fail(path, format_number(value) + " must be > 0");
+}
+
+void require_non_negative(double value, std::string_view path) {
+  require_finite(value, path);
+  if (value < 0.0) fail(path, format_number(value) + " must be >= 0");
+}
+
+void require_within(double value, double low, double high, std::string_view path) {
+  require_finite(value, path);
+  if (value < low || value > high) {
+    fail(path,
+         format_number(value) + " is outside [" + format_number(low) + ", " + format_number(high) + "]");
+  }
+}
+
+void require_within(int value, int low, int high, std::string_view path) {
+  if (value < low || value > high) {
+    fail(path,
+         std::to_string(value) + " is outside [" + std::to_string(low) + ", " + std::to_string(high) + "]");
+  }
+}
+
+void require_at_least(int value, int low, std::string_view path) {
+  if (value < low) fail(path, std::to_string(value) + " must be >= " + std::to_string(low));
+}
+
+void require_non_empty(const std::string& value, std::string_view path) {
+  if (value.empty()) fail(path, "must not be empty");
+}
+
+void validate_qos(const QosSettings& qos, const std::string& family) {
+  const std::string prefix = "qos." + family + ".";
+  require_at_least(qos.history_depth, 1, prefix + "history_depth");
+  require_non_negative(qos.deadline_s, prefix + "deadline_s");
+  require_non_negative(qos.liveliness_lease_s, prefix + "liveliness_lease_s");
+}
+
+}  // namespace
+
+void validate(const Scenario& scenario) {
+  // Enums set by casting an out-of-range integer (only possible from code, never from YAML).
+  for (const auto& key : detail::key_specs()) {
+    const std::string value = key.write(scenario);
+    if (value.starts_with("invalid_")) fail(key.path, "invalid enum value " + value.substr(8));
+  }
+
+  require_non_empty(scenario.name, "name");
+
+  const auto& algorithm = scenario.algorithm;
+  const auto& known = detail::known_algorithms();
+  if (std::find(known.begin(), known.end(), algorithm.name) == known.end()) {
+    std::string list;
+    for (const auto& name : known) list += (list.empty() ? "" : ", ") + name;
+    fail("algorithm.name", "'" + algorithm.name + "' is not a known algorithm (known: " + list + ")");
+  }
+  require_non_negative(algorithm.process_noise_std_m, "algorithm.process_noise_std_m");
+  require_positive(algorithm.initial_information, "algorithm.initial_information");
+  require_positive(algorithm.initial_std_m, "algorithm.initial_std_m");
+
+  const auto& world = scenario.world;
+  require_within(world.agents, 1, 100000, "world.agents");
+  require_at_least(world.anchors, 0, "world.anchors");
+  if (world.anchors > world.agents) {
+    fail("world.anchors",
+         std::to_string(world.anchors) + " is more than world.agents (" + std::to_string(world.agents) + ")");
+  }
+  require_positive(world.area_m, "world.area_m");
+  require_positive(world.comm_radius_m, "world.comm_radius_m");
+  if (world.placement == Placement::kFile && world.positions_file.empty()) {
+    fail("world.positions_file", "must be set when world.placement is file");
+  }
+  require_non_negative(world.motion_std_m, "world.motion_std_m");
+  require_non_negative(world.initial_guess_std_m, "world.initial_guess_std_m");
+
+  require_non_negative(scenario.noise.range_std_m, "noise.range_std_m");
+  require_non_negative(scenario.noise.anchor_fix_std_m, "noise.anchor_fix_std_m");
+
+  require_within(scenario.network.loss, 0.0, 1.0, "network.loss");
+
+  // drift_ppm is the magnitude of a ± bound drawn per agent; 1e5 ppm = 10 %.
+  require_within(scenario.clock.drift_ppm, 0.0, 1e5, "clock.drift_ppm");
+  require_non_negative(scenario.clock.offset_max_s, "clock.offset_max_s");
+
+  const auto& run = scenario.run;
+  require_at_least(run.steps, 1, "run.steps");
+  require_finite(run.rate_hz, "run.rate_hz");
+  if (!(run.rate_hz > 0.0) || run.rate_hz > 1000.0) {
+    fail("run.rate_hz", format_number(run.rate_hz) + " is outside (0, 1000]");
+  }
+  require_positive(run.startup_timeout_s, "run.startup_timeout_s");
+  require_non_negative(run.settle_s, "run.settle_s");
+
+  const auto& qos = scenario.qos;
+  validate_qos(qos.measurements, "measurements");
+  validate_qos(qos.state, "state");
+  validate_qos(qos.information, "information");
+  validate_qos(qos.consensus, "consensus");
+  validate_qos(qos.belief, "belief");
+  validate_qos(qos.estimate, "estimate");
+  validate_qos(qos.control, "control");
+
+  require_within(scenario.dds.domain_id, 0, 230, "dds.domain_id");
+}
+
+}  // namespace swarmloc::config

@@ -1,0 +1,516 @@
+// Scenario loading, overrides, validation and serialization (common/config).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "swarmloc/config/scenario.hpp"
+
+namespace swarmloc::config {
+namespace {
+
+const std::string kSourceDir = SWARMLOC_SOURCE_DIR;
+const std::string kFixtures = kSourceDir + "/tests/data/scenarios/";
+
+/// Runs `action`, expects a ScenarioError, and returns its message ("" and a failure when none is thrown).
+std::string error_of(const std::function<void()>& action) {
+  try {
+    action();
+  } catch (const ScenarioError& error) {
+    return error.what();
+  }
+  ADD_FAILURE() << "expected a ScenarioError";
+  return {};
+}
+
+std::string override_error(const std::vector<std::string>& overrides) {
+  return error_of([&] { parse_scenario("", overrides); });
+}
+
+std::string validate_error(const std::function<void(Scenario&)>& change) {
+  Scenario scenario;
+  change(scenario);
+  return error_of([&] { validate(scenario); });
+}
+
+bool starts_with(const std::string& text, const std::string& prefix) { return text.rfind(prefix, 0) == 0; }
+
+#define EXPECT_STARTS_WITH(text, prefix) EXPECT_PRED2(starts_with, text, prefix)
+
+void expect_qos_equal(const QosSettings& a, const QosSettings& b, const std::string& family) {
+  SCOPED_TRACE(family);
+  EXPECT_EQ(a.reliability, b.reliability);
+  EXPECT_EQ(a.history_depth, b.history_depth);
+  EXPECT_EQ(a.durability, b.durability);
+  EXPECT_EQ(a.deadline_s, b.deadline_s);
+  EXPECT_EQ(a.liveliness_lease_s, b.liveliness_lease_s);
+}
+
+/// Field by field, independent of to_yaml, so a field missing from the key table shows up here.
+void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
+  EXPECT_EQ(a.seed, b.seed);
+  EXPECT_EQ(a.name, b.name);
+  EXPECT_EQ(a.algorithm.name, b.algorithm.name);
+  EXPECT_EQ(a.algorithm.process_noise_std_m, b.algorithm.process_noise_std_m);
+  EXPECT_EQ(a.algorithm.initial_information, b.algorithm.initial_information);
+  EXPECT_EQ(a.algorithm.initial_std_m, b.algorithm.initial_std_m);
+  EXPECT_EQ(a.algorithm.inflate_stale, b.algorithm.inflate_stale);
+  EXPECT_EQ(a.world.agents, b.world.agents);
+  EXPECT_EQ(a.world.anchors, b.world.anchors);
+  EXPECT_EQ(a.world.area_m, b.world.area_m);
+  EXPECT_EQ(a.world.comm_radius_m, b.world.comm_radius_m);
+  EXPECT_EQ(a.world.placement, b.world.placement);
+  EXPECT_EQ(a.world.positions_file, b.world.positions_file);
+  EXPECT_EQ(a.world.motion, b.world.motion);
+  EXPECT_EQ(a.world.motion_std_m, b.world.motion_std_m);
+  EXPECT_EQ(a.world.initial_guess, b.world.initial_guess);
+  EXPECT_EQ(a.world.initial_guess_std_m, b.world.initial_guess_std_m);
+  EXPECT_EQ(a.world.require_connected, b.world.require_connected);
+  EXPECT_EQ(a.noise.range_std_m, b.noise.range_std_m);
+  EXPECT_EQ(a.noise.anchor_fix_std_m, b.noise.anchor_fix_std_m);
+  EXPECT_EQ(a.network.loss, b.network.loss);
+  EXPECT_EQ(a.clock.drift_ppm, b.clock.drift_ppm);
+  EXPECT_EQ(a.clock.offset_max_s, b.clock.offset_max_s);
+  EXPECT_EQ(a.run.steps, b.run.steps);
+  EXPECT_EQ(a.run.rate_hz, b.run.rate_hz);
+  EXPECT_EQ(a.run.mode, b.run.mode);
+  EXPECT_EQ(a.run.startup_timeout_s, b.run.startup_timeout_s);
+  EXPECT_EQ(a.run.settle_s, b.run.settle_s);
+  expect_qos_equal(a.qos.measurements, b.qos.measurements, "measurements");
+  expect_qos_equal(a.qos.state, b.qos.state, "state");
+  expect_qos_equal(a.qos.information, b.qos.information, "information");
+  expect_qos_equal(a.qos.consensus, b.qos.consensus, "consensus");
+  expect_qos_equal(a.qos.belief, b.qos.belief, "belief");
+  expect_qos_equal(a.qos.estimate, b.qos.estimate, "estimate");
+  expect_qos_equal(a.qos.control, b.qos.control, "control");
+  EXPECT_EQ(a.dds.domain_id, b.dds.domain_id);
+  EXPECT_EQ(a.dds.interface, b.dds.interface);
+  EXPECT_EQ(a.dds.neighbour_discovery, b.dds.neighbour_discovery);
+  EXPECT_EQ(a.dds.peer_address, b.dds.peer_address);
+}
+
+/// A valid scenario where every field differs from its default.
+Scenario everything_changed() {
+  Scenario s;
+  s.seed = std::numeric_limits<std::uint64_t>::max();
+  s.name = "quotes \" back\\slash: colon # hash\nnewline\ttab \x01 null";
+  s.algorithm = {"dgbb", 0.3, 1.0 / 3.0, 1e-300, false};
+  s.world.agents = 100000;
+  s.world.anchors = 0;
+  s.world.area_m = 123.456789012345678;
+  s.world.comm_radius_m = 0.1;
+  s.world.placement = Placement::kFile;
+  s.world.positions_file = "/tmp/pos itions.csv";
+  s.world.motion = Motion::kRandomWalk;
+  s.world.motion_std_m = 2.5e-7;
+  s.world.initial_guess = InitialGuess::kUniform;
+  s.world.initial_guess_std_m = 7.0;
+  s.world.require_connected = false;
+  s.noise = {0.2, 2.0};
+  s.network.loss = 1.0;
+  s.clock = {1e5, 0.25};
+  s.run = {1, 1000.0, RunMode::kLockstep, 0.5, 0.0};
+  s.qos.measurements = {Reliability::kBestEffort, 2, Durability::kTransientLocal, 1.5, 2.5};
+  s.qos.state = {Reliability::kReliable, 3, Durability::kTransientLocal, 0.1, 0.2};
+  s.qos.information = {Reliability::kReliable, 5, Durability::kTransientLocal, 0.3, 0.4};
+  s.qos.consensus = {Reliability::kReliable, 6, Durability::kTransientLocal, 0.5, 0.6};
+  s.qos.belief = {Reliability::kReliable, 7, Durability::kTransientLocal, 0.7, 0.8};
+  s.qos.estimate = {Reliability::kBestEffort, 9, Durability::kTransientLocal, 0.9, 1.0};
+  s.qos.control = {Reliability::kBestEffort, 10, Durability::kVolatile, 1.1, 1.2};
+  s.dds = {230, "true", false, "null"};
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Defaults and valid input
+
+TEST(Scenario, EmptyDocumentKeepsEveryDefault) {
+  const Scenario parsed = parse_scenario("");
+  expect_scenarios_equal(parsed, Scenario{});
+  EXPECT_EQ(parsed.world.agents, 30);
+  EXPECT_EQ(parsed.world.anchors, 8);
+  EXPECT_EQ(parsed.algorithm.name, "ieif");
+}
+
+TEST(Scenario, StructDefaultsAreValid) { EXPECT_NO_THROW(validate(Scenario{})); }
+
+TEST(Scenario, MissingKeysKeepTheirDefaults) {
+  const Scenario parsed = parse_scenario("world:\n  agents: 50\nqos:\n  state:\n    history_depth: 3\n");
+  Scenario expected;
+  expected.world.agents = 50;
+  expected.qos.state.history_depth = 3;
+  expect_scenarios_equal(parsed, expected);
+}
+
+TEST(Scenario, DefaultScenarioFileLoadsAndEqualsTheStructDefaults) {
+  const Scenario loaded = load_scenario(kSourceDir + "/scenarios/default.yaml");
+  expect_scenarios_equal(loaded, Scenario{});
+  EXPECT_EQ(loaded.world.agents, 30);
+  EXPECT_EQ(loaded.world.anchors, 8);
+  EXPECT_EQ(loaded.world.area_m, 40.0);
+  EXPECT_EQ(loaded.world.comm_radius_m, 15.0);
+  EXPECT_EQ(loaded.noise.range_std_m, 0.1);
+  EXPECT_EQ(loaded.run.rate_hz, 10.0);
+  EXPECT_EQ(loaded.run.steps, 300);
+  EXPECT_EQ(loaded.seed, 1U);
+}
+
+TEST(Scenario, Range30ScenarioFileLoadsWithA30MetreRadius) {
+  const Scenario loaded = load_scenario(kSourceDir + "/scenarios/range_30.yaml");
+  EXPECT_EQ(loaded.world.comm_radius_m, 30.0);
+  EXPECT_EQ(loaded.name, "range_30");
+  EXPECT_EQ(loaded.world.agents, 30);
+}
+
+TEST(Scenario, FullFixtureSetsEveryKeyItNames) {
+  const Scenario loaded = load_scenario(kFixtures + "valid_full.yaml");
+  EXPECT_EQ(loaded.seed, std::numeric_limits<std::uint64_t>::max());
+  EXPECT_EQ(loaded.name, "full fixture");
+  EXPECT_EQ(loaded.algorithm.name, "iekf");
+  EXPECT_EQ(loaded.algorithm.initial_information, 1e-3);
+  EXPECT_FALSE(loaded.algorithm.inflate_stale);
+  EXPECT_EQ(loaded.world.placement, Placement::kGrid);
+  EXPECT_EQ(loaded.world.motion, Motion::kRandomWalk);
+  EXPECT_EQ(loaded.world.initial_guess, InitialGuess::kUniform);
+  EXPECT_FALSE(loaded.world.require_connected);
+  EXPECT_EQ(loaded.network.loss, 0.3);
+  EXPECT_EQ(loaded.clock.drift_ppm, 200.0);
+  EXPECT_EQ(loaded.run.mode, RunMode::kLockstep);
+  EXPECT_EQ(loaded.qos.measurements.history_depth, 8);
+  EXPECT_EQ(loaded.qos.measurements.deadline_s, 0.5);
+  EXPECT_EQ(loaded.qos.state.reliability, Reliability::kReliable);
+  EXPECT_EQ(loaded.qos.state.history_depth, 2);
+  EXPECT_EQ(loaded.qos.state.durability, Durability::kVolatile);  // unnamed: default kept
+  EXPECT_EQ(loaded.qos.belief.durability, Durability::kTransientLocal);
+  EXPECT_EQ(loaded.dds.domain_id, 42);
+  EXPECT_EQ(loaded.dds.peer_address, "10.0.0.7");
+  EXPECT_FALSE(loaded.dds.neighbour_discovery);
+}
+
+TEST(Scenario, RelativePositionsFileResolvesAgainstTheScenarioDirectory) {
+  const Scenario loaded = load_scenario(kFixtures + "valid_positions_file.yaml");
+  const auto expected = std::filesystem::absolute(kFixtures + "positions.csv").lexically_normal();
+  EXPECT_EQ(loaded.world.positions_file, expected.string());
+  EXPECT_TRUE(std::filesystem::path(loaded.world.positions_file).is_absolute());
+}
+
+TEST(Scenario, AbsolutePositionsFileIsKeptAsWritten) {
+  const Scenario parsed = parse_scenario("world:\n  placement: file\n  positions_file: /data/p.csv\n");
+  EXPECT_EQ(parsed.world.positions_file, "/data/p.csv");
+}
+
+TEST(Scenario, HyphenatedEnumSpellingIsAccepted) {
+  EXPECT_EQ(parse_scenario("run:\n  mode: free-run\n").run.mode, RunMode::kFreeRun);
+  EXPECT_EQ(parse_scenario("", {"world.motion=random-walk"}).world.motion, Motion::kRandomWalk);
+}
+
+TEST(Scenario, SpecialFloatSpellingsAndSignsParse) {
+  EXPECT_EQ(parse_scenario("", {"network.loss=+0.5"}).network.loss, 0.5);
+  EXPECT_EQ(parse_scenario("", {"world.area_m=1e2"}).world.area_m, 100.0);
+  EXPECT_EQ(parse_scenario("", {"world.area_m=.5"}).world.area_m, 0.5);
+  EXPECT_EQ(parse_scenario("", {"run.steps=+7"}).run.steps, 7);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Overrides
+
+TEST(Scenario, OverridesApplyOnTopOfTheFile) {
+  const Scenario loaded = load_scenario(kSourceDir + "/scenarios/default.yaml",
+                                        {"world.agents=40", "network.loss=0.3", "run.mode=lockstep",
+                                         "algorithm.name=iekf", "qos.state.reliability=reliable", "seed=7"});
+  EXPECT_EQ(loaded.world.agents, 40);
+  EXPECT_EQ(loaded.network.loss, 0.3);
+  EXPECT_EQ(loaded.run.mode, RunMode::kLockstep);
+  EXPECT_EQ(loaded.algorithm.name, "iekf");
+  EXPECT_EQ(loaded.qos.state.reliability, Reliability::kReliable);
+  EXPECT_EQ(loaded.seed, 7U);
+  EXPECT_EQ(loaded.world.anchors, 8);  // untouched keys keep the file's value
+}
+
+TEST(Scenario, LaterOverrideWinsOverEarlierOverrideAndFile) {
+  const Scenario parsed = parse_scenario("world:\n  agents: 10\n", {"world.agents=20", "world.agents = 25"});
+  EXPECT_EQ(parsed.world.agents, 25);
+}
+
+TEST(Scenario, OverridesApplyBeforeValidation) {
+  // 40 anchors is invalid with the default 30 agents, valid once agents is raised too.
+  EXPECT_NO_THROW(parse_scenario("", {"world.anchors=40", "world.agents=50"}));
+  // And an invalid file value can be fixed from the command line.
+  EXPECT_NO_THROW(load_scenario(kFixtures + "invalid_loss.yaml", {"network.loss=0.4"}));
+}
+
+TEST(Scenario, OverrideValueIsAYamlScalar) {
+  EXPECT_EQ(parse_scenario("", {"name=\"a=b: c\""}).name, "a=b: c");
+  EXPECT_EQ(parse_scenario("", {"algorithm.inflate_stale=false"}).algorithm.inflate_stale, false);
+  EXPECT_EQ(parse_scenario("", {"world.positions_file="}).world.positions_file, "");
+}
+
+TEST(Scenario, EveryKnownKeyIsSettableByOverride) {
+  // A list is never a valid value, so every known key must answer with a type error naming it —
+  // never "unknown key".
+  for (const auto& key : known_keys()) {
+    const std::string message = override_error({key + "=[1, 2]"});
+    EXPECT_STARTS_WITH(message, key + ": expected ");
+  }
+}
+
+TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
+  const auto& keys = known_keys();
+  for (const char* key :
+       {"seed", "algorithm.name", "world.agents", "world.anchors", "world.area_m", "world.comm_radius_m",
+        "noise.range_std_m", "network.loss", "clock.drift_ppm", "clock.offset_max_s", "run.steps",
+        "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
+    EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
+  }
+  EXPECT_EQ(keys.size(), 2U + 5U + 11U + 2U + 1U + 2U + 5U + 7U * 5U + 4U);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Errors: every message starts with the key path
+
+TEST(ScenarioErrors, NegativeRadiusNamesTheKey) {
+  EXPECT_EQ(override_error({"world.comm_radius_m=-1"}),
+            "world.comm_radius_m: -1 must be > 0 (from --set world.comm_radius_m=-1)");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.world.comm_radius_m = -1.0; }),
+            "world.comm_radius_m: -1 must be > 0");
+}
+
+TEST(ScenarioErrors, MoreAnchorsThanAgentsNamesTheAnchors) {
+  EXPECT_EQ(validate_error([](Scenario& s) { s.world.anchors = 40; }),
+            "world.anchors: 40 is more than world.agents (30)");
+  const std::string message = error_of([] { load_scenario(kFixtures + "invalid_anchors.yaml"); });
+  EXPECT_STARTS_WITH(message, "world.anchors: 40 is more than world.agents (30) at ");
+  EXPECT_NE(message.find("invalid_anchors.yaml:4:"), std::string::npos) << message;
+}
+
+TEST(ScenarioErrors, UnknownAlgorithmListsTheKnownOnes) {
+  const std::string message = override_error({"algorithm.name=foo"});
+  EXPECT_STARTS_WITH(message, "algorithm.name: 'foo' is not a known algorithm (known: ieif, iekf, ekf, ");
+  EXPECT_NE(message.find("fixed_step"), std::string::npos) << message;
+}
+
+TEST(ScenarioErrors, UnreadableFileNamesTheFileAndTheReason) {
+  const std::string missing = kFixtures + "does_not_exist.yaml";
+  EXPECT_EQ(error_of([&] { load_scenario(missing); }),
+            "scenario file '" + missing + "': cannot be read (No such file or directory)");
+  EXPECT_EQ(error_of([&] { load_scenario(kFixtures); }),
+            "scenario file '" + kFixtures + "': cannot be read (Is a directory)");
+}
+
+TEST(ScenarioErrors, LossOutsideZeroToOneIsRejected) {
+  EXPECT_EQ(validate_error([](Scenario& s) { s.network.loss = 1.4; }), "network.loss: 1.4 is outside [0, 1]");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.network.loss = -0.1; }),
+            "network.loss: -0.1 is outside [0, 1]");
+  EXPECT_STARTS_WITH(override_error({"network.loss=-0.1"}), "network.loss: -0.1 is outside [0, 1]");
+  EXPECT_STARTS_WITH(override_error({"network.loss=1.4"}), "network.loss: 1.4 is outside [0, 1]");
+  const std::string message = error_of([] { load_scenario(kFixtures + "invalid_loss.yaml"); });
+  EXPECT_STARTS_WITH(message, "network.loss: 1.4 is outside [0, 1] at ");
+  EXPECT_NE(message.find("invalid_loss.yaml:3:9"), std::string::npos) << message;
+}
+
+TEST(ScenarioErrors, NanIsRejectedForEveryNumericKey) {
+  const std::array<std::string, 4> free_text{"name", "world.positions_file", "dds.interface",
+                                             "dds.peer_address"};
+  for (const auto& key : known_keys()) {
+    if (std::find(free_text.begin(), free_text.end(), key) != free_text.end()) continue;
+    EXPECT_STARTS_WITH(override_error({key + "=.nan"}), key + ": ");
+  }
+  EXPECT_STARTS_WITH(override_error({"network.loss=.nan"}), "network.loss: nan is not a finite number");
+  EXPECT_STARTS_WITH(error_of([] { load_scenario(kFixtures + "invalid_nan.yaml"); }),
+                     "noise.range_std_m: nan is not a finite number at ");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.qos.estimate.deadline_s = std::nan(""); }),
+            "qos.estimate.deadline_s: nan is not a finite number");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.run.rate_hz = std::numeric_limits<double>::infinity(); }),
+            "run.rate_hz: inf is not a finite number");
+}
+
+TEST(ScenarioErrors, UnknownKeyNamesTheFullPathAndSuggestsTheClosestKey) {
+  const std::string message = error_of([] { load_scenario(kFixtures + "invalid_unknown_key.yaml"); });
+  EXPECT_STARTS_WITH(message, "world.agnets: unknown key (did you mean world.agents?) at ");
+  EXPECT_NE(message.find("invalid_unknown_key.yaml:3:3"), std::string::npos) << message;
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("wrld:\n  agents: 3\n"); }),
+                     "wrld: unknown key (did you mean world?)");
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("qos:\n  state:\n    depth: 3\n"); }),
+                     "qos.state.depth: unknown key");
+  EXPECT_STARTS_WITH(override_error({"world.agnets=40"}),
+                     "world.agnets: unknown key (did you mean world.agents?)");
+  EXPECT_STARTS_WITH(override_error({"world.loss=0.1"}),
+                     "world.loss: unknown key (did you mean network.loss?)");
+  EXPECT_EQ(override_error({"completely.unrelated=1"}),
+            "completely.unrelated: unknown key (from --set completely.unrelated=1)");
+  EXPECT_STARTS_WITH(override_error({"qos.state=1"}), "qos.state: is a section, not a key; set one of ");
+}
+
+TEST(ScenarioErrors, TypeErrorsNameTheKeyAndQuoteTheValue) {
+  EXPECT_EQ(override_error({"run.steps=abc"}),
+            "run.steps: expected an integer, got 'abc' (from --set run.steps=abc)");
+  EXPECT_STARTS_WITH(error_of([] { load_scenario(kFixtures + "invalid_type.yaml"); }),
+                     "run.steps: expected an integer, got 'abc' at ");
+  EXPECT_STARTS_WITH(override_error({"run.steps=1.5"}), "run.steps: expected an integer, got '1.5'");
+  EXPECT_STARTS_WITH(override_error({"seed=-1"}), "seed: expected a non-negative integer, got '-1'");
+  EXPECT_STARTS_WITH(override_error({"world.agents=99999999999"}),
+                     "world.agents: 99999999999 is out of range");
+  EXPECT_STARTS_WITH(override_error({"network.loss=lots"}), "network.loss: expected a number, got 'lots'");
+  EXPECT_STARTS_WITH(override_error({"world.require_connected=maybe"}),
+                     "world.require_connected: expected true or false, got 'maybe'");
+  EXPECT_STARTS_WITH(override_error({"run.steps="}), "run.steps: expected an integer, got an empty value");
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("world: 5\n"); }),
+                     "world: expected a map with keys world.agents, ");
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("run:\n  steps: {a: 1}\n"); }),
+                     "run.steps: expected an integer, got a map");
+}
+
+TEST(ScenarioErrors, BadEnumListsTheAllowedValues) {
+  EXPECT_STARTS_WITH(error_of([] { load_scenario(kFixtures + "invalid_enum.yaml"); }),
+                     "run.mode: 'sprint' is not one of free_run|lockstep at ");
+  EXPECT_STARTS_WITH(override_error({"world.placement=circle"}),
+                     "world.placement: 'circle' is not one of uniform|grid|file");
+  EXPECT_STARTS_WITH(override_error({"qos.control.durability=persistent"}),
+                     "qos.control.durability: 'persistent' is not one of volatile|transient_local");
+  EXPECT_STARTS_WITH(override_error({"qos.state.reliability=Reliable"}),
+                     "qos.state.reliability: 'Reliable' is not one of best_effort|reliable");
+}
+
+TEST(ScenarioErrors, OverrideWithoutEqualsSignIsRejected) {
+  EXPECT_EQ(override_error({"world.agents40"}),
+            "--set 'world.agents40': expected key.path=value, e.g. --set world.agents=40");
+  EXPECT_STARTS_WITH(override_error({"=40"}), "--set '=40': expected key.path=value");
+  EXPECT_STARTS_WITH(override_error({""}), "--set '': expected key.path=value");
+}
+
+TEST(ScenarioErrors, YamlSyntaxErrorGivesLineAndColumn) {
+  const std::string path = kFixtures + "invalid_syntax.yaml";
+  const std::string message = error_of([&] { load_scenario(path); });
+  EXPECT_STARTS_WITH(message, "scenario file '" + path + "': YAML syntax error at line ");
+  EXPECT_NE(message.find(", column "), std::string::npos) << message;
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("a: [\n", {}, "inline"); }),
+                     "inline: YAML syntax error at line ");
+}
+
+TEST(ScenarioErrors, DuplicateKeyIsRejected) {
+  EXPECT_STARTS_WITH(error_of([] { load_scenario(kFixtures + "invalid_duplicate_key.yaml"); }),
+                     "network.loss: duplicate key at ");
+}
+
+TEST(ScenarioErrors, DottedKeyInAFileIsRejected) {
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("world.agents: 40\n"); }),
+                     "world.agents: dotted names are for --set");
+}
+
+TEST(ScenarioErrors, TopLevelMustBeAMap) {
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("- 1\n- 2\n", {}, "list.yaml"); }),
+                     "list.yaml: expected a map of scenario keys at the top level, got a list");
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("a: 1\n---\nb: 2\n", {}, "two.yaml"); }),
+                     "two.yaml: expected one YAML document, found 2");
+}
+
+TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
+  struct Case {
+    std::function<void(Scenario&)> change;
+    std::string message;
+  };
+  const std::vector<Case> cases{
+      {[](Scenario& s) { s.name.clear(); }, "name: must not be empty"},
+      {[](Scenario& s) { s.algorithm.process_noise_std_m = -0.5; },
+       "algorithm.process_noise_std_m: -0.5 must be >= 0"},
+      {[](Scenario& s) { s.algorithm.initial_information = 0.0; },
+       "algorithm.initial_information: 0 must be > 0"},
+      {[](Scenario& s) { s.algorithm.initial_std_m = 0.0; }, "algorithm.initial_std_m: 0 must be > 0"},
+      {[](Scenario& s) { s.world.agents = 0; }, "world.agents: 0 is outside [1, 100000]"},
+      {[](Scenario& s) { s.world.agents = 100001; }, "world.agents: 100001 is outside [1, 100000]"},
+      {[](Scenario& s) { s.world.anchors = -1; }, "world.anchors: -1 must be >= 0"},
+      {[](Scenario& s) { s.world.area_m = 0.0; }, "world.area_m: 0 must be > 0"},
+      {[](Scenario& s) { s.world.placement = Placement::kFile; },
+       "world.positions_file: must be set when world.placement is file"},
+      {[](Scenario& s) { s.world.motion_std_m = -1.0; }, "world.motion_std_m: -1 must be >= 0"},
+      {[](Scenario& s) { s.world.initial_guess_std_m = -1.0; }, "world.initial_guess_std_m: -1 must be >= 0"},
+      {[](Scenario& s) { s.noise.range_std_m = -0.1; }, "noise.range_std_m: -0.1 must be >= 0"},
+      {[](Scenario& s) { s.noise.anchor_fix_std_m = -2.0; }, "noise.anchor_fix_std_m: -2 must be >= 0"},
+      {[](Scenario& s) { s.clock.drift_ppm = -1.0; }, "clock.drift_ppm: -1 is outside [0, 100000]"},
+      {[](Scenario& s) { s.clock.drift_ppm = 2e5; }, "clock.drift_ppm: 200000 is outside [0, 100000]"},
+      {[](Scenario& s) { s.clock.offset_max_s = -1.0; }, "clock.offset_max_s: -1 must be >= 0"},
+      {[](Scenario& s) { s.run.steps = 0; }, "run.steps: 0 must be >= 1"},
+      {[](Scenario& s) { s.run.rate_hz = 0.0; }, "run.rate_hz: 0 is outside (0, 1000]"},
+      {[](Scenario& s) { s.run.rate_hz = 1000.5; }, "run.rate_hz: 1000.5 is outside (0, 1000]"},
+      {[](Scenario& s) { s.run.startup_timeout_s = 0.0; }, "run.startup_timeout_s: 0 must be > 0"},
+      {[](Scenario& s) { s.run.settle_s = -1.0; }, "run.settle_s: -1 must be >= 0"},
+      {[](Scenario& s) { s.qos.measurements.history_depth = 0; },
+       "qos.measurements.history_depth: 0 must be >= 1"},
+      {[](Scenario& s) { s.qos.control.deadline_s = -1.0; }, "qos.control.deadline_s: -1 must be >= 0"},
+      {[](Scenario& s) { s.qos.belief.liveliness_lease_s = -1.0; },
+       "qos.belief.liveliness_lease_s: -1 must be >= 0"},
+      {[](Scenario& s) { s.dds.domain_id = 231; }, "dds.domain_id: 231 is outside [0, 230]"},
+      {[](Scenario& s) { s.dds.domain_id = -1; }, "dds.domain_id: -1 is outside [0, 230]"},
+      {[](Scenario& s) { s.run.mode = static_cast<RunMode>(7); }, "run.mode: invalid enum value 7"},
+  };
+  for (const auto& test_case : cases) EXPECT_EQ(validate_error(test_case.change), test_case.message);
+}
+
+TEST(ScenarioErrors, BoundaryValuesAreAccepted) {
+  EXPECT_NO_THROW(parse_scenario("", {"network.loss=0", "clock.drift_ppm=100000", "run.rate_hz=1000"}));
+  EXPECT_NO_THROW(parse_scenario("", {"network.loss=1", "world.anchors=30", "dds.domain_id=230"}));
+  EXPECT_NO_THROW(parse_scenario("", {"world.agents=1", "world.anchors=0", "run.steps=1"}));
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Serialization
+
+TEST(ScenarioYaml, RoundTripOfDefaultsIsExact) {
+  const Scenario defaults;
+  const std::string text = to_yaml(defaults);
+  const Scenario parsed = parse_scenario(text);
+  expect_scenarios_equal(parsed, defaults);
+  EXPECT_EQ(to_yaml(parsed), text);
+}
+
+TEST(ScenarioYaml, RoundTripOfEveryChangedFieldIsExact) {
+  const Scenario changed = everything_changed();
+  ASSERT_NO_THROW(validate(changed));
+  const std::string text = to_yaml(changed);
+  const Scenario parsed = parse_scenario(text);
+  expect_scenarios_equal(parsed, changed);
+  EXPECT_EQ(to_yaml(parsed), text);
+}
+
+TEST(ScenarioYaml, OutputWritesEveryKnownKeyOnce) {
+  const std::string text = to_yaml(Scenario{});
+  for (const auto& key : known_keys()) {
+    const std::string leaf = key.substr(key.rfind('.') + 1);
+    EXPECT_NE(text.find(leaf + ": "), std::string::npos) << key;
+  }
+  EXPECT_NE(text.find("world:\n  agents: 30\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("qos:\n  measurements:\n    reliability: reliable\n    history_depth: 4\n"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("  area_m: 40.0\n"), std::string::npos) << text;
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), static_cast<long>(known_keys().size() + 8 + 7));
+}
+
+TEST(ScenarioYaml, HashIsFnv1aOfTheYaml) {
+  const Scenario scenario;
+  std::uint64_t expected = 14695981039346656037ULL;
+  for (const char c : to_yaml(scenario)) {
+    expected = (expected ^ static_cast<unsigned char>(c)) * 1099511628211ULL;
+  }
+  EXPECT_EQ(scenario_hash(scenario), expected);
+}
+
+TEST(ScenarioYaml, HashChangesWithAnyKeyAndOnlyThen) {
+  const Scenario a;
+  Scenario b;
+  EXPECT_EQ(scenario_hash(a), scenario_hash(b));
+  b.qos.control.history_depth = 5;
+  EXPECT_NE(scenario_hash(a), scenario_hash(b));
+  EXPECT_EQ(scenario_hash(parse_scenario(to_yaml(everything_changed()))),
+            scenario_hash(everything_changed()));
+}
+
+}  // namespace
+}  // namespace swarmloc::config
