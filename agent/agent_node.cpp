@@ -1,1 +1,223 @@
-// placeholder
+#include "agent_node.hpp"
+
+#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <limits>
+#include <thread>
+
+#include "swarmloc/dds/transport.hpp"
+#include "swarmloc/sim/agent_runtime.hpp"
+#include "swarmloc/sim/simulator.hpp"
+#include "swarmloc/sim/world.hpp"
+
+namespace swarmloc::agent {
+namespace {
+
+std::atomic<bool> g_stop_requested{false};
+
+// Only sets a flag: never call DDS from a signal handler (STYLE.md, Cyclone section).
+void on_signal(int /*signal*/) { g_stop_requested.store(true); }
+
+double process_cpu_s() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) * 1e-6; };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+std::shared_ptr<spdlog::logger> make_logger(const AgentOptions& options) {
+  const std::string name = "agent" + std::to_string(options.id);
+  std::shared_ptr<spdlog::logger> logger;
+  if (options.log_path.empty()) {
+    logger = spdlog::stderr_color_mt(name);
+  } else {
+    logger = spdlog::basic_logger_mt(name, options.log_path, true);
+  }
+  logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ [" + name + "] %v");
+  logger->flush_on(spdlog::level::info);
+  return logger;
+}
+
+/// A deliberately broken state for robustness runs: cycles through NaN, non-PSD and absurd values.
+estimators::StateMessage hostile_state(std::int64_t step) {
+  estimators::StateMessage message;
+  message.mean_m = Vec2(20.0, 20.0);
+  message.covariance = Mat2::Identity() * 0.01;
+  switch (step % 3) {
+    case 0: message.mean_m.x() = std::numeric_limits<double>::quiet_NaN(); break;
+    case 1: message.covariance << 1.0, 5.0, 5.0, 1.0; break;  // eigenvalues 6 and -4
+    default: message.mean_m = Vec2(1e12, -1e12); break;
+  }
+  return message;
+}
+
+class AgentProcess {
+ public:
+  AgentProcess(const config::Scenario& scenario, const sim::World& world, const AgentOptions& options,
+               std::shared_ptr<spdlog::logger> logger)
+      : scenario_(scenario),
+        options_(options),
+        logger_(std::move(logger)),
+        clock_(world.clocks.at(static_cast<std::size_t>(options.id))),
+        runtime_(sim::make_agent_estimator(scenario, world, options.id), world.setup_of(options.id),
+                 world.neighbours.at(static_cast<std::size_t>(options.id)), sim::make_runtime_params(scenario)),
+        transport_(scenario, dds::Topology{options.id, world.size(), world.neighbours.at(static_cast<std::size_t>(options.id))}),
+        neighbour_count_(static_cast<int>(world.neighbours.at(static_cast<std::size_t>(options.id)).size())),
+        started_(std::chrono::steady_clock::now()) {}
+
+  int run() {
+    const double period_local_s = 1.0 / scenario_.run.rate_hz;
+    // The timer runs on the agent's own clock: a local period lasts period/(1+drift) in real time.
+    const auto period = std::chrono::duration<double>(clock_.mono_duration(period_local_s));
+    publish(runtime_.initial_publication(local_stamp_ns()));
+    logger_->info("started: {} neighbours, clock offset {:+.3f} s drift {:+.1f} ppm", neighbour_count_,
+                  clock_.offset_s, clock_.drift_ppm);
+
+    auto next_tick = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    auto last_hello = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+    auto last_batch_seen = std::chrono::steady_clock::now();
+    int last_matched = -1;
+    while (!g_stop_requested.load()) {
+      const auto now = std::chrono::steady_clock::now();
+      const double wait_s = std::clamp(std::chrono::duration<double>(next_tick - now).count(), 0.0, 0.1);
+      auto inbound = transport_.wait_and_take(wait_s);
+      if (handle(inbound)) break;
+      if (!inbound.batches.empty()) last_batch_seen = std::chrono::steady_clock::now();
+
+      const auto after = std::chrono::steady_clock::now();
+      if (!started_run_) {
+        // Until START: re-announce the initial state and say hello so the orchestrator can count us.
+        if (after - last_hello > std::chrono::milliseconds(200)) {
+          last_hello = after;
+          publish(runtime_.initial_publication(local_stamp_ns()));
+          transport_.publish_estimate(runtime_.report(local_stamp_ns(), process_cpu_s()));
+        }
+        if (std::chrono::duration<double>(after - started_).count() > scenario_.run.startup_timeout_s + 30.0) {
+          logger_->error("no START from the orchestrator within {:.0f} s; exiting", scenario_.run.startup_timeout_s + 30.0);
+          return 1;
+        }
+        next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+        continue;
+      }
+      if (after >= next_tick) {
+        next_tick += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+        if (next_tick < after) next_tick = after;  // overran: do not burst to catch up
+        tick();
+      }
+      const int matched = transport_.matched_neighbours();
+      if (matched != last_matched) {
+        logger_->info("matched {}/{} neighbours", matched, neighbour_count_);
+        last_matched = matched;
+      }
+      // The orchestrator normally says STOP; if it vanished (crash, kill -9), do not linger.
+      const double silent_s = std::chrono::duration<double>(after - last_batch_seen).count();
+      if (silent_s > std::max(5.0, 50.0 * period_local_s)) {
+        logger_->warn("no measurements for {:.1f} s: orchestrator gone, exiting", silent_s);
+        break;
+      }
+    }
+    transport_.publish_estimate(runtime_.report(local_stamp_ns(), process_cpu_s()));
+    log_diagnostics();
+    return 0;
+  }
+
+ private:
+  /// Feeds inbound samples to the runtime; returns true on STOP.
+  bool handle(const dds::AgentInbound& inbound) {
+    for (const auto& control : inbound.control) {
+      if (control.target != kOrchestratorId && control.target != options_.id) continue;
+      if (control.command == sim::ControlCommand::kStart && !started_run_) {
+        started_run_ = true;
+        logger_->info("START received");
+      } else if (control.command == sim::ControlCommand::kStop) {
+        logger_->info("STOP received");
+        return true;
+      }
+    }
+    for (const auto& [header, batch] : inbound.batches) runtime_.on_batch(header, batch);
+    for (const auto& state : inbound.states) runtime_.on_state(state.header, state.message, state.well_formed);
+    return false;
+  }
+
+  void tick() {
+    auto publication = runtime_.step(local_stamp_ns());
+    if (options_.hostile && publication.outbox.state) {
+      publication.outbox.state = hostile_state(publication.header.step);
+    }
+    publish(publication);
+    transport_.publish_estimate(runtime_.report(local_stamp_ns(), process_cpu_s()));
+  }
+
+  void publish(const sim::AgentRuntime::Publication& publication) {
+    if (publication.outbox.state) transport_.publish_state(publication.header, *publication.outbox.state);
+  }
+
+  std::int64_t local_stamp_ns() const {
+    const double mono_s = std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+    return static_cast<std::int64_t>(std::llround(clock_.local_time(mono_s) * 1e9));
+  }
+
+  void log_diagnostics() const {
+    std::uint64_t arrived = 0, delivered = 0, dropped = 0, rejected = 0;
+    for (const auto& [sender, link] : runtime_.links()) {
+      arrived += link.arrived;
+      delivered += link.delivered;
+      dropped += link.dropped_injected;
+      rejected += link.rejected;
+    }
+    logger_->info("stopping after {} steps: arrived {} delivered {} dropped(injected) {} rejected {}; cpu {:.3f} s",
+                  runtime_.steps_run(), arrived, delivered, dropped, rejected, process_cpu_s());
+    const auto& reasons = runtime_.rejected_by_reason();
+    for (std::size_t r = 0; r < reasons.size(); ++r) {
+      if (reasons[r] > 0) logger_->info("rejected {}: {}", sim::to_string(static_cast<sim::RejectReason>(r)), reasons[r]);
+    }
+  }
+
+  const config::Scenario& scenario_;
+  const AgentOptions& options_;
+  std::shared_ptr<spdlog::logger> logger_;
+  core::ClockModel clock_;
+  sim::AgentRuntime runtime_;
+  dds::AgentTransport transport_;
+  int neighbour_count_ = 0;
+  bool started_run_ = false;
+  std::chrono::steady_clock::time_point started_;
+};
+
+}  // namespace
+
+int run_agent(const AgentOptions& options) {
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  auto logger = make_logger(options);
+  config::Scenario scenario;
+  sim::World world;
+  try {
+    scenario = config::load_scenario(options.scenario_path, options.overrides);
+    world = sim::build_world(scenario);
+  } catch (const config::ScenarioError& error) {
+    logger->error("{}", error.what());
+    return 2;
+  }
+  if (options.id < 0 || options.id >= world.size()) {
+    logger->error("--id: {} is outside [0, {})", options.id, world.size());
+    return 2;
+  }
+  try {
+    AgentProcess process(scenario, world, options, logger);
+    return process.run();
+  } catch (const std::exception& error) {
+    logger->error("runtime failure: {}", error.what());
+    return 1;
+  }
+}
+
+}  // namespace swarmloc::agent

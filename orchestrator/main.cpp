@@ -1,1 +1,108 @@
-int main() { return 0; }
+// swarmloc — cooperative localization with one OS process per agent over Cyclone DDS.
+// Exit codes: 0 ok, 2 bad input (scenario, flags), 1 runtime failure.
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "agent_node.hpp"
+#include "orchestrator.hpp"
+#include "swarmloc/config/scenario.hpp"
+
+namespace {
+
+std::string self_executable(const char* argv0) {
+  std::array<char, 4096> buffer{};
+  const ssize_t length = readlink("/proc/self/exe", buffer.data(), buffer.size() - 1);
+  if (length > 0) return std::string(buffer.data(), static_cast<std::size_t>(length));
+  return std::filesystem::absolute(argv0).string();
+}
+
+std::string keys_help() {
+  std::string text = "Keys accepted by --set (see docs/scenario.md):\n";
+  std::string line = " ";
+  for (const auto& key : swarmloc::config::known_keys()) {
+    if (line.size() + key.size() > 100) text += line + "\n", line = " ";
+    line += " " + key;
+  }
+  return text + line + "\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"swarmloc: cooperative localization of sensor networks and robot teams.\n"
+               "Each agent is its own OS process talking over Cyclone DDS; the orchestrator owns the ground truth,\n"
+               "feeds every agent its noisy measurements, and scores the estimates against truth and the CRLB.\n\n"
+               "  swarmloc run scenarios/default.yaml            # N agent processes over DDS on loopback\n"
+               "  swarmloc sim scenarios/default.yaml            # the same estimators in one process\n"
+               "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n",
+               "swarmloc"};
+  app.require_subcommand(1);
+  app.footer("Exit codes: 0 ok, 2 bad input (scenario or flags), 1 runtime failure or interrupted.");
+
+  std::string scenario_path;
+  std::vector<std::string> overrides;
+  std::string out_dir;
+  bool quiet = false;
+
+  auto* run = app.add_subcommand("run", "Run a scenario with one OS process per agent over DDS (orchestrator + agents).");
+  std::vector<int> hostile;
+  bool no_launch = false;
+  run->add_option("scenario", scenario_path, "Scenario YAML file (e.g. scenarios/default.yaml)")->required();
+  run->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
+  run->add_option("--set", overrides, "Override a scenario key: --set network.loss=0.2 (repeatable)");
+  run->add_option("--hostile", hostile, "Start this agent id as a hostile agent publishing NaN / non-PSD / absurd states");
+  run->add_flag("--no-launch", no_launch, "Do not start agents; wait for agents started elsewhere (containers, hosts)");
+  run->add_flag("-q,--quiet", quiet, "No progress line");
+  run->footer(keys_help());
+
+  auto* sim = app.add_subcommand("sim", "Run a scenario in-process (same estimators, synchronous rounds, seeded bus).");
+  sim->add_option("scenario", scenario_path, "Scenario YAML file")->required();
+  sim->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
+  sim->add_option("--set", overrides, "Override a scenario key (repeatable)");
+  sim->add_flag("-q,--quiet", quiet, "No progress line");
+  sim->footer(keys_help());
+
+  auto* agent = app.add_subcommand("agent", "Run one agent process (what `run` starts N times; also for containers).");
+  swarmloc::agent::AgentOptions agent_options;
+  agent->add_option("--scenario", agent_options.scenario_path, "Scenario YAML (the run directory's scenario.yaml)")->required();
+  agent->add_option("--id", agent_options.id, "Agent id in [0, world.agents)")->required();
+  agent->add_option("--set", agent_options.overrides, "Override a scenario key (repeatable)");
+  agent->add_option("--log", agent_options.log_path, "Log file (default: stderr)");
+  agent->add_flag("--hostile", agent_options.hostile, "Publish NaN / non-PSD / absurd states (robustness tests)");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return 2;
+  }
+
+  spdlog::set_pattern("%H:%M:%S.%e %^%l%$ %v");
+  if (run->parsed()) {
+    swarmloc::orchestrator::RunOptions options;
+    options.scenario_path = scenario_path;
+    options.overrides = overrides;
+    options.out_dir = out_dir;
+    options.agent_binary = self_executable(argv[0]);
+    options.launch_agents = !no_launch;
+    options.hostile_agents.assign(hostile.begin(), hostile.end());
+    options.progress = !quiet;
+    return swarmloc::orchestrator::run_orchestrator(options);
+  }
+  if (sim->parsed()) {
+    swarmloc::orchestrator::SimCommandOptions options{scenario_path, overrides, out_dir, !quiet};
+    return swarmloc::orchestrator::run_sim_command(options);
+  }
+  if (agent->parsed()) return swarmloc::agent::run_agent(agent_options);
+  return 2;
+}

@@ -1,1 +1,325 @@
-// placeholder
+#include "orchestrator.hpp"
+
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <thread>
+#include <fstream>
+#include <algorithm>
+
+#include "launcher.hpp"
+#include "swarmloc/dds/transport.hpp"
+#include "swarmloc/sim/simulator.hpp"
+#include "swarmloc/sim/world.hpp"
+
+namespace swarmloc::orchestrator {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::atomic<bool> g_interrupted{false};
+void on_signal(int /*signal*/) { g_interrupted.store(true); }  // flag only; never DDS from a handler
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+/// One progress line, rewritten in place on a terminal.
+class Progress {
+ public:
+  explicit Progress(bool enabled) : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0) {}
+  void update(const std::string& line, bool force = false) {
+    if (!enabled_) return;
+    const auto now = Clock::now();
+    if (!force && now - last_ < std::chrono::milliseconds(tty_ ? 250 : 5000)) return;
+    last_ = now;
+    std::fprintf(stderr, tty_ ? "\r%-100s" : "%s\n", line.c_str());
+    std::fflush(stderr);
+  }
+  void finish() {
+    if (enabled_ && tty_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  bool enabled_;
+  bool tty_;
+  Clock::time_point last_ = Clock::now() - std::chrono::hours(1);
+};
+
+std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& errors, int reporting, int agents,
+                          double elapsed_s) {
+  char line[200];
+  std::snprintf(line, sizeof line, "[%5.1fs] step %4lld/%d  rmse %8.4f m  max %8.4f m  agents reporting %d/%d",
+                elapsed_s, static_cast<long long>(step + 1), steps, errors.rmse_m, errors.max_error_m, reporting, agents);
+  return line;
+}
+
+class Orchestrator {
+ public:
+  Orchestrator(config::Scenario scenario, RunOptions options, std::filesystem::path run_dir)
+      : scenario_(std::move(scenario)),
+        options_(std::move(options)),
+        run_dir_(std::move(run_dir)),
+        world_(sim::build_world(scenario_)),
+        progress_(options_.progress) {}
+
+  int run() {
+    const auto started = Clock::now();
+    const int n = world_.size();
+    latest_.assign(static_cast<std::size_t>(n), std::nullopt);
+    reports_.assign(static_cast<std::size_t>(n), std::nullopt);
+    record_.scenario = scenario_;
+    record_.mode = "dds-free-run";
+    record_.agents = n;
+    record_.anchors = world_.anchor_count();
+    record_.mean_degree = world_.mean_degree();
+    record_.crlb = sim::range_crlb(world_, scenario_.noise.range_std_m);
+
+    dds::OrchestratorTransport transport(scenario_, n);
+    if (options_.launch_agents) launch_agents();
+    spdlog::info("run directory {}: {} agents ({} anchors, mean degree {:.1f}), {} steps at {} Hz", run_dir_.string(), n,
+                 record_.anchors, record_.mean_degree, scenario_.run.steps, scenario_.run.rate_hz);
+
+    const bool ready = wait_for_agents(transport, started);
+    bool failed = !ready;
+    if (ready) failed = !drive(transport, started);
+    // Let the last estimates arrive, then stop everyone.
+    const auto settle_until = Clock::now() + std::chrono::duration<double>(failed ? 0.0 : scenario_.run.settle_s);
+    while (Clock::now() < settle_until && !g_interrupted.load()) collect(transport, 0.05);
+    sim::ControlMessage stop;
+    stop.command = sim::ControlCommand::kStop;
+    stop.header.agent_id = kOrchestratorId;
+    transport.publish_control(stop);
+    collect(transport, 0.3);
+    finish_scoring();
+    launcher_.stop_all(5.0);
+    record_.processes = launcher_.size() + 1;
+    record_.interrupted = g_interrupted.load();
+    record_.wall_s = seconds_since(started);
+    for (int i = 0; i < launcher_.size(); ++i) {
+      if (static_cast<std::size_t>(i) < record_.agent_summaries.size()) record_.agent_summaries[static_cast<std::size_t>(i)].exit_code = launcher_.exit_code(i);
+    }
+    record_.extra["rejected_reports"] = transport.rejected_reports();
+    record_.extra["run_directory"] = run_dir_.string();
+    sim::write_run_directory(run_dir_, record_);
+    progress_.finish();
+    std::printf("%s", sim::result_table(record_).c_str());
+    std::printf("  run directory: %s\n", run_dir_.string().c_str());
+    if (record_.interrupted) return 1;
+    return failed ? 1 : 0;
+  }
+
+ private:
+  void launch_agents() {
+    std::filesystem::create_directories(run_dir_ / "logs");
+    const auto scenario_file = (run_dir_ / "scenario.yaml").string();
+    for (AgentId i = 0; i < world_.size(); ++i) {
+      char name[32];
+      std::snprintf(name, sizeof name, "agent_%03d.log", i);
+      const auto log = (run_dir_ / "logs" / name).string();
+      std::vector<std::string> argv{options_.agent_binary, "agent", "--scenario", scenario_file, "--id", std::to_string(i),
+                                    "--log", log};
+      if (std::find(options_.hostile_agents.begin(), options_.hostile_agents.end(), i) != options_.hostile_agents.end()) {
+        argv.emplace_back("--hostile");
+      }
+      launcher_.launch(argv, log + ".out");
+    }
+  }
+
+  /// Waits until every agent has said hello (its first estimate report). False on timeout / interrupt.
+  bool wait_for_agents(dds::OrchestratorTransport& transport, Clock::time_point started) {
+    const int n = world_.size();
+    const auto deadline = Clock::now() + std::chrono::duration<double>(scenario_.run.startup_timeout_s);
+    while (!g_interrupted.load()) {
+      collect(transport, 0.1);
+      const int reporting = count_reporting();
+      progress_.update("[" + std::to_string(static_cast<int>(seconds_since(started))) + "s] waiting for agents: " +
+                       std::to_string(reporting) + "/" + std::to_string(n) + " reporting");
+      if (reporting == n) break;
+      if (options_.launch_agents && launcher_.poll() < launcher_.size()) {
+        spdlog::error("an agent process exited during start-up; see {}/logs", run_dir_.string());
+        return false;
+      }
+      if (Clock::now() > deadline) {
+        spdlog::error("only {}/{} agents reported within run.startup_timeout_s = {} s", reporting, n,
+                      scenario_.run.startup_timeout_s);
+        return false;
+      }
+    }
+    if (g_interrupted.load()) return false;
+    // Neighbour discovery is scoped and fast (~0.1–0.4 s, reference/discovery.md); give it a moment.
+    const auto grace_until = Clock::now() + std::chrono::milliseconds(1000);
+    while (Clock::now() < grace_until) collect(transport, 0.05);
+    sim::ControlMessage start;
+    start.command = sim::ControlCommand::kStart;
+    start.header.agent_id = kOrchestratorId;
+    start.scenario_hash = config::scenario_hash(scenario_);
+    transport.publish_control(start);
+    spdlog::info("all {} agents reporting after {:.1f} s; START", n, seconds_since(started));
+    return true;
+  }
+
+  /// The world loop. False on interrupt.
+  bool drive(dds::OrchestratorTransport& transport, Clock::time_point started) {
+    const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / scenario_.run.rate_hz));
+    auto next = Clock::now();
+    for (std::int64_t step = 0; step < scenario_.run.steps; ++step) {
+      if (g_interrupted.load()) return false;
+      if (step > 0) sim::advance_truth(world_, scenario_, step);
+      const auto stamp_ns = static_cast<std::int64_t>(static_cast<double>(step) / scenario_.run.rate_hz * 1e9);
+      for (AgentId i = 0; i < world_.size(); ++i) {
+        sim::Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns};
+        transport.publish_batch(i, header, sim::generate_batch(world_, scenario_, i, step));
+      }
+      next += period;
+      while (Clock::now() < next && !g_interrupted.load()) {
+        collect(transport, std::chrono::duration<double>(next - Clock::now()).count());
+      }
+      score_step(step);
+      progress_.update(progress_line(step, scenario_.run.steps, record_.metrics.back().errors, count_reporting(),
+                                     world_.size(), seconds_since(started)),
+                       step + 1 == scenario_.run.steps);
+    }
+    return true;
+  }
+
+  void collect(dds::OrchestratorTransport& transport, double timeout_s) {
+    for (auto& report : transport.wait_and_take_estimates(std::max(0.0, timeout_s))) {
+      const AgentId id = report.header.agent_id;
+      if (id < 0 || id >= world_.size()) continue;  // unknown agent id: not scored
+      auto& slot = reports_[static_cast<std::size_t>(id)];
+      if (slot && report.steps_run < slot->steps_run) continue;  // older than what we hold
+      latest_[static_cast<std::size_t>(id)] = report.estimate;
+      slot = std::move(report);
+    }
+  }
+
+  int count_reporting() const {
+    int count = 0;
+    for (const auto& r : reports_) count += r.has_value() ? 1 : 0;
+    return count;
+  }
+
+  void score_step(std::int64_t step) {
+    // Scored only once the agent has run at least one step (hello reports carry the prior).
+    std::vector<std::optional<estimators::Estimate>> scored(latest_.size());
+    for (std::size_t i = 0; i < latest_.size(); ++i) {
+      if (reports_[i] && reports_[i]->steps_run > 0) scored[i] = latest_[i];
+    }
+    sim::StepMetrics metrics;
+    metrics.step = step;
+    metrics.time_s = static_cast<double>(step) / scenario_.run.rate_hz;
+    metrics.errors = sim::score(world_.truth, world_.is_anchor, scored);
+    metrics.crlb_rmse_m = record_.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
+    record_.metrics.push_back(metrics);
+    for (std::size_t i = 0; i < scored.size(); ++i) {
+      if (scored[i]) record_.estimates.push_back({step, static_cast<AgentId>(i), *scored[i], world_.truth[i]});
+    }
+  }
+
+  /// After the settle time: re-score the last step with the newest estimates; gather counters.
+  void finish_scoring() {
+    if (!record_.metrics.empty()) {
+      const auto last_step = record_.metrics.back().step;
+      record_.metrics.pop_back();
+      while (!record_.estimates.empty() && record_.estimates.back().step == last_step) record_.estimates.pop_back();
+      score_step(last_step);
+    }
+    for (AgentId i = 0; i < world_.size(); ++i) {
+      sim::AgentSummary summary;
+      summary.agent = i;
+      summary.anchor = world_.is_anchor[static_cast<std::size_t>(i)];
+      if (const auto& report = reports_[static_cast<std::size_t>(i)]) {
+        summary.steps_run = report->steps_run;
+        summary.samples_published = report->samples_published;
+        summary.cpu_s = report->cpu_s;
+        summary.rejected_by_reason = report->rejected_by_reason;
+        for (const auto& link : report->links) record_.links[{link.sender, i}] = link;
+      }
+      record_.agent_summaries.push_back(summary);
+    }
+  }
+
+  config::Scenario scenario_;
+  RunOptions options_;
+  std::filesystem::path run_dir_;
+  sim::World world_;
+  Progress progress_;
+  ProcessLauncher launcher_;
+  sim::RunRecord record_;
+  std::vector<std::optional<estimators::Estimate>> latest_;
+  std::vector<std::optional<sim::EstimateReport>> reports_;
+};
+
+}  // namespace
+
+int run_orchestrator(const RunOptions& options) {
+  config::Scenario scenario;
+  try {
+    scenario = config::load_scenario(options.scenario_path, options.overrides);
+    for (AgentId id : options.hostile_agents) {
+      if (id < 0 || id >= scenario.world.agents) {
+        throw config::ScenarioError("--hostile: agent " + std::to_string(id) + " is outside [0, world.agents)");
+      }
+    }
+    (void)sim::build_world(scenario);  // surfaces placement errors as bad input before anything starts
+  } catch (const config::ScenarioError& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 2;
+  }
+  const auto run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
+  std::filesystem::create_directories(run_dir);
+  {
+    // Agents read the scenario as run (overrides applied, defaults filled) from the run directory.
+    std::ofstream out(run_dir / "scenario.yaml");
+    out << config::to_yaml(scenario);
+  }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  try {
+    Orchestrator orchestrator(scenario, options, run_dir);
+    return orchestrator.run();
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 1;
+  }
+}
+
+int run_sim_command(const SimCommandOptions& options) {
+  config::Scenario scenario;
+  try {
+    scenario = config::load_scenario(options.scenario_path, options.overrides);
+    (void)sim::build_world(scenario);
+  } catch (const config::ScenarioError& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 2;
+  }
+  const auto run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
+  try {
+    Progress progress(options.progress);
+    const auto started = Clock::now();
+    sim::SimOptions sim_options;
+    sim_options.on_step = [&](std::int64_t step, const sim::ErrorStats& errors) {
+      progress.update(progress_line(step, scenario.run.steps, errors, scenario.world.agents, scenario.world.agents,
+                                    seconds_since(started)),
+                      step + 1 == scenario.run.steps);
+    };
+    auto record = sim::run_simulation(scenario, sim_options);
+    progress.finish();
+    record.extra["run_directory"] = run_dir.string();
+    sim::write_run_directory(run_dir, record);
+    std::printf("%s", sim::result_table(record).c_str());
+    std::printf("  run directory: %s\n", run_dir.string().c_str());
+    return 0;
+  } catch (const config::ScenarioError& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 2;
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 1;
+  }
+}
+
+}  // namespace swarmloc::orchestrator

@@ -162,13 +162,6 @@ TEST(Scenario, DefaultScenarioFileLoadsAndEqualsTheStructDefaults) {
   EXPECT_EQ(loaded.seed, 1U);
 }
 
-TEST(Scenario, Range30ScenarioFileLoadsWithA30MetreRadius) {
-  const Scenario loaded = load_scenario(kSourceDir + "/scenarios/range_30.yaml");
-  EXPECT_EQ(loaded.world.comm_radius_m, 30.0);
-  EXPECT_EQ(loaded.name, "range_30");
-  EXPECT_EQ(loaded.world.agents, 30);
-}
-
 TEST(Scenario, FullFixtureSetsEveryKeyItNames) {
   const Scenario loaded = load_scenario(kFixtures + "valid_full.yaml");
   EXPECT_EQ(loaded.seed, std::numeric_limits<std::uint64_t>::max());

@@ -1,6 +1,6 @@
 #pragma once
 // Plain value types shared by every layer. No transport, clock or I/O types here.
-#include <Eigen/Core>
+#include <Eigen/Dense>  // Core + LU/Cholesky: determinant() and inverse() of small blocks
 #include <cstdint>
 
 namespace swarmloc {

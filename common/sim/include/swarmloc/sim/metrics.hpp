@@ -1,0 +1,36 @@
+#pragma once
+// Scoring estimates against truth (ALGORITHMS.md §1.4) and the CRLB reference (§1.3).
+#include <cstdint>
+#include <vector>
+
+#include "swarmloc/estimators/messages.hpp"
+#include "swarmloc/sim/world.hpp"
+
+namespace swarmloc::sim {
+
+/// Error statistics over the non-anchor agents at one instant.
+struct ErrorStats {
+  double rmse_m = 0.0;
+  double mean_error_m = 0.0;
+  double max_error_m = 0.0;
+  double nees = 0.0;       ///< mean of eᵀP⁻¹e over agents with a valid covariance (2 if consistent)
+  int scored = 0;          ///< non-anchor agents with an estimate
+  int missing = 0;         ///< non-anchor agents without any estimate yet
+};
+
+/// `estimates[i]` may be nullopt (no report from agent i yet): counted as missing, not scored.
+ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anchor,
+                 const std::vector<std::optional<estimators::Estimate>>& estimates);
+
+/// CRLB of the static range network of `world` (each endpoint measures each edge once per snapshot,
+/// anchors exactly known): network RMSE bound for one snapshot and per agent.
+struct RangeCrlb {
+  double single_snapshot_rmse_m = 0.0;  ///< sqrt(tr(J_1⁻¹)/n_u); +inf if not localizable
+  std::vector<double> per_agent_single_rmse_m;
+  bool localizable = true;
+  /// Accumulated over t independent snapshots of a static network: J_t = t·J_1.
+  [[nodiscard]] double accumulated_rmse_m(double snapshots) const;
+};
+RangeCrlb range_crlb(const World& world, double range_std_m);
+
+}  // namespace swarmloc::sim

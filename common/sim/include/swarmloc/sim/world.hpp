@@ -1,0 +1,45 @@
+#pragma once
+// The world model: ground truth, anchors, the communication graph and each agent's private start-up
+// facts (anchor flag, initial guess, clock). Deterministic in the scenario seed, so the orchestrator,
+// every agent process and the simulator build the same world independently.
+#include <cstdint>
+#include <vector>
+
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/core/clock.hpp"
+#include "swarmloc/estimators/estimator.hpp"
+
+namespace swarmloc::sim {
+
+struct World {
+  std::vector<Vec2> truth;                      ///< current true positions
+  std::vector<bool> is_anchor;
+  std::vector<std::vector<AgentId>> neighbours; ///< communication graph at step 0 (sorted)
+  std::vector<Vec2> initial_guess;              ///< prior each agent starts from (anchors: truth)
+  std::vector<core::ClockModel> clocks;
+  int placement_attempts = 1;                   ///< draws needed to satisfy world.require_connected
+
+  [[nodiscard]] int size() const { return static_cast<int>(truth.size()); }
+  [[nodiscard]] int anchor_count() const;
+  [[nodiscard]] double mean_degree() const;
+  [[nodiscard]] estimators::AgentSetup setup_of(AgentId id) const;
+};
+
+/// Builds the world of `scenario` (placement, anchors, graph, initial guesses, clocks).
+/// Throws config::ScenarioError if the positions file is unreadable or no connected placement is
+/// found within 1000 draws.
+World build_world(const config::Scenario& scenario);
+
+/// Moves the truth one world step (random walk when world.motion = random_walk). Seeded by (seed, step).
+void advance_truth(World& world, const config::Scenario& scenario, std::int64_t step);
+
+/// Agent `agent`'s noisy measurements for world step `step`: one range to each current neighbour
+/// (each endpoint measures independently, ALGORITHMS.md [B-1]) and, for anchors, an absolute fix.
+estimators::MeasurementBatch generate_batch(const World& world, const config::Scenario& scenario,
+                                            AgentId agent, std::int64_t step);
+
+/// The physical-plausibility bound used to reject absurd samples: positions beyond this from the
+/// area's centre are rejected.
+double absurd_position_bound_m(const config::Scenario& scenario);
+
+}  // namespace swarmloc::sim

@@ -1,0 +1,237 @@
+#include "swarmloc/sim/run_record.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <iomanip>
+#include <numeric>
+#include <sstream>
+
+namespace swarmloc::sim {
+namespace {
+
+nlohmann::json number_or_null(double value) { return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(); }
+
+void write_text(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+bool have_gnuplot() { return std::system("command -v gnuplot >/dev/null 2>&1") == 0; }
+
+void write_plots(const std::filesystem::path& directory, const RunRecord& record) {
+  const auto plots = directory / "plots";
+  std::filesystem::create_directories(plots);
+  std::ostringstream gp;
+  gp << "set datafile separator ','\nset terminal pngcairo size 900,560\nset key top right\nset grid\n"
+     << "set logscale y\nset xlabel 'world step'\nset ylabel 'error [m]'\n"
+     << "set title 'swarmloc " << record.scenario.algorithm.name << " - " << record.mode << ", " << record.agents
+     << " agents, seed " << record.scenario.seed << "'\n"
+     << "set output '" << (plots / "error.png").string() << "'\n"
+     << "plot '" << (directory / "metrics.csv").string()
+     << "' using 1:3 skip 1 with lines lw 2 title 'RMSE', '' using 1:4 skip 1 with lines title 'mean error', "
+        "'' using 1:5 skip 1 with lines title 'max error', '' using 1:6 skip 1 with lines dt 2 lw 2 title 'CRLB "
+        "(accumulated)'\n";
+  gp << "unset logscale y\nset ylabel 'NEES'\nset output '" << (plots / "nees.png").string() << "'\n"
+     << "plot '" << (directory / "metrics.csv").string()
+     << "' using 1:7 skip 1 with lines title 'NEES', 2 with lines dt 2 title 'expected (2 dof)'\n";
+  // Final positions: truth, estimate.
+  std::ofstream final_positions(plots / "final_positions.csv");
+  final_positions << "agent,anchor,truth_x,truth_y,est_x,est_y\n";
+  if (!record.estimates.empty()) {
+    const auto last_step = record.estimates.back().step;
+    for (const auto& row : record.estimates) {
+      if (row.step != last_step) continue;
+      const bool anchor = record.agent_summaries.size() > static_cast<std::size_t>(row.agent) &&
+                          record.agent_summaries[static_cast<std::size_t>(row.agent)].anchor;
+      final_positions << row.agent << ',' << (anchor ? 1 : 0) << ',' << row.truth.x() << ',' << row.truth.y() << ','
+                      << row.estimate.mean_m.x() << ',' << row.estimate.mean_m.y() << '\n';
+    }
+  }
+  final_positions.close();
+  gp << "set size ratio -1\nunset logscale\nset xlabel 'x [m]'\nset ylabel 'y [m]'\nset title 'final positions'\n"
+     << "set output '" << (plots / "positions.png").string() << "'\n"
+     << "plot '" << (plots / "final_positions.csv").string()
+     << "' using 3:4 skip 1 with points pt 6 ps 1.5 title 'truth', '' using 5:6 skip 1 with points pt 7 ps 0.8 "
+        "title 'estimate', '' using ($2==1?$3:1/0):4 skip 1 with points pt 5 ps 1.5 title 'anchor'\n";
+  const auto script = plots / "plots.gp";
+  write_text(script, gp.str());
+  if (have_gnuplot()) {
+    const std::string command = "gnuplot '" + script.string() + "' >/dev/null 2>&1";
+    if (std::system(command.c_str()) != 0) std::fprintf(stderr, "warning: gnuplot failed on %s\n", script.c_str());
+  }
+}
+
+}  // namespace
+
+LinkTotals link_totals(const RunRecord& record) {
+  LinkTotals totals;
+  for (const auto& [key, link] : record.links) {
+    totals.sent += link.sent();
+    totals.arrived += link.arrived;
+    totals.delivered += link.delivered;
+    totals.dropped_injected += link.dropped_injected;
+    totals.rejected += link.rejected;
+  }
+  return totals;
+}
+
+nlohmann::json summary_json(const RunRecord& record) {
+  using nlohmann::json;
+  json summary;
+  summary["algorithm"] = record.scenario.algorithm.name;
+  summary["mode"] = record.mode;
+  summary["agents"] = record.agents;
+  summary["anchors"] = record.anchors;
+  summary["mean_degree"] = record.mean_degree;
+  summary["steps"] = record.metrics.size();
+  summary["seed"] = record.scenario.seed;
+  summary["scenario_hash"] = config::scenario_hash(record.scenario);
+  const StepMetrics* last = record.final_metrics();
+  json final_json = json::object();
+  if (last != nullptr) {
+    final_json["step"] = last->step;
+    final_json["rmse_m"] = number_or_null(last->errors.rmse_m);
+    final_json["mean_error_m"] = number_or_null(last->errors.mean_error_m);
+    final_json["max_error_m"] = number_or_null(last->errors.max_error_m);
+    final_json["nees"] = number_or_null(last->errors.nees);
+    final_json["scored_agents"] = last->errors.scored;
+    final_json["missing_agents"] = last->errors.missing;
+    final_json["crlb_rmse_m"] = number_or_null(last->crlb_rmse_m);
+  }
+  final_json["crlb_single_snapshot_rmse_m"] = number_or_null(record.crlb.single_snapshot_rmse_m);
+  summary["final"] = final_json;
+  summary["crlb"] = {{"single_snapshot_rmse_m", number_or_null(record.crlb.single_snapshot_rmse_m)},
+                     {"accumulated_rmse_m", last ? number_or_null(last->crlb_rmse_m) : json()},
+                     {"localizable", record.crlb.localizable}};
+  const auto totals = link_totals(record);
+  summary["links"] = {{"sent", totals.sent},
+                      {"arrived", totals.arrived},
+                      {"delivered", totals.delivered},
+                      {"dropped_injected", totals.dropped_injected},
+                      {"rejected", totals.rejected},
+                      {"lost_in_transport", totals.sent >= totals.arrived ? totals.sent - totals.arrived : 0},
+                      {"loss_probability", record.scenario.network.loss}};
+  json rejected = json::object();
+  std::array<std::uint64_t, kRejectReasonCount> rejected_sum{};
+  double cpu_sum = 0.0;
+  int cpu_count = 0;
+  for (const auto& agent : record.agent_summaries) {
+    for (std::size_t r = 0; r < kRejectReasonCount; ++r) rejected_sum[r] += agent.rejected_by_reason[r];
+    if (agent.cpu_s > 0.0) cpu_sum += agent.cpu_s, ++cpu_count;
+  }
+  for (std::size_t r = 0; r < kRejectReasonCount; ++r) {
+    rejected[to_string(static_cast<RejectReason>(r))] = rejected_sum[r];
+  }
+  summary["rejected_by_reason"] = rejected;
+  summary["processes"] = record.processes;
+  summary["wall_s"] = record.wall_s;
+  summary["cpu_per_agent_s"] = cpu_count > 0 ? json(cpu_sum / cpu_count) : json();
+  summary["cpu_per_agent_fraction"] =
+      cpu_count > 0 && record.wall_s > 0.0 ? json(cpu_sum / cpu_count / record.wall_s) : json();
+  summary["interrupted"] = record.interrupted;
+  for (const auto& [key, value] : record.extra.items()) summary[key] = value;
+  return summary;
+}
+
+void write_run_directory(const std::filesystem::path& directory, const RunRecord& record) {
+  std::filesystem::create_directories(directory);
+  write_text(directory / "scenario.yaml", config::to_yaml(record.scenario));
+  write_text(directory / "seed", std::to_string(record.scenario.seed) + "\n");
+  {
+    std::ofstream out(directory / "metrics.csv");
+    out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing\n";
+    out << std::setprecision(9);
+    for (const auto& m : record.metrics) {
+      out << m.step << ',' << m.time_s << ',' << m.errors.rmse_m << ',' << m.errors.mean_error_m << ','
+          << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored << ','
+          << m.errors.missing << '\n';
+    }
+  }
+  {
+    std::ofstream out(directory / "estimates.csv");
+    out << "step,agent,x_m,y_m,cov_xx,cov_xy,cov_yy,valid,truth_x_m,truth_y_m,error_m\n";
+    out << std::setprecision(9);
+    for (const auto& row : record.estimates) {
+      const auto& e = row.estimate;
+      out << row.step << ',' << row.agent << ',' << e.mean_m.x() << ',' << e.mean_m.y() << ',' << e.covariance(0, 0)
+          << ',' << e.covariance(0, 1) << ',' << e.covariance(1, 1) << ',' << (e.valid ? 1 : 0) << ','
+          << row.truth.x() << ',' << row.truth.y() << ',' << (e.mean_m - row.truth).norm() << '\n';
+    }
+  }
+  {
+    std::ofstream out(directory / "links.csv");
+    out << "sender,receiver,sent,arrived,delivered,dropped_injected,rejected\n";
+    for (const auto& [key, link] : record.links) {
+      out << key.first << ',' << key.second << ',' << link.sent() << ',' << link.arrived << ',' << link.delivered
+          << ',' << link.dropped_injected << ',' << link.rejected << '\n';
+    }
+  }
+  {
+    std::ofstream out(directory / "agents.csv");
+    out << "agent,anchor,steps_run,samples_published,cpu_s,exit_code\n";
+    for (const auto& a : record.agent_summaries) {
+      out << a.agent << ',' << (a.anchor ? 1 : 0) << ',' << a.steps_run << ',' << a.samples_published << ','
+          << a.cpu_s << ',' << (a.exit_code ? std::to_string(*a.exit_code) : "") << '\n';
+    }
+  }
+  write_text(directory / "summary.json", summary_json(record).dump(2) + "\n");
+  write_plots(directory, record);
+}
+
+std::string result_table(const RunRecord& record) {
+  std::ostringstream out;
+  const StepMetrics* last = record.final_metrics();
+  const auto totals = link_totals(record);
+  char line[256];
+  out << "\n  swarmloc result: " << record.scenario.algorithm.name << " (" << record.mode << "), " << record.agents
+      << " agents, " << record.anchors << " anchors, seed " << record.scenario.seed << "\n";
+  out << "  ------------------------------------------------------------\n";
+  auto row = [&](const char* name, double value, const char* unit) {
+    std::snprintf(line, sizeof line, "  %-34s %12.4f %s\n", name, value, unit);
+    out << line;
+  };
+  if (last != nullptr) {
+    row("final RMSE", last->errors.rmse_m, "m");
+    row("final mean error", last->errors.mean_error_m, "m");
+    row("final max error", last->errors.max_error_m, "m");
+    row("final NEES (2 = consistent)", last->errors.nees, "");
+    row("CRLB, single snapshot", record.crlb.single_snapshot_rmse_m, "m");
+    row("CRLB, accumulated over the run", last->crlb_rmse_m, "m");
+    row("noise std (range)", record.scenario.noise.range_std_m, "m");
+  }
+  std::snprintf(line, sizeof line, "  %-34s %12llu\n", "messages sent", static_cast<unsigned long long>(totals.sent));
+  out << line;
+  std::snprintf(line, sizeof line, "  %-34s %12llu\n", "messages delivered",
+                static_cast<unsigned long long>(totals.delivered));
+  out << line;
+  std::snprintf(line, sizeof line, "  %-34s %12llu  (%.1f %% of sent)\n", "messages dropped (injected)",
+                static_cast<unsigned long long>(totals.dropped_injected),
+                totals.sent > 0 ? 100.0 * static_cast<double>(totals.dropped_injected) / static_cast<double>(totals.sent)
+                                : 0.0);
+  out << line;
+  std::snprintf(line, sizeof line, "  %-34s %12llu\n", "messages rejected (invalid)",
+                static_cast<unsigned long long>(totals.rejected));
+  out << line;
+  row("wall time", record.wall_s, "s");
+  if (record.interrupted) out << "  (interrupted)\n";
+  return out.str();
+}
+
+std::filesystem::path default_run_directory(const config::Scenario& scenario) {
+  const auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char stamp[32];
+  std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &utc);
+  auto base = std::filesystem::path("runs") / (scenario.name + "-" + stamp + "-seed" + std::to_string(scenario.seed));
+  auto candidate = base;
+  for (int k = 2; std::filesystem::exists(candidate); ++k) candidate = base.string() + "-" + std::to_string(k);
+  return candidate;
+}
+
+}  // namespace swarmloc::sim

@@ -1,0 +1,35 @@
+#pragma once
+// `swarmloc run`: owns the world, launches the agent processes, publishes measurements every world
+// step, collects and scores estimates, and writes the run directory.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "swarmloc/core/types.hpp"
+
+namespace swarmloc::orchestrator {
+
+struct RunOptions {
+  std::string scenario_path;
+  std::vector<std::string> overrides;
+  std::filesystem::path out_dir;        ///< empty: runs/<name>-<stamp>-seed<seed>
+  std::string agent_binary;             ///< the swarmloc executable used to start agents
+  bool launch_agents = true;            ///< false: wait for agents started elsewhere
+  std::vector<AgentId> hostile_agents;  ///< agents started with --hostile
+  bool progress = true;
+};
+
+/// Returns the process exit code (0 ok, 2 bad input, 1 runtime failure or interrupted).
+int run_orchestrator(const RunOptions& options);
+
+struct SimCommandOptions {
+  std::string scenario_path;
+  std::vector<std::string> overrides;
+  std::filesystem::path out_dir;
+  bool progress = true;
+};
+
+/// `swarmloc sim`: the in-process runner.
+int run_sim_command(const SimCommandOptions& options);
+
+}  // namespace swarmloc::orchestrator

@@ -1,0 +1,110 @@
+// End-to-end tests: the real `swarmloc` binary, an orchestrator and one OS process per agent over
+// Cyclone DDS on loopback. Each test uses its own DDS domain so that runs never see each other.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "process_helpers.hpp"
+
+namespace {
+
+using swarmloc::testing::count_processes_matching;
+using swarmloc::testing::fresh_directory;
+using swarmloc::testing::read_json;
+using swarmloc::testing::run_command;
+
+const std::string kBinary = SWARMLOC_BINARY;
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+
+// The acceptance scenario of issue 2: 30 agents, 8 anchors, 40 m x 40 m, radius 15 m, range std 0.1 m.
+// 20 Hz and 200 steps keep the test at ~10 s of world time per run.
+std::string common_flags(int domain) {
+  return " -q --set run.rate_hz=20 --set run.steps=200 --set dds.domain_id=" + std::to_string(domain);
+}
+
+nlohmann::json run_dds(const std::string& name, const std::string& flags, int domain) {
+  const auto dir = fresh_directory(name);
+  const auto result = run_command(kBinary + " run " + kScenario + " --out " + dir.string() + common_flags(domain) + flags);
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_EQ(count_processes_matching(dir.string()), 0) << "agent processes outlived the run";
+  return read_json(dir / "summary.json");
+}
+
+nlohmann::json run_sim(const std::string& name, const std::string& flags) {
+  const auto dir = fresh_directory(name);
+  const auto result = run_command(kBinary + " sim " + kScenario + " --out " + dir.string() + common_flags(0) + flags);
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  return read_json(dir / "summary.json");
+}
+
+TEST(RunOverDds, ThirtyAgentProcessesConvergeBelowRangeNoiseAndAgreeWithSimulator) {
+  const auto dds = run_dds("lossless", "", 11);
+  const auto sim = run_sim("lossless-sim", "");
+  EXPECT_EQ(dds["agents"], 30);
+  EXPECT_EQ(dds["processes"], 31);  // 30 agents + the orchestrator
+  EXPECT_EQ(dds["final"]["scored_agents"], 22);
+  const double dds_rmse = dds["final"]["rmse_m"];
+  const double sim_rmse = sim["final"]["rmse_m"];
+  EXPECT_LT(dds_rmse, 0.1) << "final RMSE must be below the range noise std";
+  EXPECT_LT(dds_rmse, 1.25 * sim_rmse) << "DDS " << dds_rmse << " vs in-process " << sim_rmse;
+  EXPECT_GT(dds["final"]["crlb_single_snapshot_rmse_m"].get<double>(), 0.0);
+  EXPECT_GT(dds["crlb"]["accumulated_rmse_m"].get<double>(), 0.0);
+  EXPECT_EQ(dds["links"]["dropped_injected"], 0);
+  EXPECT_GT(dds["links"]["delivered"].get<double>(), 0.9 * dds["links"]["sent"].get<double>());
+}
+
+TEST(RunOverDds, TwentyPercentInjectedLossStillConvergesAndDropsTwentyPercent) {
+  const auto lossless = run_sim("loss-reference", "");
+  const auto lossy = run_dds("loss", " --set network.loss=0.2", 12);
+  const double rmse = lossy["final"]["rmse_m"];
+  EXPECT_LT(rmse, 2.0 * lossless["final"]["rmse_m"].get<double>());
+  const double arrived = lossy["links"]["arrived"];
+  const double dropped = lossy["links"]["dropped_injected"];
+  ASSERT_GT(arrived, 1000.0);
+  const double sigma = std::sqrt(arrived * 0.2 * 0.8);
+  EXPECT_NEAR(dropped, 0.2 * arrived, 3.0 * sigma) << "dropped " << dropped << " of " << arrived;
+}
+
+TEST(RunOverDds, ConvergesWithSkewedDriftingClocks) {
+  const auto skewed = run_dds("skew", " --set clock.drift_ppm=200 --set clock.offset_max_s=1", 13);
+  EXPECT_LT(skewed["final"]["rmse_m"].get<double>(), 0.1);
+}
+
+TEST(RunOverDds, HostileAgentSamplesAreRejectedAndCounted) {
+  // Agent 0 publishes NaN, non-PSD and absurd states all run long; honest agents drop and count them.
+  const auto run = run_dds("hostile", " --hostile 0", 14);
+  const auto& rejected = run["rejected_by_reason"];
+  EXPECT_GT(rejected["non_finite"].get<int>(), 0);
+  EXPECT_GT(rejected["not_symmetric_psd"].get<int>(), 0);
+  EXPECT_GT(rejected["absurd_magnitude"].get<int>(), 0);
+  EXPECT_LT(run["final"]["rmse_m"].get<double>(), 0.1) << "hostile samples leaked into estimates";
+}
+
+struct BadInput {
+  const char* name;
+  std::string flags;
+  std::string expected_key;
+};
+
+class InvalidScenario : public ::testing::TestWithParam<BadInput> {};
+
+TEST_P(InvalidScenario, ExitsWithCodeTwoNamingTheKey) {
+  const auto& bad = GetParam();
+  const auto dir = fresh_directory(std::string("invalid-") + bad.name);
+  const auto result = run_command(kBinary + " run " + bad.flags + " --out " + dir.string() + " -q");
+  EXPECT_EQ(result.exit_code, 2) << result.output;
+  EXPECT_NE(result.output.find(bad.expected_key), std::string::npos) << result.output;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, InvalidScenario,
+    ::testing::Values(BadInput{"negative_radius", kScenario + " --set world.comm_radius_m=-1", "world.comm_radius_m"},
+                      BadInput{"too_many_anchors", kScenario + " --set world.anchors=40", "world.anchors"},
+                      BadInput{"unknown_algorithm", kScenario + " --set algorithm.name=magic", "algorithm.name"},
+                      BadInput{"unreadable_file", "/nonexistent/scenario.yaml", "/nonexistent/scenario.yaml"},
+                      BadInput{"loss_above_one", kScenario + " --set network.loss=1.4", "network.loss"},
+                      BadInput{"loss_below_zero", kScenario + " --set network.loss=-0.1", "network.loss"},
+                      BadInput{"unknown_flag", kScenario + " --frobnicate", "frobnicate"}),
+    [](const auto& info) { return std::string(info.param.name); });
+
+}  // namespace

@@ -1,0 +1,54 @@
+#pragma once
+// Helpers for tests that run the real `swarmloc` binary: run a command, capture its output and exit
+// code, read a run directory's summary.json, and look for leftover agent processes.
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace swarmloc::testing {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  ///< stdout and stderr together
+};
+
+inline CommandResult run_command(const std::string& command) {
+  CommandResult result;
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer{};
+  while (fgets(buffer.data(), static_cast<int>(buffer.size()), pipe) != nullptr) result.output += buffer.data();
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return result;
+}
+
+inline nlohmann::json read_json(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+/// A fresh, empty directory under the build tree's temp area.
+inline std::filesystem::path fresh_directory(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("swarmloc-test-" + name + "-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+/// Number of live processes whose command line contains `needle`.
+inline int count_processes_matching(const std::string& needle) {
+  const auto result = run_command("pgrep -f -c -- '" + needle + "' || true");
+  try {
+    return std::stoi(result.output);
+  } catch (...) {
+    return 0;
+  }
+}
+
+}  // namespace swarmloc::testing
