@@ -27,10 +27,47 @@ struct MotionInput {
   Mat2 process_cov = Mat2::Zero();
 };
 
+/// Angle of the peer seen from this agent in the global frame (ALGORITHMS.md §1.1).
+struct BearingMeasurement {
+  AgentId peer = 0;
+  double bearing_rad = 0.0;
+  double std_rad = 0.0;
+};
+
+/// s = x_peer − x_self + ε, ε ~ N(0, covariance) (002 eq. (3)).
+struct RelativeMeasurement {
+  AgentId peer = 0;
+  Vec2 delta_m = Vec2::Zero();
+  Mat2 covariance = Mat2::Identity();
+};
+
+/// One single-bounce (or LOS) path between this agent and a peer (003 eq. (1), ALGORITHMS.md §5.1):
+/// its length and the angles of arrival at both ends, matched across the pair by path_index.
+struct MultipathMeasurement {
+  AgentId peer = 0;
+  int path_index = 0;
+  double length_m = 0.0;
+  double aoa_here_rad = 0.0;   ///< θ at this agent (direction toward the scatter point)
+  double aoa_there_rad = 0.0;  ///< θ at the peer
+};
+
+/// An observation of target `target` (002 eq. (2)): linear (kind 0, value = H·y + v) or
+/// range–bearing (kind 1, value = (range, bearing)).
+struct TargetObservation {
+  std::int32_t target = 0;
+  Vec2 value = Vec2::Zero();
+  Mat2 covariance = Mat2::Identity();
+  std::uint8_t kind = 0;
+};
+
 struct MeasurementBatch {
   std::int64_t world_step = -1;  ///< -1: no batch this step
   double world_time_s = 0.0;
   std::vector<RangeMeasurement> ranges;
+  std::vector<BearingMeasurement> bearings;
+  std::vector<RelativeMeasurement> relative;
+  std::vector<MultipathMeasurement> paths;
+  std::vector<TargetObservation> targets;
   std::optional<AbsoluteFix> fix;
   std::optional<MotionInput> motion;
   std::vector<AgentId> neighbours;
