@@ -1,0 +1,112 @@
+#pragma once
+// Centralized fusion-centre filters of 000: EKF (eqs. (10)–(12)), LB-EKF (Alg. 2, banded covariance)
+// and LB-EKF-I (banded information, ALGORITHMS.md §2.4 ). Not per-agent estimators: one object
+// holds the whole network state. No transport, clock, RNG, I/O or logging inside.
+#include <cstdint>
+#include <memory>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "swarmloc/core/types.hpp"
+#include "swarmloc/estimators/centralized/band_inversion.hpp"
+
+namespace swarmloc::estimators::centralized {
+
+/// One range y_ij = ‖x_i − x_j‖ + r_ij between agents i and j (original labels).
+struct RangeEdgeMeasurement {
+  int i = 0;
+  int j = 0;
+  double range_m = 0.0;
+};
+
+/// Everything the fusion centre receives for step k (ALGORITHMS.md §2.7). Missing data: leave it out.
+struct CentralizedMeasurements {
+  std::vector<std::pair<int, Vec2>> beacon_fixes;  ///< (agent, y_b)
+  double beacon_var = 2.0;                         ///< σ_q, a variance (m²) per coordinate
+  std::vector<RangeEdgeMeasurement> ranges;
+  double range_var = 10.0;            ///< σ_r, a variance (m²)
+  std::vector<Vec2> velocity_inputs;  ///< v_i(k) (m per step, original labels); empty = zero
+};
+
+enum class CentralizedKind { kEkf, kLbEkf, kLbEkfI };
+
+struct CentralizedFilterParams {
+  double process_var = 0.02;  ///< σ_p, a variance (m²) per coordinate per step
+  int bandwidth = 20;         ///< L in state (scalar) indices; clamped to n − 1; unused by the EKF
+  BandInversionMethod inversion = BandInversionMethod::kWindows;
+  std::vector<int> labels;  ///< π(agent) used internally (000 Alg. 3); empty = identity
+};
+
+/// S_k = H_kᵀR_k⁻¹H_k and b_k = H_kᵀR_k⁻¹(y − h(x̂)) in the relabeled order (ALGORITHMS.md §2.1, [A-1]).
+struct MeasurementInformation {
+  MatX information;  ///< S_k, dense n×n
+  VecX vector;       ///< b_k
+};
+/// Dense assembly at `linearization_point` (original labels, 2N). Ranges with ρ < 1e−9 are skipped.
+MeasurementInformation assemble_measurement_information(const CentralizedMeasurements& measurements,
+                                                        const VecX& linearization_point,
+                                                        const std::vector<int>& labels);
+
+/// Shared step API. step(k) performs (with) the prediction from step k−1 (k >= 1; it applies the
+/// velocity inputs given at step k−1) and the measurement update of step k. mean() and
+/// covariance_block() then describe the posterior at step k.
+class CentralizedFilter {
+ public:
+  virtual ~CentralizedFilter() = default;
+  CentralizedFilter(const CentralizedFilter&) = delete;
+  CentralizedFilter& operator=(const CentralizedFilter&) = delete;
+  CentralizedFilter(CentralizedFilter&&) = delete;
+  CentralizedFilter& operator=(CentralizedFilter&&) = delete;
+
+  [[nodiscard]] virtual std::string_view name() const = 0;
+  virtual void step(const CentralizedMeasurements& measurements) = 0;
+  /// Posterior mean, 2N, original labels.
+  [[nodiscard]] VecX mean() const;
+  [[nodiscard]] Vec2 agent_mean(int agent) const;
+  /// 2×2 diagonal block of the (approximate) posterior covariance of `agent` (original label).
+  [[nodiscard]] virtual Mat2 covariance_block(int agent) const = 0;
+  /// The filter's full posterior covariance as a dense 2N×2N matrix in original labels (EKF: M_k;
+  /// LB-EKF: the banded M̆_k; LB-EKF-I: Y_k⁻¹). O(n²) memory: for tests and small networks.
+  [[nodiscard]] virtual MatX covariance_dense() const = 0;
+
+  [[nodiscard]] int num_agents() const { return static_cast<int>(labels_.size()); }
+  [[nodiscard]] std::int64_t steps_done() const { return steps_done_; }
+  [[nodiscard]] const std::vector<int>& labels() const { return labels_; }
+  /// Bandwidth of S_k in the internal order at the last step (Lemma 1), and how many of its
+  /// lower-triangle entries fell outside the band L and were dropped ([A-5]: information truncated).
+  [[nodiscard]] int last_measurement_bandwidth() const { return last_measurement_bandwidth_; }
+  [[nodiscard]] int last_truncated_entries() const { return last_truncated_entries_; }
+
+ protected:
+  /// initial_mean: x̂(0), 2N, original labels. initial_cov: Σ_0 blocks (Assumption 3), one per agent.
+  CentralizedFilter(const VecX& initial_mean, const std::vector<Mat2>& initial_cov,
+                    const CentralizedFilterParams& params);
+  /// Internal scalar index of coordinate c of `agent`.
+  [[nodiscard]] int index(int agent, int c = 0) const {
+    return 2 * labels_[static_cast<std::size_t>(agent)] + c;
+  }
+  /// k >= 1: x̂⁻ = x̂⁺ + v(k−1). Returns true if this is a prediction step (k >= 1).
+  bool predict_mean();
+  void store_velocity(const CentralizedMeasurements& measurements);
+
+  std::vector<int> labels_;
+  std::vector<Mat2> initial_cov_;  ///< Σ_0 blocks, original labels
+  double process_var_ = 0.0;
+  VecX x_;                 ///< internal order
+  VecX pending_velocity_;  ///< v(k−1), internal order
+  std::int64_t steps_done_ = 0;
+  int last_measurement_bandwidth_ = 0;
+  int last_truncated_entries_ = 0;
+};
+
+/// Builds a filter. `initial_mean` 2N (original labels), `initial_cov` N blocks of Σ_0.
+/// Throws std::invalid_argument on inconsistent sizes or labels.
+std::unique_ptr<CentralizedFilter> make_centralized_filter(CentralizedKind kind, const VecX& initial_mean,
+                                                           const std::vector<Mat2>& initial_cov,
+                                                           const CentralizedFilterParams& params);
+
+/// "ekf", "lb-ekf", "lb-ekf-i".
+std::string_view to_string(CentralizedKind kind);
+
+}  // namespace swarmloc::estimators::centralized
