@@ -105,6 +105,6 @@ INSTANTIATE_TEST_SUITE_P(
                       BadInput{"loss_above_one", kScenario + " --set network.loss=1.4", "network.loss"},
                       BadInput{"loss_below_zero", kScenario + " --set network.loss=-0.1", "network.loss"},
                       BadInput{"unknown_flag", kScenario + " --frobnicate", "frobnicate"}),
-    [](const auto& info) { return std::string(info.param.name); });
+    [](const auto& test_info) { return std::string(test_info.param.name); });
 
 }  // namespace

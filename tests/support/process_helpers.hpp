@@ -8,7 +8,9 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <iterator>
 #include <string>
+#include <unistd.h>
 
 namespace swarmloc::testing {
 
@@ -41,14 +43,19 @@ inline std::filesystem::path fresh_directory(const std::string& name) {
   return dir;
 }
 
-/// Number of live processes whose command line contains `needle`.
+/// Number of live processes (other than this one) whose command line contains `needle`.
 inline int count_processes_matching(const std::string& needle) {
-  const auto result = run_command("pgrep -f -c -- '" + needle + "' || true");
-  try {
-    return std::stoi(result.output);
-  } catch (...) {
-    return 0;
+  int count = 0;
+  const std::string self = std::to_string(::getpid());
+  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+    const auto pid = entry.path().filename().string();
+    if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos || pid == self) continue;
+    std::ifstream in(entry.path() / "cmdline", std::ios::binary);
+    std::string cmdline((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (auto& c : cmdline) c = (c == '\0') ? ' ' : c;
+    if (cmdline.find(needle) != std::string::npos) ++count;
   }
+  return count;
 }
 
 }  // namespace swarmloc::testing
