@@ -66,6 +66,11 @@ int main(int argc, char** argv) {
   sim->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
   sim->add_option("--set", overrides, "Override a scenario key (repeatable)");
   sim->add_flag("-q,--quiet", quiet, "No progress line");
+  int trials = 1;
+  int threads = 0;
+  sim->add_option("--trials", trials, "Monte Carlo trials (fixed configuration; noise, initial guesses and loss per trial)")
+      ->check(CLI::PositiveNumber);
+  sim->add_option("--threads", threads, "Worker threads for --trials (default: every core)")->check(CLI::NonNegativeNumber);
   sim->footer(keys_help());
 
   auto* agent = app.add_subcommand("agent", "Run one agent process (what `run` starts N times; also for containers).");
@@ -100,7 +105,7 @@ int main(int argc, char** argv) {
     return swarmloc::orchestrator::run_orchestrator(options);
   }
   if (sim->parsed()) {
-    swarmloc::orchestrator::SimCommandOptions options{scenario_path, overrides, out_dir, !quiet};
+    swarmloc::orchestrator::SimCommandOptions options{scenario_path, overrides, out_dir, !quiet, trials, threads};
     return swarmloc::orchestrator::run_sim_command(options);
   }
   if (agent->parsed()) return swarmloc::agent::run_agent(agent_options);

@@ -27,6 +27,8 @@ struct SimCommandOptions {
   std::vector<std::string> overrides;
   std::filesystem::path out_dir;
   bool progress = true;
+  int trials = 1;   ///< > 1: Monte Carlo over every core
+  int threads = 0;  ///< 0 = every core
 };
 
 /// `swarmloc sim`: the in-process runner.

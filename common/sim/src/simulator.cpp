@@ -1,6 +1,12 @@
 #include "swarmloc/sim/simulator.hpp"
 
+#include <atomic>
 #include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <mutex>
+#include <thread>
 
 #include "swarmloc/sim/agent_runtime.hpp"
 
@@ -16,9 +22,9 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
   return estimators::make_estimator(s.algorithm.name, world.setup_of(id), params);
 }
 
-AgentRuntimeParams make_runtime_params(const config::Scenario& s) {
+AgentRuntimeParams make_runtime_params(const config::Scenario& s, std::uint64_t trial) {
   AgentRuntimeParams params;
-  params.seed = s.seed;
+  params.seed = trial_seed(s.seed, trial);
   params.loss.loss_probability = s.network.loss;
   params.absurd_position_bound_m = absurd_position_bound_m(s);
   return params;
@@ -26,13 +32,13 @@ AgentRuntimeParams make_runtime_params(const config::Scenario& s) {
 
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options) {
   const auto started = std::chrono::steady_clock::now();
-  World world = build_world(scenario);
+  World world = build_world(scenario, options.trial);
   const int n = world.size();
   std::vector<AgentRuntime> agents;
   agents.reserve(static_cast<std::size_t>(n));
   for (AgentId i = 0; i < n; ++i) {
     agents.emplace_back(make_agent_estimator(scenario, world, i), world.setup_of(i),
-                        world.neighbours[static_cast<std::size_t>(i)], make_runtime_params(scenario));
+                        world.neighbours[static_cast<std::size_t>(i)], make_runtime_params(scenario, options.trial));
   }
 
   RunRecord record;
@@ -94,6 +100,78 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
   }
   record.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return record;
+}
+
+MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, int threads,
+                                 const std::function<void(int, int)>& on_trial) {
+  const auto started = std::chrono::steady_clock::now();
+  MonteCarloResult result;
+  result.trials = trials;
+  result.threads = threads > 0 ? threads : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+  const auto steps = static_cast<std::size_t>(scenario.run.steps);
+  // Per trial, per step: (mse, rmse, nees). Trials are independent, so threads share nothing but an index.
+  std::vector<std::vector<std::array<double, 3>>> per_trial(static_cast<std::size_t>(trials));
+  std::vector<double> final_rmse(static_cast<std::size_t>(trials), 0.0);
+  std::atomic<int> next{0};
+  std::atomic<int> done{0};
+  std::mutex progress_mutex;
+  auto worker = [&] {
+    for (int t = next++; t < trials; t = next++) {
+      SimOptions options;
+      options.trial = static_cast<std::uint64_t>(t);
+      options.record_estimates = (t == 0);
+      auto record = run_simulation(scenario, options);
+      auto& rows = per_trial[static_cast<std::size_t>(t)];
+      rows.reserve(steps);
+      for (const auto& m : record.metrics) rows.push_back({m.errors.rmse_m * m.errors.rmse_m, m.errors.rmse_m, m.errors.nees});
+      final_rmse[static_cast<std::size_t>(t)] = record.final_metrics()->errors.rmse_m;
+      if (t == 0) result.first_trial = std::move(record);
+      const int finished = ++done;
+      if (on_trial) {
+        const std::lock_guard<std::mutex> lock(progress_mutex);
+        on_trial(finished, trials);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int k = 0; k < result.threads; ++k) pool.emplace_back(worker);
+  for (auto& thread : pool) thread.join();
+
+  const auto& reference = result.first_trial.metrics;
+  for (std::size_t k = 0; k < steps; ++k) {
+    MonteCarloStep row;
+    row.step = static_cast<std::int64_t>(k);
+    row.crlb_rmse_m = k < reference.size() ? reference[k].crlb_rmse_m : 0.0;
+    std::array<double, 3> sum{}, sum_sq{};
+    for (const auto& trial_rows : per_trial) {
+      for (std::size_t q = 0; q < 3; ++q) {
+        sum[q] += trial_rows[k][q];
+        sum_sq[q] += trial_rows[k][q] * trial_rows[k][q];
+      }
+    }
+    const double n = static_cast<double>(trials);
+    auto spread = [&](std::size_t q) { return std::sqrt(std::max(0.0, sum_sq[q] / n - (sum[q] / n) * (sum[q] / n))); };
+    row.mse_mean = sum[0] / n, row.mse_std = spread(0);
+    row.rmse_mean = sum[1] / n, row.rmse_std = spread(1);
+    row.nees_mean = sum[2] / n, row.nees_std = spread(2);
+    result.steps.push_back(row);
+  }
+  result.final_rmse_per_trial = std::move(final_rmse);
+  result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return result;
+}
+
+void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result) {
+  std::filesystem::create_directories(directory);
+  std::ofstream out(directory / "montecarlo.csv");
+  out << "step,mse_mean_m2,mse_std_m2,rmse_mean_m,rmse_std_m,nees_mean,nees_std,crlb_rmse_m\n" << std::setprecision(9);
+  for (const auto& r : result.steps) {
+    out << r.step << ',' << r.mse_mean << ',' << r.mse_std << ',' << r.rmse_mean << ',' << r.rmse_std << ','
+        << r.nees_mean << ',' << r.nees_std << ',' << r.crlb_rmse_m << '\n';
+  }
+  std::ofstream trials(directory / "trials.csv");
+  trials << "trial,final_rmse_m\n" << std::setprecision(9);
+  for (std::size_t t = 0; t < result.final_rmse_per_trial.size(); ++t) trials << t << ',' << result.final_rmse_per_trial[t] << '\n';
 }
 
 }  // namespace swarmloc::sim

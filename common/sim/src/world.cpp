@@ -153,8 +153,13 @@ estimators::AgentSetup World::setup_of(AgentId id) const {
   return estimators::AgentSetup{id, is_anchor.at(i), is_anchor.at(i) ? truth.at(i) : initial_guess.at(i)};
 }
 
-World build_world(const Scenario& s) {
+std::uint64_t trial_seed(std::uint64_t seed, std::uint64_t trial) {
+  return trial == 0 ? seed : core::hash_keys(seed, 0x7472696171ULL, trial);
+}
+
+World build_world(const Scenario& s, std::uint64_t trial) {
   World world;
+  world.trial = trial;
   constexpr int kMaxAttempts = 1000;
   const bool random_placement = s.world.placement == config::Placement::kUniform;
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
@@ -172,7 +177,7 @@ World build_world(const Scenario& s) {
   }
   const auto n = static_cast<std::size_t>(s.world.agents);
   world.initial_guess.resize(n);
-  auto rng = core::make_engine(s.seed, core::Stream::kInitialGuess);
+  auto rng = core::make_engine(trial_seed(s.seed, trial), core::Stream::kInitialGuess);
   std::normal_distribution<double> gauss(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(0.0, s.world.area_m);
   for (std::size_t i = 0; i < n; ++i) {
@@ -195,7 +200,7 @@ void advance_truth(World& world, const Scenario& s, std::int64_t step) {
   std::normal_distribution<double> gauss(0.0, s.world.motion_std_m);
   for (std::size_t i = 0; i < world.truth.size(); ++i) {
     if (world.is_anchor[i]) continue;
-    auto rng = core::make_engine(s.seed, core::Stream::kMotion, step, static_cast<std::int64_t>(i));
+    auto rng = core::make_engine(trial_seed(s.seed, world.trial), core::Stream::kMotion, step, static_cast<std::int64_t>(i));
     world.truth[i] += Vec2(gauss(rng), gauss(rng));
   }
 }
@@ -212,13 +217,13 @@ estimators::MeasurementBatch generate_batch(const World& world, const Scenario& 
   for (AgentId j : world.neighbours[i]) {
     const double distance = (xi - world.truth[static_cast<std::size_t>(j)]).norm();
     if (distance > s.world.comm_radius_m) continue;  // moved out of range
-    auto rng = core::make_engine(s.seed, core::Stream::kMeasurementNoise, step, agent, j);
+    auto rng = core::make_engine(trial_seed(s.seed, world.trial), core::Stream::kMeasurementNoise, step, agent, j);
     const double noisy = std::abs(distance + s.noise.range_std_m * gauss(rng));
     batch.ranges.push_back({j, noisy, s.noise.range_std_m});
   }
   if (world.is_anchor[i]) {
     estimators::AbsoluteFix fix;
-    auto rng = core::make_engine(s.seed, core::Stream::kMeasurementNoise, step, agent, -1);
+    auto rng = core::make_engine(trial_seed(s.seed, world.trial), core::Stream::kMeasurementNoise, step, agent, -1);
     fix.position_m = xi + s.noise.anchor_fix_std_m * Vec2(gauss(rng), gauss(rng));
     fix.covariance = Mat2::Identity() * s.noise.anchor_fix_std_m * s.noise.anchor_fix_std_m;
     batch.fix = fix;

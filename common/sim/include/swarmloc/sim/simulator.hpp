@@ -12,16 +12,42 @@ struct SimOptions {
   bool record_estimates = true;  ///< keep per-agent per-step rows (estimates.csv)
   /// Called after every step with (step, errors) — for progress lines. May be empty.
   std::function<void(std::int64_t, const ErrorStats&)> on_step;
+  std::uint64_t trial = 0;  ///< Monte Carlo trial (see World::trial)
 };
 
 /// Runs `scenario` in synchronous rounds: at round k every agent receives its world-step-k batch and
 /// the samples its neighbours published in round k−1, then steps. Deterministic in the seed.
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options = {});
 
+/// Per-step statistics across Monte Carlo trials (mean and standard deviation over trials).
+struct MonteCarloStep {
+  std::int64_t step = 0;
+  double mse_mean = 0.0, mse_std = 0.0;    ///< mean squared error per non-anchor agent (m²)
+  double rmse_mean = 0.0, rmse_std = 0.0;  ///< per-trial network RMSE (m)
+  double nees_mean = 0.0, nees_std = 0.0;
+  double crlb_rmse_m = 0.0;
+};
+struct MonteCarloResult {
+  std::vector<MonteCarloStep> steps;
+  std::vector<double> final_rmse_per_trial;
+  RunRecord first_trial;  ///< trial 0 in full (estimates, links) for the run directory
+  int trials = 0;
+  int threads = 0;
+  double wall_s = 0.0;
+};
+
+/// Runs `trials` independent trials of `scenario` on `threads` threads (0 = every core). The
+/// configuration is fixed by the seed; noise, initial guesses and loss differ per trial.
+MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, int threads = 0,
+                                 const std::function<void(int done, int total)>& on_trial = {});
+
+/// Writes montecarlo.csv (per-step mean and spread) and trials.csv into `directory`.
+void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result);
+
 /// Builds the estimator for agent `id` of `world` from the scenario's algorithm settings.
 std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& scenario, const World& world,
                                                             AgentId id);
 /// Runtime parameters (seed, loss, plausibility bounds) for the scenario.
-AgentRuntimeParams make_runtime_params(const config::Scenario& scenario);
+AgentRuntimeParams make_runtime_params(const config::Scenario& scenario, std::uint64_t trial = 0);
 
 }  // namespace swarmloc::sim

@@ -18,6 +18,9 @@ struct World {
   std::vector<Vec2> initial_guess;              ///< prior each agent starts from (anchors: truth)
   std::vector<core::ClockModel> clocks;
   int placement_attempts = 1;                   ///< draws needed to satisfy world.require_connected
+  /// Monte Carlo trial: the configuration (placement, anchors, graph, clocks) depends on the seed
+  /// only; initial guesses, measurement noise, motion noise and link loss also depend on the trial.
+  std::uint64_t trial = 0;
 
   [[nodiscard]] int size() const { return static_cast<int>(truth.size()); }
   [[nodiscard]] int anchor_count() const;
@@ -28,7 +31,7 @@ struct World {
 /// Builds the world of `scenario` (placement, anchors, graph, initial guesses, clocks).
 /// Throws config::ScenarioError if the positions file is unreadable or no connected placement is
 /// found within 1000 draws.
-World build_world(const config::Scenario& scenario);
+World build_world(const config::Scenario& scenario, std::uint64_t trial = 0);
 
 /// Moves the truth one world step (random walk when world.motion = random_walk). Seeded by (seed, step).
 void advance_truth(World& world, const config::Scenario& scenario, std::int64_t step);
@@ -37,6 +40,9 @@ void advance_truth(World& world, const config::Scenario& scenario, std::int64_t 
 /// (each endpoint measures independently, ALGORITHMS.md [B-1]) and, for anchors, an absolute fix.
 estimators::MeasurementBatch generate_batch(const World& world, const config::Scenario& scenario,
                                             AgentId agent, std::int64_t step);
+
+/// The seed of trial `trial`'s random streams (trial 0 uses the scenario seed itself).
+std::uint64_t trial_seed(std::uint64_t seed, std::uint64_t trial);
 
 /// The physical-plausibility bound used to reject absurd samples: positions beyond this from the
 /// area's centre are rejected.
