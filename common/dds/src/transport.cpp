@@ -1,1 +1,421 @@
-// placeholder translation unit; replaced by the real implementation
+// AgentTransport / OrchestratorTransport over Cyclone DDS (DESIGN.md §3–§4).
+//
+// Routing by partition (one topic per family):
+//   agent i   publisher "a<i>"        : state, information, consensus, belief writers
+//             publisher "est"         : estimate writer
+//             subscriber a<j>…        : the four inter-agent readers (j = neighbours; "none" if none)
+//             subscriber "m<i>"       : measurement reader;   subscriber "ctl": control reader
+//   orch.     publisher "m<i>" per agent: one measurement writer each
+//             publisher "ctl"         : control writer (transient-local per scenario.qos.control)
+//             subscriber "est"        : estimate reader
+// Waits: one waitset per participant with a DDS_ANY_STATE read condition per reader (triggered while
+// the reader holds any sample), waited with the caller's timeout; then every reader is drained with
+// loaned dds_take calls. Single-threaded use per transport object.
+#include "swarmloc/dds/transport.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "convert.hpp"
+#include "entities.hpp"
+#include "qos.hpp"
+
+namespace swarmloc::dds {
+
+namespace {
+
+constexpr const char* kTopicMeasurements = "swarmloc_measurements";
+constexpr const char* kTopicState = "swarmloc_state";
+constexpr const char* kTopicInformation = "swarmloc_information";
+constexpr const char* kTopicConsensus = "swarmloc_consensus";
+constexpr const char* kTopicBelief = "swarmloc_belief";
+constexpr const char* kTopicEstimate = "swarmloc_estimate";
+constexpr const char* kTopicControl = "swarmloc_control";
+
+constexpr const char* kPartitionEstimates = "est";
+constexpr const char* kPartitionControl = "ctl";
+constexpr const char* kPartitionNothing = "none";
+
+std::string agent_partition(AgentId agent) { return "a" + std::to_string(agent); }
+std::string measurement_partition(AgentId agent) { return "m" + std::to_string(agent); }
+
+dds_duration_t to_duration(double timeout_s) {
+  if (!(timeout_s > 0.0)) {
+    return 0;
+  }
+  if (!std::isfinite(timeout_s) || timeout_s > 1e9) {
+    return DDS_INFINITY;
+  }
+  return static_cast<dds_duration_t>(std::llround(timeout_s * 1e9));
+}
+
+AgentId agent_id(AgentId self) {
+  if (self < 0) {
+    throw DdsError("AgentTransport: agent id " + std::to_string(self) + " is not an agent");
+  }
+  return self;
+}
+
+dds_entity_t create_participant(const DomainLease& domain) {
+  return check(dds_create_participant(domain.domain_id(), nullptr, nullptr), "dds_create_participant");
+}
+
+dds_entity_t create_topic(dds_entity_t participant, const dds_topic_descriptor_t& descriptor,
+                          const char* name) {
+  return check(dds_create_topic(participant, &descriptor, name, nullptr, nullptr),
+               std::string("dds_create_topic ") + name);
+}
+
+dds_entity_t create_publisher(dds_entity_t participant, const std::vector<std::string>& partitions) {
+  const auto qos = partition_qos(partitions);
+  return check(dds_create_publisher(participant, qos.get(), nullptr),
+               "dds_create_publisher " + partitions.front());
+}
+
+dds_entity_t create_subscriber(dds_entity_t participant, const std::vector<std::string>& partitions) {
+  const auto qos = partition_qos(partitions);
+  return check(dds_create_subscriber(participant, qos.get(), nullptr),
+               "dds_create_subscriber " + partitions.front());
+}
+
+dds_entity_t create_writer(dds_entity_t publisher, dds_entity_t topic, const config::QosSettings& settings,
+                           const char* what) {
+  const auto qos = endpoint_qos(settings);
+  return check(dds_create_writer(publisher, topic, qos.get(), nullptr),
+               std::string("dds_create_writer ") + what);
+}
+
+dds_entity_t create_reader(dds_entity_t subscriber, dds_entity_t topic, const config::QosSettings& settings,
+                           const char* what) {
+  const auto qos = endpoint_qos(settings);
+  return check(dds_create_reader(subscriber, topic, qos.get(), nullptr),
+               std::string("dds_create_reader ") + what);
+}
+
+/// dds_write with the return code checked. A reliable write that times out (the history of a reliable
+/// writer stayed full for max_blocking_time, i.e. a slow reader) drops that one sample instead of
+/// failing the process: returns false.
+bool write(dds_entity_t writer, const void* sample, const char* what) {
+  const dds_return_t rc = dds_write(writer, sample);
+  if (rc == DDS_RETCODE_TIMEOUT) {
+    return false;
+  }
+  check(rc, std::string("dds_write ") + what);
+  return true;
+}
+
+/// Takes every sample a reader holds (loaned buffers, returned even if `handle` throws) and calls
+/// handle(wire) for each valid one. Stops after a short batch so a busy writer cannot starve the caller.
+template <typename Wire, typename Handle>
+void take_all(dds_entity_t reader, Handle&& handle) {
+  constexpr int32_t kBatch = 64;
+  for (;;) {
+    std::array<void*, kBatch> samples{};
+    std::array<dds_sample_info_t, kBatch> infos{};
+    const int32_t count = check(dds_take(reader, samples.data(), infos.data(), kBatch, kBatch), "dds_take");
+    if (count <= 0) {
+      return;
+    }
+    struct LoanGuard {
+      dds_entity_t reader;
+      void** buffer;
+      int32_t count;
+      ~LoanGuard() { static_cast<void>(dds_return_loan(reader, buffer, count)); }
+    } guard{reader, samples.data(), count};
+    for (int32_t i = 0; i < count; ++i) {
+      if (infos[static_cast<std::size_t>(i)].valid_data) {
+        handle(*static_cast<const Wire*>(samples[static_cast<std::size_t>(i)]));
+      }
+    }
+    if (count < kBatch) {
+      return;
+    }
+  }
+}
+
+dds_entity_t attach_reader(dds_entity_t waitset, dds_entity_t reader) {
+  const dds_entity_t condition =
+      check(dds_create_readcondition(reader, DDS_ANY_STATE), "dds_create_readcondition");
+  check(dds_waitset_attach(waitset, condition, static_cast<dds_attach_t>(reader)), "dds_waitset_attach");
+  return condition;
+}
+
+void wait(dds_entity_t waitset, double timeout_s) {
+  check(dds_waitset_wait(waitset, nullptr, 0, to_duration(timeout_s)), "dds_waitset_wait");
+}
+
+int32_t matched_count(dds_entity_t reader) {
+  dds_subscription_matched_status_t status{};
+  check(dds_get_subscription_matched_status(reader, &status), "dds_get_subscription_matched_status");
+  return static_cast<int32_t>(status.current_count);
+}
+
+/// Agent ids "j" of matched writers whose publisher has a partition "a<j>".
+std::set<AgentId> matched_agent_partitions(dds_entity_t reader) {
+  std::vector<dds_instance_handle_t> handles(16);
+  for (;;) {
+    const dds_return_t count = check(dds_get_matched_publications(reader, handles.data(), handles.size()),
+                                     "dds_get_matched_publications");
+    if (static_cast<std::size_t>(count) <= handles.size()) {
+      handles.resize(static_cast<std::size_t>(count));
+      break;
+    }
+    handles.resize(static_cast<std::size_t>(count));
+  }
+  std::set<AgentId> agents;
+  for (const auto handle : handles) {
+    dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, handle);
+    if (endpoint == nullptr) {
+      continue;  // unmatched in the meantime
+    }
+    uint32_t n = 0;
+    char** names = nullptr;
+    if (endpoint->qos != nullptr && dds_qget_partition(endpoint->qos, &n, &names)) {
+      for (uint32_t k = 0; k < n; ++k) {
+        const std::string name = names[k];
+        if (name.size() > 1 && name[0] == 'a' &&
+            std::all_of(name.begin() + 1, name.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+          try {
+            agents.insert(static_cast<AgentId>(std::stol(name.substr(1))));
+          } catch (const std::exception&) {
+            // out of range: not one of ours
+          }
+        }
+        dds_free(names[k]);
+      }
+      dds_free(static_cast<void*>(names));
+    }
+    dds_builtintopic_free_endpoint(endpoint);
+  }
+  return agents;
+}
+
+}  // namespace
+
+// ===================================================================================================
+// Agent
+
+struct AgentTransport::Impl {
+  Impl(const config::Scenario& scenario, const Topology& topology)
+      : self(agent_id(topology.self)),
+        neighbours(topology.neighbours),
+        domain(static_cast<dds_domainid_t>(scenario.dds.domain_id), cyclone_config(scenario, topology)),
+        participant(create_participant(domain)) {
+    const dds_entity_t pp = participant.get();
+    const auto& qos = scenario.qos;
+    const dds_entity_t t_measurements =
+        create_topic(pp, swarmloc_msg_MeasurementBatch_desc, kTopicMeasurements);
+    const dds_entity_t t_state = create_topic(pp, swarmloc_msg_State_desc, kTopicState);
+    const dds_entity_t t_information = create_topic(pp, swarmloc_msg_Information_desc, kTopicInformation);
+    const dds_entity_t t_consensus = create_topic(pp, swarmloc_msg_Consensus_desc, kTopicConsensus);
+    const dds_entity_t t_belief = create_topic(pp, swarmloc_msg_Belief_desc, kTopicBelief);
+    const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);
+    const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
+
+    const dds_entity_t own = create_publisher(pp, {agent_partition(self)});
+    state_writer = create_writer(own, t_state, qos.state, kTopicState);
+    information_writer = create_writer(own, t_information, qos.information, kTopicInformation);
+    consensus_writer = create_writer(own, t_consensus, qos.consensus, kTopicConsensus);
+    belief_writer = create_writer(own, t_belief, qos.belief, kTopicBelief);
+    const dds_entity_t estimates = create_publisher(pp, {kPartitionEstimates});
+    estimate_writer = create_writer(estimates, t_estimate, qos.estimate, kTopicEstimate);
+
+    std::vector<std::string> neighbour_partitions;
+    for (const AgentId neighbour : neighbours) {
+      if (neighbour != self && neighbour >= 0) {
+        neighbour_partitions.push_back(agent_partition(neighbour));
+      }
+    }
+    if (neighbour_partitions.empty()) {
+      neighbour_partitions.emplace_back(kPartitionNothing);
+    }
+    const dds_entity_t from_neighbours = create_subscriber(pp, neighbour_partitions);
+    state_reader = create_reader(from_neighbours, t_state, qos.state, kTopicState);
+    information_reader = create_reader(from_neighbours, t_information, qos.information, kTopicInformation);
+    consensus_reader = create_reader(from_neighbours, t_consensus, qos.consensus, kTopicConsensus);
+    belief_reader = create_reader(from_neighbours, t_belief, qos.belief, kTopicBelief);
+    const dds_entity_t from_orchestrator = create_subscriber(pp, {measurement_partition(self)});
+    measurement_reader =
+        create_reader(from_orchestrator, t_measurements, qos.measurements, kTopicMeasurements);
+    const dds_entity_t control = create_subscriber(pp, {kPartitionControl});
+    control_reader = create_reader(control, t_control, qos.control, kTopicControl);
+
+    waitset = check(dds_create_waitset(pp), "dds_create_waitset");
+    for (const dds_entity_t reader : {state_reader, information_reader, consensus_reader, belief_reader,
+                                      measurement_reader, control_reader}) {
+      attach_reader(waitset, reader);
+    }
+  }
+
+  AgentId self;
+  std::vector<AgentId> neighbours;
+  DomainLease domain;  // declared before the participant: released after it
+  Entity participant;  // owns every entity below
+  dds_entity_t state_writer = 0, information_writer = 0, consensus_writer = 0, belief_writer = 0;
+  dds_entity_t estimate_writer = 0;
+  dds_entity_t state_reader = 0, information_reader = 0, consensus_reader = 0, belief_reader = 0;
+  dds_entity_t measurement_reader = 0, control_reader = 0;
+  dds_entity_t waitset = 0;
+  std::uint64_t dropped_malformed = 0;  // malformed measurement batches / control samples (not exposed yet)
+};
+
+AgentTransport::AgentTransport(const config::Scenario& scenario, const Topology& topology)
+    : impl_(std::make_unique<Impl>(scenario, topology)) {}
+
+AgentTransport::~AgentTransport() = default;
+
+void AgentTransport::publish_state(const sim::Header& header, const estimators::StateMessage& message) {
+  const WireState wire(header, message);
+  write(impl_->state_writer, &wire.sample, kTopicState);
+}
+
+void AgentTransport::publish_information(const sim::Header& header,
+                                         const estimators::InformationMessage& message) {
+  const WireInformation wire(header, message);
+  write(impl_->information_writer, &wire.sample, kTopicInformation);
+}
+
+void AgentTransport::publish_consensus(const sim::Header& header,
+                                       const estimators::ConsensusMessage& message) {
+  const WireConsensus wire(header, message);
+  write(impl_->consensus_writer, &wire.sample, kTopicConsensus);
+}
+
+void AgentTransport::publish_belief(const sim::Header& header, const estimators::BeliefMessage& message) {
+  const WireBelief wire(header, message);
+  write(impl_->belief_writer, &wire.sample, kTopicBelief);
+}
+
+void AgentTransport::publish_estimate(const sim::EstimateReport& report) {
+  const WireEstimate wire(report);
+  write(impl_->estimate_writer, &wire.sample, kTopicEstimate);
+}
+
+AgentInbound AgentTransport::wait_and_take(double timeout_s) {
+  wait(impl_->waitset, timeout_s);
+  AgentInbound inbound;
+  // Senders outside the neighbour list are passed on (the runtime counts them as unknown senders).
+  take_all<swarmloc_msg_State>(
+      impl_->state_reader, [&](const swarmloc_msg_State& wire) { inbound.states.push_back(decode(wire)); });
+  take_all<swarmloc_msg_Information>(impl_->information_reader, [&](const swarmloc_msg_Information& wire) {
+    inbound.information.push_back(decode(wire));
+  });
+  take_all<swarmloc_msg_Consensus>(impl_->consensus_reader, [&](const swarmloc_msg_Consensus& wire) {
+    inbound.consensus.push_back(decode(wire));
+  });
+  take_all<swarmloc_msg_Belief>(impl_->belief_reader, [&](const swarmloc_msg_Belief& wire) {
+    inbound.beliefs.push_back(decode(wire));
+  });
+  take_all<swarmloc_msg_MeasurementBatch>(
+      impl_->measurement_reader, [&](const swarmloc_msg_MeasurementBatch& wire) {
+        auto decoded = decode(wire);
+        if (!decoded.well_formed || decoded.recipient != impl_->self) {
+          ++impl_->dropped_malformed;
+          return;
+        }
+        inbound.batches.emplace_back(decoded.header, std::move(decoded.batch));
+      });
+  take_all<swarmloc_msg_Control>(impl_->control_reader, [&](const swarmloc_msg_Control& wire) {
+    auto decoded = decode(wire);
+    if (!decoded.well_formed) {
+      ++impl_->dropped_malformed;
+      return;
+    }
+    inbound.control.push_back(decoded.message);
+  });
+  return inbound;
+}
+
+int AgentTransport::matched_neighbours() const {
+  const auto matched = matched_agent_partitions(impl_->state_reader);
+  return static_cast<int>(std::count_if(impl_->neighbours.begin(), impl_->neighbours.end(),
+                                        [&](AgentId neighbour) { return matched.contains(neighbour); }));
+}
+
+bool AgentTransport::orchestrator_matched() const { return matched_count(impl_->measurement_reader) > 0; }
+
+// ===================================================================================================
+// Orchestrator
+
+struct OrchestratorTransport::Impl {
+  Impl(const config::Scenario& scenario, int count)
+      : agent_count(count >= 0 ? count : throw DdsError("OrchestratorTransport: negative agent count")),
+        domain(static_cast<dds_domainid_t>(scenario.dds.domain_id),
+               cyclone_config(scenario, Topology{kOrchestratorId, count, {}})),
+        participant(create_participant(domain)) {
+    const dds_entity_t pp = participant.get();
+    const auto& qos = scenario.qos;
+    const dds_entity_t t_measurements =
+        create_topic(pp, swarmloc_msg_MeasurementBatch_desc, kTopicMeasurements);
+    const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);
+    const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
+
+    measurement_writers.reserve(static_cast<std::size_t>(agent_count));
+    for (AgentId agent = 0; agent < agent_count; ++agent) {
+      const dds_entity_t publisher = create_publisher(pp, {measurement_partition(agent)});
+      measurement_writers.push_back(
+          create_writer(publisher, t_measurements, qos.measurements, kTopicMeasurements));
+    }
+    const dds_entity_t control = create_publisher(pp, {kPartitionControl});
+    control_writer = create_writer(control, t_control, qos.control, kTopicControl);
+    const dds_entity_t estimates = create_subscriber(pp, {kPartitionEstimates});
+    estimate_reader = create_reader(estimates, t_estimate, qos.estimate, kTopicEstimate);
+
+    waitset = check(dds_create_waitset(pp), "dds_create_waitset");
+    attach_reader(waitset, estimate_reader);
+  }
+
+  int agent_count;
+  DomainLease domain;  // declared before the participant: released after it
+  Entity participant;  // owns every entity below
+  std::vector<dds_entity_t> measurement_writers;
+  dds_entity_t control_writer = 0;
+  dds_entity_t estimate_reader = 0;
+  dds_entity_t waitset = 0;
+  std::uint64_t rejected = 0;
+};
+
+OrchestratorTransport::OrchestratorTransport(const config::Scenario& scenario, int agent_count)
+    : impl_(std::make_unique<Impl>(scenario, agent_count)) {}
+
+OrchestratorTransport::~OrchestratorTransport() = default;
+
+void OrchestratorTransport::publish_batch(AgentId agent, const sim::Header& header,
+                                          const estimators::MeasurementBatch& batch) {
+  if (agent < 0 || agent >= impl_->agent_count) {
+    throw DdsError("publish_batch: agent " + std::to_string(agent) + " outside [0, " +
+                   std::to_string(impl_->agent_count) + ")");
+  }
+  const WireBatch wire(agent, header, batch);
+  write(impl_->measurement_writers[static_cast<std::size_t>(agent)], &wire.sample, kTopicMeasurements);
+}
+
+void OrchestratorTransport::publish_control(const sim::ControlMessage& message) {
+  const WireControl wire(message);
+  write(impl_->control_writer, &wire.sample, kTopicControl);
+}
+
+std::vector<sim::EstimateReport> OrchestratorTransport::wait_and_take_estimates(double timeout_s) {
+  wait(impl_->waitset, timeout_s);
+  std::vector<sim::EstimateReport> reports;
+  take_all<swarmloc_msg_Estimate>(impl_->estimate_reader, [&](const swarmloc_msg_Estimate& wire) {
+    auto decoded = decode(wire);
+    if (!decoded.well_formed) {
+      ++impl_->rejected;
+      return;
+    }
+    reports.push_back(std::move(decoded.report));
+  });
+  return reports;
+}
+
+std::uint64_t OrchestratorTransport::rejected_reports() const { return impl_->rejected; }
+
+int OrchestratorTransport::matched_agents() const { return matched_count(impl_->estimate_reader); }
+
+}  // namespace swarmloc::dds

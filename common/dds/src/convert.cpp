@@ -1,0 +1,449 @@
+// The one file converting IDL samples (swarmloc.h) <-> swarmloc types.
+#include "convert.hpp"
+
+#include <algorithm>
+#include <string>
+
+namespace swarmloc::dds {
+
+namespace {
+
+swarmloc_msg_Header encode_header(const sim::Header& header) {
+  swarmloc_msg_Header wire{};
+  wire.agent_id = header.agent_id;
+  wire.seq = header.seq;
+  wire.step = header.step;
+  wire.sender_stamp_ns = header.sender_stamp_ns;
+  wire.world_stamp_ns = header.world_stamp_ns;
+  return wire;
+}
+
+void put_vec2(const Vec2& value, double (&out)[2]) {
+  out[0] = value.x();
+  out[1] = value.y();
+}
+
+Vec2 get_vec2(const double (&in)[2]) { return Vec2(in[0], in[1]); }
+
+void put_sym2(const Mat2& value, double (&out)[3]) {
+  const auto packed = codec::pack_sym2(value);
+  std::copy(packed.begin(), packed.end(), out);
+}
+
+Mat2 get_sym2(const double (&in)[3]) { return codec::unpack_sym2(std::span<const double, 3>(in)); }
+
+/// Points an IDL sequence at a vector's storage for a write (Cyclone does not free it: _release=false).
+template <typename Sequence, typename Element>
+void point_at(Sequence& sequence, std::vector<Element>& storage) {
+  sequence._maximum = static_cast<uint32_t>(storage.size());
+  sequence._length = static_cast<uint32_t>(storage.size());
+  sequence._buffer = storage.empty() ? nullptr : storage.data();
+  sequence._release = false;
+}
+
+/// A received sequence as a span; nullopt if it claims elements but has no buffer.
+template <typename Sequence>
+auto view(const Sequence& sequence)
+    -> std::optional<std::span<const std::remove_pointer_t<decltype(sequence._buffer)>>> {
+  using Element = std::remove_pointer_t<decltype(sequence._buffer)>;
+  if (sequence._length == 0) {
+    return std::span<const Element>();
+  }
+  if (sequence._buffer == nullptr) {
+    return std::nullopt;
+  }
+  return std::span<const Element>(sequence._buffer, sequence._length);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------
+// Field-level rules (wire_codec.hpp)
+
+namespace codec {
+
+std::array<double, 3> pack_sym2(const Mat2& matrix) { return {matrix(0, 0), matrix(0, 1), matrix(1, 1)}; }
+
+Mat2 unpack_sym2(std::span<const double, 3> packed) {
+  Mat2 matrix;
+  matrix << packed[0], packed[1], packed[1], packed[2];
+  return matrix;
+}
+
+std::vector<double> pack_upper(const MatX& matrix) {
+  const auto n = matrix.rows();
+  std::vector<double> packed;
+  packed.reserve(static_cast<std::size_t>(n * (n + 1) / 2));
+  for (Eigen::Index row = 0; row < n; ++row) {
+    for (Eigen::Index col = row; col < n; ++col) {
+      packed.push_back(matrix(row, col));
+    }
+  }
+  return packed;
+}
+
+std::optional<MatX> unpack_upper(std::span<const double> packed, std::size_t n) {
+  if (packed.size() != n * (n + 1) / 2) {
+    return std::nullopt;
+  }
+  const auto dim = static_cast<Eigen::Index>(n);
+  MatX matrix(dim, dim);
+  std::size_t next = 0;
+  for (Eigen::Index row = 0; row < dim; ++row) {
+    for (Eigen::Index col = row; col < dim; ++col) {
+      matrix(row, col) = packed[next];
+      matrix(col, row) = packed[next];
+      ++next;
+    }
+  }
+  return matrix;
+}
+
+std::uint8_t state_flags(const estimators::StateMessage& message) {
+  return static_cast<std::uint8_t>((message.anchor ? kStateFlagAnchor : 0) |
+                                   (message.active ? kStateFlagActive : 0));
+}
+
+bool apply_state_flags(std::uint8_t flags, estimators::StateMessage& message) {
+  if ((flags & ~(kStateFlagAnchor | kStateFlagActive)) != 0) {
+    return false;
+  }
+  message.anchor = (flags & kStateFlagAnchor) != 0;
+  message.active = (flags & kStateFlagActive) != 0;
+  return true;
+}
+
+std::optional<sim::ControlCommand> control_command(std::uint8_t wire) {
+  switch (wire) {
+    case swarmloc_msg_CONTROL_HELLO:
+      return sim::ControlCommand::kHello;
+    case swarmloc_msg_CONTROL_START:
+      return sim::ControlCommand::kStart;
+    case swarmloc_msg_CONTROL_STOP:
+      return sim::ControlCommand::kStop;
+    default:
+      return std::nullopt;
+  }
+}
+
+Inbound<estimators::InformationMessage> decode_information_fields(const sim::Header& header, AgentId key,
+                                                                  std::int32_t target,
+                                                                  std::span<const double> info_vec,
+                                                                  std::span<const double> info_mat) {
+  Inbound<estimators::InformationMessage> inbound;
+  inbound.header = header;
+  inbound.message.target = target;
+  if (key != header.agent_id || info_vec.size() > kMaxInfoDim || info_mat.size() > kMaxInfoMat) {
+    inbound.well_formed = false;
+    return inbound;
+  }
+  auto matrix = unpack_upper(info_mat, info_vec.size());
+  if (!matrix) {
+    inbound.well_formed = false;
+    return inbound;
+  }
+  inbound.message.info_vec =
+      Eigen::Map<const VecX>(info_vec.data(), static_cast<Eigen::Index>(info_vec.size()));
+  inbound.message.info_mat = std::move(*matrix);
+  return inbound;
+}
+
+}  // namespace codec
+
+// ---------------------------------------------------------------------------------------------------
+// Writes
+
+WireState::WireState(const sim::Header& header, const estimators::StateMessage& message) {
+  sample.agent_id = header.agent_id;
+  sample.header = encode_header(header);
+  put_vec2(message.mean_m, sample.mean_m);
+  put_sym2(message.covariance, sample.covariance);
+  sample.flags = codec::state_flags(message);
+  sample.degree = message.degree;
+}
+
+WireInformation::WireInformation(const sim::Header& header, const estimators::InformationMessage& message) {
+  const auto n = message.info_vec.size();
+  if (static_cast<std::size_t>(n) > codec::kMaxInfoDim) {
+    throw DdsError("publish_information: info_vec has " + std::to_string(n) + " entries (IDL bound 64)");
+  }
+  if (message.info_mat.rows() != n || message.info_mat.cols() != n) {
+    throw DdsError("publish_information: info_mat is " + std::to_string(message.info_mat.rows()) + "x" +
+                   std::to_string(message.info_mat.cols()) + ", info_vec has " + std::to_string(n) +
+                   " entries");
+  }
+  info_vec.assign(message.info_vec.data(), message.info_vec.data() + n);
+  info_mat = codec::pack_upper(message.info_mat);
+  sample.agent_id = header.agent_id;
+  sample.header = encode_header(header);
+  sample.target = message.target;
+  point_at(sample.info_vec, info_vec);
+  point_at(sample.info_mat, info_mat);
+}
+
+WireConsensus::WireConsensus(const sim::Header& header, const estimators::ConsensusMessage& message)
+    : values(message.values) {
+  if (values.size() > codec::kMaxConsensusValues) {
+    throw DdsError("publish_consensus: " + std::to_string(values.size()) + " values (IDL bound 16)");
+  }
+  sample.agent_id = header.agent_id;
+  sample.header = encode_header(header);
+  sample.tau = message.tau;
+  sample.round = message.round;
+  point_at(sample.values, values);
+}
+
+WireBelief::WireBelief(const sim::Header& header, const estimators::BeliefMessage& message) {
+  sample.agent_id = header.agent_id;
+  sample.header = encode_header(header);
+  sample.iteration = message.iteration;
+  put_vec2(message.mean_m, sample.mean_m);
+  put_sym2(message.information, sample.information);
+  sample.infinite_information = message.infinite_information;
+}
+
+WireBatch::WireBatch(AgentId recipient, const sim::Header& header,
+                     const estimators::MeasurementBatch& batch) {
+  ranges.reserve(batch.ranges.size());
+  for (const auto& range : batch.ranges) {
+    ranges.push_back(swarmloc_msg_Range{range.peer, range.range_m, range.std_m});
+  }
+  if (batch.fix) {
+    swarmloc_msg_AbsoluteFix fix{};
+    put_vec2(batch.fix->position_m, fix.position_m);
+    put_sym2(batch.fix->covariance, fix.covariance);
+    fixes.push_back(fix);
+  }
+  if (batch.motion) {
+    swarmloc_msg_MotionInput input{};
+    put_vec2(batch.motion->velocity_mps, input.velocity_mps);
+    input.dt_s = batch.motion->dt_s;
+    put_sym2(batch.motion->process_cov, input.process_cov);
+    motion.push_back(input);
+  }
+  neighbours.assign(batch.neighbours.begin(), batch.neighbours.end());
+  sample.agent_id = recipient;
+  sample.header = encode_header(header);
+  point_at(sample.ranges, ranges);
+  point_at(sample.fixes, fixes);
+  point_at(sample.motion, motion);
+  point_at(sample.neighbours, neighbours);
+  // bearings, relative, targets, paths: not produced by MeasurementBatch yet (empty sequences).
+}
+
+WireEstimate::WireEstimate(const sim::EstimateReport& report)
+    : rejected_by_reason(report.rejected_by_reason.begin(), report.rejected_by_reason.end()) {
+  links.reserve(report.links.size());
+  for (const auto& link : report.links) {
+    links.push_back(swarmloc_msg_LinkCounters{link.sender, link.arrived, link.delivered,
+                                              link.dropped_injected, link.rejected, link.first_seq,
+                                              link.last_seq});
+  }
+  sample.agent_id = report.header.agent_id;
+  sample.header = encode_header(report.header);
+  put_vec2(report.estimate.mean_m, sample.mean_m);
+  put_sym2(report.estimate.covariance, sample.covariance);
+  sample.valid = report.estimate.valid;
+  sample.steps_run = report.steps_run;
+  sample.samples_published = report.samples_published;
+  sample.cpu_s = report.cpu_s;
+  point_at(sample.links, links);
+  point_at(sample.rejected_by_reason, rejected_by_reason);
+}
+
+WireControl::WireControl(const sim::ControlMessage& message) {
+  sample.agent_id = message.target;
+  sample.header = encode_header(message.header);
+  sample.command = static_cast<uint8_t>(message.command);
+  sample.scenario_hash = message.scenario_hash;
+  sample.start_world_ns = message.start_world_ns;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Reads
+
+sim::Header decode_header(const swarmloc_msg_Header& wire) {
+  sim::Header header;
+  header.agent_id = wire.agent_id;
+  header.seq = wire.seq;
+  header.step = wire.step;
+  header.sender_stamp_ns = wire.sender_stamp_ns;
+  header.world_stamp_ns = wire.world_stamp_ns;
+  return header;
+}
+
+Inbound<estimators::StateMessage> decode(const swarmloc_msg_State& wire) {
+  Inbound<estimators::StateMessage> inbound;
+  inbound.header = decode_header(wire.header);
+  inbound.message.mean_m = get_vec2(wire.mean_m);
+  inbound.message.covariance = get_sym2(wire.covariance);
+  inbound.message.degree = wire.degree;
+  const bool flags_ok = codec::apply_state_flags(wire.flags, inbound.message);
+  inbound.well_formed = flags_ok && wire.agent_id == wire.header.agent_id;
+  return inbound;
+}
+
+Inbound<estimators::InformationMessage> decode(const swarmloc_msg_Information& wire) {
+  const auto header = decode_header(wire.header);
+  const auto info_vec = view(wire.info_vec);
+  const auto info_mat = view(wire.info_mat);
+  if (!info_vec || !info_mat) {
+    Inbound<estimators::InformationMessage> inbound;
+    inbound.header = header;
+    inbound.message.target = wire.target;
+    inbound.well_formed = false;
+    return inbound;
+  }
+  return codec::decode_information_fields(header, wire.agent_id, wire.target, *info_vec, *info_mat);
+}
+
+Inbound<estimators::ConsensusMessage> decode(const swarmloc_msg_Consensus& wire) {
+  Inbound<estimators::ConsensusMessage> inbound;
+  inbound.header = decode_header(wire.header);
+  inbound.message.tau = wire.tau;
+  inbound.message.round = wire.round;
+  const auto values = view(wire.values);
+  if (!values || values->size() > codec::kMaxConsensusValues || wire.agent_id != wire.header.agent_id) {
+    inbound.well_formed = false;
+    return inbound;
+  }
+  inbound.message.values.assign(values->begin(), values->end());
+  return inbound;
+}
+
+Inbound<estimators::BeliefMessage> decode(const swarmloc_msg_Belief& wire) {
+  Inbound<estimators::BeliefMessage> inbound;
+  inbound.header = decode_header(wire.header);
+  inbound.message.iteration = wire.iteration;
+  inbound.message.mean_m = get_vec2(wire.mean_m);
+  inbound.message.information = get_sym2(wire.information);
+  inbound.message.infinite_information = wire.infinite_information;
+  inbound.well_formed = wire.agent_id == wire.header.agent_id;
+  return inbound;
+}
+
+codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire) {
+  codec::DecodedBatch decoded;
+  decoded.recipient = wire.agent_id;
+  decoded.header = decode_header(wire.header);
+  decoded.batch.world_step = wire.header.step;
+  decoded.batch.world_time_s = static_cast<double>(wire.header.world_stamp_ns) / 1e9;
+  const auto ranges = view(wire.ranges);
+  const auto fixes = view(wire.fixes);
+  const auto motion = view(wire.motion);
+  const auto neighbours = view(wire.neighbours);
+  if (!ranges || !fixes || !motion || !neighbours || fixes->size() > 1 || motion->size() > 1) {
+    decoded.well_formed = false;
+    return decoded;
+  }
+  decoded.batch.ranges.reserve(ranges->size());
+  for (const auto& range : *ranges) {
+    decoded.batch.ranges.push_back(estimators::RangeMeasurement{range.peer, range.range_m, range.std_m});
+  }
+  if (!fixes->empty()) {
+    estimators::AbsoluteFix fix;
+    fix.position_m = get_vec2((*fixes)[0].position_m);
+    fix.covariance = get_sym2((*fixes)[0].covariance);
+    decoded.batch.fix = fix;
+  }
+  if (!motion->empty()) {
+    estimators::MotionInput input;
+    input.velocity_mps = get_vec2((*motion)[0].velocity_mps);
+    input.dt_s = (*motion)[0].dt_s;
+    input.process_cov = get_sym2((*motion)[0].process_cov);
+    decoded.batch.motion = input;
+  }
+  decoded.batch.neighbours.assign(neighbours->begin(), neighbours->end());
+  return decoded;
+}
+
+codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
+  codec::DecodedEstimate decoded;
+  auto& report = decoded.report;
+  report.header = decode_header(wire.header);
+  report.estimate.mean_m = get_vec2(wire.mean_m);
+  report.estimate.covariance = get_sym2(wire.covariance);
+  report.estimate.valid = wire.valid;
+  report.steps_run = wire.steps_run;
+  report.samples_published = wire.samples_published;
+  report.cpu_s = wire.cpu_s;
+  const auto links = view(wire.links);
+  const auto reasons = view(wire.rejected_by_reason);
+  // A sender may know fewer reasons (older build: the rest stay 0), never more than this build.
+  if (!links || !reasons || reasons->size() > sim::kRejectReasonCount ||
+      wire.agent_id != wire.header.agent_id) {
+    decoded.well_formed = false;
+    return decoded;
+  }
+  report.links.reserve(links->size());
+  for (const auto& link : *links) {
+    report.links.push_back(sim::LinkCounters{link.sender, link.arrived, link.delivered, link.dropped_injected,
+                                             link.rejected, link.first_seq, link.last_seq});
+  }
+  std::copy(reasons->begin(), reasons->end(), report.rejected_by_reason.begin());
+  return decoded;
+}
+
+codec::DecodedControl decode(const swarmloc_msg_Control& wire) {
+  codec::DecodedControl decoded;
+  decoded.message.header = decode_header(wire.header);
+  decoded.message.target = wire.agent_id;
+  decoded.message.scenario_hash = wire.scenario_hash;
+  decoded.message.start_world_ns = wire.start_world_ns;
+  const auto command = codec::control_command(wire.command);
+  if (!command) {
+    decoded.well_formed = false;
+    return decoded;
+  }
+  decoded.message.command = *command;
+  return decoded;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Round trips for the unit tests
+
+namespace codec {
+
+Inbound<estimators::StateMessage> round_trip(const sim::Header& header,
+                                             const estimators::StateMessage& message) {
+  const WireState wire(header, message);
+  return decode(wire.sample);
+}
+
+Inbound<estimators::InformationMessage> round_trip(const sim::Header& header,
+                                                   const estimators::InformationMessage& message) {
+  const WireInformation wire(header, message);
+  return decode(wire.sample);
+}
+
+Inbound<estimators::ConsensusMessage> round_trip(const sim::Header& header,
+                                                 const estimators::ConsensusMessage& message) {
+  const WireConsensus wire(header, message);
+  return decode(wire.sample);
+}
+
+Inbound<estimators::BeliefMessage> round_trip(const sim::Header& header,
+                                              const estimators::BeliefMessage& message) {
+  const WireBelief wire(header, message);
+  return decode(wire.sample);
+}
+
+DecodedBatch round_trip(AgentId recipient, const sim::Header& header,
+                        const estimators::MeasurementBatch& batch) {
+  const WireBatch wire(recipient, header, batch);
+  return decode(wire.sample);
+}
+
+DecodedEstimate round_trip(const sim::EstimateReport& report) {
+  const WireEstimate wire(report);
+  return decode(wire.sample);
+}
+
+DecodedControl round_trip(const sim::ControlMessage& message) {
+  const WireControl wire(message);
+  return decode(wire.sample);
+}
+
+}  // namespace codec
+
+}  // namespace swarmloc::dds

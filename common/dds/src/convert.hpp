@@ -1,0 +1,81 @@
+#pragma once
+// IDL <-> swarmloc conversion (the only place that knows both). Writes: a Wire<Family> holds the IDL
+// sample plus the buffers its sequences point into; it must outlive the dds_write call and is neither
+// copyable nor movable (the sample points into its own members). Reads: decode(...) never throws on bad
+// content; it reports well_formed = false instead.
+#include <vector>
+
+#include "swarmloc.h"
+#include "wire_codec.hpp"
+
+namespace swarmloc::dds {
+
+sim::Header decode_header(const swarmloc_msg_Header& wire);
+
+struct WireState {
+  WireState(const sim::Header& header, const estimators::StateMessage& message);
+  WireState(const WireState&) = delete;
+  WireState& operator=(const WireState&) = delete;
+  swarmloc_msg_State sample{};
+};
+
+struct WireInformation {
+  WireInformation(const sim::Header& header, const estimators::InformationMessage& message);
+  WireInformation(const WireInformation&) = delete;
+  WireInformation& operator=(const WireInformation&) = delete;
+  std::vector<double> info_vec;
+  std::vector<double> info_mat;
+  swarmloc_msg_Information sample{};
+};
+
+struct WireConsensus {
+  WireConsensus(const sim::Header& header, const estimators::ConsensusMessage& message);
+  WireConsensus(const WireConsensus&) = delete;
+  WireConsensus& operator=(const WireConsensus&) = delete;
+  std::vector<double> values;
+  swarmloc_msg_Consensus sample{};
+};
+
+struct WireBelief {
+  WireBelief(const sim::Header& header, const estimators::BeliefMessage& message);
+  WireBelief(const WireBelief&) = delete;
+  WireBelief& operator=(const WireBelief&) = delete;
+  swarmloc_msg_Belief sample{};
+};
+
+struct WireBatch {
+  WireBatch(AgentId recipient, const sim::Header& header, const estimators::MeasurementBatch& batch);
+  WireBatch(const WireBatch&) = delete;
+  WireBatch& operator=(const WireBatch&) = delete;
+  std::vector<swarmloc_msg_Range> ranges;
+  std::vector<swarmloc_msg_AbsoluteFix> fixes;
+  std::vector<swarmloc_msg_MotionInput> motion;
+  std::vector<int32_t> neighbours;
+  swarmloc_msg_MeasurementBatch sample{};
+};
+
+struct WireEstimate {
+  explicit WireEstimate(const sim::EstimateReport& report);
+  WireEstimate(const WireEstimate&) = delete;
+  WireEstimate& operator=(const WireEstimate&) = delete;
+  std::vector<swarmloc_msg_LinkCounters> links;
+  std::vector<uint32_t> rejected_by_reason;
+  swarmloc_msg_Estimate sample{};
+};
+
+struct WireControl {
+  explicit WireControl(const sim::ControlMessage& message);
+  WireControl(const WireControl&) = delete;
+  WireControl& operator=(const WireControl&) = delete;
+  swarmloc_msg_Control sample{};
+};
+
+Inbound<estimators::StateMessage> decode(const swarmloc_msg_State& wire);
+Inbound<estimators::InformationMessage> decode(const swarmloc_msg_Information& wire);
+Inbound<estimators::ConsensusMessage> decode(const swarmloc_msg_Consensus& wire);
+Inbound<estimators::BeliefMessage> decode(const swarmloc_msg_Belief& wire);
+codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire);
+codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire);
+codec::DecodedControl decode(const swarmloc_msg_Control& wire);
+
+}  // namespace swarmloc::dds

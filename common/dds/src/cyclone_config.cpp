@@ -1,0 +1,110 @@
+// Cyclone XML per participant (DESIGN.md §4, reference/discovery.md).
+//
+// Port layout (Cyclone: discovery port = Base + 250 * domain_id + 10 + 2 * ParticipantIndex, data = +1;
+// ParticipantIndex is limited to 0..120 by the 0.10.2 parser):
+//   agent i        index i % 100, Base 7400 + 200 * (i / 100)  -> discovery port 7410 + 2 i      (+250 d)
+//   orchestrator   "slot N" (N = agent count): index N % 100,
+//                  Base 7400 + 200 * (N / 100)                -> discovery port 7410 + 2 N      (+250 d)
+// The orchestrator takes the slot right after the last agent, so a run uses one contiguous block of
+// 2 (N + 1) ports; for N <= 124 the blocks of different domain ids never overlap.
+#include <cstdlib>
+#include <sstream>
+#include <string>
+
+#include "swarmloc/dds/transport.hpp"
+
+namespace swarmloc::dds {
+
+namespace {
+
+constexpr int kPortBase = 7400;
+constexpr int kDomainGain = 250;
+constexpr int kBlock = 100;       // participant indices per Ports/Base block
+constexpr int kBlockPorts = 200;  // 2 ports per index
+
+std::string xml_escape(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+int slot_base(int slot) { return kPortBase + kBlockPorts * (slot / kBlock); }
+int slot_index(int slot) { return slot % kBlock; }
+int discovery_port(int slot, int domain_id) {
+  return slot_base(slot) + kDomainGain * domain_id + 10 + 2 * slot_index(slot);
+}
+
+}  // namespace
+
+std::string cyclone_config(const config::Scenario& scenario, const Topology& topology) {
+  const auto& dds = scenario.dds;
+  const bool orchestrator = topology.self == kOrchestratorId;
+  const int agent_count = topology.agent_count > 0 ? topology.agent_count : 0;
+  const std::string interface = xml_escape(dds.interface);
+  const std::string address = xml_escape(dds.peer_address);
+
+  std::ostringstream xml;
+  xml << "<CycloneDDS><Domain id=\"any\">";
+  if (dds.neighbour_discovery) {
+    xml << "<General><Interfaces><NetworkInterface name=\""
+        << interface << "\"/></Interfaces><AllowMulticast>false</AllowMulticast></General>";
+    const int slot = orchestrator ? agent_count : topology.self;
+    xml << "<Discovery><ParticipantIndex>" << slot_index(slot) << "</ParticipantIndex>";
+    xml << "<Ports><Base>" << slot_base(slot) << "</Base></Ports>";
+    xml << "<Peers>";
+    if (orchestrator) {
+      for (int agent = 0; agent < agent_count; ++agent) {
+        xml << "<Peer address=\"" << address << ':' << discovery_port(agent, dds.domain_id) << "\"/>";
+      }
+    } else {
+      for (const AgentId neighbour : topology.neighbours) {
+        if (neighbour == topology.self || neighbour < 0) {
+          continue;
+        }
+        xml << "<Peer address=\"" << address << ':' << discovery_port(neighbour, dds.domain_id) << "\"/>";
+      }
+      xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count, dds.domain_id) << "\"/>";
+    }
+    xml << "</Peers></Discovery>";
+    if (orchestrator) {
+      // Every agent sends its discovery traffic to this one socket (reference/discovery.md, "hub fixes").
+      xml << "<Internal><SocketReceiveBufferSize min=\"4MB\"/></Internal>";
+    }
+  } else {
+    // Default SPDP multicast on the interface; Linux's lo lacks IFF_MULTICAST, so say it explicitly.
+    xml << "<General><Interfaces><NetworkInterface name=\"" << interface << '"'
+        << (dds.interface == "lo" ? " multicast=\"true\"" : "") << "/></Interfaces></General>";
+  }
+  // Warnings and errors to stderr; never a cyclonedds.log in the working directory, nothing on stdout.
+  xml << "<Tracing><Verbosity>warning</Verbosity><OutputFile>stderr</OutputFile></Tracing>";
+  xml << "</Domain></CycloneDDS>";
+
+  if (const char* extra = std::getenv("SWARMLOC_CYCLONE_URI_EXTRA"); extra != nullptr && *extra != '\0') {
+    // Later fragments override earlier ones (Cyclone merges a comma-separated list of XML/file URIs).
+    xml << ',' << extra;
+  }
+  return xml.str();
+}
+
+}  // namespace swarmloc::dds

@@ -1,0 +1,77 @@
+#pragma once
+// The IDL-free face of the conversion layer (convert.cpp is the one file that converts IDL <-> swarmloc
+// types). It holds the field-level rules shared by every family — Sym2 packing, upper-triangle packing,
+// flag/enum ranges, sequence bounds — and round trips through the IDL structs for the unit tests, which
+// cannot include the generated "swarmloc.h" (swarmloc_idl is linked privately into swarmloc_dds).
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "swarmloc/dds/transport.hpp"
+
+namespace swarmloc::dds::codec {
+
+// Bounds of the IDL's bounded sequences (idl/swarmloc.idl).
+inline constexpr std::size_t kMaxInfoDim = 64;
+inline constexpr std::size_t kMaxInfoMat = 2080;  // 64 * 65 / 2
+inline constexpr std::size_t kMaxConsensusValues = 16;
+inline constexpr std::size_t kMaxRejectReasons = 16;
+
+inline constexpr std::uint8_t kStateFlagAnchor = 1;  // STATE_FLAG_ANCHOR
+inline constexpr std::uint8_t kStateFlagActive = 2;  // STATE_FLAG_ACTIVE
+
+/// Sym2: the upper triangle xx, xy, yy. Unpacking yields an exactly symmetric matrix.
+std::array<double, 3> pack_sym2(const Mat2& matrix);
+Mat2 unpack_sym2(std::span<const double, 3> packed);
+
+/// Upper triangle of an n x n matrix, row-major: (0,0) (0,1) … (0,n-1) (1,1) … (n-1,n-1).
+std::vector<double> pack_upper(const MatX& matrix);
+/// nullopt unless packed.size() == n (n + 1) / 2.
+std::optional<MatX> unpack_upper(std::span<const double> packed, std::size_t n);
+
+std::uint8_t state_flags(const estimators::StateMessage& message);
+/// False if flags has bits other than ANCHOR | ACTIVE set (message left untouched then).
+bool apply_state_flags(std::uint8_t flags, estimators::StateMessage& message);
+std::optional<sim::ControlCommand> control_command(std::uint8_t wire);
+
+/// Decodes Information from its fields; well_formed is false if info_vec is longer than 64, info_mat
+/// longer than 2080, or info_mat.size() != n (n + 1) / 2 with n = info_vec.size(), or key != sender.
+Inbound<estimators::InformationMessage> decode_information_fields(const sim::Header& header, AgentId key,
+                                                                  std::int32_t target,
+                                                                  std::span<const double> info_vec,
+                                                                  std::span<const double> info_mat);
+
+/// A measurement batch as taken (recipient = the topic key).
+struct DecodedBatch {
+  AgentId recipient = 0;
+  sim::Header header;
+  estimators::MeasurementBatch batch;
+  bool well_formed = true;
+};
+struct DecodedEstimate {
+  sim::EstimateReport report;
+  bool well_formed = true;
+};
+struct DecodedControl {
+  sim::ControlMessage message;
+  bool well_formed = true;
+};
+
+// Round trips swarmloc -> IDL sample -> swarmloc through the exact code dds_write / dds_take use.
+Inbound<estimators::StateMessage> round_trip(const sim::Header& header,
+                                             const estimators::StateMessage& message);
+Inbound<estimators::InformationMessage> round_trip(const sim::Header& header,
+                                                   const estimators::InformationMessage& message);
+Inbound<estimators::ConsensusMessage> round_trip(const sim::Header& header,
+                                                 const estimators::ConsensusMessage& message);
+Inbound<estimators::BeliefMessage> round_trip(const sim::Header& header,
+                                              const estimators::BeliefMessage& message);
+DecodedBatch round_trip(AgentId recipient, const sim::Header& header,
+                        const estimators::MeasurementBatch& batch);
+DecodedEstimate round_trip(const sim::EstimateReport& report);
+DecodedControl round_trip(const sim::ControlMessage& message);
+
+}  // namespace swarmloc::dds::codec

@@ -1,0 +1,193 @@
+// IDL <-> swarmloc conversion: exact round trips for every family and malformed-sample detection.
+// The generated swarmloc.h is private to swarmloc_dds, so these go through the IDL-free codec face.
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include "../../../common/dds/src/wire_codec.hpp"
+#include "dds_test_support.hpp"
+
+namespace swarmloc::dds {
+namespace {
+
+using test::expect_header_eq;
+
+TEST(Convert, StateRoundTripsExactly) {
+  const auto header = test::make_header(4, 17);
+  for (const bool anchor : {false, true}) {
+    for (const bool active : {false, true}) {
+      auto message = test::make_state(0.0);
+      message.anchor = anchor;
+      message.active = active;
+      const auto back = codec::round_trip(header, message);
+      EXPECT_TRUE(back.well_formed);
+      expect_header_eq(back.header, header);
+      test::expect_state_eq(back.message, message);
+    }
+  }
+}
+
+TEST(Convert, Sym2IsTheUpperTriangleXxXyYy) {
+  const auto packed = codec::pack_sym2(test::sym2(1.0, 2.0, 3.0));
+  EXPECT_EQ(packed, (std::array<double, 3>{1.0, 2.0, 3.0}));
+  const Mat2 unpacked = codec::unpack_sym2(std::span<const double, 3>(packed));
+  EXPECT_EQ(unpacked(1, 0), 2.0);
+  EXPECT_EQ(unpacked(0, 1), 2.0);
+}
+
+TEST(Convert, InformationWithFourStatesRoundTripsExactly) {
+  const auto header = test::make_header(2, 5);
+  const auto message = test::make_information(4);
+  const auto back = codec::round_trip(header, message);
+  EXPECT_TRUE(back.well_formed);
+  expect_header_eq(back.header, header);
+  test::expect_information_eq(back.message, message);
+}
+
+TEST(Convert, InformationOfDimensionZeroAndSixtyFourRoundTrip) {
+  for (const int n : {0, 1, 64}) {
+    const auto message = test::make_information(n);
+    const auto back = codec::round_trip(test::make_header(1, 0), message);
+    EXPECT_TRUE(back.well_formed) << "n=" << n;
+    test::expect_information_eq(back.message, message);
+  }
+}
+
+TEST(Convert, InformationBeyondTheIdlBoundOrWithMismatchedMatrixIsRefusedOnWrite) {
+  EXPECT_THROW(codec::round_trip(test::make_header(1, 0), test::make_information(65)), DdsError);
+  auto bad = test::make_information(4);
+  bad.info_mat = MatX::Identity(3, 3);
+  EXPECT_THROW(codec::round_trip(test::make_header(1, 0), bad), DdsError);
+}
+
+TEST(Convert, InformationWithWrongMatrixSizeIsMalformed) {
+  const auto header = test::make_header(6, 1);
+  const std::vector<double> vec(4, 1.0);
+  const std::vector<double> ok(10, 0.5);  // 4 * 5 / 2
+  EXPECT_TRUE(codec::decode_information_fields(header, 6, 0, vec, ok).well_formed);
+  for (const std::size_t size : {0U, 9U, 11U, 16U}) {
+    const std::vector<double> mat(size, 0.5);
+    EXPECT_FALSE(codec::decode_information_fields(header, 6, 0, vec, mat).well_formed) << "size " << size;
+  }
+}
+
+TEST(Convert, InformationLongerThanItsBoundIsMalformed) {
+  const auto header = test::make_header(6, 1);
+  const std::vector<double> vec(65, 1.0);
+  const std::vector<double> mat(65 * 66 / 2, 1.0);
+  EXPECT_FALSE(codec::decode_information_fields(header, 6, 0, vec, mat).well_formed);
+}
+
+TEST(Convert, KeyThatDisagreesWithTheHeaderSenderIsMalformed) {
+  const std::vector<double> vec(1, 1.0);
+  const std::vector<double> mat(1, 1.0);
+  EXPECT_FALSE(codec::decode_information_fields(test::make_header(6, 1), 7, 0, vec, mat).well_formed);
+}
+
+TEST(Convert, UpperTriangleUnpacksSymmetric) {
+  const std::vector<double> packed = {1, 2, 3, 4, 5, 6};  // 3x3
+  const auto m = codec::unpack_upper(packed, 3);
+  ASSERT_TRUE(m.has_value());
+  MatX expected(3, 3);
+  expected << 1, 2, 3, 2, 4, 5, 3, 5, 6;
+  EXPECT_MATRIX_NEAR(*m, expected, 0.0);
+  EXPECT_EQ(codec::pack_upper(expected), packed);
+  EXPECT_FALSE(codec::unpack_upper(packed, 2).has_value());
+}
+
+TEST(Convert, UnknownStateFlagBitsAreMalformed) {
+  estimators::StateMessage message;
+  EXPECT_TRUE(codec::apply_state_flags(3, message));
+  EXPECT_TRUE(message.anchor);
+  EXPECT_TRUE(message.active);
+  EXPECT_FALSE(codec::apply_state_flags(4, message));
+  EXPECT_FALSE(codec::apply_state_flags(0x83, message));
+}
+
+TEST(Convert, ControlCommandsOutOfRangeAreMalformed) {
+  EXPECT_EQ(codec::control_command(0), sim::ControlCommand::kHello);
+  EXPECT_EQ(codec::control_command(1), sim::ControlCommand::kStart);
+  EXPECT_EQ(codec::control_command(2), sim::ControlCommand::kStop);
+  EXPECT_FALSE(codec::control_command(3).has_value());
+  EXPECT_FALSE(codec::control_command(255).has_value());
+}
+
+TEST(Convert, ConsensusRoundTripsExactly) {
+  const auto header = test::make_header(9, 3);
+  const auto message = test::make_consensus();
+  const auto back = codec::round_trip(header, message);
+  EXPECT_TRUE(back.well_formed);
+  expect_header_eq(back.header, header);
+  EXPECT_EQ(back.message.tau, message.tau);
+  EXPECT_EQ(back.message.round, message.round);
+  EXPECT_EQ(back.message.values, message.values);
+  auto too_many = message;
+  too_many.values.assign(17, 1.0);
+  EXPECT_THROW(codec::round_trip(header, too_many), DdsError);
+}
+
+TEST(Convert, BeliefRoundTripsExactly) {
+  const auto header = test::make_header(0, 0);
+  const auto message = test::make_belief();
+  const auto back = codec::round_trip(header, message);
+  EXPECT_TRUE(back.well_formed);
+  expect_header_eq(back.header, header);
+  EXPECT_EQ(back.message.iteration, message.iteration);
+  EXPECT_MATRIX_NEAR(back.message.mean_m, message.mean_m, 0.0);
+  EXPECT_MATRIX_NEAR(back.message.information, message.information, 0.0);
+  EXPECT_EQ(back.message.infinite_information, message.infinite_information);
+}
+
+TEST(Convert, NonFiniteValuesPassThroughForTheRuntimeToJudge) {
+  auto message = test::make_state(0.0);
+  message.mean_m.x() = std::numeric_limits<double>::quiet_NaN();
+  message.covariance(0, 0) = std::numeric_limits<double>::infinity();
+  const auto back = codec::round_trip(test::make_header(1, 1), message);
+  EXPECT_TRUE(back.well_formed);
+  EXPECT_TRUE(std::isnan(back.message.mean_m.x()));
+  EXPECT_TRUE(std::isinf(back.message.covariance(0, 0)));
+}
+
+TEST(Convert, MeasurementBatchRoundTripsExactly) {
+  const auto header = test::make_header(kOrchestratorId, 8);
+  auto batch = test::make_batch(header.step, header.world_stamp_ns);
+  const auto back = codec::round_trip(5, header, batch);
+  EXPECT_TRUE(back.well_formed);
+  EXPECT_EQ(back.recipient, 5);
+  expect_header_eq(back.header, header);
+  test::expect_batch_eq(back.batch, batch);
+
+  batch.fix.reset();
+  batch.motion.reset();
+  batch.ranges.clear();
+  batch.neighbours.clear();
+  const auto empty = codec::round_trip(5, header, batch);
+  EXPECT_TRUE(empty.well_formed);
+  test::expect_batch_eq(empty.batch, batch);
+}
+
+TEST(Convert, EstimateWithLinkCountersRoundTripsExactly) {
+  const auto report = test::make_estimate(11, 2);
+  const auto back = codec::round_trip(report);
+  EXPECT_TRUE(back.well_formed);
+  test::expect_estimate_eq(back.report, report);
+}
+
+TEST(Convert, ControlRoundTripsExactly) {
+  sim::ControlMessage message;
+  message.header = test::make_header(kOrchestratorId, 1);
+  message.target = kOrchestratorId;
+  message.command = sim::ControlCommand::kStop;
+  message.scenario_hash = 0xfedcba9876543210ULL;
+  message.start_world_ns = 5'000'000'000LL;
+  const auto back = codec::round_trip(message);
+  EXPECT_TRUE(back.well_formed);
+  expect_header_eq(back.message.header, message.header);
+  EXPECT_EQ(back.message.target, message.target);
+  EXPECT_EQ(back.message.command, message.command);
+  EXPECT_EQ(back.message.scenario_hash, message.scenario_hash);
+  EXPECT_EQ(back.message.start_world_ns, message.start_world_ns);
+}
+
+}  // namespace
+}  // namespace swarmloc::dds
