@@ -197,15 +197,20 @@ TEST(CentralizedFilter, BandedFiltersAgreeAcrossInversionMethods) {
 
 TEST(CentralizedFilter, ReportsMeasurementBandwidthAndTruncation) {
   const int agents = 12;
-  const Scenario s = make_scenario(agents, 1, 51);
-  CentralizedFilterParams params;
-  params.bandwidth = 3;
-  const auto filter = make_centralized_filter(CentralizedKind::kLbEkf, s.initial_mean, s.initial_cov, params);
-  filter->step(s.steps[0]);
+  const Scenario s = make_scenario(agents, 4, 51);
   const auto edges = disk_graph_edges(s.truth, 12.0);
-  EXPECT_EQ(filter->last_measurement_bandwidth(),
-            measurement_bandwidth(graph_bandwidth(edges, identity_labels(agents))));
-  EXPECT_GT(filter->last_truncated_entries(), 0);
+  const int expected = measurement_bandwidth(graph_bandwidth(edges, identity_labels(agents)));
+  CentralizedFilterParams params;
+  params.bandwidth = 4;
+  for (auto kind : {CentralizedKind::kLbEkf, CentralizedKind::kLbEkfI}) {
+    const auto filter = make_centralized_filter(kind, s.initial_mean, s.initial_cov, params);
+    for (const auto& m : s.steps) {
+      filter->step(m);  // LB-EKF-I: Y_k stays PD despite the truncation
+      EXPECT_EQ(filter->last_measurement_bandwidth(), expected) << to_string(kind);
+      EXPECT_GT(filter->last_truncated_entries(), 0);
+    }
+    EXPECT_TRUE(filter->mean().allFinite());
+  }
 }
 
 TEST(CentralizedFilter, RejectsInconsistentSetup) {

@@ -15,9 +15,10 @@ constexpr double kMinRange = 1e-9;  // ALGORITHMS.md §1.1 guard
 
 // ALGORITHMS.md §2.1: S_k and b_k without building H. `add_block(bi, bj, B)` means S[bi,bj] += B
 // (and S[bj,bi] += Bᵀ when bi != bj); block indices are internal (relabeled) agent indices.
-template <typename AddBlock>
+// `keep_edge(li, lj, S[li,lj])` may reject a range edge before any of its terms are added.
+template <typename AddBlock, typename KeepEdge>
 VecX assemble(const CentralizedMeasurements& meas, const VecX& x, const std::vector<int>& labels,
-              AddBlock&& add_block) {
+              AddBlock&& add_block, KeepEdge&& keep_edge) {
   VecX b = VecX::Zero(x.size());
   const auto label = [&](int agent) {
     if (agent < 0 || static_cast<std::size_t>(agent) >= labels.size()) {
@@ -41,6 +42,7 @@ VecX assemble(const CentralizedMeasurements& meas, const VecX& x, const std::vec
     if (rho < kMinRange) continue;
     const Vec2 u = delta / rho;  // ∂φ/∂x_i = uᵀ, ∂φ/∂x_j = −uᵀ (§1.1)
     const Mat2 uu = u * u.transpose() / meas.range_var;
+    if (!keep_edge(li, lj, Mat2(-uu))) continue;
     add_block(li, li, uu);
     add_block(lj, lj, uu);
     add_block(li, lj, -uu);
@@ -50,6 +52,8 @@ VecX assemble(const CentralizedMeasurements& meas, const VecX& x, const std::vec
   }
   return b;
 }
+
+constexpr auto kKeepAllEdges = [](int, int, const Mat2&) { return true; };
 
 // Largest scalar |row − col| among the nonzero entries of S[bi,bj] (lower triangle for bi = bj).
 int block_bandwidth(int bi, int bj, const Mat2& block) {
@@ -138,11 +142,14 @@ class Ekf final : public CentralizedFilter {
     }
     MatX y = spd_inverse(p);
     int bandwidth = 0;
-    const VecX b = assemble(meas, x_, labels_, [&](int bi, int bj, const Mat2& block) {
-      y.block<2, 2>(2 * bi, 2 * bj) += block;
-      if (bi != bj) y.block<2, 2>(2 * bj, 2 * bi) += block.transpose();
-      bandwidth = std::max(bandwidth, block_bandwidth(bi, bj, block));
-    });
+    const VecX b = assemble(
+        meas, x_, labels_,
+        [&](int bi, int bj, const Mat2& block) {
+          y.block<2, 2>(2 * bi, 2 * bj) += block;
+          if (bi != bj) y.block<2, 2>(2 * bj, 2 * bi) += block.transpose();
+          bandwidth = std::max(bandwidth, block_bandwidth(bi, bj, block));
+        },
+        kKeepAllEdges);
     m_ = spd_inverse(y);  // (11)
     x_ += m_ * b;         // (12)
     last_measurement_bandwidth_ = bandwidth;
@@ -203,9 +210,9 @@ class LbEkf final : public CentralizedFilter {
     }
     BandMatrix y = band_inverse(p, bandwidth_, method_);  // line 3: P̆_k⁻¹ = BandInv_L(P_k)
     BandSink sink{&y};
-    const VecX b = assemble(meas, x_, labels_, sink);  // line 4: Y_k = P̆⁻¹ + band(S_k)
-    m_ = band_inverse(y, bandwidth_, method_);         // line 4: M̆_k = BandInv_L(Y_k)
-    x_ += m_.multiply(b);                              // line 5, O(nL)
+    const VecX b = assemble(meas, x_, labels_, sink, kKeepAllEdges);  // line 4: Y_k = P̆⁻¹ + band(S_k)
+    m_ = band_inverse(y, bandwidth_, method_);                        // line 4: M̆_k = BandInv_L(Y_k)
+    x_ += m_.multiply(b);                                             // line 5, O(nL)
     last_measurement_bandwidth_ = sink.bandwidth;
     last_truncated_entries_ = sink.truncated;
     store_velocity(meas);
@@ -239,7 +246,15 @@ class LbEkfI final : public CentralizedFilter {
     }
     y_ = band_inverse(p, bandwidth_, method_);  // P̆_k⁻¹
     BandSink sink{&y_};
-    const VecX b = assemble(meas, x_, labels_, sink);
+    // Keep Y_k PD: the band of S_k is not PSD when an edge's cross block straddles the band edge, so
+    // an edge whose cross block does not fit entirely is left out (S and b), which is conservative.
+    const auto fits = [&](int li, int lj, const Mat2& cross) {
+      if (2 * std::abs(li - lj) + 1 <= bandwidth_) return true;
+      sink.bandwidth = std::max(sink.bandwidth, block_bandwidth(li, lj, cross));
+      sink.truncated += static_cast<int>((cross.array() != 0.0).count());
+      return false;
+    };
+    const VecX b = assemble(meas, x_, labels_, sink, fits);
     const BandCholesky chol(y_);
     x_ += chol.solve(b);  // Y_k δ = b_k
     sigma_band_ = chol.selected_inverse();
@@ -275,10 +290,13 @@ MeasurementInformation assemble_measurement_information(const CentralizedMeasure
   }
   MeasurementInformation out{MatX::Zero(n, n), VecX()};
   // The measurements name original agents; map them through `l` inside assemble.
-  out.vector = assemble(measurements, x_internal, l, [&](int bi, int bj, const Mat2& block) {
-    out.information.block<2, 2>(2 * bi, 2 * bj) += block;
-    if (bi != bj) out.information.block<2, 2>(2 * bj, 2 * bi) += block.transpose();
-  });
+  out.vector = assemble(
+      measurements, x_internal, l,
+      [&](int bi, int bj, const Mat2& block) {
+        out.information.block<2, 2>(2 * bi, 2 * bj) += block;
+        if (bi != bj) out.information.block<2, 2>(2 * bj, 2 * bi) += block.transpose();
+      },
+      kKeepAllEdges);
   return out;
 }
 

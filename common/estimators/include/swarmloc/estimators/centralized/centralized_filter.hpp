@@ -75,6 +75,8 @@ class CentralizedFilter {
   [[nodiscard]] const std::vector<int>& labels() const { return labels_; }
   /// Bandwidth of S_k in the internal order at the last step (Lemma 1), and how many of its
   /// lower-triangle entries fell outside the band L and were dropped ([A-5]: information truncated).
+  /// LB-EKF keeps the band of S_k (Alg. 2 reads only windows, which stay PSD); LB-EKF-I needs all of
+  /// Y_k PD, so it leaves out every range edge whose 2×2 cross block does not fit in the band.
   [[nodiscard]] int last_measurement_bandwidth() const { return last_measurement_bandwidth_; }
   [[nodiscard]] int last_truncated_entries() const { return last_truncated_entries_; }
 
