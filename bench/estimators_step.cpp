@@ -1,0 +1,72 @@
+// One IEIF / IEKF step with 8 neighbours, and one CRLB build at N = 30 and N = 300.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+
+#include "swarmloc/estimators/crlb.hpp"
+#include "swarmloc/estimators/ieif.hpp"
+#include "swarmloc/estimators/iekf.hpp"
+
+namespace {
+
+using swarmloc::AgentId;
+using swarmloc::Mat2;
+using swarmloc::Vec2;
+namespace est = swarmloc::estimators;
+
+struct Neighbourhood {
+  est::Inbox inbox;
+  est::MeasurementBatch batch;
+};
+
+Neighbourhood eight_neighbours() {
+  Neighbourhood n;
+  const Vec2 self(10.0, 10.0);
+  for (int j = 1; j <= 8; ++j) {
+    const double angle = 0.785 * j;
+    const Vec2 x_j = self + 5.0 * Vec2(std::cos(angle), std::sin(angle));
+    n.inbox.states.push_back(est::Received<est::StateMessage>{
+        j, 0, est::StateMessage{x_j, 0.01 * Mat2::Identity(), j <= 3, true, 8}});
+    n.batch.ranges.push_back(est::RangeMeasurement{j, 5.02, 0.1});
+  }
+  return n;
+}
+
+template <typename Filter>
+void filter_step_8_neighbours(benchmark::State& state) {
+  const Neighbourhood n = eight_neighbours();
+  est::AgentSetup setup;
+  setup.initial_guess_m = Vec2(10.3, 9.8);
+  Filter filter(setup, est::KalmanFamilyParams{});
+  std::int64_t k = 1;
+  for (auto _ : state) {
+    est::StepOutput out = filter.step(est::StepInput{k++, &n.batch, &n.inbox});
+    benchmark::DoNotOptimize(out);
+  }
+}
+BENCHMARK_TEMPLATE(filter_step_8_neighbours, est::Ieif);
+BENCHMARK_TEMPLATE(filter_step_8_neighbours, est::Iekf);
+
+void crlb_all_pairs(benchmark::State& state) {
+  const auto n = static_cast<int>(state.range(0));
+  std::mt19937_64 rng(1);
+  std::uniform_real_distribution<double> uniform(0.0, 30.0);
+  std::vector<Vec2> truth;
+  std::vector<bool> anchor;
+  for (int i = 0; i < n; ++i) {
+    truth.emplace_back(uniform(rng), uniform(rng));
+    anchor.push_back(i < n / 4);
+  }
+  const auto ranges = est::mutual_range_observations(truth, anchor, 0.1);
+  for (auto _ : state) {
+    est::CrlbResult r = est::range_network_crlb(truth, anchor, ranges, 100.0);
+    benchmark::DoNotOptimize(r);
+  }
+  state.counters["observations"] = static_cast<double>(ranges.size());
+}
+BENCHMARK(crlb_all_pairs)->Arg(30)->Arg(300)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,189 @@
+#include "swarmloc/estimators/kalman_family.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+#include "swarmloc/core/gaussian.hpp"
+#include "swarmloc/models/measurement_models.hpp"
+
+namespace swarmloc::estimators {
+
+std::int64_t staleness_steps(std::int64_t local_step, std::int64_t sender_step) {
+  return std::max<std::int64_t>(0, local_step - sender_step - 1);
+}
+
+LinkSelection collect_range_links(const StepInput& input, AgentId self, const KalmanFamilyParams& params) {
+  LinkSelection selection;
+  if (input.measurements == nullptr) return selection;  // §3.4 rule (4): prediction only
+  const auto& ranges = input.measurements->ranges;
+  if (input.inbox == nullptr) {
+    selection.skipped = static_cast<int>(ranges.size());
+    return selection;
+  }
+  // Rule (1): the newest message per sender.
+  std::unordered_map<AgentId, const Received<StateMessage>*> newest;
+  for (const auto& received : input.inbox->states) {
+    if (received.sender == self) continue;
+    auto [it, inserted] = newest.try_emplace(received.sender, &received);
+    if (!inserted && received.sender_step > it->second->sender_step) it->second = &received;
+  }
+  const double q = params.process_noise_std_m * params.process_noise_std_m;
+  std::unordered_map<AgentId, bool> measured;
+  for (const auto& range : ranges) {
+    const auto found = newest.find(range.peer);
+    if (range.peer == self || found == newest.end()) {
+      ++selection.skipped;  // rule (3): no message
+      continue;
+    }
+    measured[range.peer] = true;
+    const Received<StateMessage>& received = *found->second;
+    Mat2 P_j = core::symmetrized(received.message.covariance);
+    if (params.inflate_stale && !received.message.anchor) {
+      // Rule (2): P_j ← P_j + a·Q^(j) (random-walk model, §3.4).
+      P_j +=
+          static_cast<double>(staleness_steps(input.local_step, received.sender_step)) * q * Mat2::Identity();
+    }
+    const bool usable = received.message.mean_m.allFinite() && P_j.allFinite() &&
+                        std::isfinite(range.range_m) && std::isfinite(range.std_m) && range.std_m >= 0.0 &&
+                        P_j.trace() <= params.max_neighbour_variance_m2;
+    if (!usable) {
+      ++selection.skipped;  // effectively infinite P_j: r̃_j → ∞ (§3.2)
+      continue;
+    }
+    selection.links.push_back(
+        RangeLink{range.peer, received.message.mean_m, P_j, range.range_m, range.std_m});
+  }
+  for (const auto& [sender, received] : newest) {
+    if (!measured.contains(sender)) ++selection.skipped;  // rule (3): no range this step
+  }
+  return selection;
+}
+
+Linearization linearize_ranges(const Vec2& x_i, const std::vector<RangeLink>& links) {
+  Linearization rows;
+  rows.jacobian.resize(static_cast<Eigen::Index>(links.size()), 2);
+  rows.innovation.resize(static_cast<Eigen::Index>(links.size()));
+  rows.variance.resize(static_cast<Eigen::Index>(links.size()));
+  Eigen::Index m = 0;
+  for (const auto& link : links) {
+    const auto h = models::range(x_i, link.neighbour_mean_m);
+    if (!h) {
+      ++rows.skipped;  // ρ < 1e−9: no direction (§1.1)
+      continue;
+    }
+    const models::Row2& u = h->d_xi;  // u_ijᵀ, 001 eq. (44)
+    const double r_tilde =
+        link.std_m * link.std_m + u * link.neighbour_covariance * u.transpose();  // interlacing
+    if (!(r_tilde > 0.0) || !std::isfinite(r_tilde)) {
+      ++rows.skipped;
+      continue;
+    }
+    rows.jacobian.row(m) = u;
+    rows.innovation(m) = link.range_m - h->value;  // ν_j = z − d̂_ij
+    rows.variance(m) = r_tilde;
+    ++m;
+  }
+  rows.jacobian.conservativeResize(m, 2);
+  rows.innovation.conservativeResize(m);
+  rows.variance.conservativeResize(m);
+  return rows;
+}
+
+Mat2 predict_information(const Mat2& Psi, const Mat2& Q) {
+  // 001 eq. (48): Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ — valid for singular Ψ.
+  const Mat2 L = (Mat2::Identity() + Psi * Q).inverse();
+  return core::symmetrized(L * Psi);
+}
+
+ProcessStep process_step(const StepInput& input, const KalmanFamilyParams& params) {
+  ProcessStep step;
+  step.Q = params.process_noise_std_m * params.process_noise_std_m * Mat2::Identity();
+  if (input.measurements != nullptr && input.measurements->motion) {
+    const MotionInput& motion = *input.measurements->motion;
+    if (motion.velocity_mps.allFinite() && std::isfinite(motion.dt_s))
+      step.shift = motion.velocity_mps * motion.dt_s;
+    if (motion.process_cov.allFinite()) step.Q += core::symmetrized(motion.process_cov);
+  }
+  return step;
+}
+
+bool positive_definite(const Mat2& m) {
+  // Sylvester for 2×2 plus a scale-free floor λ_min/λ_max ≳ 1e−13 (det/tr² bounds it), so that a
+  // rank-1 matrix with rounding noise does not pass.
+  constexpr double kMinDetOverTrace2 = 1e-13;
+  if (!core::is_symmetric_psd(m)) return false;
+  const double trace = m.trace();
+  return m(0, 0) > 0.0 && m.determinant() > kMinDetOverTrace2 * trace * trace;
+}
+
+namespace {
+
+const AbsoluteFix* usable_fix(const Linearization& rows) {
+  if (rows.fix && rows.fix->position_m.allFinite() && positive_definite(rows.fix->covariance))
+    return &*rows.fix;
+  return nullptr;
+}
+
+}  // namespace
+
+InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows) {
+  InformationUpdate out;
+  // 001 eq. (49), ALGORITHMS.md §3.2: Φ = Σ u uᵀ/r̃, ι = Σ u z′/r̃, z′ = ν + uᵀ x̂_i.
+  for (Eigen::Index m = 0; m < rows.jacobian.rows(); ++m) {
+    const Vec2 u = rows.jacobian.row(m).transpose();
+    const double z_prime = rows.innovation(m) + u.dot(x_pred);
+    out.Phi += u * u.transpose() / rows.variance(m);
+    out.iota += u * z_prime / rows.variance(m);
+  }
+  if (const AbsoluteFix* fix = usable_fix(rows)) {
+    const Mat2 R_inv = fix->covariance.inverse();  // linear row H = I₂: z′ = z
+    out.Phi += R_inv;
+    out.iota += R_inv * fix->position_m;
+  }
+  out.Phi = core::symmetrized(out.Phi);
+  out.Psi = core::symmetrized(Psi_pred + out.Phi);
+  out.y = Psi_pred * x_pred + out.iota;
+  out.positive_definite = positive_definite(out.Psi);
+  out.mean = x_pred;  // kept unchanged if Ψ_{k|k} is not PD (§3.2)
+  if (out.positive_definite) {
+    const Eigen::LLT<Mat2> llt(out.Psi);
+    if (llt.info() == Eigen::Success) {
+      out.mean = llt.solve(out.y);
+    } else {
+      out.positive_definite = false;
+    }
+  }
+  return out;
+}
+
+KalmanUpdate kalman_update(const Vec2& x_pred, const Mat2& P_pred, const Linearization& rows) {
+  const AbsoluteFix* fix = usable_fix(rows);
+  const Eigen::Index ranges = rows.jacobian.rows();
+  const Eigen::Index m = ranges + (fix != nullptr ? 2 : 0);
+  if (m == 0) return KalmanUpdate{x_pred, P_pred};
+  Eigen::Matrix<double, Eigen::Dynamic, 2> H(m, 2);
+  VecX nu(m);
+  MatX R = MatX::Zero(m, m);
+  H.topRows(ranges) = rows.jacobian;
+  nu.head(ranges) = rows.innovation;
+  R.topLeftCorner(ranges, ranges) = rows.variance.asDiagonal();
+  if (fix != nullptr) {
+    H.bottomRows(2) = Mat2::Identity();
+    nu.tail(2) = fix->position_m - x_pred;
+    R.bottomRightCorner(2, 2) = fix->covariance;
+  }
+  // 001 eqs. (30)–(32): S = H P Hᵀ + R̃, K = P Hᵀ S⁻¹.
+  const MatX S = H * P_pred * H.transpose() + R;
+  const Eigen::LDLT<MatX> ldlt(S);
+  const Eigen::Matrix<double, 2, Eigen::Dynamic> K = ldlt.solve(H * P_pred).transpose();  // S symmetric
+  const Mat2 I_KH = Mat2::Identity() - K * H;
+  KalmanUpdate out;
+  out.mean = x_pred + K * nu;
+  out.covariance =
+      core::symmetrized(I_KH * P_pred * I_KH.transpose() + K * R * K.transpose());  // Joseph form
+  return out;
+}
+
+}  // namespace swarmloc::estimators
