@@ -68,7 +68,7 @@ bool AgentRuntime::on_state(const Header& header, const estimators::StateMessage
   newest_state_seq_[header.agent_id] = header.seq;
   auto& slot = states_[header.agent_id];
   slot.sender = header.agent_id;
-  slot.sender_step = local_step_;
+  slot.sender_step = local_step_ - 1;  // in the receiver's frame: as if sent at its previous step
   slot.message = message;
   slot.message.covariance = core::symmetrized(message.covariance);
   return true;

@@ -106,6 +106,9 @@ struct BeliefMessage {
 };
 
 /// A received message with the sender's identity and step (the mailbox keeps the newest per sender).
+/// `sender_step` is expressed in the RECEIVER's step frame: the step at which the message counts as
+/// sent (a message that arrives before the receiver's step k counts as sent at k − 1). Agents' own
+/// step counters are not comparable across processes (different start times, drifting clocks).
 template <typename Message>
 struct Received {
   AgentId sender = 0;

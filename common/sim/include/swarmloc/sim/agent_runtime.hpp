@@ -67,7 +67,7 @@ class AgentRuntime {
   std::int64_t local_step_ = 0;
   std::uint32_t next_seq_ = 0;
   std::uint32_t samples_published_ = 0;
-  /// Newest state per neighbour; sender_step holds the receiver's step at receipt, so the estimator's
+  /// Newest state per neighbour; sender_step holds (receiver's step at receipt − 1), so the estimator's
   /// staleness rule measures age in the receiver's own steps (clocks and step counters of different
   /// agents are not comparable: they start at different times and drift).
   std::map<AgentId, estimators::Received<estimators::StateMessage>> states_;
