@@ -11,6 +11,7 @@
 
 #include "agent_node.hpp"
 #include "orchestrator.hpp"
+#include "reproduce.hpp"
 #include "swarmloc/config/scenario.hpp"
 
 namespace {
@@ -81,6 +82,17 @@ int main(int argc, char** argv) {
   agent->add_option("--log", agent_options.log_path, "Log file (default: stderr)");
   agent->add_flag("--hostile", agent_options.hostile, "Publish NaN / non-PSD / absurd states (robustness tests)");
 
+  auto* reproduce = app.add_subcommand("reproduce", "Run a paper experiment; writes a Markdown table beside the paper's numbers.");
+  swarmloc::orchestrator::ReproduceOptions reproduce_options;
+  std::string reproduce_out = "runs/reproduce";
+  reproduce->add_option("experiment", reproduce_options.experiment, "ea1 | ea2 | ea3 | ieif-table1 | ieif-table2")
+      ->required()
+      ->check(CLI::IsMember(swarmloc::orchestrator::known_experiments()));
+  reproduce->add_option("--out", reproduce_out, "Output directory (default runs/reproduce)");
+  reproduce->add_option("--trials", reproduce_options.trials, "Monte Carlo trials (default: the paper's count)");
+  reproduce->add_option("--threads", reproduce_options.threads, "Worker threads (default: every core)");
+  reproduce->add_option("--seed", reproduce_options.seed, "Seed");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -109,5 +121,9 @@ int main(int argc, char** argv) {
     return swarmloc::orchestrator::run_sim_command(options);
   }
   if (agent->parsed()) return swarmloc::agent::run_agent(agent_options);
+  if (reproduce->parsed()) {
+    reproduce_options.out_dir = reproduce_out;
+    return swarmloc::orchestrator::run_reproduce(reproduce_options);
+  }
   return 2;
 }

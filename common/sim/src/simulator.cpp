@@ -103,7 +103,8 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
 }
 
 MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, int threads,
-                                 const std::function<void(int, int)>& on_trial) {
+                                 const std::function<void(int, int)>& on_trial,
+                                 const std::function<void(int, const RunRecord&)>& on_record) {
   const auto started = std::chrono::steady_clock::now();
   MonteCarloResult result;
   result.trials = trials;
@@ -119,8 +120,9 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
     for (int t = next++; t < trials; t = next++) {
       SimOptions options;
       options.trial = static_cast<std::uint64_t>(t);
-      options.record_estimates = (t == 0);
+      options.record_estimates = (t == 0) || static_cast<bool>(on_record);
       auto record = run_simulation(scenario, options);
+      if (on_record) on_record(t, record);
       auto& rows = per_trial[static_cast<std::size_t>(t)];
       rows.reserve(steps);
       for (const auto& m : record.metrics) rows.push_back({m.errors.rmse_m * m.errors.rmse_m, m.errors.rmse_m, m.errors.nees});

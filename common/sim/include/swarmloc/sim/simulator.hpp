@@ -38,8 +38,11 @@ struct MonteCarloResult {
 
 /// Runs `trials` independent trials of `scenario` on `threads` threads (0 = every core). The
 /// configuration is fixed by the seed; noise, initial guesses and loss differ per trial.
+/// `on_record`, if set, is called from the worker thread with every trial's full record (estimates
+/// included); it must only touch per-trial state.
 MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, int threads = 0,
-                                 const std::function<void(int done, int total)>& on_trial = {});
+                                 const std::function<void(int done, int total)>& on_trial = {},
+                                 const std::function<void(int trial, const RunRecord&)>& on_record = {});
 
 /// Writes montecarlo.csv (per-step mean and spread) and trials.csv into `directory`.
 void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result);
