@@ -15,7 +15,8 @@ Vec2 unit_direction(double angle_rad);
 
 /// 003 eq. (1): g(α, β) = [(sin α + sin β), −(cos α + cos β)]ᵀ / sin(β − α), with α = θ_ij (angle at
 /// S_j) and β = θ_ji (angle at S_i) so that d_ji = g(θ_ij, θ_ji)ᵀ(s_i − s_j) ([D-1]). LOS fallback [D-2]:
-/// if |sin(β − α)| < los_threshold, g = u(α), the unit vector from S_j toward S_i.
+/// if |sin(β − α)| < los_threshold and the rays are opposite (cos(β − α) < 0), g = u(α), the unit vector
+/// from S_j toward S_i. Parallel rays (a reflection with the pair perpendicular to the wall) keep eq. (1).
 Vec2 path_direction(double theta_ij_rad, double theta_ji_rad, double los_threshold = kLosSinThreshold);
 
 /// A straight wall (infinite line) through `point_m` with direction angle `angle_rad` (0 = horizontal).

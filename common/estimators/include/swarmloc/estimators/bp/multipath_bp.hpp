@@ -1,0 +1,80 @@
+#pragma once
+// Cooperative Gaussian belief propagation with multipath range + DOA (003 Algorithm 1, ALGORITHMS.md §5),
+// and the pairwise (non-cooperative) baseline of §5.4.
+#include <map>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include "swarmloc/estimators/estimator.hpp"
+
+namespace swarmloc::estimators::bp {
+
+struct MultipathBpParams {
+  double sigma2 = 9.0;             ///< σ² of eq. (1) (variance, m²); default: std 3 m reading of [D-5]
+  double los_threshold = 1e-3;     ///< [D-2]
+  double min_information = 1e-12;  ///< neighbours whose Λ_j has an eigenvalue below this are skipped (§5.2)
+};
+
+/// The paths between this node (S_i) and one peer (S_j): G_ji (R×2, rows g(θ_ij, θ_ji)ᵀ [D-1]) and d_ji.
+struct PathSet {
+  MatX G;
+  VecX d;
+};
+
+/// Builds G_ji, d_ji from the MultipathMeasurements with `peer` (sorted by path_index).
+PathSet path_set(const std::vector<MultipathMeasurement>& paths, AgentId peer, double los_threshold = 1e-3);
+
+struct Gaussian2 {
+  Vec2 mean = Vec2::Zero();
+  Mat2 covariance = Mat2::Zero();
+};
+
+/// Pairwise baseline step (§5.4, eq. (2)): s_i = s_j + G_ji†d_ji with covariance P_j + σ²(G_jiᵀG_ji)⁻¹.
+/// nullopt if G_ji has rank < 2.
+std::optional<Gaussian2> pairwise_from_parent(const Gaussian2& parent, const PathSet& paths, double sigma2);
+
+/// Message of one neighbour in information form: (W_ji⁻¹, W_ji⁻¹ ν_ji) (§5.2 numerically safe form).
+struct InformationPair {
+  Mat2 information = Mat2::Zero();
+  Vec2 info_vec = Vec2::Zero();
+};
+/// Anchor neighbour (P_j = 0): A_ji = G_jiᵀG_ji/σ²; otherwise A − A(A + Λ_j)⁻¹A; the general form
+/// C = σ²I + G P_j Gᵀ when rank(G) < 2. nullopt if Λ_j is not PD (the neighbour carries no information).
+std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec2& mean_j, const Mat2& info_j,
+                                                 bool anchor_j, const MultipathBpParams& params);
+
+/// One sensor of 003 Algorithm 1. Each step(): W_ji, ν_ji from every neighbour's newest BELIEF (§5.3), then
+/// Λ_i = Σ_j W_ji⁻¹ (eq. (3)) and μ_i = Λ_i⁻¹ Σ_j W_ji⁻¹ν_ji (eq. (4)). Beliefs, not cavity messages, are
+/// exchanged ([D-4], as printed). Paths come from MeasurementBatch::paths (newest set per peer kept;
+/// aoa_here = θ_ji, aoa_there = θ_ij). A neighbour never heard from counts as Λ = 0. If Σ W⁻¹ is
+/// singular, μ_i keeps its previous value ("not yet localized").
+///
+/// Publishes BELIEF {iteration l, μ_i, Λ_i}; the anchor S_0 publishes its known position with
+/// infinite_information = true.
+class MultipathBp final : public Estimator {
+ public:
+  MultipathBp(const AgentSetup& setup, const MultipathBpParams& params);
+
+  [[nodiscard]] std::string_view name() const override { return "multipath_bp"; }
+  [[nodiscard]] Outbox initial_outbox() const override;
+  StepOutput step(const StepInput& input) override;
+  [[nodiscard]] Estimate estimate() const override;
+
+  [[nodiscard]] const Vec2& mean() const { return mu_; }
+  [[nodiscard]] const Mat2& information() const { return Lambda_; }
+  [[nodiscard]] bool localized() const { return localized_; }
+
+ private:
+  [[nodiscard]] Outbox published() const;
+
+  AgentSetup setup_;
+  MultipathBpParams params_;
+  std::map<AgentId, PathSet> links_;
+  Vec2 mu_;
+  Mat2 Lambda_ = Mat2::Zero();
+  bool localized_ = false;
+  std::int64_t iteration_ = 0;
+};
+
+}  // namespace swarmloc::estimators::bp

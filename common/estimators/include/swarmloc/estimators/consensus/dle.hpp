@@ -1,0 +1,67 @@
+#pragma once
+// Distributed linear estimator of a target by information consensus (002 Algorithm 1, eqs. (6)–(7),
+// ALGORITHMS.md §4.2, §4.5).
+#include <cstdint>
+#include <map>
+#include <string_view>
+
+#include "swarmloc/estimators/consensus/metropolis.hpp"
+#include "swarmloc/estimators/estimator.hpp"
+
+namespace swarmloc::estimators::consensus {
+
+struct DleParams {
+  std::int32_t target = 0;  ///< only TargetObservations and InformationMessages of this target are used
+  int target_dim = 2;       ///< d_y
+  MatX F;                   ///< d_y×d_y; empty = static target (F = I, W = 0: no prediction)
+  MatX W;                   ///< process covariance (tracking only)
+  MatX H;  ///< 2×d_y observation matrix of kind-0 observations (value = H y + v); empty = [I₂ 0]
+  double initial_information = 0.0;  ///< Ω_0 = ε I; use > 0 (e.g. 1e-6) when tracking (§4.2)
+  MetropolisRule weights = MetropolisRule::kPlusOne;
+};
+
+/// Throws std::invalid_argument naming the offending field.
+void validate(const DleParams& params);
+
+/// One sensor of the DLE. Holds its prior (ω_{i,t}, Ω_{i,t}); each step():
+///   ω⁺ = Σ_{j∈N_i∪{i}} κ_ij ω_{j,t} + Σ H_iᵀV⁻¹z,  Ω⁺ = Σ κ_ij Ω_{j,t} + Σ H_iᵀV⁻¹H_i,  ŷ = Ω⁺⁻¹ω⁺,
+/// then (tracking) Ω_{t+1} = (F Ω⁺⁻¹ Fᵀ + W)⁻¹, ω_{t+1} = Ω_{t+1} F ŷ ([C-2]: prediction from the updated
+/// Ω⁺). κ are Metropolis weights (own degree = |MeasurementBatch::neighbours| if given, else the number of
+/// neighbours heard from; neighbour degrees from their STATE messages); the κ of neighbours whose
+/// INFO message is missing are dropped and the rest renormalized (§4.5).
+///
+/// Publishes INFO {target, ω_{i,t+1}, Ω_{i,t+1}} (the prior for the next step) and a STATE carrying the
+/// sensor's (known) position and its degree, which neighbours need for the weights. estimate() reports the
+/// sensor's own known position (the DLE does not localize the sensor); the target estimate is
+/// target_estimate().
+class Dle final : public Estimator {
+ public:
+  Dle(const AgentSetup& setup, const DleParams& params);
+
+  [[nodiscard]] std::string_view name() const override { return "dle"; }
+  [[nodiscard]] Outbox initial_outbox() const override;
+  StepOutput step(const StepInput& input) override;
+  [[nodiscard]] Estimate estimate() const override;
+
+  /// ŷ_i(t+1) after the last step; valid only if has_target_estimate().
+  [[nodiscard]] const VecX& target_estimate() const { return y_; }
+  [[nodiscard]] bool has_target_estimate() const { return has_estimate_; }
+  /// The prior (ω, Ω) that was last published.
+  [[nodiscard]] const VecX& info_vec() const { return omega_; }
+  [[nodiscard]] const MatX& info_mat() const { return Omega_; }
+
+ private:
+  [[nodiscard]] Outbox published() const;
+
+  AgentSetup setup_;
+  DleParams params_;
+  MatX H_;
+  VecX omega_;
+  MatX Omega_;
+  VecX y_;
+  bool has_estimate_ = false;
+  int degree_ = 0;
+  std::map<AgentId, int> neighbour_degrees_;
+};
+
+}  // namespace swarmloc::estimators::consensus

@@ -1,0 +1,143 @@
+#pragma once
+// Distributed gradient localization with a consensus Barzilai–Borwein step (004, ALGORITHMS.md §6) and its
+// baselines: local BB (T = 0), fixed step, specified step length; centralized BB as a plain function.
+#include <cstdint>
+#include <map>
+#include <string_view>
+#include <vector>
+
+#include "swarmloc/estimators/consensus/metropolis.hpp"
+#include "swarmloc/estimators/estimator.hpp"
+
+namespace swarmloc::estimators::gradient {
+
+enum class StepRule {
+  kConsensusBb,  ///< DG-BB: α_i = ρ_i(T)/ψ_i(T) after T consensus rounds (004 eq. (12))
+  kLocalBb,      ///< α_i = ‖Δp_i‖²/(Δp_iᵀΔD_i) (004 eq. (15), [E-6])
+  kFixed,        ///< α = fixed_step
+  kStepLength,   ///< α = k/‖D_i‖ with k = step_length·{1, 1/τ, 1/√τ}
+};
+
+enum class StepLengthSchedule { kConstant, kOverTau, kOverSqrtTau };
+
+struct DgBbParams {
+  StepRule rule = StepRule::kConsensusBb;
+  int consensus_rounds = 20;          ///< T
+  int warmup_updates = 1;             ///< τ_wup
+  double warmup_step = 1e-6;          ///< α̃
+  double abs_tol = 1e-10;             ///< η_abstol
+  std::int64_t max_updates = 100000;  ///< τ_max
+  double fixed_step = 0.1;            ///< ᾱ for kFixed
+  double step_length = 10.0;          ///< k̄ for kStepLength
+  StepLengthSchedule schedule = StepLengthSchedule::kOverSqrtTau;
+  bool curvature_safeguard = true;  ///< [E-4]
+  double grad_scale = 1.0;          ///< [E-1]: 1 = D_i = ½∇_i f, 2 = ∇_i f
+  consensus::MetropolisRule weights = consensus::MetropolisRule::kPlusOne;
+};
+
+/// Throws std::invalid_argument naming the offending field.
+void validate(const DgBbParams& params);
+
+/// One agent of DG-BB or a baseline. ONE step() = ONE communication round. Per update τ the DG-BB node
+/// spends T + 1 rounds: round 0 uses the neighbours' STATE p_j^(τ) to form D_i(p^(τ)), ρ_i(0) = ‖Δp_i‖²,
+/// ψ_i(0) = Δp_iᵀΔD_i (004 eqs. (8)–(9)) and publishes them; rounds 1…T average the neighbours' newest
+/// (ρ_j, ψ_j) with Metropolis weights (eqs. (10)–(11), [E-3]); round T then updates p_i (eq. (14)) and
+/// publishes the new STATE. The baselines update in every round (one STATE exchange per update).
+///
+/// Publishes every round: STATE {p_i^(τ), covariance 0, anchor, active, degree}; DG-BB also publishes
+/// CONS {τ, t, [ρ_i, ψ_i]} in rounds 0…T−1. Ranges d̄_ij come from MeasurementBatch::ranges (newest kept);
+/// the degree is the number of range neighbours. Anchors and inactive nodes keep publishing and relay
+/// consensus with ρ = ψ = 0 ([E-5]). Until every range neighbour's STATE has been received, the node waits
+/// (publishes, does not update) — the §6.4 start rule. Missing consensus values reuse the newest received;
+/// a neighbour never heard from in consensus is replaced by the node's own value.
+class DgBb final : public Estimator {
+ public:
+  DgBb(const AgentSetup& setup, const DgBbParams& params);
+
+  [[nodiscard]] std::string_view name() const override;
+  [[nodiscard]] Outbox initial_outbox() const override;
+  StepOutput step(const StepInput& input) override;
+  [[nodiscard]] Estimate estimate() const override;
+
+  [[nodiscard]] const Vec2& position() const { return p_; }
+  /// Still updating (anchors: never active; stops when the correction ≤ η or τ ≥ τ_max).
+  [[nodiscard]] bool active() const { return active_ && tau_ < params_.max_updates; }
+  /// Updates performed so far, warm-up included (τ).
+  [[nodiscard]] std::int64_t updates() const { return tau_; }
+  /// α used in the last update (NaN before the first BB update).
+  [[nodiscard]] double last_step() const { return last_alpha_; }
+  /// How often the [E-4] safeguard replaced α.
+  [[nodiscard]] int safeguard_count() const { return safeguard_count_; }
+  /// Current consensus values (ρ_i(t), ψ_i(t)) and round t (DG-BB only).
+  [[nodiscard]] double rho() const { return rho_; }
+  [[nodiscard]] double psi() const { return psi_; }
+  [[nodiscard]] int round() const { return round_; }
+
+ private:
+  enum class Phase { kWaiting, kWarmup, kRound };
+
+  [[nodiscard]] Outbox published(bool with_consensus) const;
+  /// D_i(p) = grad_scale · Σ_j g_ij (p_i − p_j), g_ij = ‖p_i − p_j‖² − d̄_ij² ([E-1]); false if a neighbour is
+  /// missing.
+  bool direction(Vec2& D) const;
+  void apply_update(const Vec2& D, double alpha);
+  void consensus_round();
+
+  AgentSetup setup_;
+  DgBbParams params_;
+  Vec2 p_;
+  Vec2 p_prev_;
+  Vec2 D_prev_ = Vec2::Zero();
+  Vec2 D_cur_ = Vec2::Zero();
+  bool have_prev_ = false;
+  std::map<AgentId, double> ranges_;
+  struct Neighbour {
+    Vec2 position = Vec2::Zero();
+    int degree = 0;
+    bool have_state = false;
+    double rho = 0.0;
+    double psi = 0.0;
+    bool have_consensus = false;
+  };
+  std::map<AgentId, Neighbour> neighbours_;
+  Phase phase_ = Phase::kWaiting;
+  std::int64_t tau_ = 0;
+  int round_ = 0;
+  double rho_ = 0.0;
+  double psi_ = 0.0;
+  bool active_ = true;
+  double last_alpha_;
+  double last_valid_alpha_;
+  bool have_valid_alpha_ = false;
+  int safeguard_count_ = 0;
+};
+
+// ---- Centralized reference (004 eqs. (3)–(5), ALGORITHMS.md §6.5 item 5) ----
+struct RangeEdge {
+  int i = 0;
+  int j = 0;
+  double range_m = 0.0;  ///< d̄_ij
+};
+struct RangeProblem {
+  std::vector<Vec2> initial;  ///< p^(0); anchors: their true position
+  std::vector<bool> anchor;
+  std::vector<RangeEdge> edges;
+};
+
+/// D(p) for every node (zero rows for anchors), ALGORITHMS.md §6.1 [E-1].
+std::vector<Vec2> direction(const RangeProblem& problem, const std::vector<Vec2>& p, double grad_scale = 1.0);
+/// Objective f(p) = ½ Σ g_ij² (004 eq. (1)).
+double objective(const RangeProblem& problem, const std::vector<Vec2>& p);
+/// Centralized BB step ‖Δp‖²/(ΔpᵀΔD) over all nodes (004 eq. (5)).
+double centralized_bb_step(const std::vector<Vec2>& dp, const std::vector<Vec2>& dD);
+
+struct CentralizedBbResult {
+  std::vector<Vec2> positions;
+  std::int64_t updates = 0;   ///< τ_end (warm-up included)
+  std::vector<double> steps;  ///< α_τ of every BB update
+};
+/// Gradient with the global BB step (the T → ∞ limit of DG-BB): warm-up with α̃, then α_τ from eq. (5);
+/// per-node stopping as in DG-BB (a node whose correction is ≤ η freezes).
+CentralizedBbResult centralized_bb(const RangeProblem& problem, const DgBbParams& params);
+
+}  // namespace swarmloc::estimators::gradient

@@ -1,0 +1,156 @@
+#include "swarmloc/estimators/bp/multipath_bp.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <stdexcept>
+
+#include "swarmloc/models/multipath.hpp"
+
+namespace swarmloc::estimators::bp {
+namespace {
+
+bool positive_definite(const Mat2& m, double min_eigenvalue) {
+  if (!m.allFinite()) return false;
+  const Eigen::SelfAdjointEigenSolver<Mat2> eig(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly);
+  return eig.eigenvalues().minCoeff() > min_eigenvalue;
+}
+
+bool full_column_rank(const MatX& G) {
+  if (G.rows() < 2) return false;
+  const Mat2 gram = G.transpose() * G;
+  return positive_definite(gram, 1e-12 * std::max(1.0, gram.trace()));
+}
+
+}  // namespace
+
+PathSet path_set(const std::vector<MultipathMeasurement>& paths, AgentId peer, double los_threshold) {
+  std::vector<const MultipathMeasurement*> selected;
+  for (const auto& path : paths) {
+    if (path.peer == peer) selected.push_back(&path);
+  }
+  std::sort(selected.begin(), selected.end(),
+            [](const auto* a, const auto* b) { return a->path_index < b->path_index; });
+  PathSet set;
+  const auto rows = static_cast<Eigen::Index>(selected.size());
+  set.G.resize(rows, 2);
+  set.d.resize(rows);
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const auto& path = *selected[static_cast<std::size_t>(r)];
+    // [D-1]: rows g(θ_ij, θ_ji)ᵀ, θ_ij measured at the peer S_j, θ_ji here at S_i.
+    set.G.row(r) = models::path_direction(path.aoa_there_rad, path.aoa_here_rad, los_threshold).transpose();
+    set.d(r) = path.length_m;
+  }
+  return set;
+}
+
+std::optional<Gaussian2> pairwise_from_parent(const Gaussian2& parent, const PathSet& paths, double sigma2) {
+  if (!full_column_rank(paths.G)) return std::nullopt;
+  const Mat2 Sigma = (paths.G.transpose() * paths.G).inverse();  // Σ_ji = (GᵀG)⁻¹
+  Gaussian2 child;
+  child.mean = parent.mean + Sigma * paths.G.transpose() * paths.d;  // eq. (2): s_j + G†d
+  child.covariance = parent.covariance + sigma2 * Sigma;
+  return child;
+}
+
+std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec2& mean_j, const Mat2& info_j,
+                                                 bool anchor_j, const MultipathBpParams& params) {
+  if (paths.G.rows() == 0) return std::nullopt;
+  if (!anchor_j && !positive_definite(info_j, params.min_information)) return std::nullopt;  // P_j infinite
+  InformationPair message;
+  if (full_column_rank(paths.G)) {
+    const Mat2 A = paths.G.transpose() * paths.G / params.sigma2;  // A_ji = (σ²Σ_ji)⁻¹
+    const Vec2 nu = mean_j + (paths.G.transpose() * paths.G).ldlt().solve(paths.G.transpose() * paths.d);
+    // W_ji⁻¹ = A − A(A + Λ_j)⁻¹A = (A⁻¹ + Λ_j⁻¹)⁻¹ (§5.2); anchor: W⁻¹ = A.
+    message.information = anchor_j ? A : Mat2(A - A * (A + info_j).ldlt().solve(A));
+    message.information = 0.5 * (message.information + message.information.transpose());
+    message.info_vec = message.information * nu;  // eq. (4) numerator term
+    return message;
+  }
+  // General message (R = 1 or rank-deficient G): C = σ²I + G P_j Gᵀ.
+  const auto R = paths.G.rows();
+  MatX C = params.sigma2 * MatX::Identity(R, R);
+  if (!anchor_j) C += paths.G * info_j.inverse() * paths.G.transpose();
+  const Eigen::LDLT<MatX> ldlt(C);
+  message.information = paths.G.transpose() * ldlt.solve(paths.G);
+  message.info_vec = paths.G.transpose() * ldlt.solve(paths.d + paths.G * mean_j);
+  return message;
+}
+
+MultipathBp::MultipathBp(const AgentSetup& setup, const MultipathBpParams& params)
+    : setup_(setup), params_(params), mu_(setup.initial_guess_m), localized_(setup.anchor) {
+  if (!(params.sigma2 > 0.0)) throw std::invalid_argument("multipath_bp.sigma2: must be > 0");
+  if (!setup.initial_guess_m.allFinite())
+    throw std::invalid_argument("multipath_bp: initial guess is not finite");
+}
+
+Outbox MultipathBp::published() const {
+  BeliefMessage belief;
+  belief.iteration = iteration_;
+  belief.mean_m = mu_;
+  belief.information = Lambda_;
+  belief.infinite_information = setup_.anchor;
+  Outbox outbox;
+  outbox.belief = belief;
+  return outbox;
+}
+
+Outbox MultipathBp::initial_outbox() const { return published(); }
+
+StepOutput MultipathBp::step(const StepInput& input) {
+  StepOutput out;
+  if (input.measurements != nullptr && !input.measurements->paths.empty()) {
+    std::vector<AgentId> peers;
+    for (const auto& path : input.measurements->paths) {
+      if (path.peer != setup_.id && std::find(peers.begin(), peers.end(), path.peer) == peers.end()) {
+        peers.push_back(path.peer);
+      }
+    }
+    for (const AgentId peer : peers) {
+      links_[peer] = path_set(input.measurements->paths, peer, params_.los_threshold);
+    }
+  }
+  ++iteration_;
+  if (setup_.anchor || input.inbox == nullptr) {
+    out.outbox = published();
+    return out;
+  }
+  Mat2 information = Mat2::Zero();
+  Vec2 info_vec = Vec2::Zero();
+  for (const auto& received : input.inbox->beliefs) {
+    const auto link = links_.find(received.sender);
+    if (link == links_.end()) continue;
+    const BeliefMessage& b = received.message;
+    const auto message =
+        neighbour_message(link->second, b.mean_m, b.information, b.infinite_information, params_);
+    if (!message) {
+      ++out.diagnostics.neighbours_skipped;
+      continue;
+    }
+    information += message->information;  // eq. (3)
+    info_vec += message->info_vec;
+    ++out.diagnostics.neighbours_used;
+  }
+  Lambda_ = information;
+  if (positive_definite(information, params_.min_information)) {
+    mu_ = information.ldlt().solve(info_vec);  // eq. (4)
+    localized_ = true;
+    out.diagnostics.updated = true;
+  }
+  out.outbox = published();
+  return out;
+}
+
+Estimate MultipathBp::estimate() const {
+  Estimate estimate;
+  estimate.mean_m = mu_;
+  if (setup_.anchor) {
+    estimate.covariance = Mat2::Zero();
+  } else if (localized_ && positive_definite(Lambda_, params_.min_information)) {
+    estimate.covariance = Lambda_.inverse();
+  }
+  estimate.valid = setup_.anchor || localized_;
+  return estimate;
+}
+
+}  // namespace swarmloc::estimators::bp

@@ -1,0 +1,146 @@
+#include "swarmloc/estimators/consensus/dle.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace swarmloc::estimators::consensus {
+
+void validate(const DleParams& params) {
+  auto fail = [](const std::string& what) { throw std::invalid_argument("dle." + what); };
+  const Eigen::Index d = params.target_dim;
+  if (d < 1) fail("target_dim: must be >= 1");
+  if (params.F.size() != 0) {
+    if (params.F.rows() != d || params.F.cols() != d) fail("F: must be target_dim x target_dim");
+    if (params.W.rows() != d || params.W.cols() != d) fail("W: must be target_dim x target_dim");
+    if (!(params.initial_information > 0.0)) fail("initial_information: must be > 0 when tracking");
+  }
+  if (params.H.size() != 0 && (params.H.rows() != 2 || params.H.cols() != d))
+    fail("H: must be 2 x target_dim");
+  if (params.H.size() == 0 && d < 2) fail("H: required when target_dim < 2");
+  if (!(params.initial_information >= 0.0)) fail("initial_information: must be >= 0");
+}
+
+Dle::Dle(const AgentSetup& setup, const DleParams& params) : setup_(setup), params_(params) {
+  validate(params);
+  const Eigen::Index d = params.target_dim;
+  if (params.H.size() != 0) {
+    H_ = params.H;
+  } else {
+    H_ = MatX::Zero(2, d);
+    H_.leftCols(2).setIdentity();
+  }
+  omega_ = VecX::Zero(d);  // ω_{i,0} = 0 (§4.2)
+  Omega_ = params.initial_information * MatX::Identity(d, d);
+  y_ = VecX::Zero(d);
+}
+
+Outbox Dle::published() const {
+  Outbox outbox;
+  outbox.information = InformationMessage{params_.target, omega_, Omega_};
+  StateMessage state;
+  state.mean_m = setup_.initial_guess_m;
+  state.anchor = setup_.anchor;
+  state.degree = static_cast<std::uint16_t>(degree_);
+  outbox.state = state;
+  return outbox;
+}
+
+Outbox Dle::initial_outbox() const { return published(); }
+
+StepOutput Dle::step(const StepInput& input) {
+  StepOutput out;
+  const Eigen::Index d = params_.target_dim;
+  if (input.inbox != nullptr) {
+    for (const auto& received : input.inbox->states)
+      neighbour_degrees_[received.sender] = received.message.degree;
+  }
+  // Neighbour priors of this target (newest per sender, §4.5).
+  std::vector<const Received<InformationMessage>*> priors;
+  if (input.inbox != nullptr) {
+    for (const auto& received : input.inbox->information) {
+      const auto& m = received.message;
+      if (m.target != params_.target || m.info_vec.size() != d || m.info_mat.rows() != d ||
+          m.info_mat.cols() != d || !m.info_vec.allFinite() || !m.info_mat.allFinite()) {
+        ++out.diagnostics.neighbours_skipped;
+        continue;
+      }
+      priors.push_back(&received);
+    }
+  }
+  if (input.measurements != nullptr && !input.measurements->neighbours.empty()) {
+    degree_ = static_cast<int>(input.measurements->neighbours.size());
+  } else {
+    degree_ = std::max(degree_, static_cast<int>(priors.size()));
+  }
+  // Metropolis κ over the received set; missing neighbours dropped, then renormalized with self (§4.5).
+  std::vector<double> kappa;
+  double kappa_sum = 0.0;
+  for (const auto* received : priors) {
+    const auto it = neighbour_degrees_.find(received->sender);
+    const int degree_j = it != neighbour_degrees_.end() && it->second > 0 ? it->second : degree_;
+    kappa.push_back(metropolis_edge_weight(std::max(degree_, 1), std::max(degree_j, 1), params_.weights));
+    kappa_sum += kappa.back();
+  }
+  double self_weight = 1.0 - kappa_sum;
+  if (self_weight <= 0.0) {  // more senders than the declared degree: fall back to equal weights
+    kappa.assign(kappa.size(), 1.0 / static_cast<double>(kappa.size() + 1));
+    self_weight = 1.0 / static_cast<double>(kappa.size() + 1);
+  }
+  // 002 Algorithm 1: consensus on the priors, plus the local innovation.
+  VecX omega_plus = self_weight * omega_;
+  MatX Omega_plus = self_weight * Omega_;
+  for (std::size_t k = 0; k < priors.size(); ++k) {
+    omega_plus += kappa[k] * priors[k]->message.info_vec;
+    Omega_plus += kappa[k] * priors[k]->message.info_mat;
+  }
+  out.diagnostics.neighbours_used = static_cast<int>(priors.size());
+  if (input.measurements != nullptr) {
+    for (const TargetObservation& z : input.measurements->targets) {
+      if (z.target != params_.target || z.kind != 0) continue;
+      const Eigen::LLT<Mat2> V(z.covariance);
+      if (V.info() != Eigen::Success) continue;
+      const MatX Vinv_H = V.solve(H_);
+      omega_plus += Vinv_H.transpose() * z.value;  // H_iᵀV_i⁻¹z_i
+      Omega_plus += H_.transpose() * Vinv_H;       // H_iᵀV_i⁻¹H_i
+      out.diagnostics.updated = true;
+    }
+  }
+  Omega_plus = 0.5 * (Omega_plus + Omega_plus.transpose());
+  const Eigen::LDLT<MatX> ldlt(Omega_plus);
+  const Eigen::SelfAdjointEigenSolver<MatX> eig(Omega_plus, Eigen::EigenvaluesOnly);
+  const bool invertible = eig.eigenvalues().minCoeff() > 1e-12 * std::max(1.0, eig.eigenvalues().maxCoeff());
+  if (invertible) {
+    y_ = ldlt.solve(omega_plus);
+    has_estimate_ = true;
+  }
+  if (params_.F.size() == 0) {  // static target: no prediction
+    omega_ = omega_plus;
+    Omega_ = Omega_plus;
+  } else if (invertible) {  // [C-2]: predict from the updated Ω⁺
+    const MatX P = ldlt.solve(MatX::Identity(d, d));
+    MatX P_pred = params_.F * P * params_.F.transpose() + params_.W;
+    P_pred = 0.5 * (P_pred + P_pred.transpose());
+    Omega_ = P_pred.ldlt().solve(MatX::Identity(d, d));
+    Omega_ = 0.5 * (Omega_ + Omega_.transpose());
+    omega_ = Omega_ * (params_.F * y_);  // ω_{t+1} = Ω_{t+1} F ŷ_i(t+1)
+  } else {
+    omega_ = omega_plus;
+    Omega_ = Omega_plus;
+  }
+  out.outbox = published();
+  return out;
+}
+
+Estimate Dle::estimate() const {
+  Estimate estimate;
+  estimate.mean_m = setup_.initial_guess_m;
+  estimate.covariance = Mat2::Zero();
+  estimate.valid = true;
+  return estimate;
+}
+
+}  // namespace swarmloc::estimators::consensus

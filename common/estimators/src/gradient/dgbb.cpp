@@ -1,0 +1,331 @@
+#include "swarmloc/estimators/gradient/dgbb.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace swarmloc::estimators::gradient {
+namespace {
+
+constexpr double kMinCurvature = 1e-300;  // ALGORITHMS.md §6.2 [E-4]
+
+bool bb_step_valid(double rho, double psi, double alpha) {
+  return psi > kMinCurvature && std::isfinite(alpha) && alpha > 0.0 && std::isfinite(rho);
+}
+
+}  // namespace
+
+void validate(const DgBbParams& params) {
+  auto fail = [](const std::string& what) { throw std::invalid_argument("dgbb." + what); };
+  if (params.consensus_rounds < 0) fail("consensus_rounds: must be >= 0");
+  if (params.warmup_updates < 0) fail("warmup_updates: must be >= 0");
+  if (!(params.warmup_step > 0.0)) fail("warmup_step: must be > 0");
+  if (!(params.abs_tol >= 0.0)) fail("abs_tol: must be >= 0");
+  if (params.max_updates < 1) fail("max_updates: must be >= 1");
+  if (!(params.fixed_step > 0.0)) fail("fixed_step: must be > 0");
+  if (!(params.step_length > 0.0)) fail("step_length: must be > 0");
+  if (!(params.grad_scale == 1.0 || params.grad_scale == 2.0)) fail("grad_scale: must be 1 or 2");
+}
+
+DgBb::DgBb(const AgentSetup& setup, const DgBbParams& params)
+    : setup_(setup),
+      params_(params),
+      p_(setup.initial_guess_m),
+      p_prev_(Vec2::Zero()),  // convention p^(−1) = 0, D(p^(−1)) = 0 (used only if τ_wup = 0)
+      active_(!setup.anchor),
+      last_alpha_(std::numeric_limits<double>::quiet_NaN()),
+      last_valid_alpha_(params.warmup_step) {
+  validate(params);
+  if (!setup.initial_guess_m.allFinite()) throw std::invalid_argument("dgbb: initial guess is not finite");
+}
+
+std::string_view DgBb::name() const {
+  switch (params_.rule) {
+    case StepRule::kConsensusBb:
+      return "dgbb";
+    case StepRule::kLocalBb:
+      return "local_bb";
+    case StepRule::kFixed:
+      return "fixed_step";
+    case StepRule::kStepLength:
+      return "step_length";
+  }
+  return "dgbb";
+}
+
+Outbox DgBb::published(bool with_consensus) const {
+  Outbox outbox;
+  StateMessage state;
+  state.mean_m = p_;
+  state.covariance = Mat2::Zero();
+  state.anchor = setup_.anchor;
+  state.active = active();
+  state.degree = static_cast<std::uint16_t>(ranges_.size());
+  outbox.state = state;
+  if (with_consensus) outbox.consensus.push_back(ConsensusMessage{tau_, round_, {rho_, psi_}});
+  return outbox;
+}
+
+Outbox DgBb::initial_outbox() const { return published(false); }
+
+bool DgBb::direction(Vec2& D) const {
+  D = Vec2::Zero();
+  for (const auto& [peer, range] : ranges_) {
+    const auto it = neighbours_.find(peer);
+    if (it == neighbours_.end() || !it->second.have_state) return false;
+    const Vec2 delta = p_ - it->second.position;
+    D += (delta.squaredNorm() - range * range) * delta;  // g_ij (p_i − p_j), 004 eq. (13) [E-1]
+  }
+  D *= params_.grad_scale;
+  return true;
+}
+
+void DgBb::apply_update(const Vec2& D, double alpha) {
+  if (active_ && !setup_.anchor) {
+    const Vec2 next = p_ - alpha * D;  // 004 eq. (14)
+    const double correction = (next - p_).norm();
+    p_prev_ = p_;
+    p_ = next;
+    if (!(correction > params_.abs_tol)) active_ = false;  // [E-3]: new vs old iterate; [E-5]
+  } else {
+    p_prev_ = p_;
+  }
+  D_prev_ = D;
+  have_prev_ = true;
+  ++tau_;
+}
+
+void DgBb::consensus_round() {
+  // 004 eqs. (10)–(11) with Metropolis weights (ALGORITHMS.md §1.2); newest value per neighbour (§6.4).
+  const int own_degree = static_cast<int>(ranges_.size());
+  double rho = rho_;
+  double psi = psi_;
+  double self_weight = 1.0;
+  double rho_sum = 0.0;
+  double psi_sum = 0.0;
+  for (const auto& [peer, range] : ranges_) {
+    const auto it = neighbours_.find(peer);
+    const bool known = it != neighbours_.end();
+    const int degree = known && it->second.degree > 0 ? it->second.degree : own_degree;
+    const double w = consensus::metropolis_edge_weight(own_degree, degree, params_.weights);
+    self_weight -= w;
+    const bool have = known && it->second.have_consensus;
+    rho_sum += w * (have ? it->second.rho : rho);
+    psi_sum += w * (have ? it->second.psi : psi);
+  }
+  rho_ = self_weight * rho + rho_sum;
+  psi_ = self_weight * psi + psi_sum;
+}
+
+StepOutput DgBb::step(const StepInput& input) {
+  StepOutput out;
+  if (input.measurements != nullptr) {
+    for (const RangeMeasurement& m : input.measurements->ranges) {
+      if (m.peer != setup_.id && std::isfinite(m.range_m)) ranges_[m.peer] = m.range_m;
+    }
+  }
+  if (input.inbox != nullptr) {
+    for (const auto& received : input.inbox->states) {
+      Neighbour& n = neighbours_[received.sender];
+      if (!received.message.mean_m.allFinite()) continue;
+      n.position = received.message.mean_m;
+      n.degree = received.message.degree;
+      n.have_state = true;
+    }
+    for (const auto& received : input.inbox->consensus) {
+      if (received.message.values.size() < 2) continue;
+      Neighbour& n = neighbours_[received.sender];
+      n.rho = received.message.values[0];
+      n.psi = received.message.values[1];
+      n.have_consensus = true;
+    }
+  }
+  out.diagnostics.neighbours_used = static_cast<int>(ranges_.size());
+  if (tau_ >= params_.max_updates || ranges_.empty()) {
+    out.outbox = published(false);
+    return out;
+  }
+
+  Vec2 D;
+  if (phase_ == Phase::kWaiting) {  // §6.4: start only once every neighbour has been heard from
+    if (!direction(D)) {
+      out.outbox = published(false);
+      return out;
+    }
+    phase_ = params_.warmup_updates > 0 ? Phase::kWarmup : Phase::kRound;
+    round_ = 0;
+  }
+
+  if (phase_ == Phase::kWarmup) {  // ALGORITHMS.md §6.2 step 1
+    direction(D);
+    apply_update(D, params_.warmup_step);
+    out.diagnostics.updated = true;
+    if (tau_ >= params_.warmup_updates) phase_ = Phase::kRound;
+    out.outbox = published(false);
+    return out;
+  }
+
+  const bool consensus = params_.rule == StepRule::kConsensusBb && params_.consensus_rounds > 0;
+  if (!consensus) {
+    // Baselines (and DG-BB with T = 0 = local BB): one STATE exchange per update (§6.5).
+    if (!direction(D)) D = Vec2::Zero();
+    double alpha = params_.fixed_step;
+    if (params_.rule == StepRule::kConsensusBb || params_.rule == StepRule::kLocalBb) {
+      const Vec2 dp = p_ - p_prev_;
+      const Vec2 dD = D - D_prev_;
+      const double rho = dp.squaredNorm();
+      const double psi = dp.dot(dD);
+      alpha = rho / psi;  // 004 eq. (15)
+      if (params_.curvature_safeguard && !bb_step_valid(rho, psi, alpha)) {
+        alpha = have_valid_alpha_ ? last_valid_alpha_ : params_.warmup_step;  // [E-4]
+        ++safeguard_count_;
+      } else if (bb_step_valid(rho, psi, alpha)) {
+        last_valid_alpha_ = alpha;
+        have_valid_alpha_ = true;
+      }
+    } else if (params_.rule == StepRule::kStepLength) {
+      const double tau = static_cast<double>(std::max<std::int64_t>(tau_, 1));
+      double k = params_.step_length;
+      if (params_.schedule == StepLengthSchedule::kOverTau) k /= tau;
+      if (params_.schedule == StepLengthSchedule::kOverSqrtTau) k /= std::sqrt(tau);
+      const double norm = D.norm();
+      alpha = norm > 0.0 ? k / norm : 0.0;
+    }
+    if (active_) last_alpha_ = alpha;
+    apply_update(D, alpha);
+    out.diagnostics.updated = true;
+    out.outbox = published(false);
+    return out;
+  }
+
+  if (round_ == 0) {  // 004 eqs. (8)–(9)
+    if (!direction(D)) D = D_prev_;
+    D_cur_ = D;
+    const Vec2 dp = p_ - p_prev_;
+    rho_ = dp.squaredNorm();
+    psi_ = dp.dot(D_cur_ - D_prev_);
+    out.outbox = published(true);
+    round_ = 1;
+    return out;
+  }
+  consensus_round();
+  if (round_ < params_.consensus_rounds) {
+    out.outbox = published(true);
+    ++round_;
+    return out;
+  }
+  // Round T: α_i = ρ_i(T)/ψ_i(T) (004 eq. (12)) with the [E-4] safeguard, then eq. (14).
+  double alpha = rho_ / psi_;
+  if (!bb_step_valid(rho_, psi_, alpha)) {
+    if (params_.curvature_safeguard) {
+      alpha = have_valid_alpha_ ? last_valid_alpha_ : params_.warmup_step;
+      if (active_) ++safeguard_count_;
+    }
+  } else {
+    last_valid_alpha_ = alpha;
+    have_valid_alpha_ = true;
+  }
+  if (active_) last_alpha_ = alpha;
+  apply_update(D_cur_, alpha);
+  out.diagnostics.updated = true;
+  round_ = 0;
+  out.outbox = published(false);
+  return out;
+}
+
+Estimate DgBb::estimate() const {
+  Estimate estimate;
+  estimate.mean_m = p_;
+  estimate.covariance = Mat2::Zero();  // a point estimate: no covariance is computed
+  estimate.valid = setup_.anchor || tau_ > 0;
+  return estimate;
+}
+
+// ---- Centralized reference ----
+std::vector<Vec2> direction(const RangeProblem& problem, const std::vector<Vec2>& p, double grad_scale) {
+  std::vector<Vec2> D(p.size(), Vec2::Zero());
+  for (const RangeEdge& e : problem.edges) {
+    const auto i = static_cast<std::size_t>(e.i);
+    const auto j = static_cast<std::size_t>(e.j);
+    const Vec2 delta = p[i] - p[j];
+    const double g = delta.squaredNorm() - e.range_m * e.range_m;
+    D[i] += g * delta;
+    D[j] -= g * delta;
+  }
+  for (std::size_t i = 0; i < p.size(); ++i)
+    D[i] = problem.anchor[i] ? Vec2::Zero() : Vec2(grad_scale * D[i]);
+  return D;
+}
+
+double objective(const RangeProblem& problem, const std::vector<Vec2>& p) {
+  double f = 0.0;
+  for (const RangeEdge& e : problem.edges) {
+    const double g = (p[static_cast<std::size_t>(e.i)] - p[static_cast<std::size_t>(e.j)]).squaredNorm() -
+                     e.range_m * e.range_m;
+    f += 0.5 * g * g;
+  }
+  return f;
+}
+
+double centralized_bb_step(const std::vector<Vec2>& dp, const std::vector<Vec2>& dD) {
+  double rho = 0.0;
+  double psi = 0.0;
+  for (std::size_t i = 0; i < dp.size(); ++i) {
+    rho += dp[i].squaredNorm();
+    psi += dp[i].dot(dD[i]);
+  }
+  return rho / psi;  // 004 eq. (5)
+}
+
+CentralizedBbResult centralized_bb(const RangeProblem& problem, const DgBbParams& params) {
+  validate(params);
+  const std::size_t n = problem.initial.size();
+  std::vector<Vec2> p = problem.initial;
+  std::vector<Vec2> p_prev(n, Vec2::Zero());
+  std::vector<Vec2> D_prev(n, Vec2::Zero());
+  std::vector<bool> active(n);
+  for (std::size_t i = 0; i < n; ++i) active[i] = !problem.anchor[i];
+  CentralizedBbResult result;
+  double last_valid = params.warmup_step;
+  auto any_active = [&] {
+    for (const bool a : active) {
+      if (a) return true;
+    }
+    return false;
+  };
+  while (result.updates < params.max_updates && any_active()) {
+    const std::vector<Vec2> D = direction(problem, p, params.grad_scale);
+    double alpha = params.warmup_step;
+    if (result.updates >= params.warmup_updates) {
+      std::vector<Vec2> dp(n);
+      std::vector<Vec2> dD(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        dp[i] = p[i] - p_prev[i];
+        dD[i] = D[i] - D_prev[i];
+      }
+      alpha = centralized_bb_step(dp, dD);
+      if (!(std::isfinite(alpha) && alpha > 0.0)) {
+        if (params.curvature_safeguard) alpha = last_valid;  // [E-4]
+      } else {
+        last_valid = alpha;
+      }
+      result.steps.push_back(alpha);
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      p_prev[i] = p[i];
+      if (!active[i]) continue;
+      const Vec2 next = p[i] - alpha * D[i];
+      if (!((next - p[i]).norm() > params.abs_tol)) active[i] = false;
+      p[i] = next;
+    }
+    D_prev = D;
+    ++result.updates;
+  }
+  result.positions = std::move(p);
+  return result;
+}
+
+}  // namespace swarmloc::estimators::gradient

@@ -1,0 +1,72 @@
+#include <gtest/gtest.h>
+
+#include "eigen_gtest.hpp"
+#include "swarmloc/estimators/consensus/dle.hpp"
+
+namespace swarmloc::estimators::consensus {
+namespace {
+
+TEST(Dle, OneStepCombinesPriorsWithMetropolisWeightsAndAddsTheObservation) {
+  DleParams params;
+  params.target_dim = 2;
+  AgentSetup setup;
+  setup.id = 0;
+  Dle node(setup, params);
+  // Node 0 has degree 1; neighbour 1 has degree 3: κ_01 = 1/(1 + 3) = 0.25, κ_00 = 0.75.
+  Inbox inbox;
+  StateMessage state;
+  state.degree = 3;
+  inbox.states.push_back({1, 0, state});
+  inbox.information.push_back({1, 0, InformationMessage{0, Vec2(4.0, 8.0), Mat2(4.0 * Mat2::Identity())}});
+  MeasurementBatch batch;
+  batch.neighbours = {1};
+  batch.targets = {TargetObservation{0, Vec2(1.0, 2.0), Mat2(0.5 * Mat2::Identity()), 0}};
+  node.step(StepInput{0, &batch, &inbox});
+  // ω⁺ = 0.25·(4, 8) + 2·(1, 2) = (3, 6); Ω⁺ = 0.25·4 I + 2 I = 3 I; ŷ = (1, 2).
+  EXPECT_MATRIX_NEAR(node.info_vec(), VecX(Vec2(3.0, 6.0)), 1e-12);
+  EXPECT_MATRIX_NEAR(node.info_mat(), MatX(3.0 * Mat2::Identity()), 1e-12);
+  ASSERT_TRUE(node.has_target_estimate());
+  EXPECT_MATRIX_NEAR(node.target_estimate(), VecX(Vec2(1.0, 2.0)), 1e-12);
+}
+
+TEST(Dle, MissingNeighbourIsDroppedAndTheWeightReturnsToSelf) {  // §4.5
+  DleParams params;
+  AgentSetup setup;
+  Dle node(setup, params);
+  MeasurementBatch batch;
+  batch.neighbours = {1, 2};
+  batch.targets = {TargetObservation{0, Vec2(1.0, 1.0), Mat2::Identity(), 0}};
+  Inbox inbox;  // nothing received: the prior is kept whole (κ_ii = 1)
+  node.step(StepInput{0, &batch, &inbox});
+  node.step(StepInput{1, &batch, &inbox});
+  EXPECT_MATRIX_NEAR(node.info_mat(), MatX(2.0 * Mat2::Identity()), 1e-12);
+}
+
+TEST(Dle, TrackingPredictionUsesTheUpdatedInformation) {  // [C-2]
+  DleParams params;
+  params.target_dim = 2;
+  params.F = 2.0 * MatX::Identity(2, 2);
+  params.W = MatX::Identity(2, 2);
+  params.initial_information = 1e-6;
+  AgentSetup setup;
+  Dle node(setup, params);
+  MeasurementBatch batch;
+  batch.targets = {TargetObservation{0, Vec2(1.0, -1.0), Mat2::Identity(), 0}};
+  Inbox inbox;
+  node.step(StepInput{0, &batch, &inbox});
+  // Ω⁺ = (1 + 1e−6) I; P⁺ = I/(1 + 1e−6); Ω_1 = (4 P⁺ + I)⁻¹; ω_1 = Ω_1 F ŷ.
+  const double p = 1.0 / (1.0 + 1e-6);
+  const double omega = 1.0 / (4.0 * p + 1.0);
+  EXPECT_MATRIX_NEAR(node.info_mat(), MatX(omega * Mat2::Identity()), 1e-12);
+  EXPECT_MATRIX_NEAR(node.info_vec(), VecX(omega * 2.0 * p * Vec2(1.0, -1.0)), 1e-12);
+}
+
+TEST(Dle, RejectsMismatchedDimensions) {
+  DleParams params;
+  params.target_dim = 3;
+  params.H = MatX::Identity(2, 2);
+  EXPECT_THROW(validate(params), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace swarmloc::estimators::consensus
