@@ -205,6 +205,25 @@ TEST(DgBb, DirectionIsHalfTheGradient) {  // [E-1]: D = ½∇f, checked by centr
   }
 }
 
+TEST(DgBb, StepCapBoundsEveryLocalBbStep) {  // max_step (not in the source)
+  const Lattice lattice(4, 0.05, 3);
+  DgBbParams params;
+  params.rule = StepRule::kLocalBb;
+  params.max_step = 0.5;
+  auto agents = lattice.agents(params);
+  Mailboxes bus(lattice.adjacency);
+  for (std::size_t i = 0; i < agents.size(); ++i) bus.deliver(i, -1, agents[i]->initial_outbox());
+  double largest = 0.0;
+  for (int step = 0; step < 40; ++step) {
+    bus.round(agents, step, step == 0 ? &lattice.batches : nullptr);
+    for (std::size_t i = 0; i < agents.size(); ++i) {
+      if (!lattice.problem.anchor[i] && step > 0) largest = std::max(largest, agents[i]->last_step());
+    }
+  }
+  EXPECT_LE(largest, 0.5);
+  EXPECT_GT(largest, 0.0);
+}
+
 TEST(DgBb, RejectsInvalidParameters) {
   DgBbParams params;
   params.consensus_rounds = -1;

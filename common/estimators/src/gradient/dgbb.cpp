@@ -28,6 +28,7 @@ void validate(const DgBbParams& params) {
   if (!(params.fixed_step > 0.0)) fail("fixed_step: must be > 0");
   if (!(params.step_length > 0.0)) fail("step_length: must be > 0");
   if (!(params.grad_scale == 1.0 || params.grad_scale == 2.0)) fail("grad_scale: must be 1 or 2");
+  if (!(params.max_step > 0.0)) fail("max_step: must be > 0");
 }
 
 DgBb::DgBb(const AgentSetup& setup, const DgBbParams& params)
@@ -181,11 +182,12 @@ StepOutput DgBb::step(const StepInput& input) {
       alpha = rho / psi;  // 004 eq. (15)
       if (params_.curvature_safeguard && !bb_step_valid(rho, psi, alpha)) {
         alpha = have_valid_alpha_ ? last_valid_alpha_ : params_.warmup_step;  // [E-4]
-        ++safeguard_count_;
+        if (active_) ++safeguard_count_;
       } else if (bb_step_valid(rho, psi, alpha)) {
         last_valid_alpha_ = alpha;
         have_valid_alpha_ = true;
       }
+      alpha = std::min(alpha, params_.max_step);
     } else if (params_.rule == StepRule::kStepLength) {
       const double tau = static_cast<double>(std::max<std::int64_t>(tau_, 1));
       double k = params_.step_length;
@@ -228,6 +230,7 @@ StepOutput DgBb::step(const StepInput& input) {
     last_valid_alpha_ = alpha;
     have_valid_alpha_ = true;
   }
+  alpha = std::min(alpha, params_.max_step);
   if (active_) last_alpha_ = alpha;
   apply_update(D_cur_, alpha);
   out.diagnostics.updated = true;
@@ -312,6 +315,7 @@ CentralizedBbResult centralized_bb(const RangeProblem& problem, const DgBbParams
       } else {
         last_valid = alpha;
       }
+      alpha = std::min(alpha, params.max_step);
       result.steps.push_back(alpha);
     }
     for (std::size_t i = 0; i < n; ++i) {

@@ -2,6 +2,7 @@
 // Distributed gradient localization with a consensus Barzilai–Borwein step (004, ALGORITHMS.md §6) and its
 // baselines: local BB (T = 0), fixed step, specified step length; centralized BB as a plain function.
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <string_view>
 #include <vector>
@@ -31,7 +32,10 @@ struct DgBbParams {
   double step_length = 10.0;          ///< k̄ for kStepLength
   StepLengthSchedule schedule = StepLengthSchedule::kOverSqrtTau;
   bool curvature_safeguard = true;  ///< [E-4]
-  double grad_scale = 1.0;          ///< [E-1]: 1 = D_i = ½∇_i f, 2 = ∇_i f
+  /// Upper bound on any BB step (not in the source; default ∞ = off). Local BB diverges without it on the
+  /// Example 2 lattice: a near-zero positive ψ_i gives a huge α_i and the quartic cost explodes.
+  double max_step = std::numeric_limits<double>::infinity();
+  double grad_scale = 1.0;  ///< [E-1]: 1 = D_i = ½∇_i f, 2 = ∇_i f
   consensus::MetropolisRule weights = consensus::MetropolisRule::kPlusOne;
 };
 
@@ -66,7 +70,7 @@ class DgBb final : public Estimator {
   [[nodiscard]] std::int64_t updates() const { return tau_; }
   /// α used in the last update (NaN before the first BB update).
   [[nodiscard]] double last_step() const { return last_alpha_; }
-  /// How often the [E-4] safeguard replaced α.
+  /// How often the [E-4] safeguard replaced α at this (active, non-anchor) node.
   [[nodiscard]] int safeguard_count() const { return safeguard_count_; }
   /// Current consensus values (ρ_i(t), ψ_i(t)) and round t (DG-BB only).
   [[nodiscard]] double rho() const { return rho_; }
