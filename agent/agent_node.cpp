@@ -15,6 +15,7 @@
 
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/sim/agent_runtime.hpp"
+#include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/sim/world.hpp"
 
@@ -71,6 +72,7 @@ class AgentProcess {
                  world.neighbours.at(static_cast<std::size_t>(options.id)), sim::make_runtime_params(scenario)),
         transport_(scenario, dds::Topology{options.id, world.size(), world.neighbours.at(static_cast<std::size_t>(options.id))}),
         neighbour_count_(static_cast<int>(world.neighbours.at(static_cast<std::size_t>(options.id)).size())),
+        sensor_only_(sim::is_centralized(scenario.algorithm.name)),
         started_(std::chrono::steady_clock::now()) {}
 
   int run() {
@@ -78,8 +80,9 @@ class AgentProcess {
     // The timer runs on the agent's own clock: a local period lasts period/(1+drift) in real time.
     const auto period = std::chrono::duration<double>(clock_.mono_duration(period_local_s));
     publish(runtime_.initial_publication(local_stamp_ns()));
-    logger_->info("started: {} neighbours, clock offset {:+.3f} s drift {:+.1f} ppm", neighbour_count_,
-                  clock_.offset_s, clock_.drift_ppm);
+    logger_->info("started: {} neighbours, clock offset {:+.3f} s drift {:+.1f} ppm{}", neighbour_count_,
+                  clock_.offset_s, clock_.drift_ppm,
+                  sensor_only_ ? " (sensor only: the fusion centre estimates)" : "");
 
     auto next_tick = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
     auto last_hello = std::chrono::steady_clock::now() - std::chrono::seconds(10);
@@ -107,7 +110,15 @@ class AgentProcess {
         next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
         continue;
       }
-      if (after >= next_tick) {
+      if (sensor_only_) {
+        // Centralized algorithm: the fusion centre estimates and reports every agent. Keep saying hello
+        // (steps_run = 0, so these never replace the fusion centre's reports) and run no estimator.
+        if (after - last_hello > std::chrono::seconds(1)) {
+          last_hello = after;
+          transport_.publish_estimate(runtime_.report(local_stamp_ns(), process_cpu_s()));
+        }
+        next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+      } else if (after >= next_tick) {
         next_tick += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
         if (next_tick < after) next_tick = after;  // overran: do not burst to catch up
         tick();
@@ -188,6 +199,7 @@ class AgentProcess {
   sim::AgentRuntime runtime_;
   dds::AgentTransport transport_;
   int neighbour_count_ = 0;
+  bool sensor_only_ = false;  ///< centralized algorithm: batches only, no estimator steps
   bool started_run_ = false;
   std::chrono::steady_clock::time_point started_;
 };

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "agent_node.hpp"
+#include "fusion_center.hpp"
 #include "orchestrator.hpp"
 #include "reproduce.hpp"
 #include "swarmloc/config/scenario.hpp"
@@ -77,7 +78,12 @@ int main(int argc, char** argv) {
   auto* agent = app.add_subcommand("agent", "Run one agent process (what `run` starts N times; also for containers).");
   swarmloc::agent::AgentOptions agent_options;
   agent->add_option("--scenario", agent_options.scenario_path, "Scenario YAML (the run directory's scenario.yaml)")->required();
-  agent->add_option("--id", agent_options.id, "Agent id in [0, world.agents)")->required();
+  std::string agent_role = "agent";
+  agent->add_option("--role", agent_role,
+                    "agent: one agent (needs --id); fusion: the fusion centre of a centralized algorithm "
+                    "(ekf, lbekf, lbekf_vr, lbekf_i)")
+      ->check(CLI::IsMember({"agent", "fusion"}));
+  auto* agent_id = agent->add_option("--id", agent_options.id, "Agent id in [0, world.agents) (role agent)");
   agent->add_option("--set", agent_options.overrides, "Override a scenario key (repeatable)");
   agent->add_option("--log", agent_options.log_path, "Log file (default: stderr)");
   agent->add_flag("--hostile", agent_options.hostile, "Publish NaN / non-PSD / absurd states (robustness tests)");
@@ -120,7 +126,21 @@ int main(int argc, char** argv) {
     swarmloc::orchestrator::SimCommandOptions options{scenario_path, overrides, out_dir, !quiet, trials, threads};
     return swarmloc::orchestrator::run_sim_command(options);
   }
-  if (agent->parsed()) return swarmloc::agent::run_agent(agent_options);
+  if (agent->parsed()) {
+    if (agent_role == "fusion") {
+      if (agent_id->count() > 0 || agent_options.hostile) {
+        std::fprintf(stderr, "error: --role fusion takes no --id or --hostile\n");
+        return 2;
+      }
+      return swarmloc::agent::run_fusion_center(
+          swarmloc::agent::FusionOptions{agent_options.scenario_path, agent_options.overrides, agent_options.log_path});
+    }
+    if (agent_id->count() == 0) {
+      std::fprintf(stderr, "error: --id is required for --role agent\n");
+      return 2;
+    }
+    return swarmloc::agent::run_agent(agent_options);
+  }
   if (reproduce->parsed()) {
     reproduce_options.out_dir = reproduce_out;
     return swarmloc::orchestrator::run_reproduce(reproduce_options);

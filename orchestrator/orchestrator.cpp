@@ -14,6 +14,7 @@
 
 #include "launcher.hpp"
 #include "swarmloc/dds/transport.hpp"
+#include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/sim/world.hpp"
 
@@ -64,6 +65,7 @@ class Orchestrator {
         options_(std::move(options)),
         run_dir_(std::move(run_dir)),
         world_(sim::build_world(scenario_)),
+        centralized_(sim::is_centralized(scenario_.algorithm.name)),
         progress_(options_.progress) {}
 
   int run() {
@@ -80,8 +82,9 @@ class Orchestrator {
 
     dds::OrchestratorTransport transport(scenario_, n);
     if (options_.launch_agents) launch_agents();
-    spdlog::info("run directory {}: {} agents ({} anchors, mean degree {:.1f}), {} steps at {} Hz", run_dir_.string(), n,
-                 record_.anchors, record_.mean_degree, scenario_.run.steps, scenario_.run.rate_hz);
+    spdlog::info("run directory {}: {} agents ({} anchors, mean degree {:.1f}), {} steps at {} Hz{}", run_dir_.string(), n,
+                 record_.anchors, record_.mean_degree, scenario_.run.steps, scenario_.run.rate_hz,
+                 centralized_ ? " (" + scenario_.algorithm.name + " in a fusion centre)" : std::string());
 
     const bool ready = wait_for_agents(transport, started);
     bool failed = !ready;
@@ -127,6 +130,12 @@ class Orchestrator {
       }
       launcher_.launch(argv, log + ".out");
     }
+    if (centralized_) {
+      // Launched last, so the agents keep launcher indices 0 … N−1 (their summaries' exit codes).
+      const auto log = (run_dir_ / "logs" / "fusion_center.log").string();
+      launcher_.launch({options_.agent_binary, "agent", "--role", "fusion", "--scenario", scenario_file, "--log", log},
+                       log + ".out");
+    }
   }
 
   /// Waits until every agent has said hello (its first estimate report). False on timeout / interrupt.
@@ -137,15 +146,16 @@ class Orchestrator {
       collect(transport, 0.1);
       const int reporting = count_reporting();
       progress_.update("[" + std::to_string(static_cast<int>(seconds_since(started))) + "s] waiting for agents: " +
-                       std::to_string(reporting) + "/" + std::to_string(n) + " reporting");
-      if (reporting == n) break;
+                       std::to_string(reporting) + "/" + std::to_string(n) + " reporting" +
+                       (centralized_ ? (fusion_ready_ ? ", fusion centre up" : ", fusion centre not yet") : ""));
+      if (reporting == n && (!centralized_ || fusion_ready_)) break;
       if (options_.launch_agents && launcher_.poll() < launcher_.size()) {
         spdlog::error("an agent process exited during start-up; see {}/logs", run_dir_.string());
         return false;
       }
       if (Clock::now() > deadline) {
-        spdlog::error("only {}/{} agents reported within run.startup_timeout_s = {} s", reporting, n,
-                      scenario_.run.startup_timeout_s);
+        spdlog::error("only {}/{} agents{} reported within run.startup_timeout_s = {} s", reporting, n,
+                      centralized_ && !fusion_ready_ ? " (and not the fusion centre)" : "", scenario_.run.startup_timeout_s);
         return false;
       }
     }
@@ -189,6 +199,10 @@ class Orchestrator {
   void collect(dds::OrchestratorTransport& transport, double timeout_s) {
     for (auto& report : transport.wait_and_take_estimates(std::max(0.0, timeout_s))) {
       const AgentId id = report.header.agent_id;
+      if (id == dds::kFusionCenterId) {
+        fusion_ready_ = true;  // the fusion centre's hello; its estimates carry each agent's id
+        continue;
+      }
       if (id < 0 || id >= world_.size()) continue;  // unknown agent id: not scored
       auto& slot = reports_[static_cast<std::size_t>(id)];
       if (slot && report.steps_run < slot->steps_run) continue;  // older than what we hold
@@ -227,6 +241,18 @@ class Orchestrator {
       record_.metrics.pop_back();
       while (!record_.estimates.empty() && record_.estimates.back().step == last_step) record_.estimates.pop_back();
       score_step(last_step);
+      if (centralized_) {
+        // E-A2's total MSE (ALGORITHMS.md §2.8): every agent, beacons included, at the final step.
+        std::vector<std::optional<estimators::Estimate>> scored(latest_.size());
+        for (std::size_t i = 0; i < latest_.size(); ++i) {
+          if (reports_[i] && reports_[i]->steps_run > 0) scored[i] = latest_[i];
+        }
+        record_.extra["final_total_mse_m2"] = sim::total_squared_error(world_.truth, scored);
+        record_.extra["fusion_center"] = {{"filter", scenario_.algorithm.name},
+                                          {"bandwidth", sim::kCentralizedBandwidth},
+                                          {"estimated_agents", std::count_if(scored.begin(), scored.end(),
+                                                                             [](const auto& e) { return e.has_value(); })}};
+      }
     }
     for (AgentId i = 0; i < world_.size(); ++i) {
       sim::AgentSummary summary;
@@ -247,6 +273,8 @@ class Orchestrator {
   RunOptions options_;
   std::filesystem::path run_dir_;
   sim::World world_;
+  bool centralized_ = false;   ///< the algorithm runs in a fusion-centre process
+  bool fusion_ready_ = false;  ///< the fusion centre has said hello
   Progress progress_;
   ProcessLauncher launcher_;
   sim::RunRecord record_;

@@ -5,13 +5,17 @@
 //   agent i        index i % 100, Base 7400 + 200 * (i / 100)  -> discovery port 7410 + 2 i      (+250 d)
 //   orchestrator   "slot N" (N = agent count): index N % 100,
 //                  Base 7400 + 200 * (N / 100)                -> discovery port 7410 + 2 N      (+250 d)
+//   fusion centre  "slot N + 1" (centralized algorithms only)    -> discovery port 7410 + 2 (N + 1) (+250 d)
 // The orchestrator takes the slot right after the last agent, so a run uses one contiguous block of
-// 2 (N + 1) ports; for N <= 124 the blocks of different domain ids never overlap.
+// 2 (N + 1) ports (2 (N + 2) with a fusion centre); for N <= 123 the blocks of different domain ids
+// never overlap. The fusion centre talks to the orchestrator only: its one peer is the orchestrator,
+// and the orchestrator of a centralized run lists it besides the agents.
 #include <cstdlib>
 #include <sstream>
 #include <string>
 
 #include "swarmloc/dds/transport.hpp"
+#include "swarmloc/sim/centralized_runner.hpp"
 
 namespace swarmloc::dds {
 
@@ -60,6 +64,7 @@ int discovery_port(int slot, int domain_id) {
 std::string cyclone_config(const config::Scenario& scenario, const Topology& topology) {
   const auto& dds = scenario.dds;
   const bool orchestrator = topology.self == kOrchestratorId;
+  const bool fusion_center = topology.self == kFusionCenterId;
   const int agent_count = topology.agent_count > 0 ? topology.agent_count : 0;
   const std::string interface = xml_escape(dds.interface);
   const std::string address = xml_escape(dds.peer_address);
@@ -69,7 +74,7 @@ std::string cyclone_config(const config::Scenario& scenario, const Topology& top
   if (dds.neighbour_discovery) {
     xml << "<General><Interfaces><NetworkInterface name=\""
         << interface << "\"/></Interfaces><AllowMulticast>false</AllowMulticast></General>";
-    const int slot = orchestrator ? agent_count : topology.self;
+    const int slot = orchestrator ? agent_count : fusion_center ? agent_count + 1 : topology.self;
     xml << "<Discovery><ParticipantIndex>" << slot_index(slot) << "</ParticipantIndex>";
     xml << "<Ports><Base>" << slot_base(slot) << "</Base></Ports>";
     xml << "<Peers>";
@@ -77,6 +82,12 @@ std::string cyclone_config(const config::Scenario& scenario, const Topology& top
       for (int agent = 0; agent < agent_count; ++agent) {
         xml << "<Peer address=\"" << address << ':' << discovery_port(agent, dds.domain_id) << "\"/>";
       }
+      if (sim::is_centralized(scenario.algorithm.name)) {
+        xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count + 1, dds.domain_id)
+            << "\"/>";
+      }
+    } else if (fusion_center) {
+      xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count, dds.domain_id) << "\"/>";
     } else {
       for (const AgentId neighbour : topology.neighbours) {
         if (neighbour == topology.self || neighbour < 0) {

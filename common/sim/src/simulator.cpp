@@ -9,11 +9,14 @@
 #include <thread>
 
 #include "swarmloc/sim/agent_runtime.hpp"
+#include "swarmloc/sim/centralized_runner.hpp"
 
 namespace swarmloc::sim {
 
 std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& s, const World& world,
                                                             AgentId id) {
+  // Centralized algorithms run in the fusion centre; their agents are sensors only.
+  if (is_centralized(s.algorithm.name)) return make_sensor_only_estimator(world.setup_of(id), s.algorithm.initial_std_m);
   estimators::KalmanFamilyParams params;
   params.process_noise_std_m = s.algorithm.process_noise_std_m;
   params.initial_information = s.algorithm.initial_information;
@@ -31,6 +34,7 @@ AgentRuntimeParams make_runtime_params(const config::Scenario& s, std::uint64_t 
 }
 
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options) {
+  if (is_centralized(scenario.algorithm.name)) return run_centralized_simulation(scenario, options);
   const auto started = std::chrono::steady_clock::now();
   World world = build_world(scenario, options.trial);
   const int n = world.size();

@@ -16,9 +16,13 @@ class DdsError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The fusion centre's participant id (Topology::self) and the agent id of its hello reports, which
+/// tell the orchestrator it is up (its estimates carry each agent's own id).
+inline constexpr AgentId kFusionCenterId = -2;
+
 /// Who this participant is and whom it must discover.
 struct Topology {
-  AgentId self = kOrchestratorId;           ///< kOrchestratorId for the orchestrator
+  AgentId self = kOrchestratorId;           ///< kOrchestratorId / kFusionCenterId for those roles
   int agent_count = 0;
   std::vector<AgentId> neighbours;          ///< agent: its neighbours; orchestrator: ignored (all agents)
 };
@@ -26,6 +30,8 @@ struct Topology {
 /// The Cyclone XML for this participant: loopback/interface, multicast off and a Peers list of the
 /// neighbours + orchestrator when scenario.dds.neighbour_discovery is on (agent i's discovery port is
 /// 7410 + 2i; index i % 100 with Ports/Base shifted per block of 100 — reference/discovery.md).
+/// The orchestrator takes slot N; for a centralized algorithm the fusion centre takes slot N + 1, lists
+/// only the orchestrator as its peer, and the orchestrator lists it too.
 std::string cyclone_config(const config::Scenario& scenario, const Topology& topology);
 
 /// One inbound inter-agent sample before loss injection and validation (those belong to the runtime).
@@ -92,6 +98,43 @@ class OrchestratorTransport {
 
   /// Agents whose estimate writer is matched.
   [[nodiscard]] int matched_agents() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// One agent's measurement batch as the fusion centre takes it.
+struct FusionBatch {
+  AgentId agent = 0;  ///< the batch's recipient (its topic key)
+  sim::Header header;
+  estimators::MeasurementBatch batch;
+};
+
+struct FusionInbound {
+  std::vector<FusionBatch> batches;
+  std::vector<sim::ControlMessage> control;
+};
+
+/// Fusion-centre side (centralized algorithms, ALGORITHMS.md §2.7): reads the measurement batches of
+/// every agent (partitions m0 … m<N−1>) and control; writes Estimate samples for every agent (partition
+/// "est", header.agent_id = the agent the estimate is for).
+class FusionTransport {
+ public:
+  FusionTransport(const config::Scenario& scenario, int agent_count);
+  ~FusionTransport();
+  FusionTransport(const FusionTransport&) = delete;
+  FusionTransport& operator=(const FusionTransport&) = delete;
+
+  void publish_estimate(const sim::EstimateReport& report);
+
+  /// Blocks up to timeout_s (or until data arrives), then takes everything available. Malformed
+  /// batches and batches for agents outside [0, N) are dropped and counted.
+  FusionInbound wait_and_take(double timeout_s);
+  [[nodiscard]] std::uint64_t dropped_malformed() const;
+
+  /// True once the orchestrator's measurement writers are matched (all N of them).
+  [[nodiscard]] bool orchestrator_matched() const;
 
  private:
   struct Impl;

@@ -17,6 +17,7 @@ struct SimOptions {
 
 /// Runs `scenario` in synchronous rounds: at round k every agent receives its world-step-k batch and
 /// the samples its neighbours published in round k−1, then steps. Deterministic in the seed.
+/// Centralized algorithms (ekf, lbekf*) delegate to run_centralized_simulation (centralized_runner.hpp).
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options = {});
 
 /// Per-step statistics across Monte Carlo trials (mean and standard deviation over trials).
@@ -47,7 +48,9 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
 /// Writes montecarlo.csv (per-step mean and spread) and trials.csv into `directory`.
 void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result);
 
-/// Builds the estimator for agent `id` of `world` from the scenario's algorithm settings.
+/// Builds the estimator for agent `id` of `world` from the scenario's algorithm settings. For a
+/// centralized algorithm (is_centralized, centralized_runner.hpp) the agent is a sensor only: a
+/// placeholder that publishes nothing and reports its prior.
 std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& scenario, const World& world,
                                                             AgentId id);
 /// Runtime parameters (seed, loss, plausibility bounds) for the scenario.

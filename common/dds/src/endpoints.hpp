@@ -1,0 +1,142 @@
+#pragma once
+// Helpers shared by the transports (transport.cpp, fusion_transport.cpp): topic and partition names,
+// entity creation with checked return codes, loaned takes and waitsets. Private to common/dds/src.
+#include <dds/dds.h>
+
+#include <array>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "entities.hpp"
+#include "qos.hpp"
+
+namespace swarmloc::dds {
+
+inline constexpr const char* kTopicMeasurements = "swarmloc_measurements";
+inline constexpr const char* kTopicState = "swarmloc_state";
+inline constexpr const char* kTopicInformation = "swarmloc_information";
+inline constexpr const char* kTopicConsensus = "swarmloc_consensus";
+inline constexpr const char* kTopicBelief = "swarmloc_belief";
+inline constexpr const char* kTopicEstimate = "swarmloc_estimate";
+inline constexpr const char* kTopicControl = "swarmloc_control";
+
+inline constexpr const char* kPartitionEstimates = "est";
+inline constexpr const char* kPartitionControl = "ctl";
+inline constexpr const char* kPartitionNothing = "none";
+
+inline std::string agent_partition(AgentId agent) { return "a" + std::to_string(agent); }
+inline std::string measurement_partition(AgentId agent) { return "m" + std::to_string(agent); }
+
+inline dds_duration_t to_duration(double timeout_s) {
+  if (!(timeout_s > 0.0)) {
+    return 0;
+  }
+  if (!std::isfinite(timeout_s) || timeout_s > 1e9) {
+    return DDS_INFINITY;
+  }
+  return static_cast<dds_duration_t>(std::llround(timeout_s * 1e9));
+}
+
+inline AgentId agent_id(AgentId self) {
+  if (self < 0) {
+    throw DdsError("AgentTransport: agent id " + std::to_string(self) + " is not an agent");
+  }
+  return self;
+}
+
+inline dds_entity_t create_participant(const DomainLease& domain) {
+  return check(dds_create_participant(domain.domain_id(), nullptr, nullptr), "dds_create_participant");
+}
+
+inline dds_entity_t create_topic(dds_entity_t participant, const dds_topic_descriptor_t& descriptor,
+                                 const char* name) {
+  return check(dds_create_topic(participant, &descriptor, name, nullptr, nullptr),
+               std::string("dds_create_topic ") + name);
+}
+
+inline dds_entity_t create_publisher(dds_entity_t participant, const std::vector<std::string>& partitions) {
+  const auto qos = partition_qos(partitions);
+  return check(dds_create_publisher(participant, qos.get(), nullptr),
+               "dds_create_publisher " + partitions.front());
+}
+
+inline dds_entity_t create_subscriber(dds_entity_t participant, const std::vector<std::string>& partitions) {
+  const auto qos = partition_qos(partitions);
+  return check(dds_create_subscriber(participant, qos.get(), nullptr),
+               "dds_create_subscriber " + partitions.front());
+}
+
+inline dds_entity_t create_writer(dds_entity_t publisher, dds_entity_t topic,
+                                  const config::QosSettings& settings, const char* what) {
+  const auto qos = endpoint_qos(settings);
+  return check(dds_create_writer(publisher, topic, qos.get(), nullptr),
+               std::string("dds_create_writer ") + what);
+}
+
+inline dds_entity_t create_reader(dds_entity_t subscriber, dds_entity_t topic,
+                                  const config::QosSettings& settings, const char* what) {
+  const auto qos = endpoint_qos(settings);
+  return check(dds_create_reader(subscriber, topic, qos.get(), nullptr),
+               std::string("dds_create_reader ") + what);
+}
+
+/// dds_write with the return code checked. A reliable write that times out (the history of a reliable
+/// writer stayed full for max_blocking_time, i.e. a slow reader) drops that one sample instead of
+/// failing the process: returns false.
+inline bool write(dds_entity_t writer, const void* sample, const char* what) {
+  const dds_return_t rc = dds_write(writer, sample);
+  if (rc == DDS_RETCODE_TIMEOUT) {
+    return false;
+  }
+  check(rc, std::string("dds_write ") + what);
+  return true;
+}
+
+/// Takes every sample a reader holds (loaned buffers, returned even if `handle` throws) and calls
+/// handle(wire) for each valid one. Stops after a short batch so a busy writer cannot starve the caller.
+template <typename Wire, typename Handle>
+inline void take_all(dds_entity_t reader, Handle&& handle) {
+  constexpr int32_t kBatch = 64;
+  for (;;) {
+    std::array<void*, kBatch> samples{};
+    std::array<dds_sample_info_t, kBatch> infos{};
+    const int32_t count = check(dds_take(reader, samples.data(), infos.data(), kBatch, kBatch), "dds_take");
+    if (count <= 0) {
+      return;
+    }
+    struct LoanGuard {
+      dds_entity_t reader;
+      void** buffer;
+      int32_t count;
+      ~LoanGuard() { static_cast<void>(dds_return_loan(reader, buffer, count)); }
+    } guard{reader, samples.data(), count};
+    for (int32_t i = 0; i < count; ++i) {
+      if (infos[static_cast<std::size_t>(i)].valid_data) {
+        handle(*static_cast<const Wire*>(samples[static_cast<std::size_t>(i)]));
+      }
+    }
+    if (count < kBatch) {
+      return;
+    }
+  }
+}
+
+inline dds_entity_t attach_reader(dds_entity_t waitset, dds_entity_t reader) {
+  const dds_entity_t condition =
+      check(dds_create_readcondition(reader, DDS_ANY_STATE), "dds_create_readcondition");
+  check(dds_waitset_attach(waitset, condition, static_cast<dds_attach_t>(reader)), "dds_waitset_attach");
+  return condition;
+}
+
+inline void wait(dds_entity_t waitset, double timeout_s) {
+  check(dds_waitset_wait(waitset, nullptr, 0, to_duration(timeout_s)), "dds_waitset_wait");
+}
+
+inline int32_t matched_count(dds_entity_t reader) {
+  dds_subscription_matched_status_t status{};
+  check(dds_get_subscription_matched_status(reader, &status), "dds_get_subscription_matched_status");
+  return static_cast<int32_t>(status.current_count);
+}
+
+}  // namespace swarmloc::dds

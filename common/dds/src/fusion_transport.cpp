@@ -1,0 +1,94 @@
+// FusionTransport over Cyclone DDS (DESIGN.md §1, ALGORITHMS.md §2.7).
+//
+//   fusion centre  subscriber "m0" … "m<N−1>" : one measurement reader for every agent's batches
+//                  subscriber "ctl"           : control reader
+//                  publisher  "est"           : estimate writer (one instance per agent id)
+// Discovery: slot N + 1, the orchestrator (slot N) as its only peer (cyclone_config.cpp).
+#include <string>
+#include <vector>
+
+#include "convert.hpp"
+#include "endpoints.hpp"
+#include "entities.hpp"
+#include "qos.hpp"
+#include "swarmloc/dds/transport.hpp"
+
+namespace swarmloc::dds {
+
+struct FusionTransport::Impl {
+  Impl(const config::Scenario& scenario, int count)
+      : agent_count(count > 0 ? count : throw DdsError("FusionTransport: agent count must be positive")),
+        domain(static_cast<dds_domainid_t>(scenario.dds.domain_id),
+               cyclone_config(scenario, Topology{kFusionCenterId, count, {}})),
+        participant(create_participant(domain)) {
+    const dds_entity_t pp = participant.get();
+    const auto& qos = scenario.qos;
+    const dds_entity_t t_measurements =
+        create_topic(pp, swarmloc_msg_MeasurementBatch_desc, kTopicMeasurements);
+    const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);
+    const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
+
+    std::vector<std::string> partitions;
+    partitions.reserve(static_cast<std::size_t>(agent_count));
+    for (AgentId agent = 0; agent < agent_count; ++agent) partitions.push_back(measurement_partition(agent));
+    const dds_entity_t measurements = create_subscriber(pp, partitions);
+    measurement_reader = create_reader(measurements, t_measurements, qos.measurements, kTopicMeasurements);
+    const dds_entity_t control = create_subscriber(pp, {kPartitionControl});
+    control_reader = create_reader(control, t_control, qos.control, kTopicControl);
+    const dds_entity_t estimates = create_publisher(pp, {kPartitionEstimates});
+    estimate_writer = create_writer(estimates, t_estimate, qos.estimate, kTopicEstimate);
+
+    waitset = check(dds_create_waitset(pp), "dds_create_waitset");
+    attach_reader(waitset, measurement_reader);
+    attach_reader(waitset, control_reader);
+  }
+
+  int agent_count;
+  DomainLease domain;  // declared before the participant: released after it
+  Entity participant;  // owns every entity below
+  dds_entity_t measurement_reader = 0, control_reader = 0;
+  dds_entity_t estimate_writer = 0;
+  dds_entity_t waitset = 0;
+  std::uint64_t dropped_malformed = 0;
+};
+
+FusionTransport::FusionTransport(const config::Scenario& scenario, int agent_count)
+    : impl_(std::make_unique<Impl>(scenario, agent_count)) {}
+
+FusionTransport::~FusionTransport() = default;
+
+void FusionTransport::publish_estimate(const sim::EstimateReport& report) {
+  const WireEstimate wire(report);
+  write(impl_->estimate_writer, &wire.sample, kTopicEstimate);
+}
+
+FusionInbound FusionTransport::wait_and_take(double timeout_s) {
+  wait(impl_->waitset, timeout_s);
+  FusionInbound inbound;
+  take_all<swarmloc_msg_MeasurementBatch>(
+      impl_->measurement_reader, [&](const swarmloc_msg_MeasurementBatch& wire) {
+        auto decoded = decode(wire);
+        if (!decoded.well_formed || decoded.recipient < 0 || decoded.recipient >= impl_->agent_count) {
+          ++impl_->dropped_malformed;
+          return;
+        }
+        inbound.batches.push_back(FusionBatch{decoded.recipient, decoded.header, std::move(decoded.batch)});
+      });
+  take_all<swarmloc_msg_Control>(impl_->control_reader, [&](const swarmloc_msg_Control& wire) {
+    auto decoded = decode(wire);
+    if (!decoded.well_formed) {
+      ++impl_->dropped_malformed;
+      return;
+    }
+    inbound.control.push_back(decoded.message);
+  });
+  return inbound;
+}
+
+std::uint64_t FusionTransport::dropped_malformed() const { return impl_->dropped_malformed; }
+
+bool FusionTransport::orchestrator_matched() const {
+  return matched_count(impl_->measurement_reader) >= impl_->agent_count;
+}
+
+}  // namespace swarmloc::dds

@@ -1,0 +1,60 @@
+#pragma once
+// The centralized algorithms (ekf, lbekf, lbekf_vr, lbekf_i; ALGORITHMS.md §2) as a fusion centre: one
+// filter holds the whole network state, consumes every agent's measurement batch of a world step and
+// yields every agent's estimate (ALGORITHMS.md §2.7). The in-process runner below and the DDS
+// fusion-centre process (agent/fusion_center.cpp) share these functions, so both build the same filter
+// from the same world and turn the same batches into the same measurements.
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "swarmloc/estimators/centralized/centralized_filter.hpp"
+#include "swarmloc/sim/simulator.hpp"
+#include "swarmloc/sim/world.hpp"
+
+namespace swarmloc::sim {
+
+/// True for the algorithms that run in a fusion centre instead of in every agent.
+bool is_centralized(const std::string& algorithm);
+
+/// The bandwidth L of the LB-EKF variants (000 Sec. 5.2: L = 20 for 30 agents in 2-D).
+inline constexpr int kCentralizedBandwidth = 20;
+
+/// Builds the fusion centre's filter for `world`: x̂(0) = the initial guesses, Σ_0 =
+/// algorithm.initial_std_m² · I per agent, σ_p = algorithm.process_noise_std_m², L =
+/// kCentralizedBandwidth. Labels: lexicographic order of the initial guesses (000 Alg. 3, [A-5]) for
+/// lbekf_vr and lbekf_i, identity for lbekf and ekf. Throws std::invalid_argument if the scenario's
+/// algorithm is not centralized.
+std::unique_ptr<estimators::centralized::CentralizedFilter> make_fusion_filter(
+    const config::Scenario& scenario, const World& world);
+
+/// One world step's batches (batches[i] = agent i's, nullptr if it did not arrive) as the fusion
+/// centre's input: each anchor's fix is a beacon fix; each undirected edge contributes one range, the
+/// one measured by its lower-id endpoint (the higher-id endpoint's if the lower one's batch is
+/// missing). Variances come from the scenario (noise.anchor_fix_std_m², noise.range_std_m²), floored
+/// at 1e-6 m² so exactly known anchors stay finite.
+estimators::centralized::CentralizedMeasurements centralized_measurements(
+    const config::Scenario& scenario, const std::vector<const estimators::MeasurementBatch*>& batches);
+
+/// Agent `agent`'s estimate from the filter (mean and 2×2 covariance block).
+estimators::Estimate fusion_estimate(const estimators::centralized::CentralizedFilter& filter, AgentId agent);
+
+/// Σ over every agent with an estimate (anchors included) of ‖truth − mean‖²: the total MSE of one
+/// run at one step (000 Fig. 6, ALGORITHMS.md §2.8).
+double total_squared_error(const std::vector<Vec2>& truth,
+                           const std::vector<std::optional<estimators::Estimate>>& estimates);
+
+/// `swarmloc sim` for centralized algorithms: builds the world, generates every step's batches with
+/// generate_batch, steps the fusion filter and scores every agent. Besides the usual metrics (over
+/// non-anchors), record.extra holds "final_total_mse_m2" (all agents, final step) and "total_mse_m2"
+/// (per step).
+RunRecord run_centralized_simulation(const config::Scenario& scenario, const SimOptions& options = {});
+
+/// What an agent runs when the algorithm is centralized: nothing. It publishes no inter-agent
+/// samples and reports its prior (initial guess, initial_std_m² · I) as an invalid estimate; its
+/// batches go to the fusion centre.
+std::unique_ptr<estimators::Estimator> make_sensor_only_estimator(const estimators::AgentSetup& setup,
+                                                                  double initial_std_m);
+
+}  // namespace swarmloc::sim
