@@ -284,6 +284,18 @@ class Orchestrator {
 
 }  // namespace
 
+/// Builds the world and one agent's estimator, so that an unplaceable world or an algorithm this
+/// runtime cannot run yet is reported as bad input (exit 2) naming the key.
+static void check_runnable(const config::Scenario& scenario) {
+  const auto world = sim::build_world(scenario);
+  try {
+    (void)sim::make_agent_estimator(scenario, world, 0);
+  } catch (const std::invalid_argument& error) {
+    throw config::ScenarioError("algorithm.name: '" + scenario.algorithm.name +
+                                "' is not runnable by swarmloc run/sim yet (" + error.what() + ")");
+  }
+}
+
 int run_orchestrator(const RunOptions& options) {
   config::Scenario scenario;
   try {
@@ -293,7 +305,7 @@ int run_orchestrator(const RunOptions& options) {
         throw config::ScenarioError("--hostile: agent " + std::to_string(id) + " is outside [0, world.agents)");
       }
     }
-    (void)sim::build_world(scenario);  // surfaces placement errors as bad input before anything starts
+    check_runnable(scenario);  // placement and algorithm errors are bad input, found before anything starts
   } catch (const config::ScenarioError& error) {
     std::fprintf(stderr, "error: %s\n", error.what());
     return 2;
@@ -320,7 +332,7 @@ int run_sim_command(const SimCommandOptions& options) {
   config::Scenario scenario;
   try {
     scenario = config::load_scenario(options.scenario_path, options.overrides);
-    (void)sim::build_world(scenario);
+    check_runnable(scenario);
   } catch (const config::ScenarioError& error) {
     std::fprintf(stderr, "error: %s\n", error.what());
     return 2;

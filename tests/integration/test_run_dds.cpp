@@ -101,6 +101,7 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(BadInput{"negative_radius", kScenario + " --set world.comm_radius_m=-1", "world.comm_radius_m"},
                       BadInput{"too_many_anchors", kScenario + " --set world.anchors=40", "world.anchors"},
                       BadInput{"unknown_algorithm", kScenario + " --set algorithm.name=magic", "algorithm.name"},
+                      BadInput{"not_yet_runnable_algorithm", kScenario + " --set algorithm.name=jacobi", "algorithm.name"},
                       BadInput{"unreadable_file", "/nonexistent/scenario.yaml", "/nonexistent/scenario.yaml"},
                       BadInput{"loss_above_one", kScenario + " --set network.loss=1.4", "network.loss"},
                       BadInput{"loss_below_zero", kScenario + " --set network.loss=-0.1", "network.loss"},
