@@ -10,6 +10,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox                              # plots in every run directory
   procps                                   # pgrep/ps for the orphan-process checks in tests
+  nftables iproute2                        # network namespaces + bridge loss for the multi-host test
 )
 
 missing=()
