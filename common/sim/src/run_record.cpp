@@ -10,6 +10,9 @@
 #include <numeric>
 #include <sstream>
 
+#include "swarmloc/sim/plots.hpp"
+#include "swarmloc/sim/tum_export.hpp"
+
 namespace swarmloc::sim {
 namespace {
 
@@ -19,51 +22,6 @@ void write_text(const std::filesystem::path& path, const std::string& text) {
   std::ofstream out(path);
   out << text;
   if (!out) throw std::runtime_error("cannot write " + path.string());
-}
-
-bool have_gnuplot() { return std::system("command -v gnuplot >/dev/null 2>&1") == 0; }
-
-void write_plots(const std::filesystem::path& directory, const RunRecord& record) {
-  const auto plots = directory / "plots";
-  std::filesystem::create_directories(plots);
-  std::ostringstream gp;
-  gp << "set datafile separator ','\nset terminal pngcairo size 900,560\nset key top right\nset grid\n"
-     << "set logscale y\nset xlabel 'world step'\nset ylabel 'error [m]'\n"
-     << "set title 'swarmloc " << record.scenario.algorithm.name << " - " << record.mode << ", " << record.agents
-     << " agents, seed " << record.scenario.seed << "'\n"
-     << "set output '" << (plots / "error.png").string() << "'\n"
-     << "plot '" << (directory / "metrics.csv").string()
-     << "' using 1:3 skip 1 with lines lw 2 title 'RMSE', '' using 1:4 skip 1 with lines title 'mean error', "
-        "'' using 1:5 skip 1 with lines title 'max error', '' using 1:6 skip 1 with lines dt 2 lw 2 title 'CRLB "
-        "(accumulated)'\n";
-  gp << "unset logscale y\nset ylabel 'NEES'\nset output '" << (plots / "nees.png").string() << "'\n"
-     << "plot '" << (directory / "metrics.csv").string()
-     << "' using 1:7 skip 1 with lines title 'NEES', 2 with lines dt 2 title 'expected (2 dof)'\n";
-  // Final positions: truth, estimate.
-  std::ofstream final_positions(plots / "final_positions.csv");
-  final_positions << "agent,anchor,truth_x,truth_y,est_x,est_y\n";
-  if (!record.estimates.empty()) {
-    const auto last_step = record.estimates.back().step;
-    for (const auto& row : record.estimates) {
-      if (row.step != last_step) continue;
-      const bool anchor = record.agent_summaries.size() > static_cast<std::size_t>(row.agent) &&
-                          record.agent_summaries[static_cast<std::size_t>(row.agent)].anchor;
-      final_positions << row.agent << ',' << (anchor ? 1 : 0) << ',' << row.truth.x() << ',' << row.truth.y() << ','
-                      << row.estimate.mean_m.x() << ',' << row.estimate.mean_m.y() << '\n';
-    }
-  }
-  final_positions.close();
-  gp << "set size ratio -1\nunset logscale\nset xlabel 'x [m]'\nset ylabel 'y [m]'\nset title 'final positions'\n"
-     << "set output '" << (plots / "positions.png").string() << "'\n"
-     << "plot '" << (plots / "final_positions.csv").string()
-     << "' using 3:4 skip 1 with points pt 6 ps 1.5 title 'truth', '' using 5:6 skip 1 with points pt 7 ps 0.8 "
-        "title 'estimate', '' using ($2==1?$3:1/0):4 skip 1 with points pt 5 ps 1.5 title 'anchor'\n";
-  const auto script = plots / "plots.gp";
-  write_text(script, gp.str());
-  if (have_gnuplot()) {
-    const std::string command = "gnuplot '" + script.string() + "' >/dev/null 2>&1";
-    if (std::system(command.c_str()) != 0) std::fprintf(stderr, "warning: gnuplot failed on %s\n", script.c_str());
-  }
 }
 
 }  // namespace
@@ -180,6 +138,7 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
     }
   }
   write_text(directory / "summary.json", summary_json(record).dump(2) + "\n");
+  write_tum_trajectories(directory, record);
   write_plots(directory, record);
 }
 

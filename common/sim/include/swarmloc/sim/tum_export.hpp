@@ -1,0 +1,16 @@
+#pragma once
+// TUM trajectory export (trajectories/): one file per agent for the estimate and one for the ground
+// truth, each line `timestamp x y z qx qy qz qw` with the world time of the step in seconds, z = 0 and
+// the identity quaternion (0 0 0 1). Readable by evo, rpg_trajectory_evaluation and friends.
+#include <filesystem>
+
+#include "swarmloc/sim/run_record.hpp"
+
+namespace swarmloc::sim {
+
+/// Writes trajectories/agent_<id>.tum and trajectories/agent_<id>_truth.tum under `directory` for every
+/// agent with recorded estimates. Does nothing (and creates nothing) if the record holds no estimates.
+/// Returns the number of agents written.
+int write_tum_trajectories(const std::filesystem::path& directory, const RunRecord& record);
+
+}  // namespace swarmloc::sim

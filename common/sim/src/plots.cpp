@@ -1,0 +1,301 @@
+#include "swarmloc/sim/plots.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace swarmloc::sim {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+void write_text(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+bool have_gnuplot() { return std::system("command -v gnuplot >/dev/null 2>&1") == 0; }
+
+/// Each agent's newest row at the last recorded step (or its newest row overall if it missed that step).
+std::map<AgentId, const EstimateRow*> final_rows(const RunRecord& record) {
+  std::map<AgentId, const EstimateRow*> rows;
+  for (const auto& row : record.estimates) {
+    auto& slot = rows[row.agent];
+    if (slot == nullptr || row.step >= slot->step) slot = &row;
+  }
+  return rows;
+}
+
+bool is_anchor(const RunRecord& record, AgentId agent) {
+  const auto index = static_cast<std::size_t>(agent);
+  return agent >= 0 && index < record.agent_summaries.size() && record.agent_summaries[index].anchor;
+}
+
+std::string header_title(const RunRecord& record) {
+  std::ostringstream out;
+  out << "swarmloc " << record.scenario.algorithm.name << " (" << record.mode << "), " << record.agents
+      << " agents, " << record.anchors << " anchors, seed " << record.scenario.seed;
+  return out.str();
+}
+
+std::string preamble(const std::string& output) {
+  return "set datafile separator ','\nset terminal pngcairo size 900,640 enhanced font ',11'\nset grid\n"
+         "set output '" +
+         output + "'\n";
+}
+
+std::string error_script(const RunRecord& record) {
+  std::ostringstream gp;
+  gp << preamble("error.png") << "set key top right box opaque\nset logscale y\n"
+     << "set xlabel 'world step'\nset ylabel 'position error [m] (log scale)'\n"
+     << "set title \"" << header_title(record) << "\\nlocalization error vs the Cramér–Rao bound\"\n"
+     << "plot '../metrics.csv' using 1:3 skip 1 with lines lw 2 lc rgb '#1f77b4' title 'RMSE', "
+        "'' using 1:4 skip 1 with lines lc rgb '#2ca02c' title 'mean error', "
+        "'' using 1:5 skip 1 with lines lc rgb '#ff7f0e' title 'max error', "
+        "'' using 1:6 skip 1 with lines dt 2 lw 2 lc rgb 'black' title 'CRLB RMSE (accumulated)'\n";
+  return gp.str();
+}
+
+std::string nees_script(const RunRecord& record) {
+  std::ostringstream gp;
+  gp << preamble("nees.png") << "set key top right box opaque\nset logscale y\n"
+     << "set xlabel 'world step'\nset ylabel 'mean NEES (log scale)'\n"
+     << "set title \"" << header_title(record)
+     << "\\nmean NEES over the scored agents (2 = consistent), 95 % chi-square band\"\n"
+     << "plot 'nees_band.csv' using 1:3:4 with filledcurves fs transparent solid 0.25 noborder "
+        "lc rgb '#2ca02c' title '95 % band [χ²_{2n}(0.025), χ²_{2n}(0.975)]/n', "
+        "2 with lines dt 2 lw 2 lc rgb 'black' title 'expected (2)', "
+        "'' using 1:2 with lines lw 2 lc rgb '#1f77b4' title 'NEES'\n";
+  return gp.str();
+}
+
+std::string positions_script(const RunRecord& record, bool have_links, bool have_ellipses) {
+  std::ostringstream gp;
+  gp << preamble("positions.png") << "set size ratio -1\nset key outside bottom center horizontal box\n"
+     << "set xlabel 'x [m]'\nset ylabel 'y [m]'\n"
+     << "set title \"" << header_title(record) << "\\nfinal positions with 95 % covariance ellipses\"\n"
+     << "set palette defined (0 '#d62728', 0.5 '#ff7f0e', 1 '#2ca02c')\nset cbrange [0:1]\n"
+     << "set cblabel 'link delivered fraction (delivered / sent)'\n";
+  gp << "plot ";
+  if (have_links) {
+    gp << "'link_segments.csv' using 1:2:($3-$1):($4-$2):5 with vectors nohead lw 1 lc palette "
+          "title 'link (colour: delivered fraction)', ";
+  }
+  if (have_ellipses)
+    gp << "'ellipses.csv' using 1:2 with lines lw 1.5 lc rgb '#9467bd' title '95 % ellipse', ";
+  gp << "'final_positions.csv' using ($2==0?$3:1/0):4 skip 1 with points pt 6 ps 1.6 lw 1.5 lc rgb 'black' "
+        "title 'truth', "
+        "'' using ($2==0?$5:1/0):6 skip 1 with points pt 7 ps 0.7 lc rgb '#1f77b4' title 'estimate', "
+        "'' using ($2==1?$3:1/0):4 skip 1 with points pt 5 ps 1.6 lc rgb '#d62728' title 'anchor'\n";
+  return gp.str();
+}
+
+std::string histogram_script(const RunRecord& record, int agents, double mean_m, double rmse_m,
+                             double crlb_m) {
+  std::ostringstream gp;
+  gp << std::setprecision(4);
+  gp << preamble("error_histogram.png")
+     << "set key top right box opaque\nset style fill solid 0.6 border -1\n"
+     << "set xlabel 'final position error [m]'\nset ylabel 'agents'\nset yrange [0:*]\nset xrange [0:*]\n"
+     << "set title \"" << header_title(record) << "\\nfinal error of " << agents
+     << " non-anchor agents: mean " << mean_m << " m, RMSE " << rmse_m << " m\"\n";
+  std::string extra;
+  if (std::isfinite(rmse_m)) {
+    gp << "set arrow 1 from " << rmse_m << ", graph 0 to " << rmse_m
+       << ", graph 1 nohead dt 2 lw 2 lc rgb 'black' front\n";
+    extra += ", NaN with lines dt 2 lw 2 lc rgb 'black' title 'RMSE'";
+  }
+  if (std::isfinite(crlb_m) && crlb_m > 0.0) {
+    gp << "set arrow 2 from " << crlb_m << ", graph 0 to " << crlb_m
+       << ", graph 1 nohead dt 3 lw 2 lc rgb '#d62728' front\n";
+    extra += ", NaN with lines dt 3 lw 2 lc rgb '#d62728' title 'CRLB RMSE (accumulated)'";
+  }
+  gp << "plot 'error_histogram.csv' using 3:4:($2-$1) skip 1 with boxes lc rgb '#1f77b4' title 'agents per "
+        "bin'"
+     << extra << '\n';
+  return gp.str();
+}
+
+}  // namespace
+
+double normal_quantile(double p) {
+  if (!(p > 0.0 && p < 1.0)) return kNaN;
+  static constexpr double a[] = {-3.969683028665376e+01, 2.209460984245205e+02,  -2.759285104469687e+02,
+                                 1.383577518672690e+02,  -3.066479806614716e+01, 2.506628277459239e+00};
+  static constexpr double b[] = {-5.447609879822406e+01, 1.615858368580409e+02, -1.556989798598866e+02,
+                                 6.680131188771972e+01, -1.328068155288572e+01};
+  static constexpr double c[] = {-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e+00,
+                                 -2.549732539343734e+00, 4.374664141464968e+00,  2.938163982698783e+00};
+  static constexpr double d[] = {7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e+00,
+                                 3.754408661907416e+00};
+  constexpr double p_low = 0.02425;
+  if (p < p_low) {
+    const double q = std::sqrt(-2.0 * std::log(p));
+    return (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
+           ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
+  }
+  if (p > 1.0 - p_low) return -normal_quantile(1.0 - p);
+  const double q = p - 0.5;
+  const double r = q * q;
+  return (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q /
+         (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1.0);
+}
+
+double chi_square_quantile(double p, double dof) {
+  if (!(dof > 0.0)) return kNaN;
+  const double h = 2.0 / (9.0 * dof);
+  const double cube_root = 1.0 - h + normal_quantile(p) * std::sqrt(h);
+  return dof * std::max(0.0, cube_root * cube_root * cube_root);
+}
+
+NeesBand nees_band(int agents, double coverage) {
+  if (agents <= 0) return {kNaN, kNaN};
+  const double n = static_cast<double>(agents);
+  const double tail = 0.5 * (1.0 - coverage);
+  return {chi_square_quantile(tail, 2.0 * n) / n, chi_square_quantile(1.0 - tail, 2.0 * n) / n};
+}
+
+std::vector<Vec2> covariance_ellipse(const Vec2& mean, const Mat2& covariance, double chi_square,
+                                     int points) {
+  std::vector<Vec2> curve;
+  if (!mean.allFinite() || !covariance.allFinite() || points < 3 || !(chi_square > 0.0)) return curve;
+  const Mat2 symmetric = 0.5 * (covariance + covariance.transpose());
+  const Eigen::SelfAdjointEigenSolver<Mat2> solver(symmetric);
+  if (solver.info() != Eigen::Success || !(solver.eigenvalues().minCoeff() > 0.0)) return curve;
+  const Mat2 transform =
+      solver.eigenvectors() * solver.eigenvalues().cwiseSqrt().asDiagonal() * std::sqrt(chi_square);
+  curve.reserve(static_cast<std::size_t>(points) + 1);
+  for (int k = 0; k <= points; ++k) {
+    const double t = 2.0 * std::numbers::pi * static_cast<double>(k % points) / static_cast<double>(points);
+    curve.push_back(mean + transform * Vec2(std::cos(t), std::sin(t)));
+  }
+  return curve;
+}
+
+bool write_plots(const std::filesystem::path& directory, const RunRecord& record) {
+  const auto plots = directory / "plots";
+  std::filesystem::create_directories(plots);
+  std::map<std::string, std::string> scripts;  // file name -> script
+  scripts["error.gp"] = error_script(record);
+
+  // NEES with its per-step band (the number of scored agents can change from step to step).
+  {
+    std::ofstream out(plots / "nees_band.csv");
+    out << "# step,nees,band_lower,band_upper,scored_agents\n" << std::setprecision(9);
+    for (const auto& m : record.metrics) {
+      const auto band = nees_band(m.errors.scored);
+      out << m.step << ',' << m.errors.nees << ',' << band.lower << ',' << band.upper << ','
+          << m.errors.scored << '\n';
+    }
+  }
+  scripts["nees.gp"] = nees_script(record);
+
+  const auto finals = final_rows(record);
+  if (!finals.empty()) {
+    // Final positions, ellipses, links.
+    std::ofstream positions(plots / "final_positions.csv");
+    std::ofstream ellipses(plots / "ellipses.csv");
+    positions << "agent,anchor,truth_x,truth_y,est_x,est_y,error_m\n" << std::setprecision(9);
+    ellipses << "# 95 % covariance ellipses (chi-square 2 dof = " << kChiSquare2Dof95
+             << "), one block per non-anchor agent: x,y\n"
+             << std::setprecision(9);
+    bool have_ellipses = false;
+    std::vector<double> errors;
+    for (const auto& [agent, row] : finals) {
+      const bool anchor = is_anchor(record, agent);
+      const auto& e = row->estimate;
+      positions << agent << ',' << (anchor ? 1 : 0) << ',' << row->truth.x() << ',' << row->truth.y() << ','
+                << e.mean_m.x() << ',' << e.mean_m.y() << ',' << (e.mean_m - row->truth).norm() << '\n';
+      if (anchor) continue;
+      if (e.mean_m.allFinite()) errors.push_back((e.mean_m - row->truth).norm());
+      if (!e.valid) continue;
+      const auto curve = covariance_ellipse(e.mean_m, e.covariance);
+      if (curve.empty()) continue;
+      ellipses << "\n# agent " << agent << '\n';
+      for (const auto& p : curve) ellipses << p.x() << ',' << p.y() << '\n';
+      have_ellipses = true;
+    }
+    // Links, undirected: both directions' counters pooled, drawn between the true positions.
+    std::map<std::pair<AgentId, AgentId>, std::pair<std::uint64_t, std::uint64_t>> pooled;  // delivered, sent
+    for (const auto& [key, link] : record.links) {
+      const auto edge = std::minmax(key.first, key.second);
+      auto& [delivered, sent] = pooled[{edge.first, edge.second}];
+      delivered += link.delivered;
+      sent += link.sent();
+    }
+    std::ofstream segments(plots / "link_segments.csv");
+    segments << "# x1,y1,x2,y2,delivered_fraction,delivered,sent (agents a,b)\n" << std::setprecision(9);
+    bool have_links = false;
+    for (const auto& [edge, counts] : pooled) {
+      const auto a = finals.find(edge.first);
+      const auto b = finals.find(edge.second);
+      if (a == finals.end() || b == finals.end() || counts.second == 0) continue;
+      const double fraction =
+          std::min(1.0, static_cast<double>(counts.first) / static_cast<double>(counts.second));
+      segments << a->second->truth.x() << ',' << a->second->truth.y() << ',' << b->second->truth.x() << ','
+               << b->second->truth.y() << ',' << fraction << ',' << counts.first << ',' << counts.second
+               << '\n';
+      have_links = true;
+    }
+    scripts["positions.gp"] = positions_script(record, have_links, have_ellipses);
+
+    // Histogram of the non-anchor agents' final errors.
+    if (!errors.empty()) {
+      const double largest = *std::max_element(errors.begin(), errors.end());
+      const int bins =
+          std::clamp(static_cast<int>(std::ceil(std::sqrt(static_cast<double>(errors.size())))), 5, 25);
+      const double top = largest > 0.0 ? largest * 1.0001 : 1e-3;
+      const double width = top / static_cast<double>(bins);
+      std::vector<int> counts(static_cast<std::size_t>(bins), 0);
+      double sum = 0.0, sum_sq = 0.0;
+      for (double err : errors) {
+        const auto bin = std::min(static_cast<std::size_t>(err / width), counts.size() - 1);
+        ++counts[bin];
+        sum += err;
+        sum_sq += err * err;
+      }
+      std::ofstream histogram(plots / "error_histogram.csv");
+      histogram << "bin_lo_m,bin_hi_m,bin_center_m,agents\n" << std::setprecision(9);
+      for (std::size_t k = 0; k < counts.size(); ++k) {
+        const double lo = width * static_cast<double>(k);
+        histogram << lo << ',' << lo + width << ',' << lo + 0.5 * width << ',' << counts[k] << '\n';
+      }
+      const double n = static_cast<double>(errors.size());
+      const auto* last = record.final_metrics();
+      scripts["error_histogram.gp"] =
+          histogram_script(record, static_cast<int>(errors.size()), sum / n, std::sqrt(sum_sq / n),
+                           last ? last->crlb_rmse_m : kNaN);
+    }
+  }
+
+  std::ostringstream all;
+  all << "# Makes every plot of this run: cd into plots/ and run `gnuplot plots.gp`.\n";
+  for (const auto& [name, script] : scripts) {
+    write_text(plots / name, script);
+    all << "reset\nload '" << name << "'\n";
+  }
+  write_text(plots / "plots.gp", all.str());
+  if (!have_gnuplot()) return false;
+  bool ok = true;
+  for (const auto& [name, script] : scripts) {
+    const std::string command = "cd '" + plots.string() + "' && gnuplot '" + name + "' >/dev/null 2>&1";
+    if (std::system(command.c_str()) != 0) {
+      std::fprintf(stderr, "warning: gnuplot failed on %s\n", (plots / name).c_str());
+      ok = false;
+    }
+  }
+  return ok;
+}
+
+}  // namespace swarmloc::sim

@@ -1,0 +1,54 @@
+#include "swarmloc/sim/tum_export.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+namespace swarmloc::sim {
+namespace {
+
+void write_line(std::ofstream& out, double time_s, const Vec2& position) {
+  out << time_s << ' ' << position.x() << ' ' << position.y() << " 0 0 0 0 1\n";
+}
+
+}  // namespace
+
+int write_tum_trajectories(const std::filesystem::path& directory, const RunRecord& record) {
+  if (record.estimates.empty()) return 0;
+  std::map<std::int64_t, double> step_time;
+  for (const auto& m : record.metrics) step_time[m.step] = m.time_s;
+  const double rate_hz = record.scenario.run.rate_hz;
+  auto time_of = [&](std::int64_t step) {
+    const auto it = step_time.find(step);
+    if (it != step_time.end()) return it->second;
+    return rate_hz > 0.0 ? static_cast<double>(step) / rate_hz : static_cast<double>(step);
+  };
+  // Per agent, ordered by step; a re-scored step keeps its newest row, so timestamps strictly increase.
+  std::map<AgentId, std::map<std::int64_t, const EstimateRow*>> rows;
+  for (const auto& row : record.estimates) rows[row.agent][row.step] = &row;
+
+  const auto out_dir = directory / "trajectories";
+  std::filesystem::create_directories(out_dir);
+  int written = 0;
+  for (const auto& [agent, by_step] : rows) {
+    const auto stem = out_dir / ("agent_" + std::to_string(agent));
+    std::ofstream estimate(stem.string() + ".tum");
+    std::ofstream truth(stem.string() + "_truth.tum");
+    estimate << std::setprecision(12);
+    truth << std::setprecision(12);
+    for (const auto& [step, row] : by_step) {
+      const double t = time_of(step);
+      if (!std::isfinite(t)) continue;
+      if (row->estimate.mean_m.allFinite()) write_line(estimate, t, row->estimate.mean_m);
+      write_line(truth, t, row->truth);
+    }
+    if (!estimate || !truth) throw std::runtime_error("cannot write " + stem.string() + ".tum");
+    ++written;
+  }
+  return written;
+}
+
+}  // namespace swarmloc::sim
