@@ -80,7 +80,8 @@ std::string nees_script(const RunRecord& record) {
   return gp.str();
 }
 
-std::string positions_script(const RunRecord& record, bool have_links, bool have_ellipses) {
+std::string positions_script(const RunRecord& record, bool have_links, bool have_ellipses,
+                             double magnification) {
   std::ostringstream gp;
   gp << preamble("positions.png") << "set size ratio -1\nset key outside bottom center horizontal box\n"
      << "set xlabel 'x [m]'\nset ylabel 'y [m]'\n"
@@ -92,8 +93,11 @@ std::string positions_script(const RunRecord& record, bool have_links, bool have
     gp << "'link_segments.csv' using 1:2:($3-$1):($4-$2):5 with vectors nohead lw 1 lc palette "
           "title 'link (colour: delivered fraction)', ";
   }
-  if (have_ellipses)
-    gp << "'ellipses.csv' using 1:2 with lines lw 1.5 lc rgb '#9467bd' title '95 % ellipse', ";
+  if (have_ellipses) {
+    gp << "'ellipses.csv' using 3:4 with lines lw 1.5 lc rgb '#9467bd' title '95 % ellipse";
+    if (magnification != 1.0) gp << " (drawn ×" << magnification << ")";
+    gp << "', ";
+  }
   gp << "'final_positions.csv' using ($2==0?$3:1/0):4 skip 1 with points pt 6 ps 1.6 lw 1.5 lc rgb 'black' "
         "title 'truth', "
         "'' using ($2==0?$5:1/0):6 skip 1 with points pt 7 ps 0.7 lc rgb '#1f77b4' title 'estimate', "
@@ -101,13 +105,14 @@ std::string positions_script(const RunRecord& record, bool have_links, bool have
   return gp.str();
 }
 
-std::string histogram_script(const RunRecord& record, int agents, double mean_m, double rmse_m,
+std::string histogram_script(const RunRecord& record, int agents, int most, double mean_m, double rmse_m,
                              double crlb_m) {
   std::ostringstream gp;
   gp << std::setprecision(4);
   gp << preamble("error_histogram.png")
      << "set key top right box opaque\nset style fill solid 0.6 border -1\n"
-     << "set xlabel 'final position error [m]'\nset ylabel 'agents'\nset yrange [0:*]\nset xrange [0:*]\n"
+     << "set xlabel 'final position error [m]'\nset ylabel 'agents'\nset xrange [0:*]\n"
+     << "set yrange [0:" << most + 1 + most / 3 << "]\nset ytics " << std::max(1, (most + 1) / 8) << "\n"
      << "set title \"" << header_title(record) << "\\nfinal error of " << agents
      << " non-anchor agents: mean " << mean_m << " m, RMSE " << rmse_m << " m\"\n";
   std::string extra;
@@ -207,23 +212,57 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
     std::ofstream positions(plots / "final_positions.csv");
     std::ofstream ellipses(plots / "ellipses.csv");
     positions << "agent,anchor,truth_x,truth_y,est_x,est_y,error_m\n" << std::setprecision(9);
-    ellipses << "# 95 % covariance ellipses (chi-square 2 dof = " << kChiSquare2Dof95
-             << "), one block per non-anchor agent: x,y\n"
-             << std::setprecision(9);
     bool have_ellipses = false;
     std::vector<double> errors;
+    std::vector<std::pair<Vec2, std::vector<Vec2>>> curves;  // estimate, ellipse
+    std::vector<double> semi_major;
+    double extent = 0.0;
+    Vec2 low = finals.begin()->second->truth, high = low;
     for (const auto& [agent, row] : finals) {
       const bool anchor = is_anchor(record, agent);
       const auto& e = row->estimate;
       positions << agent << ',' << (anchor ? 1 : 0) << ',' << row->truth.x() << ',' << row->truth.y() << ','
                 << e.mean_m.x() << ',' << e.mean_m.y() << ',' << (e.mean_m - row->truth).norm() << '\n';
+      low = low.cwiseMin(row->truth);
+      high = high.cwiseMax(row->truth);
       if (anchor) continue;
       if (e.mean_m.allFinite()) errors.push_back((e.mean_m - row->truth).norm());
       if (!e.valid) continue;
-      const auto curve = covariance_ellipse(e.mean_m, e.covariance);
+      auto curve = covariance_ellipse(e.mean_m, e.covariance);
       if (curve.empty()) continue;
-      ellipses << "\n# agent " << agent << '\n';
-      for (const auto& p : curve) ellipses << p.x() << ',' << p.y() << '\n';
+      double axis = 0.0;
+      for (const auto& p : curve) axis = std::max(axis, (p - e.mean_m).norm());
+      semi_major.push_back(axis);
+      curves.emplace_back(e.mean_m, std::move(curve));
+    }
+    extent = (high - low).maxCoeff();
+    // Ellipses far smaller than the map are invisible: draw them magnified by a round factor (1, 2, 5 × 10^k)
+    // so the median semi-major axis is at least 1.5 % of the map, and say so in the legend.
+    double magnification = 1.0;
+    if (!semi_major.empty() && extent > 0.0) {
+      std::nth_element(semi_major.begin(),
+                       semi_major.begin() + static_cast<std::ptrdiff_t>(semi_major.size() / 2),
+                       semi_major.end());
+      const double median = semi_major[semi_major.size() / 2];
+      const double wanted = 0.015 * extent;
+      if (median > 0.0 && median < wanted) {
+        const double decade = std::pow(10.0, std::floor(std::log10(wanted / median)));
+        for (double step : {1.0, 2.0, 5.0, 10.0}) {
+          magnification = step * decade;
+          if (magnification * median >= wanted) break;
+        }
+      }
+    }
+    ellipses << "# 95 % covariance ellipses (chi-square 2 dof = " << kChiSquare2Dof95
+             << "), one block per non-anchor agent: x,y (true size), x_drawn,y_drawn (magnified x"
+             << magnification << " about the estimate)\n"
+             << std::setprecision(9);
+    for (const auto& [mean, curve] : curves) {
+      ellipses << '\n';
+      for (const auto& p : curve) {
+        const Vec2 drawn = mean + magnification * (p - mean);
+        ellipses << p.x() << ',' << p.y() << ',' << drawn.x() << ',' << drawn.y() << '\n';
+      }
       have_ellipses = true;
     }
     // Links, undirected: both directions' counters pooled, drawn between the true positions.
@@ -248,7 +287,7 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
                << '\n';
       have_links = true;
     }
-    scripts["positions.gp"] = positions_script(record, have_links, have_ellipses);
+    scripts["positions.gp"] = positions_script(record, have_links, have_ellipses, magnification);
 
     // Histogram of the non-anchor agents' final errors.
     if (!errors.empty()) {
@@ -273,9 +312,9 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
       }
       const double n = static_cast<double>(errors.size());
       const auto* last = record.final_metrics();
-      scripts["error_histogram.gp"] =
-          histogram_script(record, static_cast<int>(errors.size()), sum / n, std::sqrt(sum_sq / n),
-                           last ? last->crlb_rmse_m : kNaN);
+      scripts["error_histogram.gp"] = histogram_script(
+          record, static_cast<int>(errors.size()), *std::max_element(counts.begin(), counts.end()), sum / n,
+          std::sqrt(sum_sq / n), last ? last->crlb_rmse_m : kNaN);
     }
   }
 
