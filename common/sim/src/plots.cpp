@@ -192,7 +192,8 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
   const auto plots = directory / "plots";
   std::filesystem::create_directories(plots);
   std::map<std::string, std::string> scripts;  // file name -> script
-  scripts["error.gp"] = error_script(record);
+  // A run without any scored step has nothing to plot over time (gnuplot would fail on empty data).
+  if (!record.metrics.empty()) scripts["error.gp"] = error_script(record);
 
   // NEES with its per-step band (the number of scored agents can change from step to step).
   {
@@ -204,7 +205,7 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
           << m.errors.scored << '\n';
     }
   }
-  scripts["nees.gp"] = nees_script(record);
+  if (!record.metrics.empty()) scripts["nees.gp"] = nees_script(record);
 
   const auto finals = final_rows(record);
   if (!finals.empty()) {
