@@ -110,7 +110,13 @@ for _ in $(seq 100); do
   kill -0 "$ORCH_PID" 2>/dev/null || break
   sleep 0.1
 done
-[ -s "$OUT/scenario.yaml" ] || { echo "multihost: orchestrator did not start:" >&2; cat "$LOGS/orchestrator.log" >&2; exit 1; }
+if [ ! -s "$OUT/scenario.yaml" ]; then
+  echo "multihost: orchestrator did not start:" >&2
+  cat "$LOGS/orchestrator.log" >&2
+  rc=0
+  kill -0 "$ORCH_PID" 2>/dev/null || { wait "$ORCH_PID" || rc=$?; ORCH_PID=; }
+  exit $(( rc ? rc : 1 ))
+fi
 AGENTS=$(sed -n 's/^  agents: *\([0-9]*\).*/\1/p' "$OUT/scenario.yaml" | head -1)
 [ -n "$AGENTS" ] || { echo "multihost: cannot read world.agents from $OUT/scenario.yaml" >&2; exit 1; }
 
