@@ -101,7 +101,7 @@ class AgentProcess {
         if (after - last_hello > std::chrono::milliseconds(200)) {
           last_hello = after;
           publish(runtime_.initial_publication(local_stamp_ns()));
-          transport_.publish_estimate(runtime_.report(local_stamp_ns(), process_cpu_s()));
+          transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
         }
         if (std::chrono::duration<double>(after - started_).count() > scenario_.run.startup_timeout_s + 30.0) {
           logger_->error("no START from the orchestrator within {:.0f} s; exiting", scenario_.run.startup_timeout_s + 30.0);
@@ -115,7 +115,7 @@ class AgentProcess {
         // (steps_run = 0, so these never replace the fusion centre's reports) and run no estimator.
         if (after - last_hello > std::chrono::seconds(1)) {
           last_hello = after;
-          transport_.publish_estimate(runtime_.report(local_stamp_ns(), process_cpu_s()));
+          transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
         }
         next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
       } else if (after >= next_tick) {
@@ -135,7 +135,7 @@ class AgentProcess {
         break;
       }
     }
-    transport_.publish_estimate(runtime_.report(local_stamp_ns(), process_cpu_s()));
+    transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
     log_diagnostics();
     return 0;
   }
@@ -147,6 +147,8 @@ class AgentProcess {
       if (control.target != kOrchestratorId && control.target != options_.id) continue;
       if (control.command == sim::ControlCommand::kStart && !started_run_) {
         started_run_ = true;
+        cpu_at_start_ = process_cpu_s();
+        logger_->info("CPU before START (start-up and discovery): {:.3f} s", cpu_at_start_);
         logger_->info("START received");
       } else if (control.command == sim::ControlCommand::kStop) {
         logger_->info("STOP received");
@@ -164,12 +166,16 @@ class AgentProcess {
       publication.outbox.state = hostile_state(publication.header.step);
     }
     publish(publication);
-    transport_.publish_estimate(runtime_.report(local_stamp_ns(), process_cpu_s()));
+    transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
   }
 
   void publish(const sim::AgentRuntime::Publication& publication) {
     if (publication.outbox.state) transport_.publish_state(publication.header, *publication.outbox.state);
   }
+
+  /// CPU seconds spent since START: the steady-state cost the scaling figures compare (start-up and
+  /// discovery are logged separately).
+  double run_cpu_s() const { return started_run_ ? process_cpu_s() - cpu_at_start_ : 0.0; }
 
   std::int64_t local_stamp_ns() const {
     const double mono_s = std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -201,6 +207,7 @@ class AgentProcess {
   int neighbour_count_ = 0;
   bool sensor_only_ = false;  ///< centralized algorithm: batches only, no estimator steps
   bool started_run_ = false;
+  double cpu_at_start_ = 0.0;
   std::chrono::steady_clock::time_point started_;
 };
 

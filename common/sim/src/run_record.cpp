@@ -89,8 +89,10 @@ nlohmann::json summary_json(const RunRecord& record) {
   summary["processes"] = record.processes;
   summary["wall_s"] = record.wall_s;
   summary["cpu_per_agent_s"] = cpu_count > 0 ? json(cpu_sum / cpu_count) : json();
+  // Agents report CPU since START, so normalize by the run's world duration.
+  const double run_duration_s = static_cast<double>(record.metrics.size()) / record.scenario.run.rate_hz;
   summary["cpu_per_agent_fraction"] =
-      cpu_count > 0 && record.wall_s > 0.0 ? json(cpu_sum / cpu_count / record.wall_s) : json();
+      cpu_count > 0 && run_duration_s > 0.0 ? json(cpu_sum / cpu_count / run_duration_s) : json();
   summary["interrupted"] = record.interrupted;
   for (const auto& [key, value] : record.extra.items()) summary[key] = value;
   return summary;
