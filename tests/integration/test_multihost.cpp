@@ -23,7 +23,7 @@ const std::string kScript = kSourceDir + "/deploy/netns/multihost.sh";
 const std::string kScenario = kSourceDir + "/scenarios/default.yaml";
 // The script's own defaults; the loopback reference runs exactly these.
 const std::string kWorld =
-    " --set world.agents=20 --set world.anchors=6 --set world.area_m=35 --set run.steps=150 --set run.rate_hz=10";
+    " --set world.agents=20 --set world.anchors=6 --set world.area_m=35 --set run.steps=250 --set run.rate_hz=10";
 
 /// Empty when namespaces and nftables are usable here, else why not.
 std::string missing_prerequisite() {
@@ -45,7 +45,7 @@ TEST(MultiHost, TwentyAgentsOnThreeNamespaceHostsWithTenPercentWireLossMatchLoop
 
   const auto hosts_dir = fresh_directory("multihost");
   const auto run = run_command("timeout -k 5 80 bash " + kScript + " " + kBinary + " " + hosts_dir.string() +
-                               " 10 -- --set dds.domain_id=42");
+                               " 10 -- --set run.steps=250 --set dds.domain_id=42");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("final RMSE"), std::string::npos) << run.output;
   EXPECT_NE(run.output.find("switch drops"), std::string::npos) << run.output;
