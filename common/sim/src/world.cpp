@@ -213,18 +213,20 @@ estimators::MeasurementBatch generate_batch(const World& world, const Scenario& 
   const auto i = static_cast<std::size_t>(agent);
   const Vec2& xi = world.truth[i];
   batch.neighbours = world.neighbours[i];
-  std::normal_distribution<double> gauss(0.0, 1.0);
+  const std::uint64_t noise_seed = trial_seed(s.seed, world.trial);
   for (AgentId j : world.neighbours[i]) {
     const double distance = (xi - world.truth[static_cast<std::size_t>(j)]).norm();
     if (distance > s.world.comm_radius_m) continue;  // moved out of range
-    auto rng = core::make_engine(trial_seed(s.seed, world.trial), core::Stream::kMeasurementNoise, step, agent, j);
-    const double noisy = std::abs(distance + s.noise.range_std_m * gauss(rng));
+    const double noise = core::standard_normal(
+        core::hash_keys(noise_seed, static_cast<std::uint64_t>(core::Stream::kMeasurementNoise), step, agent, j));
+    const double noisy = std::abs(distance + s.noise.range_std_m * noise);
     batch.ranges.push_back({j, noisy, s.noise.range_std_m});
   }
   if (world.is_anchor[i]) {
     estimators::AbsoluteFix fix;
-    auto rng = core::make_engine(trial_seed(s.seed, world.trial), core::Stream::kMeasurementNoise, step, agent, -1);
-    fix.position_m = xi + s.noise.anchor_fix_std_m * Vec2(gauss(rng), gauss(rng));
+    const auto fix_key = core::hash_keys(noise_seed, static_cast<std::uint64_t>(core::Stream::kMeasurementNoise), step,
+                                         agent, -1);
+    fix.position_m = xi + s.noise.anchor_fix_std_m * Vec2(core::standard_normal(fix_key), core::standard_normal(fix_key + 1));
     fix.covariance = Mat2::Identity() * s.noise.anchor_fix_std_m * s.noise.anchor_fix_std_m;
     batch.fix = fix;
   }

@@ -1,6 +1,7 @@
 #pragma once
 // Seeded, counter-based randomness. Every stochastic decision in swarmloc is a pure function of
 // (seed, stream, indices), so the simulator and the DDS runtime draw identical numbers in any order.
+#include <cmath>
 #include <cstdint>
 #include <random>
 
@@ -25,6 +26,14 @@ constexpr std::uint64_t hash_keys(std::uint64_t seed, Keys... keys) {
 /// Uniform in [0, 1) from a hash (53 random bits).
 constexpr double unit_uniform(std::uint64_t h) {
   return static_cast<double>(h >> 11U) * (1.0 / 9007199254740992.0);
+}
+
+/// Standard normal from a hash (Box–Muller on two 53-bit uniforms). Counter-based: no engine to seed,
+/// which matters on hot paths that draw one number per (step, agent, peer).
+inline double standard_normal(std::uint64_t h) {
+  const double u1 = 1.0 - unit_uniform(mix64(h));  // (0, 1]: log is finite
+  const double u2 = unit_uniform(mix64(h ^ 0x5851f42d4c957f2dULL));
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.283185307179586 * u2);
 }
 
 /// Named random streams so that adding draws to one purpose never shifts another.
