@@ -28,7 +28,7 @@ if [ "${1:-}" = "--" ]; then shift; fi
 EXTRA=("$@")
 
 HOSTS=${SWARMLOC_MULTIHOST_HOSTS:-3}           # agent hosts (plus one orchestrator host)
-SCENARIO=${SWARMLOC_MULTIHOST_SCENARIO:-$(dirname "$(readlink -f "$0")")/../../scenarios/default.yaml}
+SCENARIO=$(readlink -f "${SWARMLOC_MULTIHOST_SCENARIO:-$(dirname "$(readlink -f "$0")")/../../scenarios/default.yaml}")
 [ -x "$BIN" ] || { echo "multihost: $BIN is not executable" >&2; exit 2; }
 [[ "$LOSS" =~ ^[0-9]+$ ]] && [ "$LOSS" -le 100 ] || { echo "multihost: loss percent must be 0..100" >&2; exit 2; }
 [ "$(id -u)" -eq 0 ] || { echo "multihost: needs root (ip netns)" >&2; exit 2; }
