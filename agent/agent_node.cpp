@@ -108,6 +108,7 @@ class AgentProcess {
           return 1;
         }
         next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+        last_batch_seen = after;  // the orchestrator-silence timer starts at START, not at launch
         continue;
       }
       if (sensor_only_) {
