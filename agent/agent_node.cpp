@@ -12,6 +12,7 @@
 #include <csignal>
 #include <limits>
 #include <thread>
+#include <type_traits>
 
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/sim/agent_runtime.hpp"
@@ -30,7 +31,9 @@ void on_signal(int /*signal*/) { g_stop_requested.store(true); }
 double process_cpu_s() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
-  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) * 1e-6; };
+  auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) * 1e-6;
+  };
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
@@ -53,11 +56,41 @@ estimators::StateMessage hostile_state(std::int64_t step) {
   message.mean_m = Vec2(20.0, 20.0);
   message.covariance = Mat2::Identity() * 0.01;
   switch (step % 3) {
-    case 0: message.mean_m.x() = std::numeric_limits<double>::quiet_NaN(); break;
-    case 1: message.covariance << 1.0, 5.0, 5.0, 1.0; break;  // eigenvalues 6 and -4
-    default: message.mean_m = Vec2(1e12, -1e12); break;
+    case 0:
+      message.mean_m.x() = std::numeric_limits<double>::quiet_NaN();
+      break;
+    case 1:
+      message.covariance << 1.0, 5.0, 5.0, 1.0;
+      break;  // eigenvalues 6 and -4
+    default:
+      message.mean_m = Vec2(1e12, -1e12);
+      break;
   }
   return message;
+}
+
+/// Replaces every family of `outbox` by broken samples of the same kind (NaN, non-PSD, absurd in turn).
+void make_hostile(estimators::Outbox& outbox, std::int64_t step) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const int variant = static_cast<int>(step % 3);
+  if (outbox.state) outbox.state = hostile_state(step);
+  if (outbox.belief) {
+    auto& belief = *outbox.belief;
+    belief.infinite_information = false;
+    belief.information = Mat2::Identity();
+    if (variant == 0) belief.mean_m.x() = nan;
+    if (variant == 1) belief.information << 1.0, 5.0, 5.0, 1.0;
+    if (variant == 2) belief.mean_m = Vec2(1e12, -1e12);
+  }
+  for (auto& consensus : outbox.consensus) {
+    for (double& value : consensus.values) value = variant == 0 ? nan : (variant == 1 ? -1e300 : 1e300);
+  }
+  if (outbox.information) {
+    auto& information = *outbox.information;
+    if (variant == 0) information.info_vec.setConstant(nan);
+    if (variant == 1 && information.info_mat.size() > 0) information.info_mat.setConstant(-1.0);
+    if (variant == 2) information.info_mat.setConstant(1e300);
+  }
 }
 
 class AgentProcess {
@@ -69,8 +102,10 @@ class AgentProcess {
         logger_(std::move(logger)),
         clock_(world.clocks.at(static_cast<std::size_t>(options.id))),
         runtime_(sim::make_agent_estimator(scenario, world, options.id), world.setup_of(options.id),
-                 world.neighbours.at(static_cast<std::size_t>(options.id)), sim::make_runtime_params(scenario)),
-        transport_(scenario, dds::Topology{options.id, world.size(), world.neighbours.at(static_cast<std::size_t>(options.id))}),
+                 world.neighbours.at(static_cast<std::size_t>(options.id)),
+                 sim::make_runtime_params(scenario)),
+        transport_(scenario, dds::Topology{options.id, world.size(),
+                                           world.neighbours.at(static_cast<std::size_t>(options.id))}),
         neighbour_count_(static_cast<int>(world.neighbours.at(static_cast<std::size_t>(options.id)).size())),
         sensor_only_(sim::is_centralized(scenario.algorithm.name)),
         started_(std::chrono::steady_clock::now()) {}
@@ -84,7 +119,8 @@ class AgentProcess {
                   clock_.offset_s, clock_.drift_ppm,
                   sensor_only_ ? " (sensor only: the fusion centre estimates)" : "");
 
-    auto next_tick = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    auto next_tick = std::chrono::steady_clock::now() +
+                     std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
     auto last_hello = std::chrono::steady_clock::now() - std::chrono::seconds(10);
     auto last_batch_seen = std::chrono::steady_clock::now();
     int last_matched = -1;
@@ -103,8 +139,10 @@ class AgentProcess {
           publish(runtime_.initial_publication(local_stamp_ns()));
           transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
         }
-        if (std::chrono::duration<double>(after - started_).count() > scenario_.run.startup_timeout_s + 30.0) {
-          logger_->error("no START from the orchestrator within {:.0f} s; exiting", scenario_.run.startup_timeout_s + 30.0);
+        if (std::chrono::duration<double>(after - started_).count() >
+            scenario_.run.startup_timeout_s + 30.0) {
+          logger_->error("no START from the orchestrator within {:.0f} s; exiting",
+                         scenario_.run.startup_timeout_s + 30.0);
           return 1;
         }
         next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
@@ -157,21 +195,37 @@ class AgentProcess {
       }
     }
     for (const auto& [header, batch] : inbound.batches) runtime_.on_batch(header, batch);
-    for (const auto& state : inbound.states) runtime_.on_state(state.header, state.message, state.well_formed);
+    for (const auto& sample : inbound.states)
+      runtime_.on_state(sample.header, sample.message, sample.well_formed);
+    for (const auto& sample : inbound.information) {
+      runtime_.on_information(sample.header, sample.message, sample.well_formed);
+    }
+    for (const auto& sample : inbound.consensus)
+      runtime_.on_consensus(sample.header, sample.message, sample.well_formed);
+    for (const auto& sample : inbound.beliefs)
+      runtime_.on_belief(sample.header, sample.message, sample.well_formed);
     return false;
   }
 
   void tick() {
     auto publication = runtime_.step(local_stamp_ns());
-    if (options_.hostile && publication.outbox.state) {
-      publication.outbox.state = hostile_state(publication.header.step);
-    }
+    if (options_.hostile) make_hostile(publication.outbox, publication.header.step);
     publish(publication);
     transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
   }
 
   void publish(const sim::AgentRuntime::Publication& publication) {
-    if (publication.outbox.state) transport_.publish_state(publication.header, *publication.outbox.state);
+    sim::AgentRuntime::for_each_sample(publication, [this](const sim::Header& header, const auto& message) {
+      using Message = std::decay_t<decltype(message)>;
+      if constexpr (std::is_same_v<Message, estimators::StateMessage>)
+        transport_.publish_state(header, message);
+      if constexpr (std::is_same_v<Message, estimators::InformationMessage>)
+        transport_.publish_information(header, message);
+      if constexpr (std::is_same_v<Message, estimators::ConsensusMessage>)
+        transport_.publish_consensus(header, message);
+      if constexpr (std::is_same_v<Message, estimators::BeliefMessage>)
+        transport_.publish_belief(header, message);
+    });
   }
 
   /// CPU seconds spent since START: the steady-state cost the scaling figures compare (start-up and
@@ -179,7 +233,8 @@ class AgentProcess {
   double run_cpu_s() const { return started_run_ ? process_cpu_s() - cpu_at_start_ : 0.0; }
 
   std::int64_t local_stamp_ns() const {
-    const double mono_s = std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+    const double mono_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
     return static_cast<std::int64_t>(std::llround(clock_.local_time(mono_s) * 1e9));
   }
 
@@ -191,11 +246,13 @@ class AgentProcess {
       dropped += link.dropped_injected;
       rejected += link.rejected;
     }
-    logger_->info("stopping after {} steps: arrived {} delivered {} dropped(injected) {} rejected {}; cpu {:.3f} s",
-                  runtime_.steps_run(), arrived, delivered, dropped, rejected, process_cpu_s());
+    logger_->info(
+        "stopping after {} steps: arrived {} delivered {} dropped(injected) {} rejected {}; cpu {:.3f} s",
+        runtime_.steps_run(), arrived, delivered, dropped, rejected, process_cpu_s());
     const auto& reasons = runtime_.rejected_by_reason();
     for (std::size_t r = 0; r < reasons.size(); ++r) {
-      if (reasons[r] > 0) logger_->info("rejected {}: {}", sim::to_string(static_cast<sim::RejectReason>(r)), reasons[r]);
+      if (reasons[r] > 0)
+        logger_->info("rejected {}: {}", sim::to_string(static_cast<sim::RejectReason>(r)), reasons[r]);
     }
   }
 

@@ -1,9 +1,9 @@
 // swarmloc — cooperative localization with one OS process per agent over Cyclone DDS.
 // Exit codes: 0 ok, 2 bad input (scenario, flags), 1 runtime failure.
-#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -37,13 +37,14 @@ std::string keys_help() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"swarmloc: cooperative localization of sensor networks and robot teams.\n"
-               "Each agent is its own OS process talking over Cyclone DDS; the orchestrator owns the ground truth,\n"
-               "feeds every agent its noisy measurements, and scores the estimates against truth and the CRLB.\n\n"
-               "  swarmloc run scenarios/default.yaml            # N agent processes over DDS on loopback\n"
-               "  swarmloc sim scenarios/default.yaml            # the same estimators in one process\n"
-               "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n",
-               "swarmloc"};
+  CLI::App app{
+      "swarmloc: cooperative localization of sensor networks and robot teams.\n"
+      "Each agent is its own OS process talking over Cyclone DDS; the orchestrator owns the ground truth,\n"
+      "feeds every agent its noisy measurements, and scores the estimates against truth and the CRLB.\n\n"
+      "  swarmloc run scenarios/default.yaml            # N agent processes over DDS on loopback\n"
+      "  swarmloc sim scenarios/default.yaml            # the same estimators in one process\n"
+      "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n",
+      "swarmloc"};
   app.require_subcommand(1);
   app.footer("Exit codes: 0 ok, 2 bad input (scenario or flags), 1 runtime failure or interrupted.");
 
@@ -52,50 +53,67 @@ int main(int argc, char** argv) {
   std::string out_dir;
   bool quiet = false;
 
-  auto* run = app.add_subcommand("run", "Run a scenario with one OS process per agent over DDS (orchestrator + agents).");
+  auto* run = app.add_subcommand(
+      "run", "Run a scenario with one OS process per agent over DDS (orchestrator + agents).");
   std::vector<int> hostile;
   bool no_launch = false;
   run->add_option("scenario", scenario_path, "Scenario YAML file (e.g. scenarios/default.yaml)")->required();
   run->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
   run->add_option("--set", overrides, "Override a scenario key: --set network.loss=0.2 (repeatable)");
-  run->add_option("--hostile", hostile, "Start this agent id as a hostile agent publishing NaN / non-PSD / absurd states");
-  run->add_flag("--no-launch", no_launch, "Do not start agents; wait for agents started elsewhere (containers, hosts)");
+  run->add_option("--hostile", hostile,
+                  "Start this agent id as a hostile agent publishing NaN / non-PSD / absurd states");
+  run->add_flag("--no-launch", no_launch,
+                "Do not start agents; wait for agents started elsewhere (containers, hosts)");
   run->add_flag("-q,--quiet", quiet, "No progress line");
   run->footer(keys_help());
 
-  auto* sim = app.add_subcommand("sim", "Run a scenario in-process (same estimators, synchronous rounds, seeded bus).");
+  auto* sim = app.add_subcommand(
+      "sim", "Run a scenario in-process (same estimators, synchronous rounds, seeded bus).");
   sim->add_option("scenario", scenario_path, "Scenario YAML file")->required();
   sim->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
   sim->add_option("--set", overrides, "Override a scenario key (repeatable)");
   sim->add_flag("-q,--quiet", quiet, "No progress line");
   int trials = 1;
   int threads = 0;
-  sim->add_option("--trials", trials, "Monte Carlo trials (fixed configuration; noise, initial guesses and loss per trial)")
+  sim->add_option("--trials", trials,
+                  "Monte Carlo trials (fixed configuration; noise, initial guesses and loss per trial)")
       ->check(CLI::PositiveNumber);
-  sim->add_option("--threads", threads, "Worker threads for --trials (default: every core)")->check(CLI::NonNegativeNumber);
+  sim->add_option("--threads", threads, "Worker threads for --trials (default: every core)")
+      ->check(CLI::NonNegativeNumber);
   sim->footer(keys_help());
 
-  auto* agent = app.add_subcommand("agent", "Run one agent process (what `run` starts N times; also for containers).");
+  auto* agent =
+      app.add_subcommand("agent", "Run one agent process (what `run` starts N times; also for containers).");
   swarmloc::agent::AgentOptions agent_options;
-  agent->add_option("--scenario", agent_options.scenario_path, "Scenario YAML (the run directory's scenario.yaml)")->required();
+  agent
+      ->add_option("--scenario", agent_options.scenario_path,
+                   "Scenario YAML (the run directory's scenario.yaml)")
+      ->required();
   std::string agent_role = "agent";
-  agent->add_option("--role", agent_role,
-                    "agent: one agent (needs --id); fusion: the fusion centre of a centralized algorithm "
-                    "(ekf, lbekf, lbekf_vr, lbekf_i)")
+  agent
+      ->add_option("--role", agent_role,
+                   "agent: one agent (needs --id); fusion: the fusion centre of a centralized algorithm "
+                   "(ekf, lbekf, lbekf_vr, lbekf_i)")
       ->check(CLI::IsMember({"agent", "fusion"}));
   auto* agent_id = agent->add_option("--id", agent_options.id, "Agent id in [0, world.agents) (role agent)");
   agent->add_option("--set", agent_options.overrides, "Override a scenario key (repeatable)");
   agent->add_option("--log", agent_options.log_path, "Log file (default: stderr)");
-  agent->add_flag("--hostile", agent_options.hostile, "Publish NaN / non-PSD / absurd states (robustness tests)");
+  agent->add_flag("--hostile", agent_options.hostile,
+                  "Publish NaN / non-PSD / absurd states (robustness tests)");
 
-  auto* reproduce = app.add_subcommand("reproduce", "Run a paper experiment; writes a Markdown table beside the paper's numbers.");
+  auto* reproduce = app.add_subcommand(
+      "reproduce", "Run a paper experiment; writes a Markdown table beside the paper's numbers.");
   swarmloc::orchestrator::ReproduceOptions reproduce_options;
   std::string reproduce_out = "runs/reproduce";
-  reproduce->add_option("experiment", reproduce_options.experiment, "ea1 | ea2 | ea3 | ieif-table1 | ieif-table2")
+  reproduce
+      ->add_option(
+          "experiment", reproduce_options.experiment,
+          "ea1 | ea2 | ea3 | ieif-table1 | ieif-table2 | jacobi-002 | multipath-003 | dgbb-004-table1")
       ->required()
       ->check(CLI::IsMember(swarmloc::orchestrator::known_experiments()));
   reproduce->add_option("--out", reproduce_out, "Output directory (default runs/reproduce)");
-  reproduce->add_option("--trials", reproduce_options.trials, "Monte Carlo trials (default: the paper's count)");
+  reproduce->add_option("--trials", reproduce_options.trials,
+                        "Monte Carlo trials (default: the paper's count)");
   reproduce->add_option("--threads", reproduce_options.threads, "Worker threads (default: every core)");
   reproduce->add_option("--seed", reproduce_options.seed, "Seed");
 
@@ -123,7 +141,8 @@ int main(int argc, char** argv) {
     return swarmloc::orchestrator::run_orchestrator(options);
   }
   if (sim->parsed()) {
-    swarmloc::orchestrator::SimCommandOptions options{scenario_path, overrides, out_dir, !quiet, trials, threads};
+    swarmloc::orchestrator::SimCommandOptions options{scenario_path, overrides, out_dir,
+                                                      !quiet,        trials,    threads};
     return swarmloc::orchestrator::run_sim_command(options);
   }
   if (agent->parsed()) {
@@ -132,8 +151,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "error: --role fusion takes no --id or --hostile\n");
         return 2;
       }
-      return swarmloc::agent::run_fusion_center(
-          swarmloc::agent::FusionOptions{agent_options.scenario_path, agent_options.overrides, agent_options.log_path});
+      return swarmloc::agent::run_fusion_center(swarmloc::agent::FusionOptions{
+          agent_options.scenario_path, agent_options.overrides, agent_options.log_path});
     }
     if (agent_id->count() == 0) {
       std::fprintf(stderr, "error: --id is required for --role agent\n");

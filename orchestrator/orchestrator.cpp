@@ -3,14 +3,14 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
-#include <thread>
 #include <fstream>
-#include <algorithm>
+#include <thread>
 
 #include "launcher.hpp"
 #include "swarmloc/dds/transport.hpp"
@@ -26,7 +26,9 @@ using Clock = std::chrono::steady_clock;
 std::atomic<bool> g_interrupted{false};
 void on_signal(int /*signal*/) { g_interrupted.store(true); }  // flag only; never DDS from a handler
 
-double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
 
 /// One progress line, rewritten in place on a terminal.
 class Progress {
@@ -50,11 +52,13 @@ class Progress {
   Clock::time_point last_ = Clock::now() - std::chrono::hours(1);
 };
 
-std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& errors, int reporting, int agents,
-                          double elapsed_s) {
+std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& errors, int reporting,
+                          int agents, double elapsed_s) {
   char line[200];
-  std::snprintf(line, sizeof line, "[%5.1fs] step %4lld/%d  rmse %8.4f m  max %8.4f m  agents reporting %d/%d",
-                elapsed_s, static_cast<long long>(step + 1), steps, errors.rmse_m, errors.max_error_m, reporting, agents);
+  std::snprintf(line, sizeof line,
+                "[%5.1fs] step %4lld/%d  rmse %8.4f m  max %8.4f m  agents reporting %d/%d", elapsed_s,
+                static_cast<long long>(step + 1), steps, errors.rmse_m, errors.max_error_m, reporting,
+                agents);
   return line;
 }
 
@@ -78,19 +82,21 @@ class Orchestrator {
     record_.agents = n;
     record_.anchors = world_.anchor_count();
     record_.mean_degree = world_.mean_degree();
-    record_.crlb = sim::range_crlb(world_, scenario_.noise.range_std_m);
+    record_.crlb = sim::scenario_crlb(world_, scenario_);
 
     dds::OrchestratorTransport transport(scenario_, n);
     if (options_.launch_agents) launch_agents();
-    spdlog::info("run directory {}: {} agents ({} anchors, mean degree {:.1f}), {} steps at {} Hz{}", run_dir_.string(), n,
-                 record_.anchors, record_.mean_degree, scenario_.run.steps, scenario_.run.rate_hz,
+    spdlog::info("run directory {}: {} agents ({} anchors, mean degree {:.1f}), {} steps at {} Hz{}",
+                 run_dir_.string(), n, record_.anchors, record_.mean_degree, scenario_.run.steps,
+                 scenario_.run.rate_hz,
                  centralized_ ? " (" + scenario_.algorithm.name + " in a fusion centre)" : std::string());
 
     const bool ready = wait_for_agents(transport, started);
     bool failed = !ready;
     if (ready) failed = !drive(transport, started);
     // Let the last estimates arrive, then stop everyone.
-    const auto settle_until = Clock::now() + std::chrono::duration<double>(failed ? 0.0 : scenario_.run.settle_s);
+    const auto settle_until =
+        Clock::now() + std::chrono::duration<double>(failed ? 0.0 : scenario_.run.settle_s);
     while (Clock::now() < settle_until && !g_interrupted.load()) collect(transport, 0.05);
     sim::ControlMessage stop;
     stop.command = sim::ControlCommand::kStop;
@@ -103,7 +109,8 @@ class Orchestrator {
     record_.interrupted = g_interrupted.load();
     record_.wall_s = seconds_since(started);
     for (int i = 0; i < launcher_.size(); ++i) {
-      if (static_cast<std::size_t>(i) < record_.agent_summaries.size()) record_.agent_summaries[static_cast<std::size_t>(i)].exit_code = launcher_.exit_code(i);
+      if (static_cast<std::size_t>(i) < record_.agent_summaries.size())
+        record_.agent_summaries[static_cast<std::size_t>(i)].exit_code = launcher_.exit_code(i);
     }
     record_.extra["rejected_reports"] = transport.rejected_reports();
     record_.extra["run_directory"] = run_dir_.string();
@@ -123,9 +130,10 @@ class Orchestrator {
       char name[32];
       std::snprintf(name, sizeof name, "agent_%03d.log", i);
       const auto log = (run_dir_ / "logs" / name).string();
-      std::vector<std::string> argv{options_.agent_binary, "agent", "--scenario", scenario_file, "--id", std::to_string(i),
-                                    "--log", log};
-      if (std::find(options_.hostile_agents.begin(), options_.hostile_agents.end(), i) != options_.hostile_agents.end()) {
+      std::vector<std::string> argv{options_.agent_binary, "agent", "--scenario", scenario_file, "--id",
+                                    std::to_string(i),     "--log", log};
+      if (std::find(options_.hostile_agents.begin(), options_.hostile_agents.end(), i) !=
+          options_.hostile_agents.end()) {
         argv.emplace_back("--hostile");
       }
       launcher_.launch(argv, log + ".out");
@@ -133,8 +141,9 @@ class Orchestrator {
     if (centralized_) {
       // Launched last, so the agents keep launcher indices 0 … N−1 (their summaries' exit codes).
       const auto log = (run_dir_ / "logs" / "fusion_center.log").string();
-      launcher_.launch({options_.agent_binary, "agent", "--role", "fusion", "--scenario", scenario_file, "--log", log},
-                       log + ".out");
+      launcher_.launch(
+          {options_.agent_binary, "agent", "--role", "fusion", "--scenario", scenario_file, "--log", log},
+          log + ".out");
     }
   }
 
@@ -145,9 +154,10 @@ class Orchestrator {
     while (!g_interrupted.load()) {
       collect(transport, 0.1);
       const int reporting = count_reporting();
-      progress_.update("[" + std::to_string(static_cast<int>(seconds_since(started))) + "s] waiting for agents: " +
-                       std::to_string(reporting) + "/" + std::to_string(n) + " reporting" +
-                       (centralized_ ? (fusion_ready_ ? ", fusion centre up" : ", fusion centre not yet") : ""));
+      progress_.update(
+          "[" + std::to_string(static_cast<int>(seconds_since(started))) +
+          "s] waiting for agents: " + std::to_string(reporting) + "/" + std::to_string(n) + " reporting" +
+          (centralized_ ? (fusion_ready_ ? ", fusion centre up" : ", fusion centre not yet") : ""));
       if (reporting == n && (!centralized_ || fusion_ready_)) break;
       if (options_.launch_agents && launcher_.poll() < launcher_.size()) {
         spdlog::error("an agent process exited during start-up; see {}/logs", run_dir_.string());
@@ -155,7 +165,8 @@ class Orchestrator {
       }
       if (Clock::now() > deadline) {
         spdlog::error("only {}/{} agents{} reported within run.startup_timeout_s = {} s", reporting, n,
-                      centralized_ && !fusion_ready_ ? " (and not the fusion centre)" : "", scenario_.run.startup_timeout_s);
+                      centralized_ && !fusion_ready_ ? " (and not the fusion centre)" : "",
+                      scenario_.run.startup_timeout_s);
         return false;
       }
     }
@@ -174,12 +185,14 @@ class Orchestrator {
 
   /// The world loop. False on interrupt.
   bool drive(dds::OrchestratorTransport& transport, Clock::time_point started) {
-    const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / scenario_.run.rate_hz));
+    const auto period = std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(1.0 / scenario_.run.rate_hz));
     auto next = Clock::now();
     for (std::int64_t step = 0; step < scenario_.run.steps; ++step) {
       if (g_interrupted.load()) return false;
       if (step > 0) sim::advance_truth(world_, scenario_, step);
-      const auto stamp_ns = static_cast<std::int64_t>(static_cast<double>(step) / scenario_.run.rate_hz * 1e9);
+      const auto stamp_ns =
+          static_cast<std::int64_t>(static_cast<double>(step) / scenario_.run.rate_hz * 1e9);
       for (AgentId i = 0; i < world_.size(); ++i) {
         sim::Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns};
         transport.publish_batch(i, header, sim::generate_batch(world_, scenario_, i, step));
@@ -189,8 +202,8 @@ class Orchestrator {
         collect(transport, std::chrono::duration<double>(next - Clock::now()).count());
       }
       score_step(step);
-      progress_.update(progress_line(step, scenario_.run.steps, record_.metrics.back().errors, count_reporting(),
-                                     world_.size(), seconds_since(started)),
+      progress_.update(progress_line(step, scenario_.run.steps, record_.metrics.back().errors,
+                                     count_reporting(), world_.size(), seconds_since(started)),
                        step + 1 == scenario_.run.steps);
     }
     return true;
@@ -230,7 +243,8 @@ class Orchestrator {
     metrics.crlb_rmse_m = record_.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
     record_.metrics.push_back(metrics);
     for (std::size_t i = 0; i < scored.size(); ++i) {
-      if (scored[i]) record_.estimates.push_back({step, static_cast<AgentId>(i), *scored[i], world_.truth[i]});
+      if (scored[i])
+        record_.estimates.push_back({step, static_cast<AgentId>(i), *scored[i], world_.truth[i]});
     }
   }
 
@@ -239,7 +253,8 @@ class Orchestrator {
     if (!record_.metrics.empty()) {
       const auto last_step = record_.metrics.back().step;
       record_.metrics.pop_back();
-      while (!record_.estimates.empty() && record_.estimates.back().step == last_step) record_.estimates.pop_back();
+      while (!record_.estimates.empty() && record_.estimates.back().step == last_step)
+        record_.estimates.pop_back();
       score_step(last_step);
       if (centralized_) {
         // E-A2's total MSE (ALGORITHMS.md §2.8): every agent, beacons included, at the final step.
@@ -248,10 +263,11 @@ class Orchestrator {
           if (reports_[i] && reports_[i]->steps_run > 0) scored[i] = latest_[i];
         }
         record_.extra["final_total_mse_m2"] = sim::total_squared_error(world_.truth, scored);
-        record_.extra["fusion_center"] = {{"filter", scenario_.algorithm.name},
-                                          {"bandwidth", sim::kCentralizedBandwidth},
-                                          {"estimated_agents", std::count_if(scored.begin(), scored.end(),
-                                                                             [](const auto& e) { return e.has_value(); })}};
+        record_.extra["fusion_center"] = {
+            {"filter", scenario_.algorithm.name},
+            {"bandwidth", sim::kCentralizedBandwidth},
+            {"estimated_agents",
+             std::count_if(scored.begin(), scored.end(), [](const auto& e) { return e.has_value(); })}};
       }
     }
     for (AgentId i = 0; i < world_.size(); ++i) {
@@ -302,7 +318,8 @@ int run_orchestrator(const RunOptions& options) {
     scenario = config::load_scenario(options.scenario_path, options.overrides);
     for (AgentId id : options.hostile_agents) {
       if (id < 0 || id >= scenario.world.agents) {
-        throw config::ScenarioError("--hostile: agent " + std::to_string(id) + " is outside [0, world.agents)");
+        throw config::ScenarioError("--hostile: agent " + std::to_string(id) +
+                                    " is outside [0, world.agents)");
       }
     }
     check_runnable(scenario);  // placement and algorithm errors are bad input, found before anything starts
@@ -365,15 +382,17 @@ int run_sim_command(const SimCommandOptions& options) {
       sim::write_run_directory(run_dir, record);
       sim::write_monte_carlo(run_dir, result);
       std::printf("%s", sim::result_table(record).c_str());
-      std::printf("  Monte Carlo: %d trials on %d threads in %.2f s; final RMSE %.4f ± %.4f m (mean ± std over trials)\n",
-                  result.trials, result.threads, result.wall_s, mean, spread);
+      std::printf(
+          "  Monte Carlo: %d trials on %d threads in %.2f s; final RMSE %.4f ± %.4f m (mean ± std over "
+          "trials)\n",
+          result.trials, result.threads, result.wall_s, mean, spread);
       std::printf("  run directory: %s\n", run_dir.string().c_str());
       return 0;
     }
     sim::SimOptions sim_options;
     sim_options.on_step = [&](std::int64_t step, const sim::ErrorStats& errors) {
-      progress.update(progress_line(step, scenario.run.steps, errors, scenario.world.agents, scenario.world.agents,
-                                    seconds_since(started)),
+      progress.update(progress_line(step, scenario.run.steps, errors, scenario.world.agents,
+                                    scenario.world.agents, seconds_since(started)),
                       step + 1 == scenario.run.steps);
     };
     auto record = sim::run_simulation(scenario, sim_options);

@@ -12,6 +12,9 @@
 #include <thread>
 
 #include "swarmloc/estimators/centralized/experiments.hpp"
+#include "swarmloc/sim/experiments/gradient_localization.hpp"
+#include "swarmloc/sim/experiments/multipath_localization.hpp"
+#include "swarmloc/sim/experiments/relative_localization.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::orchestrator {
@@ -56,8 +59,10 @@ int reproduce_ea1(const ReproduceOptions& options) {
   for (int l = 0; l <= 50; l += 5) ls.push_back(l);
   std::ostringstream md;
   md << "# E-A1 — banded inversion error ‖A⁻¹ − BandInv_L(A)‖_F (000 Fig. 2)\n\n"
-     << "n = 500, in-band entries U(−1, 1), diagonal 15, normalized by the largest entry; seed " << options.seed
-     << ". The paper gives a figure, no numbers: error falls steeply until L exceeds the bandwidth of A, then "
+     << "n = 500, in-band entries U(−1, 1), diagonal 15, normalized by the largest entry; seed "
+     << options.seed
+     << ". The paper gives a figure, no numbers: error falls steeply until L exceeds the bandwidth of A, "
+        "then "
         "slowly to 0 (exact at L = n − 1).\n\n| L |";
   for (int b : a_bandwidths) md << " bandwidth(A) = " << b << " |";
   md << "\n|---|";
@@ -84,15 +89,18 @@ int reproduce_ea2(const ReproduceOptions& options) {
   config.config_seed = options.seed + 2;
   const auto world = cen::make_ea2_world(config);
   const std::vector<std::pair<cen::Ea2Variant, std::string>> variants{
-      {cen::Ea2Variant::kEkf, "EKF"}, {cen::Ea2Variant::kLbEkfVr, "LB-EKF+VR (L=20)"},
-      {cen::Ea2Variant::kLbEkfNoVr, "LB-EKF without VR (L=20)"}, {cen::Ea2Variant::kLbEkfIVr, "LB-EKF-I+VR (L=20)"}};
+      {cen::Ea2Variant::kEkf, "EKF"},
+      {cen::Ea2Variant::kLbEkfVr, "LB-EKF+VR (L=20)"},
+      {cen::Ea2Variant::kLbEkfNoVr, "LB-EKF without VR (L=20)"},
+      {cen::Ea2Variant::kLbEkfIVr, "LB-EKF-I+VR (L=20)"}};
   const auto steps = static_cast<std::size_t>(config.steps);
   const auto agents = static_cast<Eigen::Index>(config.num_agents);
   struct Sums {
     std::vector<double> total;
     MatX agent;
   };
-  std::vector<Sums> sums(variants.size(), Sums{std::vector<double>(steps, 0.0), MatX::Zero(static_cast<Eigen::Index>(steps), agents)});
+  std::vector<Sums> sums(variants.size(), Sums{std::vector<double>(steps, 0.0),
+                                               MatX::Zero(static_cast<Eigen::Index>(steps), agents)});
   std::vector<double> crb_total(steps, 0.0);
   MatX crb_agent = MatX::Zero(static_cast<Eigen::Index>(steps), agents);
   std::mutex mutex;
@@ -102,7 +110,8 @@ int reproduce_ea2(const ReproduceOptions& options) {
     for (const auto& [variant, name] : variants) {
       auto cfg = config;
       cfg.compute_crb = (variant == cen::Ea2Variant::kEkf);
-      results.push_back(cen::run_ea2_trial(cfg, world, variant, options.seed * 100000 + static_cast<std::uint64_t>(t)));
+      results.push_back(
+          cen::run_ea2_trial(cfg, world, variant, options.seed * 100000 + static_cast<std::uint64_t>(t)));
     }
     const std::lock_guard<std::mutex> lock(mutex);
     for (std::size_t v = 0; v < variants.size(); ++v) {
@@ -121,7 +130,8 @@ int reproduce_ea2(const ReproduceOptions& options) {
     for (std::size_t k = 50; k < steps; ++k) sum += series[k];
     return sum / static_cast<double>(steps - 50) / n;
   };
-  auto agent_mean = [&](const MatX& agent, bool beacons) {  // steady-state per-agent MSE, averaged over the group
+  auto agent_mean = [&](const MatX& agent,
+                        bool beacons) {  // steady-state per-agent MSE, averaged over the group
     double sum = 0.0;
     int count = 0;
     for (Eigen::Index i = 0; i < agents; ++i) {
@@ -133,25 +143,30 @@ int reproduce_ea2(const ReproduceOptions& options) {
   };
   std::ostringstream md;
   md << "# E-A2 — EKF vs LB-EKF with and without vertex relabeling (000 Figs. 4–6)\n\n"
-     << trials << " Monte Carlo trials on one fixed configuration (30 agents, 8 beacons, 40 m × 40 m, r = 15 m, "
-     << "σ_q = 2 m², σ_r = 10 m², σ_p = 0.02 m², Σ_0 = 5 I, 100 steps); configuration seed " << config.config_seed
-     << ", trial seeds " << options.seed * 100000 << "+t. Wall time " << fmt("%.1f", wall_s) << " s on "
-     << resolve_threads(options.threads) << " threads.\n\n"
+     << trials
+     << " Monte Carlo trials on one fixed configuration (30 agents, 8 beacons, 40 m × 40 m, r = 15 m, "
+     << "σ_q = 2 m², σ_r = 10 m², σ_p = 0.02 m², Σ_0 = 5 I, 100 steps); configuration seed "
+     << config.config_seed << ", trial seeds " << options.seed * 100000 << "+t. Wall time "
+     << fmt("%.1f", wall_s) << " s on " << resolve_threads(options.threads) << " threads.\n\n"
      << "Graph bandwidth: " << world.natural_bandwidth << " in generation order, " << world.vr_bandwidth
-     << " after relabeling x(0) (paper: 8; uniform draws give 11–16, so the configuration is drawn until β_VR ≤ "
+     << " after relabeling x(0) (paper: 8; uniform draws give 11–16, so the configuration is drawn until "
+        "β_VR ≤ "
      << config.max_vr_bandwidth << ", " << world.attempts << " draws).\n\n"
-     << "| filter | total MSE, steady state (k ≥ 50) [m²] | total MSE k = 10 | total MSE k = 99 | per-agent MSE, non-beacons [m²] | per-agent MSE, beacons [m²] | vs EKF (steady) |\n"
+     << "| filter | total MSE, steady state (k ≥ 50) [m²] | total MSE k = 10 | total MSE k = 99 | per-agent "
+        "MSE, non-beacons [m²] | per-agent MSE, beacons [m²] | vs EKF (steady) |\n"
      << "|---|---|---|---|---|---|---|\n";
   const double ekf_steady = steady(sums[0].total);
   for (std::size_t v = 0; v < variants.size(); ++v) {
     md << "| " << variants[v].second << " | " << fmt("%.3f", steady(sums[v].total)) << " | "
        << fmt("%.3f", sums[v].total[10] / n) << " | " << fmt("%.3f", sums[v].total[99] / n) << " | "
-       << fmt("%.4f", agent_mean(sums[v].agent, false)) << " | " << fmt("%.4f", agent_mean(sums[v].agent, true)) << " | "
+       << fmt("%.4f", agent_mean(sums[v].agent, false)) << " | "
+       << fmt("%.4f", agent_mean(sums[v].agent, true)) << " | "
        << fmt("%.3f", steady(sums[v].total) / ekf_steady) << " |\n";
   }
-  md << "| posterior CRB (tr J_k⁻¹) | " << fmt("%.3f", steady(crb_total)) << " | " << fmt("%.3f", crb_total[10] / n) << " | "
-     << fmt("%.3f", crb_total[99] / n) << " | " << fmt("%.4f", agent_mean(crb_agent, false)) << " | "
-     << fmt("%.4f", agent_mean(crb_agent, true)) << " | " << fmt("%.3f", steady(crb_total) / ekf_steady) << " |\n\n"
+  md << "| posterior CRB (tr J_k⁻¹) | " << fmt("%.3f", steady(crb_total)) << " | "
+     << fmt("%.3f", crb_total[10] / n) << " | " << fmt("%.3f", crb_total[99] / n) << " | "
+     << fmt("%.4f", agent_mean(crb_agent, false)) << " | " << fmt("%.4f", agent_mean(crb_agent, true))
+     << " | " << fmt("%.3f", steady(crb_total) / ekf_steady) << " |\n\n"
      << "Paper (figures only): LB-EKF+VR close to the EKF in transient and steady state; LB-EKF without VR "
         "higher, clearly worse at non-beacon agents; all similar at beacons.\n";
   std::ofstream csv(options.out_dir / "ea2_total_mse.csv");
@@ -177,7 +192,8 @@ int reproduce_ea3(const ReproduceOptions& options) {
   md << "# E-A3 — relabeling bandwidth bound φ_max vs number of agents (000 Fig. 7)\n\n"
      << "r = 15 m; N ~ Poisson(λ l²) in [0, l]²; " << samples << " samples per point; mean ± 2 std of φ_max; "
      << "eq. (35) gives r·sqrt(λ·E|V|). Paper: sublinear growth, slightly above eq. (35).\n\n"
-     << "| λ [1/m²] | E|V| | mean |V| | φ_max mean ± 2 std | φ_max / |V| | r·sqrt(λ·E|V|) |\n|---|---|---|---|---|---|\n";
+     << "| λ [1/m²] | E|V| | mean |V| | φ_max mean ± 2 std | φ_max / |V| | r·sqrt(λ·E|V|) "
+        "|\n|---|---|---|---|---|---|\n";
   std::mt19937_64 rng(options.seed);
   for (double lambda : lambdas) {
     for (double ev : expected_agents) {
@@ -191,9 +207,10 @@ int reproduce_ea3(const ReproduceOptions& options) {
       }
       const double mean = sum / samples;
       const double spread = std::sqrt(std::max(0.0, sq / samples - mean * mean));
-      md << "| " << lambda << " | " << ev << " | " << fmt("%.0f", agents / samples) << " | " << fmt("%.1f", mean)
-         << " ± " << fmt("%.1f", 2 * spread) << " | " << fmt("%.4f", mean / (agents / samples)) << " | "
-         << fmt("%.1f", r * std::sqrt(lambda * ev)) << " |\n";
+      md << "| " << lambda << " | " << ev << " | " << fmt("%.0f", agents / samples) << " | "
+         << fmt("%.1f", mean) << " ± " << fmt("%.1f", 2 * spread) << " | "
+         << fmt("%.4f", mean / (agents / samples)) << " | " << fmt("%.1f", r * std::sqrt(lambda * ev))
+         << " |\n";
     }
   }
   emit(options.out_dir, "ea3", md.str());
@@ -201,8 +218,8 @@ int reproduce_ea3(const ReproduceOptions& options) {
 }
 
 // ---------------- 001 Tables I and II ----------------
-config::Scenario kalman_table_scenario(const std::string& algorithm, int agents, int anchors, double noise_std_m,
-                                       std::uint64_t seed) {
+config::Scenario kalman_table_scenario(const std::string& algorithm, int agents, int anchors,
+                                       double noise_std_m, std::uint64_t seed) {
   config::Scenario s;  // ALGORITHMS.md §3.6 [B-6] defaults
   s.seed = seed;
   s.name = "001-" + algorithm;
@@ -221,8 +238,8 @@ config::Scenario kalman_table_scenario(const std::string& algorithm, int agents,
 
 }  // namespace
 
-KalmanTableColumn run_kalman_table_column(const std::string& algorithm, int agents, int anchors, double noise_std_m,
-                                          int trials, int threads, std::uint64_t seed) {
+KalmanTableColumn run_kalman_table_column(const std::string& algorithm, int agents, int anchors,
+                                          double noise_std_m, int trials, int threads, std::uint64_t seed) {
   const auto scenario = kalman_table_scenario(algorithm, agents, anchors, noise_std_m, seed);
   struct TrialStats {
     double max = 0, min = 0, mean = 0, std = 0, convergence = 0;
@@ -253,7 +270,8 @@ KalmanTableColumn run_kalman_table_column(const std::string& algorithm, int agen
     }
     std::int64_t network_convergence = 0;
     for (std::int64_t k = 0; k < steps; ++k) {
-      if (std::abs(mean_error[static_cast<std::size_t>(k)] - mean_error.back()) > 0.005) network_convergence = k + 1;
+      if (std::abs(mean_error[static_cast<std::size_t>(k)] - mean_error.back()) > 0.005)
+        network_convergence = k + 1;
     }
     auto& s = stats[static_cast<std::size_t>(t)];
     const double count = static_cast<double>(final_errors.size());
@@ -279,7 +297,8 @@ KalmanTableColumn run_kalman_table_column(const std::string& algorithm, int agen
     column.convergence_step += s.convergence;
   }
   if (ok > 0) {
-    column.max_error_cm /= ok, column.min_error_cm /= ok, column.mean_error_cm /= ok, column.std_error_cm /= ok;
+    column.max_error_cm /= ok, column.min_error_cm /= ok, column.mean_error_cm /= ok,
+        column.std_error_cm /= ok;
     column.convergence_step /= ok;
   }
   column.failure_percent = 100.0 * (trials - ok) / trials;
@@ -296,22 +315,28 @@ struct PaperColumn {
   double max, min, mean, std, conv, failure;  // paper (std < 0: not reported)
 };
 
-int reproduce_kalman_table(const ReproduceOptions& options, const std::string& name, const std::vector<PaperColumn>& columns,
-                           const std::string& title) {
+int reproduce_kalman_table(const ReproduceOptions& options, const std::string& name,
+                           const std::vector<PaperColumn>& columns, const std::string& title) {
   const int trials = options.trials > 0 ? options.trials : 100;
   const auto started = std::chrono::steady_clock::now();
   std::vector<KalmanTableColumn> ours;
   for (const auto& c : columns) {
-    ours.push_back(run_kalman_table_column(c.algorithm, c.agents, c.anchors, c.noise, trials, options.threads, options.seed));
+    ours.push_back(run_kalman_table_column(c.algorithm, c.agents, c.anchors, c.noise, trials, options.threads,
+                                           options.seed));
     std::fprintf(stderr, "  %s done\n", c.label.c_str());
   }
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   std::ostringstream md;
-  md << "# " << title << "\n\n" << trials << " trials per column, seed " << options.seed
-     << " (configuration per trial: the scenario seed fixes placement; initial guesses, noise and loss per trial — "
-        "here placement is redrawn per column only). Every pair measures; Q = (0.01 m)² I; initial guesses uniform "
-        "in 30 m × 30 m; IEKF P_0 = (30 m)²/12 I; 100 steps ([B-6]). Statistics over non-anchor nodes at the final "
-        "step, averaged over non-failed trials ([B-8]); failure = final mean error > 10× the noise std; convergence "
+  md << "# " << title << "\n\n"
+     << trials << " trials per column, seed " << options.seed
+     << " (configuration per trial: the scenario seed fixes placement; initial guesses, noise and loss per "
+        "trial — "
+        "here placement is redrawn per column only). Every pair measures; Q = (0.01 m)² I; initial guesses "
+        "uniform "
+        "in 30 m × 30 m; IEKF P_0 = (30 m)²/12 I; 100 steps ([B-6]). Statistics over non-anchor nodes at the "
+        "final "
+        "step, averaged over non-failed trials ([B-8]); failure = final mean error > 10× the noise std; "
+        "convergence "
         "step = first step after which the network mean error stays within ±0.5 cm of its final value (see "
         "docs/reproduction.md for why not [B-8]'s per-node rule). Each cell: ours / paper. Wall time "
      << fmt("%.1f", wall_s) << " s.\n\n| |";
@@ -323,27 +348,180 @@ int reproduce_kalman_table(const ReproduceOptions& options, const std::string& n
     md << "| " << label << " |";
     for (std::size_t k = 0; k < columns.size(); ++k) {
       const double p = paper_value(columns[k]);
-      md << ' ' << fmt(format, ours_value(ours[k])) << " / " << (p < 0 ? std::string("–") : fmt(format, p)) << " |";
+      md << ' ' << fmt(format, ours_value(ours[k])) << " / " << (p < 0 ? std::string("–") : fmt(format, p))
+         << " |";
     }
     md << "\n";
   };
-  row("Max error [cm]", [](const auto& o) { return o.max_error_cm; }, [](const auto& p) { return p.max; }, "%.2f");
-  row("Min error [cm]", [](const auto& o) { return o.min_error_cm; }, [](const auto& p) { return p.min; }, "%.2f");
-  row("Mean error [cm]", [](const auto& o) { return o.mean_error_cm; }, [](const auto& p) { return p.mean; }, "%.2f");
-  row("Std dev [cm]", [](const auto& o) { return o.std_error_cm; }, [](const auto& p) { return p.std; }, "%.2f");
-  row("Conv. step", [](const auto& o) { return o.convergence_step; }, [](const auto& p) { return p.conv; }, "%.0f");
-  row("% Failure", [](const auto& o) { return o.failure_percent; }, [](const auto& p) { return p.failure; }, "%.0f");
+  row(
+      "Max error [cm]", [](const auto& o) { return o.max_error_cm; }, [](const auto& p) { return p.max; },
+      "%.2f");
+  row(
+      "Min error [cm]", [](const auto& o) { return o.min_error_cm; }, [](const auto& p) { return p.min; },
+      "%.2f");
+  row(
+      "Mean error [cm]", [](const auto& o) { return o.mean_error_cm; }, [](const auto& p) { return p.mean; },
+      "%.2f");
+  row(
+      "Std dev [cm]", [](const auto& o) { return o.std_error_cm; }, [](const auto& p) { return p.std; },
+      "%.2f");
+  row(
+      "Conv. step", [](const auto& o) { return o.convergence_step; }, [](const auto& p) { return p.conv; },
+      "%.0f");
+  row(
+      "% Failure", [](const auto& o) { return o.failure_percent; }, [](const auto& p) { return p.failure; },
+      "%.0f");
   md << "| Mean error ratio ours/paper |";
-  for (std::size_t k = 0; k < columns.size(); ++k) md << ' ' << fmt("%.2f", ours[k].mean_error_cm / columns[k].mean) << " |";
+  for (std::size_t k = 0; k < columns.size(); ++k)
+    md << ' ' << fmt("%.2f", ours[k].mean_error_cm / columns[k].mean) << " |";
   md << "\n";
   emit(options.out_dir, name, md.str());
+  return 0;
+}
+
+// ---------------- 002 Figs. 2, 4: distributed Jacobi vs BLUE ----------------
+int reproduce_jacobi(const ReproduceOptions& options) {
+  sim::experiments::JacobiExperimentConfig config;
+  config.runs = options.trials > 0 ? options.trials : 50;
+  config.seed = options.seed;
+  const auto started = std::chrono::steady_clock::now();
+  const auto result = sim::experiments::run_jacobi_experiment(config);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  std::ostringstream md;
+  md << "# 002 Figs. 2 and 4 — distributed Jacobi localization from relative measurements\n\n"
+     << config.num_nodes << " nodes, exactly " << config.num_edges << " edges (random geometric graph in "
+     << config.side_m << " m × " << config.side_m << " m, mean radius " << fmt("%.2f", result.mean_radius_m)
+     << " m), priors truth + N(0, " << config.prior_std_m << "² I), 𝓔 = (" << config.measurement_std_m
+     << " m)² I, one shared draw per edge and step ([C-7]), " << config.runs << " runs, seed " << options.seed
+     << " (" << fmt("%.1f", wall_s)
+     << " s). The paper shows RMSE falling toward zero (no numbers); the acceptance "
+     << "asks for monotone decrease and, at step 50, RMSE within 1.2× the BLUE/CRB.\n\n"
+     << "| step | Jacobi RMSE [m] | BLUE RMSE [m] | CRB [m] | Jacobi / BLUE |\n|---|---|---|---|---|\n";
+  for (std::size_t t = 0; t < result.rmse.size(); ++t) {
+    if (t > 5 && t % 5 != 0 && t + 1 != result.rmse.size()) continue;
+    md << "| " << t << " | " << fmt("%.4f", result.rmse[t]) << " | " << fmt("%.4f", result.blue_rmse[t])
+       << " | " << fmt("%.4f", result.crb_rmse[t]) << " | "
+       << fmt("%.2f", result.rmse[t] / result.blue_rmse[t]) << " |\n";
+  }
+  bool monotone = true;
+  for (std::size_t t = 1; t < result.rmse.size(); ++t)
+    monotone = monotone && result.rmse[t] <= result.rmse[t - 1];
+  const std::size_t last = result.rmse.size() - 1;
+  md << "\nMonotone decrease of the mean RMSE: " << (monotone ? "yes" : "no") << ". At step " << last
+     << ": Jacobi / BLUE = " << fmt("%.2f", result.rmse[last] / result.blue_rmse[last])
+     << " (acceptance: ≤ 1.2).\n";
+  std::ofstream csv(options.out_dir / "jacobi_002.csv");
+  csv << "step,jacobi_rmse_m,blue_rmse_m,crb_rmse_m\n";
+  for (std::size_t t = 0; t < result.rmse.size(); ++t) {
+    csv << t << ',' << result.rmse[t] << ',' << result.blue_rmse[t] << ',' << result.crb_rmse[t] << '\n';
+  }
+  emit(options.out_dir, "jacobi_002", md.str());
+  return 0;
+}
+
+// ---------------- 003 Figs. 2-3: multipath BP vs pairwise ----------------
+int reproduce_multipath(const ReproduceOptions& options) {
+  std::ostringstream md;
+  md << "# 003 Figs. 2–3 — cooperative multipath BP vs pairwise localization\n\n"
+     << "5 nodes in 10 m × 10 m, S_0 anchor at the origin, links S1–S0, S2–S0, S3–S1, S4–S2, S3–S4, one "
+        "reflection per "
+     << "wall, DOA error U(±5°) at each end, 50 BP iterations, seed " << options.seed
+     << ". Paper (Fig. 2): cooperative "
+     << "> 90 % of |x errors| below 2 m and all below 3 m; pairwise S3, S4 markedly worse than S1, S2.\n\n"
+     << "| walls | range noise | trials | BP S3/S4 < 2 m | BP all < 3 m | BP p50 S3/S4 [m] | pairwise p50 "
+        "S3/S4 [m] | "
+        "pairwise p50 S1/S2 [m] | Thm. 1 violations |\n|---|---|---|---|---|---|---|---|---|\n";
+  struct Setup {
+    std::vector<double> walls;
+    double range_std;
+    const char* label;
+  };
+  const std::vector<Setup> setups{{{0.0, 45.0}, 3.0, "0°, 45°"},
+                                  {{0.0, 45.0}, std::sqrt(3.0), "0°, 45°"},
+                                  {{10.0, 20.0, 30.0}, 3.0, "10°, 20°, 30°"}};
+  for (const auto& setup : setups) {
+    sim::experiments::MultipathExperimentConfig config;
+    config.trials = options.trials > 0 ? options.trials : 1000;
+    config.seed = options.seed;
+    config.wall_angles_deg = setup.walls;
+    config.range_std_m = setup.range_std;
+    const auto r = sim::experiments::run_multipath_experiment(config);
+    auto fraction_below = [](const std::vector<double>& v, double limit) {
+      if (v.empty()) return 0.0;
+      return static_cast<double>(
+                 std::count_if(v.begin(), v.end(), [&](double e) { return std::abs(e) < limit; })) /
+             static_cast<double>(v.size());
+    };
+    std::vector<double> far_bp, all_bp, far_pair, near_pair;
+    for (int node = 1; node <= 4; ++node) {
+      const auto& bp = r.bp_x_error[static_cast<std::size_t>(node)];
+      all_bp.insert(all_bp.end(), bp.begin(), bp.end());
+      if (node >= 3) {
+        far_bp.insert(far_bp.end(), bp.begin(), bp.end());
+        const auto& pair = r.pairwise_x_error[static_cast<std::size_t>(node)];
+        far_pair.insert(far_pair.end(), pair.begin(), pair.end());
+      } else {
+        const auto& pair = r.pairwise_x_error[static_cast<std::size_t>(node)];
+        near_pair.insert(near_pair.end(), pair.begin(), pair.end());
+      }
+    }
+    md << "| " << setup.label << " | std " << fmt("%.2f", setup.range_std) << " m | " << config.trials
+       << " | " << fmt("%.1f %%", 100.0 * fraction_below(far_bp, 2.0)) << " | "
+       << fmt("%.1f %%", 100.0 * fraction_below(all_bp, 3.0)) << " | "
+       << fmt("%.2f", sim::experiments::abs_quantile(far_bp, 0.5)) << " | "
+       << fmt("%.2f", sim::experiments::abs_quantile(far_pair, 0.5)) << " | "
+       << fmt("%.2f", sim::experiments::abs_quantile(near_pair, 0.5)) << " | " << r.covariance_increase_trials
+       << " |\n";
+  }
+  md << "\n|x error| of nodes S1–S4 after 50 iterations; 'Thm. 1 violations' counts trials in which some "
+        "belief's "
+        "covariance grew between iterations.\n";
+  emit(options.out_dir, "multipath_003", md.str());
+  return 0;
+}
+
+// ---------------- 004 Table I: DG-BB vs baselines ----------------
+int reproduce_dgbb_table1(const ReproduceOptions& options) {
+  sim::experiments::LatticeConfig config;
+  config.runs = options.trials > 0 ? options.trials : 50;
+  config.seed = options.seed;
+  config.both_diagonals = true;
+  estimators::gradient::DgBbParams base;
+  base.consensus_rounds = 20;
+  base.abs_tol = 1e-10;
+  base.max_updates = 100000;
+  const auto started = std::chrono::steady_clock::now();
+  const auto rows = sim::experiments::run_table_one(config, base);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const std::vector<std::pair<double, double>> paper{
+      {262, 5240}, {6071, 6071}, {23491, 23491}, {1e5, 1e5}, {1e5, 1e5}};
+  std::ostringstream md;
+  md << "# 004 Table I — DG-BB and baselines on the 10 × 10 lattice\n\n"
+     << "100 nodes on [0, 1]², anchors at the corners, lattice edges plus both diagonals, noiseless ranges, "
+        "σ_I = "
+     << config.initial_std << ", T = 20, η_abstol = 1e−10, τ_max = 1e5, " << config.runs << " runs, seed "
+     << options.seed << " (" << fmt("%.1f", wall_s) << " s).\n\n"
+     << "| method | τ_end ours | τ_end paper | rounds ours (source count) | rounds paper | converged | final "
+        "Φ |\n"
+     << "|---|---|---|---|---|---|---|\n";
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const auto& row = rows[k];
+    md << "| " << row.method << " | " << fmt("%.1f", row.mean_tau_end) << " | "
+       << (k < paper.size() ? fmt("%.0f", paper[k].first) : std::string("–")) << " | "
+       << fmt("%.0f", row.mean_source_rounds) << " | "
+       << (k < paper.size() ? fmt("%.0f", paper[k].second) : std::string("–")) << " | "
+       << fmt("%.0f %%", 100.0 * row.fraction_converged) << " | " << fmt("%.2e", row.mean_final_error)
+       << " |\n";
+  }
+  emit(options.out_dir, "dgbb_004_table1", md.str());
   return 0;
 }
 
 }  // namespace
 
 const std::vector<std::string>& known_experiments() {
-  static const std::vector<std::string> names{"ea1", "ea2", "ea3", "ieif-table1", "ieif-table2"};
+  static const std::vector<std::string> names{
+      "ea1", "ea2", "ea3", "ieif-table1", "ieif-table2", "jacobi-002", "multipath-003", "dgbb-004-table1"};
   return names;
 }
 
@@ -352,6 +530,9 @@ int run_reproduce(const ReproduceOptions& options) {
   if (e == "ea1") return reproduce_ea1(options);
   if (e == "ea2") return reproduce_ea2(options);
   if (e == "ea3") return reproduce_ea3(options);
+  if (e == "jacobi-002") return reproduce_jacobi(options);
+  if (e == "multipath-003") return reproduce_multipath(options);
+  if (e == "dgbb-004-table1") return reproduce_dgbb_table1(options);
   if (e == "ieif-table1") {
     return reproduce_kalman_table(
         options, "ieif_table1",
@@ -374,7 +555,9 @@ int run_reproduce(const ReproduceOptions& options) {
          {"N360/A90 IEKF", "iekf", 360, 90, 0.1, 3.01, 0.05, 0.80, -1, 27, 0}},
         "001 Table II — IEIF vs IEKF, noise std 0.1 m, node/anchor ratio 4, 30 m × 30 m");
   }
-  std::fprintf(stderr, "error: unknown experiment '%s' (known: ea1, ea2, ea3, ieif-table1, ieif-table2)\n", e.c_str());
+  std::string known;
+  for (const auto& name : known_experiments()) known += (known.empty() ? "" : ", ") + name;
+  std::fprintf(stderr, "error: unknown experiment '%s' (known: %s)\n", e.c_str(), known.c_str());
   return 2;
 }
 

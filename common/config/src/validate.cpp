@@ -81,6 +81,11 @@ void validate(const Scenario& scenario) {
   require_non_negative(algorithm.process_noise_std_m, "algorithm.process_noise_std_m");
   require_positive(algorithm.initial_information, "algorithm.initial_information");
   require_positive(algorithm.initial_std_m, "algorithm.initial_std_m");
+  require_within(algorithm.consensus_rounds, 1, 10000, "algorithm.consensus_rounds");
+  require_positive(algorithm.fixed_step, "algorithm.fixed_step");
+  require_positive(algorithm.step_length, "algorithm.step_length");
+  require_non_negative(algorithm.max_step, "algorithm.max_step");
+  require_positive(algorithm.abs_tol, "algorithm.abs_tol");
 
   const auto& world = scenario.world;
   require_within(world.agents, 1, 100000, "world.agents");
@@ -96,9 +101,26 @@ void validate(const Scenario& scenario) {
   }
   require_non_negative(world.motion_std_m, "world.motion_std_m");
   require_non_negative(world.initial_guess_std_m, "world.initial_guess_std_m");
+  require_within(world.wall_count, 0, 16, "world.wall_count");
+  require_finite(world.wall_first_angle_deg, "world.wall_first_angle_deg");
+  require_finite(world.wall_angle_step_deg, "world.wall_angle_step_deg");
+  require_non_negative(world.wall_margin_m, "world.wall_margin_m");
+  if (algorithm.name == "multipath_bp" && world.wall_count < 1) {
+    fail("world.wall_count",
+         "multipath_bp needs at least one reflecting wall (it uses reflected paths only)");
+  }
 
   require_non_negative(scenario.noise.range_std_m, "noise.range_std_m");
   require_non_negative(scenario.noise.anchor_fix_std_m, "noise.anchor_fix_std_m");
+  require_within(scenario.noise.range_factor, 0.0, 10.0, "noise.range_factor");
+  require_non_negative(scenario.noise.relative_std_m, "noise.relative_std_m");
+  require_within(scenario.noise.doa_error_deg, 0.0, 90.0, "noise.doa_error_deg");
+  if (algorithm.name == "multipath_bp" && !(scenario.noise.range_std_m > 0.0)) {
+    fail("noise.range_std_m", "must be > 0 for multipath_bp (its path-length variance is range_std_m²)");
+  }
+  if (algorithm.name == "jacobi" && !(scenario.noise.relative_std_m > 0.0)) {
+    fail("noise.relative_std_m", "must be > 0 for jacobi (its measurement information is 1/relative_std_m²)");
+  }
 
   require_within(scenario.network.loss, 0.0, 1.0, "network.loss");
 

@@ -208,6 +208,32 @@ WireBatch::WireBatch(AgentId recipient, const sim::Header& header,
   for (const auto& range : batch.ranges) {
     ranges.push_back(swarmloc_msg_Range{range.peer, range.range_m, range.std_m});
   }
+  for (const auto& bearing : batch.bearings) {
+    bearings.push_back(swarmloc_msg_Bearing{bearing.peer, bearing.bearing_rad, bearing.std_rad});
+  }
+  for (const auto& m : batch.relative) {
+    swarmloc_msg_RelativePosition wire{};
+    wire.peer = m.peer;
+    put_vec2(m.delta_m, wire.delta_m);
+    put_sym2(m.covariance, wire.covariance);
+    relative.push_back(wire);
+  }
+  for (const auto& m : batch.targets) {
+    swarmloc_msg_TargetObservation wire{};
+    wire.target = m.target;
+    put_vec2(m.value, wire.value);
+    put_sym2(m.covariance, wire.covariance);
+    wire.kind = m.kind;
+    targets.push_back(wire);
+  }
+  for (const auto& m : batch.paths) {
+    if (m.path_index < 0 || m.path_index > 255) {
+      throw DdsError("publish_batch: path_index " + std::to_string(m.path_index) +
+                     " does not fit the IDL's uint8");
+    }
+    paths.push_back(swarmloc_msg_MultipathPath{m.peer, static_cast<uint8_t>(m.path_index), m.length_m,
+                                               m.aoa_here_rad, m.aoa_there_rad});
+  }
   if (batch.fix) {
     swarmloc_msg_AbsoluteFix fix{};
     put_vec2(batch.fix->position_m, fix.position_m);
@@ -225,10 +251,13 @@ WireBatch::WireBatch(AgentId recipient, const sim::Header& header,
   sample.agent_id = recipient;
   sample.header = encode_header(header);
   point_at(sample.ranges, ranges);
+  point_at(sample.bearings, bearings);
+  point_at(sample.relative, relative);
+  point_at(sample.targets, targets);
+  point_at(sample.paths, paths);
   point_at(sample.fixes, fixes);
   point_at(sample.motion, motion);
   point_at(sample.neighbours, neighbours);
-  // bearings, relative, targets, paths: not produced by MeasurementBatch yet (empty sequences).
 }
 
 WireEstimate::WireEstimate(const sim::EstimateReport& report)
@@ -332,9 +361,29 @@ codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire) {
   const auto fixes = view(wire.fixes);
   const auto motion = view(wire.motion);
   const auto neighbours = view(wire.neighbours);
-  if (!ranges || !fixes || !motion || !neighbours || fixes->size() > 1 || motion->size() > 1) {
+  const auto bearings = view(wire.bearings);
+  const auto relative = view(wire.relative);
+  const auto targets = view(wire.targets);
+  const auto paths = view(wire.paths);
+  if (!ranges || !fixes || !motion || !neighbours || !bearings || !relative || !targets || !paths ||
+      fixes->size() > 1 || motion->size() > 1) {
     decoded.well_formed = false;
     return decoded;
+  }
+  for (const auto& m : *bearings) {
+    decoded.batch.bearings.push_back(estimators::BearingMeasurement{m.peer, m.bearing_rad, m.std_rad});
+  }
+  for (const auto& m : *relative) {
+    decoded.batch.relative.push_back(
+        estimators::RelativeMeasurement{m.peer, get_vec2(m.delta_m), get_sym2(m.covariance)});
+  }
+  for (const auto& m : *targets) {
+    decoded.batch.targets.push_back(
+        estimators::TargetObservation{m.target, get_vec2(m.value), get_sym2(m.covariance), m.kind});
+  }
+  for (const auto& m : *paths) {
+    decoded.batch.paths.push_back(
+        estimators::MultipathMeasurement{m.peer, m.path_index, m.length_m, m.aoa_here_rad, m.aoa_there_rad});
   }
   decoded.batch.ranges.reserve(ranges->size());
   for (const auto& range : *ranges) {

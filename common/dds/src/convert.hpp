@@ -48,6 +48,10 @@ struct WireBatch {
   WireBatch(const WireBatch&) = delete;
   WireBatch& operator=(const WireBatch&) = delete;
   std::vector<swarmloc_msg_Range> ranges;
+  std::vector<swarmloc_msg_Bearing> bearings;
+  std::vector<swarmloc_msg_RelativePosition> relative;
+  std::vector<swarmloc_msg_TargetObservation> targets;
+  std::vector<swarmloc_msg_MultipathPath> paths;
   std::vector<swarmloc_msg_AbsoluteFix> fixes;
   std::vector<swarmloc_msg_MotionInput> motion;
   std::vector<int32_t> neighbours;

@@ -1,5 +1,7 @@
 #include "swarmloc/sim/agent_runtime.hpp"
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 
 #include "swarmloc/core/gaussian.hpp"
@@ -14,21 +16,66 @@ AgentRuntime::AgentRuntime(std::unique_ptr<estimators::Estimator> estimator, est
       params_(params),
       loss_(params.seed, params.loss) {}
 
-std::optional<RejectReason> AgentRuntime::check_state(const Header& header, const estimators::StateMessage& m,
-                                                      bool well_formed) const {
-  if (!well_formed) return RejectReason::kMalformed;
-  if (!neighbours_.contains(header.agent_id)) return RejectReason::kUnknownSender;
+namespace {
+
+// Inter-agent vectors are small (a 2-D position, a target state, a few consensus scalars); anything
+// longer is a broken or hostile sample.
+constexpr std::size_t kMaxVectorLength = 64;
+// Consensus scalars (ρ, ψ of DG-BB: squared step lengths and curvatures) stay far below this.
+constexpr double kAbsurdScalar = 1e30;
+
+bool symmetric_psd(const MatX& m) {
+  if (m.rows() != m.cols()) return false;
+  if (!m.isApprox(m.transpose(), 1e-9) && (m - m.transpose()).cwiseAbs().maxCoeff() > 1e-12) return false;
+  if (m.rows() == 0) return true;
+  const Eigen::SelfAdjointEigenSolver<MatX> eigen(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly);
+  const double scale = std::max(1.0, m.cwiseAbs().maxCoeff());
+  return eigen.info() == Eigen::Success && eigen.eigenvalues().minCoeff() >= -1e-9 * scale;
+}
+
+}  // namespace
+
+std::optional<RejectReason> AgentRuntime::check_content(const estimators::StateMessage& m) const {
   if (!m.mean_m.allFinite() || !m.covariance.allFinite()) return RejectReason::kNonFinite;
   if (m.mean_m.norm() > params_.absurd_position_bound_m ||
       m.covariance.cwiseAbs().maxCoeff() > params_.absurd_variance_m2) {
     return RejectReason::kAbsurdMagnitude;
   }
   if (!core::is_symmetric_psd(m.covariance, 1e-9)) return RejectReason::kNotSymmetricPsd;
-  const auto newest = newest_state_seq_.find(header.agent_id);
-  if (newest != newest_state_seq_.end()) {
-    if (header.seq == newest->second) return RejectReason::kDuplicate;
-    if (header.seq < newest->second) return RejectReason::kReordered;
+  return std::nullopt;
+}
+
+std::optional<RejectReason> AgentRuntime::check_content(const estimators::InformationMessage& m) const {
+  const auto n = m.info_vec.size();
+  if (static_cast<std::size_t>(n) > kMaxVectorLength || m.info_mat.rows() != n || m.info_mat.cols() != n) {
+    return RejectReason::kMalformed;
   }
+  if (!m.info_vec.allFinite() || !m.info_mat.allFinite()) return RejectReason::kNonFinite;
+  if (n > 0 && (m.info_vec.cwiseAbs().maxCoeff() > kAbsurdScalar ||
+                m.info_mat.cwiseAbs().maxCoeff() > kAbsurdScalar)) {
+    return RejectReason::kAbsurdMagnitude;
+  }
+  if (!symmetric_psd(m.info_mat)) return RejectReason::kNotSymmetricPsd;
+  return std::nullopt;
+}
+
+std::optional<RejectReason> AgentRuntime::check_content(const estimators::ConsensusMessage& m) const {
+  if (m.values.size() > kMaxVectorLength || m.tau < 0 || m.round < 0) return RejectReason::kMalformed;
+  for (const double v : m.values) {
+    if (!std::isfinite(v)) return RejectReason::kNonFinite;
+    if (std::abs(v) > kAbsurdScalar) return RejectReason::kAbsurdMagnitude;
+  }
+  return std::nullopt;
+}
+
+std::optional<RejectReason> AgentRuntime::check_content(const estimators::BeliefMessage& m) const {
+  if (m.iteration < 0) return RejectReason::kMalformed;
+  if (!m.mean_m.allFinite() || !m.information.allFinite()) return RejectReason::kNonFinite;
+  if (m.mean_m.norm() > params_.absurd_position_bound_m ||
+      m.information.cwiseAbs().maxCoeff() > kAbsurdScalar) {
+    return RejectReason::kAbsurdMagnitude;
+  }
+  if (!core::is_symmetric_psd(m.information, 1e-9)) return RejectReason::kNotSymmetricPsd;
   return std::nullopt;
 }
 
@@ -38,10 +85,14 @@ void AgentRuntime::reject(LinkCounters* link, RejectReason reason) {
 }
 
 std::int64_t AgentRuntime::world_stamp_ns(std::int64_t world_step) const {
-  return world_step < 0 ? 0 : static_cast<std::int64_t>(std::llround(static_cast<double>(world_step) * batch_period_s_ * 1e9));
+  return world_step < 0 ? 0
+                        : static_cast<std::int64_t>(
+                              std::llround(static_cast<double>(world_step) * batch_period_s_ * 1e9));
 }
 
-bool AgentRuntime::on_state(const Header& header, const estimators::StateMessage& message, bool well_formed) {
+template <typename Message>
+bool AgentRuntime::on_sample(core::TopicFamily family, Mailbox<Message>& mailbox, const Header& header,
+                             const Message& message, bool well_formed) {
   if (header.agent_id == setup_.id) return false;  // own sample (should not be routed here)
   LinkCounters* link = nullptr;
   if (neighbours_.contains(header.agent_id)) {
@@ -55,23 +106,72 @@ bool AgentRuntime::on_state(const Header& header, const estimators::StateMessage
     ++link->arrived;
     link->first_seq = std::min(link->first_seq, header.seq);
     link->last_seq = std::max(link->last_seq, header.seq);
-    if (loss_.drops(header.agent_id, setup_.id, core::TopicFamily::kState, header.seq)) {
+    if (loss_.drops(header.agent_id, setup_.id, family, header.seq)) {
       ++link->dropped_injected;
       return false;
     }
   }
-  if (const auto reason = check_state(header, message, well_formed)) {
+  std::optional<RejectReason> reason;
+  if (!well_formed) {
+    reason = RejectReason::kMalformed;
+  } else if (link == nullptr) {
+    reason = RejectReason::kUnknownSender;
+  } else {
+    reason = check_content(message);
+  }
+  if (!reason) {
+    const auto newest = mailbox.newest_seq.find(header.agent_id);
+    if (newest != mailbox.newest_seq.end()) {
+      if (header.seq == newest->second) reason = RejectReason::kDuplicate;
+      if (header.seq < newest->second) reason = RejectReason::kReordered;
+    }
+  }
+  if (reason) {
     reject(link, *reason);
     return false;
   }
   ++link->delivered;
-  newest_state_seq_[header.agent_id] = header.seq;
-  auto& slot = states_[header.agent_id];
+  mailbox.newest_seq[header.agent_id] = header.seq;
+  auto& slot = mailbox.newest[header.agent_id];
   slot.sender = header.agent_id;
   slot.sender_step = local_step_ - 1;  // in the receiver's frame: as if sent at its previous step
   slot.message = message;
-  slot.message.covariance = core::symmetrized(message.covariance);
   return true;
+}
+
+bool AgentRuntime::on_state(const Header& header, const estimators::StateMessage& message, bool well_formed) {
+  const bool accepted = on_sample(core::TopicFamily::kState, states_, header, message, well_formed);
+  if (accepted) {
+    auto& stored = states_.newest[header.agent_id].message.covariance;
+    stored = core::symmetrized(stored);
+  }
+  return accepted;
+}
+
+bool AgentRuntime::on_information(const Header& header, const estimators::InformationMessage& message,
+                                  bool well_formed) {
+  const bool accepted =
+      on_sample(core::TopicFamily::kInformation, information_, header, message, well_formed);
+  if (accepted) {
+    auto& stored = information_.newest[header.agent_id].message.info_mat;
+    stored = 0.5 * (stored + stored.transpose()).eval();
+  }
+  return accepted;
+}
+
+bool AgentRuntime::on_consensus(const Header& header, const estimators::ConsensusMessage& message,
+                                bool well_formed) {
+  return on_sample(core::TopicFamily::kConsensus, consensus_, header, message, well_formed);
+}
+
+bool AgentRuntime::on_belief(const Header& header, const estimators::BeliefMessage& message,
+                             bool well_formed) {
+  const bool accepted = on_sample(core::TopicFamily::kBelief, beliefs_, header, message, well_formed);
+  if (accepted) {
+    auto& stored = beliefs_.newest[header.agent_id].message.information;
+    stored = core::symmetrized(stored);
+  }
+  return accepted;
 }
 
 void AgentRuntime::on_batch(const Header& header, estimators::MeasurementBatch batch) {
@@ -82,18 +182,38 @@ void AgentRuntime::on_batch(const Header& header, estimators::MeasurementBatch b
   pending_batch_ = std::move(batch);
 }
 
-AgentRuntime::Publication AgentRuntime::initial_publication(std::int64_t sender_stamp_ns) {
+AgentRuntime::Publication AgentRuntime::publish(estimators::Outbox outbox, std::int64_t sender_stamp_ns,
+                                                std::int64_t world_stamp_ns) {
   Publication publication;
-  publication.outbox = estimator_->initial_outbox();
-  publication.header = Header{setup_.id, next_seq_++, local_step_, sender_stamp_ns, 0};
-  ++samples_published_;
+  publication.outbox = std::move(outbox);
+  publication.header = Header{setup_.id, next_seq_, local_step_, sender_stamp_ns, world_stamp_ns};
+  const auto& out = publication.outbox;
+  const auto samples = static_cast<std::uint32_t>((out.state ? 1 : 0) + (out.information ? 1 : 0) +
+                                                  out.consensus.size() + (out.belief ? 1 : 0));
+  next_seq_ += samples;
+  samples_published_ += samples;
   return publication;
 }
 
+AgentRuntime::Publication AgentRuntime::initial_publication(std::int64_t sender_stamp_ns) {
+  return publish(estimator_->initial_outbox(), sender_stamp_ns, 0);
+}
+
+namespace {
+template <typename Message>
+void copy_newest(const std::map<AgentId, estimators::Received<Message>>& from,
+                 std::vector<estimators::Received<Message>>& to) {
+  to.reserve(from.size());
+  for (const auto& [sender, received] : from) to.push_back(received);
+}
+}  // namespace
+
 AgentRuntime::Publication AgentRuntime::step(std::int64_t sender_stamp_ns) {
   estimators::Inbox inbox;
-  inbox.states.reserve(states_.size());
-  for (const auto& [sender, received] : states_) inbox.states.push_back(received);
+  copy_newest(states_.newest, inbox.states);
+  copy_newest(information_.newest, inbox.information);
+  copy_newest(consensus_.newest, inbox.consensus);
+  copy_newest(beliefs_.newest, inbox.beliefs);
   estimators::StepInput input;
   input.local_step = local_step_;
   input.inbox = &inbox;
@@ -102,13 +222,7 @@ AgentRuntime::Publication AgentRuntime::step(std::int64_t sender_stamp_ns) {
   const std::int64_t world_step = pending_batch_ ? pending_batch_->world_step : newest_batch_step_;
   pending_batch_.reset();
 
-  Publication publication;
-  publication.outbox = std::move(output.outbox);
-  publication.header = Header{setup_.id, next_seq_, local_step_, sender_stamp_ns, world_stamp_ns(world_step)};
-  if (publication.outbox.state) {
-    ++next_seq_;
-    ++samples_published_;
-  }
+  Publication publication = publish(std::move(output.outbox), sender_stamp_ns, world_stamp_ns(world_step));
   ++local_step_;
   return publication;
 }

@@ -134,7 +134,7 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
   record.agents = n;
   record.anchors = world.anchor_count();
   record.mean_degree = world.mean_degree();
-  record.crlb = range_crlb(world, scenario.noise.range_std_m);
+  record.crlb = scenario_crlb(world, scenario);
   record.processes = 1;
 
   const double period_s = 1.0 / scenario.run.rate_hz;

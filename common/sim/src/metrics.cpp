@@ -46,6 +46,7 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
 }
 
 double RangeCrlb::accumulated_rmse_m(double snapshots) const {
+  if (!fresh_draws_per_step) return single_snapshot_rmse_m;
   return snapshots > 0.0 ? single_snapshot_rmse_m / std::sqrt(snapshots) : single_snapshot_rmse_m;
 }
 
@@ -61,6 +62,94 @@ RangeCrlb range_crlb(const World& world, double range_std_m) {
   crlb.single_snapshot_rmse_m = result.network_rmse_m;
   crlb.per_agent_single_rmse_m = result.per_agent_rmse_m;
   crlb.localizable = result.localizable;
+  return crlb;
+}
+
+}  // namespace swarmloc::sim
+
+namespace swarmloc::sim {
+namespace {
+
+constexpr int kMaxDenseCrlbAgents = 3000;  // dense L⁻¹ beyond this costs seconds and ~70 MB
+
+RangeCrlb relative_crlb(const World& world, double relative_std_m) {
+  RangeCrlb crlb;
+  std::vector<int> unknown_index(static_cast<std::size_t>(world.size()), -1);
+  int unknowns = 0;
+  for (int i = 0; i < world.size(); ++i) {
+    if (!world.is_anchor[static_cast<std::size_t>(i)])
+      unknown_index[static_cast<std::size_t>(i)] = unknowns++;
+  }
+  if (unknowns == 0 || unknowns > kMaxDenseCrlbAgents) {
+    crlb.single_snapshot_rmse_m = unknowns == 0 ? 0.0 : std::numeric_limits<double>::quiet_NaN();
+    return crlb;
+  }
+  // Per axis: information = L_u / σ², L_u the graph Laplacian restricted to the unknowns (one shared
+  // draw per link, so each link counts once).
+  MatX laplacian = MatX::Zero(unknowns, unknowns);
+  for (int i = 0; i < world.size(); ++i) {
+    for (AgentId j : world.neighbours[static_cast<std::size_t>(i)]) {
+      if (j <= i) continue;
+      const int a = unknown_index[static_cast<std::size_t>(i)];
+      const int b = unknown_index[static_cast<std::size_t>(j)];
+      if (a >= 0) laplacian(a, a) += 1.0;
+      if (b >= 0) laplacian(b, b) += 1.0;
+      if (a >= 0 && b >= 0) laplacian(a, b) -= 1.0, laplacian(b, a) -= 1.0;
+    }
+  }
+  const Eigen::LDLT<MatX> ldlt(laplacian);
+  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-12)) {
+    crlb.localizable = false;
+    crlb.single_snapshot_rmse_m = std::numeric_limits<double>::infinity();
+    return crlb;
+  }
+  const MatX inverse = ldlt.solve(MatX::Identity(unknowns, unknowns));
+  const double variance = relative_std_m * relative_std_m;
+  double total = 0.0;
+  crlb.per_agent_single_rmse_m.assign(static_cast<std::size_t>(world.size()), 0.0);
+  for (int i = 0; i < world.size(); ++i) {
+    const int a = unknown_index[static_cast<std::size_t>(i)];
+    if (a < 0) continue;
+    const double mse = 2.0 * variance * inverse(a, a);  // x and y
+    crlb.per_agent_single_rmse_m[static_cast<std::size_t>(i)] = std::sqrt(mse);
+    total += mse;
+  }
+  crlb.single_snapshot_rmse_m = std::sqrt(total / unknowns);
+  return crlb;
+}
+
+}  // namespace
+
+RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario) {
+  const MeasurementKinds kinds = measurement_kinds(scenario.algorithm.name);
+  RangeCrlb crlb;
+  if (kinds.relative) {
+    crlb = relative_crlb(world, scenario.noise.relative_std_m);
+  } else if (kinds.ranges && scenario.noise.range_model == config::RangeNoise::kProportional) {
+    std::vector<estimators::RangeObservation> observations;
+    for (int i = 0; i < world.size(); ++i) {
+      for (AgentId j : world.neighbours[static_cast<std::size_t>(i)]) {
+        const double distance =
+            (world.truth[static_cast<std::size_t>(i)] - world.truth[static_cast<std::size_t>(j)]).norm();
+        observations.push_back({i, j, std::max(1e-9, scenario.noise.range_factor * distance)});
+      }
+    }
+    const auto result = estimators::range_network_crlb(world.truth, world.is_anchor, observations, 1.0);
+    crlb.single_snapshot_rmse_m = result.network_rmse_m;
+    crlb.per_agent_single_rmse_m = result.per_agent_rmse_m;
+    crlb.localizable = result.localizable;
+  } else if (kinds.ranges) {
+    crlb = range_crlb(world, scenario.noise.range_std_m);
+  } else {
+    crlb.single_snapshot_rmse_m = std::numeric_limits<double>::quiet_NaN();
+  }
+  // Shared draws: both ends hold the same value, which counts once; per-endpoint draws count twice
+  // (range_crlb's observation list already holds each link from both ends).
+  if (kinds.ranges && scenario.noise.shared_range_draws) {
+    crlb.single_snapshot_rmse_m *= std::sqrt(2.0);
+    for (double& rmse : crlb.per_agent_single_rmse_m) rmse *= std::sqrt(2.0);
+  }
+  crlb.fresh_draws_per_step = scenario.noise.draw == config::NoiseDraw::kPerStep;
   return crlb;
 }
 

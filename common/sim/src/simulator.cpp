@@ -1,13 +1,16 @@
 #include "swarmloc/sim/simulator.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <mutex>
 #include <thread>
 
+#include "swarmloc/estimators/consensus/cooperative.hpp"
 #include "swarmloc/sim/agent_runtime.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 
@@ -16,7 +19,23 @@ namespace swarmloc::sim {
 std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& s, const World& world,
                                                             AgentId id) {
   // Centralized algorithms run in the fusion centre; their agents are sensors only.
-  if (is_centralized(s.algorithm.name)) return make_sensor_only_estimator(world.setup_of(id), s.algorithm.initial_std_m);
+  if (is_centralized(s.algorithm.name))
+    return make_sensor_only_estimator(world.setup_of(id), s.algorithm.initial_std_m);
+  const auto& cooperative = estimators::cooperative_algorithms();
+  if (std::find(cooperative.begin(), cooperative.end(), s.algorithm.name) != cooperative.end()) {
+    estimators::CooperativeParams params;
+    params.bp.sigma2 = s.noise.range_std_m * s.noise.range_std_m;  // [D-6]: the algorithm knows the noise
+    auto& gradient = params.gradient;
+    gradient.consensus_rounds = s.algorithm.consensus_rounds;
+    gradient.fixed_step = s.algorithm.fixed_step;
+    gradient.step_length = s.algorithm.step_length;
+    gradient.abs_tol = s.algorithm.abs_tol;
+    gradient.max_step =
+        s.algorithm.max_step > 0.0 ? s.algorithm.max_step : std::numeric_limits<double>::infinity();
+    // A run lasts run.steps rounds; the node itself never stops early for lack of updates.
+    gradient.max_updates = std::numeric_limits<std::int64_t>::max() / 4;
+    return estimators::make_cooperative_estimator(s.algorithm.name, world.setup_of(id), params);
+  }
   estimators::KalmanFamilyParams params;
   params.process_noise_std_m = s.algorithm.process_noise_std_m;
   params.initial_information = s.algorithm.initial_information;
@@ -42,7 +61,8 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
   agents.reserve(static_cast<std::size_t>(n));
   for (AgentId i = 0; i < n; ++i) {
     agents.emplace_back(make_agent_estimator(scenario, world, i), world.setup_of(i),
-                        world.neighbours[static_cast<std::size_t>(i)], make_runtime_params(scenario, options.trial));
+                        world.neighbours[static_cast<std::size_t>(i)],
+                        make_runtime_params(scenario, options.trial));
   }
 
   RunRecord record;
@@ -51,13 +71,16 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
   record.agents = n;
   record.anchors = world.anchor_count();
   record.mean_degree = world.mean_degree();
-  record.crlb = range_crlb(world, scenario.noise.range_std_m);
+  record.crlb = scenario_crlb(world, scenario);
   record.processes = 1;
 
   const double period_s = 1.0 / scenario.run.rate_hz;
-  auto stamp_ns = [&](std::int64_t step) { return static_cast<std::int64_t>(static_cast<double>(step) * period_s * 1e9); };
+  auto stamp_ns = [&](std::int64_t step) {
+    return static_cast<std::int64_t>(static_cast<double>(step) * period_s * 1e9);
+  };
   std::vector<AgentRuntime::Publication> published(static_cast<std::size_t>(n));
-  for (AgentId i = 0; i < n; ++i) published[static_cast<std::size_t>(i)] = agents[static_cast<std::size_t>(i)].initial_publication(0);
+  for (AgentId i = 0; i < n; ++i)
+    published[static_cast<std::size_t>(i)] = agents[static_cast<std::size_t>(i)].initial_publication(0);
 
   std::vector<std::optional<estimators::Estimate>> estimates(static_cast<std::size_t>(n));
   for (std::int64_t step = 0; step < scenario.run.steps; ++step) {
@@ -65,9 +88,11 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
     // Deliver round k−1's samples over the lossy bus, then the world-step-k batches.
     for (AgentId sender = 0; sender < n; ++sender) {
       const auto& publication = published[static_cast<std::size_t>(sender)];
-      if (!publication.outbox.state) continue;
       for (AgentId receiver : world.neighbours[static_cast<std::size_t>(sender)]) {
-        agents[static_cast<std::size_t>(receiver)].on_state(publication.header, *publication.outbox.state);
+        auto& agent = agents[static_cast<std::size_t>(receiver)];
+        AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
+          agent.on_sample(header, message);
+        });
       }
     }
     for (AgentId i = 0; i < n; ++i) {
@@ -86,7 +111,8 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
     record.metrics.push_back(metrics);
     if (options.record_estimates) {
       for (AgentId i = 0; i < n; ++i) {
-        record.estimates.push_back({step, i, *estimates[static_cast<std::size_t>(i)], world.truth[static_cast<std::size_t>(i)]});
+        record.estimates.push_back(
+            {step, i, *estimates[static_cast<std::size_t>(i)], world.truth[static_cast<std::size_t>(i)]});
       }
     }
     if (options.on_step) options.on_step(step, metrics.errors);
@@ -112,7 +138,8 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
   const auto started = std::chrono::steady_clock::now();
   MonteCarloResult result;
   result.trials = trials;
-  result.threads = threads > 0 ? threads : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+  result.threads =
+      threads > 0 ? threads : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
   const auto steps = static_cast<std::size_t>(scenario.run.steps);
   // Per trial, per step: (mse, rmse, nees). Trials are independent, so threads share nothing but an index.
   std::vector<std::vector<std::array<double, 3>>> per_trial(static_cast<std::size_t>(trials));
@@ -129,7 +156,8 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
       if (on_record) on_record(t, record);
       auto& rows = per_trial[static_cast<std::size_t>(t)];
       rows.reserve(steps);
-      for (const auto& m : record.metrics) rows.push_back({m.errors.rmse_m * m.errors.rmse_m, m.errors.rmse_m, m.errors.nees});
+      for (const auto& m : record.metrics)
+        rows.push_back({m.errors.rmse_m * m.errors.rmse_m, m.errors.rmse_m, m.errors.nees});
       final_rmse[static_cast<std::size_t>(t)] = record.final_metrics()->errors.rmse_m;
       if (t == 0) result.first_trial = std::move(record);
       const int finished = ++done;
@@ -156,7 +184,9 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
       }
     }
     const double n = static_cast<double>(trials);
-    auto spread = [&](std::size_t q) { return std::sqrt(std::max(0.0, sum_sq[q] / n - (sum[q] / n) * (sum[q] / n))); };
+    auto spread = [&](std::size_t q) {
+      return std::sqrt(std::max(0.0, sum_sq[q] / n - (sum[q] / n) * (sum[q] / n)));
+    };
     row.mse_mean = sum[0] / n, row.mse_std = spread(0);
     row.rmse_mean = sum[1] / n, row.rmse_std = spread(1);
     row.nees_mean = sum[2] / n, row.nees_std = spread(2);
@@ -170,14 +200,16 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
 void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result) {
   std::filesystem::create_directories(directory);
   std::ofstream out(directory / "montecarlo.csv");
-  out << "step,mse_mean_m2,mse_std_m2,rmse_mean_m,rmse_std_m,nees_mean,nees_std,crlb_rmse_m\n" << std::setprecision(9);
+  out << "step,mse_mean_m2,mse_std_m2,rmse_mean_m,rmse_std_m,nees_mean,nees_std,crlb_rmse_m\n"
+      << std::setprecision(9);
   for (const auto& r : result.steps) {
     out << r.step << ',' << r.mse_mean << ',' << r.mse_std << ',' << r.rmse_mean << ',' << r.rmse_std << ','
         << r.nees_mean << ',' << r.nees_std << ',' << r.crlb_rmse_m << '\n';
   }
   std::ofstream trials(directory / "trials.csv");
   trials << "trial,final_rmse_m\n" << std::setprecision(9);
-  for (std::size_t t = 0; t < result.final_rmse_per_trial.size(); ++t) trials << t << ',' << result.final_rmse_per_trial[t] << '\n';
+  for (std::size_t t = 0; t < result.final_rmse_per_trial.size(); ++t)
+    trials << t << ',' << result.final_rmse_per_trial[t] << '\n';
 }
 
 }  // namespace swarmloc::sim

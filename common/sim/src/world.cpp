@@ -3,11 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <numbers>
 #include <numeric>
 #include <queue>
-#include <unordered_map>
 #include <random>
 #include <sstream>
+#include <unordered_map>
 
 #include "swarmloc/core/random.hpp"
 
@@ -117,7 +118,8 @@ bool acceptable(const std::vector<std::vector<AgentId>>& neighbours, const std::
     const auto i = frontier.front();
     frontier.pop();
     for (AgentId j : neighbours[i]) {
-      if (!reached[static_cast<std::size_t>(j)]) reached[static_cast<std::size_t>(j)] = true, frontier.push(static_cast<std::size_t>(j));
+      if (!reached[static_cast<std::size_t>(j)])
+        reached[static_cast<std::size_t>(j)] = true, frontier.push(static_cast<std::size_t>(j));
     }
   }
   for (std::size_t i = 0; i < n; ++i) {
@@ -133,13 +135,16 @@ std::vector<bool> choose_anchors(const Scenario& s, int attempt) {
   std::iota(order.begin(), order.end(), 0);
   auto rng = core::make_engine(s.seed, core::Stream::kAnchors, attempt);
   std::shuffle(order.begin(), order.end(), rng);
-  for (int k = 0; k < s.world.anchors; ++k) is_anchor[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])] = true;
+  for (int k = 0; k < s.world.anchors; ++k)
+    is_anchor[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])] = true;
   return is_anchor;
 }
 
 }  // namespace
 
-int World::anchor_count() const { return static_cast<int>(std::count(is_anchor.begin(), is_anchor.end(), true)); }
+int World::anchor_count() const {
+  return static_cast<int>(std::count(is_anchor.begin(), is_anchor.end(), true));
+}
 
 double World::mean_degree() const {
   if (neighbours.empty()) return 0.0;
@@ -188,9 +193,11 @@ World build_world(const Scenario& s, std::uint64_t trial) {
     }
     if (world.is_anchor[i]) world.initial_guess[i] = world.truth[i];
   }
+  if (measurement_kinds(s.algorithm.name).paths) world.walls = make_walls(s);
   world.clocks.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
-    world.clocks.push_back(core::draw_clock(s.seed, static_cast<AgentId>(i), s.clock.offset_max_s, s.clock.drift_ppm));
+    world.clocks.push_back(
+        core::draw_clock(s.seed, static_cast<AgentId>(i), s.clock.offset_max_s, s.clock.drift_ppm));
   }
   return world;
 }
@@ -200,33 +207,113 @@ void advance_truth(World& world, const Scenario& s, std::int64_t step) {
   std::normal_distribution<double> gauss(0.0, s.world.motion_std_m);
   for (std::size_t i = 0; i < world.truth.size(); ++i) {
     if (world.is_anchor[i]) continue;
-    auto rng = core::make_engine(trial_seed(s.seed, world.trial), core::Stream::kMotion, step, static_cast<std::int64_t>(i));
+    auto rng = core::make_engine(trial_seed(s.seed, world.trial), core::Stream::kMotion, step,
+                                 static_cast<std::int64_t>(i));
     world.truth[i] += Vec2(gauss(rng), gauss(rng));
   }
 }
 
+MeasurementKinds measurement_kinds(const std::string& algorithm) {
+  MeasurementKinds kinds;
+  if (algorithm == "jacobi") {
+    kinds.relative = true;
+  } else if (algorithm == "multipath_bp") {
+    kinds.paths = true;
+  } else if (algorithm == "dgbb" || algorithm == "local_bb" || algorithm == "fixed_step" ||
+             algorithm == "step_length") {
+    kinds.ranges = true;  // anchors know their position from the start (AgentSetup)
+  } else {
+    kinds.ranges = true;
+    kinds.anchor_fixes = true;
+  }
+  return kinds;
+}
+
+std::vector<models::Wall> make_walls(const Scenario& s) {
+  std::vector<models::Wall> walls;
+  const Vec2 center(0.5 * s.world.area_m, 0.5 * s.world.area_m);
+  const double offset = s.world.area_m * std::numbers::sqrt2 / 2.0 + s.world.wall_margin_m;
+  for (int k = 0; k < s.world.wall_count; ++k) {
+    const double angle =
+        (s.world.wall_first_angle_deg + k * s.world.wall_angle_step_deg) * std::numbers::pi / 180.0;
+    const Vec2 normal(-std::sin(angle), std::cos(angle));
+    walls.push_back(models::Wall{center - offset * normal, angle});
+  }
+  return walls;
+}
+
+namespace {
+
+/// Key of one noise draw: the step (0 when drawn once per run) and the ids that own it.
+template <typename... Keys>
+std::uint64_t noise_key(const World& world, const Scenario& s, std::int64_t step, Keys... keys) {
+  const std::int64_t draw_step = s.noise.draw == config::NoiseDraw::kOnce ? 0 : step;
+  return core::hash_keys(trial_seed(s.seed, world.trial),
+                         static_cast<std::uint64_t>(core::Stream::kMeasurementNoise), draw_step, keys...);
+}
+
+void add_paths(const World& world, const Scenario& s, AgentId agent, AgentId peer, std::int64_t step,
+               estimators::MeasurementBatch& batch) {
+  // Geometry and draws are computed from the lower id's side so that both ends agree.
+  const AgentId lo = std::min(agent, peer);
+  const AgentId hi = std::max(agent, peer);
+  const double doa_max = s.noise.doa_error_deg * std::numbers::pi / 180.0;
+  auto doa_error = [&](std::uint64_t key) { return doa_max * (2.0 * core::unit_uniform(key) - 1.0); };
+  for (std::size_t r = 0; r < world.walls.size(); ++r) {
+    const auto path = models::reflect_path(world.truth[static_cast<std::size_t>(lo)],
+                                           world.truth[static_cast<std::size_t>(hi)], world.walls[r]);
+    if (!path) continue;  // the wall runs between the two: no reflection
+    const auto index = static_cast<std::int64_t>(r);
+    const double length = path->length_m + s.noise.range_std_m * core::standard_normal(noise_key(
+                                                                     world, s, step, lo, hi, index, -3));
+    const double theta_at_lo = path->theta_ji_rad + doa_error(noise_key(world, s, step, lo, hi, index, -4));
+    const double theta_at_hi = path->theta_ij_rad + doa_error(noise_key(world, s, step, lo, hi, index, -5));
+    const bool here_is_lo = agent == lo;
+    batch.paths.push_back({peer, static_cast<int>(r), length, here_is_lo ? theta_at_lo : theta_at_hi,
+                           here_is_lo ? theta_at_hi : theta_at_lo});
+  }
+}
+
+}  // namespace
+
 estimators::MeasurementBatch generate_batch(const World& world, const Scenario& s, AgentId agent,
                                             std::int64_t step) {
+  const MeasurementKinds kinds = measurement_kinds(s.algorithm.name);
   estimators::MeasurementBatch batch;
   batch.world_step = step;
   batch.world_time_s = static_cast<double>(step) / s.run.rate_hz;
   const auto i = static_cast<std::size_t>(agent);
   const Vec2& xi = world.truth[i];
   batch.neighbours = world.neighbours[i];
-  const std::uint64_t noise_seed = trial_seed(s.seed, world.trial);
   for (AgentId j : world.neighbours[i]) {
-    const double distance = (xi - world.truth[static_cast<std::size_t>(j)]).norm();
+    const Vec2& xj = world.truth[static_cast<std::size_t>(j)];
+    const double distance = (xi - xj).norm();
     if (distance > s.world.comm_radius_m) continue;  // moved out of range
-    const double noise = core::standard_normal(
-        core::hash_keys(noise_seed, static_cast<std::uint64_t>(core::Stream::kMeasurementNoise), step, agent, j));
-    const double noisy = std::abs(distance + s.noise.range_std_m * noise);
-    batch.ranges.push_back({j, noisy, s.noise.range_std_m});
+    const AgentId lo = std::min(agent, j);
+    const AgentId hi = std::max(agent, j);
+    if (kinds.ranges) {
+      const double std_m = s.noise.range_model == config::RangeNoise::kProportional
+                               ? s.noise.range_factor * distance
+                               : s.noise.range_std_m;
+      const std::uint64_t key = s.noise.shared_range_draws ? noise_key(world, s, step, lo, hi, -2)
+                                                           : noise_key(world, s, step, agent, j);
+      batch.ranges.push_back({j, std::abs(distance + std_m * core::standard_normal(key)), std_m});
+    }
+    if (kinds.relative) {
+      const std::uint64_t key = noise_key(world, s, step, lo, hi, -6);
+      const Vec2 noise(core::standard_normal(key), core::standard_normal(key + 1));
+      const Vec2 s_lo_hi = world.truth[static_cast<std::size_t>(hi)] -
+                           world.truth[static_cast<std::size_t>(lo)] + s.noise.relative_std_m * noise;
+      const double variance = s.noise.relative_std_m * s.noise.relative_std_m;
+      batch.relative.push_back({j, agent == lo ? s_lo_hi : Vec2(-s_lo_hi), Mat2::Identity() * variance});
+    }
+    if (kinds.paths) add_paths(world, s, agent, j, step, batch);
   }
-  if (world.is_anchor[i]) {
+  if (kinds.anchor_fixes && world.is_anchor[i]) {
     estimators::AbsoluteFix fix;
-    const auto fix_key = core::hash_keys(noise_seed, static_cast<std::uint64_t>(core::Stream::kMeasurementNoise), step,
-                                         agent, -1);
-    fix.position_m = xi + s.noise.anchor_fix_std_m * Vec2(core::standard_normal(fix_key), core::standard_normal(fix_key + 1));
+    const auto fix_key = noise_key(world, s, step, agent, -1);
+    fix.position_m = xi + s.noise.anchor_fix_std_m *
+                              Vec2(core::standard_normal(fix_key), core::standard_normal(fix_key + 1));
     fix.covariance = Mat2::Identity() * s.noise.anchor_fix_std_m * s.noise.anchor_fix_std_m;
     batch.fix = fix;
   }

@@ -262,7 +262,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 5U + 11U + 2U + 1U + 2U + 5U + 7U * 5U + 4U);
+  EXPECT_EQ(keys.size(), 2U + 10U + 15U + 8U + 1U + 2U + 5U + 7U * 5U + 4U);
 }
 
 // ---------------------------------------------------------------------------------------------------

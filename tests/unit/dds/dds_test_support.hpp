@@ -94,6 +94,10 @@ inline estimators::MeasurementBatch make_batch(std::int64_t world_step, std::int
   motion.process_cov = sym2(1e-4, 0.0, 2e-4);
   b.motion = motion;
   b.neighbours = {2, 5, 9};
+  b.bearings = {{2, 0.25, 0.01}};
+  b.relative = {{5, Vec2(1.0 / 3.0, -4.5), sym2(0.01, 0.001, 0.02)}};
+  b.targets = {{3, Vec2(7.0, 8.5), sym2(0.5, 0.0, 0.25), 1}};
+  b.paths = {{2, 0, 12.75, 0.5, -2.0}, {2, 1, 14.0, 1.25, 3.0}};
   return b;
 }
 
@@ -154,6 +158,33 @@ inline void expect_batch_eq(const estimators::MeasurementBatch& a, const estimat
     EXPECT_MATRIX_NEAR(a.motion->process_cov, b.motion->process_cov, 0.0);
   }
   EXPECT_EQ(a.neighbours, b.neighbours);
+  ASSERT_EQ(a.bearings.size(), b.bearings.size());
+  for (std::size_t i = 0; i < a.bearings.size(); ++i) {
+    EXPECT_EQ(a.bearings[i].peer, b.bearings[i].peer);
+    EXPECT_EQ(a.bearings[i].bearing_rad, b.bearings[i].bearing_rad);
+    EXPECT_EQ(a.bearings[i].std_rad, b.bearings[i].std_rad);
+  }
+  ASSERT_EQ(a.relative.size(), b.relative.size());
+  for (std::size_t i = 0; i < a.relative.size(); ++i) {
+    EXPECT_EQ(a.relative[i].peer, b.relative[i].peer);
+    EXPECT_MATRIX_NEAR(a.relative[i].delta_m, b.relative[i].delta_m, 0.0);
+    EXPECT_MATRIX_NEAR(a.relative[i].covariance, b.relative[i].covariance, 0.0);
+  }
+  ASSERT_EQ(a.targets.size(), b.targets.size());
+  for (std::size_t i = 0; i < a.targets.size(); ++i) {
+    EXPECT_EQ(a.targets[i].target, b.targets[i].target);
+    EXPECT_EQ(a.targets[i].kind, b.targets[i].kind);
+    EXPECT_MATRIX_NEAR(a.targets[i].value, b.targets[i].value, 0.0);
+    EXPECT_MATRIX_NEAR(a.targets[i].covariance, b.targets[i].covariance, 0.0);
+  }
+  ASSERT_EQ(a.paths.size(), b.paths.size());
+  for (std::size_t i = 0; i < a.paths.size(); ++i) {
+    EXPECT_EQ(a.paths[i].peer, b.paths[i].peer);
+    EXPECT_EQ(a.paths[i].path_index, b.paths[i].path_index);
+    EXPECT_EQ(a.paths[i].length_m, b.paths[i].length_m);
+    EXPECT_EQ(a.paths[i].aoa_here_rad, b.paths[i].aoa_here_rad);
+    EXPECT_EQ(a.paths[i].aoa_there_rad, b.paths[i].aoa_there_rad);
+  }
 }
 
 inline void expect_estimate_eq(const sim::EstimateReport& a, const sim::EstimateReport& b) {

@@ -161,6 +161,10 @@ TEST(Convert, MeasurementBatchRoundTripsExactly) {
   batch.motion.reset();
   batch.ranges.clear();
   batch.neighbours.clear();
+  batch.bearings.clear();
+  batch.relative.clear();
+  batch.targets.clear();
+  batch.paths.clear();
   const auto empty = codec::round_trip(5, header, batch);
   EXPECT_TRUE(empty.well_formed);
   test::expect_batch_eq(empty.batch, batch);

@@ -24,6 +24,10 @@ enum class RunMode { kFreeRun, kLockstep };
 enum class InitialGuess { kNoisyTruth, kUniform };
 enum class Reliability { kBestEffort, kReliable };
 enum class Durability { kVolatile, kTransientLocal };
+/// Range noise: additive N(0, range_std²), or proportional N(0, (range_factor·d)²) (004 eq. (16)).
+enum class RangeNoise { kAdditive, kProportional };
+/// Measurement noise drawn anew every world step, or once per run (a static snapshot, as in 003/004).
+enum class NoiseDraw { kPerStep, kOnce };
 
 struct QosSettings {
   Reliability reliability = Reliability::kBestEffort;
@@ -43,29 +47,47 @@ struct Scenario {
     double initial_information = 1e-6;
     double initial_std_m = 8.66;
     bool inflate_stale = true;
+    // Distributed gradient family (dgbb, local_bb, fixed_step, step_length; ALGORITHMS.md §6).
+    int consensus_rounds = 20;  ///< T: consensus rounds per DG-BB update
+    double fixed_step = 0.1;    ///< α of fixed_step
+    double step_length = 10.0;  ///< k of step_length (α = k/(√τ‖D_i‖))
+    double max_step = 0.0;      ///< cap on any BB step; 0 = no cap (the source has none)
+    double abs_tol = 1e-10;     ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
   } algorithm;
 
   struct World {
     int agents = 30;
     int anchors = 8;
-    double area_m = 40.0;              ///< square side
-    double comm_radius_m = 15.0;       ///< communication = sensing radius
+    double area_m = 40.0;         ///< square side
+    double comm_radius_m = 15.0;  ///< communication = sensing radius
     Placement placement = Placement::kUniform;
-    std::string positions_file;        ///< CSV "x,y" per line when placement = file
+    std::string positions_file;  ///< CSV "x,y" per line when placement = file
     Motion motion = Motion::kStatic;
-    double motion_std_m = 0.0;         ///< random-walk step std per world step
+    double motion_std_m = 0.0;  ///< random-walk step std per world step
     InitialGuess initial_guess = InitialGuess::kNoisyTruth;
     double initial_guess_std_m = 2.0;
-    bool require_connected = true;     ///< redraw placement until every agent reaches an anchor
+    bool require_connected = true;  ///< redraw placement until every agent reaches an anchor
+    // Reflecting walls for multipath (003, ALGORITHMS.md §5.4): straight lines outside the area,
+    // at angles first + k·step (k = 0 … wall_count−1), wall_margin_m beyond its circumscribed circle.
+    int wall_count = 2;
+    double wall_first_angle_deg = 0.0;
+    double wall_angle_step_deg = 45.0;
+    double wall_margin_m = 5.0;
   } world;
 
   struct Noise {
     double range_std_m = 0.1;
-    double anchor_fix_std_m = 0.0;     ///< 0 = anchors know their position exactly
+    double anchor_fix_std_m = 0.0;  ///< 0 = anchors know their position exactly
+    RangeNoise range_model = RangeNoise::kAdditive;
+    double range_factor = 0.0;        ///< ν_d of 004 eq. (16) when range_model = proportional
+    bool shared_range_draws = false;  ///< both ends of a link get the same range draw (004: d̄_ij = d̄_ji)
+    double relative_std_m = 0.1;      ///< std per axis of relative-position measurements (jacobi)
+    double doa_error_deg = 5.0;       ///< angle-of-arrival error, uniform in ±this (multipath_bp)
+    NoiseDraw draw = NoiseDraw::kPerStep;
   } noise;
 
   struct Network {
-    double loss = 0.0;                 ///< Bernoulli loss at the receiver, [0, 1]
+    double loss = 0.0;  ///< Bernoulli loss at the receiver, [0, 1]
   } network;
 
   struct Clock {
@@ -77,8 +99,8 @@ struct Scenario {
     int steps = 300;
     double rate_hz = 10.0;
     RunMode mode = RunMode::kFreeRun;
-    double startup_timeout_s = 30.0;   ///< agents must report within this time
-    double settle_s = 1.0;             ///< extra time after the last step for final estimates
+    double startup_timeout_s = 30.0;  ///< agents must report within this time
+    double settle_s = 1.0;            ///< extra time after the last step for final estimates
   } run;
 
   struct Qos {
@@ -93,8 +115,8 @@ struct Scenario {
 
   struct Dds {
     int domain_id = 0;
-    std::string interface = "lo";      ///< network interface for Cyclone
-    bool neighbour_discovery = true;   ///< unicast, per-agent Peers lists (DESIGN.md §4)
+    std::string interface = "lo";     ///< network interface for Cyclone
+    bool neighbour_discovery = true;  ///< unicast, per-agent Peers lists (DESIGN.md §4)
     std::string peer_address = "127.0.0.1";
   } dds;
 };

@@ -27,17 +27,47 @@ class AgentRuntime {
   AgentRuntime(std::unique_ptr<estimators::Estimator> estimator, estimators::AgentSetup setup,
                std::vector<AgentId> neighbours, AgentRuntimeParams params);
 
-  /// An inter-agent State sample arrived. Applies loss, validation and ordering rules; returns true if
-  /// it entered the mailbox.
+  /// An inter-agent sample arrived. Applies loss, validation and ordering rules; returns true if it
+  /// entered the mailbox (the newest sample per sender and family).
   bool on_state(const Header& header, const estimators::StateMessage& message, bool well_formed = true);
+  bool on_information(const Header& header, const estimators::InformationMessage& message,
+                      bool well_formed = true);
+  bool on_consensus(const Header& header, const estimators::ConsensusMessage& message,
+                    bool well_formed = true);
+  bool on_belief(const Header& header, const estimators::BeliefMessage& message, bool well_formed = true);
+  /// Routes one sample of any family to the matching on_* (for drivers that hold typed samples).
+  bool on_sample(const Header& header, const estimators::StateMessage& m, bool well_formed = true) {
+    return on_state(header, m, well_formed);
+  }
+  bool on_sample(const Header& header, const estimators::InformationMessage& m, bool well_formed = true) {
+    return on_information(header, m, well_formed);
+  }
+  bool on_sample(const Header& header, const estimators::ConsensusMessage& m, bool well_formed = true) {
+    return on_consensus(header, m, well_formed);
+  }
+  bool on_sample(const Header& header, const estimators::BeliefMessage& m, bool well_formed = true) {
+    return on_belief(header, m, well_formed);
+  }
   /// A measurement batch arrived (batches are not subject to injected loss: they model the sensor).
   void on_batch(const Header& header, estimators::MeasurementBatch batch);
 
-  /// Runs one local step with the newest data. Returns the messages to publish, with their headers.
+  /// Runs one local step with the newest data. Returns the messages to publish. Every sample an agent
+  /// writes takes the next number of one counter, in the order state, information, consensus…, belief;
+  /// `header.seq` is the first of them (for_each_sample hands out each sample's own header).
   struct Publication {
     Header header;
     estimators::Outbox outbox;
   };
+  /// Calls visit(header, message) for every sample of `publication` in seq order.
+  template <typename Visitor>
+  static void for_each_sample(const Publication& publication, Visitor&& visit) {
+    Header header = publication.header;
+    const auto& out = publication.outbox;
+    if (out.state) visit(header, *out.state), ++header.seq;
+    if (out.information) visit(header, *out.information), ++header.seq;
+    for (const auto& consensus : out.consensus) visit(header, consensus), ++header.seq;
+    if (out.belief) visit(header, *out.belief), ++header.seq;
+  }
   Publication step(std::int64_t sender_stamp_ns);
   /// The message published before the first step.
   Publication initial_publication(std::int64_t sender_stamp_ns);
@@ -53,8 +83,20 @@ class AgentRuntime {
   [[nodiscard]] std::int64_t newest_batch_step() const { return newest_batch_step_; }
 
  private:
-  std::optional<RejectReason> check_state(const Header& header, const estimators::StateMessage& message,
-                                          bool well_formed) const;
+  /// The newest sample per sender of one family, and the seq it came with (ordering/duplicates).
+  template <typename Message>
+  struct Mailbox {
+    std::map<AgentId, estimators::Received<Message>> newest;
+    std::map<AgentId, std::uint32_t> newest_seq;
+  };
+  template <typename Message>
+  bool on_sample(core::TopicFamily family, Mailbox<Message>& mailbox, const Header& header,
+                 const Message& message, bool well_formed);
+  [[nodiscard]] std::optional<RejectReason> check_content(const estimators::StateMessage& m) const;
+  [[nodiscard]] std::optional<RejectReason> check_content(const estimators::InformationMessage& m) const;
+  [[nodiscard]] std::optional<RejectReason> check_content(const estimators::ConsensusMessage& m) const;
+  [[nodiscard]] std::optional<RejectReason> check_content(const estimators::BeliefMessage& m) const;
+  Publication publish(estimators::Outbox outbox, std::int64_t sender_stamp_ns, std::int64_t world_stamp_ns);
   void reject(LinkCounters* link, RejectReason reason);
   [[nodiscard]] std::int64_t world_stamp_ns(std::int64_t world_step) const;
 
@@ -70,8 +112,10 @@ class AgentRuntime {
   /// Newest state per neighbour; sender_step holds (receiver's step at receipt − 1), so the estimator's
   /// staleness rule measures age in the receiver's own steps (clocks and step counters of different
   /// agents are not comparable: they start at different times and drift).
-  std::map<AgentId, estimators::Received<estimators::StateMessage>> states_;
-  std::map<AgentId, std::uint32_t> newest_state_seq_;
+  Mailbox<estimators::StateMessage> states_;
+  Mailbox<estimators::InformationMessage> information_;
+  Mailbox<estimators::ConsensusMessage> consensus_;
+  Mailbox<estimators::BeliefMessage> beliefs_;
   std::optional<estimators::MeasurementBatch> pending_batch_;
   std::int64_t newest_batch_step_ = -1;
   double batch_period_s_ = 0.0;

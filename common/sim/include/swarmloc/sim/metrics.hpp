@@ -13,9 +13,9 @@ struct ErrorStats {
   double rmse_m = 0.0;
   double mean_error_m = 0.0;
   double max_error_m = 0.0;
-  double nees = 0.0;       ///< mean of eᵀP⁻¹e over agents with a valid covariance (2 if consistent)
-  int scored = 0;          ///< non-anchor agents with an estimate
-  int missing = 0;         ///< non-anchor agents without any estimate yet
+  double nees = 0.0;  ///< mean of eᵀP⁻¹e over agents with a valid covariance (2 if consistent)
+  int scored = 0;     ///< non-anchor agents with an estimate
+  int missing = 0;    ///< non-anchor agents without any estimate yet
 };
 
 /// `estimates[i]` may be nullopt (no report from agent i yet): counted as missing, not scored.
@@ -28,9 +28,16 @@ struct RangeCrlb {
   double single_snapshot_rmse_m = 0.0;  ///< sqrt(tr(J_1⁻¹)/n_u); +inf if not localizable
   std::vector<double> per_agent_single_rmse_m;
   bool localizable = true;
-  /// Accumulated over t independent snapshots of a static network: J_t = t·J_1.
+  bool fresh_draws_per_step = true;  ///< false (noise.draw = once): later steps add no information
+  /// Accumulated over t independent snapshots of a static network: J_t = t·J_1 (J_1 if the noise is
+  /// drawn once).
   [[nodiscard]] double accumulated_rmse_m(double snapshots) const;
 };
 RangeCrlb range_crlb(const World& world, double range_std_m);
+
+/// The bound that matches the scenario's measurements (at the initial truth): ranges (additive or
+/// proportional noise), relative positions (each link one shared draw: the BLUE covariance σ²·L⁻¹ per
+/// axis), or NaN for multipath paths (no bound implemented). Anchors are known.
+RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario);
 
 }  // namespace swarmloc::sim

@@ -8,16 +8,18 @@
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/core/clock.hpp"
 #include "swarmloc/estimators/estimator.hpp"
+#include "swarmloc/models/multipath.hpp"
 
 namespace swarmloc::sim {
 
 struct World {
-  std::vector<Vec2> truth;                      ///< current true positions
+  std::vector<Vec2> truth;  ///< current true positions
   std::vector<bool> is_anchor;
-  std::vector<std::vector<AgentId>> neighbours; ///< communication graph at step 0 (sorted)
-  std::vector<Vec2> initial_guess;              ///< prior each agent starts from (anchors: truth)
+  std::vector<std::vector<AgentId>> neighbours;  ///< communication graph at step 0 (sorted)
+  std::vector<Vec2> initial_guess;               ///< prior each agent starts from (anchors: truth)
   std::vector<core::ClockModel> clocks;
-  int placement_attempts = 1;                   ///< draws needed to satisfy world.require_connected
+  std::vector<models::Wall> walls;  ///< reflecting walls (multipath measurements only)
+  int placement_attempts = 1;       ///< draws needed to satisfy world.require_connected
   /// Monte Carlo trial: the configuration (placement, anchors, graph, clocks) depends on the seed
   /// only; initial guesses, measurement noise, motion noise and link loss also depend on the trial.
   std::uint64_t trial = 0;
@@ -36,8 +38,28 @@ World build_world(const config::Scenario& scenario, std::uint64_t trial = 0);
 /// Moves the truth one world step (random walk when world.motion = random_walk). Seeded by (seed, step).
 void advance_truth(World& world, const config::Scenario& scenario, std::int64_t step);
 
-/// Agent `agent`'s noisy measurements for world step `step`: one range to each current neighbour
-/// (each endpoint measures independently, ALGORITHMS.md [B-1]) and, for anchors, an absolute fix.
+/// What the world measures for an algorithm: ranges (+ anchor fixes) for the Kalman and gradient
+/// families, relative positions for jacobi (002 eq. (3)), reflected paths for multipath_bp (003 eq. (1)).
+struct MeasurementKinds {
+  bool ranges = false;
+  bool anchor_fixes = false;
+  bool relative = false;
+  bool paths = false;
+};
+MeasurementKinds measurement_kinds(const std::string& algorithm);
+
+/// The walls of scenario.world (wall_count lines outside the area, ALGORITHMS.md §5.4).
+std::vector<models::Wall> make_walls(const config::Scenario& scenario);
+
+/// Agent `agent`'s noisy measurements for world step `step`, of the kinds its algorithm consumes:
+/// - ranges to each current neighbour, drawn per endpoint ([B-1]) or shared by both ends
+///   (noise.shared_range_draws), additive or proportional to the distance (004 eq. (16));
+/// - for anchors (Kalman family), an absolute fix;
+/// - relative positions s_ij = x_j − x_i + ε, one draw per link shared by both ends (i gets s_ij, j gets
+///   −s_ij, [C-7]);
+/// - one reflected path per wall with both ends on its side: a length draw shared by both ends and an
+///   independent angle-of-arrival error at each end (ALGORITHMS.md §5.4).
+/// With noise.draw = once every step repeats step 0's draws (a static snapshot).
 estimators::MeasurementBatch generate_batch(const World& world, const config::Scenario& scenario,
                                             AgentId agent, std::int64_t step);
 

@@ -1,0 +1,70 @@
+// Papers 002, 003, 004 as one OS process per agent over Cyclone DDS: Jacobi (STATE), DG-BB (STATE +
+// CONSENSUS rounds) and multipath BP (BELIEF), each against the simulator on the same seed, and under
+// 20 % injected loss.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "process_helpers.hpp"
+
+namespace {
+
+using swarmloc::testing::count_processes_matching;
+using swarmloc::testing::fresh_directory;
+using swarmloc::testing::read_json;
+using swarmloc::testing::run_command;
+
+const std::string kBinary = SWARMLOC_BINARY;
+
+std::string scenario(const std::string& name) {
+  return std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/" + name + ".yaml";
+}
+
+nlohmann::json run(const std::string& mode, const std::string& name, const std::string& run_name,
+                   const std::string& flags) {
+  const auto dir = fresh_directory(run_name);
+  const auto result =
+      run_command(kBinary + " " + mode + " " + scenario(name) + " -q --out " + dir.string() + flags);
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  if (mode == "run") {
+    EXPECT_EQ(count_processes_matching(dir.string()), 0) << "agent processes outlived the run";
+  }
+  return read_json(dir / "summary.json");
+}
+
+struct Case {
+  const char* scenario;
+  int domain;
+  const char* flags;  ///< keeps each run around 10 s of world time
+};
+
+class CooperativeOverDds : public ::testing::TestWithParam<Case> {};
+
+TEST_P(CooperativeOverDds, FinalErrorMatchesTheSimulatorWithinTenPercentAndSurvivesTwentyPercentLoss) {
+  const Case c = GetParam();
+  const std::string domain = " --set dds.domain_id=" + std::to_string(c.domain);
+  const auto sim = run("sim", c.scenario, std::string(c.scenario) + "-sim", c.flags);
+  const auto dds = run("run", c.scenario, std::string(c.scenario) + "-dds", std::string(c.flags) + domain);
+  const double sim_rmse = sim["final"]["rmse_m"];
+  const double dds_rmse = dds["final"]["rmse_m"];
+  EXPECT_EQ(dds["final"]["scored_agents"], sim["final"]["scored_agents"]);
+  EXPECT_NEAR(dds_rmse, sim_rmse, 0.10 * sim_rmse)
+      << c.scenario << ": DDS " << dds_rmse << " vs sim " << sim_rmse;
+  EXPECT_EQ(dds["links"]["dropped_injected"], 0);
+
+  const std::string lossy_domain = " --set dds.domain_id=" + std::to_string(c.domain + 1);
+  const auto lossy = run("run", c.scenario, std::string(c.scenario) + "-dds-loss",
+                         std::string(c.flags) + lossy_domain + " --set network.loss=0.2");
+  const double lossy_rmse = lossy["final"]["rmse_m"];
+  EXPECT_LT(lossy_rmse, 1.5 * sim_rmse) << c.scenario << " with 20 % loss: " << lossy_rmse;
+  EXPECT_GT(lossy["links"]["dropped_injected"].get<double>(), 0.1 * lossy["links"]["arrived"].get<double>());
+}
+
+INSTANTIATE_TEST_SUITE_P(Papers002To004, CooperativeOverDds,
+                         ::testing::Values(Case{"jacobi", 31, " --set run.rate_hz=20"}, Case{"dgbb", 33, ""},
+                                           Case{"multipath_bp", 35, ""}),
+                         [](const ::testing::TestParamInfo<Case>& param_info) {
+                           return std::string(param_info.param.scenario);
+                         });
+
+}  // namespace
