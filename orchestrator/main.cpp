@@ -34,6 +34,20 @@ std::string keys_help() {
   return text + line + "\n";
 }
 
+/// --view [PORT] and --view-hold S on `run` and `sim`.
+void add_view_options(CLI::App* command, int& port, double& hold_s) {
+  command
+      ->add_option("--view", port,
+                   "Serve a live view on http://127.0.0.1:PORT/ (default port 8765; 0 = any free port). "
+                   "Put it after the scenario, or write --view=PORT")
+      ->expected(0, 1)
+      ->default_str("8765")
+      ->check(CLI::Range(0, 65535));
+  command->add_option("--view-hold", hold_s,
+                      "With --view: keep serving the final state this many seconds after the run "
+                      "(default 10; inf = until Ctrl-C)");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -65,6 +79,9 @@ int main(int argc, char** argv) {
   run->add_flag("--no-launch", no_launch,
                 "Do not start agents; wait for agents started elsewhere (containers, hosts)");
   run->add_flag("-q,--quiet", quiet, "No progress line");
+  int run_view_port = -1;
+  double run_view_hold = 10.0;
+  add_view_options(run, run_view_port, run_view_hold);
   run->footer(keys_help());
 
   auto* sim = app.add_subcommand(
@@ -80,6 +97,9 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   sim->add_option("--threads", threads, "Worker threads for --trials (default: every core)")
       ->check(CLI::NonNegativeNumber);
+  int sim_view_port = -1;
+  double sim_view_hold = 10.0;
+  add_view_options(sim, sim_view_port, sim_view_hold);
   sim->footer(keys_help());
 
   auto* agent =
@@ -138,11 +158,15 @@ int main(int argc, char** argv) {
     options.launch_agents = !no_launch;
     options.hostile_agents.assign(hostile.begin(), hostile.end());
     options.progress = !quiet;
+    options.view_port = run_view_port;
+    options.view_hold_s = run_view_hold;
     return swarmloc::orchestrator::run_orchestrator(options);
   }
   if (sim->parsed()) {
     swarmloc::orchestrator::SimCommandOptions options{scenario_path, overrides, out_dir,
                                                       !quiet,        trials,    threads};
+    options.view_port = sim_view_port;
+    options.view_hold_s = sim_view_hold;
     return swarmloc::orchestrator::run_sim_command(options);
   }
   if (agent->parsed()) {

@@ -10,9 +10,11 @@
 #include <csignal>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <thread>
 
 #include "launcher.hpp"
+#include "live_view.hpp"
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -28,6 +30,14 @@ void on_signal(int /*signal*/) { g_interrupted.store(true); }  // flag only; nev
 
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+/// "for 10 s" / "until Ctrl-C" (--view-hold).
+std::string hold_text(double seconds) {
+  if (!std::isfinite(seconds)) return "until Ctrl-C";
+  char text[64];
+  std::snprintf(text, sizeof text, "for %g s", seconds);
+  return text;
 }
 
 /// One progress line, rewritten in place on a terminal.
@@ -84,6 +94,7 @@ class Orchestrator {
     record_.mean_degree = world_.mean_degree();
     record_.crlb = sim::scenario_crlb(world_, scenario_);
 
+    if (options_.view_port >= 0) start_view();
     dds::OrchestratorTransport transport(scenario_, n);
     if (options_.launch_agents) launch_agents();
     spdlog::info("run directory {}: {} agents ({} anchors, mean degree {:.1f}), {} steps at {} Hz{}",
@@ -95,6 +106,7 @@ class Orchestrator {
     bool failed = !ready;
     if (ready) failed = !drive(transport, started);
     // Let the last estimates arrive, then stop everyone.
+    publish_view("settling");
     const auto settle_until =
         Clock::now() + std::chrono::duration<double>(failed ? 0.0 : scenario_.run.settle_s);
     while (Clock::now() < settle_until && !g_interrupted.load()) collect(transport, 0.05);
@@ -115,14 +127,45 @@ class Orchestrator {
     record_.extra["rejected_reports"] = transport.rejected_reports();
     record_.extra["run_directory"] = run_dir_.string();
     sim::write_run_directory(run_dir_, record_);
+    publish_view(record_.interrupted || failed ? "stopped" : "done", true);  // done: summary.json is written
     progress_.finish();
     std::printf("%s", sim::result_table(record_).c_str());
     std::printf("  run directory: %s\n", run_dir_.string().c_str());
-    if (record_.interrupted) return 1;
-    return failed ? 1 : 0;
+    const int code = record_.interrupted ? 1 : (failed ? 1 : 0);
+    if (view_ && !g_interrupted.load()) {
+      std::printf("  live view: %s (serving the final state %s; Ctrl-C ends)\n", view_->url().c_str(),
+                  hold_text(options_.view_hold_s).c_str());
+      std::fflush(stdout);
+      view_->hold(options_.view_hold_s, g_interrupted);
+    }
+    return code;
   }
 
  private:
+  void start_view() {
+    view_ = std::make_unique<LiveView>(options_.view_port);
+    spdlog::info("live view: {}", view_->url());
+    publish_view("waiting for agents");
+  }
+
+  /// The live view's snapshot: truth, the scored estimates, link counters, the last scored step.
+  void publish_view(const char* phase, bool done = false) {
+    if (!view_) return;
+    ViewSnapshot snapshot = view_snapshot(scenario_, world_);
+    snapshot.mode = "dds";
+    snapshot.phase = phase;
+    snapshot.done = done;
+    for (std::size_t i = 0; i < reports_.size(); ++i) {
+      const auto& report = reports_[i];
+      if (!report) continue;
+      if (report->steps_run > 0) snapshot.agents[i].estimate = latest_[i];
+      for (const auto& link : report->links)
+        add_link_counters(snapshot, link.sender, static_cast<AgentId>(i), link);
+    }
+    if (!record_.metrics.empty()) set_metrics(snapshot, record_.metrics.back());
+    view_->publish(std::move(snapshot));
+  }
+
   void launch_agents() {
     std::filesystem::create_directories(run_dir_ / "logs");
     const auto scenario_file = (run_dir_ / "scenario.yaml").string();
@@ -202,6 +245,7 @@ class Orchestrator {
         collect(transport, std::chrono::duration<double>(next - Clock::now()).count());
       }
       score_step(step);
+      publish_view("running");
       progress_.update(progress_line(step, scenario_.run.steps, record_.metrics.back().errors,
                                      count_reporting(), world_.size(), seconds_since(started)),
                        step + 1 == scenario_.run.steps);
@@ -296,6 +340,7 @@ class Orchestrator {
   sim::RunRecord record_;
   std::vector<std::optional<estimators::Estimate>> latest_;
   std::vector<std::optional<sim::EstimateReport>> reports_;
+  std::unique_ptr<LiveView> view_;  ///< --view
 };
 
 }  // namespace
@@ -355,7 +400,23 @@ int run_sim_command(const SimCommandOptions& options) {
     return 2;
   }
   const auto run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
+  if (options.view_port >= 0 && options.trials > 1) {
+    std::fprintf(stderr, "error: --view shows one run; it cannot be combined with --trials\n");
+    return 2;
+  }
   try {
+    std::unique_ptr<LiveView> view;
+    if (options.view_port >= 0) {
+      view = std::make_unique<LiveView>(options.view_port);
+      std::signal(SIGINT, on_signal);
+      std::signal(SIGTERM, on_signal);
+      auto waiting = view_snapshot(scenario, sim::build_world(scenario));
+      waiting.mode = "sim";
+      waiting.phase = "simulating";
+      view->publish(std::move(waiting));
+      spdlog::info("live view: {} (the in-process run is played back at run.rate_hz once it is done)",
+                   view->url());
+    }
     Progress progress(options.progress);
     const auto started = Clock::now();
     if (options.trials > 1) {
@@ -401,6 +462,15 @@ int run_sim_command(const SimCommandOptions& options) {
     sim::write_run_directory(run_dir, record);
     std::printf("%s", sim::result_table(record).c_str());
     std::printf("  run directory: %s\n", run_dir.string().c_str());
+    if (view) {
+      std::printf(
+          "  live view: %s (playing back %zu steps at %g Hz, then serving the final state %s; Ctrl-C ends)\n",
+          view->url().c_str(), record.metrics.size(), scenario.run.rate_hz,
+          hold_text(options.view_hold_s).c_str());
+      std::fflush(stdout);
+      play_back(*view, scenario, record, g_interrupted);
+      view->hold(options.view_hold_s, g_interrupted);
+    }
     return 0;
   } catch (const config::ScenarioError& error) {
     std::fprintf(stderr, "error: %s\n", error.what());

@@ -17,6 +17,8 @@ struct RunOptions {
   bool launch_agents = true;            ///< false: wait for agents started elsewhere
   std::vector<AgentId> hostile_agents;  ///< agents started with --hostile
   bool progress = true;
+  int view_port = -1;         ///< >= 0: live view on 127.0.0.1:view_port (0: any free port); -1: none
+  double view_hold_s = 10.0;  ///< after the run, the live view keeps serving this long (inf: until Ctrl-C)
 };
 
 /// Returns the process exit code (0 ok, 2 bad input, 1 runtime failure or interrupted).
@@ -29,6 +31,8 @@ struct SimCommandOptions {
   bool progress = true;
   int trials = 1;   ///< > 1: Monte Carlo over every core
   int threads = 0;  ///< 0 = every core
+  int view_port = -1;         ///< >= 0: paced playback in the live view on 127.0.0.1:view_port (0: any port)
+  double view_hold_s = 10.0;  ///< after the playback, keep serving this long (inf: until Ctrl-C)
 };
 
 /// `swarmloc sim`: the in-process runner.

@@ -11,6 +11,8 @@ packages=(
   gnuplot-nox                              # plots in every run directory
   procps                                   # pgrep/ps for the orphan-process checks in tests
   nftables iproute2                        # network namespaces + bridge loss for the multi-host test
+  libcpp-httplib-dev                       # HTTP server of the live view (swarmloc run|sim --view)
+  chromium fonts-dejavu-core               # headless browser (+ a font) for the live-view page test
 )
 
 missing=()

@@ -1,0 +1,224 @@
+#include "live_view.hpp"
+
+#include <httplib.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <stdexcept>
+
+namespace swarmloc::orchestrator {
+namespace {
+
+nlohmann::json number_or_null(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json();
+}
+
+nlohmann::json point(const Vec2& p) {
+  return nlohmann::json::array({number_or_null(p.x()), number_or_null(p.y())});
+}
+
+}  // namespace
+
+nlohmann::json snapshot_json(const ViewSnapshot& s) {
+  nlohmann::json agents = nlohmann::json::array();
+  for (const auto& agent : s.agents) {
+    nlohmann::json a = {{"id", agent.id}, {"anchor", agent.anchor}, {"truth", point(agent.truth)}};
+    if (agent.estimate && agent.estimate->mean_m.allFinite()) {
+      a["estimate"] = point(agent.estimate->mean_m);
+      const auto& p = agent.estimate->covariance;
+      a["covariance"] = agent.estimate->valid && p.allFinite()
+                            ? nlohmann::json::array({p(0, 0), p(0, 1), p(1, 0), p(1, 1)})
+                            : nlohmann::json();
+    } else {
+      a["estimate"] = nullptr;
+      a["covariance"] = nullptr;
+    }
+    agents.push_back(std::move(a));
+  }
+  nlohmann::json links = nlohmann::json::array();
+  for (const auto& link : s.links) {
+    const double fraction =
+        link.sent == 0 ? std::numeric_limits<double>::quiet_NaN()
+                       : std::min(1.0, static_cast<double>(link.delivered) / static_cast<double>(link.sent));
+    links.push_back({{"a", link.a},
+                     {"b", link.b},
+                     {"delivered_fraction", number_or_null(fraction)},
+                     {"delivered", link.delivered},
+                     {"sent", link.sent}});
+  }
+  const auto metric = [&](double value) { return s.has_metrics ? number_or_null(value) : nlohmann::json(); };
+  return {{"name", s.name},
+          {"algorithm", s.algorithm},
+          {"mode", s.mode},
+          {"phase", s.phase},
+          {"step", s.step},
+          {"steps", s.steps},
+          {"rate_hz", s.rate_hz},
+          {"time_s", s.step >= 0 && s.rate_hz > 0.0 ? static_cast<double>(s.step) / s.rate_hz : 0.0},
+          {"area_m", s.area_m},
+          {"agents", std::move(agents)},
+          {"links", std::move(links)},
+          {"rmse_m", metric(s.rmse_m)},
+          {"mean_error_m", metric(s.mean_error_m)},
+          {"max_error_m", metric(s.max_error_m)},
+          {"nees", metric(s.nees)},
+          {"crlb_rmse_m", metric(s.crlb_rmse_m)},
+          {"scored", s.scored},
+          {"done", s.done}};
+}
+
+ViewSnapshot view_snapshot(const config::Scenario& scenario, const sim::World& world) {
+  ViewSnapshot s;
+  s.name = scenario.name;
+  s.algorithm = scenario.algorithm.name;
+  s.steps = static_cast<int>(scenario.run.steps);
+  s.rate_hz = scenario.run.rate_hz;
+  s.area_m = scenario.world.area_m;
+  s.agents.reserve(static_cast<std::size_t>(world.size()));
+  for (AgentId i = 0; i < world.size(); ++i) {
+    const auto index = static_cast<std::size_t>(i);
+    s.agents.push_back({i, static_cast<bool>(world.is_anchor[index]), world.truth[index], std::nullopt});
+    for (AgentId j : world.neighbours[index]) {
+      if (i < j) s.links.push_back({i, j, 0, 0});
+    }
+  }
+  std::sort(s.links.begin(), s.links.end(),
+            [](const ViewLink& x, const ViewLink& y) { return std::pair(x.a, x.b) < std::pair(y.a, y.b); });
+  return s;
+}
+
+void add_link_counters(ViewSnapshot& snapshot, AgentId sender, AgentId receiver,
+                       const sim::LinkCounters& counters) {
+  const auto key = std::minmax(sender, receiver);
+  auto it = std::lower_bound(snapshot.links.begin(), snapshot.links.end(), key,
+                             [](const ViewLink& link, const auto& k) {
+                               return std::pair(link.a, link.b) < std::pair(k.first, k.second);
+                             });
+  if (it == snapshot.links.end() || it->a != key.first || it->b != key.second) return;
+  it->delivered += counters.delivered;
+  it->sent += counters.sent();
+}
+
+void set_metrics(ViewSnapshot& snapshot, const sim::StepMetrics& metrics) {
+  snapshot.step = metrics.step;
+  snapshot.rmse_m = metrics.errors.rmse_m;
+  snapshot.mean_error_m = metrics.errors.mean_error_m;
+  snapshot.max_error_m = metrics.errors.max_error_m;
+  snapshot.nees = metrics.errors.nees;
+  snapshot.crlb_rmse_m = metrics.crlb_rmse_m;
+  snapshot.scored = metrics.errors.scored;
+  snapshot.has_metrics = true;
+}
+
+void play_back(LiveView& view, const config::Scenario& scenario, const sim::RunRecord& record,
+               const std::atomic<bool>& interrupted) {
+  using Clock = std::chrono::steady_clock;
+  auto world = sim::build_world(scenario);
+  ViewSnapshot base = view_snapshot(scenario, world);
+  base.mode = "sim";
+  for (const auto& [key, counters] : record.links) add_link_counters(base, key.first, key.second, counters);
+  std::map<std::int64_t, std::vector<const sim::EstimateRow*>> rows;
+  for (const auto& row : record.estimates) rows[row.step].push_back(&row);
+  std::vector<std::optional<estimators::Estimate>> latest(base.agents.size());
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / scenario.run.rate_hz));
+  auto next = Clock::now();
+  for (std::size_t k = 0; k < record.metrics.size() && !interrupted.load(); ++k) {
+    const auto& metrics = record.metrics[k];
+    if (metrics.step > 0) sim::advance_truth(world, scenario, metrics.step);
+    ViewSnapshot s = base;
+    for (std::size_t i = 0; i < s.agents.size(); ++i) s.agents[i].truth = world.truth[i];
+    if (const auto it = rows.find(metrics.step); it != rows.end()) {
+      for (const auto* row : it->second) {
+        const auto index = static_cast<std::size_t>(row->agent);
+        if (index >= s.agents.size()) continue;
+        latest[index] = row->estimate;
+        s.agents[index].truth = row->truth;  // exactly what was scored
+      }
+    }
+    for (std::size_t i = 0; i < s.agents.size(); ++i) s.agents[i].estimate = latest[i];
+    set_metrics(s, metrics);
+    const bool done = k + 1 == record.metrics.size();
+    s.done = done;
+    s.phase = done ? "done" : "playback";
+    view.publish(std::move(s));
+    if (done) break;
+    next += period;
+    while (Clock::now() < next && !interrupted.load())
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+struct LiveView::Server {
+  httplib::Server http;
+};
+
+LiveView::LiveView(int port) : server_(std::make_unique<Server>()) {
+  auto& http = server_->http;
+  // Two workers are plenty for one or two browser tabs; the default pool is sized for servers.
+  http.new_task_queue = [] { return new httplib::ThreadPool(2); };
+  http.Get("/", [](const httplib::Request&, httplib::Response& response) {
+    response.set_header("Cache-Control", "no-store");
+    response.set_content(live_view_page(), "text/html; charset=utf-8");
+  });
+  http.Get("/state.json", [this](const httplib::Request&, httplib::Response& response) {
+    std::shared_ptr<const ViewSnapshot> snapshot;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      snapshot = current_;
+    }
+    state_requests_.fetch_add(1);
+    response.set_header("Cache-Control", "no-store");
+    response.set_content(snapshot ? snapshot_json(*snapshot).dump() : std::string("{}"), "application/json");
+  });
+  // httplib's default sets SO_REUSEPORT, which would let a second server share a busy port silently.
+  http.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
+  if (port == 0) {
+    port_ = http.bind_to_any_port("127.0.0.1");
+    if (port_ <= 0) throw std::runtime_error("--view: could not bind any port on 127.0.0.1");
+  } else {
+    if (!http.bind_to_port("127.0.0.1", port)) {
+      throw std::runtime_error("--view: could not bind 127.0.0.1:" + std::to_string(port) + " (in use?)");
+    }
+    port_ = port;
+  }
+  thread_ = std::thread([this] { server_->http.listen_after_bind(); });
+  // stop() is a no-op until the accept loop runs, so the destructor must not race its start.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (!http.is_running() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+LiveView::~LiveView() {
+  server_->http.stop();
+  if (thread_.joinable()) thread_.join();
+}
+
+void LiveView::publish(ViewSnapshot snapshot) {
+  auto next = std::make_shared<const ViewSnapshot>(std::move(snapshot));
+  std::shared_ptr<const ViewSnapshot> previous;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    previous = std::exchange(current_, std::move(next));
+  }
+  // `previous` is freed here, outside the lock (or by the request still holding it).
+}
+
+void LiveView::hold(double seconds, const std::atomic<bool>& interrupted) const {
+  using Clock = std::chrono::steady_clock;
+  const bool forever = !std::isfinite(seconds);
+  const auto until = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                                        forever ? 0.0 : std::max(0.0, seconds)));
+  while (!interrupted.load() && (forever || Clock::now() < until)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
+}  // namespace swarmloc::orchestrator
