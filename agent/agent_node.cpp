@@ -108,16 +108,20 @@ class AgentProcess {
                                            world.neighbours.at(static_cast<std::size_t>(options.id))}),
         neighbour_count_(static_cast<int>(world.neighbours.at(static_cast<std::size_t>(options.id)).size())),
         sensor_only_(sim::is_centralized(scenario.algorithm.name)),
+        lockstep_(scenario.run.mode == config::RunMode::kLockstep && !sensor_only_),
         started_(std::chrono::steady_clock::now()) {}
 
   int run() {
     const double period_local_s = 1.0 / scenario_.run.rate_hz;
     // The timer runs on the agent's own clock: a local period lasts period/(1+drift) in real time.
     const auto period = std::chrono::duration<double>(clock_.mono_duration(period_local_s));
-    publish(runtime_.initial_publication(local_stamp_ns()));
-    logger_->info("started: {} neighbours, clock offset {:+.3f} s drift {:+.1f} ppm{}", neighbour_count_,
+    // Lockstep publishes its initial sample exactly once, when every neighbour can receive it, so that
+    // sample numbers (and with them the seeded loss decisions) match the simulator's.
+    if (!lockstep_) publish(runtime_.initial_publication(local_stamp_ns()));
+    logger_->info("started: {} neighbours, clock offset {:+.3f} s drift {:+.1f} ppm{}{}", neighbour_count_,
                   clock_.offset_s, clock_.drift_ppm,
-                  sensor_only_ ? " (sensor only: the fusion centre estimates)" : "");
+                  sensor_only_ ? " (sensor only: the fusion centre estimates)" : "",
+                  lockstep_ ? " (lockstep: steps on each world step's batch)" : "");
 
     auto next_tick = std::chrono::steady_clock::now() +
                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
@@ -126,17 +130,27 @@ class AgentProcess {
     int last_matched = -1;
     while (!g_stop_requested.load()) {
       const auto now = std::chrono::steady_clock::now();
-      const double wait_s = std::clamp(std::chrono::duration<double>(next_tick - now).count(), 0.0, 0.1);
+      // Lockstep wakes on data (the next batch); free run also on its own clock's tick.
+      const double wait_s =
+          lockstep_ ? 0.1 : std::clamp(std::chrono::duration<double>(next_tick - now).count(), 0.0, 0.1);
       auto inbound = transport_.wait_and_take(wait_s);
       if (handle(inbound)) break;
       if (!inbound.batches.empty()) last_batch_seen = std::chrono::steady_clock::now();
 
       const auto after = std::chrono::steady_clock::now();
       if (!started_run_) {
-        // Until START: re-announce the initial state and say hello so the orchestrator can count us.
-        if (after - last_hello > std::chrono::milliseconds(200)) {
-          last_hello = after;
+        if (lockstep_ && !initial_published_ && transport_.neighbours_matched_both_ways()) {
           publish(runtime_.initial_publication(local_stamp_ns()));
+          if (!transport_.wait_for_acks(kAckTimeoutS)) {
+            logger_->warn("initial sample not acknowledged within {} s", kAckTimeoutS);
+          }
+          initial_published_ = true;
+        }
+        // Until START: re-announce the initial state and say hello so the orchestrator can count us
+        // (lockstep: only once the initial sample is with every neighbour).
+        if (after - last_hello > std::chrono::milliseconds(200) && (!lockstep_ || initial_published_)) {
+          last_hello = after;
+          if (!lockstep_) publish(runtime_.initial_publication(local_stamp_ns()));
           transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
         }
         if (std::chrono::duration<double>(after - started_).count() >
@@ -157,6 +171,12 @@ class AgentProcess {
           transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
         }
         next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+      } else if (lockstep_) {
+        // One step per world-step batch, on the neighbours' samples of earlier steps only.
+        if (runtime_.has_pending_batch()) {
+          release_held(runtime_.steps_run());
+          tick();
+        }
       } else if (after >= next_tick) {
         next_tick += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
         if (next_tick < after) next_tick = after;  // overran: do not burst to catch up
@@ -169,7 +189,10 @@ class AgentProcess {
       }
       // The orchestrator normally says STOP; if it vanished (crash, kill -9), do not linger.
       const double silent_s = std::chrono::duration<double>(after - last_batch_seen).count();
-      if (silent_s > std::max(5.0, 50.0 * period_local_s)) {
+      // Lockstep waits for the slowest agent every step: allow it the start-up timeout.
+      const double silence_limit_s =
+          lockstep_ ? scenario_.run.startup_timeout_s : std::max(5.0, 50.0 * period_local_s);
+      if (silent_s > silence_limit_s) {
         logger_->warn("no measurements for {:.1f} s: orchestrator gone, exiting", silent_s);
         break;
       }
@@ -195,6 +218,10 @@ class AgentProcess {
       }
     }
     for (const auto& [header, batch] : inbound.batches) runtime_.on_batch(header, batch);
+    if (lockstep_) {
+      hold(inbound);
+      return false;
+    }
     for (const auto& sample : inbound.states)
       runtime_.on_state(sample.header, sample.message, sample.well_formed);
     for (const auto& sample : inbound.information) {
@@ -207,10 +234,45 @@ class AgentProcess {
     return false;
   }
 
+  /// Lockstep: keeps inter-agent samples until the step they belong to (a neighbour may already
+  /// have run the step we are about to run).
+  void hold(const dds::AgentInbound& inbound) {
+    held_.states.insert(held_.states.end(), inbound.states.begin(), inbound.states.end());
+    held_.information.insert(held_.information.end(), inbound.information.begin(), inbound.information.end());
+    held_.consensus.insert(held_.consensus.end(), inbound.consensus.begin(), inbound.consensus.end());
+    held_.beliefs.insert(held_.beliefs.end(), inbound.beliefs.begin(), inbound.beliefs.end());
+  }
+
+  /// Feeds the held samples published before step `step` to the runtime (in arrival order per family,
+  /// as the simulator's bus delivers them) and keeps the rest.
+  void release_held(std::int64_t step) {
+    auto release = [&](auto& samples) {
+      using Samples = std::decay_t<decltype(samples)>;
+      Samples later;
+      for (const auto& sample : samples) {
+        if (sample.header.step < step) {
+          runtime_.on_sample(sample.header, sample.message, sample.well_formed);
+        } else {
+          later.push_back(sample);
+        }
+      }
+      samples = std::move(later);
+    };
+    release(held_.states);
+    release(held_.information);
+    release(held_.consensus);
+    release(held_.beliefs);
+  }
+
   void tick() {
     auto publication = runtime_.step(local_stamp_ns());
     if (options_.hostile) make_hostile(publication.outbox, publication.header.step);
     publish(publication);
+    // Lockstep: the report tells the orchestrator this step is done, so its samples must be with the
+    // neighbours before it.
+    if (lockstep_ && !transport_.wait_for_acks(kAckTimeoutS)) {
+      logger_->warn("step {}: samples not acknowledged within {} s", publication.header.step, kAckTimeoutS);
+    }
     transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
   }
 
@@ -264,6 +326,10 @@ class AgentProcess {
   dds::AgentTransport transport_;
   int neighbour_count_ = 0;
   bool sensor_only_ = false;  ///< centralized algorithm: batches only, no estimator steps
+  bool lockstep_ = false;     ///< run.mode = lockstep: step on batches, not on the clock
+  bool initial_published_ = false;
+  dds::AgentInbound held_;  ///< lockstep: samples of steps not yet run
+  static constexpr double kAckTimeoutS = 5.0;
   bool started_run_ = false;
   double cpu_at_start_ = 0.0;
   std::chrono::steady_clock::time_point started_;

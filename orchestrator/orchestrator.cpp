@@ -80,6 +80,8 @@ class Orchestrator {
         run_dir_(std::move(run_dir)),
         world_(sim::build_world(scenario_)),
         centralized_(sim::is_centralized(scenario_.algorithm.name)),
+        lockstep_(scenario_.run.mode == config::RunMode::kLockstep && !centralized_),
+        lockstep_excluded_(static_cast<std::size_t>(scenario_.world.agents), false),
         progress_(options_.progress) {}
 
   int run() {
@@ -125,6 +127,7 @@ class Orchestrator {
         record_.agent_summaries[static_cast<std::size_t>(i)].exit_code = launcher_.exit_code(i);
     }
     record_.extra["rejected_reports"] = transport.rejected_reports();
+    if (lockstep_) record_.extra["lockstep_timeouts"] = lockstep_timeouts_;
     record_.extra["run_directory"] = run_dir_.string();
     sim::write_run_directory(run_dir_, record_);
     publish_view(record_.interrupted || failed ? "stopped" : "done", true);  // done: summary.json is written
@@ -240,9 +243,13 @@ class Orchestrator {
         sim::Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns};
         transport.publish_batch(i, header, sim::generate_batch(world_, scenario_, i, step));
       }
-      next += period;
-      while (Clock::now() < next && !g_interrupted.load()) {
-        collect(transport, std::chrono::duration<double>(next - Clock::now()).count());
+      if (lockstep_) {
+        wait_for_step(transport, step);
+      } else {
+        next += period;
+        while (Clock::now() < next && !g_interrupted.load()) {
+          collect(transport, std::chrono::duration<double>(next - Clock::now()).count());
+        }
       }
       score_step(step);
       publish_view("running");
@@ -251,6 +258,34 @@ class Orchestrator {
                        step + 1 == scenario_.run.steps);
     }
     return true;
+  }
+
+  /// Lockstep barrier: waits until every agent has reported step `step` done (it acknowledged its
+  /// samples first), so the next batch finds every neighbour's step data in place. An agent that
+  /// misses the deadline is warned about and no longer waited for.
+  void wait_for_step(dds::OrchestratorTransport& transport, std::int64_t step) {
+    const double limit_s = std::max(5.0, 50.0 / scenario_.run.rate_hz);
+    const auto deadline = Clock::now() + std::chrono::duration<double>(limit_s);
+    auto done = [&](std::size_t i) {
+      return lockstep_excluded_[i] ||
+             (reports_[i] && static_cast<std::int64_t>(reports_[i]->steps_run) >= step + 1);
+    };
+    while (!g_interrupted.load()) {
+      bool all = true;
+      for (std::size_t i = 0; i < reports_.size() && all; ++i) all = done(i);
+      if (all) return;
+      if (Clock::now() > deadline) {
+        for (std::size_t i = 0; i < reports_.size(); ++i) {
+          if (done(i)) continue;
+          lockstep_excluded_[i] = true;
+          ++lockstep_timeouts_;
+          spdlog::warn("lockstep: agent {} did not finish step {} within {:.1f} s; no longer waiting for it",
+                       i, step, limit_s);
+        }
+        return;
+      }
+      collect(transport, 0.02);
+    }
   }
 
   void collect(dds::OrchestratorTransport& transport, double timeout_s) {
@@ -333,7 +368,12 @@ class Orchestrator {
   RunOptions options_;
   std::filesystem::path run_dir_;
   sim::World world_;
-  bool centralized_ = false;   ///< the algorithm runs in a fusion-centre process
+  bool centralized_ = false;  ///< the algorithm runs in a fusion-centre process
+  /// run.mode = lockstep: the next batch goes out once every agent finished the step (the fusion
+  /// centre of a centralized algorithm already consumes complete world steps).
+  bool lockstep_ = false;
+  std::vector<bool> lockstep_excluded_;
+  int lockstep_timeouts_ = 0;
   bool fusion_ready_ = false;  ///< the fusion centre has said hello
   Progress progress_;
   ProcessLauncher launcher_;

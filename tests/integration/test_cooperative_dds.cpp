@@ -68,3 +68,35 @@ INSTANTIATE_TEST_SUITE_P(Papers002To004, CooperativeOverDds,
                          });
 
 }  // namespace
+
+namespace {
+
+// run.mode = lockstep: the orchestrator sends world step k's batches once every agent has reported
+// step k − 1 done (after its samples were acknowledged), and agents use only samples of earlier steps.
+// Sample numbers, hence the seeded loss decisions, match the simulator's, so the runs are identical.
+class LockstepOverDds : public ::testing::TestWithParam<Case> {};
+
+TEST_P(LockstepOverDds, FinalErrorsEqualTheSimulatorsToOneInABillion) {
+  const Case c = GetParam();
+  const std::string flags = std::string(c.flags) + " --set run.mode=lockstep";
+  const auto sim = run("sim", c.scenario, std::string(c.scenario) + "-lockstep-sim", flags);
+  const auto dds = run("run", c.scenario, std::string(c.scenario) + "-lockstep-dds",
+                       flags + " --set dds.domain_id=" + std::to_string(c.domain));
+  for (const char* key : {"rmse_m", "mean_error_m", "max_error_m"}) {
+    const double expected = sim["final"][key];
+    EXPECT_NEAR(dds["final"][key].get<double>(), expected, 1e-9 * std::max(1e-3, expected))
+        << c.scenario << ' ' << key;
+  }
+  EXPECT_EQ(dds["links"]["dropped_injected"], sim["links"]["dropped_injected"]);
+  EXPECT_EQ(dds["lockstep_timeouts"], 0);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    EveryRuntimeAlgorithm, LockstepOverDds,
+    ::testing::Values(Case{"default", 37, " --set run.steps=60 --set network.loss=0.2"},
+                      Case{"jacobi", 38, " --set run.steps=60 --set network.loss=0.2"},
+                      Case{"dgbb", 39, " --set run.steps=150"},
+                      Case{"multipath_bp", 40, " --set run.steps=30 --set network.loss=0.2"}),
+    [](const ::testing::TestParamInfo<Case>& param_info) { return std::string(param_info.param.scenario); });
+
+}  // namespace

@@ -24,7 +24,8 @@ std::string common_flags(int domain) {
 
 nlohmann::json run_dds(const std::string& name, const std::string& flags, int domain) {
   const auto dir = fresh_directory(name);
-  const auto result = run_command(kBinary + " run " + kScenario + " --out " + dir.string() + common_flags(domain) + flags);
+  const auto result =
+      run_command(kBinary + " run " + kScenario + " --out " + dir.string() + common_flags(domain) + flags);
   EXPECT_EQ(result.exit_code, 0) << result.output;
   EXPECT_EQ(count_processes_matching(dir.string()), 0) << "agent processes outlived the run";
   return read_json(dir / "summary.json");
@@ -32,7 +33,8 @@ nlohmann::json run_dds(const std::string& name, const std::string& flags, int do
 
 nlohmann::json run_sim(const std::string& name, const std::string& flags) {
   const auto dir = fresh_directory(name);
-  const auto result = run_command(kBinary + " sim " + kScenario + " --out " + dir.string() + common_flags(0) + flags);
+  const auto result =
+      run_command(kBinary + " sim " + kScenario + " --out " + dir.string() + common_flags(0) + flags);
   EXPECT_EQ(result.exit_code, 0) << result.output;
   return read_json(dir / "summary.json");
 }
@@ -98,14 +100,17 @@ TEST_P(InvalidScenario, ExitsWithCodeTwoNamingTheKey) {
 
 INSTANTIATE_TEST_SUITE_P(
     Cases, InvalidScenario,
-    ::testing::Values(BadInput{"negative_radius", kScenario + " --set world.comm_radius_m=-1", "world.comm_radius_m"},
-                      BadInput{"too_many_anchors", kScenario + " --set world.anchors=40", "world.anchors"},
-                      BadInput{"unknown_algorithm", kScenario + " --set algorithm.name=magic", "algorithm.name"},
-                      BadInput{"not_yet_runnable_algorithm", kScenario + " --set algorithm.name=jacobi", "algorithm.name"},
-                      BadInput{"unreadable_file", "/nonexistent/scenario.yaml", "/nonexistent/scenario.yaml"},
-                      BadInput{"loss_above_one", kScenario + " --set network.loss=1.4", "network.loss"},
-                      BadInput{"loss_below_zero", kScenario + " --set network.loss=-0.1", "network.loss"},
-                      BadInput{"unknown_flag", kScenario + " --frobnicate", "frobnicate"}),
+    ::testing::Values(
+        BadInput{"negative_radius", kScenario + " --set world.comm_radius_m=-1", "world.comm_radius_m"},
+        BadInput{"too_many_anchors", kScenario + " --set world.anchors=40", "world.anchors"},
+        BadInput{"unknown_algorithm", kScenario + " --set algorithm.name=magic", "algorithm.name"},
+        BadInput{"multipath_without_walls",
+                 kScenario + " --set algorithm.name=multipath_bp --set world.wall_count=0",
+                 "world.wall_count"},
+        BadInput{"unreadable_file", "/nonexistent/scenario.yaml", "/nonexistent/scenario.yaml"},
+        BadInput{"loss_above_one", kScenario + " --set network.loss=1.4", "network.loss"},
+        BadInput{"loss_below_zero", kScenario + " --set network.loss=-0.1", "network.loss"},
+        BadInput{"unknown_flag", kScenario + " --frobnicate", "frobnicate"}),
     [](const auto& test_info) { return std::string(test_info.param.name); });
 
 }  // namespace

@@ -139,4 +139,10 @@ inline int32_t matched_count(dds_entity_t reader) {
   return static_cast<int32_t>(status.current_count);
 }
 
+inline int32_t matched_reader_count(dds_entity_t writer) {
+  dds_publication_matched_status_t status{};
+  check(dds_get_publication_matched_status(writer, &status), "dds_get_publication_matched_status");
+  return static_cast<int32_t>(status.current_count);
+}
+
 }  // namespace swarmloc::dds

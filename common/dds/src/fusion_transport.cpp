@@ -22,7 +22,7 @@ struct FusionTransport::Impl {
                cyclone_config(scenario, Topology{kFusionCenterId, count, {}})),
         participant(create_participant(domain)) {
     const dds_entity_t pp = participant.get();
-    const auto& qos = scenario.qos;
+    const auto qos = effective_qos(scenario);
     const dds_entity_t t_measurements =
         create_topic(pp, swarmloc_msg_MeasurementBatch_desc, kTopicMeasurements);
     const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);

@@ -1,5 +1,6 @@
 #include "qos.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "swarmloc/dds/transport.hpp"
@@ -37,6 +38,17 @@ QosPtr endpoint_qos(const config::QosSettings& settings) {
                                      : DDS_DURABILITY_VOLATILE);
   dds_qset_deadline(qos.get(), seconds_or_infinity(settings.deadline_s));
   dds_qset_liveliness(qos.get(), DDS_LIVELINESS_AUTOMATIC, seconds_or_infinity(settings.liveliness_lease_s));
+  return qos;
+}
+
+config::Scenario::Qos effective_qos(const config::Scenario& scenario) {
+  config::Scenario::Qos qos = scenario.qos;
+  if (scenario.run.mode != config::RunMode::kLockstep) return qos;
+  for (config::QosSettings* family :
+       {&qos.measurements, &qos.state, &qos.information, &qos.consensus, &qos.belief}) {
+    family->reliability = config::Reliability::kReliable;
+    family->history_depth = std::max(family->history_depth, 4);
+  }
   return qos;
 }
 

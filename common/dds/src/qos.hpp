@@ -20,6 +20,11 @@ using QosPtr = std::unique_ptr<dds_qos_t, QosDeleter>;
 /// (0 s = infinite for both).
 QosPtr endpoint_qos(const config::QosSettings& settings);
 
+/// The QoS a run actually uses: scenario.qos, except in run.mode = lockstep, where every
+/// inter-agent family and the measurements become reliable with keep-last ≥ 4 — lockstep's barrier
+/// relies on every sample arriving, and a neighbour may be one step ahead when we take.
+config::Scenario::Qos effective_qos(const config::Scenario& scenario);
+
 /// Publisher/subscriber QoS with the given partition names (must not be empty).
 QosPtr partition_qos(const std::vector<std::string>& partitions);
 

@@ -82,7 +82,7 @@ struct AgentTransport::Impl {
         domain(static_cast<dds_domainid_t>(scenario.dds.domain_id), cyclone_config(scenario, topology)),
         participant(create_participant(domain)) {
     const dds_entity_t pp = participant.get();
-    const auto& qos = scenario.qos;
+    const auto qos = effective_qos(scenario);
     const dds_entity_t t_measurements =
         create_topic(pp, swarmloc_msg_MeasurementBatch_desc, kTopicMeasurements);
     const dds_entity_t t_state = create_topic(pp, swarmloc_msg_State_desc, kTopicState);
@@ -212,6 +212,29 @@ int AgentTransport::matched_neighbours() const {
                                         [&](AgentId neighbour) { return matched.contains(neighbour); }));
 }
 
+bool AgentTransport::neighbours_matched_both_ways() const {
+  const auto degree = static_cast<int32_t>(impl_->neighbours.size());
+  for (const dds_entity_t writer :
+       {impl_->state_writer, impl_->information_writer, impl_->consensus_writer, impl_->belief_writer}) {
+    if (matched_reader_count(writer) < degree) return false;
+  }
+  return matched_neighbours() == static_cast<int>(degree);
+}
+
+bool AgentTransport::wait_for_acks(double timeout_s) {
+  bool all = true;
+  for (const dds_entity_t writer :
+       {impl_->state_writer, impl_->information_writer, impl_->consensus_writer, impl_->belief_writer}) {
+    const dds_return_t rc = dds_wait_for_acks(writer, to_duration(timeout_s));
+    if (rc == DDS_RETCODE_TIMEOUT) {
+      all = false;
+    } else {
+      check(rc, "dds_wait_for_acks");
+    }
+  }
+  return all;
+}
+
 bool AgentTransport::orchestrator_matched() const { return matched_count(impl_->measurement_reader) > 0; }
 
 // ===================================================================================================
@@ -224,7 +247,7 @@ struct OrchestratorTransport::Impl {
                cyclone_config(scenario, Topology{kOrchestratorId, count, {}})),
         participant(create_participant(domain)) {
     const dds_entity_t pp = participant.get();
-    const auto& qos = scenario.qos;
+    const auto qos = effective_qos(scenario);
     const dds_entity_t t_measurements =
         create_topic(pp, swarmloc_msg_MeasurementBatch_desc, kTopicMeasurements);
     const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);

@@ -182,11 +182,11 @@ void AgentRuntime::on_batch(const Header& header, estimators::MeasurementBatch b
   pending_batch_ = std::move(batch);
 }
 
-AgentRuntime::Publication AgentRuntime::publish(estimators::Outbox outbox, std::int64_t sender_stamp_ns,
-                                                std::int64_t world_stamp_ns) {
+AgentRuntime::Publication AgentRuntime::publish(estimators::Outbox outbox, std::int64_t step,
+                                                std::int64_t sender_stamp_ns, std::int64_t world_stamp_ns) {
   Publication publication;
   publication.outbox = std::move(outbox);
-  publication.header = Header{setup_.id, next_seq_, local_step_, sender_stamp_ns, world_stamp_ns};
+  publication.header = Header{setup_.id, next_seq_, step, sender_stamp_ns, world_stamp_ns};
   const auto& out = publication.outbox;
   const auto samples = static_cast<std::uint32_t>((out.state ? 1 : 0) + (out.information ? 1 : 0) +
                                                   out.consensus.size() + (out.belief ? 1 : 0));
@@ -196,7 +196,8 @@ AgentRuntime::Publication AgentRuntime::publish(estimators::Outbox outbox, std::
 }
 
 AgentRuntime::Publication AgentRuntime::initial_publication(std::int64_t sender_stamp_ns) {
-  return publish(estimator_->initial_outbox(), sender_stamp_ns, 0);
+  // Step −1: published before step 0, consumed by the neighbours' step 0.
+  return publish(estimator_->initial_outbox(), local_step_ - 1, sender_stamp_ns, 0);
 }
 
 namespace {
@@ -222,7 +223,8 @@ AgentRuntime::Publication AgentRuntime::step(std::int64_t sender_stamp_ns) {
   const std::int64_t world_step = pending_batch_ ? pending_batch_->world_step : newest_batch_step_;
   pending_batch_.reset();
 
-  Publication publication = publish(std::move(output.outbox), sender_stamp_ns, world_stamp_ns(world_step));
+  Publication publication =
+      publish(std::move(output.outbox), local_step_, sender_stamp_ns, world_stamp_ns(world_step));
   ++local_step_;
   return publication;
 }

@@ -22,9 +22,9 @@ inline constexpr AgentId kFusionCenterId = -2;
 
 /// Who this participant is and whom it must discover.
 struct Topology {
-  AgentId self = kOrchestratorId;           ///< kOrchestratorId / kFusionCenterId for those roles
+  AgentId self = kOrchestratorId;  ///< kOrchestratorId / kFusionCenterId for those roles
   int agent_count = 0;
-  std::vector<AgentId> neighbours;          ///< agent: its neighbours; orchestrator: ignored (all agents)
+  std::vector<AgentId> neighbours;  ///< agent: its neighbours; orchestrator: ignored (all agents)
 };
 
 /// The Cyclone XML for this participant: loopback/interface, multicast off and a Peers list of the
@@ -74,6 +74,12 @@ class AgentTransport {
   [[nodiscard]] int matched_neighbours() const;
   /// True once the orchestrator's measurement writer is matched.
   [[nodiscard]] bool orchestrator_matched() const;
+  /// True once every neighbour's writers are matched to our readers and our writers to its readers
+  /// (lockstep publishes its first samples only then, so no neighbour misses them).
+  [[nodiscard]] bool neighbours_matched_both_ways() const;
+  /// Blocks until every matched reader has acknowledged our inter-agent samples (reliable QoS), or
+  /// timeout_s passes; false on timeout. Lockstep reports a step done only after this.
+  bool wait_for_acks(double timeout_s);
 
  private:
   struct Impl;

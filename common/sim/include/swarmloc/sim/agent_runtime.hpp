@@ -69,7 +69,7 @@ class AgentRuntime {
     if (out.belief) visit(header, *out.belief), ++header.seq;
   }
   Publication step(std::int64_t sender_stamp_ns);
-  /// The message published before the first step.
+  /// The message published before the first step (header.step = −1).
   Publication initial_publication(std::int64_t sender_stamp_ns);
 
   [[nodiscard]] EstimateReport report(std::int64_t sender_stamp_ns, double cpu_s) const;
@@ -81,6 +81,8 @@ class AgentRuntime {
     return rejected_by_reason_;
   }
   [[nodiscard]] std::int64_t newest_batch_step() const { return newest_batch_step_; }
+  /// True if a measurement batch arrived that no step has consumed yet.
+  [[nodiscard]] bool has_pending_batch() const { return pending_batch_.has_value(); }
 
  private:
   /// The newest sample per sender of one family, and the seq it came with (ordering/duplicates).
@@ -96,7 +98,8 @@ class AgentRuntime {
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::InformationMessage& m) const;
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::ConsensusMessage& m) const;
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::BeliefMessage& m) const;
-  Publication publish(estimators::Outbox outbox, std::int64_t sender_stamp_ns, std::int64_t world_stamp_ns);
+  Publication publish(estimators::Outbox outbox, std::int64_t step, std::int64_t sender_stamp_ns,
+                      std::int64_t world_stamp_ns);
   void reject(LinkCounters* link, RejectReason reason);
   [[nodiscard]] std::int64_t world_stamp_ns(std::int64_t world_step) const;
 
