@@ -90,7 +90,7 @@ class Orchestrator {
     latest_.assign(static_cast<std::size_t>(n), std::nullopt);
     reports_.assign(static_cast<std::size_t>(n), std::nullopt);
     record_.scenario = scenario_;
-    record_.mode = "dds-free-run";
+    record_.mode = lockstep_ ? "dds-lockstep" : "dds-free-run";
     record_.agents = n;
     record_.anchors = world_.anchor_count();
     record_.mean_degree = world_.mean_degree();

@@ -510,7 +510,9 @@ int reproduce_dgbb_table1(const ReproduceOptions& options) {
        << (k < paper.size() ? fmt("%.0f", paper[k].first) : std::string("–")) << " | "
        << fmt("%.0f", row.mean_source_rounds) << " | "
        << (k < paper.size() ? fmt("%.0f", paper[k].second) : std::string("–")) << " | "
-       << fmt("%.0f %%", 100.0 * row.fraction_converged) << " | " << fmt("%.2e", row.mean_final_error)
+       << fmt("%.0f %%", 100.0 * row.fraction_converged) << " | "
+       << (std::isfinite(row.mean_final_error) ? fmt("%.2e", row.mean_final_error)
+                                               : std::string("diverged (NaN/Inf)"))
        << " |\n";
   }
   emit(options.out_dir, "dgbb_004_table1", md.str());

@@ -2,6 +2,13 @@
 // and their results are in docs/reproduction.md).
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <utility>
+#include <vector>
+
 #include "reproduce.hpp"
 
 namespace swarmloc::orchestrator {
@@ -18,6 +25,27 @@ TEST(KalmanTables, Table1MeanErrorsAtTwentyCentimetreNoiseAreNoWorseThanThePaper
   EXPECT_EQ(ieif.failure_percent, 0.0);
   EXPECT_EQ(iekf.failure_percent, 0.0);
   EXPECT_LE(ieif.max_error_cm, 1.5 * 11.64);
+}
+
+// The 002–004 reproduction commands end to end, small: each writes its Markdown table.
+TEST(ReproduceCommands, PapersTwoToFourWriteTheirTables) {
+  const auto dir = std::filesystem::temp_directory_path() / "swarmloc-reproduce-test";
+  std::filesystem::remove_all(dir);
+  for (const auto& [experiment, table] : std::vector<std::pair<std::string, std::string>>{
+           {"jacobi-002", "jacobi_002.md"}, {"multipath-003", "multipath_003.md"}}) {
+    ReproduceOptions options;
+    options.experiment = experiment;
+    options.out_dir = dir;
+    options.trials = 3;
+    EXPECT_EQ(run_reproduce(options), 0) << experiment;
+    std::ifstream in(dir / table);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("| "), std::string::npos) << experiment << " wrote no table";
+  }
+  ReproduceOptions unknown;
+  unknown.experiment = "no-such-experiment";
+  unknown.out_dir = dir;
+  EXPECT_EQ(run_reproduce(unknown), 2);
 }
 
 }  // namespace

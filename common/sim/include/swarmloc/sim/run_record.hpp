@@ -42,7 +42,7 @@ struct AgentSummary {
 
 struct RunRecord {
   config::Scenario scenario;
-  std::string mode;  ///< "sim" or "dds-free-run"
+  std::string mode;  ///< "sim", "dds-free-run" or "dds-lockstep"
   int agents = 0;
   int anchors = 0;
   double mean_degree = 0.0;
