@@ -103,7 +103,7 @@ class AgentProcess {
         clock_(world.clocks.at(static_cast<std::size_t>(options.id))),
         runtime_(sim::make_agent_estimator(scenario, world, options.id), world.setup_of(options.id),
                  world.neighbours.at(static_cast<std::size_t>(options.id)),
-                 sim::make_runtime_params(scenario)),
+                 sim::make_runtime_params(scenario, world, 0, options.incarnation)),
         transport_(scenario, dds::Topology{options.id, world.size(),
                                            world.neighbours.at(static_cast<std::size_t>(options.id))}),
         neighbour_count_(static_cast<int>(world.neighbours.at(static_cast<std::size_t>(options.id)).size())),

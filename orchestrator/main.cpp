@@ -118,6 +118,10 @@ int main(int argc, char** argv) {
   auto* agent_id = agent->add_option("--id", agent_options.id, "Agent id in [0, world.agents) (role agent)");
   agent->add_option("--set", agent_options.overrides, "Override a scenario key (repeatable)");
   agent->add_option("--log", agent_options.log_path, "Log file (default: stderr)");
+  agent
+      ->add_option("--incarnation", agent_options.incarnation,
+                   "Restart count of this agent (set by the orchestrator for faults.kill restarts)")
+      ->check(CLI::Range(0, 255));
   agent->add_flag("--hostile", agent_options.hostile,
                   "Publish NaN / non-PSD / absurd states (robustness tests)");
 

@@ -82,6 +82,11 @@ class Orchestrator {
         centralized_(sim::is_centralized(scenario_.algorithm.name)),
         lockstep_(scenario_.run.mode == config::RunMode::kLockstep && !centralized_),
         lockstep_excluded_(static_cast<std::size_t>(scenario_.world.agents), false),
+        kills_(config::parse_agent_faults(scenario_.faults.kill, "faults.kill", false)),
+        pauses_(config::parse_agent_faults(scenario_.faults.pause, "faults.pause", true)),
+        down_(static_cast<std::size_t>(scenario_.world.agents), false),
+        incarnation_(static_cast<std::size_t>(scenario_.world.agents), 0),
+        launcher_index_(static_cast<std::size_t>(scenario_.world.agents), -1),
         progress_(options_.progress) {}
 
   int run() {
@@ -122,9 +127,12 @@ class Orchestrator {
     record_.processes = launcher_.size() + 1;
     record_.interrupted = g_interrupted.load();
     record_.wall_s = seconds_since(started);
-    for (int i = 0; i < launcher_.size(); ++i) {
-      if (static_cast<std::size_t>(i) < record_.agent_summaries.size())
-        record_.agent_summaries[static_cast<std::size_t>(i)].exit_code = launcher_.exit_code(i);
+    if (options_.launch_agents) {
+      for (std::size_t i = 0; i < record_.agent_summaries.size() && i < launcher_index_.size(); ++i) {
+        // The newest incarnation's exit code (a killed-and-not-restarted agent: 128 + 9).
+        if (launcher_index_[i] >= 0)
+          record_.agent_summaries[i].exit_code = launcher_.exit_code(launcher_index_[i]);
+      }
     }
     record_.extra["rejected_reports"] = transport.rejected_reports();
     if (lockstep_) record_.extra["lockstep_timeouts"] = lockstep_timeouts_;
@@ -171,25 +179,68 @@ class Orchestrator {
 
   void launch_agents() {
     std::filesystem::create_directories(run_dir_ / "logs");
+    for (AgentId i = 0; i < world_.size(); ++i) launch_agent(i, 0);
     const auto scenario_file = (run_dir_ / "scenario.yaml").string();
-    for (AgentId i = 0; i < world_.size(); ++i) {
-      char name[32];
-      std::snprintf(name, sizeof name, "agent_%03d.log", i);
-      const auto log = (run_dir_ / "logs" / name).string();
-      std::vector<std::string> argv{options_.agent_binary, "agent", "--scenario", scenario_file, "--id",
-                                    std::to_string(i),     "--log", log};
-      if (std::find(options_.hostile_agents.begin(), options_.hostile_agents.end(), i) !=
-          options_.hostile_agents.end()) {
-        argv.emplace_back("--hostile");
-      }
-      launcher_.launch(argv, log + ".out");
-    }
     if (centralized_) {
       // Launched last, so the agents keep launcher indices 0 … N−1 (their summaries' exit codes).
       const auto log = (run_dir_ / "logs" / "fusion_center.log").string();
       launcher_.launch(
           {options_.agent_binary, "agent", "--role", "fusion", "--scenario", scenario_file, "--log", log},
           log + ".out");
+    }
+  }
+
+  /// Starts agent `id`'s process (incarnation > 0: a restart after faults.kill, with its own log).
+  void launch_agent(AgentId id, int incarnation) {
+    const auto scenario_file = (run_dir_ / "scenario.yaml").string();
+    char name[48];
+    if (incarnation == 0) {
+      std::snprintf(name, sizeof name, "agent_%03d.log", id);
+    } else {
+      std::snprintf(name, sizeof name, "agent_%03d.restart%d.log", id, incarnation);
+    }
+    const auto log = (run_dir_ / "logs" / name).string();
+    std::vector<std::string> argv{options_.agent_binary, "agent", "--scenario", scenario_file, "--id",
+                                  std::to_string(id),    "--log", log};
+    if (incarnation > 0) argv.insert(argv.end(), {"--incarnation", std::to_string(incarnation)});
+    if (std::find(options_.hostile_agents.begin(), options_.hostile_agents.end(), id) !=
+        options_.hostile_agents.end()) {
+      argv.emplace_back("--hostile");
+    }
+    launcher_index_[static_cast<std::size_t>(id)] = launcher_.launch(argv, log + ".out");
+  }
+
+  /// faults.kill / faults.pause at world step `step` (free run: real signals to real processes).
+  void apply_faults(std::int64_t step) {
+    if (!options_.launch_agents) return;  // agents started elsewhere: not ours to signal
+    for (const auto& fault : kills_) {
+      const auto k = static_cast<std::size_t>(fault.agent);
+      if (fault.from_step == step && launcher_.running(launcher_index_[k])) {
+        launcher_.kill(launcher_index_[k], SIGKILL);
+        down_[k] = true;
+        reports_[k].reset();
+        latest_[k].reset();
+        spdlog::warn("fault: killed agent {} (kill -9) at step {}", fault.agent, step);
+      }
+      if (fault.to_step == step) {
+        launch_agent(fault.agent, ++incarnation_[k]);
+        down_[k] = false;
+        spdlog::warn("fault: restarted agent {} at step {} (incarnation {}, fresh state)", fault.agent, step,
+                     incarnation_[k]);
+      }
+    }
+    for (const auto& fault : pauses_) {
+      const auto k = static_cast<std::size_t>(fault.agent);
+      if (fault.from_step == step) {
+        launcher_.kill(launcher_index_[k], SIGSTOP);
+        down_[k] = true;
+        spdlog::warn("fault: paused agent {} (SIGSTOP) at step {}", fault.agent, step);
+      }
+      if (fault.to_step == step) {
+        launcher_.kill(launcher_index_[k], SIGCONT);
+        down_[k] = false;
+        spdlog::warn("fault: resumed agent {} (SIGCONT) at step {}", fault.agent, step);
+      }
     }
   }
 
@@ -237,6 +288,7 @@ class Orchestrator {
     for (std::int64_t step = 0; step < scenario_.run.steps; ++step) {
       if (g_interrupted.load()) return false;
       if (step > 0) sim::advance_truth(world_, scenario_, step);
+      apply_faults(step);
       const auto stamp_ns =
           static_cast<std::int64_t>(static_cast<double>(step) / scenario_.run.rate_hz * 1e9);
       for (AgentId i = 0; i < world_.size(); ++i) {
@@ -267,7 +319,7 @@ class Orchestrator {
     const double limit_s = std::max(5.0, 50.0 / scenario_.run.rate_hz);
     const auto deadline = Clock::now() + std::chrono::duration<double>(limit_s);
     auto done = [&](std::size_t i) {
-      return lockstep_excluded_[i] ||
+      return lockstep_excluded_[i] || down_[i] ||
              (reports_[i] && static_cast<std::int64_t>(reports_[i]->steps_run) >= step + 1);
     };
     while (!g_interrupted.load()) {
@@ -313,7 +365,8 @@ class Orchestrator {
     // Scored only once the agent has run at least one step (hello reports carry the prior).
     std::vector<std::optional<estimators::Estimate>> scored(latest_.size());
     for (std::size_t i = 0; i < latest_.size(); ++i) {
-      if (reports_[i] && reports_[i]->steps_run > 0) scored[i] = latest_[i];
+      // Dead or paused agents are not scored (their last estimate is not a living agent's).
+      if (reports_[i] && reports_[i]->steps_run > 0 && !down_[i]) scored[i] = latest_[i];
     }
     sim::StepMetrics metrics;
     metrics.step = step;
@@ -374,7 +427,12 @@ class Orchestrator {
   bool lockstep_ = false;
   std::vector<bool> lockstep_excluded_;
   int lockstep_timeouts_ = 0;
-  bool fusion_ready_ = false;  ///< the fusion centre has said hello
+  std::vector<config::AgentFault> kills_;   ///< faults.kill
+  std::vector<config::AgentFault> pauses_;  ///< faults.pause
+  std::vector<bool> down_;                  ///< killed or paused now: not scored, not waited for
+  std::vector<int> incarnation_;            ///< restarts so far per agent
+  std::vector<int> launcher_index_;         ///< the launcher's index of each agent's newest process
+  bool fusion_ready_ = false;               ///< the fusion centre has said hello
   Progress progress_;
   ProcessLauncher launcher_;
   sim::RunRecord record_;

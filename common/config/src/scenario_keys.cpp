@@ -312,6 +312,9 @@ std::vector<KeySpec> build_key_specs() {
   SWARMLOC_QOS(belief);
   SWARMLOC_QOS(estimate);
   SWARMLOC_QOS(control);
+  keys.push_back(SWARMLOC_KEY(faults.kill));
+  keys.push_back(SWARMLOC_KEY(faults.pause));
+  keys.push_back(SWARMLOC_KEY(faults.partition));
   keys.push_back(SWARMLOC_KEY(dds.domain_id));
   keys.push_back(SWARMLOC_KEY(dds.interface));
   keys.push_back(SWARMLOC_KEY(dds.neighbour_discovery));

@@ -1,8 +1,10 @@
 // validate(): every range and cross-field rule, in document order, each message starting with the key path.
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <string>
 #include <string_view>
+#include <system_error>
 
 #include "scenario_keys.hpp"
 #include "swarmloc/config/scenario.hpp"
@@ -147,6 +149,94 @@ void validate(const Scenario& scenario) {
   validate_qos(qos.control, "control");
 
   require_within(scenario.dds.domain_id, 0, 230, "dds.domain_id");
+
+  const auto check_faults = [&](const std::vector<AgentFault>& faults, const std::string& key) {
+    for (const auto& fault : faults) {
+      if (fault.agent < 0 || fault.agent >= world.agents) {
+        fail(key, "agent " + std::to_string(fault.agent) + " is outside [0, world.agents)");
+      }
+      if (fault.from_step >= run.steps) {
+        fail(key, "step " + std::to_string(fault.from_step) + " is not before run.steps (" +
+                      std::to_string(run.steps) + ")");
+      }
+    }
+  };
+  check_faults(parse_agent_faults(scenario.faults.kill, "faults.kill", false), "faults.kill");
+  check_faults(parse_agent_faults(scenario.faults.pause, "faults.pause", true), "faults.pause");
+  (void)parse_partition(scenario.faults.partition);
+}
+
+namespace {
+
+[[noreturn]] void fault_syntax(const std::string& key, const std::string& item, const std::string& expected) {
+  fail(key, "'" + item + "' is not " + expected);
+}
+
+std::int64_t parse_step(const std::string& text, const std::string& key, const std::string& item,
+                        const std::string& expected) {
+  std::int64_t value = 0;
+  const auto* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (text.empty() || ec != std::errc{} || ptr != end || value < 0) fault_syntax(key, item, expected);
+  return value;
+}
+
+std::vector<std::string> split_items(const std::string& text) {
+  std::vector<std::string> items;
+  std::string item;
+  for (const char c : text + ",") {
+    if (c == ',') {
+      if (!item.empty()) items.push_back(item);
+      item.clear();
+    } else if (c != ' ' && c != '\t') {
+      item += c;
+    }
+  }
+  return items;
+}
+
+}  // namespace
+
+std::vector<AgentFault> parse_agent_faults(const std::string& text, const std::string& key,
+                                           bool require_end) {
+  const std::string expected = require_end ? "AGENT@STEP-STEP" : "AGENT@STEP or AGENT@STEP-STEP";
+  std::vector<AgentFault> faults;
+  for (const auto& item : split_items(text)) {
+    const auto at = item.find('@');
+    if (at == std::string::npos) fault_syntax(key, item, expected);
+    AgentFault fault;
+    const auto agent = parse_step(item.substr(0, at), key, item, expected);
+    if (agent > 100000) fault_syntax(key, item, expected);
+    fault.agent = static_cast<AgentId>(agent);
+    const std::string steps = item.substr(at + 1);
+    const auto dash = steps.find('-');
+    if (dash == std::string::npos) {
+      if (require_end) fault_syntax(key, item, expected);
+      fault.from_step = parse_step(steps, key, item, expected);
+    } else {
+      fault.from_step = parse_step(steps.substr(0, dash), key, item, expected);
+      fault.to_step = parse_step(steps.substr(dash + 1), key, item, expected);
+      if (fault.to_step <= fault.from_step)
+        fail(key, "'" + item + "': the second step must be after the first");
+    }
+    faults.push_back(fault);
+  }
+  return faults;
+}
+
+std::optional<StepWindow> parse_partition(const std::string& text) {
+  const auto items = split_items(text);
+  if (items.empty()) return std::nullopt;
+  const std::string key = "faults.partition";
+  if (items.size() > 1) fail(key, "'" + text + "': one window STEP-STEP");
+  const auto dash = items[0].find('-');
+  if (dash == std::string::npos) fault_syntax(key, items[0], "STEP-STEP");
+  StepWindow window;
+  window.from_step = parse_step(items[0].substr(0, dash), key, items[0], "STEP-STEP");
+  window.to_step = parse_step(items[0].substr(dash + 1), key, items[0], "STEP-STEP");
+  if (window.to_step < window.from_step)
+    fail(key, "'" + items[0] + "': the second step must not be before the first");
+  return window;
 }
 
 }  // namespace swarmloc::config

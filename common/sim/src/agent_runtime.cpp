@@ -14,7 +14,19 @@ AgentRuntime::AgentRuntime(std::unique_ptr<estimators::Estimator> estimator, est
       setup_(setup),
       neighbours_(neighbours.begin(), neighbours.end()),
       params_(params),
-      loss_(params.seed, params.loss) {}
+      loss_(params.seed, params.loss),
+      next_seq_(params.first_seq) {}
+
+bool AgentRuntime::partitioned(const Header& header) const {
+  const auto& group = params_.partition_group;
+  if (group.empty() || !(params_.world_period_s > 0.0)) return false;
+  const auto world_step = static_cast<std::int64_t>(
+      std::llround(static_cast<double>(header.world_stamp_ns) * 1e-9 / params_.world_period_s));
+  if (world_step < params_.partition_from || world_step > params_.partition_to) return false;
+  const auto a = static_cast<std::size_t>(header.agent_id);
+  const auto b = static_cast<std::size_t>(setup_.id);
+  return a < group.size() && b < group.size() && group[a] != group[b];
+}
 
 namespace {
 
@@ -104,9 +116,15 @@ bool AgentRuntime::on_sample(core::TopicFamily family, Mailbox<Message>& mailbox
       link->last_seq = header.seq;
     }
     ++link->arrived;
+    if ((header.seq >> 24) != (link->last_seq >> 24)) {
+      // The sender restarted (faults.kill) and numbers from a new range: bank the old range.
+      sent_by_earlier_incarnations_[header.agent_id] += link->last_seq - link->first_seq + 1;
+      link->first_seq = header.seq;
+      link->last_seq = header.seq;
+    }
     link->first_seq = std::min(link->first_seq, header.seq);
     link->last_seq = std::max(link->last_seq, header.seq);
-    if (loss_.drops(header.agent_id, setup_.id, family, header.seq)) {
+    if (loss_.drops(header.agent_id, setup_.id, family, header.seq) || partitioned(header)) {
       ++link->dropped_injected;
       return false;
     }
@@ -229,6 +247,19 @@ AgentRuntime::Publication AgentRuntime::step(std::int64_t sender_stamp_ns) {
   return publication;
 }
 
+std::map<AgentId, LinkCounters> AgentRuntime::links() const {
+  std::map<AgentId, LinkCounters> out = links_;
+  for (auto& [sender, counters] : out) {
+    const auto banked = sent_by_earlier_incarnations_.find(sender);
+    if (banked == sent_by_earlier_incarnations_.end()) continue;
+    // Keep sent() = last − first + 1 meaning "all samples the sender wrote", across its restarts.
+    const std::uint32_t sent = counters.sent() + banked->second;
+    counters.first_seq = 0;
+    counters.last_seq = sent - 1;
+  }
+  return out;
+}
+
 EstimateReport AgentRuntime::report(std::int64_t sender_stamp_ns, double cpu_s) const {
   EstimateReport r;
   r.header = Header{setup_.id, static_cast<std::uint32_t>(local_step_), local_step_, sender_stamp_ns,
@@ -238,7 +269,7 @@ EstimateReport AgentRuntime::report(std::int64_t sender_stamp_ns, double cpu_s) 
   r.samples_published = samples_published_;
   r.cpu_s = cpu_s;
   r.links.reserve(links_.size());
-  for (const auto& [sender, counters] : links_) r.links.push_back(counters);
+  for (const auto& [sender, counters] : links()) r.links.push_back(counters);
   r.rejected_by_reason = rejected_by_reason_;
   return r;
 }

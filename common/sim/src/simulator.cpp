@@ -44,12 +44,32 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
   return estimators::make_estimator(s.algorithm.name, world.setup_of(id), params);
 }
 
-AgentRuntimeParams make_runtime_params(const config::Scenario& s, std::uint64_t trial) {
+AgentRuntimeParams make_runtime_params(const config::Scenario& s, const World& world, std::uint64_t trial,
+                                       int incarnation) {
   AgentRuntimeParams params;
   params.seed = trial_seed(s.seed, trial);
   params.loss.loss_probability = s.network.loss;
   params.absurd_position_bound_m = absurd_position_bound_m(s);
+  params.world_period_s = 1.0 / s.run.rate_hz;
+  params.first_seq = static_cast<std::uint32_t>(incarnation) << 24;
+  if (const auto window = config::parse_partition(s.faults.partition)) {
+    params.partition_from = window->from_step;
+    params.partition_to = window->to_step;
+    params.partition_group = partition_groups(world);
+  }
   return params;
+}
+
+std::vector<std::uint8_t> partition_groups(const World& world) {
+  std::vector<double> xs;
+  for (const auto& p : world.truth) xs.push_back(p.x());
+  std::vector<double> sorted = xs;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                   sorted.end());
+  const double median = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
+  std::vector<std::uint8_t> group;
+  for (const double x : xs) group.push_back(x < median ? 0 : 1);
+  return group;
 }
 
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options) {
@@ -62,7 +82,7 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
   for (AgentId i = 0; i < n; ++i) {
     agents.emplace_back(make_agent_estimator(scenario, world, i), world.setup_of(i),
                         world.neighbours[static_cast<std::size_t>(i)],
-                        make_runtime_params(scenario, options.trial));
+                        make_runtime_params(scenario, world, options.trial));
   }
 
   RunRecord record;
@@ -82,13 +102,32 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
   for (AgentId i = 0; i < n; ++i)
     published[static_cast<std::size_t>(i)] = agents[static_cast<std::size_t>(i)].initial_publication(0);
 
+  // faults.kill / faults.pause: a dead agent neither receives, steps nor publishes and is rebuilt with
+  // fresh state at its restart; a paused one keeps receiving (its reader cache) but does not step.
+  const auto kills = config::parse_agent_faults(scenario.faults.kill, "faults.kill", false);
+  const auto pauses = config::parse_agent_faults(scenario.faults.pause, "faults.pause", true);
+  auto within = [](const std::vector<config::AgentFault>& faults, AgentId agent, std::int64_t step) {
+    return std::any_of(faults.begin(), faults.end(), [&](const config::AgentFault& f) {
+      return f.agent == agent && step >= f.from_step && (f.to_step < 0 || step < f.to_step);
+    });
+  };
+  std::vector<int> incarnation(static_cast<std::size_t>(n), 0);
+
   std::vector<std::optional<estimators::Estimate>> estimates(static_cast<std::size_t>(n));
   for (std::int64_t step = 0; step < scenario.run.steps; ++step) {
     if (step > 0) advance_truth(world, scenario, step);
+    for (const auto& fault : kills) {
+      if (fault.to_step != step) continue;
+      const auto k = static_cast<std::size_t>(fault.agent);
+      agents[k] = AgentRuntime(make_agent_estimator(scenario, world, fault.agent),
+                               world.setup_of(fault.agent), world.neighbours[k],
+                               make_runtime_params(scenario, world, options.trial, ++incarnation[k]));
+    }
     // Deliver round k−1's samples over the lossy bus, then the world-step-k batches.
     for (AgentId sender = 0; sender < n; ++sender) {
       const auto& publication = published[static_cast<std::size_t>(sender)];
       for (AgentId receiver : world.neighbours[static_cast<std::size_t>(sender)]) {
+        if (within(kills, receiver, step)) continue;
         auto& agent = agents[static_cast<std::size_t>(receiver)];
         AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
           agent.on_sample(header, message);
@@ -100,8 +139,23 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
       agents[static_cast<std::size_t>(i)].on_batch(header, generate_batch(world, scenario, i, step));
     }
     for (AgentId i = 0; i < n; ++i) {
-      published[static_cast<std::size_t>(i)] = agents[static_cast<std::size_t>(i)].step(stamp_ns(step));
-      estimates[static_cast<std::size_t>(i)] = agents[static_cast<std::size_t>(i)].estimate();
+      const auto k = static_cast<std::size_t>(i);
+      if (within(kills, i, step) || within(pauses, i, step)) {
+        published[k] = AgentRuntime::Publication{};  // publishes nothing this round
+        estimates[k].reset();                        // not scored while down
+        continue;
+      }
+      const bool restarted_now = std::any_of(kills.begin(), kills.end(), [&](const config::AgentFault& f) {
+        return f.agent == i && f.to_step == step;
+      });
+      if (restarted_now) {
+        // A restarted process announces its prior first; its neighbours use it from the next round.
+        published[k] = agents[k].initial_publication(stamp_ns(step));
+        estimates[k].reset();
+        continue;
+      }
+      published[k] = agents[k].step(stamp_ns(step));
+      estimates[k] = agents[k].estimate();
     }
     StepMetrics metrics;
     metrics.step = step;
@@ -111,6 +165,7 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
     record.metrics.push_back(metrics);
     if (options.record_estimates) {
       for (AgentId i = 0; i < n; ++i) {
+        if (!estimates[static_cast<std::size_t>(i)]) continue;  // down (faults)
         record.estimates.push_back(
             {step, i, *estimates[static_cast<std::size_t>(i)], world.truth[static_cast<std::size_t>(i)]});
       }

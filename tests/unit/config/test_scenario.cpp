@@ -262,7 +262,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 10U + 15U + 8U + 1U + 2U + 5U + 7U * 5U + 4U);
+  EXPECT_EQ(keys.size(), 2U + 10U + 15U + 8U + 1U + 2U + 5U + 7U * 5U + 3U + 4U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -309,8 +309,9 @@ TEST(ScenarioErrors, LossOutsideZeroToOneIsRejected) {
 }
 
 TEST(ScenarioErrors, NanIsRejectedForEveryNumericKey) {
-  const std::array<std::string, 4> free_text{"name", "world.positions_file", "dds.interface",
-                                             "dds.peer_address"};
+  const std::array<std::string, 7> free_text{
+      "name",        "world.positions_file", "dds.interface",   "dds.peer_address",
+      "faults.kill", "faults.pause",         "faults.partition"};
   for (const auto& key : known_keys()) {
     if (std::find(free_text.begin(), free_text.end(), key) != free_text.end()) continue;
     EXPECT_STARTS_WITH(override_error({key + "=.nan"}), key + ": ");
@@ -483,7 +484,7 @@ TEST(ScenarioYaml, OutputWritesEveryKnownKeyOnce) {
             std::string::npos)
       << text;
   EXPECT_NE(text.find("  area_m: 40.0\n"), std::string::npos) << text;
-  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), static_cast<long>(known_keys().size() + 8 + 7));
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), static_cast<long>(known_keys().size() + 9 + 7));
 }
 
 TEST(ScenarioYaml, HashIsFnv1aOfTheYaml) {

@@ -3,6 +3,7 @@
 // other layer consumes these structs. Defaults live here, in-class, and are documented in
 // docs/scenario.md key by key.
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -113,6 +114,13 @@ struct Scenario {
     QosSettings control{Reliability::kReliable, 4, Durability::kTransientLocal, 0.0, 0.0};
   } qos;
 
+  /// Scheduled faults (DESIGN.md §5), each a short list in a string (docs/scenario.md, "faults").
+  struct Faults {
+    std::string kill;   ///< "AGENT@STEP[-RESTART], …": kill -9 at STEP, restart (fresh state) at RESTART
+    std::string pause;  ///< "AGENT@STEP-RESUME, …": SIGSTOP at STEP, SIGCONT at RESUME
+    std::string partition;  ///< "STEP-STEP": split into a west and an east half (by true x), heal after
+  } faults;
+
   struct Dds {
     int domain_id = 0;
     std::string interface = "lo";     ///< network interface for Cyclone
@@ -120,6 +128,23 @@ struct Scenario {
     std::string peer_address = "127.0.0.1";
   } dds;
 };
+
+/// One agent fault of faults.kill / faults.pause: from `from_step` until `to_step` (−1: for good).
+struct AgentFault {
+  AgentId agent = 0;
+  std::int64_t from_step = 0;
+  std::int64_t to_step = -1;
+};
+/// Parses faults.kill (require_end = false) or faults.pause (true). Throws ScenarioError naming `key`.
+std::vector<AgentFault> parse_agent_faults(const std::string& text, const std::string& key, bool require_end);
+
+/// faults.partition: the steps [from_step, to_step] during which the two halves cannot talk.
+struct StepWindow {
+  std::int64_t from_step = 0;
+  std::int64_t to_step = -1;
+};
+/// Empty text: no window. Throws ScenarioError naming faults.partition.
+std::optional<StepWindow> parse_partition(const std::string& text);
 
 /// Loads and validates a scenario file; `overrides` are "key.path=value" strings applied before
 /// validation. Throws ScenarioError naming the key path.

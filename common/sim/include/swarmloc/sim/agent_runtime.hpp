@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <vector>
 
 #include "swarmloc/core/link_model.hpp"
 #include "swarmloc/estimators/estimator.hpp"
@@ -20,6 +21,15 @@ struct AgentRuntimeParams {
   core::LinkLossParams loss;
   double absurd_position_bound_m = 1e6;  ///< |mean| beyond this is rejected
   double absurd_variance_m2 = 1e14;      ///< covariance entries beyond this are rejected
+  /// faults.partition: during world steps [partition_from, partition_to] samples between agents of
+  /// different partition_group are dropped (counted as injected drops). Empty groups: no partition.
+  std::vector<std::uint8_t> partition_group;
+  std::int64_t partition_from = 0;
+  std::int64_t partition_to = -1;
+  double world_period_s = 0.1;  ///< 1 / run.rate_hz: turns a sample's world stamp into its world step
+  /// First sample number. A restarted agent (faults.kill) starts a new range, so its neighbours'
+  /// duplicate/reorder checks accept its samples: incarnation k starts at k · 2^24.
+  std::uint32_t first_seq = 0;
 };
 
 class AgentRuntime {
@@ -76,7 +86,8 @@ class AgentRuntime {
   [[nodiscard]] estimators::Estimate estimate() const { return estimator_->estimate(); }
   [[nodiscard]] AgentId id() const { return setup_.id; }
   [[nodiscard]] std::int64_t steps_run() const { return local_step_; }
-  [[nodiscard]] const std::map<AgentId, LinkCounters>& links() const { return links_; }
+  /// Per-sender counters; sent() spans the sender's restarts (faults.kill).
+  [[nodiscard]] std::map<AgentId, LinkCounters> links() const;
   [[nodiscard]] const std::array<std::uint32_t, kRejectReasonCount>& rejected_by_reason() const {
     return rejected_by_reason_;
   }
@@ -102,6 +113,9 @@ class AgentRuntime {
                       std::int64_t world_stamp_ns);
   void reject(LinkCounters* link, RejectReason reason);
   [[nodiscard]] std::int64_t world_stamp_ns(std::int64_t world_step) const;
+  /// faults.partition: true if `header`'s sender is on the other side while the sample's world step
+  /// (the step of the batch the sender had used) lies in the window — the same answer in every runtime.
+  [[nodiscard]] bool partitioned(const Header& header) const;
 
   std::unique_ptr<estimators::Estimator> estimator_;
   estimators::AgentSetup setup_;
@@ -123,6 +137,7 @@ class AgentRuntime {
   std::int64_t newest_batch_step_ = -1;
   double batch_period_s_ = 0.0;
   std::map<AgentId, LinkCounters> links_;
+  std::map<AgentId, std::uint32_t> sent_by_earlier_incarnations_;
   std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason_{};
 };
 

@@ -51,9 +51,14 @@ void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloR
 /// Builds the estimator for agent `id` of `world` from the scenario's algorithm settings. For a
 /// centralized algorithm (is_centralized, centralized_runner.hpp) the agent is a sensor only: a
 /// placeholder that publishes nothing and reports its prior.
-std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& scenario, const World& world,
-                                                            AgentId id);
-/// Runtime parameters (seed, loss, plausibility bounds) for the scenario.
-AgentRuntimeParams make_runtime_params(const config::Scenario& scenario, std::uint64_t trial = 0);
+std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& scenario,
+                                                            const World& world, AgentId id);
+/// Runtime parameters (seed, loss, partition, plausibility bounds) for the scenario. `incarnation`
+/// counts restarts of the agent (faults.kill): each starts a new range of sample numbers.
+AgentRuntimeParams make_runtime_params(const config::Scenario& scenario, const World& world,
+                                       std::uint64_t trial = 0, int incarnation = 0);
+
+/// faults.partition's halves: 0 west of the median true x at step 0, 1 east (and on it).
+std::vector<std::uint8_t> partition_groups(const World& world);
 
 }  // namespace swarmloc::sim

@@ -1,0 +1,102 @@
+// Scheduled faults (faults.kill / pause / partition) in the simulator; the DDS runtime applies the same
+// schedule with real signals (tests/integration/test_faults_dds.cpp).
+#include <gtest/gtest.h>
+
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/sim/simulator.hpp"
+
+namespace swarmloc::sim {
+namespace {
+
+const std::string kDefault = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+
+config::Scenario scenario(const std::vector<std::string>& overrides) {
+  std::vector<std::string> all{"run.steps=200"};
+  all.insert(all.end(), overrides.begin(), overrides.end());
+  return config::load_scenario(kDefault, all);
+}
+
+std::string error_of(const std::vector<std::string>& overrides) {
+  try {
+    (void)scenario(overrides);
+  } catch (const config::ScenarioError& error) {
+    return error.what();
+  }
+  return "";
+}
+
+TEST(FaultSchedule, ParsesAgentsStepsAndWindows) {
+  const auto kills = config::parse_agent_faults(" 3@100-150,7@120 ", "faults.kill", false);
+  ASSERT_EQ(kills.size(), 2U);
+  EXPECT_EQ(kills[0].agent, 3);
+  EXPECT_EQ(kills[0].from_step, 100);
+  EXPECT_EQ(kills[0].to_step, 150);
+  EXPECT_EQ(kills[1].to_step, -1);
+  EXPECT_FALSE(config::parse_partition("").has_value());
+  EXPECT_EQ(config::parse_partition("40-59")->to_step, 59);
+}
+
+TEST(FaultSchedule, BadSchedulesNameTheKey) {
+  EXPECT_EQ(error_of({"faults.kill=x@3"}).rfind("faults.kill: 'x@3' is not AGENT@STEP", 0), 0U)
+      << error_of({"faults.kill=x@3"});
+  EXPECT_EQ(error_of({"faults.pause=3@10"}).rfind("faults.pause: '3@10' is not AGENT@STEP-STEP", 0), 0U);
+  EXPECT_EQ(error_of({"faults.kill=31@10"}).rfind("faults.kill: agent 31 is outside [0, world.agents)", 0),
+            0U);
+  EXPECT_EQ(error_of({"faults.kill=3@500"}).rfind("faults.kill: step 500 is not before run.steps", 0), 0U);
+  EXPECT_EQ(error_of({"faults.kill=3@50-40"}).rfind("faults.kill: '3@50-40': the second step", 0), 0U);
+  EXPECT_EQ(error_of({"faults.partition=10"}).rfind("faults.partition: '10' is not STEP-STEP", 0), 0U);
+}
+
+double rmse_at(const RunRecord& record, std::int64_t step) {
+  return record.metrics.at(static_cast<std::size_t>(step)).errors.rmse_m;
+}
+
+TEST(SimulatedFaults, KilledAgentsAreNotScoredTheOthersHoldAndRestartedOnesRecover) {
+  // Six agents (20 %) die at step 100 and come back with fresh state at 150.
+  const auto faulty =
+      run_simulation(scenario({"faults.kill=1@100-150,2@100-150,3@100-150,4@100-150,5@100-150,6@100-150"}));
+  const auto clean = run_simulation(scenario({}));
+  const World world = build_world(scenario({}));
+  int killed_non_anchors = 0;
+  for (int k = 1; k <= 6; ++k) killed_non_anchors += world.is_anchor[static_cast<std::size_t>(k)] ? 0 : 1;
+  EXPECT_EQ(faulty.metrics[120].errors.scored, 22 - killed_non_anchors);
+  EXPECT_EQ(faulty.metrics[120].errors.missing, killed_non_anchors);
+  EXPECT_EQ(faulty.metrics[190].errors.scored, 22);
+  for (std::int64_t step = 100; step < 150; ++step) {
+    EXPECT_LT(rmse_at(faulty, step), 1.5 * rmse_at(clean, step)) << "living agents at step " << step;
+  }
+  EXPECT_LT(rmse_at(faulty, 180), 1.5 * rmse_at(faulty, 99)) << "30 steps after the restart";
+  for (const auto& [link, counters] : faulty.links) {
+    EXPECT_LT(counters.sent(), 1000U) << "sent() must span the restart, not the seq ranges";
+  }
+}
+
+TEST(SimulatedFaults, PartitionDropsOnlyCrossingSamplesAndTheErrorHealsWithinThirtySteps) {
+  const auto parted = run_simulation(scenario({"faults.partition=100-119"}));
+  const auto clean = run_simulation(scenario({}));
+  const World world = build_world(scenario({}));
+  const auto group = partition_groups(world);
+  std::uint64_t dropped = 0;
+  for (const auto& [link, counters] : parted.links) {
+    const bool crossing =
+        group[static_cast<std::size_t>(link.first)] != group[static_cast<std::size_t>(link.second)];
+    EXPECT_EQ(counters.dropped_injected, crossing ? 20U : 0U)
+        << "crossing links lose one state per step for 20 steps";
+    dropped += counters.dropped_injected;
+  }
+  EXPECT_GT(dropped, 0U);
+  EXPECT_LT(rmse_at(parted, 150), 1.2 * rmse_at(parted, 99));
+  EXPECT_NEAR(rmse_at(parted, 99), rmse_at(clean, 99), 1e-12) << "identical before the partition";
+}
+
+TEST(SimulatedFaults, PausedAgentIsNotScoredAndResumesWithItsState) {
+  const auto paused = run_simulation(scenario({"faults.pause=10@100-120"}));
+  const World world = build_world(scenario({}));
+  const int expected = world.is_anchor[10] ? 22 : 21;
+  EXPECT_EQ(paused.metrics[110].errors.scored, expected);
+  EXPECT_EQ(paused.metrics[121].errors.scored, 22);
+  EXPECT_LT(rmse_at(paused, 121), 1.2 * rmse_at(paused, 99));
+}
+
+}  // namespace
+}  // namespace swarmloc::sim
