@@ -79,6 +79,10 @@ int main(int argc, char** argv) {
   run->add_flag("--no-launch", no_launch,
                 "Do not start agents; wait for agents started elsewhere (containers, hosts)");
   run->add_flag("-q,--quiet", quiet, "No progress line");
+  std::string security_dir;
+  const std::string security_help =
+      "DDS Security with the PKI in DIR (deploy/security/make-pki.sh); same as --set dds.security_dir=DIR";
+  run->add_option("--security", security_dir, security_help);
   int run_view_port = -1;
   double run_view_hold = 10.0;
   add_view_options(run, run_view_port, run_view_hold);
@@ -118,6 +122,7 @@ int main(int argc, char** argv) {
   auto* agent_id = agent->add_option("--id", agent_options.id, "Agent id in [0, world.agents) (role agent)");
   agent->add_option("--set", agent_options.overrides, "Override a scenario key (repeatable)");
   agent->add_option("--log", agent_options.log_path, "Log file (default: stderr)");
+  agent->add_option("--security", security_dir, security_help);
   agent->add_flag("--hostile", agent_options.hostile,
                   "Publish NaN / non-PSD / absurd states (robustness tests)");
 
@@ -149,6 +154,11 @@ int main(int argc, char** argv) {
   }
 
   spdlog::set_pattern("%H:%M:%S.%e %^%l%$ %v");
+  if (!security_dir.empty()) {
+    // After the --set overrides, so the flag wins.
+    overrides.push_back("dds.security_dir=" + security_dir);
+    agent_options.overrides.push_back("dds.security_dir=" + security_dir);
+  }
   if (run->parsed()) {
     swarmloc::orchestrator::RunOptions options;
     options.scenario_path = scenario_path;
