@@ -138,6 +138,12 @@ class AgentProcess {
       if (!inbound.batches.empty()) last_batch_seen = std::chrono::steady_clock::now();
 
       const auto after = std::chrono::steady_clock::now();
+      // Logged from launch on: with DDS Security a participant that fails authentication never matches.
+      const int matched = transport_.matched_neighbours();
+      if (matched != last_matched) {
+        logger_->info("matched {}/{} neighbours", matched, neighbour_count_);
+        last_matched = matched;
+      }
       if (!started_run_) {
         if (lockstep_ && !initial_published_ && transport_.neighbours_matched_both_ways()) {
           publish(runtime_.initial_publication(local_stamp_ns()));
@@ -181,11 +187,6 @@ class AgentProcess {
         next_tick += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
         if (next_tick < after) next_tick = after;  // overran: do not burst to catch up
         tick();
-      }
-      const int matched = transport_.matched_neighbours();
-      if (matched != last_matched) {
-        logger_->info("matched {}/{} neighbours", matched, neighbour_count_);
-        last_matched = matched;
       }
       // The orchestrator normally says STOP; if it vanished (crash, kill -9), do not linger.
       const double silent_s = std::chrono::duration<double>(after - last_batch_seen).count();
@@ -353,6 +354,14 @@ int run_agent(const AgentOptions& options) {
   if (options.id < 0 || options.id >= world.size()) {
     logger->error("--id: {} is outside [0, {})", options.id, world.size());
     return 2;
+  }
+  if (!scenario.dds.security_dir.empty()) {
+    try {
+      dds::security_files(scenario.dds.security_dir, options.id);  // bad input, not a runtime failure
+    } catch (const config::ScenarioError& error) {
+      logger->error("{}", error.what());
+      return 2;
+    }
   }
   try {
     AgentProcess process(scenario, world, options, logger);

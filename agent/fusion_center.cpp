@@ -227,6 +227,8 @@ int run_fusion_center(const FusionOptions& options) {
   try {
     scenario = config::load_scenario(options.scenario_path, options.overrides);
     world = sim::build_world(scenario);
+    if (!scenario.dds.security_dir.empty())
+      dds::security_files(scenario.dds.security_dir, dds::kFusionCenterId);
   } catch (const config::ScenarioError& error) {
     logger->error("{}", error.what());
     return 2;

@@ -79,6 +79,10 @@ int main(int argc, char** argv) {
   run->add_flag("--no-launch", no_launch,
                 "Do not start agents; wait for agents started elsewhere (containers, hosts)");
   run->add_flag("-q,--quiet", quiet, "No progress line");
+  std::string security_dir;
+  const std::string security_help =
+      "DDS Security with the PKI in DIR (deploy/security/make-pki.sh); same as --set dds.security_dir=DIR";
+  run->add_option("--security", security_dir, security_help);
   int run_view_port = -1;
   double run_view_hold = 10.0;
   add_view_options(run, run_view_port, run_view_hold);
@@ -122,6 +126,7 @@ int main(int argc, char** argv) {
       ->add_option("--incarnation", agent_options.incarnation,
                    "Restart count of this agent (set by the orchestrator for faults.kill restarts)")
       ->check(CLI::Range(0, 255));
+  agent->add_option("--security", security_dir, security_help);
   agent->add_flag("--hostile", agent_options.hostile,
                   "Publish NaN / non-PSD / absurd states (robustness tests)");
 
@@ -153,6 +158,11 @@ int main(int argc, char** argv) {
   }
 
   spdlog::set_pattern("%H:%M:%S.%e %^%l%$ %v");
+  if (!security_dir.empty()) {
+    // After the --set overrides, so the flag wins.
+    overrides.push_back("dds.security_dir=" + security_dir);
+    agent_options.overrides.push_back("dds.security_dir=" + security_dir);
+  }
   if (run->parsed()) {
     swarmloc::orchestrator::RunOptions options;
     options.scenario_path = scenario_path;

@@ -466,6 +466,18 @@ int run_orchestrator(const RunOptions& options) {
       }
     }
     check_runnable(scenario);  // placement and algorithm errors are bad input, found before anything starts
+    if (!scenario.dds.security_dir.empty()) {
+      // Agents read the run directory's scenario.yaml, possibly from another working directory.
+      scenario.dds.security_dir = std::filesystem::absolute(scenario.dds.security_dir).lexically_normal();
+      dds::security_files(scenario.dds.security_dir, kOrchestratorId);
+      if (options.launch_agents) {
+        for (AgentId id = 0; id < scenario.world.agents; ++id)
+          dds::security_files(scenario.dds.security_dir, id);
+        if (sim::is_centralized(scenario.algorithm.name)) {
+          dds::security_files(scenario.dds.security_dir, dds::kFusionCenterId);
+        }
+      }
+    }
   } catch (const config::ScenarioError& error) {
     std::fprintf(stderr, "error: %s\n", error.what());
     return 2;

@@ -319,6 +319,7 @@ std::vector<KeySpec> build_key_specs() {
   keys.push_back(SWARMLOC_KEY(dds.interface));
   keys.push_back(SWARMLOC_KEY(dds.neighbour_discovery));
   keys.push_back(SWARMLOC_KEY(dds.peer_address));
+  keys.push_back(SWARMLOC_KEY(dds.security_dir));
   return keys;
 }
 

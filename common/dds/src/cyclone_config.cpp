@@ -117,6 +117,18 @@ std::string cyclone_config(const config::Scenario& scenario, const Topology& top
     }
     xml << "</Internal>";
   }
+  if (!dds.security_dir.empty()) {
+    // DDS Security (deploy/security/README.md). No <Library> lines: Debian's libddsc finds its plugins
+    // (libddsc0debian/libdds_security_{auth,ac,crypto}.so) by their default names.
+    const SecurityFiles files = security_files(dds.security_dir, topology.self);
+    const auto uri = [](const std::string& path) { return "file:" + xml_escape(path); };
+    xml << "<Security><Authentication><IdentityCA>" << uri(files.identity_ca) << "</IdentityCA>"
+        << "<IdentityCertificate>" << uri(files.certificate) << "</IdentityCertificate>"
+        << "<PrivateKey>" << uri(files.private_key) << "</PrivateKey></Authentication>"
+        << "<AccessControl><PermissionsCA>" << uri(files.permissions_ca) << "</PermissionsCA>"
+        << "<Governance>" << uri(files.governance) << "</Governance>"
+        << "<Permissions>" << uri(files.permissions) << "</Permissions></AccessControl></Security>";
+  }
   // Warnings and errors to stderr; never a cyclonedds.log in the working directory, nothing on stdout.
   xml << "<Tracing><Verbosity>warning</Verbosity><OutputFile>stderr</OutputFile></Tracing>";
   xml << "</Domain></CycloneDDS>";

@@ -94,6 +94,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.dds.interface, b.dds.interface);
   EXPECT_EQ(a.dds.neighbour_discovery, b.dds.neighbour_discovery);
   EXPECT_EQ(a.dds.peer_address, b.dds.peer_address);
+  EXPECT_EQ(a.dds.security_dir, b.dds.security_dir);
 }
 
 /// A valid scenario where every field differs from its default.
@@ -124,7 +125,7 @@ Scenario everything_changed() {
   s.qos.belief = {Reliability::kReliable, 7, Durability::kTransientLocal, 0.7, 0.8};
   s.qos.estimate = {Reliability::kBestEffort, 9, Durability::kTransientLocal, 0.9, 1.0};
   s.qos.control = {Reliability::kBestEffort, 10, Durability::kVolatile, 1.1, 1.2};
-  s.dds = {230, "true", false, "null"};
+  s.dds = {230, "true", false, "null", "/etc/pki dir/~"};
   return s;
 }
 
@@ -262,7 +263,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 10U + 15U + 8U + 1U + 2U + 5U + 7U * 5U + 3U + 4U);
+  EXPECT_EQ(keys.size(), 2U + 10U + 15U + 8U + 1U + 2U + 5U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -309,9 +310,9 @@ TEST(ScenarioErrors, LossOutsideZeroToOneIsRejected) {
 }
 
 TEST(ScenarioErrors, NanIsRejectedForEveryNumericKey) {
-  const std::array<std::string, 7> free_text{
-      "name",        "world.positions_file", "dds.interface",   "dds.peer_address",
-      "faults.kill", "faults.pause",         "faults.partition"};
+  const std::array<std::string, 8> free_text{"name",           "world.positions_file", "dds.interface",
+                                             "dds.peer_address", "dds.security_dir",     "faults.kill",
+                                             "faults.pause",     "faults.partition"};
   for (const auto& key : known_keys()) {
     if (std::find(free_text.begin(), free_text.end(), key) != free_text.end()) continue;
     EXPECT_STARTS_WITH(override_error({key + "=.nan"}), key + ": ");

@@ -126,6 +126,7 @@ struct Scenario {
     std::string interface = "lo";     ///< network interface for Cyclone
     bool neighbour_discovery = true;  ///< unicast, per-agent Peers lists (DESIGN.md §4)
     std::string peer_address = "127.0.0.1";
+    std::string security_dir;  ///< DDS Security PKI (deploy/security/make-pki.sh); empty: no security
   } dds;
 };
 

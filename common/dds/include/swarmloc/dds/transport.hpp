@@ -34,6 +34,26 @@ struct Topology {
 /// only the orchestrator as its peer, and the orchestrator lists it too.
 std::string cyclone_config(const config::Scenario& scenario, const Topology& topology);
 
+/// One participant's DDS Security files (absolute paths) in a PKI folder made by
+/// deploy/security/make-pki.sh: shared identity_ca.pem, permissions_ca.pem, governance.p7s, and the
+/// participant's own folder (agent-<id>, orchestrator or fusion) with cert.pem, key.pem, permissions.p7s.
+struct SecurityFiles {
+  std::string identity_ca;
+  std::string certificate;
+  std::string private_key;
+  std::string permissions_ca;
+  std::string governance;
+  std::string permissions;
+};
+
+/// "agent-<id>", "orchestrator" (kOrchestratorId) or "fusion" (kFusionCenterId).
+std::string security_participant(AgentId self);
+
+/// The files of participant `self` in folder `dir` (scenario key dds.security_dir). Throws
+/// config::ScenarioError starting "dds.security_dir: " if the folder or one of the files is missing.
+/// cyclone_config() adds a <Security> section with these files when dds.security_dir is set.
+SecurityFiles security_files(const std::string& dir, AgentId self);
+
 /// One inbound inter-agent sample before loss injection and validation (those belong to the runtime).
 template <typename Message>
 struct Inbound {
