@@ -276,6 +276,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(noise.anchor_fix_std_m),
       SWARMLOC_KEY(network.loss),
       SWARMLOC_KEY(clock.drift_ppm),
+      SWARMLOC_KEY(network.burst.mean_length),
       SWARMLOC_KEY(clock.offset_max_s),
       SWARMLOC_KEY(run.steps),
       SWARMLOC_KEY(run.rate_hz),

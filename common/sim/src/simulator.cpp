@@ -30,6 +30,7 @@ AgentRuntimeParams make_runtime_params(const config::Scenario& s, std::uint64_t 
   params.seed = trial_seed(s.seed, trial);
   params.loss.loss_probability = s.network.loss;
   params.absurd_position_bound_m = absurd_position_bound_m(s);
+  params.loss.burst_mean_length = s.network.burst.mean_length;
   return params;
 }
 

@@ -77,6 +77,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.noise.anchor_fix_std_m, b.noise.anchor_fix_std_m);
   EXPECT_EQ(a.network.loss, b.network.loss);
   EXPECT_EQ(a.clock.drift_ppm, b.clock.drift_ppm);
+  EXPECT_EQ(a.network.burst.mean_length, b.network.burst.mean_length);
   EXPECT_EQ(a.clock.offset_max_s, b.clock.offset_max_s);
   EXPECT_EQ(a.run.steps, b.run.steps);
   EXPECT_EQ(a.run.rate_hz, b.run.rate_hz);
@@ -116,6 +117,7 @@ Scenario everything_changed() {
   s.noise = {0.2, 2.0};
   s.network.loss = 1.0;
   s.clock = {1e5, 0.25};
+  s.network.burst.mean_length = 12.5;
   s.run = {1, 1000.0, RunMode::kLockstep, 0.5, 0.0};
   s.qos.measurements = {Reliability::kBestEffort, 2, Durability::kTransientLocal, 1.5, 2.5};
   s.qos.state = {Reliability::kReliable, 3, Durability::kTransientLocal, 0.1, 0.2};
@@ -262,7 +264,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 5U + 11U + 2U + 1U + 2U + 5U + 7U * 5U + 4U);
+  EXPECT_EQ(keys.size(), 2U + 5U + 11U + 2U + 2U + 2U + 5U + 7U * 5U + 4U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -448,6 +450,32 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
 
 TEST(ScenarioErrors, BoundaryValuesAreAccepted) {
   EXPECT_NO_THROW(parse_scenario("", {"network.loss=0", "clock.drift_ppm=100000", "run.rate_hz=1000"}));
+TEST(ScenarioErrors, BurstLengthIsZeroOrAtLeastTheBernoulliBurst) {
+  EXPECT_EQ(
+      parse_scenario("network:\n  loss: 0.3\n  burst:\n    mean_length: 10\n").network.burst.mean_length,
+      10.0);
+  EXPECT_EQ(validate_error([](Scenario& s) { s.network.burst.mean_length = 0.5; }),
+            "network.burst.mean_length: 0.5 is outside [1, 1000]");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.network.burst.mean_length = 1001.0; }),
+            "network.burst.mean_length: 1001 is outside [1, 1000]");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.network.burst.mean_length = -1.0; }),
+            "network.burst.mean_length: -1 is outside [1, 1000]");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.network.burst.mean_length = std::nan(""); }),
+            "network.burst.mean_length: nan is not a finite number");
+  // At loss 0.6 independent drops already come in runs of 1/(1 - 0.6) = 2.5 on average.
+  EXPECT_STARTS_WITH(override_error({"network.loss=0.6", "network.burst.mean_length=2"}),
+                     "network.burst.mean_length: 2 is shorter than 1/(1 - network.loss) = 2.5");
+  EXPECT_NE(override_error({"network.loss=0.6", "network.burst.mean_length=2"})
+                .find("(from --set network.burst.mean_length=2)"),
+            std::string::npos);
+  EXPECT_NO_THROW(parse_scenario("", {"network.loss=0.6", "network.burst.mean_length=2.5"}));
+  EXPECT_NO_THROW(parse_scenario("", {"network.loss=1", "network.burst.mean_length=1"}));
+  EXPECT_NO_THROW(parse_scenario("", {"network.loss=0", "network.burst.mean_length=1000"}));
+  EXPECT_STARTS_WITH(override_error({"network.burst=3"}), "network.burst: is a section, not a key");
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("network:\n  burst: 3\n"); }),
+                     "network.burst: expected a map with keys network.burst.mean_length");
+}
+
   EXPECT_NO_THROW(parse_scenario("", {"network.loss=1", "world.anchors=30", "dds.domain_id=230"}));
   EXPECT_NO_THROW(parse_scenario("", {"world.agents=1", "world.anchors=0", "run.steps=1"}));
 }
@@ -483,7 +511,7 @@ TEST(ScenarioYaml, OutputWritesEveryKnownKeyOnce) {
             std::string::npos)
       << text;
   EXPECT_NE(text.find("  area_m: 40.0\n"), std::string::npos) << text;
-  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), static_cast<long>(known_keys().size() + 8 + 7));
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), static_cast<long>(known_keys().size() + 8 + 7 + 1));
 }
 
 TEST(ScenarioYaml, HashIsFnv1aOfTheYaml) {

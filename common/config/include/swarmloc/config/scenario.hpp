@@ -65,7 +65,10 @@ struct Scenario {
   } noise;
 
   struct Network {
-    double loss = 0.0;                 ///< Bernoulli loss at the receiver, [0, 1]
+    double loss = 0.0;  ///< mean loss at the receiver, [0, 1]
+    struct Burst {
+      double mean_length = 0.0;  ///< 0 = Bernoulli; else Gilbert–Elliott mean burst (samples)
+    } burst;
   } network;
 
   struct Clock {
