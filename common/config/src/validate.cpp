@@ -101,6 +101,7 @@ void validate(const Scenario& scenario) {
   require_non_negative(algorithm.process_noise_std_m, "algorithm.process_noise_std_m");
   require_positive(algorithm.initial_information, "algorithm.initial_information");
   require_positive(algorithm.initial_std_m, "algorithm.initial_std_m");
+  require_non_negative(algorithm.range_gate_chi2, "algorithm.range_gate_chi2");
 
   const auto& world = scenario.world;
   require_within(world.agents, 1, 100000, "world.agents");
@@ -121,8 +122,8 @@ void validate(const Scenario& scenario) {
   require_non_negative(scenario.noise.anchor_fix_std_m, "noise.anchor_fix_std_m");
 
   require_within(scenario.network.loss, 0.0, 1.0, "network.loss");
-
   validate_burst(scenario.network);
+
   // drift_ppm is the magnitude of a ± bound drawn per agent; 1e5 ppm = 10 %.
   require_within(scenario.clock.drift_ppm, 0.0, 1e5, "clock.drift_ppm");
   require_non_negative(scenario.clock.offset_max_s, "clock.offset_max_s");

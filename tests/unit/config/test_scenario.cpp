@@ -62,6 +62,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.algorithm.initial_information, b.algorithm.initial_information);
   EXPECT_EQ(a.algorithm.initial_std_m, b.algorithm.initial_std_m);
   EXPECT_EQ(a.algorithm.inflate_stale, b.algorithm.inflate_stale);
+  EXPECT_EQ(a.algorithm.range_gate_chi2, b.algorithm.range_gate_chi2);
   EXPECT_EQ(a.world.agents, b.world.agents);
   EXPECT_EQ(a.world.anchors, b.world.anchors);
   EXPECT_EQ(a.world.area_m, b.world.area_m);
@@ -76,8 +77,8 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.noise.range_std_m, b.noise.range_std_m);
   EXPECT_EQ(a.noise.anchor_fix_std_m, b.noise.anchor_fix_std_m);
   EXPECT_EQ(a.network.loss, b.network.loss);
-  EXPECT_EQ(a.clock.drift_ppm, b.clock.drift_ppm);
   EXPECT_EQ(a.network.burst.mean_length, b.network.burst.mean_length);
+  EXPECT_EQ(a.clock.drift_ppm, b.clock.drift_ppm);
   EXPECT_EQ(a.clock.offset_max_s, b.clock.offset_max_s);
   EXPECT_EQ(a.run.steps, b.run.steps);
   EXPECT_EQ(a.run.rate_hz, b.run.rate_hz);
@@ -102,7 +103,7 @@ Scenario everything_changed() {
   Scenario s;
   s.seed = std::numeric_limits<std::uint64_t>::max();
   s.name = "quotes \" back\\slash: colon # hash\nnewline\ttab \x01 null";
-  s.algorithm = {"dgbb", 0.3, 1.0 / 3.0, 1e-300, false};
+  s.algorithm = {"dgbb", 0.3, 1.0 / 3.0, 1e-300, false, 9.0};
   s.world.agents = 100000;
   s.world.anchors = 0;
   s.world.area_m = 123.456789012345678;
@@ -116,8 +117,8 @@ Scenario everything_changed() {
   s.world.require_connected = false;
   s.noise = {0.2, 2.0};
   s.network.loss = 1.0;
-  s.clock = {1e5, 0.25};
   s.network.burst.mean_length = 12.5;
+  s.clock = {1e5, 0.25};
   s.run = {1, 1000.0, RunMode::kLockstep, 0.5, 0.0};
   s.qos.measurements = {Reliability::kBestEffort, 2, Durability::kTransientLocal, 1.5, 2.5};
   s.qos.state = {Reliability::kReliable, 3, Durability::kTransientLocal, 0.1, 0.2};
@@ -264,7 +265,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 5U + 11U + 2U + 2U + 2U + 5U + 7U * 5U + 4U);
+  EXPECT_EQ(keys.size(), 2U + 6U + 11U + 2U + 2U + 2U + 5U + 7U * 5U + 4U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -429,6 +430,7 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
       {[](Scenario& s) { s.noise.range_std_m = -0.1; }, "noise.range_std_m: -0.1 must be >= 0"},
       {[](Scenario& s) { s.noise.anchor_fix_std_m = -2.0; }, "noise.anchor_fix_std_m: -2 must be >= 0"},
       {[](Scenario& s) { s.clock.drift_ppm = -1.0; }, "clock.drift_ppm: -1 is outside [0, 100000]"},
+      {[](Scenario& s) { s.algorithm.range_gate_chi2 = -1.0; }, "algorithm.range_gate_chi2: -1 must be >= 0"},
       {[](Scenario& s) { s.clock.drift_ppm = 2e5; }, "clock.drift_ppm: 200000 is outside [0, 100000]"},
       {[](Scenario& s) { s.clock.offset_max_s = -1.0; }, "clock.offset_max_s: -1 must be >= 0"},
       {[](Scenario& s) { s.run.steps = 0; }, "run.steps: 0 must be >= 1"},
@@ -448,8 +450,6 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
   for (const auto& test_case : cases) EXPECT_EQ(validate_error(test_case.change), test_case.message);
 }
 
-TEST(ScenarioErrors, BoundaryValuesAreAccepted) {
-  EXPECT_NO_THROW(parse_scenario("", {"network.loss=0", "clock.drift_ppm=100000", "run.rate_hz=1000"}));
 TEST(ScenarioErrors, BurstLengthIsZeroOrAtLeastTheBernoulliBurst) {
   EXPECT_EQ(
       parse_scenario("network:\n  loss: 0.3\n  burst:\n    mean_length: 10\n").network.burst.mean_length,
@@ -487,6 +487,8 @@ TEST(ScenarioYaml, RoundTripOfDefaultsIsExact) {
   const Scenario defaults;
   const std::string text = to_yaml(defaults);
   const Scenario parsed = parse_scenario(text);
+TEST(ScenarioErrors, BoundaryValuesAreAccepted) {
+  EXPECT_NO_THROW(parse_scenario("", {"network.loss=0", "clock.drift_ppm=100000", "run.rate_hz=1000"}));
   expect_scenarios_equal(parsed, defaults);
   EXPECT_EQ(to_yaml(parsed), text);
 }

@@ -43,6 +43,7 @@ struct Scenario {
     double initial_information = 1e-6;
     double initial_std_m = 8.66;
     bool inflate_stale = true;
+    double range_gate_chi2 = 0.0;  ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
   } algorithm;
 
   struct World {
