@@ -390,6 +390,17 @@ TEST(ScenarioErrors, YamlSyntaxErrorGivesLineAndColumn) {
                      "inline: YAML syntax error at line ");
 }
 
+TEST(ScenarioErrors, StrayCommaIsASyntaxErrorNotAnEndlessAllocation) {
+  // yaml-cpp 0.7's LoadAll loops on a ',' outside a flow collection until memory runs out
+  // (jbeder/yaml-cpp#1040); found by the scenario fuzz target. It must be a plain ScenarioError.
+  EXPECT_EQ(error_of([] { parse_scenario(",", {}, "comma"); }),
+            "comma: YAML syntax error at line 1, column 1: unexpected ','");
+  EXPECT_EQ(error_of([] { parse_scenario("# text\n , world: 1\n", {}, "comma"); }),
+            "comma: YAML syntax error at line 2, column 2: unexpected ','");
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("seed: 3\n,\n", {}, "comma"); }),
+                     "comma: YAML syntax error");
+}
+
 TEST(ScenarioErrors, DuplicateKeyIsRejected) {
   EXPECT_STARTS_WITH(error_of([] { load_scenario(kFixtures + "invalid_duplicate_key.yaml"); }),
                      "network.loss: duplicate key at ");
@@ -419,6 +430,7 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
       {[](Scenario& s) { s.algorithm.initial_information = 0.0; },
        "algorithm.initial_information: 0 must be > 0"},
       {[](Scenario& s) { s.algorithm.initial_std_m = 0.0; }, "algorithm.initial_std_m: 0 must be > 0"},
+      {[](Scenario& s) { s.algorithm.range_gate_chi2 = -1.0; }, "algorithm.range_gate_chi2: -1 must be >= 0"},
       {[](Scenario& s) { s.world.agents = 0; }, "world.agents: 0 is outside [1, 100000]"},
       {[](Scenario& s) { s.world.agents = 100001; }, "world.agents: 100001 is outside [1, 100000]"},
       {[](Scenario& s) { s.world.anchors = -1; }, "world.anchors: -1 must be >= 0"},
@@ -430,7 +442,6 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
       {[](Scenario& s) { s.noise.range_std_m = -0.1; }, "noise.range_std_m: -0.1 must be >= 0"},
       {[](Scenario& s) { s.noise.anchor_fix_std_m = -2.0; }, "noise.anchor_fix_std_m: -2 must be >= 0"},
       {[](Scenario& s) { s.clock.drift_ppm = -1.0; }, "clock.drift_ppm: -1 is outside [0, 100000]"},
-      {[](Scenario& s) { s.algorithm.range_gate_chi2 = -1.0; }, "algorithm.range_gate_chi2: -1 must be >= 0"},
       {[](Scenario& s) { s.clock.drift_ppm = 2e5; }, "clock.drift_ppm: 200000 is outside [0, 100000]"},
       {[](Scenario& s) { s.clock.offset_max_s = -1.0; }, "clock.offset_max_s: -1 must be >= 0"},
       {[](Scenario& s) { s.run.steps = 0; }, "run.steps: 0 must be >= 1"},
@@ -476,6 +487,8 @@ TEST(ScenarioErrors, BurstLengthIsZeroOrAtLeastTheBernoulliBurst) {
                      "network.burst: expected a map with keys network.burst.mean_length");
 }
 
+TEST(ScenarioErrors, BoundaryValuesAreAccepted) {
+  EXPECT_NO_THROW(parse_scenario("", {"network.loss=0", "clock.drift_ppm=100000", "run.rate_hz=1000"}));
   EXPECT_NO_THROW(parse_scenario("", {"network.loss=1", "world.anchors=30", "dds.domain_id=230"}));
   EXPECT_NO_THROW(parse_scenario("", {"world.agents=1", "world.anchors=0", "run.steps=1"}));
 }
@@ -487,8 +500,6 @@ TEST(ScenarioYaml, RoundTripOfDefaultsIsExact) {
   const Scenario defaults;
   const std::string text = to_yaml(defaults);
   const Scenario parsed = parse_scenario(text);
-TEST(ScenarioErrors, BoundaryValuesAreAccepted) {
-  EXPECT_NO_THROW(parse_scenario("", {"network.loss=0", "clock.drift_ppm=100000", "run.rate_hz=1000"}));
   expect_scenarios_equal(parsed, defaults);
   EXPECT_EQ(to_yaml(parsed), text);
 }

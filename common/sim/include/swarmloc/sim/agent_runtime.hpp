@@ -31,6 +31,7 @@ class AgentRuntime {
   /// it entered the mailbox.
   bool on_state(const Header& header, const estimators::StateMessage& message, bool well_formed = true);
   /// A measurement batch arrived (batches are not subject to injected loss: they model the sensor).
+  /// Entries that cannot come from a real sensor are removed and counted by reason (see sanitize_batch).
   void on_batch(const Header& header, estimators::MeasurementBatch batch);
 
   /// Runs one local step with the newest data. Returns the messages to publish, with their headers.
@@ -56,6 +57,11 @@ class AgentRuntime {
   std::optional<RejectReason> check_state(const Header& header, const estimators::StateMessage& message,
                                           bool well_formed) const;
   void reject(LinkCounters* link, RejectReason reason);
+  /// Keeps at most one range per neighbour (unknown peer, repeated peer, non-finite, negative or absurd
+  /// ranges and std are dropped), drops a fix or motion input that is non-finite, absurd or has a
+  /// non-PSD covariance. The generator makes one range per neighbour, so honest batches are unchanged;
+  /// this bounds the estimator's work (IEKF solves an M x M system) and keeps NaN/Inf out of estimates.
+  void sanitize_batch(estimators::MeasurementBatch& batch);
   [[nodiscard]] std::int64_t world_stamp_ns(std::int64_t world_step) const;
 
   std::unique_ptr<estimators::Estimator> estimator_;
