@@ -4,6 +4,9 @@
 // (config::parse_scenario). Each target draws `inputs` inputs from `seed`, mutates valid inputs, runs the
 // code under test and checks its contract; any violation is recorded (the first few with the input
 // index, so `--seed S --first I` reproduces it). Crashes and sanitizer reports abort the process.
+// The state and batch targets feed sessions of 64 consecutive inputs into one AgentRuntime (to reach
+// the duplicate / reordered / mailbox paths), so reproduce those from the session start,
+// `--first I - I % 64`.
 #include <cstdint>
 #include <string>
 #include <vector>
