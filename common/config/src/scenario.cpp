@@ -1,6 +1,7 @@
 // Scenario files: reading, walking the YAML tree against the key table, --set overrides, serialization.
 #include "swarmloc/config/scenario.hpp"
 
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include <array>
@@ -11,6 +12,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <sstream>
 #include <string_view>
 #include <system_error>
 
@@ -109,6 +111,44 @@ void apply_override(Scenario& scenario, const std::string& text, Sources& source
   sources[path] = from;
 }
 
+/// Counts the YAML documents in `text` with the event parser, building no nodes. yaml-cpp 0.7 (Debian
+/// bookworm) never consumes a ',' outside a flow collection (e.g. the text ","): every
+/// HandleNextDocument call then "parses" another null document at the same place, so LoadAll appends
+/// documents until memory runs out (jbeder/yaml-cpp#1040, fixed upstream by PR #1319; found here by the
+/// scenario fuzz target, tests/fuzz). A document that starts where the previous one started means the
+/// parser is stuck: reported as a syntax error at that place.
+class DocumentCounter : public YAML::EventHandler {
+ public:
+  std::size_t count(const std::string& text, const std::string& subject) {
+    std::istringstream in(text);
+    YAML::Parser parser(in);
+    while (parser.HandleNextDocument(*this)) {
+      if (starts_.size() >= 2 && starts_.back().pos == starts_[starts_.size() - 2].pos) {
+        const YAML::Mark& mark = starts_.back();
+        throw ScenarioError(subject + ": YAML syntax error at line " + std::to_string(mark.line + 1) +
+                            ", column " + std::to_string(mark.column + 1) + ": unexpected '" +
+                            text.substr(static_cast<std::size_t>(mark.pos), 1) + "'");
+      }
+    }
+    return starts_.size();
+  }
+  void OnDocumentStart(const YAML::Mark& mark) override { starts_.push_back(mark); }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& /*mark*/, YAML::anchor_t /*anchor*/) override {}
+  void OnAlias(const YAML::Mark& /*mark*/, YAML::anchor_t /*anchor*/) override {}
+  void OnScalar(const YAML::Mark& /*mark*/, const std::string& /*tag*/, YAML::anchor_t /*anchor*/,
+                const std::string& /*value*/) override {}
+  void OnSequenceStart(const YAML::Mark& /*mark*/, const std::string& /*tag*/, YAML::anchor_t /*anchor*/,
+                       YAML::EmitterStyle::value /*style*/) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& /*mark*/, const std::string& /*tag*/, YAML::anchor_t /*anchor*/,
+                  YAML::EmitterStyle::value /*style*/) override {}
+  void OnMapEnd() override {}
+
+ private:
+  std::vector<YAML::Mark> starts_;
+};
+
 /// Parses, resolves, overrides and validates. `subject` opens file-level errors ("scenario file 'x'");
 /// `origin` prefixes line:column locations; `base_dir` resolves a relative world.positions_file.
 Scenario parse(const std::string& yaml_text, const std::vector<std::string>& overrides,
@@ -116,7 +156,8 @@ Scenario parse(const std::string& yaml_text, const std::vector<std::string>& ove
                const std::optional<std::filesystem::path>& base_dir) {
   std::vector<YAML::Node> documents;
   try {
-    documents = YAML::LoadAll(yaml_text);
+    // Count first (cheap, and safe from the LoadAll loop above), then build the nodes.
+    if (DocumentCounter().count(yaml_text, subject) > 0) documents = YAML::LoadAll(yaml_text);
   } catch (const YAML::Exception& error) {
     std::string where;
     if (!error.mark.is_null()) {

@@ -62,6 +62,26 @@ void validate_qos(const QosSettings& qos, const std::string& family) {
   require_non_negative(qos.liveliness_lease_s, prefix + "liveliness_lease_s");
 }
 
+/// Gilbert–Elliott bursts (core/link_model.hpp): 0 = off (Bernoulli); otherwise a mean burst length in
+/// samples, at least 1/(1 − loss) (the mean burst of independent loss; shorter bursts at the same mean
+/// loss would need anti-correlated losses, which the model does not have) and at most kMaxBurst.
+void validate_burst(const Scenario::Network& network) {
+  constexpr double kMaxBurst = 1000.0;
+  constexpr std::string_view kPath = "network.burst.mean_length";
+  const double length = network.burst.mean_length;
+  require_finite(length, kPath);
+  if (length == 0.0) return;
+  require_within(length, 1.0, kMaxBurst, kPath);
+  if (network.loss >= 1.0) return;  // every sample is dropped; the burst length is moot
+  const double shortest = 1.0 / (1.0 - network.loss);
+  // A relative slack so that a value written as 1/(1 − loss) to 17 digits is accepted.
+  if (length < shortest * (1.0 - 1e-12)) {
+    fail(kPath, format_number(length) + " is shorter than 1/(1 - network.loss) = " + format_number(shortest) +
+                    ", the mean burst of independent loss at network.loss " + format_number(network.loss) +
+                    " (use 0 for Bernoulli loss)");
+  }
+}
+
 }  // namespace
 
 void validate(const Scenario& scenario) {
@@ -88,6 +108,7 @@ void validate(const Scenario& scenario) {
   require_positive(algorithm.step_length, "algorithm.step_length");
   require_non_negative(algorithm.max_step, "algorithm.max_step");
   require_positive(algorithm.abs_tol, "algorithm.abs_tol");
+  require_non_negative(algorithm.range_gate_chi2, "algorithm.range_gate_chi2");
 
   const auto& world = scenario.world;
   require_within(world.agents, 1, 100000, "world.agents");
@@ -125,6 +146,7 @@ void validate(const Scenario& scenario) {
   }
 
   require_within(scenario.network.loss, 0.0, 1.0, "network.loss");
+  validate_burst(scenario.network);
 
   // drift_ppm is the magnitude of a ± bound drawn per agent; 1e5 ppm = 10 %.
   require_within(scenario.clock.drift_ppm, 0.0, 1e5, "clock.drift_ppm");

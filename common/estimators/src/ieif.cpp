@@ -50,6 +50,10 @@ StepOutput Ieif::step(const StepInput& input) {
   // Estimation, 001 eq. (49), over N_k(i) (§3.4 rules (1)–(3)).
   const LinkSelection selection = collect_range_links(input, setup_.id, params_);
   Linearization rows = linearize_ranges(x_pred, selection.links);
+  // The gate needs a prior: P_{k|k−1} = Ψ_{k|k−1}⁻¹ once Ψ is PD (until then every range passes).
+  if (params_.range_gate_chi2 > 0.0 && positive_definite(Psi_pred)) {
+    out.diagnostics.ranges_gated = gate_ranges(rows, Mat2(Psi_pred.inverse()), params_.range_gate_chi2);
+  }
   if (input.measurements != nullptr) rows.fix = input.measurements->fix;
   out.diagnostics.neighbours_used = static_cast<int>(rows.jacobian.rows());
   out.diagnostics.neighbours_skipped = selection.skipped + rows.skipped;

@@ -50,6 +50,7 @@ StepOutput Iekf::step(const StepInput& input) {
 
   const LinkSelection selection = collect_range_links(input, setup_.id, params_);
   Linearization rows = linearize_ranges(x_pred, selection.links);
+  out.diagnostics.ranges_gated = gate_ranges(rows, P_pred, params_.range_gate_chi2);
   if (input.measurements != nullptr) rows.fix = input.measurements->fix;
   out.diagnostics.neighbours_used = static_cast<int>(rows.jacobian.rows());
   out.diagnostics.neighbours_skipped = selection.skipped + rows.skipped;

@@ -91,6 +91,39 @@ Linearization linearize_ranges(const Vec2& x_i, const std::vector<RangeLink>& li
   return rows;
 }
 
+int gate_ranges(Linearization& rows, const Mat2& P_pred, double chi2_gate) {
+  if (!(chi2_gate > 0.0) || !P_pred.allFinite() || !core::is_symmetric_psd(P_pred)) return 0;
+  const Eigen::Index count = rows.jacobian.rows();
+  std::vector<bool> outside(static_cast<std::size_t>(count), false);
+  Eigen::Index rejected = 0;
+  for (Eigen::Index m = 0; m < count; ++m) {
+    const models::Row2 u = rows.jacobian.row(m);
+    const double s = rows.variance(m) + (u * P_pred * u.transpose()).value();
+    const double nu = rows.innovation(m);
+    if (nu * nu > chi2_gate * s) {
+      outside[static_cast<std::size_t>(m)] = true;
+      ++rejected;
+    }
+  }
+  // If most ranges disagree with the prediction, the prediction is what is off (a wrong early estimate
+  // with an overconfident covariance): gating them would lock the error in, so every range is used.
+  if (2 * rejected > count) return 0;
+  Eigen::Index kept = 0;
+  for (Eigen::Index m = 0; m < count; ++m) {
+    if (outside[static_cast<std::size_t>(m)]) continue;
+    if (kept != m) {
+      rows.jacobian.row(kept) = rows.jacobian.row(m);
+      rows.innovation(kept) = rows.innovation(m);
+      rows.variance(kept) = rows.variance(m);
+    }
+    ++kept;
+  }
+  rows.jacobian.conservativeResize(kept, 2);
+  rows.innovation.conservativeResize(kept);
+  rows.variance.conservativeResize(kept);
+  return static_cast<int>(count - kept);
+}
+
 Mat2 predict_information(const Mat2& Psi, const Mat2& Q) {
   // 001 eq. (48): Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ — valid for singular Ψ.
   const Mat2 L = (Mat2::Identity() + Psi * Q).inverse();

@@ -192,9 +192,86 @@ bool AgentRuntime::on_belief(const Header& header, const estimators::BeliefMessa
   return accepted;
 }
 
+void AgentRuntime::sanitize_batch(estimators::MeasurementBatch& batch) {
+  const double absurd = params_.absurd_position_bound_m;
+  const auto count = [&](RejectReason reason) { reject(nullptr, reason); };
+  const auto drop = [&](RejectReason reason) {
+    count(reason);
+    return true;
+  };
+  std::set<AgentId> seen;
+  std::erase_if(batch.ranges, [&](const estimators::RangeMeasurement& range) {
+    if (!neighbours_.contains(range.peer)) return drop(RejectReason::kUnknownSender);
+    if (!std::isfinite(range.range_m) || !std::isfinite(range.std_m)) return drop(RejectReason::kNonFinite);
+    if (range.range_m < 0.0 || range.std_m < 0.0 || range.range_m > 2.0 * absurd || range.std_m > absurd) {
+      return drop(RejectReason::kAbsurdMagnitude);
+    }
+    if (!seen.insert(range.peer).second) return drop(RejectReason::kDuplicate);
+    return false;
+  });
+  if (batch.fix) {
+    const auto& fix = *batch.fix;
+    if (!fix.position_m.allFinite() || !fix.covariance.allFinite()) {
+      count(RejectReason::kNonFinite);
+      batch.fix.reset();
+    } else if (fix.position_m.norm() > absurd ||
+               fix.covariance.cwiseAbs().maxCoeff() > params_.absurd_variance_m2) {
+      count(RejectReason::kAbsurdMagnitude);
+      batch.fix.reset();
+    } else if (!core::is_symmetric_psd(fix.covariance, 1e-9)) {
+      count(RejectReason::kNotSymmetricPsd);
+      batch.fix.reset();
+    }
+  }
+  if (batch.motion) {
+    const auto& motion = *batch.motion;
+    if (!motion.velocity_mps.allFinite() || !std::isfinite(motion.dt_s) || !motion.process_cov.allFinite()) {
+      count(RejectReason::kNonFinite);
+      batch.motion.reset();
+    } else if ((motion.velocity_mps * motion.dt_s).norm() > absurd ||
+               motion.process_cov.cwiseAbs().maxCoeff() > params_.absurd_variance_m2) {
+      count(RejectReason::kAbsurdMagnitude);
+      batch.motion.reset();
+    } else if (!core::is_symmetric_psd(motion.process_cov, 1e-9)) {
+      count(RejectReason::kNotSymmetricPsd);
+      batch.motion.reset();
+    }
+  }
+  // Relative positions (jacobi): one per neighbour, finite, plausible, PSD covariance.
+  std::set<AgentId> seen_relative;
+  std::erase_if(batch.relative, [&](const estimators::RelativeMeasurement& m) {
+    if (!neighbours_.contains(m.peer)) return drop(RejectReason::kUnknownSender);
+    if (!m.delta_m.allFinite() || !m.covariance.allFinite()) return drop(RejectReason::kNonFinite);
+    if (m.delta_m.norm() > 2.0 * absurd || m.covariance.cwiseAbs().maxCoeff() > params_.absurd_variance_m2) {
+      return drop(RejectReason::kAbsurdMagnitude);
+    }
+    if (!core::is_symmetric_psd(m.covariance, 1e-9) || m.covariance.determinant() <= 0.0) {
+      return drop(RejectReason::kNotSymmetricPsd);
+    }
+    if (!seen_relative.insert(m.peer).second) return drop(RejectReason::kDuplicate);
+    return false;
+  });
+  // Multipath paths (multipath_bp): one per neighbour and path index (at most one per wall).
+  constexpr int kMaxPathsPerPeer = 32;
+  std::set<std::pair<AgentId, int>> seen_paths;
+  std::erase_if(batch.paths, [&](const estimators::MultipathMeasurement& m) {
+    if (!neighbours_.contains(m.peer)) return drop(RejectReason::kUnknownSender);
+    if (!std::isfinite(m.length_m) || !std::isfinite(m.aoa_here_rad) || !std::isfinite(m.aoa_there_rad)) {
+      return drop(RejectReason::kNonFinite);
+    }
+    if (m.length_m > 4.0 * absurd || std::abs(m.aoa_here_rad) > 1e3 || std::abs(m.aoa_there_rad) > 1e3) {
+      return drop(RejectReason::kAbsurdMagnitude);
+    }
+    if (m.path_index < 0 || m.path_index >= kMaxPathsPerPeer) return drop(RejectReason::kMalformed);
+    if (!seen_paths.insert({m.peer, m.path_index}).second) return drop(RejectReason::kDuplicate);
+    return false;
+  });
+}
+
 void AgentRuntime::on_batch(const Header& header, estimators::MeasurementBatch batch) {
   (void)header;
   if (batch.world_step <= newest_batch_step_) return;  // late or duplicate batch
+  sanitize_batch(batch);
   newest_batch_step_ = batch.world_step;
   if (batch.world_step > 0) batch_period_s_ = batch.world_time_s / static_cast<double>(batch.world_step);
   pending_batch_ = std::move(batch);

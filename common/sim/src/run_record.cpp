@@ -73,7 +73,8 @@ nlohmann::json summary_json(const RunRecord& record) {
                       {"dropped_injected", totals.dropped_injected},
                       {"rejected", totals.rejected},
                       {"lost_in_transport", totals.sent >= totals.arrived ? totals.sent - totals.arrived : 0},
-                      {"loss_probability", record.scenario.network.loss}};
+                      {"loss_probability", record.scenario.network.loss},
+                      {"burst_mean_length", record.scenario.network.burst.mean_length}};
   json rejected = json::object();
   std::array<std::uint64_t, kRejectReasonCount> rejected_sum{};
   double cpu_sum = 0.0;

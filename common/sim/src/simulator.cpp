@@ -41,6 +41,7 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
   params.initial_information = s.algorithm.initial_information;
   params.initial_std_m = s.algorithm.initial_std_m;
   params.inflate_stale = s.algorithm.inflate_stale;
+  params.range_gate_chi2 = s.algorithm.range_gate_chi2;
   return estimators::make_estimator(s.algorithm.name, world.setup_of(id), params);
 }
 
@@ -49,6 +50,7 @@ AgentRuntimeParams make_runtime_params(const config::Scenario& s, const World& w
   AgentRuntimeParams params;
   params.seed = trial_seed(s.seed, trial);
   params.loss.loss_probability = s.network.loss;
+  params.loss.burst_mean_length = s.network.burst.mean_length;
   params.absurd_position_bound_m = absurd_position_bound_m(s);
   params.world_period_s = 1.0 / s.run.rate_hz;
   params.first_seq = static_cast<std::uint32_t>(incarnation) << 24;

@@ -62,6 +62,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.algorithm.initial_information, b.algorithm.initial_information);
   EXPECT_EQ(a.algorithm.initial_std_m, b.algorithm.initial_std_m);
   EXPECT_EQ(a.algorithm.inflate_stale, b.algorithm.inflate_stale);
+  EXPECT_EQ(a.algorithm.range_gate_chi2, b.algorithm.range_gate_chi2);
   EXPECT_EQ(a.world.agents, b.world.agents);
   EXPECT_EQ(a.world.anchors, b.world.anchors);
   EXPECT_EQ(a.world.area_m, b.world.area_m);
@@ -76,6 +77,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.noise.range_std_m, b.noise.range_std_m);
   EXPECT_EQ(a.noise.anchor_fix_std_m, b.noise.anchor_fix_std_m);
   EXPECT_EQ(a.network.loss, b.network.loss);
+  EXPECT_EQ(a.network.burst.mean_length, b.network.burst.mean_length);
   EXPECT_EQ(a.clock.drift_ppm, b.clock.drift_ppm);
   EXPECT_EQ(a.clock.offset_max_s, b.clock.offset_max_s);
   EXPECT_EQ(a.run.steps, b.run.steps);
@@ -102,7 +104,7 @@ Scenario everything_changed() {
   Scenario s;
   s.seed = std::numeric_limits<std::uint64_t>::max();
   s.name = "quotes \" back\\slash: colon # hash\nnewline\ttab \x01 null";
-  s.algorithm = {"dgbb", 0.3, 1.0 / 3.0, 1e-300, false};
+  s.algorithm = {"dgbb", 0.3, 1.0 / 3.0, 1e-300, false, 9.0};
   s.world.agents = 100000;
   s.world.anchors = 0;
   s.world.area_m = 123.456789012345678;
@@ -116,6 +118,7 @@ Scenario everything_changed() {
   s.world.require_connected = false;
   s.noise = {0.2, 2.0};
   s.network.loss = 1.0;
+  s.network.burst.mean_length = 12.5;
   s.clock = {1e5, 0.25};
   s.run = {1, 1000.0, RunMode::kLockstep, 0.5, 0.0};
   s.qos.measurements = {Reliability::kBestEffort, 2, Durability::kTransientLocal, 1.5, 2.5};
@@ -263,7 +266,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 10U + 15U + 8U + 1U + 2U + 5U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 11U + 15U + 8U + 2U + 2U + 5U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -389,6 +392,17 @@ TEST(ScenarioErrors, YamlSyntaxErrorGivesLineAndColumn) {
                      "inline: YAML syntax error at line ");
 }
 
+TEST(ScenarioErrors, StrayCommaIsASyntaxErrorNotAnEndlessAllocation) {
+  // yaml-cpp 0.7's LoadAll loops on a ',' outside a flow collection until memory runs out
+  // (jbeder/yaml-cpp#1040); found by the scenario fuzz target. It must be a plain ScenarioError.
+  EXPECT_EQ(error_of([] { parse_scenario(",", {}, "comma"); }),
+            "comma: YAML syntax error at line 1, column 1: unexpected ','");
+  EXPECT_EQ(error_of([] { parse_scenario("# text\n , world: 1\n", {}, "comma"); }),
+            "comma: YAML syntax error at line 2, column 2: unexpected ','");
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("seed: 3\n,\n", {}, "comma"); }),
+                     "comma: YAML syntax error");
+}
+
 TEST(ScenarioErrors, DuplicateKeyIsRejected) {
   EXPECT_STARTS_WITH(error_of([] { load_scenario(kFixtures + "invalid_duplicate_key.yaml"); }),
                      "network.loss: duplicate key at ");
@@ -418,6 +432,7 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
       {[](Scenario& s) { s.algorithm.initial_information = 0.0; },
        "algorithm.initial_information: 0 must be > 0"},
       {[](Scenario& s) { s.algorithm.initial_std_m = 0.0; }, "algorithm.initial_std_m: 0 must be > 0"},
+      {[](Scenario& s) { s.algorithm.range_gate_chi2 = -1.0; }, "algorithm.range_gate_chi2: -1 must be >= 0"},
       {[](Scenario& s) { s.world.agents = 0; }, "world.agents: 0 is outside [1, 100000]"},
       {[](Scenario& s) { s.world.agents = 100001; }, "world.agents: 100001 is outside [1, 100000]"},
       {[](Scenario& s) { s.world.anchors = -1; }, "world.anchors: -1 must be >= 0"},
@@ -446,6 +461,32 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
       {[](Scenario& s) { s.run.mode = static_cast<RunMode>(7); }, "run.mode: invalid enum value 7"},
   };
   for (const auto& test_case : cases) EXPECT_EQ(validate_error(test_case.change), test_case.message);
+}
+
+TEST(ScenarioErrors, BurstLengthIsZeroOrAtLeastTheBernoulliBurst) {
+  EXPECT_EQ(
+      parse_scenario("network:\n  loss: 0.3\n  burst:\n    mean_length: 10\n").network.burst.mean_length,
+      10.0);
+  EXPECT_EQ(validate_error([](Scenario& s) { s.network.burst.mean_length = 0.5; }),
+            "network.burst.mean_length: 0.5 is outside [1, 1000]");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.network.burst.mean_length = 1001.0; }),
+            "network.burst.mean_length: 1001 is outside [1, 1000]");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.network.burst.mean_length = -1.0; }),
+            "network.burst.mean_length: -1 is outside [1, 1000]");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.network.burst.mean_length = std::nan(""); }),
+            "network.burst.mean_length: nan is not a finite number");
+  // At loss 0.6 independent drops already come in runs of 1/(1 - 0.6) = 2.5 on average.
+  EXPECT_STARTS_WITH(override_error({"network.loss=0.6", "network.burst.mean_length=2"}),
+                     "network.burst.mean_length: 2 is shorter than 1/(1 - network.loss) = 2.5");
+  EXPECT_NE(override_error({"network.loss=0.6", "network.burst.mean_length=2"})
+                .find("(from --set network.burst.mean_length=2)"),
+            std::string::npos);
+  EXPECT_NO_THROW(parse_scenario("", {"network.loss=0.6", "network.burst.mean_length=2.5"}));
+  EXPECT_NO_THROW(parse_scenario("", {"network.loss=1", "network.burst.mean_length=1"}));
+  EXPECT_NO_THROW(parse_scenario("", {"network.loss=0", "network.burst.mean_length=1000"}));
+  EXPECT_STARTS_WITH(override_error({"network.burst=3"}), "network.burst: is a section, not a key");
+  EXPECT_STARTS_WITH(error_of([] { parse_scenario("network:\n  burst: 3\n"); }),
+                     "network.burst: expected a map with keys network.burst.mean_length");
 }
 
 TEST(ScenarioErrors, BoundaryValuesAreAccepted) {
@@ -485,7 +526,7 @@ TEST(ScenarioYaml, OutputWritesEveryKnownKeyOnce) {
             std::string::npos)
       << text;
   EXPECT_NE(text.find("  area_m: 40.0\n"), std::string::npos) << text;
-  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), static_cast<long>(known_keys().size() + 9 + 7));
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), static_cast<long>(known_keys().size() + 9 + 7 + 1));
 }
 
 TEST(ScenarioYaml, HashIsFnv1aOfTheYaml) {

@@ -76,7 +76,8 @@ TEST(AgentRuntime, DropsDuplicateAndReorderedSamples) {
 TEST(AgentRuntime, InjectedLossDropsTheConfiguredFraction) {
   auto runtime = make_runtime(0.3);
   constexpr std::uint32_t kSamples = 20000;
-  for (std::uint32_t seq = 0; seq < kSamples; ++seq) runtime.on_state(header_from(1, seq), anchor_state(Vec2(0.0, 0.0)));
+  for (std::uint32_t seq = 0; seq < kSamples; ++seq)
+    runtime.on_state(header_from(1, seq), anchor_state(Vec2(0.0, 0.0)));
   const auto& link = runtime.links().at(1);
   EXPECT_EQ(link.arrived, kSamples);
   EXPECT_EQ(link.delivered + link.dropped_injected, kSamples);
@@ -91,6 +92,31 @@ TEST(AgentRuntime, SameSeedDropsTheSameSamples) {
     EXPECT_EQ(a.on_state(header_from(2, seq), anchor_state(Vec2(0.0, 0.0))),
               b.on_state(header_from(2, seq), anchor_state(Vec2(0.0, 0.0))));
   }
+}
+
+TEST(AgentRuntime, BatchEntriesNoSensorCouldProduceAreDroppedAndCounted) {
+  // Found by the batch fuzz target: 20 000 ranges in one batch made the IEKF solve a 20 000 x 20 000
+  // system, and non-finite entries could reach the estimate. One range per neighbour survives.
+  auto runtime = make_runtime();
+  for (AgentId j = 1; j <= 3; ++j) runtime.on_state(header_from(j, 0), anchor_state(Vec2(10.0 * j, 0.0)));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  estimators::MeasurementBatch batch;
+  batch.world_step = 0;
+  batch.ranges = {{1, 5.0, 0.1},  {1, 6.0, 0.1}, {7, 5.0, 0.1},  {2, nan, 0.1},
+                  {2, -1.0, 0.1}, {2, 1e9, 0.1}, {3, 5.0, -0.1}, {3, 8.0, 0.1}};
+  for (int k = 0; k < 10000; ++k) batch.ranges.push_back({2, 5.0, 0.1});
+  batch.fix = estimators::AbsoluteFix{Vec2(1.0, 1.0), (Mat2() << 1.0, 2.0, 2.0, 1.0).finished()};
+  batch.motion = estimators::MotionInput{Vec2(nan, 0.0), 0.1, Mat2::Zero()};
+  runtime.on_batch(Header{}, batch);
+  const auto& reasons = runtime.rejected_by_reason();
+  EXPECT_EQ(reasons[static_cast<std::size_t>(RejectReason::kUnknownSender)], 1U);
+  EXPECT_EQ(reasons[static_cast<std::size_t>(RejectReason::kNonFinite)], 2U);        // NaN range, motion
+  EXPECT_EQ(reasons[static_cast<std::size_t>(RejectReason::kAbsurdMagnitude)], 3U);  // -1, 1e9, std < 0
+  EXPECT_EQ(reasons[static_cast<std::size_t>(RejectReason::kDuplicate)], 1U + 9999U);
+  EXPECT_EQ(reasons[static_cast<std::size_t>(RejectReason::kNotSymmetricPsd)], 1U);  // the fix
+  const auto out = runtime.step(0);
+  EXPECT_TRUE(runtime.estimate().mean_m.allFinite());
+  (void)out;
 }
 
 }  // namespace

@@ -54,6 +54,7 @@ struct Scenario {
     double step_length = 10.0;  ///< k of step_length (α = k/(√τ‖D_i‖))
     double max_step = 0.0;      ///< cap on any BB step; 0 = no cap (the source has none)
     double abs_tol = 1e-10;     ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
+    double range_gate_chi2 = 0.0;  ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
   } algorithm;
 
   struct World {
@@ -88,7 +89,10 @@ struct Scenario {
   } noise;
 
   struct Network {
-    double loss = 0.0;  ///< Bernoulli loss at the receiver, [0, 1]
+    double loss = 0.0;  ///< mean loss at the receiver, [0, 1]
+    struct Burst {
+      double mean_length = 0.0;  ///< 0 = Bernoulli; else Gilbert–Elliott mean burst (samples)
+    } burst;
   } network;
 
   struct Clock {

@@ -46,6 +46,7 @@ enum class Stream : std::uint64_t {
   kLinkLoss = 6,
   kClock = 7,
   kDelay = 8,
+  kLinkBurst = 9,  ///< Gilbert–Elliott link state (link_model.hpp)
 };
 
 /// A standard engine seeded from (seed, stream, extra keys).

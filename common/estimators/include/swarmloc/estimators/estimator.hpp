@@ -23,6 +23,7 @@ struct StepInput {
 struct StepDiagnostics {
   int neighbours_used = 0;
   int neighbours_skipped = 0;  ///< no fresh measurement, infinite covariance, …
+  int ranges_gated = 0;        ///< ranges rejected by the chi-square innovation gate (not in neighbours_used)
   bool updated = false;        ///< false: prediction only
 };
 
@@ -62,6 +63,7 @@ struct KalmanFamilyParams {
   double initial_std_m = 8.66;           ///< IEKF P_0 = std²·I
   bool inflate_stale = true;             ///< §3.4 rule (2)
   double max_neighbour_variance_m2 = 1e6;///< neighbours with trace(P) above this are skipped
+  double range_gate_chi2 = 0.0;          ///< drop a range if ν² > gate·s (1 dof); 0 = no gate
 };
 
 /// Builds the estimator named `algorithm` ("ieif", "iekf", …). Throws std::invalid_argument for an

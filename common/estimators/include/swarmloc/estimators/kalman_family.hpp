@@ -55,6 +55,14 @@ struct Linearization {
 /// Builds J_i, ν and R̃ for `links` at the receiver's predicted position `x_i` (001 eqs. (44), (49)).
 Linearization linearize_ranges(const Vec2& x_i, const std::vector<RangeLink>& links);
 
+/// Chi-square innovation gate on the range rows (one degree of freedom per row): drops row m when
+/// ν_m² > chi2_gate · s_m, with the innovation variance s_m = J_i(m, :) P_pred J_i(m, :)ᵀ + r̃_m (the
+/// receiver's own predicted covariance plus the interlaced range variance). Keeps every row when
+/// chi2_gate <= 0 or P_pred is not finite and PSD (no prior to gate against), and when more than half of
+/// the rows are outside the gate (then the prediction, not the ranges, is what is off — gating would lock
+/// a wrong early estimate in). The absolute fix is not gated. Returns the number of rows dropped.
+int gate_ranges(Linearization& rows, const Mat2& P_pred, double chi2_gate);
+
 /// 001 eq. (48) with F = I in the singular-safe form Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ (ALGORITHMS.md §3.2).
 Mat2 predict_information(const Mat2& Psi, const Mat2& Q);
 

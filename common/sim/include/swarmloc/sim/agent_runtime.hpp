@@ -59,6 +59,7 @@ class AgentRuntime {
     return on_belief(header, m, well_formed);
   }
   /// A measurement batch arrived (batches are not subject to injected loss: they model the sensor).
+  /// Entries that cannot come from a real sensor are removed and counted by reason (see sanitize_batch).
   void on_batch(const Header& header, estimators::MeasurementBatch batch);
 
   /// Runs one local step with the newest data. Returns the messages to publish. Every sample an agent
@@ -112,6 +113,11 @@ class AgentRuntime {
   Publication publish(estimators::Outbox outbox, std::int64_t step, std::int64_t sender_stamp_ns,
                       std::int64_t world_stamp_ns);
   void reject(LinkCounters* link, RejectReason reason);
+  /// Keeps at most one range per neighbour (unknown peer, repeated peer, non-finite, negative or absurd
+  /// ranges and std are dropped), drops a fix or motion input that is non-finite, absurd or has a
+  /// non-PSD covariance. The generator makes one range per neighbour, so honest batches are unchanged;
+  /// this bounds the estimator's work (IEKF solves an M x M system) and keeps NaN/Inf out of estimates.
+  void sanitize_batch(estimators::MeasurementBatch& batch);
   [[nodiscard]] std::int64_t world_stamp_ns(std::int64_t world_step) const;
   /// faults.partition: true if `header`'s sender is on the other side while the sample's world step
   /// (the step of the batch the sender had used) lies in the window — the same answer in every runtime.

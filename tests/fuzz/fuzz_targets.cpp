@@ -1,0 +1,1030 @@
+// Seeded random-mutation fuzz targets (see fuzz_targets.hpp).
+//
+// Decoders: a valid sample is built through the writer path (Wire* in convert.hpp), then 0–5 mutations
+// hit it: a field set to NaN, ±Inf, ±DBL_MAX, a denormal, a huge or random-bit value; an integer or enum
+// set to a boundary or random value; a sequence given another length (empty, at/over its IDL bound,
+// random, very long) with random contents, or a null buffer with a non-zero length; or the whole struct
+// overwritten with random bytes (sequences and bools re-pointed/re-set afterwards, since CDR
+// deserialization cannot produce a wild pointer or a bool other than 0/1). Contract checked:
+//   - the decoder never crashes, and its well_formed flag is exactly the documented structural rule;
+//   - a well-formed sample carries the wire values unchanged;
+//   - States and batches go on into a real sim::AgentRuntime (the code both runtimes share): a State is
+//     either not well-formed (and rejected), or rejected by the runtime with a reason, or accepted, and
+//     an accepted State is finite, symmetric PSD and within the absurd-magnitude bounds; after every
+//     estimator step the agent's estimate is finite.
+// Scenario parser: a valid YAML text (the default scenario, to_yaml of varied scenarios, hand-written
+// fragments) gets 1–6 text mutations (bit flips, random/structural bytes, deletions, truncation,
+// duplicated/swapped lines, inserted keys, values replaced by huge numbers, special floats, YAML tags and
+// anchors), sometimes plus `--set` overrides. Contract: parse_scenario either throws config::ScenarioError
+// or returns a scenario that validate() accepts and that round-trips exactly through to_yaml().
+#include "fuzz_targets.hpp"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <sstream>
+#include <string_view>
+#include <typeinfo>
+
+#include "convert.hpp"
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/core/gaussian.hpp"
+#include "swarmloc/core/random.hpp"
+#include "swarmloc/estimators/estimator.hpp"
+#include "swarmloc/sim/agent_runtime.hpp"
+
+namespace swarmloc::fuzz {
+namespace {
+
+constexpr std::size_t kMaxFailuresKept = 5;
+
+/// Counter-based generator: input i of a target is reproducible on its own.
+class Rng {
+ public:
+  explicit Rng(std::uint64_t state) : state_(state) {}
+  std::uint64_t next() { return core::mix64(state_++ ^ 0xa0761d6478bd642fULL); }
+  /// Uniform in [0, n); n > 0.
+  std::uint64_t below(std::uint64_t n) { return next() % n; }
+  bool chance(double p) { return core::unit_uniform(next()) < p; }
+  double uniform(double low, double high) { return low + (high - low) * core::unit_uniform(next()); }
+
+ private:
+  std::uint64_t state_;
+};
+
+double hostile_double(Rng& rng) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  switch (rng.below(14)) {
+    case 0:
+      return std::numeric_limits<double>::quiet_NaN();
+    case 1:
+      return kInf;
+    case 2:
+      return -kInf;
+    case 3:
+      return std::numeric_limits<double>::max();
+    case 4:
+      return -std::numeric_limits<double>::max();
+    case 5:
+      return std::numeric_limits<double>::denorm_min();
+    case 6:
+      return -0.0;
+    case 7:
+      return 0.0;
+    case 8:
+      return rng.chance(0.5) ? 1e300 : -1e300;
+    case 9:
+      return std::bit_cast<double>(rng.next());  // any bit pattern, signalling NaNs included
+    case 10:
+      return rng.uniform(-1e7, 1e7);  // around the absurd-magnitude bound (1e6)
+    case 11:
+      return rng.chance(0.5) ? 1e14 : 1e15;  // around the absurd-variance bound
+    case 12:
+      return -rng.uniform(0.0, 10.0);  // negative variances / ranges
+    default:
+      return rng.uniform(-100.0, 100.0);
+  }
+}
+
+template <typename I>
+I hostile_int(Rng& rng) {
+  switch (rng.below(6)) {
+    case 0:
+      return std::numeric_limits<I>::min();
+    case 1:
+      return std::numeric_limits<I>::max();
+    case 2:
+      return static_cast<I>(0);
+    case 3:
+      return static_cast<I>(-1);  // wraps for unsigned types
+    case 4:
+      return static_cast<I>(rng.below(8));
+    default:
+      return static_cast<I>(rng.next());
+  }
+}
+
+/// Random bytes over a trivially copyable struct (pointers and bools are fixed up by the caller).
+template <typename T>
+void random_bytes(T& value, Rng& rng) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  std::array<unsigned char, sizeof(T)> bytes{};
+  for (auto& byte : bytes) byte = static_cast<unsigned char>(rng.next());
+  std::memcpy(&value, bytes.data(), sizeof(T));
+}
+
+bool same_bits(double a, double b) {
+  return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+}
+
+Mat2 random_psd(Rng& rng, double scale) {
+  Mat2 a;
+  a << rng.uniform(-scale, scale), rng.uniform(-scale, scale), rng.uniform(-scale, scale),
+      rng.uniform(-scale, scale);
+  return core::symmetrized(a * a.transpose() + 1e-6 * Mat2::Identity());
+}
+
+/// Gives a sequence a new length and contents in `storage` (or a null buffer with a non-zero length).
+template <typename Sequence, typename Element, typename Fill>
+void reshape(Sequence& sequence, std::vector<Element>& storage, std::size_t bound, Rng& rng, Fill fill) {
+  std::size_t length = 0;
+  switch (rng.below(7)) {
+    case 0:
+      length = 0;
+      break;
+    case 1:
+      length = 1 + rng.below(4);
+      break;
+    case 2:
+      length = bound == 0 ? 0 : bound - 1 + rng.below(3);  // bound − 1, bound, bound + 1
+      break;
+    case 3:
+      length = rng.chance(0.01) ? 20000 + rng.below(20000) : rng.below(2 * bound + 3);
+      break;
+    default:
+      length = rng.below(bound + 2);
+  }
+  storage.resize(length);
+  for (auto& element : storage) fill(element);
+  sequence._length = static_cast<std::uint32_t>(length);
+  sequence._maximum = rng.chance(0.8) ? sequence._length : static_cast<std::uint32_t>(rng.next());
+  sequence._buffer = storage.empty() ? nullptr : storage.data();
+  sequence._release = false;
+  if (rng.chance(0.05)) {
+    sequence._length = static_cast<std::uint32_t>(1 + rng.below(100));
+    sequence._buffer = nullptr;  // claims elements, has none
+  }
+}
+
+void mutate_header(swarmloc_msg_Header& header, Rng& rng) {
+  switch (rng.below(5)) {
+    case 0:
+      header.agent_id = hostile_int<std::int32_t>(rng);
+      break;
+    case 1:
+      header.seq = hostile_int<std::uint32_t>(rng);
+      break;
+    case 2:
+      header.step = hostile_int<std::int64_t>(rng);
+      break;
+    case 3:
+      header.sender_stamp_ns = hostile_int<std::int64_t>(rng);
+      break;
+    default:
+      header.world_stamp_ns = hostile_int<std::int64_t>(rng);
+  }
+}
+
+sim::Header random_header(Rng& rng, AgentId sender, std::uint32_t seq) {
+  sim::Header header;
+  header.agent_id = sender;
+  header.seq = seq;
+  header.step = static_cast<std::int64_t>(seq);
+  header.sender_stamp_ns = static_cast<std::int64_t>(rng.below(1000000000));
+  header.world_stamp_ns = static_cast<std::int64_t>(seq) * 100000000;
+  return header;
+}
+
+class Recorder {
+ public:
+  explicit Recorder(FuzzResult& result) : result_(result) {}
+  void violation(std::uint64_t input, const std::string& what) {
+    ++result_.violations;
+    if (result_.failures.size() < kMaxFailuresKept)
+      result_.failures.push_back("input " + std::to_string(input) + ": " + what);
+  }
+  void check(bool condition, std::uint64_t input, const char* what) {
+    if (!condition) violation(input, what);
+  }
+
+ private:
+  FuzzResult& result_;
+};
+
+// ---------------------------------------------------------------------------------------------------
+// The agent under test for States and batches: agent 0 with neighbours 1, 2, 3, running the IEIF.
+
+constexpr AgentId kSelf = 0;
+const std::vector<AgentId> kNeighbours{1, 2, 3};
+
+sim::AgentRuntime make_runtime(std::uint64_t seed, const std::string& algorithm) {
+  estimators::AgentSetup setup;
+  setup.id = kSelf;
+  setup.initial_guess_m = Vec2(5.0, 5.0);
+  estimators::KalmanFamilyParams params;
+  sim::AgentRuntimeParams runtime;
+  runtime.seed = seed;
+  return sim::AgentRuntime(estimators::make_estimator(algorithm, setup, params), setup, kNeighbours, runtime);
+}
+
+estimators::MeasurementBatch plausible_batch(Rng& rng, std::int64_t step) {
+  estimators::MeasurementBatch batch;
+  batch.world_step = step;
+  batch.world_time_s = 0.1 * static_cast<double>(step);
+  for (const AgentId peer : kNeighbours) batch.ranges.push_back({peer, rng.uniform(1.0, 15.0), 0.1});
+  batch.neighbours = kNeighbours;
+  return batch;
+}
+
+bool estimate_is_finite(const sim::AgentRuntime& runtime) {
+  const auto estimate = runtime.estimate();
+  return estimate.mean_m.allFinite() && estimate.covariance.allFinite();
+}
+
+// ---------------------------------------------------------------------------------------------------
+// State
+
+estimators::StateMessage random_state(Rng& rng) {
+  estimators::StateMessage state;
+  state.anchor = rng.chance(0.3);
+  state.active = rng.chance(0.9);
+  state.mean_m = Vec2(rng.uniform(-50.0, 50.0), rng.uniform(-50.0, 50.0));
+  state.covariance = state.anchor ? Mat2::Zero() : random_psd(rng, 2.0);
+  state.degree = static_cast<std::uint16_t>(rng.below(20));
+  return state;
+}
+
+void mutate(swarmloc_msg_State& s, Rng& rng) {
+  switch (rng.below(8)) {
+    case 0:
+      s.agent_id = hostile_int<std::int32_t>(rng);
+      break;
+    case 1:
+      mutate_header(s.header, rng);
+      break;
+    case 2:
+      s.mean_m[rng.below(2)] = hostile_double(rng);
+      break;
+    case 3:
+      s.covariance[rng.below(3)] = hostile_double(rng);
+      break;
+    case 4:
+      s.flags = hostile_int<std::uint8_t>(rng);
+      break;
+    case 5:
+      s.degree = hostile_int<std::uint16_t>(rng);
+      break;
+    case 6:
+      s.covariance[1] = rng.uniform(-10.0, 10.0);  // plausible numbers, not PSD
+      break;
+    default:
+      random_bytes(s, rng);  // no pointers or bools in State
+  }
+}
+
+/// Sessions of kSession inputs share one runtime, so duplicate / reordered / mailbox paths are reached.
+constexpr std::uint64_t kSession = 64;
+
+void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, FuzzResult& result) {
+  Recorder record(result);
+  std::unique_ptr<sim::AgentRuntime> runtime;
+  for (std::uint64_t i = first; i < first + inputs; ++i) {
+    Rng rng(core::hash_keys(seed, 1, i));
+    if (runtime == nullptr || i % kSession == 0 || i == first) {
+      runtime = std::make_unique<sim::AgentRuntime>(make_runtime(seed, rng.chance(0.5) ? "ieif" : "iekf"));
+    }
+    const AgentId sender = rng.chance(0.9) ? kNeighbours[rng.below(3)] : hostile_int<std::int32_t>(rng);
+    const dds::WireState wire(random_header(rng, sender, static_cast<std::uint32_t>(i % kSession)),
+                              random_state(rng));
+    swarmloc_msg_State sample = wire.sample;
+    const auto mutations = rng.below(6);
+    for (std::uint64_t m = 0; m < mutations; ++m) mutate(sample, rng);
+
+    const auto decoded = dds::decode(sample);
+    const bool expect_well_formed =
+        (sample.flags & ~(dds::codec::kStateFlagAnchor | dds::codec::kStateFlagActive)) == 0 &&
+        sample.agent_id == sample.header.agent_id;
+    record.check(decoded.well_formed == expect_well_formed, i, "state: well_formed differs from the rule");
+    if (decoded.well_formed) {
+      record.check(same_bits(decoded.message.mean_m.x(), sample.mean_m[0]) &&
+                       same_bits(decoded.message.mean_m.y(), sample.mean_m[1]) &&
+                       same_bits(decoded.message.covariance(0, 1), sample.covariance[1]) &&
+                       same_bits(decoded.message.covariance(1, 0), sample.covariance[1]) &&
+                       decoded.header.seq == sample.header.seq,
+                   i, "state: decoded values differ from the wire");
+    }
+    const auto before = runtime->rejected_by_reason();
+    const bool accepted = runtime->on_state(decoded.header, decoded.message, decoded.well_formed);
+    const auto after = runtime->rejected_by_reason();
+    if (!decoded.well_formed) {
+      record.check(!accepted, i, "state: a malformed sample was accepted");
+      if (decoded.header.agent_id != kSelf) {
+        record.check(after[static_cast<std::size_t>(sim::RejectReason::kMalformed)] ==
+                         before[static_cast<std::size_t>(sim::RejectReason::kMalformed)] + 1,
+                     i, "state: a malformed sample was not counted as malformed");
+      }
+    }
+    if (accepted) {
+      ++result.accepted;
+      const auto& m = decoded.message;
+      record.check(m.mean_m.allFinite() && m.covariance.allFinite(), i,
+                   "state: accepted a non-finite sample");
+      record.check(core::is_symmetric_psd(m.covariance, 1e-9), i, "state: accepted a non-PSD covariance");
+      record.check(m.mean_m.norm() <= 1e6 && m.covariance.cwiseAbs().maxCoeff() <= 1e14, i,
+                   "state: accepted an absurd magnitude");
+    } else {
+      ++result.rejected;
+      if (decoded.header.agent_id != kSelf) {
+        std::uint64_t counted = 0;
+        for (std::size_t r = 0; r < after.size(); ++r) counted += after[r] - before[r];
+        record.check(counted == 1, i, "state: a rejection was not counted under exactly one reason");
+      }
+    }
+    if (i % 4 == 3) {
+      runtime->on_batch(decoded.header, plausible_batch(rng, static_cast<std::int64_t>(i)));
+      (void)runtime->step(static_cast<std::int64_t>(i));
+      record.check(estimate_is_finite(*runtime), i, "state: the estimate became non-finite");
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Information
+
+void fuzz_information(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, FuzzResult& result) {
+  Recorder record(result);
+  for (std::uint64_t i = first; i < first + inputs; ++i) {
+    Rng rng(core::hash_keys(seed, 2, i));
+    estimators::InformationMessage message;
+    const auto n = static_cast<Eigen::Index>(rng.chance(0.05) ? rng.below(65) : rng.below(7));
+    message.target = static_cast<std::int32_t>(rng.below(10));
+    message.info_vec = VecX::Zero(n);
+    message.info_mat = MatX::Identity(n, n);
+    for (Eigen::Index r = 0; r < n; ++r) {
+      message.info_vec(r) = rng.uniform(-10.0, 10.0);
+      for (Eigen::Index c = r + 1; c < n; ++c)
+        message.info_mat(r, c) = message.info_mat(c, r) = rng.uniform(-0.1, 0.1);
+    }
+    dds::WireInformation wire(random_header(rng, 1, static_cast<std::uint32_t>(i)), message);
+    swarmloc_msg_Information& s = wire.sample;
+    std::vector<double> vec_storage;
+    std::vector<double> mat_storage;
+    const auto fill = [&](double& value) {
+      value = rng.chance(0.8) ? rng.uniform(-10.0, 10.0) : hostile_double(rng);
+    };
+    const auto mutations = rng.below(6);
+    for (std::uint64_t m = 0; m < mutations; ++m) {
+      switch (rng.below(7)) {
+        case 0:
+          s.agent_id = hostile_int<std::int32_t>(rng);
+          break;
+        case 1:
+          mutate_header(s.header, rng);
+          break;
+        case 2:
+          s.target = hostile_int<std::int32_t>(rng);
+          break;
+        case 3:
+          reshape(s.info_vec, vec_storage, dds::codec::kMaxInfoDim, rng, fill);
+          break;
+        case 4:
+          reshape(s.info_mat, mat_storage, dds::codec::kMaxInfoMat, rng, fill);
+          break;
+        case 5:
+          if (s.info_vec._length > 0 && s.info_vec._buffer != nullptr)
+            s.info_vec._buffer[rng.below(s.info_vec._length)] = hostile_double(rng);
+          break;
+        default: {
+          const auto vec = s.info_vec;
+          const auto mat = s.info_mat;
+          random_bytes(s, rng);
+          s.info_vec = vec;
+          s.info_mat = mat;
+        }
+      }
+    }
+    const auto decoded = dds::decode(s);
+    const std::size_t length = s.info_vec._length;
+    const bool buffers_ok = (s.info_vec._length == 0 || s.info_vec._buffer != nullptr) &&
+                            (s.info_mat._length == 0 || s.info_mat._buffer != nullptr);
+    const bool expect_well_formed =
+        buffers_ok && s.agent_id == s.header.agent_id && length <= dds::codec::kMaxInfoDim &&
+        s.info_mat._length <= dds::codec::kMaxInfoMat && s.info_mat._length == length * (length + 1) / 2;
+    record.check(decoded.well_formed == expect_well_formed, i,
+                 "information: well_formed differs from the rule");
+    record.check(decoded.message.target == s.target, i, "information: target not carried");
+    if (!decoded.well_formed) {
+      ++result.rejected;
+      continue;
+    }
+    ++result.accepted;
+    const auto& v = decoded.message.info_vec;
+    const auto& y = decoded.message.info_mat;
+    bool same = static_cast<std::size_t>(v.size()) == length && y.rows() == v.size() && y.cols() == v.size();
+    std::size_t next = 0;
+    for (Eigen::Index r = 0; same && r < v.size(); ++r) {
+      same = same_bits(v(r), s.info_vec._buffer[r]);
+      for (Eigen::Index c = r; same && c < v.size(); ++c, ++next) {
+        same = same_bits(y(r, c), s.info_mat._buffer[next]) && same_bits(y(c, r), s.info_mat._buffer[next]);
+      }
+    }
+    record.check(same, i, "information: decoded values differ from the wire");
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Consensus
+
+void fuzz_consensus(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, FuzzResult& result) {
+  Recorder record(result);
+  for (std::uint64_t i = first; i < first + inputs; ++i) {
+    Rng rng(core::hash_keys(seed, 3, i));
+    estimators::ConsensusMessage message;
+    message.tau = static_cast<std::int64_t>(rng.below(100));
+    message.round = static_cast<std::int32_t>(rng.below(20));
+    message.values.resize(rng.below(dds::codec::kMaxConsensusValues + 1));
+    for (auto& value : message.values) value = rng.uniform(-5.0, 5.0);
+    dds::WireConsensus wire(random_header(rng, 2, static_cast<std::uint32_t>(i)), message);
+    swarmloc_msg_Consensus& s = wire.sample;
+    std::vector<double> storage;
+    const auto mutations = rng.below(6);
+    for (std::uint64_t m = 0; m < mutations; ++m) {
+      switch (rng.below(6)) {
+        case 0:
+          s.agent_id = hostile_int<std::int32_t>(rng);
+          break;
+        case 1:
+          mutate_header(s.header, rng);
+          break;
+        case 2:
+          s.tau = hostile_int<std::int64_t>(rng);
+          break;
+        case 3:
+          s.round = hostile_int<std::int32_t>(rng);
+          break;
+        case 4:
+          reshape(s.values, storage, dds::codec::kMaxConsensusValues, rng,
+                  [&](double& value) { value = hostile_double(rng); });
+          break;
+        default: {
+          const auto values = s.values;
+          random_bytes(s, rng);
+          s.values = values;
+        }
+      }
+    }
+    const auto decoded = dds::decode(s);
+    const bool expect_well_formed = (s.values._length == 0 || s.values._buffer != nullptr) &&
+                                    s.values._length <= dds::codec::kMaxConsensusValues &&
+                                    s.agent_id == s.header.agent_id;
+    record.check(decoded.well_formed == expect_well_formed, i,
+                 "consensus: well_formed differs from the rule");
+    record.check(decoded.message.tau == s.tau && decoded.message.round == s.round, i,
+                 "consensus: tau/round not carried");
+    if (!decoded.well_formed) {
+      ++result.rejected;
+      continue;
+    }
+    ++result.accepted;
+    bool same = decoded.message.values.size() == s.values._length;
+    for (std::size_t k = 0; same && k < decoded.message.values.size(); ++k)
+      same = same_bits(decoded.message.values[k], s.values._buffer[k]);
+    record.check(same, i, "consensus: decoded values differ from the wire");
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Belief
+
+void fuzz_belief(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, FuzzResult& result) {
+  Recorder record(result);
+  for (std::uint64_t i = first; i < first + inputs; ++i) {
+    Rng rng(core::hash_keys(seed, 4, i));
+    estimators::BeliefMessage message;
+    message.iteration = static_cast<std::int64_t>(rng.below(50));
+    message.mean_m = Vec2(rng.uniform(-50.0, 50.0), rng.uniform(-50.0, 50.0));
+    message.information = random_psd(rng, 3.0);
+    message.infinite_information = rng.chance(0.2);
+    const dds::WireBelief wire(random_header(rng, 3, static_cast<std::uint32_t>(i)), message);
+    swarmloc_msg_Belief s = wire.sample;
+    const auto mutations = rng.below(6);
+    for (std::uint64_t m = 0; m < mutations; ++m) {
+      switch (rng.below(7)) {
+        case 0:
+          s.agent_id = hostile_int<std::int32_t>(rng);
+          break;
+        case 1:
+          mutate_header(s.header, rng);
+          break;
+        case 2:
+          s.iteration = hostile_int<std::int64_t>(rng);
+          break;
+        case 3:
+          s.mean_m[rng.below(2)] = hostile_double(rng);
+          break;
+        case 4:
+          s.information[rng.below(3)] = hostile_double(rng);
+          break;
+        case 5:
+          s.infinite_information = rng.chance(0.5);
+          break;
+        default:
+          random_bytes(s, rng);
+          s.infinite_information = rng.chance(0.5);  // CDR booleans are 0 or 1
+      }
+    }
+    const auto decoded = dds::decode(s);
+    record.check(decoded.well_formed == (s.agent_id == s.header.agent_id), i,
+                 "belief: well_formed differs from the rule");
+    if (!decoded.well_formed) {
+      ++result.rejected;
+      continue;
+    }
+    ++result.accepted;
+    const auto& b = decoded.message;
+    record.check(same_bits(b.mean_m.x(), s.mean_m[0]) && same_bits(b.mean_m.y(), s.mean_m[1]) &&
+                     same_bits(b.information(0, 0), s.information[0]) &&
+                     same_bits(b.information(0, 1), s.information[1]) &&
+                     same_bits(b.information(1, 0), s.information[1]) &&
+                     same_bits(b.information(1, 1), s.information[2]) &&
+                     b.infinite_information == s.infinite_information && b.iteration == s.iteration,
+                 i, "belief: decoded values differ from the wire");
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Measurement batch (orchestrator -> agent), then into the runtime and one estimator step
+
+void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, FuzzResult& result) {
+  Recorder record(result);
+  std::unique_ptr<sim::AgentRuntime> runtime;
+  for (std::uint64_t i = first; i < first + inputs; ++i) {
+    Rng rng(core::hash_keys(seed, 5, i));
+    if (runtime == nullptr || i % kSession == 0 || i == first) {
+      runtime = std::make_unique<sim::AgentRuntime>(make_runtime(seed, rng.chance(0.5) ? "ieif" : "iekf"));
+      // Neighbours with known states, so ranges to them are used.
+      for (const AgentId peer : kNeighbours) {
+        estimators::StateMessage anchor;
+        anchor.anchor = true;
+        anchor.mean_m = Vec2(10.0 * peer, 3.0 * peer);
+        runtime->on_state(random_header(rng, peer, 0), anchor);
+      }
+    }
+    auto batch = plausible_batch(rng, static_cast<std::int64_t>(i % kSession));
+    if (rng.chance(0.3))
+      batch.fix = estimators::AbsoluteFix{Vec2(rng.uniform(0, 40), rng.uniform(0, 40)), random_psd(rng, 1.0)};
+    if (rng.chance(0.3))
+      batch.motion =
+          estimators::MotionInput{Vec2(rng.uniform(-1, 1), rng.uniform(-1, 1)), 0.1, random_psd(rng, 0.1)};
+    dds::WireBatch wire(kSelf, random_header(rng, kOrchestratorId, static_cast<std::uint32_t>(i)), batch);
+    swarmloc_msg_MeasurementBatch s = wire.sample;
+    std::vector<swarmloc_msg_Range> ranges;
+    std::vector<swarmloc_msg_AbsoluteFix> fixes;
+    std::vector<swarmloc_msg_MotionInput> motion;
+    std::vector<std::int32_t> neighbours;
+    const auto mutations = rng.below(6);
+    for (std::uint64_t m = 0; m < mutations; ++m) {
+      switch (rng.below(9)) {
+        case 0:
+          s.agent_id = hostile_int<std::int32_t>(rng);
+          break;
+        case 1:
+          mutate_header(s.header, rng);
+          break;
+        case 2:
+          reshape(s.ranges, ranges, 64, rng, [&](swarmloc_msg_Range& range) {
+            range.peer = rng.chance(0.7) ? kNeighbours[rng.below(3)] : hostile_int<std::int32_t>(rng);
+            range.range_m = rng.chance(0.5) ? rng.uniform(0.0, 20.0) : hostile_double(rng);
+            range.std_m = rng.chance(0.5) ? 0.1 : hostile_double(rng);
+          });
+          break;
+        case 3:
+          reshape(s.fixes, fixes, 1, rng, [&](swarmloc_msg_AbsoluteFix& fix) {
+            for (auto& v : fix.position_m) v = hostile_double(rng);
+            for (auto& v : fix.covariance) v = hostile_double(rng);
+          });
+          break;
+        case 4:
+          reshape(s.motion, motion, 1, rng, [&](swarmloc_msg_MotionInput& input) {
+            for (auto& v : input.velocity_mps) v = hostile_double(rng);
+            input.dt_s = hostile_double(rng);
+            for (auto& v : input.process_cov) v = hostile_double(rng);
+          });
+          break;
+        case 5:
+          reshape(s.neighbours, neighbours, 16, rng,
+                  [&](std::int32_t& id) { id = hostile_int<std::int32_t>(rng); });
+          break;
+        case 6:
+          if (s.ranges._length > 0 && s.ranges._buffer != nullptr) {
+            auto& range = s.ranges._buffer[rng.below(s.ranges._length)];
+            (rng.chance(0.5) ? range.range_m : range.std_m) = hostile_double(rng);
+          }
+          break;
+        case 7:
+          if (s.fixes._length > 0 && s.fixes._buffer != nullptr)
+            s.fixes._buffer[0].covariance[rng.below(3)] = hostile_double(rng);
+          break;
+        default: {
+          const auto saved = s;
+          random_bytes(s, rng);
+          s.ranges = saved.ranges;
+          s.bearings = saved.bearings;
+          s.relative = saved.relative;
+          s.fixes = saved.fixes;
+          s.targets = saved.targets;
+          s.paths = saved.paths;
+          s.motion = saved.motion;
+          s.neighbours = saved.neighbours;
+        }
+      }
+    }
+    const auto decoded = dds::decode(s);
+    const auto buffer_ok = [](const auto& sequence) {
+      return sequence._length == 0 || sequence._buffer != nullptr;
+    };
+    const bool expect_well_formed = buffer_ok(s.ranges) && buffer_ok(s.fixes) && buffer_ok(s.motion) &&
+                                    buffer_ok(s.neighbours) && s.fixes._length <= 1 && s.motion._length <= 1;
+    record.check(decoded.well_formed == expect_well_formed, i, "batch: well_formed differs from the rule");
+    record.check(decoded.recipient == s.agent_id && decoded.batch.world_step == s.header.step, i,
+                 "batch: recipient/step not carried");
+    if (!decoded.well_formed) {
+      ++result.rejected;
+      continue;
+    }
+    ++result.accepted;
+    record.check(decoded.batch.ranges.size() == s.ranges._length &&
+                     decoded.batch.fix.has_value() == (s.fixes._length == 1) &&
+                     decoded.batch.motion.has_value() == (s.motion._length == 1) &&
+                     decoded.batch.neighbours.size() == s.neighbours._length,
+                 i, "batch: decoded sizes differ from the wire");
+    runtime->on_batch(decoded.header, decoded.batch);
+    (void)runtime->step(static_cast<std::int64_t>(i));
+    if (!estimate_is_finite(*runtime)) {
+      record.violation(i, "batch: the estimate became non-finite");
+      runtime.reset();  // start a fresh agent so one finding does not repeat for the whole session
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Estimate (agent -> orchestrator) and Control (orchestrator -> agents)
+
+void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, FuzzResult& result) {
+  Recorder record(result);
+  for (std::uint64_t i = first; i < first + inputs; ++i) {
+    Rng rng(core::hash_keys(seed, 6, i));
+    sim::EstimateReport report;
+    report.header = random_header(rng, static_cast<AgentId>(rng.below(30)), static_cast<std::uint32_t>(i));
+    report.estimate.mean_m = Vec2(rng.uniform(-50, 50), rng.uniform(-50, 50));
+    report.estimate.covariance = random_psd(rng, 1.0);
+    report.estimate.valid = rng.chance(0.9);
+    report.steps_run = static_cast<std::uint32_t>(rng.below(300));
+    report.links.resize(rng.below(6));
+    for (auto& link : report.links) link.sender = static_cast<AgentId>(rng.below(30));
+    dds::WireEstimate wire(report);
+    swarmloc_msg_Estimate& s = wire.sample;
+    std::vector<swarmloc_msg_LinkCounters> links;
+    std::vector<std::uint32_t> reasons;
+    const auto mutations = rng.below(6);
+    for (std::uint64_t m = 0; m < mutations; ++m) {
+      switch (rng.below(8)) {
+        case 0:
+          s.agent_id = hostile_int<std::int32_t>(rng);
+          break;
+        case 1:
+          mutate_header(s.header, rng);
+          break;
+        case 2:
+          s.mean_m[rng.below(2)] = hostile_double(rng);
+          break;
+        case 3:
+          s.covariance[rng.below(3)] = hostile_double(rng);
+          break;
+        case 4:
+          s.cpu_s = hostile_double(rng);
+          break;
+        case 5:
+          reshape(s.links, links, 100, rng,
+                  [&](swarmloc_msg_LinkCounters& link) { random_bytes(link, rng); });
+          break;
+        case 6:
+          reshape(s.rejected_by_reason, reasons, dds::codec::kMaxRejectReasons, rng,
+                  [&](std::uint32_t& count) { count = hostile_int<std::uint32_t>(rng); });
+          break;
+        default: {
+          const auto saved_links = s.links;
+          const auto saved_reasons = s.rejected_by_reason;
+          random_bytes(s, rng);
+          s.valid = rng.chance(0.5);
+          s.links = saved_links;
+          s.rejected_by_reason = saved_reasons;
+        }
+      }
+    }
+    const auto decoded = dds::decode(s);
+    const bool expect_well_formed =
+        (s.links._length == 0 || s.links._buffer != nullptr) &&
+        (s.rejected_by_reason._length == 0 || s.rejected_by_reason._buffer != nullptr) &&
+        s.rejected_by_reason._length <= sim::kRejectReasonCount && s.agent_id == s.header.agent_id;
+    record.check(decoded.well_formed == expect_well_formed, i, "estimate: well_formed differs from the rule");
+    if (!decoded.well_formed) {
+      ++result.rejected;
+      continue;
+    }
+    ++result.accepted;
+    bool same = decoded.report.links.size() == s.links._length;
+    for (std::size_t k = 0; same && k < s.rejected_by_reason._length; ++k)
+      same = decoded.report.rejected_by_reason[k] == s.rejected_by_reason._buffer[k];
+    record.check(same, i, "estimate: decoded values differ from the wire");
+  }
+}
+
+void fuzz_control(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, FuzzResult& result) {
+  Recorder record(result);
+  for (std::uint64_t i = first; i < first + inputs; ++i) {
+    Rng rng(core::hash_keys(seed, 7, i));
+    sim::ControlMessage message;
+    message.header = random_header(rng, kOrchestratorId, static_cast<std::uint32_t>(i));
+    message.command = static_cast<sim::ControlCommand>(rng.below(3));
+    message.scenario_hash = rng.next();
+    const dds::WireControl wire(message);
+    swarmloc_msg_Control s = wire.sample;
+    const auto mutations = rng.below(4);
+    for (std::uint64_t m = 0; m < mutations; ++m) {
+      switch (rng.below(4)) {
+        case 0:
+          s.command = hostile_int<std::uint8_t>(rng);
+          break;
+        case 1:
+          mutate_header(s.header, rng);
+          break;
+        case 2:
+          s.agent_id = hostile_int<std::int32_t>(rng);
+          break;
+        default:
+          random_bytes(s, rng);
+      }
+    }
+    const auto decoded = dds::decode(s);
+    const bool known = s.command == swarmloc_msg_CONTROL_HELLO || s.command == swarmloc_msg_CONTROL_START ||
+                       s.command == swarmloc_msg_CONTROL_STOP;
+    record.check(decoded.well_formed == known, i, "control: well_formed differs from the command rule");
+    record.check(decoded.message.scenario_hash == s.scenario_hash && decoded.message.target == s.agent_id, i,
+                 "control: fields not carried");
+    if (decoded.well_formed) {
+      ++result.accepted;
+      record.check(static_cast<std::uint8_t>(decoded.message.command) == s.command, i,
+                   "control: command changed");
+    } else {
+      ++result.rejected;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Scenario parser
+
+const std::vector<std::string>& scenario_corpus() {
+  static const std::vector<std::string> corpus = [] {
+    std::vector<std::string> texts;
+#ifdef SWARMLOC_SOURCE_DIR
+    for (const char* file : {"/scenarios/default.yaml", "/scenarios/ea2.yaml"}) {
+      std::ifstream in(std::string(SWARMLOC_SOURCE_DIR) + file);
+      std::stringstream buffer;
+      buffer << in.rdbuf();
+      if (!buffer.str().empty()) texts.push_back(buffer.str());
+    }
+#endif
+    config::Scenario s;
+    texts.push_back(config::to_yaml(s));
+    s.name = "fuzz: \"quoted\" \\ #";
+    s.network.loss = 0.3;
+    s.network.burst.mean_length = 8.0;
+    s.run.mode = config::RunMode::kLockstep;
+    s.world.placement = config::Placement::kGrid;
+    s.qos.state.reliability = config::Reliability::kReliable;
+    texts.push_back(config::to_yaml(s));
+    texts.emplace_back("seed: 7\nworld:\n  agents: 12\n  anchors: 4\nnetwork:\n  loss: 0.2\n");
+    texts.emplace_back(
+        "{world: {agents: 5, anchors: 3}, network: {loss: 0.1, burst: {mean_length: 3}}, "
+        "run: {steps: 10, mode: free-run}}\n");
+    texts.emplace_back(
+        "# comment\nalgorithm:\n  name: iekf   # trailing\n  initial_std_m: 1e1\nqos:\n"
+        "  state: {reliability: reliable, history_depth: 2}\n");
+    texts.emplace_back("");
+    return texts;
+  }();
+  return corpus;
+}
+
+constexpr std::array<std::string_view, 44> kValues{"1e999",
+                                                   "-1e999",
+                                                   "99999999999999999999999",
+                                                   "-2147483649",
+                                                   "2147483648",
+                                                   "18446744073709551616",
+                                                   "0x1F",
+                                                   "0o17",
+                                                   "1_000",
+                                                   ".nan",
+                                                   ".inf",
+                                                   "-.inf",
+                                                   "~",
+                                                   "null",
+                                                   "",
+                                                   "''",
+                                                   "\"\"",
+                                                   "[1, 2]",
+                                                   "{a: 1}",
+                                                   "yes",
+                                                   "No",
+                                                   "true",
+                                                   "1e-320",
+                                                   "4.9e-324",
+                                                   "1.7976931348623157e308",
+                                                   "-0",
+                                                   "+5",
+                                                   "0.5",
+                                                   "30",
+                                                   "lockstep",
+                                                   "free-run",
+                                                   "\"300\"",
+                                                   "'x: y'",
+                                                   "&x 5",
+                                                   "*x",
+                                                   "!!int 5",
+                                                   "!!str 5",
+                                                   "|\n  multi\n",
+                                                   "- 1\n- 2",
+                                                   "1.5",
+                                                   "-1",
+                                                   "0",
+                                                   "ieif",
+                                                   "reliable"};
+
+constexpr std::array<std::string_view, 24> kTokens{
+    ":",  "-", " ", "\n", "\t", "#",  "[", "]",     "{",     "}",  ",",        "&a ",
+    "*a", "!", "|", ">",  "'",  "\"", "%", "---\n", "...\n", "? ", "<<: *a\n", std::string_view("\0", 1)};
+
+std::string random_value(Rng& rng) {
+  if (rng.chance(0.2)) return std::to_string(static_cast<std::int64_t>(rng.next()));
+  if (rng.chance(0.1)) return std::string(1 + rng.below(2000), 'x');
+  return std::string(kValues[rng.below(kValues.size())]);
+}
+
+std::string random_key(Rng& rng) {
+  const auto& keys = config::known_keys();
+  std::string key = keys[rng.below(keys.size())];
+  if (rng.chance(0.6)) key = key.substr(key.rfind('.') + 1);  // leaf name, as in a file
+  if (rng.chance(0.1)) key[rng.below(key.size())] = static_cast<char>('a' + rng.below(26));  // typo
+  return key;
+}
+
+std::vector<std::size_t> line_starts(const std::string& text) {
+  std::vector<std::size_t> starts{0};
+  for (std::size_t p = 0; p < text.size(); ++p)
+    if (text[p] == '\n' && p + 1 < text.size()) starts.push_back(p + 1);
+  return starts;
+}
+
+void mutate_text(std::string& text, Rng& rng) {
+  const auto position = [&] { return text.empty() ? std::size_t{0} : rng.below(text.size() + 1); };
+  switch (rng.below(11)) {
+    case 0:
+      if (!text.empty()) text[rng.below(text.size())] ^= static_cast<char>(1U << rng.below(8));
+      break;
+    case 1:
+      if (!text.empty()) text[rng.below(text.size())] = static_cast<char>(rng.next());
+      break;
+    case 2:
+      text.insert(position(), std::string(kTokens[rng.below(kTokens.size())]));
+      break;
+    case 3:
+      if (!text.empty()) {
+        const auto at = rng.below(text.size());
+        text.erase(at, 1 + rng.below(16));
+      }
+      break;
+    case 4:
+      text.resize(position());
+      break;
+    case 5:
+    case 6: {
+      const auto starts = line_starts(text);
+      const auto a = starts[rng.below(starts.size())];
+      const auto a_end = text.find('\n', a);
+      const std::string line = text.substr(a, a_end == std::string::npos ? std::string::npos : a_end - a + 1);
+      const auto b = starts[rng.below(starts.size())];
+      if (rng.chance(0.5)) {
+        text.insert(b, line);  // duplicate a line (duplicate keys, repeated sections)
+      } else {
+        text.erase(a, line.size());  // move a line elsewhere
+        text.insert(std::min(b, text.size()), line);
+      }
+      break;
+    }
+    case 7:
+    case 8: {
+      const auto starts = line_starts(text);
+      const auto at = starts[rng.below(starts.size())];
+      text.insert(at, std::string(2 * rng.below(4), ' ') + random_key(rng) + ": " + random_value(rng) + "\n");
+      break;
+    }
+    case 9: {
+      const auto colon = text.find(": ", position());
+      if (colon != std::string::npos) {
+        const auto end = text.find('\n', colon);
+        text.replace(colon + 2, (end == std::string::npos ? text.size() : end) - colon - 2,
+                     random_value(rng));
+      }
+      break;
+    }
+    default:
+      text.insert(position(), std::string(1 + rng.below(3), static_cast<char>(rng.next())));
+  }
+}
+
+}  // namespace
+
+ScenarioInput scenario_input(std::uint64_t seed, std::uint64_t i) {
+  const auto& corpus = scenario_corpus();
+  {
+    Rng rng(core::hash_keys(seed, 8, i));
+    std::string text = corpus[rng.below(corpus.size())];
+    const auto mutations = 1 + rng.below(6);
+    for (std::uint64_t m = 0; m < mutations; ++m) mutate_text(text, rng);
+    std::vector<std::string> overrides;
+    if (rng.chance(0.15)) {
+      const auto& keys = config::known_keys();
+      for (std::uint64_t k = 0, n = 1 + rng.below(2); k < n; ++k) {
+        std::string key = keys[rng.below(keys.size())];
+        if (rng.chance(0.1)) key = random_key(rng);
+        overrides.push_back(rng.chance(0.05) ? key : key + "=" + random_value(rng));
+      }
+    }
+    return {text, overrides};
+  }
+}
+
+namespace {
+
+void fuzz_scenario(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, FuzzResult& result) {
+  Recorder record(result);
+  for (std::uint64_t i = first; i < first + inputs; ++i) {
+    const auto [text, overrides] = scenario_input(seed, i);
+    try {
+      const config::Scenario scenario = config::parse_scenario(text, overrides, "fuzz.yaml");
+      ++result.accepted;
+      try {
+        config::validate(scenario);
+        const std::string yaml = config::to_yaml(scenario);
+        const config::Scenario again = config::parse_scenario(yaml);
+        record.check(config::to_yaml(again) == yaml, i, "scenario: to_yaml round trip differs");
+      } catch (const std::exception& error) {
+        record.violation(
+            i, std::string("scenario: a parsed scenario failed validate/round trip: ") + error.what());
+      }
+    } catch (const config::ScenarioError&) {
+      ++result.rejected;
+    } catch (const std::exception& error) {
+      record.violation(i, std::string("scenario: threw ") + typeid(error).name() +
+                              " (not ScenarioError): " + error.what());
+    } catch (...) {
+      record.violation(i, "scenario: threw a non-std exception");
+    }
+  }
+}
+
+using TargetFn = void (*)(std::uint64_t, std::uint64_t, std::uint64_t, FuzzResult&);
+
+const std::vector<std::pair<std::string, TargetFn>>& targets() {
+  static const std::vector<std::pair<std::string, TargetFn>> list{
+      {"state", fuzz_state},         {"information", fuzz_information},
+      {"consensus", fuzz_consensus}, {"belief", fuzz_belief},
+      {"batch", fuzz_batch},         {"estimate", fuzz_estimate},
+      {"control", fuzz_control},     {"scenario", fuzz_scenario}};
+  return list;
+}
+
+}  // namespace
+
+const std::vector<std::string>& target_names() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> list;
+    for (const auto& [name, fn] : targets()) list.push_back(name);
+    return list;
+  }();
+  return names;
+}
+
+FuzzResult run_target(const std::string& target, std::uint64_t seed, std::uint64_t inputs,
+                      std::uint64_t first) {
+  for (const auto& [name, fn] : targets()) {
+    if (name != target) continue;
+    FuzzResult result;
+    result.target = name;
+    result.inputs = inputs;
+    fn(seed, first, inputs, result);
+    return result;
+  }
+  throw std::invalid_argument("unknown fuzz target '" + target + "'");
+}
+
+}  // namespace swarmloc::fuzz
