@@ -104,7 +104,7 @@ Scenario everything_changed() {
   Scenario s;
   s.seed = std::numeric_limits<std::uint64_t>::max();
   s.name = "quotes \" back\\slash: colon # hash\nnewline\ttab \x01 null";
-  s.algorithm = {"dgbb", 0.3, 1.0 / 3.0, 1e-300, false, 9.0};
+  s.algorithm = {"dgbb", 0.3, 1.0 / 3.0, 1e-300, false, 7, 0.25, 3.5, 0.5, 1e-12, 9.0};
   s.world.agents = 100000;
   s.world.anchors = 0;
   s.world.area_m = 123.456789012345678;
@@ -116,7 +116,12 @@ Scenario everything_changed() {
   s.world.initial_guess = InitialGuess::kUniform;
   s.world.initial_guess_std_m = 7.0;
   s.world.require_connected = false;
-  s.noise = {0.2, 2.0};
+  s.noise = {0.2, 2.0, RangeNoise::kProportional, 0.05, true, 0.3, 2.5, NoiseDraw::kOnce};
+  s.world.wall_count = 3;
+  s.world.wall_first_angle_deg = 10.0;
+  s.world.wall_angle_step_deg = 10.0;
+  s.world.wall_margin_m = 0.5;
+  s.faults = {"3@0-9, 4@0", "5@0-2", "0-0"};  // run.steps is 1
   s.network.loss = 1.0;
   s.network.burst.mean_length = 12.5;
   s.clock = {1e5, 0.25};
