@@ -272,6 +272,13 @@ void AgentRuntime::on_batch(const Header& header, estimators::MeasurementBatch b
   (void)header;
   if (batch.world_step <= newest_batch_step_) return;  // late or duplicate batch
   sanitize_batch(batch);
+  if (pending_batch_ && !pending_batch_->relative.empty()) {
+    // Free run: a batch that arrived since the last step is superseded by this one. Ranges, fixes and
+    // paths are re-measured in the newer batch, but relative-position samples are independent draws
+    // that Jacobi averages — carry them over instead of losing them.
+    batch.relative.insert(batch.relative.begin(), pending_batch_->relative.begin(),
+                          pending_batch_->relative.end());
+  }
   newest_batch_step_ = batch.world_step;
   if (batch.world_step > 0) batch_period_s_ = batch.world_time_s / static_cast<double>(batch.world_step);
   pending_batch_ = std::move(batch);
