@@ -268,17 +268,31 @@ void AgentRuntime::sanitize_batch(estimators::MeasurementBatch& batch) {
   });
 }
 
+void AgentRuntime::carry_over(const estimators::MeasurementBatch& superseded,
+                              estimators::MeasurementBatch& batch) {
+  // Free run: a batch that arrived since the last step is superseded by this one before any step used
+  // it. Its measurements are independent draws, so keep their information instead of losing it:
+  // relative-position samples are appended (Jacobi averages every sample), and each range is fused
+  // with the newer range to the same peer by inverse-variance weighting (one range per peer, so a
+  // Kalman update does not count the neighbour's position uncertainty twice).
+  batch.relative.insert(batch.relative.begin(), superseded.relative.begin(), superseded.relative.end());
+  for (auto& range : batch.ranges) {
+    const auto old =
+        std::find_if(superseded.ranges.begin(), superseded.ranges.end(),
+                     [&](const estimators::RangeMeasurement& r) { return r.peer == range.peer; });
+    if (old == superseded.ranges.end() || !(old->std_m > 0.0) || !(range.std_m > 0.0)) continue;
+    const double w_old = 1.0 / (old->std_m * old->std_m);
+    const double w_new = 1.0 / (range.std_m * range.std_m);
+    range.range_m = (w_old * old->range_m + w_new * range.range_m) / (w_old + w_new);
+    range.std_m = 1.0 / std::sqrt(w_old + w_new);
+  }
+}
+
 void AgentRuntime::on_batch(const Header& header, estimators::MeasurementBatch batch) {
   (void)header;
   if (batch.world_step <= newest_batch_step_) return;  // late or duplicate batch
   sanitize_batch(batch);
-  if (pending_batch_ && !pending_batch_->relative.empty()) {
-    // Free run: a batch that arrived since the last step is superseded by this one. Ranges, fixes and
-    // paths are re-measured in the newer batch, but relative-position samples are independent draws
-    // that Jacobi averages — carry them over instead of losing them.
-    batch.relative.insert(batch.relative.begin(), pending_batch_->relative.begin(),
-                          pending_batch_->relative.end());
-  }
+  if (pending_batch_) carry_over(*pending_batch_, batch);
   newest_batch_step_ = batch.world_step;
   if (batch.world_step > 0) batch_period_s_ = batch.world_time_s / static_cast<double>(batch.world_step);
   pending_batch_ = std::move(batch);

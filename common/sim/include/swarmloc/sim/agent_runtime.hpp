@@ -118,6 +118,7 @@ class AgentRuntime {
   /// non-PSD covariance. The generator makes one range per neighbour, so honest batches are unchanged;
   /// this bounds the estimator's work (IEKF solves an M x M system) and keeps NaN/Inf out of estimates.
   void sanitize_batch(estimators::MeasurementBatch& batch);
+  static void carry_over(const estimators::MeasurementBatch& superseded, estimators::MeasurementBatch& batch);
   [[nodiscard]] std::int64_t world_stamp_ns(std::int64_t world_step) const;
   /// faults.partition: true if `header`'s sender is on the other side while the sample's world step
   /// (the step of the batch the sender had used) lies in the window — the same answer in every runtime.
