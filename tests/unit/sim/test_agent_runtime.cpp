@@ -67,7 +67,8 @@ TEST(AgentRuntime, DropsDuplicateAndReorderedSamples) {
   const auto& reasons = runtime.rejected_by_reason();
   EXPECT_EQ(reasons[static_cast<std::size_t>(RejectReason::kDuplicate)], 1U);
   EXPECT_EQ(reasons[static_cast<std::size_t>(RejectReason::kReordered)], 1U);
-  const auto& link = runtime.links().at(1);
+  const auto links = runtime.links();  // by value: counters span restarts
+  const auto& link = links.at(1);
   EXPECT_EQ(link.arrived, 4U);
   EXPECT_EQ(link.delivered, 2U);
   EXPECT_EQ(link.sent(), 3U);  // seqs 4..6
@@ -78,7 +79,8 @@ TEST(AgentRuntime, InjectedLossDropsTheConfiguredFraction) {
   constexpr std::uint32_t kSamples = 20000;
   for (std::uint32_t seq = 0; seq < kSamples; ++seq)
     runtime.on_state(header_from(1, seq), anchor_state(Vec2(0.0, 0.0)));
-  const auto& link = runtime.links().at(1);
+  const auto links = runtime.links();  // by value: counters span restarts
+  const auto& link = links.at(1);
   EXPECT_EQ(link.arrived, kSamples);
   EXPECT_EQ(link.delivered + link.dropped_injected, kSamples);
   const double sigma = std::sqrt(kSamples * 0.3 * 0.7);
