@@ -1,6 +1,5 @@
 #include "swarmloc/sim/agent_runtime.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 
@@ -36,15 +35,6 @@ constexpr std::size_t kMaxVectorLength = 64;
 // Consensus scalars (ρ, ψ of DG-BB: squared step lengths and curvatures) stay far below this.
 constexpr double kAbsurdScalar = 1e30;
 
-bool symmetric_psd(const MatX& m) {
-  if (m.rows() != m.cols()) return false;
-  if (!m.isApprox(m.transpose(), 1e-9) && (m - m.transpose()).cwiseAbs().maxCoeff() > 1e-12) return false;
-  if (m.rows() == 0) return true;
-  const Eigen::SelfAdjointEigenSolver<MatX> eigen(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly);
-  const double scale = std::max(1.0, m.cwiseAbs().maxCoeff());
-  return eigen.info() == Eigen::Success && eigen.eigenvalues().minCoeff() >= -1e-9 * scale;
-}
-
 }  // namespace
 
 std::optional<RejectReason> AgentRuntime::check_content(const estimators::StateMessage& m) const {
@@ -67,7 +57,7 @@ std::optional<RejectReason> AgentRuntime::check_content(const estimators::Inform
                 m.info_mat.cwiseAbs().maxCoeff() > kAbsurdScalar)) {
     return RejectReason::kAbsurdMagnitude;
   }
-  if (!symmetric_psd(m.info_mat)) return RejectReason::kNotSymmetricPsd;
+  if (!core::is_symmetric_psd_dynamic(m.info_mat, 1e-9)) return RejectReason::kNotSymmetricPsd;
   return std::nullopt;
 }
 
