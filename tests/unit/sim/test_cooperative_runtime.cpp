@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/estimators/consensus/cooperative.hpp"
 #include "swarmloc/models/multipath.hpp"
 #include "swarmloc/sim/agent_runtime.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -152,6 +153,28 @@ TEST(CooperativeRuntime, HostileInformationConsensusAndBeliefSamplesAreRejectedP
   const auto publication = runtime.step(0);
   ASSERT_TRUE(publication.outbox.belief.has_value());
   EXPECT_TRUE(publication.outbox.belief->mean_m.allFinite());
+}
+
+TEST(CooperativeRuntime, ASupersededBatchKeepsItsRelativeSamplesAndFusesItsRanges) {
+  // Free run: batches 0 and 1 both arrive before the agent steps. Jacobi from one anchor neighbour at
+  // the origin gives x = −s̄, so the carried-over sample shows in the mean: s̄ = (1 + 3)/2, not 3.
+  estimators::AgentSetup setup{0, false, Vec2(5.0, 5.0)};
+  AgentRuntimeParams params;
+  params.absurd_position_bound_m = 1e5;
+  AgentRuntime runtime(estimators::make_cooperative_estimator("jacobi", setup, {}), setup, {1}, params);
+  estimators::StateMessage anchor;
+  anchor.anchor = true;
+  ASSERT_TRUE(runtime.on_state(Header{1, 0, 0, 0, 0}, anchor));
+  for (const double sample : {1.0, 3.0}) {
+    estimators::MeasurementBatch batch;
+    batch.world_step = sample > 2.0 ? 1 : 0;
+    batch.relative.push_back({1, Vec2(sample, 0.0), Mat2::Identity() * 0.01});
+    batch.ranges.push_back({1, sample, 1.0});
+    runtime.on_batch(Header{kOrchestratorId, 0, batch.world_step, 0, 0}, batch);
+  }
+  runtime.step(0);
+  EXPECT_NEAR(runtime.estimate().mean_m.x(), -2.0, 1e-12);
+  EXPECT_NEAR(runtime.estimate().mean_m.y(), 0.0, 1e-12);
 }
 
 TEST(CooperativeSimulation, JacobiApproachesTheBlueBoundOfItsRelativeMeasurements) {
