@@ -155,7 +155,7 @@ TEST(CooperativeRuntime, HostileInformationConsensusAndBeliefSamplesAreRejectedP
   EXPECT_TRUE(publication.outbox.belief->mean_m.allFinite());
 }
 
-TEST(CooperativeRuntime, ASupersededBatchKeepsItsRelativeSamplesAndFusesItsRanges) {
+TEST(CooperativeRuntime, ASupersededBatchKeepsItsRelativeSamples) {
   // Free run: batches 0 and 1 both arrive before the agent steps. Jacobi from one anchor neighbour at
   // the origin gives x = −s̄, so the carried-over sample shows in the mean: s̄ = (1 + 3)/2, not 3.
   estimators::AgentSetup setup{0, false, Vec2(5.0, 5.0)};
