@@ -4,6 +4,7 @@
 #include <cmath>
 #include <random>
 
+#include "kalman_reference.hpp"
 #include "swarmloc/estimators/crlb.hpp"
 #include "swarmloc/estimators/ieif.hpp"
 #include "swarmloc/estimators/iekf.hpp"
@@ -66,6 +67,37 @@ void crlb_all_pairs(benchmark::State& state) {
   state.counters["observations"] = static_cast<double>(ranges.size());
 }
 BENCHMARK(crlb_all_pairs)->Arg(30)->Arg(300)->Unit(benchmark::kMillisecond);
+
+/// One IEKF measurement update with M ranges: 001 Table II has every pair measuring, M = N − 1.
+est::Linearization ranges_rows(Eigen::Index m) {
+  std::mt19937_64 rng(2);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  est::Linearization rows;
+  rows.jacobian.resize(m, 2);
+  rows.innovation.resize(m);
+  rows.variance.resize(m);
+  for (Eigen::Index k = 0; k < m; ++k) {
+    rows.jacobian.row(k) = Vec2(normal(rng), normal(rng)).normalized().transpose();
+    rows.innovation(k) = 0.1 * normal(rng);
+    rows.variance(k) = 0.01 + 0.001 * std::abs(normal(rng));
+  }
+  return rows;
+}
+
+void iekf_update_two_by_two(benchmark::State& state) {
+  const est::Linearization rows = ranges_rows(state.range(0));
+  const Mat2 P{{0.5, 0.1}, {0.1, 0.4}};
+  for (auto _ : state) benchmark::DoNotOptimize(est::kalman_update(Vec2(1.0, 2.0), P, rows));
+}
+void iekf_update_m_by_m(benchmark::State& state) {
+  const est::Linearization rows = ranges_rows(state.range(0));
+  const Mat2 P{{0.5, 0.1}, {0.1, 0.4}};
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(swarmloc::testing::kalman_update_innovation_form(Vec2(1.0, 2.0), P, rows));
+  }
+}
+BENCHMARK(iekf_update_two_by_two)->Arg(8)->Arg(89)->Arg(359);
+BENCHMARK(iekf_update_m_by_m)->Arg(8)->Arg(89)->Arg(359);
 
 }  // namespace
 

@@ -192,30 +192,31 @@ InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, c
 }
 
 KalmanUpdate kalman_update(const Vec2& x_pred, const Mat2& P_pred, const Linearization& rows) {
-  const AbsoluteFix* fix = usable_fix(rows);
-  const Eigen::Index ranges = rows.jacobian.rows();
-  const Eigen::Index m = ranges + (fix != nullptr ? 2 : 0);
-  if (m == 0) return KalmanUpdate{x_pred, P_pred};
-  Eigen::Matrix<double, Eigen::Dynamic, 2> H(m, 2);
-  VecX nu(m);
-  MatX R = MatX::Zero(m, m);
-  H.topRows(ranges) = rows.jacobian;
-  nu.head(ranges) = rows.innovation;
-  R.topLeftCorner(ranges, ranges) = rows.variance.asDiagonal();
-  if (fix != nullptr) {
-    H.bottomRows(2) = Mat2::Identity();
-    nu.tail(2) = fix->position_m - x_pred;
-    R.bottomRightCorner(2, 2) = fix->covariance;
+  // 001 eqs. (30)–(32): S = H P Hᵀ + R̃, K = P Hᵀ S⁻¹, Joseph form. R̃ is block diagonal (independent
+  // ranges, one 2×2 fix), so by the push-through identity K = (I + P A)⁻¹ P Hᵀ R̃⁻¹ with A = Hᵀ R̃⁻¹ H:
+  // only A and b = Hᵀ R̃⁻¹ ν are needed, O(M) instead of factoring the M×M S (360 nodes: M = 359).
+  // P_pred is never inverted; I + P A is invertible because P and A are PSD.
+  Mat2 A = Mat2::Zero();
+  Vec2 b = Vec2::Zero();
+  for (Eigen::Index m = 0; m < rows.jacobian.rows(); ++m) {
+    const Vec2 u = rows.jacobian.row(m).transpose();
+    A += u * u.transpose() / rows.variance(m);
+    b += u * rows.innovation(m) / rows.variance(m);
   }
-  // 001 eqs. (30)–(32): S = H P Hᵀ + R̃, K = P Hᵀ S⁻¹.
-  const MatX S = H * P_pred * H.transpose() + R;
-  const Eigen::LDLT<MatX> ldlt(S);
-  const Eigen::Matrix<double, 2, Eigen::Dynamic> K = ldlt.solve(H * P_pred).transpose();  // S symmetric
-  const Mat2 I_KH = Mat2::Identity() - K * H;
+  if (const AbsoluteFix* fix = usable_fix(rows)) {
+    const Mat2 R_inv = fix->covariance.inverse();  // linear row H = I₂
+    A += R_inv;
+    b += R_inv * (fix->position_m - x_pred);
+  }
+  if (rows.jacobian.rows() == 0 && usable_fix(rows) == nullptr) return KalmanUpdate{x_pred, P_pred};
+  const Mat2 M_inv = (Mat2::Identity() + P_pred * A).inverse();
+  const Mat2 KH = M_inv * P_pred * A;  // K H
+  const Mat2 I_KH = Mat2::Identity() - KH;
   KalmanUpdate out;
-  out.mean = x_pred + K * nu;
+  out.mean = x_pred + M_inv * (P_pred * b);  // x + K ν
+  // Joseph form (I − K H) P (I − K H)ᵀ + K R̃ Kᵀ, with K R̃ Kᵀ = M⁻¹ P A P M⁻ᵀ.
   out.covariance =
-      core::symmetrized(I_KH * P_pred * I_KH.transpose() + K * R * K.transpose());  // Joseph form
+      core::symmetrized(I_KH * P_pred * I_KH.transpose() + M_inv * P_pred * A * P_pred * M_inv.transpose());
   return out;
 }
 

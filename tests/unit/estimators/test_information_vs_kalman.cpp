@@ -4,6 +4,7 @@
 #include <random>
 
 #include "eigen_gtest.hpp"
+#include "kalman_reference.hpp"
 #include "swarmloc/estimators/ieif.hpp"
 #include "swarmloc/estimators/iekf.hpp"
 #include "swarmloc/estimators/kalman_family.hpp"
@@ -117,6 +118,31 @@ TEST(Iekf, JosephUpdateMatchesTheTextbookKalmanUpdate) {
   const KalmanUpdate update = kalman_update(Vec2(1.0, 2.0), P, rows);
   EXPECT_MATRIX_NEAR(update.mean, Vec2(Vec2(1.0, 2.0) + K * 0.3), 1e-12);
   EXPECT_MATRIX_NEAR(update.covariance, Mat2((Mat2::Identity() - K * h) * P), 1e-12);
+}
+
+TEST(Iekf, TwoByTwoUpdateEqualsTheMByMInnovationCovarianceForm) {
+  // kalman_update never forms the M×M S = H P Hᵀ + R; compare with that textbook form (Joseph) for many
+  // rows plus a correlated fix, including a singular P (which the push-through form must not invert).
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Index ranges = 50;
+    const Mat2 B = Mat2::Random();
+    const Mat2 P = trial % 4 == 0 ? Mat2(Vec2(1.0, -2.0) * Vec2(1.0, -2.0).transpose())  // rank 1
+                                  : Mat2(B * B.transpose() + 0.01 * Mat2::Identity());
+    const Vec2 x(normal(rng), normal(rng));
+    Linearization rows;
+    rows.jacobian = Eigen::Matrix<double, Eigen::Dynamic, 2>::Random(ranges, 2);
+    rows.innovation = VecX::Random(ranges);
+    rows.variance = VecX::Random(ranges).cwiseAbs() + VecX::Constant(ranges, 0.01);
+    const Mat2 C = Mat2::Random();
+    rows.fix = AbsoluteFix{Vec2(normal(rng), normal(rng)), C * C.transpose() + 0.2 * Mat2::Identity()};
+
+    const KalmanUpdate expected = testing::kalman_update_innovation_form(x, P, rows);
+    const KalmanUpdate update = kalman_update(x, P, rows);
+    EXPECT_MATRIX_NEAR(update.mean, expected.mean, 1e-9) << "trial " << trial;
+    EXPECT_MATRIX_NEAR(update.covariance, expected.covariance, 1e-9) << "trial " << trial;
+  }
 }
 
 }  // namespace

@@ -1,0 +1,14 @@
+#pragma once
+// A deliberately broken publisher for robustness runs (issue 5: "an injected hostile agent"): the
+// DDS agent started with --hostile and the simulator's SimOptions::hostile_agents garble the same way.
+#include <cstdint>
+
+#include "swarmloc/estimators/messages.hpp"
+
+namespace swarmloc::sim {
+
+/// Replaces every family of `outbox` by broken samples of the same kind: NaN, non-PSD and absurd
+/// magnitudes in turn (by `step` mod 3).
+void make_hostile(estimators::Outbox& outbox, std::int64_t step);
+
+}  // namespace swarmloc::sim
