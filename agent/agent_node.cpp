@@ -10,13 +10,13 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
-#include <limits>
 #include <thread>
 #include <type_traits>
 
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/sim/agent_runtime.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
+#include "swarmloc/sim/hostile.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/sim/world.hpp"
 
@@ -48,49 +48,6 @@ std::shared_ptr<spdlog::logger> make_logger(const AgentOptions& options) {
   logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ [" + name + "] %v");
   logger->flush_on(spdlog::level::info);
   return logger;
-}
-
-/// A deliberately broken state for robustness runs: cycles through NaN, non-PSD and absurd values.
-estimators::StateMessage hostile_state(std::int64_t step) {
-  estimators::StateMessage message;
-  message.mean_m = Vec2(20.0, 20.0);
-  message.covariance = Mat2::Identity() * 0.01;
-  switch (step % 3) {
-    case 0:
-      message.mean_m.x() = std::numeric_limits<double>::quiet_NaN();
-      break;
-    case 1:
-      message.covariance << 1.0, 5.0, 5.0, 1.0;
-      break;  // eigenvalues 6 and -4
-    default:
-      message.mean_m = Vec2(1e12, -1e12);
-      break;
-  }
-  return message;
-}
-
-/// Replaces every family of `outbox` by broken samples of the same kind (NaN, non-PSD, absurd in turn).
-void make_hostile(estimators::Outbox& outbox, std::int64_t step) {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const int variant = static_cast<int>(step % 3);
-  if (outbox.state) outbox.state = hostile_state(step);
-  if (outbox.belief) {
-    auto& belief = *outbox.belief;
-    belief.infinite_information = false;
-    belief.information = Mat2::Identity();
-    if (variant == 0) belief.mean_m.x() = nan;
-    if (variant == 1) belief.information << 1.0, 5.0, 5.0, 1.0;
-    if (variant == 2) belief.mean_m = Vec2(1e12, -1e12);
-  }
-  for (auto& consensus : outbox.consensus) {
-    for (double& value : consensus.values) value = variant == 0 ? nan : (variant == 1 ? -1e300 : 1e300);
-  }
-  if (outbox.information) {
-    auto& information = *outbox.information;
-    if (variant == 0) information.info_vec.setConstant(nan);
-    if (variant == 1 && information.info_mat.size() > 0) information.info_mat.setConstant(-1.0);
-    if (variant == 2) information.info_mat.setConstant(1e300);
-  }
 }
 
 class AgentProcess {
@@ -267,7 +224,7 @@ class AgentProcess {
 
   void tick() {
     auto publication = runtime_.step(local_stamp_ns());
-    if (options_.hostile) make_hostile(publication.outbox, publication.header.step);
+    if (options_.hostile) sim::make_hostile(publication.outbox, publication.header.step);
     publish(publication);
     // Lockstep: the report tells the orchestrator this step is done, so its samples must be with the
     // neighbours before it.

@@ -101,6 +101,9 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   sim->add_option("--threads", threads, "Worker threads for --trials (default: every core)")
       ->check(CLI::NonNegativeNumber);
+  std::vector<int> sim_hostile;
+  sim->add_option("--hostile", sim_hostile,
+                  "This agent publishes NaN / non-PSD / absurd samples, as in `run --hostile`");
   int sim_view_port = -1;
   double sim_view_hold = 10.0;
   add_view_options(sim, sim_view_port, sim_view_hold);
@@ -177,10 +180,16 @@ int main(int argc, char** argv) {
     return swarmloc::orchestrator::run_orchestrator(options);
   }
   if (sim->parsed()) {
-    swarmloc::orchestrator::SimCommandOptions options{scenario_path, overrides, out_dir,
-                                                      !quiet,        trials,    threads};
+    swarmloc::orchestrator::SimCommandOptions options;
+    options.scenario_path = scenario_path;
+    options.overrides = overrides;
+    options.out_dir = out_dir;
+    options.progress = !quiet;
+    options.trials = trials;
+    options.threads = threads;
     options.view_port = sim_view_port;
     options.view_hold_s = sim_view_hold;
+    options.hostile_agents.assign(sim_hostile.begin(), sim_hostile.end());
     return swarmloc::orchestrator::run_sim_command(options);
   }
   if (agent->parsed()) {

@@ -441,6 +441,14 @@ class Orchestrator {
   std::unique_ptr<LiveView> view_;  ///< --view
 };
 
+void check_hostile_ids(const std::vector<AgentId>& hostile_agents, const config::Scenario& scenario) {
+  for (AgentId id : hostile_agents) {
+    if (id < 0 || id >= scenario.world.agents) {
+      throw config::ScenarioError("--hostile: agent " + std::to_string(id) + " is outside [0, world.agents)");
+    }
+  }
+}
+
 }  // namespace
 
 /// Builds the world and one agent's estimator, so that an unplaceable world or an algorithm this
@@ -459,12 +467,7 @@ int run_orchestrator(const RunOptions& options) {
   config::Scenario scenario;
   try {
     scenario = config::load_scenario(options.scenario_path, options.overrides);
-    for (AgentId id : options.hostile_agents) {
-      if (id < 0 || id >= scenario.world.agents) {
-        throw config::ScenarioError("--hostile: agent " + std::to_string(id) +
-                                    " is outside [0, world.agents)");
-      }
-    }
+    check_hostile_ids(options.hostile_agents, scenario);
     check_runnable(scenario);  // placement and algorithm errors are bad input, found before anything starts
     if (!scenario.dds.security_dir.empty()) {
       // Agents read the run directory's scenario.yaml, possibly from another working directory.
@@ -504,9 +507,14 @@ int run_sim_command(const SimCommandOptions& options) {
   config::Scenario scenario;
   try {
     scenario = config::load_scenario(options.scenario_path, options.overrides);
+    check_hostile_ids(options.hostile_agents, scenario);
     check_runnable(scenario);
   } catch (const config::ScenarioError& error) {
     std::fprintf(stderr, "error: %s\n", error.what());
+    return 2;
+  }
+  if (!options.hostile_agents.empty() && options.trials > 1) {
+    std::fprintf(stderr, "error: --hostile is for single runs; it cannot be combined with --trials\n");
     return 2;
   }
   const auto run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
@@ -561,6 +569,7 @@ int run_sim_command(const SimCommandOptions& options) {
       return 0;
     }
     sim::SimOptions sim_options;
+    sim_options.hostile_agents = options.hostile_agents;
     sim_options.on_step = [&](std::int64_t step, const sim::ErrorStats& errors) {
       progress.update(progress_line(step, scenario.run.steps, errors, scenario.world.agents,
                                     scenario.world.agents, seconds_since(started)),

@@ -29,10 +29,11 @@ struct SimCommandOptions {
   std::vector<std::string> overrides;
   std::filesystem::path out_dir;
   bool progress = true;
-  int trials = 1;   ///< > 1: Monte Carlo over every core
-  int threads = 0;  ///< 0 = every core
+  int trials = 1;             ///< > 1: Monte Carlo over every core
+  int threads = 0;            ///< 0 = every core
   int view_port = -1;         ///< >= 0: paced playback in the live view on 127.0.0.1:view_port (0: any port)
   double view_hold_s = 10.0;  ///< after the playback, keep serving this long (inf: until Ctrl-C)
+  std::vector<AgentId> hostile_agents;  ///< publish garbage, as `run --hostile` (single runs only)
 };
 
 /// `swarmloc sim`: the in-process runner.

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
 
 #include "process_helpers.hpp"
 
@@ -72,14 +75,53 @@ TEST(RunOverDds, ConvergesWithSkewedDriftingClocks) {
   EXPECT_LT(skewed["final"]["rmse_m"].get<double>(), 0.1);
 }
 
-TEST(RunOverDds, HostileAgentSamplesAreRejectedAndCounted) {
-  // Agent 0 publishes NaN, non-PSD and absurd states all run long; honest agents drop and count them.
-  const auto run = run_dds("hostile", " --hostile 0", 14);
-  const auto& rejected = run["rejected_by_reason"];
+/// Final-step error per agent from a run directory's estimates.csv (step,agent,…,error_m).
+std::map<int, double> final_errors(const std::filesystem::path& run_dir) {
+  std::ifstream csv(run_dir / "estimates.csv");
+  std::string line;
+  std::getline(csv, line);  // header
+  std::map<long, std::map<int, double>> by_step;
+  while (std::getline(csv, line)) {
+    std::stringstream fields(line);
+    std::string step, agent, field, last;
+    std::getline(fields, step, ',');
+    std::getline(fields, agent, ',');
+    while (std::getline(fields, field, ',')) last = field;
+    by_step[std::stol(step)][std::stoi(agent)] = std::stod(last);
+  }
+  return by_step.empty() ? std::map<int, double>{} : by_step.rbegin()->second;
+}
+
+TEST(RunOverDds, HostileAgentIsRejectedCountedAndChangesNoHonestErrorByTenPercent) {
+  // Agent 0 publishes NaN, non-PSD and absurd states all run long (lockstep, so the run is
+  // deterministic). The run without it: the simulator with agent 0 dead from step 0 — its neighbours
+  // hold only its initial sample in both runs. Lockstep DDS equals the simulator (LockstepOverDds).
+  const std::string lockstep = " --set run.mode=lockstep --set run.steps=100";
+  const auto attacked_dir = fresh_directory("hostile");
+  const auto attacked = run_command(kBinary + " run " + kScenario + " --out " + attacked_dir.string() +
+                                    common_flags(14) + lockstep + " --hostile 0");
+  ASSERT_EQ(attacked.exit_code, 0) << attacked.output;
+  EXPECT_EQ(count_processes_matching(attacked_dir.string()), 0) << "agent processes outlived the run";
+  const auto baseline_dir = fresh_directory("hostile-baseline");
+  const auto baseline = run_command(kBinary + " sim " + kScenario + " --out " + baseline_dir.string() +
+                                    common_flags(0) + lockstep + " --set faults.kill=0@0");
+  ASSERT_EQ(baseline.exit_code, 0) << baseline.output;
+
+  const auto summary = read_json(attacked_dir / "summary.json");
+  const auto& rejected = summary["rejected_by_reason"];
   EXPECT_GT(rejected["non_finite"].get<int>(), 0);
   EXPECT_GT(rejected["not_symmetric_psd"].get<int>(), 0);
   EXPECT_GT(rejected["absurd_magnitude"].get<int>(), 0);
-  EXPECT_LT(run["final"]["rmse_m"].get<double>(), 0.1) << "hostile samples leaked into estimates";
+  auto attacked_errors = final_errors(attacked_dir);
+  const auto baseline_errors = final_errors(baseline_dir);
+  attacked_errors.erase(0);
+  ASSERT_EQ(attacked_errors.size(), baseline_errors.size());
+  ASSERT_EQ(attacked_errors.size(), 29U);
+  for (const auto& [agent, error] : baseline_errors) {
+    EXPECT_LE(std::abs(attacked_errors.at(agent) - error), 0.10 * error)
+        << "agent " << agent << ": " << error << " without the hostile agent, " << attacked_errors.at(agent)
+        << " with it";
+  }
 }
 
 struct BadInput {

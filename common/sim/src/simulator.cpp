@@ -13,6 +13,7 @@
 #include "swarmloc/estimators/consensus/cooperative.hpp"
 #include "swarmloc/sim/agent_runtime.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
+#include "swarmloc/sim/hostile.hpp"
 
 namespace swarmloc::sim {
 
@@ -157,6 +158,10 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
         continue;
       }
       published[k] = agents[k].step(stamp_ns(step));
+      if (std::find(options.hostile_agents.begin(), options.hostile_agents.end(), i) !=
+          options.hostile_agents.end()) {
+        make_hostile(published[k].outbox, published[k].header.step);
+      }
       estimates[k] = agents[k].estimate();
     }
     StepMetrics metrics;

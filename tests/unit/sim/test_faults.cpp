@@ -2,6 +2,9 @@
 // schedule with real signals (tests/integration/test_faults_dds.cpp).
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <map>
+
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
@@ -97,6 +100,71 @@ TEST(SimulatedFaults, PausedAgentIsNotScoredAndResumesWithItsState) {
   EXPECT_EQ(paused.metrics[121].errors.scored, 22);
   EXPECT_LT(rmse_at(paused, 121), 1.2 * rmse_at(paused, 99));
 }
+
+/// Final-step error per agent, skipping `skip`.
+std::map<AgentId, double> final_errors(const RunRecord& record, AgentId skip) {
+  std::map<AgentId, double> errors;
+  const std::int64_t last = record.metrics.back().step;
+  for (const auto& row : record.estimates) {
+    if (row.step == last && row.agent != skip) errors[row.agent] = (row.estimate.mean_m - row.truth).norm();
+  }
+  return errors;
+}
+
+struct HostileCase {
+  const char* scenario;
+  const char* steps;
+};
+
+class HostileAgent : public ::testing::TestWithParam<HostileCase> {};
+
+TEST_P(HostileAgent, ChangesNoHonestAgentsFinalErrorByMoreThanTenPercent) {
+  // Issue 5: a member that publishes NaN, non-PSD and absurd samples all run long against a run
+  // without it (the same agent dead from step 0: its neighbours have only its initial sample in both).
+  const HostileCase c = GetParam();
+  const auto s = config::load_scenario(
+      std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/" + c.scenario + ".yaml", {c.steps});
+  const World world = build_world(s);
+  AgentId hostile = 0;
+  while (world.is_anchor[static_cast<std::size_t>(hostile)] ||
+         world.neighbours[static_cast<std::size_t>(hostile)].size() < 3) {
+    ++hostile;
+  }
+  SimOptions with_hostile;
+  with_hostile.hostile_agents = {hostile};
+  const auto attacked = run_simulation(s, with_hostile);
+  auto without = s;
+  without.faults.kill = std::to_string(hostile) + "@0";
+  const auto baseline = run_simulation(without);
+
+  const auto attacked_errors = final_errors(attacked, hostile);
+  const auto baseline_errors = final_errors(baseline, hostile);
+  ASSERT_EQ(attacked_errors.size(), static_cast<std::size_t>(world.size() - 1));
+  double worst_change = 0.0;
+  for (const auto& [agent, error] : baseline_errors) {
+    const double change = std::abs(attacked_errors.at(agent) - error) / std::max(error, 1e-6);
+    worst_change = std::max(worst_change, change);
+    EXPECT_LE(change, 0.10) << c.scenario << ": agent " << agent << " " << error << " -> "
+                            << attacked_errors.at(agent);
+  }
+  std::uint64_t non_finite = 0, absurd = 0;
+  for (const auto& summary : attacked.agent_summaries) {
+    non_finite += summary.rejected_by_reason[static_cast<std::size_t>(RejectReason::kNonFinite)];
+    absurd += summary.rejected_by_reason[static_cast<std::size_t>(RejectReason::kAbsurdMagnitude)];
+  }
+  EXPECT_GT(non_finite, 0U) << "the hostile samples must have reached (and been rejected by) neighbours";
+  EXPECT_GT(absurd, 0U);
+  RecordProperty("worst_relative_change", std::to_string(worst_change));
+}
+
+INSTANTIATE_TEST_SUITE_P(EveryRuntimeAlgorithm, HostileAgent,
+                         ::testing::Values(HostileCase{"default", "run.steps=100"},
+                                           HostileCase{"jacobi", "run.steps=60"},
+                                           HostileCase{"dgbb", "run.steps=150"},
+                                           HostileCase{"multipath_bp", "run.steps=30"}),
+                         [](const ::testing::TestParamInfo<HostileCase>& param_info) {
+                           return std::string(param_info.param.scenario);
+                         });
 
 }  // namespace
 }  // namespace swarmloc::sim

@@ -13,6 +13,9 @@ struct SimOptions {
   /// Called after every step with (step, errors) — for progress lines. May be empty.
   std::function<void(std::int64_t, const ErrorStats&)> on_step;
   std::uint64_t trial = 0;  ///< Monte Carlo trial (see World::trial)
+  /// Agents that publish garbage (sim::make_hostile) after their initial sample, like `swarmloc run
+  /// --hostile`; they still estimate for themselves and are scored.
+  std::vector<AgentId> hostile_agents;
 };
 
 /// Runs `scenario` in synchronous rounds: at round k every agent receives its world-step-k batch and
