@@ -90,6 +90,22 @@ TEST(AgentClockSimulator, DriftingOffsetClocksAreDeterministicAndConverge) {
   EXPECT_LT(final_agents, 1.15 * final_rounds);
 }
 
+TEST(AgentClockSimulator, JitterBeyondOnePeriodLetsSamplesOvertakeAndTheOlderOneIsRejected) {
+  // Deliveries are not kept FIFO: with up to 1.5 periods of jitter a newer sample often arrives first,
+  // and the receiver's runtime rejects the older one as reordered (a best-effort DDS reader drops it).
+  auto reordered = [](const RunRecord& record) {
+    std::uint64_t count = 0;
+    for (const auto& summary : record.agent_summaries)
+      count += summary.rejected_by_reason[static_cast<std::size_t>(RejectReason::kReordered)];
+    return count;
+  };
+  const auto jittery = run_simulation(agent_clock({"network.delay_ms=1", "network.jitter_ms=150"}));
+  EXPECT_GT(reordered(jittery), 0U);
+  EXPECT_EQ(reordered(jittery), link_totals(jittery).rejected);  // nothing else is wrong with them
+  const auto steady = run_simulation(agent_clock({"network.delay_ms=1", "network.jitter_ms=90"}));
+  EXPECT_EQ(reordered(steady), 0U);
+}
+
 TEST(AgentClockSimulator, StepCountsFollowEachAgentsDriftAndTimerStart) {
   // 10 % drift so that it shows in 50 steps: agent i ticks every T/(1+drift_i), i.e. about
   // 50·(1 + drift_i) times in the run's 50 periods.
