@@ -26,6 +26,7 @@ constexpr std::array<std::pair<Placement, std::string_view>, 3> kPlacementNames{
 constexpr EnumNames<Motion> kMotionNames{{{Motion::kStatic, "static"}, {Motion::kRandomWalk, "random_walk"}}};
 constexpr EnumNames<RunMode> kRunModeNames{
     {{RunMode::kFreeRun, "free_run"}, {RunMode::kLockstep, "lockstep"}}};
+constexpr EnumNames<SimClock> kSimClockNames{{{SimClock::kRounds, "rounds"}, {SimClock::kAgents, "agents"}}};
 constexpr EnumNames<InitialGuess> kInitialGuessNames{
     {{InitialGuess::kNoisyTruth, "noisy_truth"}, {InitialGuess::kUniform, "uniform"}}};
 constexpr EnumNames<Reliability> kReliabilityNames{
@@ -41,6 +42,7 @@ constexpr EnumNames<NoiseDraw> kNoiseDrawNames{
 const auto& names_of(Placement /*tag*/) { return kPlacementNames; }
 const auto& names_of(Motion /*tag*/) { return kMotionNames; }
 const auto& names_of(RunMode /*tag*/) { return kRunModeNames; }
+const auto& names_of(SimClock /*tag*/) { return kSimClockNames; }
 const auto& names_of(InitialGuess /*tag*/) { return kInitialGuessNames; }
 const auto& names_of(Reliability /*tag*/) { return kReliabilityNames; }
 const auto& names_of(Durability /*tag*/) { return kDurabilityNames; }
@@ -299,6 +301,8 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(noise.draw),
       SWARMLOC_KEY(network.loss),
       SWARMLOC_KEY(network.burst.mean_length),
+      SWARMLOC_KEY(network.delay_ms),
+      SWARMLOC_KEY(network.jitter_ms),
       SWARMLOC_KEY(clock.drift_ppm),
       SWARMLOC_KEY(clock.offset_max_s),
       SWARMLOC_KEY(run.steps),
@@ -306,6 +310,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(run.mode),
       SWARMLOC_KEY(run.startup_timeout_s),
       SWARMLOC_KEY(run.settle_s),
+      SWARMLOC_KEY(run.sim_clock),
   };
   SWARMLOC_QOS(measurements);
   SWARMLOC_QOS(state);

@@ -147,6 +147,10 @@ void validate(const Scenario& scenario) {
 
   require_within(scenario.network.loss, 0.0, 1.0, "network.loss");
   validate_burst(scenario.network);
+  // 10 s is far beyond any network this runtime targets; anything larger is a unit mistake (s vs ms).
+  constexpr double kMaxDelayMs = 10000.0;
+  require_within(scenario.network.delay_ms, 0.0, kMaxDelayMs, "network.delay_ms");
+  require_within(scenario.network.jitter_ms, 0.0, kMaxDelayMs, "network.jitter_ms");
 
   // drift_ppm is the magnitude of a ± bound drawn per agent; 1e5 ppm = 10 %.
   require_within(scenario.clock.drift_ppm, 0.0, 1e5, "clock.drift_ppm");
@@ -160,6 +164,11 @@ void validate(const Scenario& scenario) {
   }
   require_positive(run.startup_timeout_s, "run.startup_timeout_s");
   require_non_negative(run.settle_s, "run.settle_s");
+  // Only the simulator's agents clock models latency: a delay under rounds would silently do nothing.
+  if (run.sim_clock == SimClock::kRounds) {
+    if (scenario.network.delay_ms != 0.0) fail("network.delay_ms", "needs run.sim_clock = agents");
+    if (scenario.network.jitter_ms != 0.0) fail("network.jitter_ms", "needs run.sim_clock = agents");
+  }
 
   const auto& qos = scenario.qos;
   validate_qos(qos.measurements, "measurements");

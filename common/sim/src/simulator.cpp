@@ -76,6 +76,8 @@ std::vector<std::uint8_t> partition_groups(const World& world) {
 }
 
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options) {
+  if (scenario.run.sim_clock == config::SimClock::kAgents)
+    return run_agent_clock_simulation(scenario, options);
   if (is_centralized(scenario.algorithm.name)) return run_centralized_simulation(scenario, options);
   const auto started = std::chrono::steady_clock::now();
   World world = build_world(scenario, options.trial);
@@ -197,6 +199,7 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
 MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, int threads,
                                  const std::function<void(int, int)>& on_trial,
                                  const std::function<void(int, const RunRecord&)>& on_record) {
+  require_supported_sim_clock(scenario);  // here, not in a worker thread, where it would terminate
   const auto started = std::chrono::steady_clock::now();
   MonteCarloResult result;
   result.trials = trials;

@@ -78,6 +78,8 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.noise.anchor_fix_std_m, b.noise.anchor_fix_std_m);
   EXPECT_EQ(a.network.loss, b.network.loss);
   EXPECT_EQ(a.network.burst.mean_length, b.network.burst.mean_length);
+  EXPECT_EQ(a.network.delay_ms, b.network.delay_ms);
+  EXPECT_EQ(a.network.jitter_ms, b.network.jitter_ms);
   EXPECT_EQ(a.clock.drift_ppm, b.clock.drift_ppm);
   EXPECT_EQ(a.clock.offset_max_s, b.clock.offset_max_s);
   EXPECT_EQ(a.run.steps, b.run.steps);
@@ -85,6 +87,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.run.mode, b.run.mode);
   EXPECT_EQ(a.run.startup_timeout_s, b.run.startup_timeout_s);
   EXPECT_EQ(a.run.settle_s, b.run.settle_s);
+  EXPECT_EQ(a.run.sim_clock, b.run.sim_clock);
   expect_qos_equal(a.qos.measurements, b.qos.measurements, "measurements");
   expect_qos_equal(a.qos.state, b.qos.state, "state");
   expect_qos_equal(a.qos.information, b.qos.information, "information");
@@ -125,7 +128,9 @@ Scenario everything_changed() {
   s.network.loss = 1.0;
   s.network.burst.mean_length = 12.5;
   s.clock = {1e5, 0.25};
-  s.run = {1, 1000.0, RunMode::kLockstep, 0.5, 0.0};
+  s.network.delay_ms = 250.5;
+  s.network.jitter_ms = 10000.0;
+  s.run = {1, 1000.0, RunMode::kLockstep, 0.5, 0.0, SimClock::kAgents};
   s.qos.measurements = {Reliability::kBestEffort, 2, Durability::kTransientLocal, 1.5, 2.5};
   s.qos.state = {Reliability::kReliable, 3, Durability::kTransientLocal, 0.1, 0.2};
   s.qos.information = {Reliability::kReliable, 5, Durability::kTransientLocal, 0.3, 0.4};
@@ -271,7 +276,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 11U + 15U + 8U + 2U + 2U + 5U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 11U + 15U + 8U + 4U + 2U + 6U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -492,6 +497,31 @@ TEST(ScenarioErrors, BurstLengthIsZeroOrAtLeastTheBernoulliBurst) {
   EXPECT_STARTS_WITH(override_error({"network.burst=3"}), "network.burst: is a section, not a key");
   EXPECT_STARTS_WITH(error_of([] { parse_scenario("network:\n  burst: 3\n"); }),
                      "network.burst: expected a map with keys network.burst.mean_length");
+}
+
+TEST(ScenarioErrors, SimulatorClockAndLatencyKeysNameThemselves) {
+  EXPECT_EQ(parse_scenario("", {"run.sim_clock=agents"}).run.sim_clock, SimClock::kAgents);
+  EXPECT_EQ(parse_scenario("").run.sim_clock, SimClock::kRounds);
+  EXPECT_STARTS_WITH(override_error({"run.sim_clock=sideways"}),
+                     "run.sim_clock: 'sideways' is not one of rounds|agents");
+  EXPECT_EQ(validate_error([](Scenario& s) { s.run.sim_clock = static_cast<SimClock>(5); }),
+            "run.sim_clock: invalid enum value 5");
+  const std::string agents = "run.sim_clock=agents";
+  EXPECT_STARTS_WITH(override_error({agents, "network.delay_ms=-1"}),
+                     "network.delay_ms: -1 is outside [0, 10000]");
+  EXPECT_STARTS_WITH(override_error({agents, "network.jitter_ms=10000.5"}),
+                     "network.jitter_ms: 10000.5 is outside [0, 10000]");
+  EXPECT_STARTS_WITH(override_error({agents, "network.delay_ms=.inf"}),
+                     "network.delay_ms: inf is not a finite number");
+  EXPECT_STARTS_WITH(override_error({agents, "network.jitter_ms=abc"}),
+                     "network.jitter_ms: expected a number");
+  // Latency is simulated only on agent clocks; in rounds it would silently do nothing.
+  EXPECT_STARTS_WITH(override_error({"network.delay_ms=5"}),
+                     "network.delay_ms: needs run.sim_clock = agents");
+  EXPECT_STARTS_WITH(override_error({"network.jitter_ms=5"}),
+                     "network.jitter_ms: needs run.sim_clock = agents");
+  EXPECT_NO_THROW(parse_scenario("", {agents, "network.delay_ms=0", "network.jitter_ms=10000"}));
+  EXPECT_NO_THROW(parse_scenario("", {agents, "network.delay_ms=10000", "network.jitter_ms=0"}));
 }
 
 TEST(ScenarioErrors, BoundaryValuesAreAccepted) {

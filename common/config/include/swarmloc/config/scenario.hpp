@@ -22,6 +22,9 @@ class ScenarioError : public std::invalid_argument {
 enum class Placement { kUniform, kGrid, kFile };
 enum class Motion { kStatic, kRandomWalk };
 enum class RunMode { kFreeRun, kLockstep };
+/// How `swarmloc sim` drives the agents: synchronous rounds, or each agent on its own clock over a
+/// network with delay (discrete events on virtual time, docs/architecture.md "Simulator").
+enum class SimClock { kRounds, kAgents };
 enum class InitialGuess { kNoisyTruth, kUniform };
 enum class Reliability { kBestEffort, kReliable };
 enum class Durability { kVolatile, kTransientLocal };
@@ -93,6 +96,9 @@ struct Scenario {
     struct Burst {
       double mean_length = 0.0;  ///< 0 = Bernoulli; else Gilbert–Elliott mean burst (samples)
     } burst;
+    // Simulated latency of every sample and batch (run.sim_clock = agents only; DDS has real latency).
+    double delay_ms = 0.0;   ///< fixed part
+    double jitter_ms = 0.0;  ///< plus a seeded uniform draw in [0, jitter_ms) per delivery
   } network;
 
   struct Clock {
@@ -106,6 +112,7 @@ struct Scenario {
     RunMode mode = RunMode::kFreeRun;
     double startup_timeout_s = 30.0;  ///< agents must report within this time
     double settle_s = 1.0;            ///< extra time after the last step for final estimates
+    SimClock sim_clock = SimClock::kRounds;  ///< the simulator's schedule (DDS runs ignore it)
   } run;
 
   struct Qos {

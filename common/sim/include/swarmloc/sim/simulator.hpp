@@ -1,6 +1,7 @@
 #pragma once
-// The in-process runtime: the same AgentRuntime + estimator code as the DDS agents, driven in
-// synchronous rounds over a seeded bus that applies the same receiver-side loss model.
+// The in-process runtime: the same AgentRuntime + estimator code as the DDS agents, driven either in
+// synchronous rounds or with each agent on its own clock (run.sim_clock), over a seeded bus that
+// applies the same receiver-side loss model.
 #include <functional>
 
 #include "swarmloc/sim/agent_runtime.hpp"
@@ -18,10 +19,24 @@ struct SimOptions {
   std::vector<AgentId> hostile_agents;
 };
 
-/// Runs `scenario` in synchronous rounds: at round k every agent receives its world-step-k batch and
-/// the samples its neighbours published in round k−1, then steps. Deterministic in the seed.
+/// Runs `scenario` in-process, deterministic in the seed. run.sim_clock = rounds: synchronous rounds —
+/// at round k every agent receives its world-step-k batch and the samples its neighbours published in
+/// round k−1, then steps. run.sim_clock = agents: run_agent_clock_simulation.
 /// Centralized algorithms (ekf, lbekf*) delegate to run_centralized_simulation (centralized_runner.hpp).
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options = {});
+
+/// run.sim_clock = agents: a discrete-event simulation on virtual time. World step k's batches are
+/// published at k·T (T = 1/run.rate_hz) and the truth advances then; agent i's timer starts with the
+/// run and ticks every local period T of its own clock (every T/(1+drift_i) of virtual time, the
+/// clock the DDS agent draws); a tick steps the agent on its newest batch and mailbox and publishes.
+/// Samples and batches arrive after network.delay_ms + U[0, network.jitter_ms). World step k is scored
+/// at (k+1)·T with each agent's newest estimate. Throws config::ScenarioError for a centralized
+/// algorithm (see require_supported_sim_clock).
+RunRecord run_agent_clock_simulation(const config::Scenario& scenario, const SimOptions& options = {});
+
+/// Throws config::ScenarioError naming run.sim_clock when the scenario's schedule cannot be simulated:
+/// run.sim_clock = agents with a centralized algorithm (its fusion centre consumes whole world steps).
+void require_supported_sim_clock(const config::Scenario& scenario);
 
 /// Per-step statistics across Monte Carlo trials (mean and standard deviation over trials).
 struct MonteCarloStep {
