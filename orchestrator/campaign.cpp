@@ -558,6 +558,8 @@ void write_plot(const std::filesystem::path& directory, const CampaignSpec& spec
     const std::string where = run.mode == "sim" ? "simulator" : "DDS";
     const std::string xtics = numeric ? "" : ":xtic(4)";
     for (int panel = 0; panel < 2; ++panel) {
+      // Log scale for the ratio: one run in a wrong local minimum (×30) must not flatten every other line.
+      gp << (panel == 0 ? "set logscale y\n" : "unset logscale y\n");
       gp << "set title '" << (panel == 0 ? "final RMSE ÷ reference (" : "time to converge, s (") << where
          << ")'\n"
          << "set xlabel '" << spec.swept_key << "'\n"

@@ -108,7 +108,8 @@ TEST(Campaign, SmallSimulatorLossCampaignWritesTableCsvPlotAndStaysWithinOneAndA
   EXPECT_NE(markdown.find("| network.loss | IEIF bernoulli | IEIF burst | Jacobi bernoulli | Jacobi burst |"),
             std::string::npos)
       << markdown;
-  EXPECT_NE(markdown.find("\n| 0 | 1.00 [1.00] ("), std::string::npos) << "the reference row is 1.00 by definition";
+  EXPECT_NE(markdown.find("\n| 0 | 1.00 [1.00] ("), std::string::npos)
+      << "the reference row is 1.00 by definition";
   EXPECT_NE(markdown.find("\n| 0.3 | "), std::string::npos);
   EXPECT_EQ(markdown.find("DDS"), std::string::npos) << "mode sim runs no DDS cell";
   EXPECT_EQ(markdown.find("FAIL"), std::string::npos) << markdown;
