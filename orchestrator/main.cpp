@@ -10,6 +10,7 @@
 #include <string>
 
 #include "agent_node.hpp"
+#include "campaign.hpp"
 #include "fusion_center.hpp"
 #include "orchestrator.hpp"
 #include "reproduce.hpp"
@@ -57,7 +58,8 @@ int main(int argc, char** argv) {
       "feeds every agent its noisy measurements, and scores the estimates against truth and the CRLB.\n\n"
       "  swarmloc run scenarios/default.yaml            # N agent processes over DDS on loopback\n"
       "  swarmloc sim scenarios/default.yaml            # the same estimators in one process\n"
-      "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n",
+      "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n"
+      "  swarmloc campaign scenarios/campaigns/loss.yaml --mode sim   # loss sweep, every algorithm\n",
       "swarmloc"};
   app.require_subcommand(1);
   app.footer("Exit codes: 0 ok, 2 bad input (scenario or flags), 1 runtime failure or interrupted.");
@@ -149,6 +151,25 @@ int main(int argc, char** argv) {
   reproduce->add_option("--threads", reproduce_options.threads, "Worker threads (default: every core)");
   reproduce->add_option("--seed", reproduce_options.seed, "Seed");
 
+  auto* campaign = app.add_subcommand(
+      "campaign",
+      "Sweep one scenario key (e.g. network.loss) over algorithms, variants and seeds, in the simulator "
+      "and/or over DDS; writes campaign.md, campaign.csv and campaign.png (docs/robustness.md).");
+  swarmloc::orchestrator::CampaignOptions campaign_options;
+  campaign
+      ->add_option("spec", campaign_options.spec_path,
+                   "Campaign spec YAML (e.g. scenarios/campaigns/loss.yaml)")
+      ->required();
+  campaign->add_option("--out", campaign_options.out_dir,
+                       "Campaign directory (default: runs/campaign-<name>-<stamp>)");
+  campaign->add_option("--mode", campaign_options.mode, "sim | dds | both (default: the spec's mode)")
+      ->check(CLI::IsMember({"sim", "dds", "both"}));
+  campaign
+      ->add_option("--seeds", campaign_options.seeds, "Run seeds 1..K in every mode (default: the spec's)")
+      ->check(CLI::Range(1, 1000));
+  bool campaign_quiet = false;
+  campaign->add_flag("-q,--quiet", campaign_quiet, "No line per finished run");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -206,6 +227,11 @@ int main(int argc, char** argv) {
       return 2;
     }
     return swarmloc::agent::run_agent(agent_options);
+  }
+  if (campaign->parsed()) {
+    campaign_options.progress = !campaign_quiet;
+    campaign_options.agent_binary = self_executable(argv[0]);
+    return swarmloc::orchestrator::run_campaign(campaign_options);
   }
   if (reproduce->parsed()) {
     reproduce_options.out_dir = reproduce_out;
