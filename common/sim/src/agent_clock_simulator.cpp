@@ -10,6 +10,7 @@
 
 #include "swarmloc/core/random.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
+#include "swarmloc/sim/hostile.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::sim {
@@ -205,7 +206,12 @@ class AgentClockSimulation {
     if (tick.incarnation != incarnation_[k] || dead_[k]) return;  // that process is gone
     schedule_tick(tick.agent, tick.index + 1);
     if (paused_[k]) return;  // SIGSTOP: the timer's periods pass without a step
-    publish(tick.agent, agent(tick.agent).step(local_stamp_ns(tick.agent, now_s_)), now_s_);
+    auto publication = agent(tick.agent).step(local_stamp_ns(tick.agent, now_s_));
+    if (std::find(options_.hostile_agents.begin(), options_.hostile_agents.end(), tick.agent) !=
+        options_.hostile_agents.end()) {
+      make_hostile(publication.outbox, publication.header.step);
+    }
+    publish(tick.agent, std::move(publication), now_s_);
   }
 
   void handle(const ScoreStep& score_step, RunRecord& record) {

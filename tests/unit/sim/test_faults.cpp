@@ -114,6 +114,8 @@ std::map<AgentId, double> final_errors(const RunRecord& record, AgentId skip) {
 struct HostileCase {
   const char* scenario;
   const char* steps;
+  const char* schedule = "run.sim_clock=rounds";  ///< or per-agent clocks (agent_clock_simulator.cpp)
+  const char* label = "";
 };
 
 class HostileAgent : public ::testing::TestWithParam<HostileCase> {};
@@ -123,7 +125,7 @@ TEST_P(HostileAgent, ChangesNoHonestAgentsFinalErrorByMoreThanTenPercent) {
   // without it (the same agent dead from step 0: its neighbours have only its initial sample in both).
   const HostileCase c = GetParam();
   const auto s = config::load_scenario(
-      std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/" + c.scenario + ".yaml", {c.steps});
+      std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/" + c.scenario + ".yaml", {c.steps, c.schedule});
   const World world = build_world(s);
   AgentId hostile = 0;
   while (world.is_anchor[static_cast<std::size_t>(hostile)] ||
@@ -157,14 +159,14 @@ TEST_P(HostileAgent, ChangesNoHonestAgentsFinalErrorByMoreThanTenPercent) {
   RecordProperty("worst_relative_change", std::to_string(worst_change));
 }
 
-INSTANTIATE_TEST_SUITE_P(EveryRuntimeAlgorithm, HostileAgent,
-                         ::testing::Values(HostileCase{"default", "run.steps=100"},
-                                           HostileCase{"jacobi", "run.steps=60"},
-                                           HostileCase{"dgbb", "run.steps=150"},
-                                           HostileCase{"multipath_bp", "run.steps=30"}),
-                         [](const ::testing::TestParamInfo<HostileCase>& param_info) {
-                           return std::string(param_info.param.scenario);
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    EveryRuntimeAlgorithm, HostileAgent,
+    ::testing::Values(HostileCase{"default", "run.steps=100"}, HostileCase{"jacobi", "run.steps=60"},
+                      HostileCase{"dgbb", "run.steps=150"}, HostileCase{"multipath_bp", "run.steps=30"},
+                      HostileCase{"default", "run.steps=100", "run.sim_clock=agents", "_agent_clocks"}),
+    [](const ::testing::TestParamInfo<HostileCase>& param_info) {
+      return std::string(param_info.param.scenario) + param_info.param.label;
+    });
 
 }  // namespace
 }  // namespace swarmloc::sim
