@@ -90,8 +90,9 @@ int main(int argc, char** argv) {
   add_view_options(run, run_view_port, run_view_hold);
   run->footer(keys_help());
 
-  auto* sim = app.add_subcommand(
-      "sim", "Run a scenario in-process (same estimators, synchronous rounds, seeded bus).");
+  auto* sim = app.add_subcommand("sim",
+                                 "Run a scenario in-process (same estimators, seeded bus; synchronous "
+                                 "rounds, or per-agent clocks with run.sim_clock=agents).");
   sim->add_option("scenario", scenario_path, "Scenario YAML file")->required();
   sim->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
   sim->add_option("--set", overrides, "Override a scenario key (repeatable)");
