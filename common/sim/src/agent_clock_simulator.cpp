@@ -118,16 +118,7 @@ class AgentClockSimulation {
       std::visit([&](const auto& what) { handle(what, record); }, event.what);
     }
 
-    for (AgentId i = 0; i < world_.size(); ++i) {
-      const auto& runtime = agent(i);
-      for (const auto& [sender, counters] : runtime.links()) record.links[{sender, i}] = counters;
-      AgentSummary summary;
-      summary.agent = i;
-      summary.anchor = world_.is_anchor[static_cast<std::size_t>(i)];
-      summary.steps_run = static_cast<std::uint32_t>(runtime.steps_run());
-      summary.rejected_by_reason = runtime.rejected_by_reason();
-      record.agent_summaries.push_back(summary);
-    }
+    record_agents(record, world_, agents_);
     record.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     return record;
   }

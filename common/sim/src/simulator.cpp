@@ -75,6 +75,19 @@ std::vector<std::uint8_t> partition_groups(const World& world) {
   return group;
 }
 
+void record_agents(RunRecord& record, const World& world, const std::vector<AgentRuntime>& agents) {
+  for (AgentId i = 0; i < world.size(); ++i) {
+    const auto& agent = agents[static_cast<std::size_t>(i)];
+    for (const auto& [sender, counters] : agent.links()) record.links[{sender, i}] = counters;
+    AgentSummary summary;
+    summary.agent = i;
+    summary.anchor = world.is_anchor[static_cast<std::size_t>(i)];
+    summary.steps_run = static_cast<std::uint32_t>(agent.steps_run());
+    summary.rejected_by_reason = agent.rejected_by_reason();
+    record.agent_summaries.push_back(summary);
+  }
+}
+
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options) {
   if (scenario.run.sim_clock == config::SimClock::kAgents)
     return run_agent_clock_simulation(scenario, options);
@@ -182,16 +195,7 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
     if (options.on_step) options.on_step(step, metrics.errors);
   }
 
-  for (AgentId i = 0; i < n; ++i) {
-    const auto& agent = agents[static_cast<std::size_t>(i)];
-    for (const auto& [sender, counters] : agent.links()) record.links[{sender, i}] = counters;
-    AgentSummary summary;
-    summary.agent = i;
-    summary.anchor = world.is_anchor[static_cast<std::size_t>(i)];
-    summary.steps_run = static_cast<std::uint32_t>(agent.steps_run());
-    summary.rejected_by_reason = agent.rejected_by_reason();
-    record.agent_summaries.push_back(summary);
-  }
+  record_agents(record, world, agents);
   record.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return record;
 }

@@ -76,6 +76,9 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
 AgentRuntimeParams make_runtime_params(const config::Scenario& scenario, const World& world,
                                        std::uint64_t trial = 0, int incarnation = 0);
 
+/// Fills record.links and record.agent_summaries from the runtimes at the end of an in-process run.
+void record_agents(RunRecord& record, const World& world, const std::vector<AgentRuntime>& agents);
+
 /// faults.partition's halves: 0 west of the median true x at step 0, 1 east (and on it).
 std::vector<std::uint8_t> partition_groups(const World& world);
 
