@@ -8,6 +8,11 @@
 #   <prefix>h0   10.77.0.10  orchestrator (`swarmloc run --no-launch`)
 #   <prefix>h1.. 10.77.0.11+ the agents, round-robin (`swarmloc agent` as plain processes)
 #
+# SWARMLOC_MULTIHOST_IMAGE=IMAGE runs the agents of the last host as podman containers of IMAGE joined
+# to that host's namespace (`podman run --network ns:/run/netns/<host>`), the others stay processes.
+# IMAGE must contain this build (deploy/k8s/Containerfile.host-binary wraps a host build in a minute):
+# the agents read the orchestrator's resolved scenario.yaml, and an older binary may not know its keys.
+#
 # Cyclone uses SPDP multicast on eth0 (dds.neighbour_discovery=false): neighbour discovery assumes
 # every peer at one address and does not work across hosts. LOSS_PERCENT (default 0) drops that
 # share of UDP frames (both directions, discovery included) in the bridge's forward hook, in the
@@ -28,12 +33,17 @@ if [ "${1:-}" = "--" ]; then shift; fi
 EXTRA=("$@")
 
 HOSTS=${SWARMLOC_MULTIHOST_HOSTS:-3}           # agent hosts (plus one orchestrator host)
+IMAGE=${SWARMLOC_MULTIHOST_IMAGE:-}             # agents of the last host as podman containers
 SCENARIO=$(readlink -f "${SWARMLOC_MULTIHOST_SCENARIO:-$(dirname "$(readlink -f "$0")")/../../scenarios/default.yaml}")
 [ -x "$BIN" ] || { echo "multihost: $BIN is not executable" >&2; exit 2; }
 [[ "$LOSS" =~ ^[0-9]+$ ]] && [ "$LOSS" -le 100 ] || { echo "multihost: loss percent must be 0..100" >&2; exit 2; }
 [ "$(id -u)" -eq 0 ] || { echo "multihost: needs root (ip netns)" >&2; exit 2; }
 command -v ip >/dev/null || { echo "multihost: needs iproute2 (ip)" >&2; exit 2; }
 if [ "$LOSS" -gt 0 ]; then command -v nft >/dev/null || { echo "multihost: needs nftables (nft) for loss" >&2; exit 2; }; fi
+if [ -n "$IMAGE" ]; then
+  command -v podman >/dev/null || { echo "multihost: SWARMLOC_MULTIHOST_IMAGE needs podman" >&2; exit 2; }
+  podman image exists "$IMAGE" || { echo "multihost: no podman image $IMAGE" >&2; exit 2; }
+fi
 
 # A short run by default; EXTRA arguments come after these and override them.
 SETS=(--set world.agents=20 --set world.anchors=6 --set world.area_m=35 --set run.steps=150
@@ -65,6 +75,9 @@ cleanup() {
     [ "$sig" = TERM ] && sleep 1
   done
   [ -n "$ORCH_PID" ] && kill -KILL "$ORCH_PID" 2>/dev/null || true
+  if [ -n "$IMAGE" ]; then
+    podman ps -a --format '{{.Names}}' 2>/dev/null | grep "^${P}a" | xargs -r podman rm -f >/dev/null 2>&1 || true
+  fi
   for ns in "${CREATED[@]}"; do ip netns del "$ns" 2>/dev/null || true; done
   exit "$rc"
 }
@@ -120,10 +133,20 @@ fi
 AGENTS=$(sed -n 's/^  agents: *\([0-9]*\).*/\1/p' "$OUT/scenario.yaml" | head -1)
 [ -n "$AGENTS" ] || { echo "multihost: cannot read world.agents from $OUT/scenario.yaml" >&2; exit 1; }
 
+CONTAINERS=0
 for ((i = 0; i < AGENTS; ++i)); do
-  host=${NS[1 + i % HOSTS]}
-  ip netns exec "$host" "$BIN" agent --scenario "$OUT/scenario.yaml" --id "$i" "${SETS[@]}" \
-    --log "$LOGS/agent-$i.log" >"$LOGS/agent-$i.out" 2>&1 &
+  k=$((1 + i % HOSTS))
+  host=${NS[k]}
+  if [ -n "$IMAGE" ] && [ "$k" -eq "$HOSTS" ]; then
+    # The run directory is mounted at the same path, so the scenario and log paths stay valid.
+    podman run --rm --name "${P}a$i" --network "ns:/run/netns/$host" -v "$OUT:$OUT" \
+      -e SWARMLOC_CYCLONE_URI_EXTRA "$IMAGE" agent --scenario "$OUT/scenario.yaml" --id "$i" "${SETS[@]}" \
+      --log "$LOGS/agent-$i.log" >"$LOGS/agent-$i.out" 2>&1 &
+    CONTAINERS=$((CONTAINERS + 1))
+  else
+    ip netns exec "$host" "$BIN" agent --scenario "$OUT/scenario.yaml" --id "$i" "${SETS[@]}" \
+      --log "$LOGS/agent-$i.log" >"$LOGS/agent-$i.out" 2>&1 &
+  fi
 done
 
 rc=0
@@ -149,5 +172,5 @@ fi
 # summary.json: "final": { "rmse_m": ... } -- read it without jq/python.
 RMSE=$(tr -d ' \n' <"$OUT/summary.json" | grep -o '"final":{[^}]*' | grep -o '"rmse_m":[-0-9.eE+]*' | cut -d: -f2)
 SCORED=$(tr -d " \n" <"$OUT/summary.json" | grep -o "\"scored_agents\":[0-9]*" | cut -d: -f2)
-echo "multihost: final RMSE ${RMSE} m ($AGENTS agents over $HOSTS hosts, loss ${LOSS}%, ${SCORED} agents scored)"
+echo "multihost: final RMSE ${RMSE} m ($AGENTS agents over $HOSTS hosts, $CONTAINERS of them in podman containers, loss ${LOSS}%, ${SCORED} agents scored)"
 exit 0

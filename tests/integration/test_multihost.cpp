@@ -3,9 +3,9 @@
 // namespace), Cyclone discovering by multicast on eth0. Needs root, `ip netns` and `nft`; skipped
 // otherwise. The same scenario on loopback is the reference.
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
+#include <cstdlib>
 #include <string>
 
 #include "process_helpers.hpp"
@@ -23,7 +23,8 @@ const std::string kScript = kSourceDir + "/deploy/netns/multihost.sh";
 const std::string kScenario = kSourceDir + "/scenarios/default.yaml";
 // The script's own defaults; the loopback reference runs exactly these.
 const std::string kWorld =
-    " --set world.agents=20 --set world.anchors=6 --set world.area_m=35 --set run.steps=250 --set run.rate_hz=10";
+    " --set world.agents=20 --set world.anchors=6 --set world.area_m=35 --set run.steps=250 --set "
+    "run.rate_hz=10";
 
 /// Empty when namespaces and nftables are usable here, else why not.
 std::string missing_prerequisite() {
@@ -41,7 +42,8 @@ std::string missing_prerequisite() {
 double final_rmse(const nlohmann::json& summary) { return summary["final"]["rmse_m"].get<double>(); }
 
 TEST(MultiHost, TwentyAgentsOnThreeNamespaceHostsWithTenPercentWireLossMatchLoopback) {
-  if (const auto why = missing_prerequisite(); !why.empty()) GTEST_SKIP() << "multi-host test skipped: " << why;
+  if (const auto why = missing_prerequisite(); !why.empty())
+    GTEST_SKIP() << "multi-host test skipped: " << why;
 
   const auto hosts_dir = fresh_directory("multihost");
   const auto run = run_command("timeout -k 5 80 bash " + kScript + " " + kBinary + " " + hosts_dir.string() +
@@ -74,10 +76,34 @@ TEST(MultiHost, TwentyAgentsOnThreeNamespaceHostsWithTenPercentWireLossMatchLoop
   const double hosts_rmse = final_rmse(hosts);
   const double loop_rmse = final_rmse(reference);
   EXPECT_LT(hosts_rmse, 0.1) << "final RMSE across hosts must stay below the range noise std";
-  EXPECT_LT(hosts_rmse, 1.5 * loop_rmse) << "multi-host " << hosts_rmse << " m vs loopback " << loop_rmse << " m";
+  EXPECT_LT(hosts_rmse, 1.5 * loop_rmse)
+      << "multi-host " << hosts_rmse << " m vs loopback " << loop_rmse << " m";
   // Wire loss is below the application: nothing is injected, and most state samples still arrive.
   EXPECT_EQ(hosts["links"]["dropped_injected"], 0);
   EXPECT_GT(hosts["links"]["delivered"].get<double>(), 0.7 * hosts["links"]["sent"].get<double>());
+}
+
+TEST(MultiHost, AgentsInPodmanContainersJoinedToANamespaceHostConverge) {
+  // The last host's agents run as podman containers of SWARMLOC_TEST_PODMAN_IMAGE (an image holding
+  // this build: deploy/k8s/Containerfile.host-binary); skipped without it (CI has no podman).
+  if (const auto why = missing_prerequisite(); !why.empty())
+    GTEST_SKIP() << "multi-host test skipped: " << why;
+  const char* image = std::getenv("SWARMLOC_TEST_PODMAN_IMAGE");
+  if (image == nullptr || run_command("podman image exists " + std::string(image)).exit_code != 0) {
+    GTEST_SKIP() << "set SWARMLOC_TEST_PODMAN_IMAGE to a podman image of this build";
+  }
+  const auto dir = fresh_directory("multihost-podman");
+  const auto run =
+      run_command("SWARMLOC_MULTIHOST_IMAGE=" + std::string(image) + " timeout -k 5 120 bash " + kScript +
+                  " " + kBinary + " " + dir.string() + " 10 -- --set run.steps=250 --set dds.domain_id=43");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("6 of them in podman containers"), std::string::npos) << run.output;
+  const auto hosts = read_json(dir / "summary.json");
+  EXPECT_EQ(hosts["final"]["missing_agents"], 0);
+  EXPECT_LT(final_rmse(hosts), 0.1)
+      << "final RMSE across hosts and containers must stay below the range noise";
+  EXPECT_EQ(run_command("podman ps -a --format '{{.Names}}' | grep -c '^slm'").output.substr(0, 1), "0")
+      << "containers left behind";
 }
 
 }  // namespace
