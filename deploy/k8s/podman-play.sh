@@ -144,8 +144,15 @@ for pod in $(podman pod ps --filter name=swarmloc-agent --format '{{.Name}}'); d
   podman logs "$pod-agent" >"$out/$pod.log" 2>&1 || true
 done
 echo "podman-play: orchestrator exited with $rc after $(($(date +%s) - started)) s; logs in $out"
-# First line per pod (an agent pod restarted after STOP logs it again).
-grep -h '^unicast-peers: swarmloc' "$out"/*.log | sort -V | awk '!seen[$2]++' || true
+# Each pod's first line (an agent pod restarted after STOP logs it again).
+mapfile -t agent_logs < <(printf '%s\n' "$out"/swarmloc-agent-*.log | sort -V)
+for log in "$out/orchestrator.log" "${agent_logs[@]}"; do grep -m1 -h '^unicast-peers: ' "$log" || true; done
+# "HH:MM:SS.mmm info all N agents reporting after S s; START" (UTC, the host's clock)
+if reporting=$(grep -m1 -o '^[0-9:.]* info all [0-9]* agents reporting' "$out/orchestrator.log"); then
+  at=$(date -u -d "$(date -u -d "@$started" +%F) ${reporting%% *}" +%s.%N)
+  awk -v at="$at" -v started="$started" \
+    'BEGIN { printf "podman-play: all agents reporting %.1f s after kube play started\n", at - started }'
+fi
 if [[ -n "${nft_table:-}" ]]; then
   nft list table bridge "$nft_table" | sed -n 's/.*counter packets \([0-9]*\) bytes [0-9]* \(drop \)\?comment "\(.*\)"/\3 \1/p' |
     tr '\n' ' ' | sed 's/^/podman-play: IPv4 frames forwarded between pods: /; s/$/(multicast ones dropped)\n/'
