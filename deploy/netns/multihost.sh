@@ -139,7 +139,9 @@ for ((i = 0; i < AGENTS; ++i)); do
   host=${NS[k]}
   if [ -n "$IMAGE" ] && [ "$k" -eq "$HOSTS" ]; then
     # The run directory is mounted at the same path, so the scenario and log paths stay valid.
+    # Explicit rlimits: in this sandbox runc cannot raise them to podman's defaults (no CAP_SYS_RESOURCE; feasibility.md).
     podman run --rm --name "${P}a$i" --network "ns:/run/netns/$host" -v "$OUT:$OUT" \
+      --ulimit nofile=1024:1024 --ulimit nproc=1024:1024 \
       -e SWARMLOC_CYCLONE_URI_EXTRA "$IMAGE" agent --scenario "$OUT/scenario.yaml" --id "$i" "${SETS[@]}" \
       --log "$LOGS/agent-$i.log" >"$LOGS/agent-$i.out" 2>&1 &
     CONTAINERS=$((CONTAINERS + 1))
