@@ -159,22 +159,36 @@ const AbsoluteFix* usable_fix(const Linearization& rows) {
   return nullptr;
 }
 
+/// Φ = Σ u uᵀ/r̃ (+ R_fix⁻¹) and b = Σ u ν/r̃ (+ R_fix⁻¹ (z_fix − x̂)): the information both update forms
+/// need (001 eq. (49); the Kalman form through the push-through identity).
+struct RowInformation {
+  Mat2 Phi = Mat2::Zero();
+  Vec2 b = Vec2::Zero();
+};
+
+RowInformation row_information(const Vec2& x_pred, const Linearization& rows) {
+  RowInformation out;
+  for (Eigen::Index m = 0; m < rows.jacobian.rows(); ++m) {
+    const Vec2 u = rows.jacobian.row(m).transpose();
+    out.Phi += u * u.transpose() / rows.variance(m);
+    out.b += u * rows.innovation(m) / rows.variance(m);
+  }
+  if (const AbsoluteFix* fix = usable_fix(rows)) {
+    const Mat2 R_inv = fix->covariance.inverse();  // linear row H = I₂
+    out.Phi += R_inv;
+    out.b += R_inv * (fix->position_m - x_pred);
+  }
+  return out;
+}
+
 }  // namespace
 
 InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows) {
   InformationUpdate out;
-  // 001 eq. (49), ALGORITHMS.md §3.2: Φ = Σ u uᵀ/r̃, ι = Σ u z′/r̃, z′ = ν + uᵀ x̂_i.
-  for (Eigen::Index m = 0; m < rows.jacobian.rows(); ++m) {
-    const Vec2 u = rows.jacobian.row(m).transpose();
-    const double z_prime = rows.innovation(m) + u.dot(x_pred);
-    out.Phi += u * u.transpose() / rows.variance(m);
-    out.iota += u * z_prime / rows.variance(m);
-  }
-  if (const AbsoluteFix* fix = usable_fix(rows)) {
-    const Mat2 R_inv = fix->covariance.inverse();  // linear row H = I₂: z′ = z
-    out.Phi += R_inv;
-    out.iota += R_inv * fix->position_m;
-  }
+  // 001 eq. (49), ALGORITHMS.md §3.2: Φ = Σ u uᵀ/r̃, ι = Σ u z′/r̃, z′ = ν + uᵀ x̂_i, i.e. ι = b + Φ x̂_i.
+  const RowInformation info = row_information(x_pred, rows);
+  out.Phi = info.Phi;
+  out.iota = info.b + info.Phi * x_pred;
   out.Phi = core::symmetrized(out.Phi);
   out.Psi = core::symmetrized(Psi_pred + out.Phi);
   out.y = Psi_pred * x_pred + out.iota;
@@ -196,19 +210,10 @@ KalmanUpdate kalman_update(const Vec2& x_pred, const Mat2& P_pred, const Lineari
   // ranges, one 2×2 fix), so by the push-through identity K = (I + P A)⁻¹ P Hᵀ R̃⁻¹ with A = Hᵀ R̃⁻¹ H:
   // only A and b = Hᵀ R̃⁻¹ ν are needed, O(M) instead of factoring the M×M S (360 nodes: M = 359).
   // P_pred is never inverted; I + P A is invertible because P and A are PSD.
-  Mat2 A = Mat2::Zero();
-  Vec2 b = Vec2::Zero();
-  for (Eigen::Index m = 0; m < rows.jacobian.rows(); ++m) {
-    const Vec2 u = rows.jacobian.row(m).transpose();
-    A += u * u.transpose() / rows.variance(m);
-    b += u * rows.innovation(m) / rows.variance(m);
-  }
-  if (const AbsoluteFix* fix = usable_fix(rows)) {
-    const Mat2 R_inv = fix->covariance.inverse();  // linear row H = I₂
-    A += R_inv;
-    b += R_inv * (fix->position_m - x_pred);
-  }
   if (rows.jacobian.rows() == 0 && usable_fix(rows) == nullptr) return KalmanUpdate{x_pred, P_pred};
+  const RowInformation info = row_information(x_pred, rows);
+  const Mat2& A = info.Phi;
+  const Vec2& b = info.b;
   const Mat2 M_inv = (Mat2::Identity() + P_pred * A).inverse();
   const Mat2 KH = M_inv * P_pred * A;  // K H
   const Mat2 I_KH = Mat2::Identity() - KH;
