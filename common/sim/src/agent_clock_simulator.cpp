@@ -198,10 +198,7 @@ class AgentClockSimulation {
     schedule_tick(tick.agent, tick.index + 1);
     if (paused_[k]) return;  // SIGSTOP: the timer's periods pass without a step
     auto publication = agent(tick.agent).step(local_stamp_ns(tick.agent, now_s_));
-    if (std::find(options_.hostile_agents.begin(), options_.hostile_agents.end(), tick.agent) !=
-        options_.hostile_agents.end()) {
-      make_hostile(publication.outbox, publication.header.step);
-    }
+    make_hostile_if_listed(options_.hostile_agents, tick.agent, publication.outbox, publication.header.step);
     publish(tick.agent, std::move(publication), now_s_);
   }
 

@@ -1,5 +1,6 @@
 #include "swarmloc/sim/hostile.hpp"
 
+#include <algorithm>
 #include <limits>
 
 namespace swarmloc::sim {
@@ -31,6 +32,13 @@ void make_hostile(estimators::Outbox& outbox, std::int64_t step) {
     if (variant == 0) information.info_vec.setConstant(nan);
     if (variant == 1 && information.info_mat.size() > 0) information.info_mat.setConstant(-1.0);
     if (variant == 2) information.info_mat.setConstant(1e300);
+  }
+}
+
+void make_hostile_if_listed(const std::vector<AgentId>& hostile_agents, AgentId agent,
+                            estimators::Outbox& outbox, std::int64_t step) {
+  if (std::find(hostile_agents.begin(), hostile_agents.end(), agent) != hostile_agents.end()) {
+    make_hostile(outbox, step);
   }
 }
 

@@ -16,7 +16,9 @@
 namespace swarmloc::sim {
 namespace {
 
-nlohmann::json number_or_null(double value) { return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(); }
+nlohmann::json number_or_null(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json();
+}
 
 void write_text(const std::filesystem::path& path, const std::string& text) {
   std::ofstream out(path);
@@ -109,8 +111,8 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
     out << std::setprecision(9);
     for (const auto& m : record.metrics) {
       out << m.step << ',' << m.time_s << ',' << m.errors.rmse_m << ',' << m.errors.mean_error_m << ','
-          << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored << ','
-          << m.errors.missing << '\n';
+          << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored
+          << ',' << m.errors.missing << '\n';
     }
   }
   {
@@ -119,17 +121,18 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
     out << std::setprecision(9);
     for (const auto& row : record.estimates) {
       const auto& e = row.estimate;
-      out << row.step << ',' << row.agent << ',' << e.mean_m.x() << ',' << e.mean_m.y() << ',' << e.covariance(0, 0)
-          << ',' << e.covariance(0, 1) << ',' << e.covariance(1, 1) << ',' << (e.valid ? 1 : 0) << ','
-          << row.truth.x() << ',' << row.truth.y() << ',' << (e.mean_m - row.truth).norm() << '\n';
+      out << row.step << ',' << row.agent << ',' << e.mean_m.x() << ',' << e.mean_m.y() << ','
+          << e.covariance(0, 0) << ',' << e.covariance(0, 1) << ',' << e.covariance(1, 1) << ','
+          << (e.valid ? 1 : 0) << ',' << row.truth.x() << ',' << row.truth.y() << ','
+          << (e.mean_m - row.truth).norm() << '\n';
     }
   }
   {
     std::ofstream out(directory / "links.csv");
     out << "sender,receiver,sent,arrived,delivered,dropped_injected,rejected\n";
     for (const auto& [key, link] : record.links) {
-      out << key.first << ',' << key.second << ',' << link.sent() << ',' << link.arrived << ',' << link.delivered
-          << ',' << link.dropped_injected << ',' << link.rejected << '\n';
+      out << key.first << ',' << key.second << ',' << link.sent() << ',' << link.arrived << ','
+          << link.delivered << ',' << link.dropped_injected << ',' << link.rejected << '\n';
     }
   }
   {
@@ -150,8 +153,8 @@ std::string result_table(const RunRecord& record) {
   const StepMetrics* last = record.final_metrics();
   const auto totals = link_totals(record);
   char line[256];
-  out << "\n  swarmloc result: " << record.scenario.algorithm.name << " (" << record.mode << "), " << record.agents
-      << " agents, " << record.anchors << " anchors, seed " << record.scenario.seed << "\n";
+  out << "\n  swarmloc result: " << record.scenario.algorithm.name << " (" << record.mode << "), "
+      << record.agents << " agents, " << record.anchors << " anchors, seed " << record.scenario.seed << "\n";
   out << "  ------------------------------------------------------------\n";
   auto row = [&](const char* name, double value, const char* unit) {
     std::snprintf(line, sizeof line, "  %-34s %12.4f %s\n", name, value, unit);
@@ -166,15 +169,17 @@ std::string result_table(const RunRecord& record) {
     row("CRLB, accumulated over the run", last->crlb_rmse_m, "m");
     row("noise std (range)", record.scenario.noise.range_std_m, "m");
   }
-  std::snprintf(line, sizeof line, "  %-34s %12llu\n", "messages sent", static_cast<unsigned long long>(totals.sent));
+  std::snprintf(line, sizeof line, "  %-34s %12llu\n", "messages sent",
+                static_cast<unsigned long long>(totals.sent));
   out << line;
   std::snprintf(line, sizeof line, "  %-34s %12llu\n", "messages delivered",
                 static_cast<unsigned long long>(totals.delivered));
   out << line;
   std::snprintf(line, sizeof line, "  %-34s %12llu  (%.1f %% of sent)\n", "messages dropped (injected)",
                 static_cast<unsigned long long>(totals.dropped_injected),
-                totals.sent > 0 ? 100.0 * static_cast<double>(totals.dropped_injected) / static_cast<double>(totals.sent)
-                                : 0.0);
+                totals.sent > 0
+                    ? 100.0 * static_cast<double>(totals.dropped_injected) / static_cast<double>(totals.sent)
+                    : 0.0);
   out << line;
   std::snprintf(line, sizeof line, "  %-34s %12llu\n", "messages rejected (invalid)",
                 static_cast<unsigned long long>(totals.rejected));
@@ -190,9 +195,11 @@ std::filesystem::path default_run_directory(const config::Scenario& scenario) {
   gmtime_r(&now, &utc);
   char stamp[32];
   std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &utc);
-  auto base = std::filesystem::path("runs") / (scenario.name + "-" + stamp + "-seed" + std::to_string(scenario.seed));
+  auto base =
+      std::filesystem::path("runs") / (scenario.name + "-" + stamp + "-seed" + std::to_string(scenario.seed));
   auto candidate = base;
-  for (int k = 2; std::filesystem::exists(candidate); ++k) candidate = base.string() + "-" + std::to_string(k);
+  for (int k = 2; std::filesystem::exists(candidate); ++k)
+    candidate = base.string() + "-" + std::to_string(k);
   return candidate;
 }
 

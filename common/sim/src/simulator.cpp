@@ -173,10 +173,7 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
         continue;
       }
       published[k] = agents[k].step(stamp_ns(step));
-      if (std::find(options.hostile_agents.begin(), options.hostile_agents.end(), i) !=
-          options.hostile_agents.end()) {
-        make_hostile(published[k].outbox, published[k].header.step);
-      }
+      make_hostile_if_listed(options.hostile_agents, i, published[k].outbox, published[k].header.step);
       estimates[k] = agents[k].estimate();
     }
     StepMetrics metrics;
