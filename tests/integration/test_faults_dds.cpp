@@ -51,18 +51,18 @@ std::filesystem::path run_dds(const std::string& name, const std::string& flags,
 
 TEST(FaultsOverDds, KilledAgentsLeaveTheOthersUnharmedAndRestartedOnesRecoverWithinThirtySteps) {
   // 6 of 30 agents (20 %) are killed with SIGKILL at step 60 and restarted at 100; agent 7 is paused.
-  const auto clean = read_metrics(run_dds("faults-clean", "", 51));
+  // The no-fault reference is the same run before the fault, not a second run: free-run runs of one
+  // seed differ by up to 2x over a window (process timing decides which batches and neighbour states
+  // each step sees; four clean runs gave 0.032-0.061 m over steps 62-99), so a 1.5x bound against
+  // another run would test the scheduler. The pre-fault level is the stricter reference: the error
+  // still falls after step 60 in a clean run (steps 62-99 / 50-59: 0.75-0.91 in those four runs).
   const auto dir = run_dds("faults-kill",
                            " --set faults.kill=1@60-100,2@60-100,3@60-100,4@60-100,5@60-100,6@60-100"
                            " --set faults.pause=7@60-80",
                            52);
   const auto faulty = read_metrics(dir);
   ASSERT_EQ(faulty.size(), 140U);
-  ASSERT_EQ(clean.size(), 140U);
   EXPECT_LT(faulty[70].scored, 22) << "dead and paused agents are not scored";
-  // Free-run runs of the same seed differ by up to ~1.7x at a given step (process timing decides which
-  // batches and neighbour states each step sees), so the living agents are compared with their own
-  // level just before the fault, and both with the clean run's mean over the window, generously.
   auto window_mean = [](const std::vector<StepRow>& rows, std::size_t from, std::size_t to) {
     double sum = 0.0;
     for (std::size_t step = from; step < to; ++step) sum += rows[step].rmse_m;
@@ -70,8 +70,8 @@ TEST(FaultsOverDds, KilledAgentsLeaveTheOthersUnharmedAndRestartedOnesRecoverWit
   };
   const double before = window_mean(faulty, 50, 60);
   const double during = window_mean(faulty, 62, 100);
+  EXPECT_LT(before, 0.15) << "the run had converged below 1.5x the range noise before the fault";
   EXPECT_LT(during, 1.5 * before) << "the living, steps 62-99, vs steps 50-59 of the same run";
-  EXPECT_LT(during, 2.5 * window_mean(clean, 62, 100)) << "vs the clean run";
   EXPECT_EQ(faulty[130].scored, 22) << "every restarted agent reports again";
   EXPECT_LT(faulty[130].rmse_m, 1.5 * faulty[59].rmse_m) << "30 steps after the restart";
   const auto summary = read_json(dir / "summary.json");
