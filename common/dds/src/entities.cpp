@@ -5,9 +5,12 @@
 
 namespace swarmloc::dds {
 
-dds_return_t check(dds_return_t rc, std::string_view what) {
+dds_return_t check(dds_return_t rc, std::string_view operation, std::string_view subject) {
   if (rc < 0) {
-    throw DdsError(std::string(what) + ": " + dds_strretcode(rc));
+    std::string message(operation);
+    if (!subject.empty()) message.append(" ").append(subject);
+    message.append(": ").append(dds_strretcode(rc));
+    throw DdsError(message);
   }
   return rc;
 }

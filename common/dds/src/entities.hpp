@@ -9,8 +9,9 @@
 
 namespace swarmloc::dds {
 
-/// Throws DdsError("<what>: <dds_strretcode>") when rc is negative; returns rc otherwise.
-dds_return_t check(dds_return_t rc, std::string_view what);
+/// Throws DdsError("<operation> <subject>: <dds_strretcode>") when rc is negative; returns rc otherwise.
+/// The message is built only on failure (dds_write checks every sample).
+dds_return_t check(dds_return_t rc, std::string_view operation, std::string_view subject = {});
 
 /// Owns one dds_entity_t; deletes it (and, by Cyclone's rules, all its children) on destruction.
 class Entity {
