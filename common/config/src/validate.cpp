@@ -192,8 +192,22 @@ void validate(const Scenario& scenario) {
       }
     }
   };
-  check_faults(parse_agent_faults(scenario.faults.kill, "faults.kill", false), "faults.kill");
-  check_faults(parse_agent_faults(scenario.faults.pause, "faults.pause", true), "faults.pause");
+  const auto kills = parse_agent_faults(scenario.faults.kill, "faults.kill", false);
+  const auto pauses = parse_agent_faults(scenario.faults.pause, "faults.pause", true);
+  check_faults(kills, "faults.kill");
+  check_faults(pauses, "faults.pause");
+  if (run.mode == RunMode::kLockstep) {
+    // The lockstep barrier waits for every living agent each step: a paused agent or a restarted one
+    // (fresh step counter, joining mid-run) would be timed out and then run without its neighbours'
+    // samples. Refuse rather than score that.
+    if (!pauses.empty()) fail("faults.pause", "is not supported with run.mode = lockstep (use free_run)");
+    for (const auto& kill : kills) {
+      if (kill.to_step >= 0) {
+        fail("faults.kill", "restarts (agent@from-to) are not supported with run.mode = lockstep; kill without "
+                            "a restart (agent@step) or use free_run");
+      }
+    }
+  }
   (void)parse_partition(scenario.faults.partition);
 }
 

@@ -375,6 +375,15 @@ TEST(ScenarioErrors, TypeErrorsNameTheKeyAndQuoteTheValue) {
                      "run.steps: expected an integer, got a map");
 }
 
+TEST(ScenarioErrors, LockstepRefusesPausesAndRestartsButKeepsPlainKills) {
+  EXPECT_STARTS_WITH(override_error({"run.mode=lockstep", "faults.pause=3@10-20"}),
+                     "faults.pause: is not supported with run.mode = lockstep");
+  EXPECT_STARTS_WITH(override_error({"run.mode=lockstep", "faults.kill=2@5,3@10-20"}),
+                     "faults.kill: restarts (agent@from-to) are not supported with run.mode = lockstep");
+  EXPECT_NO_THROW(parse_scenario("", {"run.mode=lockstep", "faults.kill=0@0,2@5"}));
+  EXPECT_NO_THROW(parse_scenario("", {"run.mode=free_run", "faults.kill=3@10-20", "faults.pause=4@10-20"}));
+}
+
 TEST(ScenarioErrors, BadEnumListsTheAllowedValues) {
   EXPECT_STARTS_WITH(error_of([] { load_scenario(kFixtures + "invalid_enum.yaml"); }),
                      "run.mode: 'sprint' is not one of free_run|lockstep at ");
