@@ -1,6 +1,7 @@
 #include "swarmloc/sim/metrics.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -71,6 +72,8 @@ namespace swarmloc::sim {
 namespace {
 
 constexpr int kMaxDenseCrlbAgents = 3000;  // dense L⁻¹ beyond this costs seconds and ~70 MB
+/// The range bound's dense 2n x 2n Fisher inverse: ~1 s at this size, O(n³) beyond (docs/scale.md).
+constexpr long kMaxDenseRangeCrlbAgents = 1000;
 
 RangeCrlb relative_crlb(const World& world, double relative_std_m) {
   RangeCrlb crlb;
@@ -123,6 +126,13 @@ RangeCrlb relative_crlb(const World& world, double relative_std_m) {
 RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario) {
   const MeasurementKinds kinds = measurement_kinds(scenario.algorithm.name);
   RangeCrlb crlb;
+  const auto unknowns = std::count(world.is_anchor.begin(), world.is_anchor.end(), false);
+  if (kinds.ranges && unknowns > kMaxDenseRangeCrlbAgents) {
+    // The range bound inverts a dense 2n x 2n Fisher matrix (an eigendecomposition when it is
+    // singular): at 10^4 agents that ran for over 10 minutes before the first step. Not computed.
+    crlb.single_snapshot_rmse_m = std::numeric_limits<double>::quiet_NaN();
+    return crlb;
+  }
   if (kinds.relative) {
     crlb = relative_crlb(world, scenario.noise.relative_std_m);
   } else if (kinds.ranges && scenario.noise.range_model == config::RangeNoise::kProportional) {
