@@ -11,10 +11,32 @@ AgentRuntime::AgentRuntime(std::unique_ptr<estimators::Estimator> estimator, est
                            std::vector<AgentId> neighbours, AgentRuntimeParams params)
     : estimator_(std::move(estimator)),
       setup_(setup),
-      neighbours_(neighbours.begin(), neighbours.end()),
+      neighbours_(std::move(neighbours)),
       params_(params),
       loss_(params.seed, params.loss),
-      next_seq_(params.first_seq) {}
+      next_seq_(params.first_seq) {
+  std::sort(neighbours_.begin(), neighbours_.end());
+  neighbours_.erase(std::unique(neighbours_.begin(), neighbours_.end()), neighbours_.end());
+  links_.resize(neighbours_.size());
+  link_seen_.assign(neighbours_.size(), false);
+  sent_by_earlier_incarnations_.assign(neighbours_.size(), 0);
+  init_mailbox(states_);
+  init_mailbox(information_);
+  init_mailbox(consensus_);
+  init_mailbox(beliefs_);
+}
+
+int AgentRuntime::slot_of(AgentId id) const {
+  const auto it = std::lower_bound(neighbours_.begin(), neighbours_.end(), id);
+  return it != neighbours_.end() && *it == id ? static_cast<int>(it - neighbours_.begin()) : -1;
+}
+
+template <typename Message>
+void AgentRuntime::init_mailbox(Mailbox<Message>& mailbox) const {
+  mailbox.newest.resize(neighbours_.size());
+  mailbox.newest_seq.assign(neighbours_.size(), 0);
+  mailbox.has.assign(neighbours_.size(), false);
+}
 
 bool AgentRuntime::partitioned(const Header& header) const {
   const auto& group = params_.partition_group;
@@ -93,14 +115,17 @@ std::int64_t AgentRuntime::world_stamp_ns(std::int64_t world_step) const {
 }
 
 template <typename Message>
-bool AgentRuntime::on_sample(core::TopicFamily family, Mailbox<Message>& mailbox, const Header& header,
-                             const Message& message, bool well_formed) {
-  if (header.agent_id == setup_.id) return false;  // own sample (should not be routed here)
+estimators::Received<Message>* AgentRuntime::on_sample(core::TopicFamily family, Mailbox<Message>& mailbox,
+                                                       const Header& header, const Message& message,
+                                                       bool well_formed) {
+  if (header.agent_id == setup_.id) return nullptr;  // own sample (should not be routed here)
+  const int slot = slot_of(header.agent_id);
+  const auto at = static_cast<std::size_t>(slot);
   LinkCounters* link = nullptr;
-  if (neighbours_.contains(header.agent_id)) {
-    auto [it, inserted] = links_.try_emplace(header.agent_id);
-    link = &it->second;
-    if (inserted) {
+  if (slot >= 0) {
+    link = &links_[at];
+    if (!link_seen_[at]) {
+      link_seen_[at] = true;
       link->sender = header.agent_id;
       link->first_seq = header.seq;
       link->last_seq = header.seq;
@@ -108,7 +133,7 @@ bool AgentRuntime::on_sample(core::TopicFamily family, Mailbox<Message>& mailbox
     ++link->arrived;
     if ((header.seq >> 24) != (link->last_seq >> 24)) {
       // The sender restarted (faults.kill) and numbers from a new range: bank the old range.
-      sent_by_earlier_incarnations_[header.agent_id] += link->last_seq - link->first_seq + 1;
+      sent_by_earlier_incarnations_[at] += link->last_seq - link->first_seq + 1;
       link->first_seq = header.seq;
       link->last_seq = header.seq;
     }
@@ -116,7 +141,7 @@ bool AgentRuntime::on_sample(core::TopicFamily family, Mailbox<Message>& mailbox
     link->last_seq = std::max(link->last_seq, header.seq);
     if (loss_.drops(header.agent_id, setup_.id, family, header.seq) || partitioned(header)) {
       ++link->dropped_injected;
-      return false;
+      return nullptr;
     }
   }
   std::optional<RejectReason> reason;
@@ -127,59 +152,50 @@ bool AgentRuntime::on_sample(core::TopicFamily family, Mailbox<Message>& mailbox
   } else {
     reason = check_content(message);
   }
-  if (!reason) {
-    const auto newest = mailbox.newest_seq.find(header.agent_id);
-    if (newest != mailbox.newest_seq.end()) {
-      if (header.seq == newest->second) reason = RejectReason::kDuplicate;
-      if (header.seq < newest->second) reason = RejectReason::kReordered;
-    }
+  if (!reason && mailbox.has[at]) {
+    if (header.seq == mailbox.newest_seq[at]) reason = RejectReason::kDuplicate;
+    if (header.seq < mailbox.newest_seq[at]) reason = RejectReason::kReordered;
   }
   if (reason) {
     reject(link, *reason);
-    return false;
+    return nullptr;
   }
   ++link->delivered;
-  mailbox.newest_seq[header.agent_id] = header.seq;
-  auto& slot = mailbox.newest[header.agent_id];
-  slot.sender = header.agent_id;
-  slot.sender_step = local_step_ - 1;  // in the receiver's frame: as if sent at its previous step
-  slot.message = message;
-  return true;
+  mailbox.has[at] = true;
+  mailbox.newest_seq[at] = header.seq;
+  auto& stored = mailbox.newest[at];
+  stored.sender = header.agent_id;
+  stored.sender_step = local_step_ - 1;  // in the receiver's frame: as if sent at its previous step
+  stored.message = message;
+  return &stored;
 }
 
 bool AgentRuntime::on_state(const Header& header, const estimators::StateMessage& message, bool well_formed) {
-  const bool accepted = on_sample(core::TopicFamily::kState, states_, header, message, well_formed);
-  if (accepted) {
-    auto& stored = states_.newest[header.agent_id].message.covariance;
-    stored = core::symmetrized(stored);
-  }
-  return accepted;
+  auto* stored = on_sample(core::TopicFamily::kState, states_, header, message, well_formed);
+  if (stored != nullptr) stored->message.covariance = core::symmetrized(stored->message.covariance);
+  return stored != nullptr;
 }
 
 bool AgentRuntime::on_information(const Header& header, const estimators::InformationMessage& message,
                                   bool well_formed) {
-  const bool accepted =
-      on_sample(core::TopicFamily::kInformation, information_, header, message, well_formed);
-  if (accepted) {
-    auto& stored = information_.newest[header.agent_id].message.info_mat;
-    stored = 0.5 * (stored + stored.transpose()).eval();
+  auto* stored = on_sample(core::TopicFamily::kInformation, information_, header, message, well_formed);
+  if (stored != nullptr) {
+    auto& info = stored->message.info_mat;
+    info = 0.5 * (info + info.transpose()).eval();
   }
-  return accepted;
+  return stored != nullptr;
 }
 
 bool AgentRuntime::on_consensus(const Header& header, const estimators::ConsensusMessage& message,
                                 bool well_formed) {
-  return on_sample(core::TopicFamily::kConsensus, consensus_, header, message, well_formed);
+  return on_sample(core::TopicFamily::kConsensus, consensus_, header, message, well_formed) != nullptr;
 }
 
 bool AgentRuntime::on_belief(const Header& header, const estimators::BeliefMessage& message,
                              bool well_formed) {
-  const bool accepted = on_sample(core::TopicFamily::kBelief, beliefs_, header, message, well_formed);
-  if (accepted) {
-    auto& stored = beliefs_.newest[header.agent_id].message.information;
-    stored = core::symmetrized(stored);
-  }
-  return accepted;
+  auto* stored = on_sample(core::TopicFamily::kBelief, beliefs_, header, message, well_formed);
+  if (stored != nullptr) stored->message.information = core::symmetrized(stored->message.information);
+  return stored != nullptr;
 }
 
 void AgentRuntime::sanitize_batch(estimators::MeasurementBatch& batch) {
@@ -191,7 +207,7 @@ void AgentRuntime::sanitize_batch(estimators::MeasurementBatch& batch) {
   };
   std::set<AgentId> seen;
   std::erase_if(batch.ranges, [&](const estimators::RangeMeasurement& range) {
-    if (!neighbours_.contains(range.peer)) return drop(RejectReason::kUnknownSender);
+    if (slot_of(range.peer) < 0) return drop(RejectReason::kUnknownSender);
     if (!std::isfinite(range.range_m) || !std::isfinite(range.std_m)) return drop(RejectReason::kNonFinite);
     if (range.range_m < 0.0 || range.std_m < 0.0 || range.range_m > 2.0 * absurd || range.std_m > absurd) {
       return drop(RejectReason::kAbsurdMagnitude);
@@ -230,7 +246,7 @@ void AgentRuntime::sanitize_batch(estimators::MeasurementBatch& batch) {
   // Relative positions (jacobi): one per neighbour, finite, plausible, PSD covariance.
   std::set<AgentId> seen_relative;
   std::erase_if(batch.relative, [&](const estimators::RelativeMeasurement& m) {
-    if (!neighbours_.contains(m.peer)) return drop(RejectReason::kUnknownSender);
+    if (slot_of(m.peer) < 0) return drop(RejectReason::kUnknownSender);
     if (!m.delta_m.allFinite() || !m.covariance.allFinite()) return drop(RejectReason::kNonFinite);
     if (m.delta_m.norm() > 2.0 * absurd || m.covariance.cwiseAbs().maxCoeff() > params_.absurd_variance_m2) {
       return drop(RejectReason::kAbsurdMagnitude);
@@ -245,7 +261,7 @@ void AgentRuntime::sanitize_batch(estimators::MeasurementBatch& batch) {
   constexpr int kMaxPathsPerPeer = 32;
   std::set<std::pair<AgentId, int>> seen_paths;
   std::erase_if(batch.paths, [&](const estimators::MultipathMeasurement& m) {
-    if (!neighbours_.contains(m.peer)) return drop(RejectReason::kUnknownSender);
+    if (slot_of(m.peer) < 0) return drop(RejectReason::kUnknownSender);
     if (!std::isfinite(m.length_m) || !std::isfinite(m.aoa_here_rad) || !std::isfinite(m.aoa_there_rad)) {
       return drop(RejectReason::kNonFinite);
     }
@@ -307,20 +323,23 @@ AgentRuntime::Publication AgentRuntime::initial_publication(std::int64_t sender_
 }
 
 namespace {
+/// Appends the stored sample of every neighbour that has one, in slot (= sender id) order.
 template <typename Message>
-void copy_newest(const std::map<AgentId, estimators::Received<Message>>& from,
+void copy_newest(const std::vector<estimators::Received<Message>>& newest, const std::vector<bool>& has,
                  std::vector<estimators::Received<Message>>& to) {
-  to.reserve(from.size());
-  for (const auto& [sender, received] : from) to.push_back(received);
+  to.reserve(newest.size());
+  for (std::size_t slot = 0; slot < newest.size(); ++slot) {
+    if (has[slot]) to.push_back(newest[slot]);
+  }
 }
 }  // namespace
 
 AgentRuntime::Publication AgentRuntime::step(std::int64_t sender_stamp_ns) {
   estimators::Inbox inbox;
-  copy_newest(states_.newest, inbox.states);
-  copy_newest(information_.newest, inbox.information);
-  copy_newest(consensus_.newest, inbox.consensus);
-  copy_newest(beliefs_.newest, inbox.beliefs);
+  copy_newest(states_.newest, states_.has, inbox.states);
+  copy_newest(information_.newest, information_.has, inbox.information);
+  copy_newest(consensus_.newest, consensus_.has, inbox.consensus);
+  copy_newest(beliefs_.newest, beliefs_.has, inbox.beliefs);
   estimators::StepInput input;
   input.local_step = local_step_;
   input.inbox = &inbox;
@@ -336,14 +355,17 @@ AgentRuntime::Publication AgentRuntime::step(std::int64_t sender_stamp_ns) {
 }
 
 std::map<AgentId, LinkCounters> AgentRuntime::links() const {
-  std::map<AgentId, LinkCounters> out = links_;
-  for (auto& [sender, counters] : out) {
-    const auto banked = sent_by_earlier_incarnations_.find(sender);
-    if (banked == sent_by_earlier_incarnations_.end()) continue;
-    // Keep sent() = last − first + 1 meaning "all samples the sender wrote", across its restarts.
-    const std::uint32_t sent = counters.sent() + banked->second;
-    counters.first_seq = 0;
-    counters.last_seq = sent - 1;
+  std::map<AgentId, LinkCounters> out;
+  for (std::size_t slot = 0; slot < neighbours_.size(); ++slot) {
+    if (!link_seen_[slot]) continue;
+    LinkCounters counters = links_[slot];
+    if (const std::uint32_t banked = sent_by_earlier_incarnations_[slot]; banked > 0) {
+      // Keep sent() = last − first + 1 meaning "all samples the sender wrote", across its restarts.
+      const std::uint32_t sent = counters.sent() + banked;
+      counters.first_seq = 0;
+      counters.last_seq = sent - 1;
+    }
+    out.emplace(neighbours_[slot], counters);
   }
   return out;
 }
@@ -356,7 +378,7 @@ EstimateReport AgentRuntime::report(std::int64_t sender_stamp_ns, double cpu_s) 
   r.steps_run = static_cast<std::uint32_t>(local_step_);
   r.samples_published = samples_published_;
   r.cpu_s = cpu_s;
-  r.links.reserve(links_.size());
+  r.links.reserve(neighbours_.size());
   for (const auto& [sender, counters] : links()) r.links.push_back(counters);
   r.rejected_by_reason = rejected_by_reason_;
   return r;

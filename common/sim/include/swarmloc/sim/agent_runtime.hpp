@@ -97,15 +97,23 @@ class AgentRuntime {
   [[nodiscard]] bool has_pending_batch() const { return pending_batch_.has_value(); }
 
  private:
-  /// The newest sample per sender of one family, and the seq it came with (ordering/duplicates).
+  /// The newest sample per neighbour of one family, and the seq it came with (ordering/duplicates),
+  /// indexed by the neighbour's slot (its position in neighbours_). Flat arrays, not maps: at 10^4
+  /// agents the simulator spent most of a step walking per-agent trees (docs/scale.md).
   template <typename Message>
   struct Mailbox {
-    std::map<AgentId, estimators::Received<Message>> newest;
-    std::map<AgentId, std::uint32_t> newest_seq;
+    std::vector<estimators::Received<Message>> newest;
+    std::vector<std::uint32_t> newest_seq;
+    std::vector<bool> has;
   };
+  /// The slot of neighbour `id` (its index in neighbours_), or −1 if `id` is not a neighbour.
+  [[nodiscard]] int slot_of(AgentId id) const;
   template <typename Message>
-  bool on_sample(core::TopicFamily family, Mailbox<Message>& mailbox, const Header& header,
-                 const Message& message, bool well_formed);
+  void init_mailbox(Mailbox<Message>& mailbox) const;
+  /// Stores an accepted sample and returns it; nullptr if dropped or rejected.
+  template <typename Message>
+  estimators::Received<Message>* on_sample(core::TopicFamily family, Mailbox<Message>& mailbox,
+                                           const Header& header, const Message& message, bool well_formed);
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::StateMessage& m) const;
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::InformationMessage& m) const;
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::ConsensusMessage& m) const;
@@ -126,7 +134,7 @@ class AgentRuntime {
 
   std::unique_ptr<estimators::Estimator> estimator_;
   estimators::AgentSetup setup_;
-  std::set<AgentId> neighbours_;
+  std::vector<AgentId> neighbours_;  ///< sorted; a neighbour's index here is its slot
   AgentRuntimeParams params_;
   core::LinkLossModel loss_;
 
@@ -143,8 +151,9 @@ class AgentRuntime {
   std::optional<estimators::MeasurementBatch> pending_batch_;
   std::int64_t newest_batch_step_ = -1;
   double batch_period_s_ = 0.0;
-  std::map<AgentId, LinkCounters> links_;
-  std::map<AgentId, std::uint32_t> sent_by_earlier_incarnations_;
+  std::vector<LinkCounters> links_;    ///< per slot; valid where link_seen_
+  std::vector<bool> link_seen_;
+  std::vector<std::uint32_t> sent_by_earlier_incarnations_;  ///< per slot
   std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason_{};
 };
 
