@@ -1,6 +1,9 @@
 // The in-process runner: world construction, determinism, convergence and loss accounting.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include "swarmloc/sim/metrics.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::sim {
@@ -43,6 +46,19 @@ TEST(Simulator, IeifConvergesBelowRangeNoiseAndNearTheCrlb) {
   // sit within a small factor of the single-snapshot bound.
   EXPECT_LT(last->errors.rmse_m, 3.0 * record.crlb.single_snapshot_rmse_m);
   EXPECT_LT(last->errors.rmse_m, record.metrics.front().errors.rmse_m);
+}
+
+TEST(Simulator, RangeCrlbIsComputedUpToAThousandUnknownAgentsAndSkippedBeyond) {
+  // The dense 2n x 2n bound ran for over 10 minutes at 10^4 agents; beyond 1000 unknowns it is NaN.
+  auto s = small_scenario();
+  s.world.anchors = 10;
+  s.world.area_m = 40.0 * std::sqrt(1010.0 / 30.0);  // the default density
+  s.world.agents = 1010;
+  const RangeCrlb at_limit = scenario_crlb(build_world(s), s);
+  EXPECT_TRUE(std::isfinite(at_limit.single_snapshot_rmse_m));
+  EXPECT_GT(at_limit.single_snapshot_rmse_m, 0.0);
+  s.world.agents = 1011;
+  EXPECT_TRUE(std::isnan(scenario_crlb(build_world(s), s).single_snapshot_rmse_m));
 }
 
 TEST(Simulator, IsDeterministicInTheSeed) {
