@@ -96,7 +96,13 @@ void lb_ekf_i_sliding_step(benchmark::State& state) {
 BENCHMARK(ekf_step)->Arg(30)->Arg(300)->Unit(benchmark::kMillisecond);
 BENCHMARK(ekf_step)->Arg(1000)->Arg(3000)->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK(lb_ekf_alg1_step)->Arg(30)->Arg(300)->Arg(3000)->Arg(30000)->Unit(benchmark::kMillisecond);
-BENCHMARK(lb_ekf_sliding_step)->Arg(30)->Arg(300)->Arg(3000)->Arg(30000)->Arg(100000)->Unit(benchmark::kMillisecond);
+BENCHMARK(lb_ekf_sliding_step)
+    ->Arg(30)
+    ->Arg(300)
+    ->Arg(3000)
+    ->Arg(30000)
+    ->Arg(100000)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(lb_ekf_i_sliding_step)->Arg(30)->Arg(300)->Arg(3000)->Arg(30000)->Unit(benchmark::kMillisecond);
 
 // BandInv_L on an SPD band matrix of size n with bandwidth 2L (so the output truncates), L = 20.

@@ -203,8 +203,9 @@ void validate(const Scenario& scenario) {
     if (!pauses.empty()) fail("faults.pause", "is not supported with run.mode = lockstep (use free_run)");
     for (const auto& kill : kills) {
       if (kill.to_step >= 0) {
-        fail("faults.kill", "restarts (agent@from-to) are not supported with run.mode = lockstep; kill without "
-                            "a restart (agent@step) or use free_run");
+        fail("faults.kill",
+             "restarts (agent@from-to) are not supported with run.mode = lockstep; kill without "
+             "a restart (agent@step) or use free_run");
       }
     }
   }

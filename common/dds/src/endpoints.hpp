@@ -51,34 +51,31 @@ inline dds_entity_t create_participant(const DomainLease& domain) {
 
 inline dds_entity_t create_topic(dds_entity_t participant, const dds_topic_descriptor_t& descriptor,
                                  const char* name) {
-  return check(dds_create_topic(participant, &descriptor, name, nullptr, nullptr),
-               "dds_create_topic", name);
+  return check(dds_create_topic(participant, &descriptor, name, nullptr, nullptr), "dds_create_topic", name);
 }
 
 inline dds_entity_t create_publisher(dds_entity_t participant, const std::vector<std::string>& partitions) {
   const auto qos = partition_qos(partitions);
-  return check(dds_create_publisher(participant, qos.get(), nullptr),
-               "dds_create_publisher", partitions.front());
+  return check(dds_create_publisher(participant, qos.get(), nullptr), "dds_create_publisher",
+               partitions.front());
 }
 
 inline dds_entity_t create_subscriber(dds_entity_t participant, const std::vector<std::string>& partitions) {
   const auto qos = partition_qos(partitions);
-  return check(dds_create_subscriber(participant, qos.get(), nullptr),
-               "dds_create_subscriber", partitions.front());
+  return check(dds_create_subscriber(participant, qos.get(), nullptr), "dds_create_subscriber",
+               partitions.front());
 }
 
 inline dds_entity_t create_writer(dds_entity_t publisher, dds_entity_t topic,
                                   const config::QosSettings& settings, const char* what) {
   const auto qos = endpoint_qos(settings);
-  return check(dds_create_writer(publisher, topic, qos.get(), nullptr),
-               "dds_create_writer", what);
+  return check(dds_create_writer(publisher, topic, qos.get(), nullptr), "dds_create_writer", what);
 }
 
 inline dds_entity_t create_reader(dds_entity_t subscriber, dds_entity_t topic,
                                   const config::QosSettings& settings, const char* what) {
   const auto qos = endpoint_qos(settings);
-  return check(dds_create_reader(subscriber, topic, qos.get(), nullptr),
-               "dds_create_reader", what);
+  return check(dds_create_reader(subscriber, topic, qos.get(), nullptr), "dds_create_reader", what);
 }
 
 /// dds_write with the return code checked. A reliable write that times out (the history of a reliable

@@ -151,7 +151,7 @@ class AgentRuntime {
   std::optional<estimators::MeasurementBatch> pending_batch_;
   std::int64_t newest_batch_step_ = -1;
   double batch_period_s_ = 0.0;
-  std::vector<LinkCounters> links_;    ///< per slot; valid where link_seen_
+  std::vector<LinkCounters> links_;  ///< per slot; valid where link_seen_
   std::vector<bool> link_seen_;
   std::vector<std::uint32_t> sent_by_earlier_incarnations_;  ///< per slot
   std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason_{};
