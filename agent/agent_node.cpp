@@ -80,6 +80,12 @@ class AgentProcess {
                   sensor_only_ ? " (sensor only: the fusion centre estimates)" : "",
                   lockstep_ ? " (lockstep: steps on each world step's batch)" : "");
 
+    // Agents are not synchronized: each starts ticking at its own phase within the first period
+    // (golden-ratio spread over ids). In phase, all agents published at once and every sample queued
+    // behind the whole network's burst (inter-agent latency p50 2.5 ms at N = 20, docs/scale.md).
+    const double golden = 0.6180339887498949;
+    const double phase_fraction = std::fmod(static_cast<double>(options_.id) * golden, 1.0);
+    const auto phase = std::chrono::duration<double>(phase_fraction * period.count());
     auto next_tick = std::chrono::steady_clock::now() +
                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
     auto last_hello = std::chrono::steady_clock::now() - std::chrono::seconds(10);
@@ -122,7 +128,7 @@ class AgentProcess {
                          scenario_.run.startup_timeout_s + 30.0);
           return 1;
         }
-        next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+        next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period + phase);
         last_batch_seen = after;  // the orchestrator-silence timer starts at START, not at launch
         continue;
       }
@@ -168,6 +174,7 @@ class AgentProcess {
       if (control.command == sim::ControlCommand::kStart && !started_run_) {
         started_run_ = true;
         cpu_at_start_ = process_cpu_s();
+        transport_.reset_latency();
         logger_->info("CPU before START (start-up and discovery): {:.3f} s", cpu_at_start_);
         logger_->info("START received");
       } else if (control.command == sim::ControlCommand::kStop) {
@@ -269,6 +276,11 @@ class AgentProcess {
     logger_->info(
         "stopping after {} steps: arrived {} delivered {} dropped(injected) {} rejected {}; cpu {:.3f} s",
         runtime_.steps_run(), arrived, delivered, dropped, rejected, process_cpu_s());
+    const dds::LatencySummary latency = transport_.inter_agent_latency();
+    if (latency.samples > 0) {
+      logger_->info("inter-agent latency (source timestamp to take): p50 {:.1f} us p99 {:.1f} us over {} samples",
+                    latency.p50_us, latency.p99_us, latency.samples);
+    }
     const auto& reasons = runtime_.rejected_by_reason();
     for (std::size_t r = 0; r < reasons.size(); ++r) {
       if (reasons[r] > 0)

@@ -274,6 +274,16 @@ for r in runs:
                 m = re.search(r"CPU before START \(start-up and discovery\): ([\d.]+) s", l)
                 if m: pre.append(float(m.group(1)))
         row["pre_start_cpu_s"] = statistics.median(pre) if pre else None
+        # inter-agent latency: each agent logs p50/p99 of its own samples; report the median agent's p50
+        # and the median and worst of the agents' p99
+        lat50, lat99 = [], []
+        for f in glob.glob(f"{d}/logs/agent_*.log"):
+            for l in open(f, errors="replace"):
+                m = re.search(r"inter-agent latency \(source timestamp to take\): p50 ([\d.]+) us p99 ([\d.]+) us", l)
+                if m: lat50.append(float(m.group(1))); lat99.append(float(m.group(2)))
+        row["lat_p50_us"] = statistics.median(lat50) if lat50 else None
+        row["lat_p99_us"] = statistics.median(lat99) if lat99 else None
+        row["lat_p99_max_us"] = max(lat99) if lat99 else None
     rp = f"{d}/rss.csv"
     if os.path.exists(rp):
         v = [int(x["max_vmrss_kib"]) / 1024 for x in csv.DictReader(open(rp))]
@@ -292,7 +302,7 @@ for r in runs:
 keys = ["n", "rc", "domain", "area_m", "anchors", "mean_degree", "agents_started", "launch_s", "disc_all_s", "disc_med_s", "disc_max_s",
         "start_s", "agents_all_matched", "agents_matched_at_end", "cpu_frac", "cpu_s", "pre_start_cpu_s", "rss_med_mib",
         "rss_max_mib", "rss_procs", "rx_per_agent_s", "links", "links_with_data", "delivered", "expected",
-        "ratio_expected", "ratio_steps", "ratio_sent", "rmse_m", "run_cores", "other_cores", "machine_busy_cores",
+        "ratio_expected", "ratio_steps", "ratio_sent", "lat_p50_us", "lat_p99_us", "lat_p99_max_us", "rmse_m", "run_cores", "other_cores", "machine_busy_cores",
         "elapsed_s"]
 with open(f"{out}/scale.csv", "w", newline="") as f:
     w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore"); w.writeheader()
@@ -314,7 +324,12 @@ for t, name in (("b2b", "back-to-back, 64 B"), ("100hz", "100 Hz, 64 B")):
     v = ref.get(t)
     lines.append(f"ddsperf ping/pong ({name}): " + ("not run" if not v else
                  f"RTT p50 {v['rtt_p50_us']:.0f} µs, p99 {v['rtt_p99_us']:.0f} µs (median of {v['seconds']} 1-s windows; worst 1-s p99 {v['rtt_p99_max_us']:.0f} µs)"))
-lines.append("agent-to-agent latency: not recorded by the runtime (no latency field in the run directory)")
+for r in rows:
+    if r.get("lat_p50_us") is None: continue
+    lines.append(f"agent-to-agent latency at N={r['n']} (one way, writer's source timestamp to the reader's take): "
+                 f"p50 {r['lat_p50_us']:.0f} µs (median agent), p99 {r['lat_p99_us']:.0f} µs (median agent; worst {r['lat_p99_max_us']:.0f} µs)")
+    v = ref.get("100hz")
+    if v: lines.append(f"  vs ddsperf at 100 Hz, one way (RTT/2) p50 {v['rtt_p50_us'] / 2:.0f} µs: {r['lat_p50_us'] / (v['rtt_p50_us'] / 2):.2f}x")
 open(f"{out}/scale.md", "w").write("\n".join(lines) + "\n")
 print("\n".join(lines))
 

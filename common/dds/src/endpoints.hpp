@@ -92,8 +92,12 @@ inline bool write(dds_entity_t writer, const void* sample, const char* what) {
 
 /// Takes every sample a reader holds (loaned buffers, returned even if `handle` throws) and calls
 /// handle(wire) for each valid one. Stops after a short batch so a busy writer cannot starve the caller.
+/// Samples beyond this many are not timed (a 10 Hz agent with 8 neighbours reaches it after ~3.6 h).
+inline constexpr std::size_t kMaxLatencySamples = 1U << 20;
+
+/// With `latencies_ns`, appends (now − source timestamp) of every valid sample, up to kMaxLatencySamples.
 template <typename Wire, typename Handle>
-inline void take_all(dds_entity_t reader, Handle&& handle) {
+inline void take_all(dds_entity_t reader, Handle&& handle, std::vector<std::int64_t>* latencies_ns = nullptr) {
   constexpr int32_t kBatch = 64;
   for (;;) {
     std::array<void*, kBatch> samples{};
@@ -108,8 +112,13 @@ inline void take_all(dds_entity_t reader, Handle&& handle) {
       int32_t count;
       ~LoanGuard() { static_cast<void>(dds_return_loan(reader, buffer, count)); }
     } guard{reader, samples.data(), count};
+    const dds_time_t taken_at = latencies_ns != nullptr ? dds_time() : 0;
     for (int32_t i = 0; i < count; ++i) {
-      if (infos[static_cast<std::size_t>(i)].valid_data) {
+      const dds_sample_info_t& info = infos[static_cast<std::size_t>(i)];
+      if (info.valid_data) {
+        if (latencies_ns != nullptr && latencies_ns->size() < kMaxLatencySamples && info.source_timestamp > 0) {
+          latencies_ns->push_back(taken_at - info.source_timestamp);
+        }
         handle(*static_cast<const Wire*>(samples[static_cast<std::size_t>(i)]));
       }
     }

@@ -137,6 +137,7 @@ struct AgentTransport::Impl {
   dds_entity_t measurement_reader = 0, control_reader = 0;
   dds_entity_t waitset = 0;
   std::uint64_t dropped_malformed = 0;  // malformed measurement batches / control samples (not exposed yet)
+  std::vector<std::int64_t> latencies_ns;  // inter-agent samples: source timestamp -> take
 };
 
 AgentTransport::AgentTransport(const config::Scenario& scenario, const Topology& topology)
@@ -171,21 +172,40 @@ void AgentTransport::publish_estimate(const sim::EstimateReport& report) {
   write(impl_->estimate_writer, &wire.sample, kTopicEstimate);
 }
 
+void AgentTransport::reset_latency() { impl_->latencies_ns.clear(); }
+
+LatencySummary AgentTransport::inter_agent_latency() const {
+  std::vector<std::int64_t> sorted = impl_->latencies_ns;
+  LatencySummary summary;
+  summary.samples = sorted.size();
+  if (sorted.empty()) return summary;
+  std::sort(sorted.begin(), sorted.end());
+  const auto quantile_us = [&](double q) {
+    const auto index = static_cast<std::size_t>(q * static_cast<double>(sorted.size() - 1));
+    return static_cast<double>(sorted[index]) * 1e-3;
+  };
+  summary.p50_us = quantile_us(0.50);
+  summary.p99_us = quantile_us(0.99);
+  return summary;
+}
+
 AgentInbound AgentTransport::wait_and_take(double timeout_s) {
   wait(impl_->waitset, timeout_s);
   AgentInbound inbound;
   // Senders outside the neighbour list are passed on (the runtime counts them as unknown senders).
+  auto* latencies = &impl_->latencies_ns;
   take_all<swarmloc_msg_State>(
-      impl_->state_reader, [&](const swarmloc_msg_State& wire) { inbound.states.push_back(decode(wire)); });
-  take_all<swarmloc_msg_Information>(impl_->information_reader, [&](const swarmloc_msg_Information& wire) {
-    inbound.information.push_back(decode(wire));
-  });
-  take_all<swarmloc_msg_Consensus>(impl_->consensus_reader, [&](const swarmloc_msg_Consensus& wire) {
-    inbound.consensus.push_back(decode(wire));
-  });
-  take_all<swarmloc_msg_Belief>(impl_->belief_reader, [&](const swarmloc_msg_Belief& wire) {
-    inbound.beliefs.push_back(decode(wire));
-  });
+      impl_->state_reader, [&](const swarmloc_msg_State& wire) { inbound.states.push_back(decode(wire)); },
+      latencies);
+  take_all<swarmloc_msg_Information>(
+      impl_->information_reader,
+      [&](const swarmloc_msg_Information& wire) { inbound.information.push_back(decode(wire)); }, latencies);
+  take_all<swarmloc_msg_Consensus>(
+      impl_->consensus_reader,
+      [&](const swarmloc_msg_Consensus& wire) { inbound.consensus.push_back(decode(wire)); }, latencies);
+  take_all<swarmloc_msg_Belief>(
+      impl_->belief_reader, [&](const swarmloc_msg_Belief& wire) { inbound.beliefs.push_back(decode(wire)); },
+      latencies);
   take_all<swarmloc_msg_MeasurementBatch>(
       impl_->measurement_reader, [&](const swarmloc_msg_MeasurementBatch& wire) {
         auto decoded = decode(wire);

@@ -72,6 +72,14 @@ struct AgentInbound {
   std::vector<sim::ControlMessage> control;
 };
 
+/// Delivery latency of inter-agent samples: the writer's DDS source timestamp to our dds_take, both
+/// read from this host's real-time clock (across hosts it includes the clocks' offset).
+struct LatencySummary {
+  std::size_t samples = 0;
+  double p50_us = 0.0;
+  double p99_us = 0.0;
+};
+
 /// Agent side: writes its own families in partition "a<id>", reads its neighbours' partitions,
 /// reads its measurement batches (partition "m<id>") and control; writes estimates.
 class AgentTransport {
@@ -100,6 +108,10 @@ class AgentTransport {
   /// Blocks until every matched reader has acknowledged our inter-agent samples (reliable QoS), or
   /// timeout_s passes; false on timeout. Lockstep reports a step done only after this.
   bool wait_for_acks(double timeout_s);
+  /// Latency of the inter-agent samples taken so far (the first kMaxLatencySamples of them).
+  [[nodiscard]] LatencySummary inter_agent_latency() const;
+  /// Forgets the latencies so far (the agent calls it at START: discovery-time samples are not timed).
+  void reset_latency();
 
  private:
   struct Impl;
