@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <regex>
 #include <sstream>
 
 #include "process_helpers.hpp"
@@ -56,6 +57,18 @@ TEST(RunOverDds, ThirtyAgentProcessesConvergeBelowRangeNoiseAndAgreeWithSimulato
   EXPECT_GT(dds["crlb"]["accumulated_rmse_m"].get<double>(), 0.0);
   EXPECT_EQ(dds["links"]["dropped_injected"], 0);
   EXPECT_GT(dds["links"]["delivered"].get<double>(), 0.9 * dds["links"]["sent"].get<double>());
+  // Every agent timed its inter-agent samples after START. Not a speed check: a p50 outside (0, 1 s)
+  // means the two timestamps are not from one clock or not in nanoseconds.
+  std::ifstream log(std::filesystem::path(dds["run_directory"].get<std::string>()) / "logs" / "agent_000.log");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  std::smatch match;
+  ASSERT_TRUE(std::regex_search(text, match, std::regex(R"(inter-agent latency .*: p50 ([\d.]+) us p99 ([\d.]+) us over (\d+) samples)")))
+      << text;
+  const double p50_us = std::stod(match[1]), p99_us = std::stod(match[2]);
+  EXPECT_GT(p50_us, 0.0);
+  EXPECT_LT(p50_us, 1e6);
+  EXPECT_GE(p99_us, p50_us);
+  EXPECT_GT(std::stoi(match[3]), 100);
 }
 
 TEST(RunOverDds, TwentyPercentInjectedLossStillConvergesAndDropsTwentyPercent) {
