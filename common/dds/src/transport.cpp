@@ -137,7 +137,7 @@ struct AgentTransport::Impl {
   dds_entity_t measurement_reader = 0, control_reader = 0;
   dds_entity_t waitset = 0;
   std::uint64_t dropped_malformed = 0;  // malformed measurement batches / control samples (not exposed yet)
-  std::vector<std::int64_t> latencies_ns;  // inter-agent samples: source timestamp -> take
+  LatencyHistogram latencies;  // inter-agent samples: source timestamp -> take
 };
 
 AgentTransport::AgentTransport(const config::Scenario& scenario, const Topology& topology)
@@ -172,20 +172,15 @@ void AgentTransport::publish_estimate(const sim::EstimateReport& report) {
   write(impl_->estimate_writer, &wire.sample, kTopicEstimate);
 }
 
-void AgentTransport::reset_latency() { impl_->latencies_ns.clear(); }
+void AgentTransport::reset_latency() { impl_->latencies.clear(); }
 
 LatencySummary AgentTransport::inter_agent_latency() const {
-  std::vector<std::int64_t> sorted = impl_->latencies_ns;
+  const LatencyHistogram& histogram = impl_->latencies;
   LatencySummary summary;
-  summary.samples = sorted.size();
-  if (sorted.empty()) return summary;
-  std::sort(sorted.begin(), sorted.end());
-  const auto quantile_us = [&](double q) {
-    const auto index = static_cast<std::size_t>(q * static_cast<double>(sorted.size() - 1));
-    return static_cast<double>(sorted[index]) * 1e-3;
-  };
-  summary.p50_us = quantile_us(0.50);
-  summary.p99_us = quantile_us(0.99);
+  summary.samples = histogram.total();
+  if (summary.samples == 0) return summary;
+  summary.p50_us = histogram.quantile_us(0.50);
+  summary.p99_us = histogram.quantile_us(0.99);
   return summary;
 }
 
@@ -193,7 +188,7 @@ AgentInbound AgentTransport::wait_and_take(double timeout_s) {
   wait(impl_->waitset, timeout_s);
   AgentInbound inbound;
   // Senders outside the neighbour list are passed on (the runtime counts them as unknown senders).
-  auto* latencies = &impl_->latencies_ns;
+  auto* latencies = &impl_->latencies;
   take_all<swarmloc_msg_State>(
       impl_->state_reader, [&](const swarmloc_msg_State& wire) { inbound.states.push_back(decode(wire)); },
       latencies);

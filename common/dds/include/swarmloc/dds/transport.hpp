@@ -108,7 +108,7 @@ class AgentTransport {
   /// Blocks until every matched reader has acknowledged our inter-agent samples (reliable QoS), or
   /// timeout_s passes; false on timeout. Lockstep reports a step done only after this.
   bool wait_for_acks(double timeout_s);
-  /// Latency of the inter-agent samples taken so far (the first kMaxLatencySamples of them).
+  /// Latency of the inter-agent samples taken since START (quantiles to 2 %, constant memory).
   [[nodiscard]] LatencySummary inter_agent_latency() const;
   /// Forgets the latencies so far (the agent calls it at START: discovery-time samples are not timed).
   void reset_latency();
