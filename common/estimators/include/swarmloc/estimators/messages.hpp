@@ -60,6 +60,35 @@ struct TargetObservation {
   std::uint8_t kind = 0;
 };
 
+/// Unicycle odometry over one interval: forward speed and turn rate in the robot frame, held for dt_s.
+struct OdometrySegment {
+  double v_mps = 0.0;
+  double omega_radps = 0.0;
+  double dt_s = 0.0;
+};
+
+/// The odometry of one world step (pose-state algorithms), applied segment by segment in order.
+/// Noise is white on the inputs with these spectral densities: over a segment of length dt the
+/// travelled distance has variance v_std² · dt and the turned angle omega_std² · dt.
+struct OdometryInput {
+  std::vector<OdometrySegment> segments;
+  double v_std = 0.0;      ///< m/√s
+  double omega_std = 0.0;  ///< rad/√s
+};
+
+/// Range and bearing to a robot peer or to a landmark of known position, bearing measured in this
+/// agent's body frame: β = wrap(atan2(y_t − y, x_t − x) − θ) (pose-state algorithms, UTIAS MRCLAM).
+struct RangeBearingMeasurement {
+  AgentId peer = 0;                   ///< robot peer (unused when landmark)
+  bool landmark = false;              ///< true: the target is landmark_m, not a peer's state
+  Vec2 landmark_m = Vec2::Zero();     ///< known landmark position
+  Mat2 landmark_cov = Mat2::Zero();   ///< its uncertainty (surveyed std²)
+  double range_m = 0.0;
+  double bearing_rad = 0.0;
+  double range_std_m = 0.0;
+  double bearing_std_rad = 0.0;
+};
+
 struct MeasurementBatch {
   std::int64_t world_step = -1;  ///< -1: no batch this step
   double world_time_s = 0.0;
@@ -70,6 +99,8 @@ struct MeasurementBatch {
   std::vector<TargetObservation> targets;
   std::optional<AbsoluteFix> fix;
   std::optional<MotionInput> motion;
+  std::optional<OdometryInput> odometry;                  ///< pose-state algorithms only
+  std::vector<RangeBearingMeasurement> range_bearings;    ///< pose-state algorithms only
   std::vector<AgentId> neighbours;
 };
 
