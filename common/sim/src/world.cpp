@@ -155,7 +155,9 @@ double World::mean_degree() const {
 
 estimators::AgentSetup World::setup_of(AgentId id) const {
   const auto i = static_cast<std::size_t>(id);
-  return estimators::AgentSetup{id, is_anchor.at(i), is_anchor.at(i) ? truth.at(i) : initial_guess.at(i)};
+  estimators::AgentSetup setup{id, is_anchor.at(i), is_anchor.at(i) ? truth.at(i) : initial_guess.at(i)};
+  if (i < initial_heading.size()) setup.initial_heading_rad = initial_heading[i];
+  return setup;
 }
 
 std::uint64_t trial_seed(std::uint64_t seed, std::uint64_t trial) {
@@ -203,6 +205,10 @@ World build_world(const Scenario& s, std::uint64_t trial) {
 }
 
 void advance_truth(World& world, const Scenario& s, std::int64_t step) {
+  if (world.recorded) {
+    world.truth = world.recorded->truth(step);
+    return;
+  }
   if (s.world.motion != config::Motion::kRandomWalk || s.world.motion_std_m <= 0.0) return;
   std::normal_distribution<double> gauss(0.0, s.world.motion_std_m);
   for (std::size_t i = 0; i < world.truth.size(); ++i) {
@@ -278,6 +284,7 @@ void add_paths(const World& world, const Scenario& s, AgentId agent, AgentId pee
 
 estimators::MeasurementBatch generate_batch(const World& world, const Scenario& s, AgentId agent,
                                             std::int64_t step) {
+  if (world.recorded) return world.recorded->batch(agent, step);
   const MeasurementKinds kinds = measurement_kinds(s.algorithm.name);
   estimators::MeasurementBatch batch;
   batch.world_step = step;

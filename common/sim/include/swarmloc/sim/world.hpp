@@ -3,6 +3,7 @@
 // facts (anchor flag, initial guess, clock). Deterministic in the scenario seed, so the orchestrator,
 // every agent process and the simulator build the same world independently.
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
@@ -11,6 +12,20 @@
 #include "swarmloc/models/multipath.hpp"
 
 namespace swarmloc::sim {
+
+/// A world that comes from data instead of the seeded generator: a --record file or a real dataset
+/// (UTIAS MRCLAM). When World::recorded is set, advance_truth and generate_batch read it, so every
+/// runtime (simulator, DDS orchestrator, fusion centre) replays the same steps unchanged.
+class RecordedSteps {
+ public:
+  virtual ~RecordedSteps() = default;
+  /// World steps available (0 … steps() − 1).
+  [[nodiscard]] virtual std::int64_t steps() const = 0;
+  /// True positions of every agent at world step `step`.
+  [[nodiscard]] virtual std::vector<Vec2> truth(std::int64_t step) const = 0;
+  /// Agent `agent`'s measurement batch of world step `step` (world_step = -1 if it has none).
+  [[nodiscard]] virtual estimators::MeasurementBatch batch(AgentId agent, std::int64_t step) const = 0;
+};
 
 struct World {
   std::vector<Vec2> truth;  ///< current true positions
@@ -23,6 +38,8 @@ struct World {
   /// Monte Carlo trial: the configuration (placement, anchors, graph, clocks) depends on the seed
   /// only; initial guesses, measurement noise, motion noise and link loss also depend on the trial.
   std::uint64_t trial = 0;
+  std::vector<double> initial_heading;            ///< pose-state algorithms (empty: all 0)
+  std::shared_ptr<const RecordedSteps> recorded;  ///< set: truth and batches come from data
 
   [[nodiscard]] int size() const { return static_cast<int>(truth.size()); }
   [[nodiscard]] int anchor_count() const;
