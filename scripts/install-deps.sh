@@ -9,6 +9,7 @@ packages=(
   libddsc0debian openssl                   # DDS Security plugins (libdds_security_*.so); PKI script
   libeigen3-dev libspdlog-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  zlib1g-dev                               # gzip-compressed datasets (UTIAS MRCLAM)
   gnuplot-nox                              # plots in every run directory
   procps                                   # pgrep/ps for the orphan-process checks in tests
   nftables iproute2                        # network namespaces + bridge loss for the multi-host test

@@ -150,7 +150,8 @@ class DocumentCounter : public YAML::EventHandler {
 };
 
 /// Parses, resolves, overrides and validates. `subject` opens file-level errors ("scenario file 'x'");
-/// `origin` prefixes line:column locations; `base_dir` resolves a relative world.positions_file.
+/// `origin` prefixes line:column locations; `base_dir` resolves a relative world.positions_file
+/// and world.data_dir.
 Scenario parse(const std::string& yaml_text, const std::vector<std::string>& overrides,
                const std::string& origin, const std::string& subject,
                const std::optional<std::filesystem::path>& base_dir) {
@@ -183,12 +184,13 @@ Scenario parse(const std::string& yaml_text, const std::vector<std::string>& ove
 
   // A relative positions file in a scenario file means "next to the scenario file". Made absolute so the
   // run directory's scenario.yaml still points at it.
-  auto& positions = scenario.world.positions_file;
-  if (base_dir && !positions.empty() && std::filesystem::path(positions).is_relative()) {
-    std::error_code error;
-    auto resolved = std::filesystem::absolute(*base_dir / positions, error);
-    if (error) resolved = *base_dir / positions;
-    positions = resolved.lexically_normal().string();
+  for (auto* path : {&scenario.world.positions_file, &scenario.world.data_dir}) {
+    if (base_dir && !path->empty() && std::filesystem::path(*path).is_relative()) {
+      std::error_code error;
+      auto resolved = std::filesystem::absolute(*base_dir / *path, error);
+      if (error) resolved = *base_dir / *path;
+      *path = resolved.lexically_normal().string();
+    }
   }
 
   for (const auto& text : overrides) apply_override(scenario, text, sources);

@@ -23,6 +23,8 @@ using EnumNames = std::array<std::pair<E, std::string_view>, 2>;
 
 constexpr std::array<std::pair<Placement, std::string_view>, 3> kPlacementNames{
     {{Placement::kUniform, "uniform"}, {Placement::kGrid, "grid"}, {Placement::kFile, "file"}}};
+constexpr EnumNames<WorldSource> kWorldSourceNames{
+    {{WorldSource::kGenerated, "generated"}, {WorldSource::kMrclam, "mrclam"}}};
 constexpr EnumNames<Motion> kMotionNames{{{Motion::kStatic, "static"}, {Motion::kRandomWalk, "random_walk"}}};
 constexpr EnumNames<RunMode> kRunModeNames{
     {{RunMode::kFreeRun, "free_run"}, {RunMode::kLockstep, "lockstep"}}};
@@ -40,6 +42,7 @@ constexpr EnumNames<NoiseDraw> kNoiseDrawNames{
     {{NoiseDraw::kPerStep, "per_step"}, {NoiseDraw::kOnce, "once"}}};
 
 const auto& names_of(Placement /*tag*/) { return kPlacementNames; }
+const auto& names_of(WorldSource /*tag*/) { return kWorldSourceNames; }
 const auto& names_of(Motion /*tag*/) { return kMotionNames; }
 const auto& names_of(RunMode /*tag*/) { return kRunModeNames; }
 const auto& names_of(SimClock /*tag*/) { return kSimClockNames; }
@@ -276,6 +279,11 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(algorithm.max_step),
       SWARMLOC_KEY(algorithm.abs_tol),
       SWARMLOC_KEY(algorithm.range_gate_chi2),
+      SWARMLOC_KEY(algorithm.initial_heading_std_rad),
+      SWARMLOC_KEY(algorithm.range_bearing_gate_chi2),
+      SWARMLOC_KEY(world.source),
+      SWARMLOC_KEY(world.data_dir),
+      SWARMLOC_KEY(world.data_step_s),
       SWARMLOC_KEY(world.agents),
       SWARMLOC_KEY(world.anchors),
       SWARMLOC_KEY(world.area_m),
@@ -298,6 +306,9 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(noise.shared_range_draws),
       SWARMLOC_KEY(noise.relative_std_m),
       SWARMLOC_KEY(noise.doa_error_deg),
+      SWARMLOC_KEY(noise.bearing_std_rad),
+      SWARMLOC_KEY(noise.odometry_v_std),
+      SWARMLOC_KEY(noise.odometry_omega_std),
       SWARMLOC_KEY(noise.draw),
       SWARMLOC_KEY(network.loss),
       SWARMLOC_KEY(network.burst.mean_length),
@@ -444,7 +455,8 @@ const std::vector<std::string>& known_algorithms() {
   // estimators with their experiments, but the world has no targets or field yet).
   static const std::vector<std::string> names{"ieif",     "iekf",     "ekf",        "lbekf",
                                               "lbekf_vr", "lbekf_i",  "jacobi",     "multipath_bp",
-                                              "dgbb",     "local_bb", "fixed_step", "step_length"};
+                                              "dgbb",     "local_bb", "fixed_step", "step_length",
+                                              "pose_ekf", "pose_ieif", "dead_reckoning"};
   return names;
 }
 

@@ -109,6 +109,8 @@ void validate(const Scenario& scenario) {
   require_non_negative(algorithm.max_step, "algorithm.max_step");
   require_positive(algorithm.abs_tol, "algorithm.abs_tol");
   require_non_negative(algorithm.range_gate_chi2, "algorithm.range_gate_chi2");
+  require_positive(algorithm.initial_heading_std_rad, "algorithm.initial_heading_std_rad");
+  require_non_negative(algorithm.range_bearing_gate_chi2, "algorithm.range_bearing_gate_chi2");
 
   const auto& world = scenario.world;
   require_within(world.agents, 1, 100000, "world.agents");
@@ -116,6 +118,23 @@ void validate(const Scenario& scenario) {
   if (world.anchors > world.agents) {
     fail("world.anchors",
          std::to_string(world.anchors) + " is more than world.agents (" + std::to_string(world.agents) + ")");
+  }
+  const bool pose_algorithm =
+      algorithm.name == "pose_ekf" || algorithm.name == "pose_ieif" || algorithm.name == "dead_reckoning";
+  if (world.source == WorldSource::kMrclam) {
+    if (world.data_dir.empty()) fail("world.data_dir", "must name the dataset directory when world.source is mrclam");
+    require_within(world.data_step_s, 0.001, 10.0, "world.data_step_s");
+    if (world.agents != 5) {
+      fail("world.agents", std::to_string(world.agents) + ": UTIAS MRCLAM has 5 robots (set world.agents: 5)");
+    }
+    if (world.anchors != 0) fail("world.anchors", "UTIAS MRCLAM robots are not anchors (set world.anchors: 0)");
+    if (!pose_algorithm) {
+      fail("algorithm.name", "'" + algorithm.name +
+                                 "' cannot use UTIAS MRCLAM data (range-bearing and odometry): use pose_ekf, "
+                                 "pose_ieif or dead_reckoning");
+    }
+  } else if (pose_algorithm) {
+    fail("algorithm.name", "'" + algorithm.name + "' needs odometry and range-bearing data: set world.source: mrclam");
   }
   require_positive(world.area_m, "world.area_m");
   require_positive(world.comm_radius_m, "world.comm_radius_m");
@@ -138,6 +157,9 @@ void validate(const Scenario& scenario) {
   require_within(scenario.noise.range_factor, 0.0, 10.0, "noise.range_factor");
   require_non_negative(scenario.noise.relative_std_m, "noise.relative_std_m");
   require_within(scenario.noise.doa_error_deg, 0.0, 90.0, "noise.doa_error_deg");
+  require_within(scenario.noise.bearing_std_rad, 1e-6, 3.2, "noise.bearing_std_rad");
+  require_within(scenario.noise.odometry_v_std, 0.0, 100.0, "noise.odometry_v_std");
+  require_within(scenario.noise.odometry_omega_std, 0.0, 100.0, "noise.odometry_omega_std");
   if (algorithm.name == "multipath_bp" && !(scenario.noise.range_std_m > 0.0)) {
     fail("noise.range_std_m", "must be > 0 for multipath_bp (its path-length variance is range_std_m²)");
   }

@@ -248,6 +248,28 @@ WireBatch::WireBatch(AgentId recipient, const sim::Header& header,
     motion.push_back(input);
   }
   neighbours.assign(batch.neighbours.begin(), batch.neighbours.end());
+  if (batch.odometry) {
+    for (const auto& segment : batch.odometry->segments) {
+      odometry.push_back(swarmloc_msg_OdometrySegment{segment.v_mps, segment.omega_radps, segment.dt_s});
+    }
+    sample.has_odometry = true;
+    sample.odometry_v_std = batch.odometry->v_std;
+    sample.odometry_omega_std = batch.odometry->omega_std;
+  }
+  for (const auto& m : batch.range_bearings) {
+    swarmloc_msg_RangeBearing wire{};
+    wire.peer = m.peer;
+    wire.landmark = m.landmark;
+    put_vec2(m.landmark_m, wire.landmark_m);
+    put_sym2(m.landmark_cov, wire.landmark_cov);
+    wire.range_m = m.range_m;
+    wire.bearing_rad = m.bearing_rad;
+    wire.range_std_m = m.range_std_m;
+    wire.bearing_std_rad = m.bearing_std_rad;
+    range_bearings.push_back(wire);
+  }
+  point_at(sample.odometry, odometry);
+  point_at(sample.range_bearings, range_bearings);
   sample.agent_id = recipient;
   sample.header = encode_header(header);
   point_at(sample.ranges, ranges);
@@ -365,8 +387,11 @@ codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire) {
   const auto relative = view(wire.relative);
   const auto targets = view(wire.targets);
   const auto paths = view(wire.paths);
+  const auto odometry = view(wire.odometry);
+  const auto range_bearings = view(wire.range_bearings);
   if (!ranges || !fixes || !motion || !neighbours || !bearings || !relative || !targets || !paths ||
-      fixes->size() > 1 || motion->size() > 1) {
+      !odometry || !range_bearings || fixes->size() > 1 || motion->size() > 1 ||
+      (!wire.has_odometry && !odometry->empty())) {
     decoded.well_formed = false;
     return decoded;
   }
@@ -401,6 +426,27 @@ codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire) {
     input.dt_s = (*motion)[0].dt_s;
     input.process_cov = get_sym2((*motion)[0].process_cov);
     decoded.batch.motion = input;
+  }
+  if (wire.has_odometry) {
+    estimators::OdometryInput input;
+    input.v_std = wire.odometry_v_std;
+    input.omega_std = wire.odometry_omega_std;
+    for (const auto& segment : *odometry) {
+      input.segments.push_back(estimators::OdometrySegment{segment.v_mps, segment.omega_radps, segment.dt_s});
+    }
+    decoded.batch.odometry = std::move(input);
+  }
+  for (const auto& m : *range_bearings) {
+    estimators::RangeBearingMeasurement measurement;
+    measurement.peer = m.peer;
+    measurement.landmark = m.landmark;
+    measurement.landmark_m = get_vec2(m.landmark_m);
+    measurement.landmark_cov = get_sym2(m.landmark_cov);
+    measurement.range_m = m.range_m;
+    measurement.bearing_rad = m.bearing_rad;
+    measurement.range_std_m = m.range_std_m;
+    measurement.bearing_std_rad = m.bearing_std_rad;
+    decoded.batch.range_bearings.push_back(measurement);
   }
   decoded.batch.neighbours.assign(neighbours->begin(), neighbours->end());
   return decoded;

@@ -55,6 +55,8 @@ struct WireBatch {
   std::vector<swarmloc_msg_AbsoluteFix> fixes;
   std::vector<swarmloc_msg_MotionInput> motion;
   std::vector<int32_t> neighbours;
+  std::vector<swarmloc_msg_OdometrySegment> odometry;
+  std::vector<swarmloc_msg_RangeBearing> range_bearings;
   swarmloc_msg_MeasurementBatch sample{};
 };
 

@@ -11,6 +11,7 @@
 #include <unordered_map>
 
 #include "swarmloc/core/random.hpp"
+#include "swarmloc/sim/mrclam.hpp"
 
 namespace swarmloc::sim {
 namespace {
@@ -165,6 +166,7 @@ std::uint64_t trial_seed(std::uint64_t seed, std::uint64_t trial) {
 }
 
 World build_world(const Scenario& s, std::uint64_t trial) {
+  if (s.world.source == config::WorldSource::kMrclam) return build_mrclam_world(s);
   World world;
   world.trial = trial;
   constexpr int kMaxAttempts = 1000;

@@ -20,6 +20,8 @@ class ScenarioError : public std::invalid_argument {
 };
 
 enum class Placement { kUniform, kGrid, kFile };
+/// Where the world comes from: the seeded generator, or a real dataset (UTIAS MRCLAM, docs/real-data.md).
+enum class WorldSource { kGenerated, kMrclam };
 enum class Motion { kStatic, kRandomWalk };
 enum class RunMode { kFreeRun, kLockstep };
 /// How `swarmloc sim` drives the agents: synchronous rounds, or each agent on its own clock over a
@@ -58,9 +60,14 @@ struct Scenario {
     double max_step = 0.0;      ///< cap on any BB step; 0 = no cap (the source has none)
     double abs_tol = 1e-10;     ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
     double range_gate_chi2 = 0.0;  ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
+    double initial_heading_std_rad = 0.1;   ///< pose-state algorithms: heading prior std
+    double range_bearing_gate_chi2 = 0.0;   ///< pose-state algorithms: 2-dof gate; 0 = off
   } algorithm;
 
   struct World {
+    WorldSource source = WorldSource::kGenerated;
+    std::string data_dir;      ///< dataset directory when source = mrclam
+    double data_step_s = 0.1;  ///< dataset seconds per world step when source = mrclam
     int agents = 30;
     int anchors = 8;
     double area_m = 40.0;         ///< square side
@@ -89,6 +96,10 @@ struct Scenario {
     double relative_std_m = 0.1;      ///< std per axis of relative-position measurements (jacobi)
     double doa_error_deg = 5.0;       ///< angle-of-arrival error, uniform in ±this (multipath_bp)
     NoiseDraw draw = NoiseDraw::kPerStep;
+    // Pose-state algorithms on recorded data (world.source = mrclam): the filters' noise model.
+    double bearing_std_rad = 0.05;     ///< robot-frame bearing std
+    double odometry_v_std = 0.05;      ///< m/√s on the travelled distance
+    double odometry_omega_std = 0.1;   ///< rad/√s on the turned angle
   } noise;
 
   struct Network {
