@@ -8,6 +8,7 @@
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/estimators/ieif.hpp"
 #include "swarmloc/estimators/iekf.hpp"
+#include "swarmloc/estimators/pose_filters.hpp"
 
 namespace swarmloc::estimators {
 namespace {
@@ -25,8 +26,11 @@ struct Registration {
 };
 
 constexpr std::array kRegistry{
-    Registration{"ieif", &build<Ieif>},  // ALGORITHMS.md §3.2
-    Registration{"iekf", &build<Iekf>},  // ALGORITHMS.md §3.5
+    Registration{"ieif", &build<Ieif>},                     // ALGORITHMS.md §3.2
+    Registration{"iekf", &build<Iekf>},                     // ALGORITHMS.md §3.5
+    Registration{"pose_ekf", &build<PoseEkf>},              // pose states (x, y, θ), pose_filters.hpp
+    Registration{"pose_ieif", &build<PoseIeif>},            // its information form
+    Registration{"dead_reckoning", &build<DeadReckoning>},  // odometry only (baseline)
 };
 
 }  // namespace

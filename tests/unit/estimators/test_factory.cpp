@@ -7,10 +7,10 @@
 namespace swarmloc::estimators {
 namespace {
 
-TEST(Factory, KnowsIeifAndIekf) {
+TEST(Factory, KnowsIeifIekfAndThePoseFilters) {
   const auto& names = known_algorithms();
-  EXPECT_NE(std::find(names.begin(), names.end(), "ieif"), names.end());
-  EXPECT_NE(std::find(names.begin(), names.end(), "iekf"), names.end());
+  for (const char* name : {"ieif", "iekf", "pose_ekf", "pose_ieif", "dead_reckoning"})
+    EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
   for (const auto& name : names)
     EXPECT_EQ(make_estimator(name, AgentSetup{}, KalmanFamilyParams{})->name(), name);
 }
