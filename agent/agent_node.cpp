@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <memory>
 #include <thread>
 #include <type_traits>
 
@@ -17,6 +18,7 @@
 #include "swarmloc/sim/agent_runtime.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/hostile.hpp"
+#include "swarmloc/sim/recording.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/sim/world.hpp"
 
@@ -66,7 +68,12 @@ class AgentProcess {
         neighbour_count_(static_cast<int>(world.neighbours.at(static_cast<std::size_t>(options.id)).size())),
         sensor_only_(sim::is_centralized(scenario.algorithm.name)),
         lockstep_(scenario.run.mode == config::RunMode::kLockstep && !sensor_only_),
-        started_(std::chrono::steady_clock::now()) {}
+        started_(std::chrono::steady_clock::now()) {
+    if (!options.record_path.empty()) {
+      sample_log_ = std::make_unique<sim::SampleLogWriter>(options.record_path, world.size(),
+                                                           config::scenario_hash(scenario));
+    }
+  }
 
   int run() {
     const double period_local_s = 1.0 / scenario_.run.rate_hz;
@@ -163,6 +170,10 @@ class AgentProcess {
     }
     transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
     log_diagnostics();
+    if (sample_log_) {
+      sample_log_->close();
+      logger_->info("recorded {} inter-agent samples to {}", sample_log_->count(), options_.record_path);
+    }
     return 0;
   }
 
@@ -182,6 +193,7 @@ class AgentProcess {
         return true;
       }
     }
+    if (sample_log_) record(inbound);
     for (const auto& [header, batch] : inbound.batches) runtime_.on_batch(header, batch);
     if (lockstep_) {
       hold(inbound);
@@ -197,6 +209,21 @@ class AgentProcess {
     for (const auto& sample : inbound.beliefs)
       runtime_.on_belief(sample.header, sample.message, sample.well_formed);
     return false;
+  }
+
+  /// --record: every inter-agent sample as taken, with its DDS source timestamp and take time.
+  void record(const dds::AgentInbound& inbound) {
+    auto append = [&](const auto& samples) {
+      for (const auto& sample : samples) {
+        sample_log_->append(sim::ReceivedSample{options_.id, runtime_.steps_run(), sample.source_timestamp_ns,
+                                                sample.taken_ns, sample.well_formed, sample.header,
+                                                sim::SampleMessage(sample.message)});
+      }
+    };
+    append(inbound.states);
+    append(inbound.information);
+    append(inbound.consensus);
+    append(inbound.beliefs);
   }
 
   /// Lockstep: keeps inter-agent samples until the step they belong to (a neighbour may already
@@ -303,6 +330,7 @@ class AgentProcess {
   bool started_run_ = false;
   double cpu_at_start_ = 0.0;
   std::chrono::steady_clock::time_point started_;
+  std::unique_ptr<sim::SampleLogWriter> sample_log_;  ///< --record
 };
 
 }  // namespace

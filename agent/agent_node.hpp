@@ -13,9 +13,10 @@ struct AgentOptions {
   std::string scenario_path;
   std::vector<std::string> overrides;
   AgentId id = 0;
-  std::string log_path;  ///< empty: log to stderr
-  bool hostile = false;  ///< publish NaN / non-PSD / absurd states (robustness tests)
-  int incarnation = 0;   ///< restarts so far (faults.kill): numbers samples from a new range
+  std::string log_path;     ///< empty: log to stderr
+  bool hostile = false;     ///< publish NaN / non-PSD / absurd states (robustness tests)
+  int incarnation = 0;      ///< restarts so far (faults.kill): numbers samples from a new range
+  std::string record_path;  ///< non-empty: log every inter-agent sample received to this file (--record)
 };
 
 /// Runs the agent until STOP, SIGINT/SIGTERM or the orchestrator goes silent. Returns the process

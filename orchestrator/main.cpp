@@ -13,6 +13,7 @@
 #include "campaign.hpp"
 #include "fusion_center.hpp"
 #include "orchestrator.hpp"
+#include "replay.hpp"
 #include "reproduce.hpp"
 #include "swarmloc/config/scenario.hpp"
 
@@ -59,7 +60,9 @@ int main(int argc, char** argv) {
       "  swarmloc run scenarios/default.yaml            # N agent processes over DDS on loopback\n"
       "  swarmloc sim scenarios/default.yaml            # the same estimators in one process\n"
       "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n"
-      "  swarmloc campaign scenarios/campaigns/loss.yaml --mode sim   # loss sweep, every algorithm\n",
+      "  swarmloc campaign scenarios/campaigns/loss.yaml --mode sim   # loss sweep, every algorithm\n"
+      "  swarmloc sim scenarios/default.yaml --record --out runs/a     # record every measurement\n"
+      "  swarmloc replay runs/a/recording.slrec --set algorithm.name=iekf  # another algorithm\n",
       "swarmloc"};
   app.require_subcommand(1);
   app.footer("Exit codes: 0 ok, 2 bad input (scenario or flags), 1 runtime failure or interrupted.");
@@ -81,6 +84,11 @@ int main(int argc, char** argv) {
   run->add_flag("--no-launch", no_launch,
                 "Do not start agents; wait for agents started elsewhere (containers, hosts)");
   run->add_flag("-q,--quiet", quiet, "No progress line");
+  bool record = false;
+  const std::string record_help =
+      "Write recording.slrec (truth and every measurement batch) and recording/ (the inter-agent samples "
+      "each agent received) into the run directory; replay with `swarmloc replay` (docs/record-replay.md)";
+  run->add_flag("--record", record, record_help);
   std::string security_dir;
   const std::string security_help =
       "DDS Security with the PKI in DIR (deploy/security/make-pki.sh); same as --set dds.security_dir=DIR";
@@ -97,6 +105,7 @@ int main(int argc, char** argv) {
   sim->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
   sim->add_option("--set", overrides, "Override a scenario key (repeatable)");
   sim->add_flag("-q,--quiet", quiet, "No progress line");
+  sim->add_flag("--record", record, record_help);
   int trials = 1;
   int threads = 0;
   sim->add_option("--trials", trials,
@@ -135,6 +144,27 @@ int main(int argc, char** argv) {
   agent->add_option("--security", security_dir, security_help);
   agent->add_flag("--hostile", agent_options.hostile,
                   "Publish NaN / non-PSD / absurd states (robustness tests)");
+  agent->add_option("--record", agent_options.record_path,
+                    "Log every inter-agent sample received to FILE (set by `run --record`; "
+                    "docs/record-replay.md)");
+
+  auto* replay = app.add_subcommand(
+      "replay",
+      "Feed a recording's measurements (recording.slrec from `run --record` / `sim --record`) to fresh "
+      "agents, in the simulator or with --dds over DDS; --set algorithm.name=... compares algorithms on "
+      "identical input.");
+  swarmloc::orchestrator::ReplayOptions replay_options;
+  replay->add_option("recording", replay_options.recording_path,
+                     "Recording file (a run directory's recording.slrec)");
+  replay->add_flag("--dds", replay_options.dds, "Replay over DDS agent processes (default: the simulator)");
+  replay->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
+  replay->add_option("--set", overrides,
+                     "Override a key of the recorded scenario (repeatable; not seed or world.*, which would "
+                     "change the recorded world)");
+  replay->add_flag("--record", record,
+                   "Record the replay as well (e.g. the inter-agent samples of another algorithm)");
+  replay->add_flag("-q,--quiet", quiet, "No progress line");
+  replay->footer(keys_help());
 
   auto* reproduce = app.add_subcommand(
       "reproduce", "Run a paper experiment; writes a Markdown table beside the paper's numbers.");
@@ -199,6 +229,7 @@ int main(int argc, char** argv) {
     options.progress = !quiet;
     options.view_port = run_view_port;
     options.view_hold_s = run_view_hold;
+    options.record = record;
     return swarmloc::orchestrator::run_orchestrator(options);
   }
   if (sim->parsed()) {
@@ -212,6 +243,7 @@ int main(int argc, char** argv) {
     options.view_port = sim_view_port;
     options.view_hold_s = sim_view_hold;
     options.hostile_agents.assign(sim_hostile.begin(), sim_hostile.end());
+    options.record = record;
     return swarmloc::orchestrator::run_sim_command(options);
   }
   if (agent->parsed()) {
@@ -228,6 +260,14 @@ int main(int argc, char** argv) {
       return 2;
     }
     return swarmloc::agent::run_agent(agent_options);
+  }
+  if (replay->parsed()) {
+    replay_options.overrides = overrides;
+    replay_options.out_dir = out_dir;
+    replay_options.progress = !quiet;
+    replay_options.record = record;
+    replay_options.agent_binary = self_executable(argv[0]);
+    return swarmloc::orchestrator::run_replay(replay_options);
   }
   if (campaign->parsed()) {
     campaign_options.progress = !campaign_quiet;

@@ -17,6 +17,7 @@
 #include "live_view.hpp"
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
+#include "swarmloc/sim/recording.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/sim/world.hpp"
 
@@ -72,13 +73,19 @@ std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& e
   return line;
 }
 
+sim::World make_world(const config::Scenario& scenario, const RunOptions& options) {
+  sim::World world = sim::build_world(scenario);
+  sim::attach_recorded(world, options.recorded);
+  return world;
+}
+
 class Orchestrator {
  public:
   Orchestrator(config::Scenario scenario, RunOptions options, std::filesystem::path run_dir)
       : scenario_(std::move(scenario)),
         options_(std::move(options)),
         run_dir_(std::move(run_dir)),
-        world_(sim::build_world(scenario_)),
+        world_(make_world(scenario_, options_)),
         centralized_(sim::is_centralized(scenario_.algorithm.name)),
         lockstep_(scenario_.run.mode == config::RunMode::kLockstep && !centralized_),
         lockstep_excluded_(static_cast<std::size_t>(scenario_.world.agents), false),
@@ -102,6 +109,9 @@ class Orchestrator {
     record_.crlb = sim::scenario_crlb(world_, scenario_);
 
     if (options_.view_port >= 0) start_view();
+    if (options_.record) {
+      recording_ = std::make_unique<sim::RecordingWriter>(run_dir_ / sim::kRecordingFile, scenario_, world_);
+    }
     dds::OrchestratorTransport transport(scenario_, n);
     if (options_.launch_agents) launch_agents();
     spdlog::info("run directory {}: {} agents ({} anchors, mean degree {:.1f}), {} steps at {} Hz{}",
@@ -137,6 +147,14 @@ class Orchestrator {
     record_.extra["rejected_reports"] = transport.rejected_reports();
     if (lockstep_) record_.extra["lockstep_timeouts"] = lockstep_timeouts_;
     record_.extra["run_directory"] = run_dir_.string();
+    if (recording_) {
+      recording_->close();
+      record_.extra["recording"] = {
+          {"file", sim::kRecordingFile},
+          {"steps", recording_->steps()},
+          {"sample_logs", std::string(sim::kSampleLogDirectory) + "/agent_<id>.slrec"}};
+    }
+    for (const auto& [key, value] : options_.summary_extra.items()) record_.extra[key] = value;
     sim::write_run_directory(run_dir_, record_);
     publish_view(record_.interrupted || failed ? "stopped" : "done", true);  // done: summary.json is written
     progress_.finish();
@@ -203,6 +221,11 @@ class Orchestrator {
     std::vector<std::string> argv{options_.agent_binary, "agent", "--scenario", scenario_file, "--id",
                                   std::to_string(id),    "--log", log};
     if (incarnation > 0) argv.insert(argv.end(), {"--incarnation", std::to_string(incarnation)});
+    if (options_.record) {
+      std::string file = name;  // agent_003.log -> recording/agent_003.slrec
+      file.replace(file.size() - 4, 4, ".slrec");
+      argv.insert(argv.end(), {"--record", (run_dir_ / sim::kSampleLogDirectory / file).string()});
+    }
     if (std::find(options_.hostile_agents.begin(), options_.hostile_agents.end(), id) !=
         options_.hostile_agents.end()) {
       argv.emplace_back("--hostile");
@@ -291,9 +314,14 @@ class Orchestrator {
       apply_faults(step);
       const auto stamp_ns =
           static_cast<std::int64_t>(static_cast<double>(step) / scenario_.run.rate_hz * 1e9);
+      std::vector<estimators::MeasurementBatch> batches;
+      batches.reserve(static_cast<std::size_t>(world_.size()));
+      for (AgentId i = 0; i < world_.size(); ++i)
+        batches.push_back(sim::generate_batch(world_, scenario_, i, step));
+      if (recording_) recording_->append_step(step, world_.truth, batches);
       for (AgentId i = 0; i < world_.size(); ++i) {
         sim::Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns};
-        transport.publish_batch(i, header, sim::generate_batch(world_, scenario_, i, step));
+        transport.publish_batch(i, header, batches[static_cast<std::size_t>(i)]);
       }
       if (lockstep_) {
         wait_for_step(transport, step);
@@ -438,7 +466,8 @@ class Orchestrator {
   sim::RunRecord record_;
   std::vector<std::optional<estimators::Estimate>> latest_;
   std::vector<std::optional<sim::EstimateReport>> reports_;
-  std::unique_ptr<LiveView> view_;  ///< --view
+  std::unique_ptr<LiveView> view_;                   ///< --view
+  std::unique_ptr<sim::RecordingWriter> recording_;  ///< --record
 };
 
 void check_hostile_ids(const std::vector<AgentId>& hostile_agents, const config::Scenario& scenario) {
@@ -467,6 +496,15 @@ int run_orchestrator(const RunOptions& options) {
   config::Scenario scenario;
   try {
     scenario = config::load_scenario(options.scenario_path, options.overrides);
+  } catch (const config::ScenarioError& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 2;
+  }
+  return run_orchestrator(std::move(scenario), options);
+}
+
+int run_orchestrator(config::Scenario scenario, const RunOptions& options) {
+  try {
     check_hostile_ids(options.hostile_agents, scenario);
     check_runnable(scenario);  // placement and algorithm errors are bad input, found before anything starts
     if (!scenario.dds.security_dir.empty()) {
@@ -507,6 +545,15 @@ int run_sim_command(const SimCommandOptions& options) {
   config::Scenario scenario;
   try {
     scenario = config::load_scenario(options.scenario_path, options.overrides);
+  } catch (const config::ScenarioError& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 2;
+  }
+  return run_sim_command(std::move(scenario), options);
+}
+
+int run_sim_command(config::Scenario scenario, const SimCommandOptions& options) {
+  try {
     check_hostile_ids(options.hostile_agents, scenario);
     check_runnable(scenario);
   } catch (const config::ScenarioError& error) {
@@ -515,6 +562,11 @@ int run_sim_command(const SimCommandOptions& options) {
   }
   if (!options.hostile_agents.empty() && options.trials > 1) {
     std::fprintf(stderr, "error: --hostile is for single runs; it cannot be combined with --trials\n");
+    return 2;
+  }
+  if ((options.record || options.recorded) && options.trials > 1) {
+    std::fprintf(stderr,
+                 "error: --record and replay are single runs; they cannot be combined with --trials\n");
     return 2;
   }
   const auto run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
@@ -570,6 +622,12 @@ int run_sim_command(const SimCommandOptions& options) {
     }
     sim::SimOptions sim_options;
     sim_options.hostile_agents = options.hostile_agents;
+    sim_options.recorded = options.recorded;
+    std::unique_ptr<sim::DirectoryRecorder> recorder;
+    if (options.record) {
+      recorder = std::make_unique<sim::DirectoryRecorder>(run_dir);
+      sim_options.recorder = recorder.get();
+    }
     sim_options.on_step = [&](std::int64_t step, const sim::ErrorStats& errors) {
       progress.update(progress_line(step, scenario.run.steps, errors, scenario.world.agents,
                                     scenario.world.agents, seconds_since(started)),
@@ -578,6 +636,15 @@ int run_sim_command(const SimCommandOptions& options) {
     auto record = sim::run_simulation(scenario, sim_options);
     progress.finish();
     record.extra["run_directory"] = run_dir.string();
+    if (recorder) {
+      recorder->close();
+      record.extra["recording"] = {
+          {"file", sim::kRecordingFile},
+          {"steps", recorder->steps()},
+          {"sample_log", std::string(sim::kSampleLogDirectory) + "/" + sim::kSimSampleLogFile},
+          {"samples", recorder->samples()}};
+    }
+    for (const auto& [key, value] : options.summary_extra.items()) record.extra[key] = value;
     sim::write_run_directory(run_dir, record);
     std::printf("%s", sim::result_table(record).c_str());
     std::printf("  run directory: %s\n", run_dir.string().c_str());

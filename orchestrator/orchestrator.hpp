@@ -2,10 +2,14 @@
 // `swarmloc run`: owns the world, launches the agent processes, publishes measurements every world
 // step, collects and scores estimates, and writes the run directory.
 #include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "swarmloc/config/scenario.hpp"
 #include "swarmloc/core/types.hpp"
+#include "swarmloc/sim/world.hpp"
 
 namespace swarmloc::orchestrator {
 
@@ -19,10 +23,18 @@ struct RunOptions {
   bool progress = true;
   int view_port = -1;         ///< >= 0: live view on 127.0.0.1:view_port (0: any free port); -1: none
   double view_hold_s = 10.0;  ///< after the run, the live view keeps serving this long (inf: until Ctrl-C)
+  /// --record: recording.slrec (truth + every published batch) and recording/agent_<id>.slrec (each
+  /// agent's received inter-agent samples) in the run directory.
+  bool record = false;
+  /// Replay: the world's truth and batches come from here (World::recorded), not the generator.
+  std::shared_ptr<const sim::RecordedSteps> recorded;
+  nlohmann::json summary_extra = nlohmann::json::object();  ///< added to summary.json (replay provenance)
 };
 
 /// Returns the process exit code (0 ok, 2 bad input, 1 runtime failure or interrupted).
 int run_orchestrator(const RunOptions& options);
+/// The same for a scenario already loaded (options.scenario_path is ignored).
+int run_orchestrator(config::Scenario scenario, const RunOptions& options);
 
 struct SimCommandOptions {
   std::string scenario_path;
@@ -34,9 +46,15 @@ struct SimCommandOptions {
   int view_port = -1;         ///< >= 0: paced playback in the live view on 127.0.0.1:view_port (0: any port)
   double view_hold_s = 10.0;  ///< after the playback, keep serving this long (inf: until Ctrl-C)
   std::vector<AgentId> hostile_agents;  ///< publish garbage, as `run --hostile` (single runs only)
+  /// --record: recording.slrec and recording/samples.slrec in the run directory (single runs only).
+  bool record = false;
+  std::shared_ptr<const sim::RecordedSteps> recorded;       ///< replay (see RunOptions::recorded)
+  nlohmann::json summary_extra = nlohmann::json::object();  ///< added to summary.json
 };
 
 /// `swarmloc sim`: the in-process runner.
 int run_sim_command(const SimCommandOptions& options);
+/// The same for a scenario already loaded (options.scenario_path is ignored).
+int run_sim_command(config::Scenario scenario, const SimCommandOptions& options);
 
 }  // namespace swarmloc::orchestrator

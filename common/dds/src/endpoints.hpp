@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "entities.hpp"
@@ -126,7 +127,8 @@ class LatencyHistogram {
 };
 
 /// Takes every sample a reader holds (loaned buffers, returned even if `handle` throws) and calls
-/// handle(wire) for each valid one. Stops after a short batch so a busy writer cannot starve the caller.
+/// handle(wire) — or handle(wire, source_timestamp_ns, taken_ns) if it takes three arguments — for each
+/// valid one. Stops after a short batch so a busy writer cannot starve the caller.
 /// With `latencies`, adds (now − source timestamp) of every valid sample to it.
 template <typename Wire, typename Handle>
 inline void take_all(dds_entity_t reader, Handle&& handle, LatencyHistogram* latencies = nullptr) {
@@ -144,12 +146,18 @@ inline void take_all(dds_entity_t reader, Handle&& handle, LatencyHistogram* lat
       int32_t count;
       ~LoanGuard() { static_cast<void>(dds_return_loan(reader, buffer, count)); }
     } guard{reader, samples.data(), count};
-    const dds_time_t taken_at = latencies != nullptr ? dds_time() : 0;
+    constexpr bool kWantsTimes = std::is_invocable_v<Handle&, const Wire&, std::int64_t, std::int64_t>;
+    const dds_time_t taken_at = (latencies != nullptr || kWantsTimes) ? dds_time() : 0;
     for (int32_t i = 0; i < count; ++i) {
       const dds_sample_info_t& info = infos[static_cast<std::size_t>(i)];
       if (info.valid_data) {
         if (latencies != nullptr && info.source_timestamp > 0) latencies->add(taken_at - info.source_timestamp);
-        handle(*static_cast<const Wire*>(samples[static_cast<std::size_t>(i)]));
+        const auto& wire = *static_cast<const Wire*>(samples[static_cast<std::size_t>(i)]);
+        if constexpr (kWantsTimes) {
+          handle(wire, static_cast<std::int64_t>(info.source_timestamp), static_cast<std::int64_t>(taken_at));
+        } else {
+          handle(wire);
+        }
       }
     }
     if (count < kBatch) {

@@ -189,18 +189,19 @@ AgentInbound AgentTransport::wait_and_take(double timeout_s) {
   AgentInbound inbound;
   // Senders outside the neighbour list are passed on (the runtime counts them as unknown senders).
   auto* latencies = &impl_->latencies;
-  take_all<swarmloc_msg_State>(
-      impl_->state_reader, [&](const swarmloc_msg_State& wire) { inbound.states.push_back(decode(wire)); },
-      latencies);
-  take_all<swarmloc_msg_Information>(
-      impl_->information_reader,
-      [&](const swarmloc_msg_Information& wire) { inbound.information.push_back(decode(wire)); }, latencies);
-  take_all<swarmloc_msg_Consensus>(
-      impl_->consensus_reader,
-      [&](const swarmloc_msg_Consensus& wire) { inbound.consensus.push_back(decode(wire)); }, latencies);
-  take_all<swarmloc_msg_Belief>(
-      impl_->belief_reader, [&](const swarmloc_msg_Belief& wire) { inbound.beliefs.push_back(decode(wire)); },
-      latencies);
+  // Each inter-agent sample keeps its source timestamp and take time (--record sample logs).
+  auto into = [](auto& samples) {
+    return [&samples](const auto& wire, std::int64_t source_ns, std::int64_t taken_ns) {
+      auto decoded = decode(wire);
+      decoded.source_timestamp_ns = source_ns;
+      decoded.taken_ns = taken_ns;
+      samples.push_back(std::move(decoded));
+    };
+  };
+  take_all<swarmloc_msg_State>(impl_->state_reader, into(inbound.states), latencies);
+  take_all<swarmloc_msg_Information>(impl_->information_reader, into(inbound.information), latencies);
+  take_all<swarmloc_msg_Consensus>(impl_->consensus_reader, into(inbound.consensus), latencies);
+  take_all<swarmloc_msg_Belief>(impl_->belief_reader, into(inbound.beliefs), latencies);
   take_all<swarmloc_msg_MeasurementBatch>(
       impl_->measurement_reader, [&](const swarmloc_msg_MeasurementBatch& wire) {
         auto decoded = decode(wire);

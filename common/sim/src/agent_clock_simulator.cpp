@@ -29,6 +29,7 @@ enum class Phase : int {
 
 struct SampleArrival {
   AgentId receiver = 0;
+  double sent_s = 0.0;  ///< virtual time of the publication (--record)
   std::shared_ptr<const AgentRuntime::Publication> publication;  ///< shared by every receiver
 };
 struct BatchArrival {
@@ -62,12 +63,21 @@ struct Later {
   }
 };
 
+World make_world(const config::Scenario& scenario, const SimOptions& options) {
+  World world = build_world(scenario, options.trial);
+  attach_recorded(world, options.recorded);
+  return world;
+}
+
+/// Virtual time in integer nanoseconds (the simulator's stamps in --record sample logs).
+std::int64_t virtual_ns(double time_s) { return static_cast<std::int64_t>(std::llround(time_s * 1e9)); }
+
 class AgentClockSimulation {
  public:
   AgentClockSimulation(const config::Scenario& scenario, const SimOptions& options)
       : scenario_(scenario),
         options_(options),
-        world_(build_world(scenario, options.trial)),
+        world_(make_world(scenario, options)),
         period_s_(1.0 / scenario.run.rate_hz),
         latency_seed_(trial_seed(scenario.seed, options.trial)),
         kills_(config::parse_agent_faults(scenario.faults.kill, "faults.kill", false)),
@@ -98,6 +108,7 @@ class AgentClockSimulation {
     record.extra["sim_clock"] = "agents";
     record.extra["network_delay_ms"] = scenario_.network.delay_ms;
     record.extra["network_jitter_ms"] = scenario_.network.jitter_ms;
+    if (options_.recorder) options_.recorder->begin(scenario_, world_);
 
     // As over DDS: every agent announces its prior before the run starts, and its timer starts with
     // the run (START), whatever its clock reads; the first tick comes one local period later.
@@ -171,7 +182,7 @@ class AgentClockSimulation {
     constexpr std::uint64_t kSampleKind = 0;
     for (AgentId receiver : world_.neighbours[static_cast<std::size_t>(sender)]) {
       push_arrival(sent_s, latency_s(sender, receiver, kSampleKind, shared->header.seq),
-                   SampleArrival{receiver, shared});
+                   SampleArrival{receiver, sent_s, shared});
     }
   }
 
@@ -180,6 +191,11 @@ class AgentClockSimulation {
     if (dead_[static_cast<std::size_t>(arrival.receiver)]) return;
     auto& receiver = agent(arrival.receiver);
     AgentRuntime::for_each_sample(*arrival.publication, [&](const Header& header, const auto& message) {
+      if (options_.recorder) {
+        options_.recorder->sample(ReceivedSample{arrival.receiver, receiver.steps_run(),
+                                                 virtual_ns(arrival.sent_s), virtual_ns(now_s_), true, header,
+                                                 SampleMessage(message)});
+      }
       receiver.on_sample(header, message);  // receiver-side loss, partition and ordering checks
     });
   }
@@ -230,9 +246,13 @@ class AgentClockSimulation {
     if (step > 0) advance_truth(world_, scenario_, step);
     apply_faults(step);
     constexpr std::uint64_t kBatchKind = 1;
+    std::vector<estimators::MeasurementBatch> batches;
+    batches.reserve(static_cast<std::size_t>(world_.size()));
+    for (AgentId i = 0; i < world_.size(); ++i) batches.push_back(generate_batch(world_, scenario_, i, step));
+    if (options_.recorder) options_.recorder->world_step(step, world_.truth, batches);
     for (AgentId i = 0; i < world_.size(); ++i) {
-      auto batch =
-          std::make_shared<const estimators::MeasurementBatch>(generate_batch(world_, scenario_, i, step));
+      auto batch = std::make_shared<const estimators::MeasurementBatch>(
+          std::move(batches[static_cast<std::size_t>(i)]));
       push_arrival(now_s_, latency_s(kOrchestratorId, i, kBatchKind, step), BatchArrival{i, step, batch});
     }
   }

@@ -125,6 +125,8 @@ double total_squared_error(const std::vector<Vec2>& truth,
 RunRecord run_centralized_simulation(const config::Scenario& scenario, const SimOptions& options) {
   const auto started = std::chrono::steady_clock::now();
   World world = build_world(scenario, options.trial);
+  attach_recorded(world, options.recorded);
+  if (options.recorder) options.recorder->begin(scenario, world);
   const int n = world.size();
   auto filter = make_fusion_filter(scenario, world);
 
@@ -149,6 +151,7 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
       batches[static_cast<std::size_t>(i)] = generate_batch(world, scenario, i, step);
       pointers[static_cast<std::size_t>(i)] = &batches[static_cast<std::size_t>(i)];
     }
+    if (options.recorder) options.recorder->world_step(step, world.truth, batches);
     filter->step(centralized_measurements(scenario, pointers));
     if (filter->last_truncated_entries() > 0) ++truncated_steps;
     for (AgentId i = 0; i < n; ++i) estimates[static_cast<std::size_t>(i)] = fusion_estimate(*filter, i);

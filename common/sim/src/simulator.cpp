@@ -96,6 +96,8 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
   if (is_centralized(scenario.algorithm.name)) return run_centralized_simulation(scenario, options);
   const auto started = std::chrono::steady_clock::now();
   World world = build_world(scenario, options.trial);
+  attach_recorded(world, options.recorded);
+  if (options.recorder) options.recorder->begin(scenario, world);
   const int n = world.size();
   std::vector<AgentRuntime> agents;
   agents.reserve(static_cast<std::size_t>(n));
@@ -134,6 +136,7 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
   std::vector<int> incarnation(static_cast<std::size_t>(n), 0);
 
   std::vector<std::optional<estimators::Estimate>> estimates(static_cast<std::size_t>(n));
+  std::vector<estimators::MeasurementBatch> batches(static_cast<std::size_t>(n));
   for (std::int64_t step = 0; step < scenario.run.steps; ++step) {
     if (step > 0) advance_truth(world, scenario, step);
     for (const auto& fault : kills) {
@@ -150,13 +153,22 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
         if (within(kills, receiver, step)) continue;
         auto& agent = agents[static_cast<std::size_t>(receiver)];
         AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
+          if (options.recorder) {
+            // Published in the previous round, delivered in this one (virtual world time).
+            options.recorder->sample(ReceivedSample{receiver, agent.steps_run(),
+                                                    publication.header.sender_stamp_ns, stamp_ns(step), true,
+                                                    header, SampleMessage(message)});
+          }
           agent.on_sample(header, message);
         });
       }
     }
+    for (AgentId i = 0; i < n; ++i)
+      batches[static_cast<std::size_t>(i)] = generate_batch(world, scenario, i, step);
+    if (options.recorder) options.recorder->world_step(step, world.truth, batches);
     for (AgentId i = 0; i < n; ++i) {
       Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns(step), stamp_ns(step)};
-      agents[static_cast<std::size_t>(i)].on_batch(header, generate_batch(world, scenario, i, step));
+      agents[static_cast<std::size_t>(i)].on_batch(header, std::move(batches[static_cast<std::size_t>(i)]));
     }
     for (AgentId i = 0; i < n; ++i) {
       const auto k = static_cast<std::size_t>(i);

@@ -8,6 +8,8 @@
 #include <queue>
 #include <random>
 #include <sstream>
+#include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 #include "swarmloc/core/random.hpp"
@@ -204,6 +206,18 @@ World build_world(const Scenario& s, std::uint64_t trial) {
         core::draw_clock(s.seed, static_cast<AgentId>(i), s.clock.offset_max_s, s.clock.drift_ppm));
   }
   return world;
+}
+
+void attach_recorded(World& world, std::shared_ptr<const RecordedSteps> recorded) {
+  if (!recorded) return;
+  if (recorded->steps() < 1) throw std::invalid_argument("attach_recorded: the recording holds no step");
+  auto truth = recorded->truth(0);
+  if (truth.size() != world.truth.size()) {
+    throw std::invalid_argument("attach_recorded: the recording has " + std::to_string(truth.size()) +
+                                " agents, the world " + std::to_string(world.truth.size()));
+  }
+  world.truth = std::move(truth);
+  world.recorded = std::move(recorded);
 }
 
 void advance_truth(World& world, const Scenario& s, std::int64_t step) {

@@ -60,6 +60,8 @@ struct Inbound {
   sim::Header header;
   Message message;
   bool well_formed = true;  ///< false if the wire sample had wrong sizes / bad enums (message invalid)
+  std::int64_t source_timestamp_ns = 0;  ///< the writer's DDS source timestamp (real-time clock)
+  std::int64_t taken_ns = 0;             ///< dds_time() when this process took it
 };
 
 /// Everything taken in one wait.

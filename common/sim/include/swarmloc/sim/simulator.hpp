@@ -5,6 +5,7 @@
 #include <functional>
 
 #include "swarmloc/sim/agent_runtime.hpp"
+#include "swarmloc/sim/recording.hpp"
 #include "swarmloc/sim/run_record.hpp"
 
 namespace swarmloc::sim {
@@ -17,6 +18,11 @@ struct SimOptions {
   /// Agents that publish garbage (sim::make_hostile) after their initial sample, like `swarmloc run
   /// --hostile`; they still estimate for themselves and are scored.
   std::vector<AgentId> hostile_agents;
+  /// Replay: truth and batches come from here (World::recorded) instead of the seeded generator.
+  std::shared_ptr<const RecordedSteps> recorded;
+  /// --record: receives the world, every world step's truth and batches, and every inter-agent sample
+  /// an agent receives (not owned; single runs only).
+  RunRecorder* recorder = nullptr;
 };
 
 /// Runs `scenario` in-process, deterministic in the seed. run.sim_clock = rounds: synchronous rounds —

@@ -52,6 +52,10 @@ struct World {
 /// found within 1000 draws.
 World build_world(const config::Scenario& scenario, std::uint64_t trial = 0);
 
+/// Attaches recorded steps to `world` (World::recorded) and takes its truth of step 0. Throws
+/// std::invalid_argument if the recording's agent count differs or it holds no step.
+void attach_recorded(World& world, std::shared_ptr<const RecordedSteps> recorded);
+
 /// Moves the truth one world step (random walk when world.motion = random_walk). Seeded by (seed, step).
 void advance_truth(World& world, const config::Scenario& scenario, std::int64_t step);
 
