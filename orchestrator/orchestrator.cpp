@@ -398,7 +398,7 @@ class Orchestrator {
     }
     sim::StepMetrics metrics;
     metrics.step = step;
-    metrics.time_s = static_cast<double>(step) / scenario_.run.rate_hz;
+    metrics.time_s = sim::reported_time_s(scenario_, step);
     metrics.errors = sim::score(world_.truth, world_.is_anchor, scored);
     metrics.crlb_rmse_m = record_.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
     record_.metrics.push_back(metrics);

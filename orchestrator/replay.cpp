@@ -2,11 +2,14 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include "orchestrator.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
+#include "swarmloc/sim/mrclam.hpp"
 #include "swarmloc/sim/recording.hpp"
 #include "swarmloc/sim/world.hpp"
 
@@ -17,8 +20,8 @@ namespace {
 struct ReplaySource {
   config::Scenario scenario;
   std::shared_ptr<const sim::RecordedSteps> steps;
-  bool pose_measurements = false;  ///< odometry / range-bearing batches (not on the DDS wire yet)
   nlohmann::json provenance = nlohmann::json::object();
+  nlohmann::json baselines;  ///< --mrclam: summary.json's "baselines"
 };
 
 /// The key of a "key=value" override.
@@ -91,7 +94,6 @@ ReplaySource recording_source(const std::string& path, const std::vector<std::st
                                 "; a changed positions file?)");
   }
   source.steps = recording;
-  source.pose_measurements = recording->has_pose_measurements();
   source.provenance = {{"recording", path},
                        {"recorded_steps", recording->steps()},
                        {"recorded_algorithm", recorded.algorithm.name},
@@ -100,18 +102,88 @@ ReplaySource recording_source(const std::string& path, const std::vector<std::st
   return source;
 }
 
+/// The scenario of `replay --mrclam` before --set overrides (docs/real-data.md explains each choice).
+constexpr const char* kMrclamScenario = R"(name: mrclam
+algorithm:
+  name: pose_ekf
+  process_noise_std_m: 0.01
+  initial_std_m: 0.05
+  initial_heading_std_rad: 0.05
+  range_bearing_gate_chi2: 13.8
+world:
+  source: mrclam
+  data_step_s: 0.1
+  agents: 5
+  anchors: 0
+noise:
+  range_std_m: 0.3
+  bearing_std_rad: 0.1
+  odometry_v_std: 0.05
+  odometry_omega_std: 0.1
+run:
+  mode: free_run
+)";
+
+/// `replay --mrclam DIR`: the dataset as the world, every recorded step unless run.steps is set, the
+/// wall rate = speedup / data_step_s, and both baselines computed in-process on the same steps.
+ReplaySource mrclam_source(const ReplayOptions& options) {
+  if (!(options.speedup > 0.0) || options.speedup > 1e4) {
+    throw config::ScenarioError("--speedup: " + std::to_string(options.speedup) + " is outside (0, 10000]");
+  }
+  std::error_code error;
+  const auto dir = std::filesystem::absolute(options.mrclam_dir, error).lexically_normal();
+  std::vector<std::string> overrides{"world.data_dir=" + dir.string()};
+  bool steps_set = false;
+  for (const auto& text : options.overrides) {
+    steps_set = steps_set || override_key(text) == "run.steps";
+    overrides.push_back(text);
+  }
+  auto scenario = config::parse_scenario(kMrclamScenario, overrides, "replay --mrclam");
+  if (!std::any_of(options.overrides.begin(), options.overrides.end(),
+                   [](const std::string& text) { return override_key(text) == "run.rate_hz"; })) {
+    scenario.run.rate_hz = options.speedup / scenario.world.data_step_s;
+  }
+  const auto dataset_steps = [&] {
+    auto probe = scenario;
+    probe.run.steps = 1;
+    return sim::build_world(probe).recorded->steps();
+  }();
+  if (!steps_set) scenario.run.steps = static_cast<int>(dataset_steps);
+  config::validate(scenario);
+  const auto world = sim::build_world(scenario);
+  spdlog::info("UTIAS MRCLAM {}: {} steps of {} s ({:.0f} s of data) at {:.0f}x real time; baselines first",
+               dir.string(), scenario.run.steps, scenario.world.data_step_s,
+               scenario.run.steps * scenario.world.data_step_s, options.speedup);
+  const auto baselines = sim::mrclam_baselines(scenario, world);
+  ReplaySource source;
+  source.scenario = scenario;
+  source.provenance = {
+      {"mrclam", dir.string()}, {"speedup", options.speedup}, {"dataset_steps", dataset_steps}};
+  source.baselines = {{"dead_reckoning",
+                       {{"rmse_m", baselines.dead_reckoning.rmse_m},
+                        {"final_rmse_m", baselines.dead_reckoning.final_rmse_m}}},
+                      {"centralized_ekf",
+                       {{"rmse_m", baselines.centralized_ekf.rmse_m},
+                        {"final_rmse_m", baselines.centralized_ekf.final_rmse_m}}}};
+  std::printf("  baselines (RMSE over the run, 5 robots): dead reckoning %.4f m, centralized EKF %.4f m\n",
+              baselines.dead_reckoning.rmse_m, baselines.centralized_ekf.rmse_m);
+  std::fflush(stdout);
+  return source;
+}
+
 }  // namespace
 
 int run_replay(const ReplayOptions& options) {
   ReplaySource source;
+  const bool mrclam = !options.mrclam_dir.empty();
   try {
-    if (options.recording_path.empty()) throw config::ScenarioError("replay: a recording FILE is required");
-    source = recording_source(options.recording_path, options.overrides);
-    if (options.dds && source.pose_measurements) {
-      throw config::ScenarioError(options.recording_path +
-                                  ": odometry and range-bearing measurements are not carried over DDS yet; "
-                                  "replay it in the simulator (without --dds)");
+    if (mrclam && !options.recording_path.empty()) {
+      throw config::ScenarioError("replay: give a recording FILE or --mrclam DIR, not both");
     }
+    if (!mrclam && options.recording_path.empty()) {
+      throw config::ScenarioError("replay: a recording FILE (or --mrclam DIR) is required");
+    }
+    source = mrclam ? mrclam_source(options) : recording_source(options.recording_path, options.overrides);
   } catch (const sim::RecordingError& error) {
     std::fprintf(stderr, "error: %s\n", error.what());
     return 2;
@@ -119,11 +191,15 @@ int run_replay(const ReplayOptions& options) {
     std::fprintf(stderr, "error: %s\n", error.what());
     return 2;
   }
-  spdlog::info("replaying {}: {} of {} recorded steps, algorithm {}{}", options.recording_path,
-               source.scenario.run.steps, source.steps->steps(), source.scenario.algorithm.name,
-               options.dds ? " over DDS" : " in the simulator");
-  const nlohmann::json extra = {{"replay", source.provenance}};
-  if (options.dds) {
+  const bool dds = mrclam ? !options.in_process : options.dds;
+  if (!mrclam) {
+    spdlog::info("replaying {}: {} of {} recorded steps, algorithm {}{}", options.recording_path,
+                 source.scenario.run.steps, source.steps->steps(), source.scenario.algorithm.name,
+                 dds ? " over DDS" : " in the simulator");
+  }
+  nlohmann::json extra = {{"replay", source.provenance}};
+  if (!source.baselines.is_null()) extra["baselines"] = source.baselines;
+  if (dds) {
     RunOptions run;
     run.out_dir = options.out_dir;
     run.agent_binary = options.agent_binary;

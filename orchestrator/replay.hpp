@@ -9,9 +9,11 @@
 namespace swarmloc::orchestrator {
 
 struct ReplayOptions {
-  /// The recording to replay. (A second source, `--mrclam DIR`, is planned: it will supply the
-  /// scenario and the RecordedSteps the same way, see replay.cpp.)
+  /// The recording to replay, or (mrclam_dir) a UTIAS MRCLAM dataset directory.
   std::string recording_path;
+  std::string mrclam_dir;              ///< --mrclam DIR: five robots as five agents (DDS unless in_process)
+  double speedup = 10.0;               ///< --mrclam: dataset seconds per wall-clock second (free run)
+  bool in_process = false;             ///< --mrclam --sim: the in-process simulator instead of DDS
   bool dds = false;                    ///< over DDS agent processes (default: the simulator)
   std::vector<std::string> overrides;  ///< --set on the recorded scenario (no world.* or seed)
   std::filesystem::path out_dir;       ///< empty: runs/<name>-<stamp>-seed<seed>

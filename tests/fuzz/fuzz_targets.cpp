@@ -578,9 +578,11 @@ void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
     std::vector<swarmloc_msg_AbsoluteFix> fixes;
     std::vector<swarmloc_msg_MotionInput> motion;
     std::vector<std::int32_t> neighbours;
+    std::vector<swarmloc_msg_OdometrySegment> odometry;
+    std::vector<swarmloc_msg_RangeBearing> range_bearings;
     const auto mutations = rng.below(6);
     for (std::uint64_t m = 0; m < mutations; ++m) {
-      switch (rng.below(9)) {
+      switch (rng.below(10)) {
         case 0:
           s.agent_id = hostile_int<std::int32_t>(rng);
           break;
@@ -621,6 +623,25 @@ void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
           if (s.fixes._length > 0 && s.fixes._buffer != nullptr)
             s.fixes._buffer[0].covariance[rng.below(3)] = hostile_double(rng);
           break;
+        case 8:
+          s.has_odometry = rng.chance(0.5);
+          reshape(s.odometry, odometry, 8, rng, [&](swarmloc_msg_OdometrySegment& segment) {
+            segment.v_mps = hostile_double(rng);
+            segment.omega_radps = hostile_double(rng);
+            segment.dt_s = hostile_double(rng);
+          });
+          s.odometry_v_std = hostile_double(rng);
+          reshape(s.range_bearings, range_bearings, 8, rng, [&](swarmloc_msg_RangeBearing& pair) {
+            pair.peer = rng.chance(0.7) ? kNeighbours[rng.below(3)] : hostile_int<std::int32_t>(rng);
+            pair.landmark = rng.chance(0.5);
+            for (auto& v : pair.landmark_m) v = hostile_double(rng);
+            for (auto& v : pair.landmark_cov) v = hostile_double(rng);
+            pair.range_m = hostile_double(rng);
+            pair.bearing_rad = hostile_double(rng);
+            pair.range_std_m = hostile_double(rng);
+            pair.bearing_std_rad = hostile_double(rng);
+          });
+          break;
         default: {
           const auto saved = s;
           random_bytes(s, rng);
@@ -632,6 +653,9 @@ void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
           s.paths = saved.paths;
           s.motion = saved.motion;
           s.neighbours = saved.neighbours;
+          s.has_odometry = saved.has_odometry;  // a bool's bytes must stay 0 or 1
+          s.odometry = saved.odometry;
+          s.range_bearings = saved.range_bearings;
         }
       }
     }
@@ -640,7 +664,9 @@ void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
       return sequence._length == 0 || sequence._buffer != nullptr;
     };
     const bool expect_well_formed = buffer_ok(s.ranges) && buffer_ok(s.fixes) && buffer_ok(s.motion) &&
-                                    buffer_ok(s.neighbours) && s.fixes._length <= 1 && s.motion._length <= 1;
+                                    buffer_ok(s.neighbours) && buffer_ok(s.odometry) &&
+                                    buffer_ok(s.range_bearings) && s.fixes._length <= 1 &&
+                                    s.motion._length <= 1 && (s.has_odometry || s.odometry._length == 0);
     record.check(decoded.well_formed == expect_well_formed, i, "batch: well_formed differs from the rule");
     record.check(decoded.recipient == s.agent_id && decoded.batch.world_step == s.header.step, i,
                  "batch: recipient/step not carried");

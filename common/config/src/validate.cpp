@@ -121,9 +121,9 @@ void validate(const Scenario& scenario) {
   }
   const bool pose_algorithm =
       algorithm.name == "pose_ekf" || algorithm.name == "pose_ieif" || algorithm.name == "dead_reckoning";
+  require_within(world.data_step_s, 0.001, 10.0, "world.data_step_s");
   if (world.source == WorldSource::kMrclam) {
     if (world.data_dir.empty()) fail("world.data_dir", "must name the dataset directory when world.source is mrclam");
-    require_within(world.data_step_s, 0.001, 10.0, "world.data_step_s");
     if (world.agents != 5) {
       fail("world.agents", std::to_string(world.agents) + ": UTIAS MRCLAM has 5 robots (set world.agents: 5)");
     }

@@ -139,7 +139,6 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
   record.crlb = scenario_crlb(world, scenario);
   record.processes = 1;
 
-  const double period_s = 1.0 / scenario.run.rate_hz;
   std::vector<std::optional<estimators::Estimate>> estimates(static_cast<std::size_t>(n));
   std::vector<estimators::MeasurementBatch> batches(static_cast<std::size_t>(n));
   std::vector<const estimators::MeasurementBatch*> pointers(static_cast<std::size_t>(n));
@@ -158,7 +157,7 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
 
     StepMetrics metrics;
     metrics.step = step;
-    metrics.time_s = static_cast<double>(step) * period_s;
+    metrics.time_s = reported_time_s(scenario, step);
     metrics.errors = score(world.truth, world.is_anchor, estimates);
     metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
     record.metrics.push_back(metrics);

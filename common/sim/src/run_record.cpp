@@ -65,6 +65,18 @@ nlohmann::json summary_json(const RunRecord& record) {
   }
   final_json["crlb_single_snapshot_rmse_m"] = number_or_null(record.crlb.single_snapshot_rmse_m);
   summary["final"] = final_json;
+  // RMSE over the whole run: sqrt of the mean over scored steps of the per-step mean squared error
+  // (the figure that matters on a trajectory, where the final step is one sample among thousands).
+  double squared_sum = 0.0;
+  std::size_t scored_steps = 0;
+  for (const auto& m : record.metrics) {
+    if (m.errors.scored == 0 || !std::isfinite(m.errors.rmse_m)) continue;
+    squared_sum += m.errors.rmse_m * m.errors.rmse_m;
+    ++scored_steps;
+  }
+  summary["whole_run"] = {
+      {"rmse_m", scored_steps > 0 ? json(std::sqrt(squared_sum / static_cast<double>(scored_steps))) : json()},
+      {"scored_steps", scored_steps}};
   summary["crlb"] = {{"single_snapshot_rmse_m", number_or_null(record.crlb.single_snapshot_rmse_m)},
                      {"accumulated_rmse_m", last ? number_or_null(last->crlb_rmse_m) : json()},
                      {"localizable", record.crlb.localizable}};

@@ -192,7 +192,7 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
     }
     StepMetrics metrics;
     metrics.step = step;
-    metrics.time_s = static_cast<double>(step) * period_s;
+    metrics.time_s = reported_time_s(scenario, step);
     metrics.errors = score(world.truth, world.is_anchor, estimates);
     metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
     record.metrics.push_back(metrics);

@@ -43,7 +43,7 @@ int write_tum_trajectories(const std::filesystem::path& directory, const RunReco
       const double t = time_of(step);
       if (!std::isfinite(t)) continue;
       if (row->estimate.mean_m.allFinite()) write_line(estimate, t, row->estimate.mean_m);
-      write_line(truth, t, row->truth);
+      if (row->truth.allFinite()) write_line(truth, t, row->truth);
     }
     if (!estimate || !truth) throw std::runtime_error("cannot write " + stem.string() + ".tum");
     ++written;

@@ -343,6 +343,11 @@ estimators::MeasurementBatch generate_batch(const World& world, const Scenario& 
   return batch;
 }
 
+double reported_time_s(const Scenario& s, std::int64_t step) {
+  if (s.world.source == config::WorldSource::kMrclam) return static_cast<double>(step) * s.world.data_step_s;
+  return static_cast<double>(step) / s.run.rate_hz;
+}
+
 double absurd_position_bound_m(const Scenario& s) { return 1000.0 * std::max(1.0, s.world.area_m); }
 
 }  // namespace swarmloc::sim

@@ -276,7 +276,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 11U + 15U + 8U + 4U + 2U + 6U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 13U + 18U + 11U + 4U + 2U + 6U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -323,7 +323,7 @@ TEST(ScenarioErrors, LossOutsideZeroToOneIsRejected) {
 }
 
 TEST(ScenarioErrors, NanIsRejectedForEveryNumericKey) {
-  const std::array<std::string, 8> free_text{"name",           "world.positions_file", "dds.interface",
+  const std::array<std::string, 9> free_text{"name", "world.positions_file", "world.data_dir", "dds.interface",
                                              "dds.peer_address", "dds.security_dir",     "faults.kill",
                                              "faults.pause",     "faults.partition"};
   for (const auto& key : known_keys()) {

@@ -41,11 +41,12 @@ struct MrclamDataset {
     Vec2 std_m = Vec2::Zero();
   };
 
-  std::vector<Robot> robots;            ///< robots[i] = subject i + 1
-  std::map<int, Landmark> landmarks;    ///< by subject number
-  int unknown_barcodes = 0;             ///< measurement rows whose barcode is in no subject's row
-  /// Common time window: from the latest first odometry/groundtruth row to the earliest last
-  /// groundtruth row over all robots (absolute dataset time).
+  std::vector<Robot> robots;          ///< robots[i] = subject i + 1
+  std::map<int, Landmark> landmarks;  ///< by subject number
+  int unknown_barcodes = 0;           ///< measurement rows whose barcode is in no subject's row
+  /// Common time window: from the latest first groundtruth row to the earliest last odometry row over
+  /// all robots (absolute dataset time). A robot moves only once its odometry starts; past the end of
+  /// its groundtruth its truth is NaN (unscored).
   double start_time_s = 0.0;
   double end_time_s = 0.0;
 };
@@ -88,5 +89,19 @@ class MrclamSteps final : public RecordedSteps {
 /// start, and World::recorded set to MrclamSteps. Throws config::ScenarioError for unreadable data or
 /// world.agents != 5.
 World build_mrclam_world(const config::Scenario& scenario);
+
+/// The baselines of a MRCLAM run, computed in-process on the same steps: dead reckoning (odometry
+/// only) and the centralized pose EKF (one joint filter over the five robots, full robot-robot
+/// Jacobians). RMSE over the five robots, whole run (same definition as summary.json's whole_run) and
+/// at the final step.
+struct MrclamBaseline {
+  double rmse_m = 0.0;
+  double final_rmse_m = 0.0;
+};
+struct MrclamBaselines {
+  MrclamBaseline dead_reckoning;
+  MrclamBaseline centralized_ekf;
+};
+MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world);
 
 }  // namespace swarmloc::sim

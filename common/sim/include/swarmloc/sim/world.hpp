@@ -84,6 +84,10 @@ std::vector<models::Wall> make_walls(const config::Scenario& scenario);
 estimators::MeasurementBatch generate_batch(const World& world, const config::Scenario& scenario,
                                             AgentId agent, std::int64_t step);
 
+/// The world time reported for step `step` (metrics, TUM trajectories): step / run.rate_hz, or for a
+/// dataset world (world.source = mrclam) the dataset seconds since its start, step · world.data_step_s.
+double reported_time_s(const config::Scenario& scenario, std::int64_t step);
+
 /// The seed of trial `trial`'s random streams (trial 0 uses the scenario seed itself).
 std::uint64_t trial_seed(std::uint64_t seed, std::uint64_t trial);
 
