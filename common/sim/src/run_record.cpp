@@ -1,5 +1,6 @@
 #include "swarmloc/sim/run_record.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -40,6 +41,18 @@ LinkTotals link_totals(const RunRecord& record) {
   return totals;
 }
 
+WholeRunError whole_run_error(const RunRecord& record) {
+  double squared_sum = 0.0;
+  WholeRunError whole;
+  for (const auto& m : record.metrics) {
+    if (m.errors.scored == 0 || !std::isfinite(m.errors.rmse_m)) continue;
+    squared_sum += m.errors.rmse_m * m.errors.rmse_m;
+    ++whole.scored_steps;
+  }
+  if (whole.scored_steps > 0) whole.rmse_m = std::sqrt(squared_sum / static_cast<double>(whole.scored_steps));
+  return whole;
+}
+
 nlohmann::json summary_json(const RunRecord& record) {
   using nlohmann::json;
   json summary;
@@ -65,18 +78,9 @@ nlohmann::json summary_json(const RunRecord& record) {
   }
   final_json["crlb_single_snapshot_rmse_m"] = number_or_null(record.crlb.single_snapshot_rmse_m);
   summary["final"] = final_json;
-  // RMSE over the whole run: sqrt of the mean over scored steps of the per-step mean squared error
-  // (the figure that matters on a trajectory, where the final step is one sample among thousands).
-  double squared_sum = 0.0;
-  std::size_t scored_steps = 0;
-  for (const auto& m : record.metrics) {
-    if (m.errors.scored == 0 || !std::isfinite(m.errors.rmse_m)) continue;
-    squared_sum += m.errors.rmse_m * m.errors.rmse_m;
-    ++scored_steps;
-  }
-  summary["whole_run"] = {
-      {"rmse_m", scored_steps > 0 ? json(std::sqrt(squared_sum / static_cast<double>(scored_steps))) : json()},
-      {"scored_steps", scored_steps}};
+  const auto whole = whole_run_error(record);
+  summary["whole_run"] = {{"rmse_m", whole.scored_steps > 0 ? json(whole.rmse_m) : json()},
+                          {"scored_steps", whole.scored_steps}};
   summary["crlb"] = {{"single_snapshot_rmse_m", number_or_null(record.crlb.single_snapshot_rmse_m)},
                      {"accumulated_rmse_m", last ? number_or_null(last->crlb_rmse_m) : json()},
                      {"localizable", record.crlb.localizable}};
@@ -177,8 +181,21 @@ std::string result_table(const RunRecord& record) {
     row("final mean error", last->errors.mean_error_m, "m");
     row("final max error", last->errors.max_error_m, "m");
     row("final NEES (2 = consistent)", last->errors.nees, "");
-    row("CRLB, single snapshot", record.crlb.single_snapshot_rmse_m, "m");
-    row("CRLB, accumulated over the run", last->crlb_rmse_m, "m");
+    row("RMSE over the whole run", whole_run_error(record).rmse_m, "m");
+    if (std::isfinite(record.crlb.single_snapshot_rmse_m)) {
+      row("CRLB, single snapshot", record.crlb.single_snapshot_rmse_m, "m");
+      row("CRLB, accumulated over the run", last->crlb_rmse_m, "m");
+    }
+    // replay --mrclam: the baselines scored on the same steps (RMSE over the whole run).
+    const auto baselines = record.extra.find("baselines");
+    if (baselines != record.extra.end()) {
+      for (const auto& [name, figures] : baselines->items()) {
+        if (!figures.contains("rmse_m") || !figures["rmse_m"].is_number()) continue;
+        std::string label = "baseline " + name;
+        std::replace(label.begin(), label.end(), '_', ' ');
+        row(label.c_str(), figures["rmse_m"].get<double>(), "m");
+      }
+    }
     row("noise std (range)", record.scenario.noise.range_std_m, "m");
   }
   std::snprintf(line, sizeof line, "  %-34s %12llu\n", "messages sent",

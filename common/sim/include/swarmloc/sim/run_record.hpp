@@ -3,6 +3,7 @@
 // summary.json, metrics.csv, estimates.csv, links.csv, plots/. Shared by `swarmloc run` (DDS) and
 // `swarmloc sim` (in-process) so both directories look the same.
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -63,6 +64,14 @@ struct LinkTotals {
   std::uint64_t sent = 0, arrived = 0, delivered = 0, dropped_injected = 0, rejected = 0;
 };
 LinkTotals link_totals(const RunRecord& record);
+
+/// RMSE over the whole run: sqrt of the mean over scored steps of the per-step mean squared error (the
+/// figure that matters on a trajectory, where the final step is one sample among thousands).
+struct WholeRunError {
+  double rmse_m = std::numeric_limits<double>::quiet_NaN();
+  std::size_t scored_steps = 0;
+};
+WholeRunError whole_run_error(const RunRecord& record);
 
 nlohmann::json summary_json(const RunRecord& record);
 
