@@ -305,8 +305,9 @@ class AgentProcess {
         runtime_.steps_run(), arrived, delivered, dropped, rejected, process_cpu_s());
     const dds::LatencySummary latency = transport_.inter_agent_latency();
     if (latency.samples > 0) {
-      logger_->info("inter-agent latency (source timestamp to take): p50 {:.1f} us p99 {:.1f} us over {} samples",
-                    latency.p50_us, latency.p99_us, latency.samples);
+      logger_->info(
+          "inter-agent latency (source timestamp to take): p50 {:.1f} us p99 {:.1f} us over {} samples",
+          latency.p50_us, latency.p99_us, latency.samples);
     }
     const auto& reasons = runtime_.rejected_by_reason();
     for (std::size_t r = 0; r < reasons.size(); ++r) {

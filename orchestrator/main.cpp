@@ -157,13 +157,15 @@ int main(int argc, char** argv) {
   replay->add_option("recording", replay_options.recording_path,
                      "Recording file (a run directory's recording.slrec)");
   replay->add_flag("--dds", replay_options.dds, "Replay over DDS agent processes (default: the simulator)");
-  replay->add_option("--mrclam", replay_options.mrclam_dir,
-                     "UTIAS MRCLAM dataset directory (e.g. ../shared/data/utias-mrclam/MRCLAM_Dataset6): five "
-                     "robots as five DDS agents, scored with dead-reckoning and centralized-EKF baselines "
-                     "(docs/real-data.md)");
+  replay->add_option(
+      "--mrclam", replay_options.mrclam_dir,
+      "UTIAS MRCLAM dataset directory (e.g. ../shared/data/utias-mrclam/MRCLAM_Dataset6): five "
+      "robots as five DDS agents, scored with dead-reckoning and centralized-EKF baselines "
+      "(docs/real-data.md)");
   replay->add_option("--speedup", replay_options.speedup,
                      "--mrclam: dataset seconds per wall-clock second (default 10)");
-  replay->add_flag("--sim", replay_options.in_process, "--mrclam: run in the in-process simulator, not over DDS");
+  replay->add_flag("--sim", replay_options.in_process,
+                   "--mrclam: run in the in-process simulator, not over DDS");
   replay->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
   replay->add_option("--set", overrides,
                      "Override a key of the recorded scenario (repeatable; not seed or world.*, which would "

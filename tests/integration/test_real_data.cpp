@@ -34,9 +34,9 @@ TEST(RealData, MrclamOverDdsScoresFiveRobotsAgainstBothBaselines) {
                  << " (set SWARMLOC_MRCLAM_DIR to the dataset directory)";
   }
   const auto out = fresh_directory("mrclam-dds");
-  const auto result = run_command(kBinary + " replay --mrclam " + data.string() +
-                                  " --speedup 50 -q --set run.steps=1500 --set dds.domain_id=45 --out " +
-                                  out.string());
+  const auto result =
+      run_command(kBinary + " replay --mrclam " + data.string() +
+                  " --speedup 50 -q --set run.steps=1500 --set dds.domain_id=45 --out " + out.string());
   ASSERT_EQ(result.exit_code, 0) << result.output;
   const auto summary = read_json(out / "summary.json");
   EXPECT_EQ(summary["mode"], "dds-free-run");
@@ -46,8 +46,8 @@ TEST(RealData, MrclamOverDdsScoresFiveRobotsAgainstBothBaselines) {
   const double distributed = summary["whole_run"]["rmse_m"].get<double>();
   const double dead_reckoning = summary["baselines"]["dead_reckoning"]["rmse_m"].get<double>();
   const double centralized = summary["baselines"]["centralized_ekf"]["rmse_m"].get<double>();
-  std::printf("  first 150 s RMSE: distributed %.4f m, centralized %.4f m, dead reckoning %.4f m\n", distributed,
-              centralized, dead_reckoning);
+  std::printf("  first 150 s RMSE: distributed %.4f m, centralized %.4f m, dead reckoning %.4f m\n",
+              distributed, centralized, dead_reckoning);
   // On the first 150 s dead reckoning has drifted less than over the whole run; the filters must still
   // be clearly better, and both well under half a metre.
   EXPECT_LT(2.0 * distributed, dead_reckoning);

@@ -453,9 +453,9 @@ std::string suggestion_for(std::string_view path) {
 const std::vector<std::string>& known_algorithms() {
   // Every algorithm `run` and `sim` can execute (the DLE and the joint procedure of 002 exist as library
   // estimators with their experiments, but the world has no targets or field yet).
-  static const std::vector<std::string> names{"ieif",     "iekf",     "ekf",        "lbekf",
-                                              "lbekf_vr", "lbekf_i",  "jacobi",     "multipath_bp",
-                                              "dgbb",     "local_bb", "fixed_step", "step_length",
+  static const std::vector<std::string> names{"ieif",     "iekf",      "ekf",           "lbekf",
+                                              "lbekf_vr", "lbekf_i",   "jacobi",        "multipath_bp",
+                                              "dgbb",     "local_bb",  "fixed_step",    "step_length",
                                               "pose_ekf", "pose_ieif", "dead_reckoning"};
   return names;
 }

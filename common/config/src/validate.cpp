@@ -123,18 +123,22 @@ void validate(const Scenario& scenario) {
       algorithm.name == "pose_ekf" || algorithm.name == "pose_ieif" || algorithm.name == "dead_reckoning";
   require_within(world.data_step_s, 0.001, 10.0, "world.data_step_s");
   if (world.source == WorldSource::kMrclam) {
-    if (world.data_dir.empty()) fail("world.data_dir", "must name the dataset directory when world.source is mrclam");
+    if (world.data_dir.empty())
+      fail("world.data_dir", "must name the dataset directory when world.source is mrclam");
     if (world.agents != 5) {
-      fail("world.agents", std::to_string(world.agents) + ": UTIAS MRCLAM has 5 robots (set world.agents: 5)");
+      fail("world.agents",
+           std::to_string(world.agents) + ": UTIAS MRCLAM has 5 robots (set world.agents: 5)");
     }
-    if (world.anchors != 0) fail("world.anchors", "UTIAS MRCLAM robots are not anchors (set world.anchors: 0)");
+    if (world.anchors != 0)
+      fail("world.anchors", "UTIAS MRCLAM robots are not anchors (set world.anchors: 0)");
     if (!pose_algorithm) {
       fail("algorithm.name", "'" + algorithm.name +
                                  "' cannot use UTIAS MRCLAM data (range-bearing and odometry): use pose_ekf, "
                                  "pose_ieif or dead_reckoning");
     }
   } else if (pose_algorithm) {
-    fail("algorithm.name", "'" + algorithm.name + "' needs odometry and range-bearing data: set world.source: mrclam");
+    fail("algorithm.name",
+         "'" + algorithm.name + "' needs odometry and range-bearing data: set world.source: mrclam");
   }
   require_positive(world.area_m, "world.area_m");
   require_positive(world.comm_radius_m, "world.comm_radius_m");

@@ -151,7 +151,8 @@ inline void take_all(dds_entity_t reader, Handle&& handle, LatencyHistogram* lat
     for (int32_t i = 0; i < count; ++i) {
       const dds_sample_info_t& info = infos[static_cast<std::size_t>(i)];
       if (info.valid_data) {
-        if (latencies != nullptr && info.source_timestamp > 0) latencies->add(taken_at - info.source_timestamp);
+        if (latencies != nullptr && info.source_timestamp > 0)
+          latencies->add(taken_at - info.source_timestamp);
         const auto& wire = *static_cast<const Wire*>(samples[static_cast<std::size_t>(i)]);
         if constexpr (kWantsTimes) {
           handle(wire, static_cast<std::int64_t>(info.source_timestamp), static_cast<std::int64_t>(taken_at));

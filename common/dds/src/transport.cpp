@@ -137,7 +137,7 @@ struct AgentTransport::Impl {
   dds_entity_t measurement_reader = 0, control_reader = 0;
   dds_entity_t waitset = 0;
   std::uint64_t dropped_malformed = 0;  // malformed measurement batches / control samples (not exposed yet)
-  LatencyHistogram latencies;  // inter-agent samples: source timestamp -> take
+  LatencyHistogram latencies;           // inter-agent samples: source timestamp -> take
 };
 
 AgentTransport::AgentTransport(const config::Scenario& scenario, const Topology& topology)

@@ -323,9 +323,9 @@ TEST(ScenarioErrors, LossOutsideZeroToOneIsRejected) {
 }
 
 TEST(ScenarioErrors, NanIsRejectedForEveryNumericKey) {
-  const std::array<std::string, 9> free_text{"name", "world.positions_file", "world.data_dir", "dds.interface",
-                                             "dds.peer_address", "dds.security_dir",     "faults.kill",
-                                             "faults.pause",     "faults.partition"};
+  const std::array<std::string, 9> free_text{"name",          "world.positions_file", "world.data_dir",
+                                             "dds.interface", "dds.peer_address",     "dds.security_dir",
+                                             "faults.kill",   "faults.pause",         "faults.partition"};
   for (const auto& key : known_keys()) {
     if (std::find(free_text.begin(), free_text.end(), key) != free_text.end()) continue;
     EXPECT_STARTS_WITH(override_error({key + "=.nan"}), key + ": ");

@@ -54,14 +54,14 @@ struct Scenario {
     double initial_std_m = 8.66;
     bool inflate_stale = true;
     // Distributed gradient family (dgbb, local_bb, fixed_step, step_length; ALGORITHMS.md §6).
-    int consensus_rounds = 20;  ///< T: consensus rounds per DG-BB update
-    double fixed_step = 0.1;    ///< α of fixed_step
-    double step_length = 10.0;  ///< k of step_length (α = k/(√τ‖D_i‖))
-    double max_step = 0.0;      ///< cap on any BB step; 0 = no cap (the source has none)
-    double abs_tol = 1e-10;     ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
-    double range_gate_chi2 = 0.0;  ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
-    double initial_heading_std_rad = 0.1;   ///< pose-state algorithms: heading prior std
-    double range_bearing_gate_chi2 = 0.0;   ///< pose-state algorithms: 2-dof gate; 0 = off
+    int consensus_rounds = 20;             ///< T: consensus rounds per DG-BB update
+    double fixed_step = 0.1;               ///< α of fixed_step
+    double step_length = 10.0;             ///< k of step_length (α = k/(√τ‖D_i‖))
+    double max_step = 0.0;                 ///< cap on any BB step; 0 = no cap (the source has none)
+    double abs_tol = 1e-10;                ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
+    double range_gate_chi2 = 0.0;          ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
+    double initial_heading_std_rad = 0.1;  ///< pose-state algorithms: heading prior std
+    double range_bearing_gate_chi2 = 0.0;  ///< pose-state algorithms: 2-dof gate; 0 = off
   } algorithm;
 
   struct World {
@@ -97,9 +97,9 @@ struct Scenario {
     double doa_error_deg = 5.0;       ///< angle-of-arrival error, uniform in ±this (multipath_bp)
     NoiseDraw draw = NoiseDraw::kPerStep;
     // Pose-state algorithms on recorded data (world.source = mrclam): the filters' noise model.
-    double bearing_std_rad = 0.05;     ///< robot-frame bearing std
-    double odometry_v_std = 0.05;      ///< m/√s on the travelled distance
-    double odometry_omega_std = 0.1;   ///< rad/√s on the turned angle
+    double bearing_std_rad = 0.05;    ///< robot-frame bearing std
+    double odometry_v_std = 0.05;     ///< m/√s on the travelled distance
+    double odometry_omega_std = 0.1;  ///< rad/√s on the turned angle
   } noise;
 
   struct Network {
@@ -121,8 +121,8 @@ struct Scenario {
     int steps = 300;
     double rate_hz = 10.0;
     RunMode mode = RunMode::kFreeRun;
-    double startup_timeout_s = 30.0;  ///< agents must report within this time
-    double settle_s = 1.0;            ///< extra time after the last step for final estimates
+    double startup_timeout_s = 30.0;         ///< agents must report within this time
+    double settle_s = 1.0;                   ///< extra time after the last step for final estimates
     SimClock sim_clock = SimClock::kRounds;  ///< the simulator's schedule (DDS runs ignore it)
   } run;
 

@@ -14,7 +14,7 @@ namespace swarmloc::estimators {
 
 /// Input to one step of agent i's estimator.
 struct StepInput {
-  std::int64_t local_step = 0;  ///< agent's own step counter (0, 1, 2, …)
+  std::int64_t local_step = 0;                     ///< agent's own step counter (0, 1, 2, …)
   const MeasurementBatch* measurements = nullptr;  ///< newest batch not yet used; nullptr if none
   const Inbox* inbox = nullptr;                    ///< newest sample per neighbour
 };
@@ -59,12 +59,12 @@ class Estimator {
 
 /// Algorithm parameters shared by the distributed Kalman family (ALGORITHMS.md §3).
 struct KalmanFamilyParams {
-  double process_noise_std_m = 0.01;     ///< Q = std²·I per step ([B-6])
-  double initial_information = 1e-6;     ///< IEIF Ψ_0 = ε·I (m⁻²)
-  double initial_std_m = 8.66;           ///< IEKF P_0 = std²·I
-  bool inflate_stale = true;             ///< §3.4 rule (2)
-  double max_neighbour_variance_m2 = 1e6;///< neighbours with trace(P) above this are skipped
-  double range_gate_chi2 = 0.0;          ///< drop a range if ν² > gate·s (1 dof); 0 = no gate
+  double process_noise_std_m = 0.01;       ///< Q = std²·I per step ([B-6])
+  double initial_information = 1e-6;       ///< IEIF Ψ_0 = ε·I (m⁻²)
+  double initial_std_m = 8.66;             ///< IEKF P_0 = std²·I
+  bool inflate_stale = true;               ///< §3.4 rule (2)
+  double max_neighbour_variance_m2 = 1e6;  ///< neighbours with trace(P) above this are skipped
+  double range_gate_chi2 = 0.0;            ///< drop a range if ν² > gate·s (1 dof); 0 = no gate
   // Pose-state algorithms (pose_ekf, pose_ieif, dead_reckoning): prior around AgentSetup's pose.
   double initial_heading_std_rad = 0.1;
   double range_bearing_gate_chi2 = 0.0;  ///< drop a range-bearing pair if ν'S⁻¹ν > gate (2 dof); 0 = off

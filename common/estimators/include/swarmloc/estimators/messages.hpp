@@ -79,10 +79,10 @@ struct OdometryInput {
 /// Range and bearing to a robot peer or to a landmark of known position, bearing measured in this
 /// agent's body frame: β = wrap(atan2(y_t − y, x_t − x) − θ) (pose-state algorithms, UTIAS MRCLAM).
 struct RangeBearingMeasurement {
-  AgentId peer = 0;                   ///< robot peer (unused when landmark)
-  bool landmark = false;              ///< true: the target is landmark_m, not a peer's state
-  Vec2 landmark_m = Vec2::Zero();     ///< known landmark position
-  Mat2 landmark_cov = Mat2::Zero();   ///< its uncertainty (surveyed std²)
+  AgentId peer = 0;                  ///< robot peer (unused when landmark)
+  bool landmark = false;             ///< true: the target is landmark_m, not a peer's state
+  Vec2 landmark_m = Vec2::Zero();    ///< known landmark position
+  Mat2 landmark_cov = Mat2::Zero();  ///< its uncertainty (surveyed std²)
   double range_m = 0.0;
   double bearing_rad = 0.0;
   double range_std_m = 0.0;
@@ -99,8 +99,8 @@ struct MeasurementBatch {
   std::vector<TargetObservation> targets;
   std::optional<AbsoluteFix> fix;
   std::optional<MotionInput> motion;
-  std::optional<OdometryInput> odometry;                  ///< pose-state algorithms only
-  std::vector<RangeBearingMeasurement> range_bearings;    ///< pose-state algorithms only
+  std::optional<OdometryInput> odometry;                ///< pose-state algorithms only
+  std::vector<RangeBearingMeasurement> range_bearings;  ///< pose-state algorithms only
   std::vector<AgentId> neighbours;
 };
 

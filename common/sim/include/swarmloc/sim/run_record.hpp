@@ -5,11 +5,10 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/sim/envelope.hpp"
@@ -57,7 +56,9 @@ struct RunRecord {
   bool interrupted = false;
   nlohmann::json extra = nlohmann::json::object();  ///< runtime-specific fields
 
-  [[nodiscard]] const StepMetrics* final_metrics() const { return metrics.empty() ? nullptr : &metrics.back(); }
+  [[nodiscard]] const StepMetrics* final_metrics() const {
+    return metrics.empty() ? nullptr : &metrics.back();
+  }
 };
 
 struct LinkTotals {
