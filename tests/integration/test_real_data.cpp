@@ -10,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "dataset_paths.hpp"
 #include "process_helpers.hpp"
 
 namespace {
@@ -21,17 +22,12 @@ using swarmloc::testing::run_command;
 
 const std::string kBinary = SWARMLOC_BINARY;
 
-std::filesystem::path dataset6() {
-  if (const char* dir = std::getenv("SWARMLOC_MRCLAM_DIR")) return dir;
-  return std::filesystem::path(SWARMLOC_SOURCE_DIR) / ".." / "shared" / "data" / "utias-mrclam" /
-         "MRCLAM_Dataset6";
-}
-
 TEST(RealData, MrclamOverDdsScoresFiveRobotsAgainstBothBaselines) {
-  const auto data = dataset6();
-  if (!std::filesystem::exists(data)) {
-    GTEST_SKIP() << "UTIAS MRCLAM Dataset 6 not found at " << data.string()
-                 << " (set SWARMLOC_MRCLAM_DIR to the dataset directory)";
+  const auto data = swarmloc::testing::mrclam_dataset6(SWARMLOC_SOURCE_DIR);
+  if (data.empty() || !std::filesystem::exists(data)) {
+    GTEST_SKIP()
+        << "UTIAS MRCLAM Dataset 6 not found (looked for shared/data/utias-mrclam/MRCLAM_Dataset6 beside "
+        << SWARMLOC_SOURCE_DIR << " and its parents; set SWARMLOC_MRCLAM_DIR to the dataset directory)";
   }
   const auto out = fresh_directory("mrclam-dds");
   const auto result =

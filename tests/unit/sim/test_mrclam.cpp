@@ -9,6 +9,7 @@
 #include <fstream>
 #include <string>
 
+#include "dataset_paths.hpp"
 #include "swarmloc/sim/mrclam.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
@@ -137,18 +138,14 @@ TEST(Mrclam, RunningPastTheDataIsRefused) {
   EXPECT_THROW((void)build_world(mrclam_scenario(data.dir(), 22)), config::ScenarioError);
 }
 
-fs::path dataset6() {
-  if (const char* dir = std::getenv("SWARMLOC_MRCLAM_DIR")) return dir;
-  return fs::path(SWARMLOC_SOURCE_DIR) / ".." / "shared" / "data" / "utias-mrclam" / "MRCLAM_Dataset6";
-}
-
 /// The whole of Dataset 6 in the simulator with the `replay --mrclam` noise model: the distributed
 /// filter and the centralized EKF beat dead reckoning by at least 5×.
 TEST(Mrclam, Dataset6DistributedAndCentralizedFiltersBeatDeadReckoningFiveTimes) {
-  const auto dir = dataset6();
-  if (!fs::exists(dir)) {
-    GTEST_SKIP() << "UTIAS MRCLAM Dataset 6 not found at " << dir.string()
-                 << " (set SWARMLOC_MRCLAM_DIR to the dataset directory)";
+  const auto dir = testing::mrclam_dataset6(SWARMLOC_SOURCE_DIR);
+  if (dir.empty() || !fs::exists(dir)) {
+    GTEST_SKIP()
+        << "UTIAS MRCLAM Dataset 6 not found (looked for shared/data/utias-mrclam/MRCLAM_Dataset6 beside "
+        << SWARMLOC_SOURCE_DIR << " and its parents; set SWARMLOC_MRCLAM_DIR to the dataset directory)";
   }
   auto s = mrclam_scenario(dir, 9000);
   s.algorithm.initial_std_m = 0.05;

@@ -1,0 +1,26 @@
+#pragma once
+// Where the tests find the real datasets, which are never part of the project: $SWARMLOC_MRCLAM_DIR, or
+// shared/data/utias-mrclam/MRCLAM_Dataset6 beside the checkout or beside any of its parent directories
+// (a clone in /work/<x>/<y> finds /work/shared/data). Empty if none exists: the test skips and says so.
+#include <cstdlib>
+#include <filesystem>
+
+namespace swarmloc::testing {
+
+inline std::filesystem::path mrclam_dataset6(const std::filesystem::path& source_dir) {
+  if (const char* dir = std::getenv("SWARMLOC_MRCLAM_DIR")) return dir;
+  std::error_code error;
+  auto dir = std::filesystem::weakly_canonical(source_dir, error);
+  if (error) dir = source_dir;
+  for (; !dir.empty(); dir = dir.parent_path()) {
+    const auto candidate = dir.parent_path() / "shared" / "data" / "utias-mrclam" / "MRCLAM_Dataset6";
+    if (std::filesystem::exists(candidate / "Barcodes.dat.gz") ||
+        std::filesystem::exists(candidate / "Barcodes.dat")) {
+      return candidate;
+    }
+    if (dir == dir.parent_path()) break;
+  }
+  return {};
+}
+
+}  // namespace swarmloc::testing
