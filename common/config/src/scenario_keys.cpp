@@ -277,6 +277,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(algorithm.fixed_step),
       SWARMLOC_KEY(algorithm.step_length),
       SWARMLOC_KEY(algorithm.max_step),
+      SWARMLOC_KEY(algorithm.max_move_fraction),
       SWARMLOC_KEY(algorithm.abs_tol),
       SWARMLOC_KEY(algorithm.range_gate_chi2),
       SWARMLOC_KEY(algorithm.initial_heading_std_rad),

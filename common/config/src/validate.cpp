@@ -107,6 +107,7 @@ void validate(const Scenario& scenario) {
   require_positive(algorithm.fixed_step, "algorithm.fixed_step");
   require_positive(algorithm.step_length, "algorithm.step_length");
   require_non_negative(algorithm.max_step, "algorithm.max_step");
+  require_within(algorithm.max_move_fraction, 0.0, 10.0, "algorithm.max_move_fraction");
   require_positive(algorithm.abs_tol, "algorithm.abs_tol");
   require_non_negative(algorithm.range_gate_chi2, "algorithm.range_gate_chi2");
   require_positive(algorithm.initial_heading_std_rad, "algorithm.initial_heading_std_rad");

@@ -224,6 +224,30 @@ TEST(DgBb, StepCapBoundsEveryLocalBbStep) {  // max_step (not in the source)
   EXPECT_GT(largest, 0.0);
 }
 
+TEST(DgBb,
+     TrustRegionBoundsEveryBbMoveByAFractionOfTheShortestRange) {  // max_move_fraction (not in the source)
+  const Lattice lattice(4, 0.05, 3);
+  DgBbParams params;
+  params.rule = StepRule::kLocalBb;
+  params.max_move_fraction = 0.1;
+  const double max_move = 0.1 / 3.0;  // shortest range on the 4 × 4 unit lattice: 1/3
+  auto agents = lattice.agents(params);
+  Mailboxes bus(lattice.adjacency);
+  for (std::size_t i = 0; i < agents.size(); ++i) bus.deliver(i, -1, agents[i]->initial_outbox());
+  double largest = 0.0;
+  for (int step = 0; step < 60; ++step) {
+    std::vector<Vec2> before;
+    for (const auto& agent : agents) before.push_back(agent->position());
+    bus.round(agents, step, step == 0 ? &lattice.batches : nullptr);
+    for (std::size_t i = 0; i < agents.size(); ++i)
+      largest = std::max(largest, (agents[i]->position() - before[i]).norm());
+  }
+  int cuts = 0;
+  for (const auto& agent : agents) cuts += agent->trust_region_count();
+  EXPECT_LE(largest, max_move * (1.0 + 1e-12));
+  EXPECT_GT(cuts, 0) << "the region never bound: the test would not see a broken cap";
+}
+
 TEST(DgBb, RejectsInvalidParameters) {
   DgBbParams params;
   params.consensus_rounds = -1;
@@ -231,6 +255,9 @@ TEST(DgBb, RejectsInvalidParameters) {
   params = DgBbParams{};
   params.grad_scale = 3.0;
   EXPECT_THROW(DgBb(AgentSetup{}, params), std::invalid_argument);
+  params = DgBbParams{};
+  params.max_move_fraction = -1.0;
+  EXPECT_THROW(validate(params), std::invalid_argument);
 }
 
 }  // namespace

@@ -199,6 +199,18 @@ TEST(CooperativeSimulation, DgbbConvergesToTheNoisyRangesOptimum) {
   EXPECT_LT(last.rmse_m, 0.2 * record.metrics.front().errors.rmse_m);
 }
 
+// dgbb.yaml seed 2 at 20 % loss: without the BB trust region a lost consensus value left ψ near zero, the
+// node jumped ~2.5 m on the 1 m grid and DG-BB settled in a fold-over minimum at 0.147 m (0.0030 m
+// lossless). With algorithm.max_move_fraction = 0 this test fails.
+TEST(CooperativeSimulation, DgbbUnderTwentyPercentLossStaysOutOfFoldOverMinima) {
+  const auto lossless = run_simulation(scenario_named("dgbb.yaml", {"seed=2"}));
+  const auto lossy = run_simulation(scenario_named("dgbb.yaml", {"seed=2", "network.loss=0.2"}));
+  const double reference = lossless.metrics.back().errors.rmse_m;
+  EXPECT_LT(reference, 0.01);
+  EXPECT_LT(lossy.metrics.back().errors.rmse_m, 1.5 * reference);
+  EXPECT_LT(lossy.metrics.back().errors.max_error_m, 0.05);
+}
+
 TEST(CooperativeSimulation, MultipathBpLocalizesEveryAgent) {
   const auto record = run_simulation(scenario_named("multipath_bp.yaml"));
   const auto& last = record.metrics.back().errors;

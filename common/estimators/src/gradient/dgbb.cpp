@@ -29,6 +29,8 @@ void validate(const DgBbParams& params) {
   if (!(params.step_length > 0.0)) fail("step_length: must be > 0");
   if (!(params.grad_scale == 1.0 || params.grad_scale == 2.0)) fail("grad_scale: must be 1 or 2");
   if (!(params.max_step > 0.0)) fail("max_step: must be > 0");
+  if (!(params.max_move_fraction >= 0.0 && std::isfinite(params.max_move_fraction)))
+    fail("max_move_fraction: must be finite and >= 0");
 }
 
 DgBb::DgBb(const AgentSetup& setup, const DgBbParams& params)
@@ -82,6 +84,21 @@ bool DgBb::direction(Vec2& D) const {
   }
   D *= params_.grad_scale;
   return true;
+}
+
+double DgBb::capped_bb_step(double alpha, const Vec2& D) {
+  alpha = std::min(alpha, params_.max_step);
+  if (params_.max_move_fraction > 0.0 && !ranges_.empty()) {
+    double shortest = std::numeric_limits<double>::infinity();
+    for (const auto& entry : ranges_) shortest = std::min(shortest, entry.second);
+    const double max_move = params_.max_move_fraction * shortest;
+    const double move = alpha * D.norm();
+    if (move > max_move && max_move > 0.0) {
+      alpha *= max_move / move;
+      if (active_) ++trust_region_count_;
+    }
+  }
+  return alpha;
 }
 
 void DgBb::apply_update(const Vec2& D, double alpha) {
@@ -187,7 +204,7 @@ StepOutput DgBb::step(const StepInput& input) {
         last_valid_alpha_ = alpha;
         have_valid_alpha_ = true;
       }
-      alpha = std::min(alpha, params_.max_step);
+      alpha = capped_bb_step(alpha, D);
     } else if (params_.rule == StepRule::kStepLength) {
       const double tau = static_cast<double>(std::max<std::int64_t>(tau_, 1));
       double k = params_.step_length;
@@ -230,7 +247,7 @@ StepOutput DgBb::step(const StepInput& input) {
     last_valid_alpha_ = alpha;
     have_valid_alpha_ = true;
   }
-  alpha = std::min(alpha, params_.max_step);
+  alpha = capped_bb_step(alpha, D_cur_);
   if (active_) last_alpha_ = alpha;
   apply_update(D_cur_, alpha);
   out.diagnostics.updated = true;

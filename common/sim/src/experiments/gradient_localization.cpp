@@ -117,7 +117,10 @@ GradientRun run_gradient_agents(const LatticeProblem& lattice, const gradient::D
   run.source_rounds = consensus ? run.tau_end * params.consensus_rounds : run.tau_end;
   run.final_error = global_error(lattice, nodes);
   run.converged = run.final_error < 1e-3;
-  for (const auto* node : nodes) run.safeguard_fires += node->safeguard_count();
+  for (const auto* node : nodes) {
+    run.safeguard_fires += node->safeguard_count();
+    run.trust_region_fires += node->trust_region_count();
+  }
   return run;
 }
 
@@ -141,6 +144,14 @@ std::vector<TableOneRow> run_table_one(const LatticeConfig& config, const gradie
   with("Step length k = 10/sqrt(tau)", gradient::StepRule::kStepLength, base.fixed_step);
   methods.back().params.step_length = 10.0;
   methods.back().params.schedule = gradient::StepLengthSchedule::kOverSqrtTau;
+  // Not in the source: the BB trust region (DgBbParams::max_move_fraction), which the runtime uses.
+  if (base.max_move_fraction == 0.0) {
+    with("DG-BB, T = " + std::to_string(base.consensus_rounds) + ", trust region 1",
+         gradient::StepRule::kConsensusBb, base.fixed_step);
+    methods.back().params.max_move_fraction = 1.0;
+    with("Local BB (T = 0), trust region 1", gradient::StepRule::kLocalBb, base.fixed_step);
+    methods.back().params.max_move_fraction = 1.0;
+  }
 
   std::vector<TableOneRow> rows(methods.size());
   for (std::size_t m = 0; m < methods.size(); ++m) rows[m].method = methods[m].name;
@@ -156,6 +167,7 @@ std::vector<TableOneRow> run_table_one(const LatticeConfig& config, const gradie
       rows[m].fraction_converged += w * (r.converged ? 1.0 : 0.0);
       rows[m].mean_final_error += w * r.final_error;
       rows[m].fraction_at_tau_max += w * (r.tau_end >= methods[m].params.max_updates ? 1.0 : 0.0);
+      rows[m].mean_trust_region_fires += w * r.trust_region_fires;
     }
   }
   return rows;

@@ -81,6 +81,35 @@ Graph draw_graph_with_edges(const JacobiExperimentConfig& c, std::mt19937_64& rn
   throw std::runtime_error("jacobi_experiment: no connected graph in max_graph_attempts draws");
 }
 
+/// Uniform points; num_edges distinct pairs drawn uniformly (G(n, m)), redrawn until connected.
+Graph draw_gnm_graph(const JacobiExperimentConfig& c, std::mt19937_64& rng, int& rejected) {
+  const auto n = static_cast<std::size_t>(c.num_nodes);
+  if (static_cast<double>(c.num_edges) > 0.5 * static_cast<double>(n) * static_cast<double>(n - 1))
+    throw std::invalid_argument("jacobi_experiment.num_edges: more than n(n-1)/2");
+  std::uniform_int_distribution<int> pick(0, c.num_nodes - 1);
+  for (int attempt = 0; attempt < c.max_graph_attempts; ++attempt) {
+    Graph g;
+    g.positions = uniform_points(c.num_nodes, c.side_m, rng);
+    g.adjacency.assign(n, {});
+    std::vector<bool> taken(n * n, false);
+    while (g.edges.size() < static_cast<std::size_t>(c.num_edges)) {
+      int a = pick(rng);
+      int b = pick(rng);
+      if (a == b) continue;
+      if (a > b) std::swap(a, b);
+      const std::size_t key = static_cast<std::size_t>(a) * n + static_cast<std::size_t>(b);
+      if (taken[key]) continue;
+      taken[key] = true;
+      g.edges.push_back(Edge{a, b});
+      g.adjacency[static_cast<std::size_t>(a)].push_back(b);
+      g.adjacency[static_cast<std::size_t>(b)].push_back(a);
+    }
+    if (detail::connected(g.adjacency)) return g;
+    ++rejected;
+  }
+  throw std::runtime_error("jacobi_experiment: no connected graph in max_graph_attempts draws");
+}
+
 }  // namespace
 
 JacobiExperimentResult run_jacobi_experiment(const JacobiExperimentConfig& c) {
@@ -96,8 +125,15 @@ JacobiExperimentResult run_jacobi_experiment(const JacobiExperimentConfig& c) {
   const int m = n - 1;  // unknowns: nodes 1…n−1
   const double var = c.measurement_std_m * c.measurement_std_m;
   for (int run = 0; run < c.runs; ++run) {
-    const Graph g = draw_graph_with_edges(c, rng, result.graphs_rejected);
+    const Graph g = c.graph_model == RelativeGraphModel::kGnm
+                        ? draw_gnm_graph(c, rng, result.graphs_rejected)
+                        : draw_graph_with_edges(c, rng, result.graphs_rejected);
     result.mean_radius_m += g.radius_m / c.runs;
+    double length_sum = 0.0;
+    for (const Edge& e : g.edges)
+      length_sum +=
+          (g.positions[static_cast<std::size_t>(e.i)] - g.positions[static_cast<std::size_t>(e.j)]).norm();
+    result.mean_edge_length_m += length_sum / static_cast<double>(g.edges.size()) / c.runs;
     std::vector<Vec2> truth(g.positions.size());
     for (std::size_t i = 0; i < truth.size(); ++i)
       truth[i] = g.positions[i] - g.positions[0];  // node 0's frame

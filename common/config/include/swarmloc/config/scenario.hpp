@@ -58,6 +58,7 @@ struct Scenario {
     double fixed_step = 0.1;               ///< α of fixed_step
     double step_length = 10.0;             ///< k of step_length (α = k/(√τ‖D_i‖))
     double max_step = 0.0;                 ///< cap on any BB step; 0 = no cap (the source has none)
+    double max_move_fraction = 1.0;        ///< BB trust region: move ≤ this × shortest range; 0 = off
     double abs_tol = 1e-10;                ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
     double range_gate_chi2 = 0.0;          ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
     double initial_heading_std_rad = 0.1;  ///< pose-state algorithms: heading prior std

@@ -35,6 +35,11 @@ struct DgBbParams {
   /// Upper bound on any BB step (not in the source; default ∞ = off). Local BB diverges without it on the
   /// Example 2 lattice: a near-zero positive ψ_i gives a huge α_i and the quartic cost explodes.
   double max_step = std::numeric_limits<double>::infinity();
+  /// BB trust region (not in the source; 0 = off): one BB update moves a node at most this fraction of its
+  /// shortest measured range. A lost or stale consensus value can leave ψ_i(T) near zero but positive; the
+  /// resulting huge α throws the node across its neighbours into a fold-over local minimum of the quartic
+  /// cost, which no later step undoes. A node never needs to jump past half its nearest neighbour.
+  double max_move_fraction = 0.0;
   double grad_scale = 1.0;  ///< [E-1]: 1 = D_i = ½∇_i f, 2 = ∇_i f
   consensus::MetropolisRule weights = consensus::MetropolisRule::kPlusOne;
 };
@@ -72,6 +77,8 @@ class DgBb final : public Estimator {
   [[nodiscard]] double last_step() const { return last_alpha_; }
   /// How often the [E-4] safeguard replaced α at this (active, non-anchor) node.
   [[nodiscard]] int safeguard_count() const { return safeguard_count_; }
+  /// How often the max_move_fraction trust region shortened a BB step at this (active) node.
+  [[nodiscard]] int trust_region_count() const { return trust_region_count_; }
   /// Current consensus values (ρ_i(t), ψ_i(t)) and round t (DG-BB only).
   [[nodiscard]] double rho() const { return rho_; }
   [[nodiscard]] double psi() const { return psi_; }
@@ -85,6 +92,8 @@ class DgBb final : public Estimator {
   /// missing.
   bool direction(Vec2& D) const;
   void apply_update(const Vec2& D, double alpha);
+  /// α capped by max_step and by the max_move_fraction trust region (counted in trust_region_count_).
+  double capped_bb_step(double alpha, const Vec2& D);
   void consensus_round();
 
   AgentSetup setup_;
@@ -114,6 +123,7 @@ class DgBb final : public Estimator {
   double last_valid_alpha_;
   bool have_valid_alpha_ = false;
   int safeguard_count_ = 0;
+  int trust_region_count_ = 0;
 };
 
 // ---- Centralized reference (004 eqs. (3)–(5), ALGORITHMS.md §6.5 item 5) ----

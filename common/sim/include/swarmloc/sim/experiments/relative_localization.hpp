@@ -7,9 +7,17 @@
 
 namespace swarmloc::sim::experiments {
 
+/// How the 002 localization graph is drawn ([C-5]: the source says only "randomly generated graphs with 300
+/// nodes and 1288 edges").
+enum class RelativeGraphModel {
+  kGeometric,  ///< ALGORITHMS.md §4.6 default: uniform points, the radius giving exactly num_edges edges
+  kGnm,        ///< Erdős–Rényi G(n, m): num_edges pairs drawn uniformly, whatever their distance
+};
+
 struct JacobiExperimentConfig {
   int num_nodes = 300;
-  int num_edges = 1288;            ///< the radius is set per draw to give exactly this many edges ([C-5])
+  int num_edges = 1288;  ///< exactly this many edges ([C-5])
+  RelativeGraphModel graph_model = RelativeGraphModel::kGeometric;
   double side_m = 100.0;           ///< square domain
   double prior_std_m = 5.0;        ///< x̂_i(0) = x_i + N(0, std² I)
   double measurement_std_m = 1.0;  ///< 𝓔_ij = std² I₂
@@ -22,11 +30,12 @@ struct JacobiExperimentConfig {
 
 struct JacobiExperimentResult {
   /// Index t = 0…steps, all over non-reference nodes and runs ([C-6]).
-  std::vector<double> rmse;       ///< Jacobi x̂(t) (t = 0: the priors)
-  std::vector<double> blue_rmse;  ///< centralized BLUE on the samples 0…t−1 ([0] = NaN)
-  std::vector<double> crb_rmse;   ///< sqrt(tr((c·t·L̃)⁻¹)/(n−1)), c = 1 (shared) or 2 ([0] = NaN)
-  double mean_radius_m = 0.0;
-  int graphs_rejected = 0;  ///< disconnected draws
+  std::vector<double> rmse;         ///< Jacobi x̂(t) (t = 0: the priors)
+  std::vector<double> blue_rmse;    ///< centralized BLUE on the samples 0…t−1 ([0] = NaN)
+  std::vector<double> crb_rmse;     ///< sqrt(tr((c·t·L̃)⁻¹)/(n−1)), c = 1 (shared) or 2 ([0] = NaN)
+  double mean_radius_m = 0.0;       ///< kGeometric: the radius that gave num_edges edges
+  double mean_edge_length_m = 0.0;  ///< mean true length of an edge
+  int graphs_rejected = 0;          ///< disconnected draws
 };
 
 /// 002 Figs. 2, 4: node 0 is the reference (fixed at 0); truth is expressed in its frame.
