@@ -293,6 +293,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(world.initial_guess),
       SWARMLOC_KEY(world.initial_guess_std_m),
       SWARMLOC_KEY(world.require_connected),
+      SWARMLOC_KEY(world.require_localizable),
       SWARMLOC_KEY(world.wall_count),
       SWARMLOC_KEY(world.wall_first_angle_deg),
       SWARMLOC_KEY(world.wall_angle_step_deg),

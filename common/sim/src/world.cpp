@@ -1,5 +1,6 @@
 #include "swarmloc/sim/world.hpp"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include <unordered_map>
 
 #include "swarmloc/core/random.hpp"
+#include "swarmloc/estimators/crlb.hpp"
 #include "swarmloc/sim/mrclam.hpp"
 
 namespace swarmloc::sim {
@@ -143,6 +145,29 @@ std::vector<bool> choose_anchors(const Scenario& s, int attempt) {
   return is_anchor;
 }
 
+constexpr int kMaxLocalizabilityCheckUnknowns = 1000;  // dense 2n × 2n LDLT per draw: ~0.3 s at 1000
+
+/// Every non-anchor agent localizable from its ranges: the Fisher information at the truth (unit range std;
+/// the scale does not matter) has no (near-)zero pivot. Skipped (true) above the size limit.
+bool range_localizable(const std::vector<Vec2>& truth, const std::vector<bool>& is_anchor,
+                       const std::vector<std::vector<AgentId>>& neighbours) {
+  const auto unknowns = std::count(is_anchor.begin(), is_anchor.end(), false);
+  if (unknowns == 0 || unknowns > kMaxLocalizabilityCheckUnknowns) return true;
+  estimators::RangeNetwork network;
+  network.truth = truth;
+  network.is_anchor = is_anchor;
+  for (std::size_t i = 0; i < neighbours.size(); ++i) {
+    for (const AgentId j : neighbours[i]) {
+      if (static_cast<std::size_t>(j) > i) network.ranges.push_back({static_cast<AgentId>(i), j, 1.0});
+    }
+  }
+  const MatX fisher = estimators::range_network_fisher(network);
+  const Eigen::LDLT<MatX> ldlt(fisher);
+  if (ldlt.info() != Eigen::Success) return false;
+  const auto pivots = ldlt.vectorD().cwiseAbs();
+  return pivots.minCoeff() > 1e-9 * std::max(1.0, pivots.maxCoeff());
+}
+
 }  // namespace
 
 int World::anchor_count() const {
@@ -178,12 +203,20 @@ World build_world(const Scenario& s, std::uint64_t trial) {
     world.is_anchor = choose_anchors(s, attempt);
     world.neighbours = disk_graph(world.truth, s.world.comm_radius_m);
     world.placement_attempts = attempt + 1;
-    if (!s.world.require_connected || acceptable(world.neighbours, world.is_anchor)) break;
+    const bool connected = !s.world.require_connected || acceptable(world.neighbours, world.is_anchor);
+    const bool localizable = !connected || !s.world.require_localizable ||
+                             !measurement_kinds(s.algorithm.name).ranges ||
+                             range_localizable(world.truth, world.is_anchor, world.neighbours);
+    if (connected && localizable) break;
     if (attempt + 1 == kMaxAttempts || (!random_placement && attempt >= s.world.anchors)) {
       throw config::ScenarioError(
-          "world.comm_radius_m: no placement within " + std::to_string(attempt + 1) +
-          " draws connects every agent to an anchor with >= 2 neighbours; raise the radius or set "
-          "world.require_connected: false");
+          connected
+              ? "world.comm_radius_m: no placement within " + std::to_string(attempt + 1) +
+                    " draws makes every agent localizable from its ranges; raise the radius or set "
+                    "world.require_localizable: false"
+              : "world.comm_radius_m: no placement within " + std::to_string(attempt + 1) +
+                    " draws connects every agent to an anchor with >= 2 neighbours; raise the radius or "
+                    "set world.require_connected: false");
     }
   }
   const auto n = static_cast<std::size_t>(s.world.agents);

@@ -276,7 +276,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 14U + 18U + 11U + 4U + 2U + 6U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 14U + 19U + 11U + 4U + 2U + 6U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------

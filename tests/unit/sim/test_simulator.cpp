@@ -36,6 +36,21 @@ TEST(World, SameSeedBuildsTheSameWorldAndEveryAgentReachesAnAnchor) {
   }
 }
 
+// The default scenario's seed 9 first draws a connected but flexible world (an agent's range CRLB is
+// infinite; IEIF ended at 1.7 m lossless and 3.5–6 m under loss). world.require_localizable redraws it.
+TEST(World, RangeScenariosRedrawFlexibleWorldsUntilEveryAgentIsLocalizable) {
+  auto s = small_scenario();
+  s.seed = 9;
+  s.world.require_localizable = false;
+  const auto flexible = build_world(s);
+  EXPECT_FALSE(range_crlb(flexible, 0.1).localizable);
+  s.world.require_localizable = true;
+  const auto rigid = build_world(s);
+  EXPECT_TRUE(range_crlb(rigid, 0.1).localizable);
+  EXPECT_GT(rigid.placement_attempts, flexible.placement_attempts);
+  EXPECT_TRUE(std::isfinite(range_crlb(rigid, 0.1).single_snapshot_rmse_m));
+}
+
 TEST(Simulator, IeifConvergesBelowRangeNoiseAndNearTheCrlb) {
   const auto record = run_simulation(small_scenario());
   const auto* last = record.final_metrics();
@@ -80,7 +95,8 @@ TEST(Simulator, InjectedLossDropsItsShareAndStillConverges) {
   const auto record = run_simulation(s);
   const auto totals = link_totals(record);
   const double sigma = std::sqrt(static_cast<double>(totals.arrived) * 0.3 * 0.7);
-  EXPECT_NEAR(static_cast<double>(totals.dropped_injected), 0.3 * static_cast<double>(totals.arrived), 4.0 * sigma);
+  EXPECT_NEAR(static_cast<double>(totals.dropped_injected), 0.3 * static_cast<double>(totals.arrived),
+              4.0 * sigma);
   EXPECT_LT(record.final_metrics()->errors.rmse_m, 0.1);
 }
 

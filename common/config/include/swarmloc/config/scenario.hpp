@@ -80,6 +80,9 @@ struct Scenario {
     InitialGuess initial_guess = InitialGuess::kNoisyTruth;
     double initial_guess_std_m = 2.0;
     bool require_connected = true;  ///< redraw placement until every agent reaches an anchor
+    /// Range algorithms, ≤ 1000 unknown agents: also redraw until the range Fisher information at the
+    /// truth is nonsingular (every agent localizable; a non-rigid world has no meaningful error).
+    bool require_localizable = true;
     // Reflecting walls for multipath (003, ALGORITHMS.md §5.4): straight lines outside the area,
     // at angles first + k·step (k = 0 … wall_count−1), wall_margin_m beyond its circumscribed circle.
     int wall_count = 2;
