@@ -124,6 +124,21 @@ struct BadSpec {
   std::string named;  ///< must appear in the error message
 };
 
+// Every shipped spec parses and every one of its cells is a valid scenario (load_campaign_spec loads them).
+TEST(Campaign, ShippedSpecsLoadWithEveryCellValid) {
+  int specs = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(kScenarios + "/campaigns")) {
+    if (entry.path().extension() != ".yaml") continue;
+    ++specs;
+    EXPECT_NO_THROW({
+      const CampaignSpec spec = load_campaign_spec(entry.path());
+      EXPECT_GE(spec.algorithms.size(), 4U) << entry.path();
+      EXPECT_GE(spec.swept_values.size(), 3U) << entry.path();
+    }) << entry.path();
+  }
+  EXPECT_GE(specs, 2) << "loss.yaml and skew.yaml";
+}
+
 TEST(Campaign, BadSpecExitsTwoNamingTheKey) {
   const auto dir = fresh_directory("campaign-bad");
   const std::string algorithms = "algorithms: [{label: IEIF, scenario: " + kScenarios + "/default.yaml}]\n";
