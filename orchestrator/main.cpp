@@ -111,7 +111,9 @@ int main(int argc, char** argv) {
   sim->add_option("--trials", trials,
                   "Monte Carlo trials (fixed configuration; noise, initial guesses and loss per trial)")
       ->check(CLI::PositiveNumber);
-  sim->add_option("--threads", threads, "Worker threads for --trials (default: every core)")
+  sim->add_option("--threads", threads,
+                  "Worker threads: trials with --trials, else the agents of one round (default: every core, "
+                  "and for a single run only from 2000 agents; results do not depend on it)")
       ->check(CLI::NonNegativeNumber);
   std::vector<int> sim_hostile;
   sim->add_option("--hostile", sim_hostile,

@@ -621,6 +621,7 @@ int run_sim_command(config::Scenario scenario, const SimCommandOptions& options)
       return 0;
     }
     sim::SimOptions sim_options;
+    sim_options.round_threads = options.threads;  // 0: every core for large worlds; identical results
     sim_options.hostile_agents = options.hostile_agents;
     sim_options.recorded = options.recorded;
     std::unique_ptr<sim::DirectoryRecorder> recorder;

@@ -91,6 +91,29 @@ void record_agents(RunRecord& record, const World& world, const std::vector<Agen
   }
 }
 
+namespace {
+
+/// fn(i) for every agent i in [0, n) on `threads` threads (contiguous blocks); serial for threads ≤ 1.
+template <typename Fn>
+void for_each_agent(int n, int threads, Fn&& fn) {
+  if (threads <= 1 || n < 2 * threads) {
+    for (AgentId i = 0; i < n; ++i) fn(i);
+    return;
+  }
+  std::vector<std::thread> pool;
+  pool.reserve(static_cast<std::size_t>(threads - 1));
+  const int block = (n + threads - 1) / threads;
+  for (int t = 1; t < threads; ++t) {
+    pool.emplace_back([&, t] {
+      for (AgentId i = t * block; i < std::min(n, (t + 1) * block); ++i) fn(i);
+    });
+  }
+  for (AgentId i = 0; i < std::min(n, block); ++i) fn(i);
+  for (auto& thread : pool) thread.join();
+}
+
+}  // namespace
+
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options) {
   if (scenario.run.sim_clock == config::SimClock::kAgents)
     return run_agent_clock_simulation(scenario, options);
@@ -138,6 +161,18 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
 
   std::vector<std::optional<estimators::Estimate>> estimates(static_cast<std::size_t>(n));
   std::vector<estimators::MeasurementBatch> batches(static_cast<std::size_t>(n));
+  // incoming[r]: the agents whose samples reach r, ascending (the order a serial sender loop delivers in).
+  std::vector<std::vector<AgentId>> incoming(static_cast<std::size_t>(n));
+  for (AgentId sender = 0; sender < n; ++sender) {
+    for (AgentId receiver : world.neighbours[static_cast<std::size_t>(sender)])
+      incoming[static_cast<std::size_t>(receiver)].push_back(sender);
+  }
+  int threads = options.round_threads;
+  if (threads <= 0) {
+    const bool worth_it = n >= kParallelRoundMinAgents && options.recorder == nullptr && !world.recorded;
+    threads = worth_it ? static_cast<int>(std::max(1U, std::thread::hardware_concurrency())) : 1;
+  }
+  if (options.recorder != nullptr || world.recorded) threads = 1;  // ordered side effects / shared cache
   for (std::int64_t step = 0; step < scenario.run.steps; ++step) {
     if (step > 0) advance_truth(world, scenario, step);
     for (const auto& fault : kills) {
@@ -147,12 +182,13 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
                                world.setup_of(fault.agent), world.neighbours[k],
                                make_runtime_params(scenario, world, options.trial, ++incarnation[k]));
     }
-    // Deliver round k−1's samples over the lossy bus, then the world-step-k batches.
-    for (AgentId sender = 0; sender < n; ++sender) {
-      const auto& publication = published[static_cast<std::size_t>(sender)];
-      for (AgentId receiver : world.neighbours[static_cast<std::size_t>(sender)]) {
-        if (within(kills, receiver, step)) continue;
-        auto& agent = agents[static_cast<std::size_t>(receiver)];
+    // Deliver round k−1's samples over the lossy bus, then the world-step-k batches. Each receiver takes
+    // its senders in ascending id order, so its mailbox and loss draws do not depend on the threads.
+    for_each_agent(n, threads, [&](AgentId receiver) {
+      if (within(kills, receiver, step)) return;
+      auto& agent = agents[static_cast<std::size_t>(receiver)];
+      for (AgentId sender : incoming[static_cast<std::size_t>(receiver)]) {
+        const auto& publication = published[static_cast<std::size_t>(sender)];
         AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
           if (options.recorder) {
             // Published in the previous round, delivered in this one (virtual world time).
@@ -163,20 +199,19 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
           agent.on_sample(header, message);
         });
       }
-    }
-    for (AgentId i = 0; i < n; ++i)
+    });
+    for_each_agent(n, threads, [&](AgentId i) {
       batches[static_cast<std::size_t>(i)] = generate_batch(world, scenario, i, step);
+    });
     if (options.recorder) options.recorder->world_step(step, world.truth, batches);
-    for (AgentId i = 0; i < n; ++i) {
-      Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns(step), stamp_ns(step)};
-      agents[static_cast<std::size_t>(i)].on_batch(header, std::move(batches[static_cast<std::size_t>(i)]));
-    }
-    for (AgentId i = 0; i < n; ++i) {
+    for_each_agent(n, threads, [&](AgentId i) {
       const auto k = static_cast<std::size_t>(i);
+      Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns(step), stamp_ns(step)};
+      agents[k].on_batch(header, std::move(batches[k]));
       if (within(kills, i, step) || within(pauses, i, step)) {
         published[k] = AgentRuntime::Publication{};  // publishes nothing this round
         estimates[k].reset();                        // not scored while down
-        continue;
+        return;
       }
       const bool restarted_now = std::any_of(kills.begin(), kills.end(), [&](const config::AgentFault& f) {
         return f.agent == i && f.to_step == step;
@@ -185,12 +220,12 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
         // A restarted process announces its prior first; its neighbours use it from the next round.
         published[k] = agents[k].initial_publication(stamp_ns(step));
         estimates[k].reset();
-        continue;
+        return;
       }
       published[k] = agents[k].step(stamp_ns(step));
       make_hostile_if_listed(options.hostile_agents, i, published[k].outbox, published[k].header.step);
       estimates[k] = agents[k].estimate();
-    }
+    });
     StepMetrics metrics;
     metrics.step = step;
     metrics.time_s = reported_time_s(scenario, step);
