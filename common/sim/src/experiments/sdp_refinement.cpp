@@ -29,6 +29,13 @@ void parallel_runs(int runs, int threads, Fn&& fn) {
   for (auto& thread : pool) thread.join();
 }
 
+double median(std::vector<double> values) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(values.begin(), values.end());
+  const std::size_t mid = values.size() / 2;
+  return values.size() % 2 == 1 ? values[mid] : 0.5 * (values[mid - 1] + values[mid]);
+}
+
 }  // namespace
 
 void validate(const GeometricGraphConfig& c) {
@@ -175,6 +182,7 @@ std::vector<TableTwoCell> run_table_two(const TableTwoConfig& config, const grad
       TableTwoCell row;
       row.anchors = anchors;
       row.noise_factor = noise;
+      std::vector<double> taus;
       for (const Outcome& o : outcomes[cell]) {
         if (!o.usable) {
           ++row.sdp_failures;
@@ -185,6 +193,7 @@ std::vector<TableTwoCell> run_table_two(const TableTwoConfig& config, const grad
         row.sdp_error += o.sdp;
         row.refined_error += o.refined;
         row.mean_tau_end += static_cast<double>(o.tau_end);
+        taus.push_back(static_cast<double>(o.tau_end));
         row.refined_better += o.refined < o.sdp ? 1 : 0;
         row.tau_max_reached += o.tau_end >= params.max_updates ? 1 : 0;
       }
@@ -193,6 +202,7 @@ std::vector<TableTwoCell> run_table_two(const TableTwoConfig& config, const grad
         row.refined_error /= row.runs;
         row.mean_tau_end /= row.runs;
       }
+      row.median_tau_end = median(taus);
       table.push_back(row);
       ++cell;
     }
@@ -235,6 +245,7 @@ std::vector<TableThreeColumn> run_table_three(const TableThreeConfig& config,
   for (std::size_t k = 0; k < skews.size(); ++k) {
     TableThreeColumn& column = table[k];
     column.max_skew = skews[k];
+    std::vector<double> taus;
     for (const Outcome& o : outcomes) {
       if (!o.usable) {
         ++column.sdp_failures;
@@ -244,6 +255,7 @@ std::vector<TableThreeColumn> run_table_three(const TableThreeConfig& config,
       column.sdp_error += o.sdp;
       column.refined_error += o.refined[k].final_error;
       column.mean_tau_end += static_cast<double>(o.refined[k].tau_end);
+      taus.push_back(static_cast<double>(o.refined[k].tau_end));
       column.mean_node_updates += o.refined[k].mean_node_updates;
       column.tau_max_reached += o.refined[k].tau_end >= params.max_updates ? 1 : 0;
     }
@@ -253,6 +265,7 @@ std::vector<TableThreeColumn> run_table_three(const TableThreeConfig& config,
       column.mean_tau_end /= column.runs;
       column.mean_node_updates /= column.runs;
     }
+    column.median_tau_end = median(taus);
   }
   return table;
 }

@@ -66,11 +66,12 @@ struct TableTwoCell {
   double noise_factor = 0.0;
   int runs = 0;                ///< runs averaged (SDP usable)
   int sdp_failures = 0;        ///< runs whose SDP was not usable (left out of the means)
-  int sdp_inaccurate = 0;      ///< runs whose SDP stopped short of pdOPT but was used
+  int sdp_inaccurate = 0;      ///< runs whose SDP ended with a gap above accept_gap (still used)
   double sdp_error = 0.0;      ///< mean Φ, SDP alone
   double refined_error = 0.0;  ///< mean Φ, SDP + DG-BB
   int refined_better = 0;      ///< runs where SDP+DG < SDP
   double mean_tau_end = 0.0;
+  double median_tau_end = 0.0;  ///< robust to the rare runs that stop only at τ_max
   int tau_max_reached = 0;
 };
 /// Run r of every cell draws its world from run_seed(seed, r) and the cell (same positions across cells
@@ -96,6 +97,7 @@ struct TableThreeColumn {
   double sdp_error = 0.0;
   double refined_error = 0.0;
   double mean_tau_end = 0.0;       ///< max over nodes of the updates, averaged over runs
+  double median_tau_end = 0.0;     ///< median over runs (robust to the rare runs that stop only at τ_max)
   double mean_node_updates = 0.0;  ///< updates per non-anchor node, averaged over nodes and runs
   int tau_max_reached = 0;
 };
