@@ -149,5 +149,22 @@ TEST(SdpRelaxation, MalformedProblemsThrowAndDegenerateOnesReturn) {
   EXPECT_EQ(r.positions.size(), 2U);
 }
 
+// Unknowns without ranges, or with too few, leave the relaxation underdetermined: SDPA still returns (the
+// analytic centre of the optimal face), never exits the process.
+TEST(SdpRelaxation, UnderdeterminedProblemsReturnAStatus) {
+  RangeProblem problem;
+  problem.anchor = {true, true, false};
+  problem.initial = {Vec2(0, 0), Vec2(1, 0), Vec2(5, 5)};
+  for (const std::vector<RangeEdge>& edges :
+       {std::vector<RangeEdge>{}, std::vector<RangeEdge>{{0, 2, 0.5}}, std::vector<RangeEdge>{{0, 1, 1.0}}}) {
+    problem.edges = edges;
+    const SdpRelaxationResult r = solve_sdp_relaxation(problem);
+    EXPECT_TRUE(r.usable()) << r.solver_phase;
+    ASSERT_EQ(r.positions.size(), 3U);
+    EXPECT_TRUE(r.positions[2].allFinite());
+    EXPECT_EQ(r.positions[0], Vec2(0, 0));
+  }
+}
+
 }  // namespace
 }  // namespace swarmloc::estimators::gradient
