@@ -647,7 +647,8 @@ int reproduce_dgbb_table3(const ReproduceOptions& options) {
   csv << "max_skew,runs,phi_sdp,phi_sdp_dg,mean_tau_end,median_tau_end,mean_node_updates,tau_max_reached\n";
   for (const auto& c : columns) {
     csv << c.max_skew << ',' << c.runs << ',' << c.sdp_error << ',' << c.refined_error << ','
-        << c.mean_tau_end << ',' << c.mean_node_updates << '\n';
+        << c.mean_tau_end << ',' << c.median_tau_end << ',' << c.mean_node_updates << ',' << c.tau_max_reached
+        << '\n';
   }
   return 0;
 }
