@@ -184,7 +184,8 @@ int main(int argc, char** argv) {
   reproduce
       ->add_option(
           "experiment", reproduce_options.experiment,
-          "ea1 | ea2 | ea3 | ieif-table1 | ieif-table2 | jacobi-002 | multipath-003 | dgbb-004-table1")
+          "ea1 | ea2 | ea3 | ieif-table1 | ieif-table2 | jacobi-002 | multipath-003 | dgbb-004-table1 | "
+          "dgbb-004-table2 | dgbb-004-table3")
       ->required()
       ->check(CLI::IsMember(swarmloc::orchestrator::known_experiments()));
   reproduce->add_option("--out", reproduce_out, "Output directory (default runs/reproduce)");

@@ -10,12 +10,13 @@ namespace swarmloc::orchestrator {
 struct ReproduceOptions {
   std::string experiment;
   std::filesystem::path out_dir;
-  int trials = 0;    ///< 0: the experiment's default (the paper's count)
-  int threads = 0;   ///< 0: every core
+  int trials = 0;   ///< 0: the experiment's default (the paper's count)
+  int threads = 0;  ///< 0: every core
   std::uint64_t seed = 1;
 };
 
-/// Experiments: ea1, ea2, ea3 (paper 000), ieif-table1, ieif-table2 (paper 001).
+/// Experiments: ea1, ea2, ea3 (paper 000), ieif-table1, ieif-table2 (paper 001), jacobi-002, multipath-003,
+/// dgbb-004-table1, dgbb-004-table2, dgbb-004-table3.
 const std::vector<std::string>& known_experiments();
 
 /// Returns the exit code (2 for an unknown experiment).
@@ -28,7 +29,7 @@ struct KalmanTableColumn {
   double failure_percent = 0.0;
   int trials = 0;
 };
-KalmanTableColumn run_kalman_table_column(const std::string& algorithm, int agents, int anchors, double noise_std_m,
-                                          int trials, int threads, std::uint64_t seed);
+KalmanTableColumn run_kalman_table_column(const std::string& algorithm, int agents, int anchors,
+                                          double noise_std_m, int trials, int threads, std::uint64_t seed);
 
 }  // namespace swarmloc::orchestrator

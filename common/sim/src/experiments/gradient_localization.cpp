@@ -62,8 +62,16 @@ double global_error(const LatticeProblem& lattice, const std::vector<const gradi
 }  // namespace
 
 GradientRun run_gradient_agents(const LatticeProblem& lattice, const gradient::DgBbParams& params,
-                                bool record_trace) {
+                                bool record_trace, const std::vector<std::int64_t>& start_ticks) {
   const auto n = lattice.truth.size();
+  if (!start_ticks.empty() && start_ticks.size() != n)
+    throw std::invalid_argument("run_gradient_agents: start_ticks must have one entry per node");
+  std::int64_t last_start = 0;
+  for (const std::int64_t tick : start_ticks) {
+    if (tick < 0) throw std::invalid_argument("run_gradient_agents: start ticks must be >= 0");
+    last_start = std::max(last_start, tick);
+  }
+  auto start_of = [&](std::size_t i) { return start_ticks.empty() ? std::int64_t{0} : start_ticks[i]; };
   detail::Adjacency adjacency(n);
   std::vector<estimators::MeasurementBatch> batches(n);
   for (const auto& e : lattice.problem.edges) {
@@ -84,14 +92,12 @@ GradientRun run_gradient_agents(const LatticeProblem& lattice, const gradient::D
     agents.push_back(std::move(agent));
   }
   detail::SyncBus bus(adjacency);
-  bus.publish_initial(agents);
-  std::vector<const estimators::MeasurementBatch*> first;
-  for (const auto& b : batches) first.push_back(&b);
-  const std::vector<const estimators::MeasurementBatch*> none(n, nullptr);
+  std::vector<bool> awake(n, false);
+  std::vector<const estimators::MeasurementBatch*> now(n, nullptr);
   GradientRun run;
   const std::int64_t per_update =
       params.rule == gradient::StepRule::kConsensusBb ? params.consensus_rounds + 1 : 1;
-  const std::int64_t max_rounds = (params.max_updates + 2) * per_update + 2;
+  const std::int64_t max_rounds = last_start + (params.max_updates + 2) * per_update + 2;
   std::int64_t last_tau = 0;
   auto tau_now = [&] {
     std::int64_t tau = 0;
@@ -99,7 +105,16 @@ GradientRun run_gradient_agents(const LatticeProblem& lattice, const gradient::D
     return tau;
   };
   for (std::int64_t round = 0; round < max_rounds; ++round) {
-    bus.round(agents, round, round == 0 ? first : none);
+    // Nodes starting now: their initial STATE reaches the neighbours before this round's step (with every
+    // start at 0 this is the synchronous start), their ranges arrive with their first step.
+    std::fill(now.begin(), now.end(), nullptr);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (awake[i] || start_of(i) != round) continue;
+      awake[i] = true;
+      bus.deliver(static_cast<int>(i), round - 1, agents[i]->initial_outbox());
+      now[i] = &batches[i];
+    }
+    bus.round(agents, round, now, &awake);
     ++run.rounds;
     if (record_trace) {
       const std::int64_t tau = tau_now();
@@ -113,6 +128,13 @@ GradientRun run_gradient_agents(const LatticeProblem& lattice, const gradient::D
     if (!any_active) break;
   }
   run.tau_end = tau_now();
+  int unknowns = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (lattice.problem.anchor[i]) continue;
+    run.mean_node_updates += static_cast<double>(nodes[i]->updates());
+    ++unknowns;
+  }
+  if (unknowns > 0) run.mean_node_updates /= unknowns;
   const bool consensus = params.rule == gradient::StepRule::kConsensusBb && params.consensus_rounds > 0;
   run.source_rounds = consensus ? run.tau_end * params.consensus_rounds : run.tau_end;
   run.final_error = global_error(lattice, nodes);

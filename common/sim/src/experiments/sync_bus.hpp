@@ -34,15 +34,21 @@ class SyncBus {
   }
 
   /// One synchronous round: every agent steps on the mailbox of the previous round, then all outboxes
-  /// are delivered. `batches[i]` may be nullptr.
+  /// are delivered. `batches[i]` may be nullptr. With `awake`, only agents with awake[i] step and publish
+  /// (the others are not running yet: their mailbox fills, they send nothing).
   void round(std::vector<std::unique_ptr<estimators::Estimator>>& agents, std::int64_t step,
-             const std::vector<const estimators::MeasurementBatch*>& batches) {
+             const std::vector<const estimators::MeasurementBatch*>& batches,
+             const std::vector<bool>* awake = nullptr) {
     std::vector<estimators::Outbox> outboxes(agents.size());
     for (std::size_t i = 0; i < agents.size(); ++i) {
+      if (awake != nullptr && !(*awake)[i]) continue;
       const estimators::StepInput input{step, batches.empty() ? nullptr : batches[i], &mailboxes_[i]};
       outboxes[i] = agents[i]->step(input).outbox;
     }
-    for (std::size_t i = 0; i < agents.size(); ++i) deliver(static_cast<int>(i), step, outboxes[i]);
+    for (std::size_t i = 0; i < agents.size(); ++i) {
+      if (awake != nullptr && !(*awake)[i]) continue;
+      deliver(static_cast<int>(i), step, outboxes[i]);
+    }
   }
   void publish_initial(const std::vector<std::unique_ptr<estimators::Estimator>>& agents) {
     for (std::size_t i = 0; i < agents.size(); ++i)

@@ -27,19 +27,25 @@ struct LatticeProblem {
 LatticeProblem make_lattice_problem(const LatticeConfig& config, std::mt19937_64& rng);
 
 struct GradientRun {
-  std::int64_t tau_end = 0;        ///< updates until all nodes inactive or τ_max (warm-up included)
-  std::int64_t rounds = 0;         ///< communication rounds actually simulated (DG-BB: T + 1 per update)
-  std::int64_t source_rounds = 0;  ///< the source's count: τ_end·T (DG-BB) or τ_end (others) (§6.2)
-  double final_error = 0.0;        ///< Φ = (1/n) Σ_i ‖p_i − p̂_i‖ over all nodes ([E-9])
-  bool converged = false;          ///< Φ < 1e−3 ([E-9])
-  int safeguard_fires = 0;         ///< [E-4] replacements summed over nodes
-  int trust_region_fires = 0;      ///< BB steps shortened by DgBbParams::max_move_fraction, summed over nodes
+  std::int64_t tau_end = 0;         ///< updates until all nodes inactive or τ_max (warm-up included)
+  double mean_node_updates = 0.0;   ///< updates per non-anchor node, averaged over those nodes
+  std::int64_t rounds = 0;          ///< communication rounds actually simulated (DG-BB: T + 1 per update)
+  std::int64_t source_rounds = 0;   ///< the source's count: τ_end·T (DG-BB) or τ_end (others) (§6.2)
+  double final_error = 0.0;         ///< Φ = (1/n) Σ_i ‖p_i − p̂_i‖ over all nodes ([E-9])
+  bool converged = false;           ///< Φ < 1e−3 ([E-9])
+  int safeguard_fires = 0;          ///< [E-4] replacements summed over nodes
+  int trust_region_fires = 0;       ///< BB steps shortened by DgBbParams::max_move_fraction, summed over nodes
   std::vector<double> error_trace;  ///< Φ after every update τ (only if requested)
 };
 
 /// One run of `params` (its rule selects DG-BB or a baseline) on `lattice` as DgBb agents.
+/// `start_ticks` (empty = all 0, the synchronous start): node i is not stepped and publishes nothing before
+/// round start_ticks[i] (one tick = one communication round, ALGORITHMS.md §6.4 [E-7]); it then publishes
+/// its initial STATE, receives its ranges and runs on its own. DgBb's start rule makes an early node wait
+/// until every range neighbour has been heard from. Throws std::invalid_argument on a wrong size or a
+/// negative tick.
 GradientRun run_gradient_agents(const LatticeProblem& lattice, const estimators::gradient::DgBbParams& params,
-                                bool record_trace = false);
+                                bool record_trace = false, const std::vector<std::int64_t>& start_ticks = {});
 
 struct TableOneRow {
   std::string method;
