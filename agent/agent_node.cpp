@@ -127,7 +127,12 @@ class AgentProcess {
         if (after - last_hello > std::chrono::milliseconds(200) && (!lockstep_ || initial_published_)) {
           last_hello = after;
           if (!lockstep_) publish(runtime_.initial_publication(local_stamp_ns()));
-          transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
+          // Hello only once START and our measurements can reach us (control and measurement readers
+          // matched): with N >= 150 an agent matched the orchestrator's one reader long before its N + 1
+          // writers, said hello, and the orchestrator sent START to agents not yet listening.
+          if (transport_.orchestrator_matched()) {
+            transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
+          }
         }
         if (std::chrono::duration<double>(after - started_).count() >
             scenario_.run.startup_timeout_s + 30.0) {

@@ -112,8 +112,8 @@ int main(int argc, char** argv) {
                   "Monte Carlo trials (fixed configuration; noise, initial guesses and loss per trial)")
       ->check(CLI::PositiveNumber);
   sim->add_option("--threads", threads,
-                  "Worker threads: trials with --trials, else the agents of one round (default: every core, "
-                  "and for a single run only from 2000 agents; results do not depend on it)")
+                  "Worker threads: trials with --trials (default: every core), else the agents of one round "
+                  "(default 1; results do not depend on it)")
       ->check(CLI::NonNegativeNumber);
   std::vector<int> sim_hostile;
   sim->add_option("--hostile", sim_hostile,

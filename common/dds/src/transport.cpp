@@ -251,7 +251,12 @@ bool AgentTransport::wait_for_acks(double timeout_s) {
   return all;
 }
 
-bool AgentTransport::orchestrator_matched() const { return matched_count(impl_->measurement_reader) > 0; }
+// Both of the orchestrator's writers an agent reads: with many agents the orchestrator's SEDP
+// publications (N + 1 writers) reach an agent long after its one reader, so an agent could say hello
+// (estimate writer matched) while its control reader had not yet seen the control writer.
+bool AgentTransport::orchestrator_matched() const {
+  return matched_count(impl_->control_reader) > 0 && matched_count(impl_->measurement_reader) > 0;
+}
 
 // ===================================================================================================
 // Orchestrator
@@ -331,5 +336,12 @@ std::vector<sim::EstimateReport> OrchestratorTransport::wait_and_take_estimates(
 std::uint64_t OrchestratorTransport::rejected_reports() const { return impl_->rejected; }
 
 int OrchestratorTransport::matched_agents() const { return matched_count(impl_->estimate_reader); }
+
+int OrchestratorTransport::agents_listening() const {
+  int listening = 0;
+  for (const dds_entity_t writer : impl_->measurement_writers)
+    listening += matched_reader_count(writer) > 0 ? 1 : 0;
+  return std::min(listening, static_cast<int>(matched_reader_count(impl_->control_writer)));
+}
 
 }  // namespace swarmloc::dds

@@ -102,7 +102,8 @@ class AgentTransport {
 
   /// Number of neighbours whose State writer is currently matched (discovery progress).
   [[nodiscard]] int matched_neighbours() const;
-  /// True once the orchestrator's measurement writer is matched.
+  /// True once the orchestrator's measurement writer and control writer are both matched (the agent can
+  /// receive its measurements and START).
   [[nodiscard]] bool orchestrator_matched() const;
   /// True once every neighbour's writers are matched to our readers and our writers to its readers
   /// (lockstep publishes its first samples only then, so no neighbour misses them).
@@ -138,6 +139,9 @@ class OrchestratorTransport {
 
   /// Agents whose estimate writer is matched.
   [[nodiscard]] int matched_agents() const;
+  /// Agents whose control reader and measurement reader this orchestrator's writers have matched: START
+  /// written now reaches them (the agent side is checked by AgentTransport::orchestrator_matched()).
+  [[nodiscard]] int agents_listening() const;
 
  private:
   struct Impl;
