@@ -555,11 +555,18 @@ int reproduce_dgbb_table1(const ReproduceOptions& options) {
 // ---------------- 004 Tables II–III: SDP and SDP + DG-BB on random geometric graphs ----------------
 std::string phi(double value) { return std::isfinite(value) ? fmt("%.3f", value) : std::string("–"); }
 
-int reproduce_dgbb_table2(const ReproduceOptions& options) {
-  sim::experiments::TableTwoConfig config;
+/// Runs, seed and threads of an Example 3 table from the command line (30 runs by default, [E-8]).
+template <typename Config>
+Config example3_config(const ReproduceOptions& options) {
+  Config config;
   config.runs = options.trials > 0 ? options.trials : 30;
   config.seed = options.seed;
   config.threads = resolve_threads(options.threads);
+  return config;
+}
+
+int reproduce_dgbb_table2(const ReproduceOptions& options) {
+  const auto config = example3_config<sim::experiments::TableTwoConfig>(options);
   const auto params = sim::experiments::example3_dgbb_params();
   const auto started = std::chrono::steady_clock::now();
   const auto cells = sim::experiments::run_table_two(config, params);
@@ -629,10 +636,7 @@ int reproduce_dgbb_table2(const ReproduceOptions& options) {
 }
 
 int reproduce_dgbb_table3(const ReproduceOptions& options) {
-  sim::experiments::TableThreeConfig config;
-  config.runs = options.trials > 0 ? options.trials : 30;
-  config.seed = options.seed;
-  config.threads = resolve_threads(options.threads);
+  const auto config = example3_config<sim::experiments::TableThreeConfig>(options);
   const auto params = sim::experiments::example3_dgbb_params();
   const auto started = std::chrono::steady_clock::now();
   const auto columns = sim::experiments::run_table_three(config, params);

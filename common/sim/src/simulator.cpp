@@ -167,12 +167,7 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
     for (AgentId receiver : world.neighbours[static_cast<std::size_t>(sender)])
       incoming[static_cast<std::size_t>(receiver)].push_back(sender);
   }
-  int threads = options.round_threads;
-  if (threads <= 0) {
-    const bool worth_it = n >= kParallelRoundMinAgents && options.recorder == nullptr && !world.recorded;
-    threads = worth_it ? static_cast<int>(std::max(1U, std::thread::hardware_concurrency())) : 1;
-  }
-  if (options.recorder != nullptr || world.recorded) threads = 1;  // ordered side effects / shared cache
+  const int threads = options.recorder != nullptr || world.recorded ? 1 : options.round_threads;
   for (std::int64_t step = 0; step < scenario.run.steps; ++step) {
     if (step > 0) advance_truth(world, scenario, step);
     for (const auto& fault : kills) {

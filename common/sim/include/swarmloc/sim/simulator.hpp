@@ -24,14 +24,10 @@ struct SimOptions {
   /// an agent receives (not owned; single runs only).
   RunRecorder* recorder = nullptr;
   /// run.sim_clock = rounds: threads that deliver, generate batches and step the agents of one round
-  /// (each touches only its own agents, so the result is identical for any count). 0 = every core when
-  /// the world has at least kParallelRoundMinAgents agents and no recorder, else 1. Monte Carlo trials
-  /// run with 1 (they are parallel across trials).
+  /// (each touches only its own agents, so the result is identical for any count); ≤ 1 = serial. Runs
+  /// with a recorder or a replayed world are always serial (ordered side effects).
   int round_threads = 1;
 };
-
-/// Below this many agents a round is too short to be worth a thread hand-off (SimOptions::round_threads).
-inline constexpr int kParallelRoundMinAgents = 2000;
 
 /// Runs `scenario` in-process, deterministic in the seed. run.sim_clock = rounds: synchronous rounds —
 /// at round k every agent receives its world-step-k batch and the samples its neighbours published in
