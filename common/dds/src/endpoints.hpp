@@ -76,9 +76,10 @@ inline dds_entity_t create_writer(dds_entity_t publisher, dds_entity_t topic,
 }
 
 inline dds_entity_t create_reader(dds_entity_t subscriber, dds_entity_t topic,
-                                  const config::QosSettings& settings, const char* what) {
+                                  const config::QosSettings& settings, const char* what,
+                                  const dds_listener_t* listener = nullptr) {
   const auto qos = endpoint_qos(settings);
-  return check(dds_create_reader(subscriber, topic, qos.get(), nullptr), "dds_create_reader", what);
+  return check(dds_create_reader(subscriber, topic, qos.get(), listener), "dds_create_reader", what);
 }
 
 /// dds_write with the return code checked. A reliable write that times out (the history of a reliable

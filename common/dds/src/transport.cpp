@@ -10,13 +10,17 @@
 //             subscriber "est"        : estimate reader
 // Waits: one waitset per participant with a DDS_ANY_STATE read condition per reader (triggered while
 // the reader holds any sample), waited with the caller's timeout; then every reader is drained with
-// loaned dds_take calls. Single-threaded use per transport object.
+// loaned dds_take calls. Single-threaded use per transport object, except for the agent's four
+// inter-agent readers: a data-available listener takes their samples on Cyclone's receive thread as
+// they arrive, into an inbox that wait_and_take hands over. The agent thread then wakes only for its
+// own tick, its measurements and control, not once per neighbour sample (docs/scale.md, "latency").
 #include "swarmloc/dds/transport.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <set>
 #include <string>
 #include <vector>
@@ -110,10 +114,16 @@ struct AgentTransport::Impl {
       neighbour_partitions.emplace_back(kPartitionNothing);
     }
     const dds_entity_t from_neighbours = create_subscriber(pp, neighbour_partitions);
-    state_reader = create_reader(from_neighbours, t_state, qos.state, kTopicState);
-    information_reader = create_reader(from_neighbours, t_information, qos.information, kTopicInformation);
-    consensus_reader = create_reader(from_neighbours, t_consensus, qos.consensus, kTopicConsensus);
-    belief_reader = create_reader(from_neighbours, t_belief, qos.belief, kTopicBelief);
+    state_reader = create_reader(from_neighbours, t_state, qos.state, kTopicState,
+                                 inbox_listener<swarmloc_msg_State, &AgentInbound::states>().get());
+    information_reader =
+        create_reader(from_neighbours, t_information, qos.information, kTopicInformation,
+                      inbox_listener<swarmloc_msg_Information, &AgentInbound::information>().get());
+    consensus_reader =
+        create_reader(from_neighbours, t_consensus, qos.consensus, kTopicConsensus,
+                      inbox_listener<swarmloc_msg_Consensus, &AgentInbound::consensus>().get());
+    belief_reader = create_reader(from_neighbours, t_belief, qos.belief, kTopicBelief,
+                                  inbox_listener<swarmloc_msg_Belief, &AgentInbound::beliefs>().get());
     const dds_entity_t from_orchestrator = create_subscriber(pp, {measurement_partition(self)});
     measurement_reader =
         create_reader(from_orchestrator, t_measurements, qos.measurements, kTopicMeasurements);
@@ -121,23 +131,57 @@ struct AgentTransport::Impl {
     control_reader = create_reader(control, t_control, qos.control, kTopicControl);
 
     waitset = check(dds_create_waitset(pp), "dds_create_waitset");
-    for (const dds_entity_t reader : {state_reader, information_reader, consensus_reader, belief_reader,
-                                      measurement_reader, control_reader}) {
+    for (const dds_entity_t reader : {measurement_reader, control_reader}) {
       attach_reader(waitset, reader);
     }
   }
 
+  /// A listener whose data-available callback takes every sample of a `Wire` reader into
+  /// inbox.*family (Cyclone copies the listener into the reader; deleting the reader waits for a
+  /// callback in progress, and the participant is deleted before the inbox).
+  template <typename Wire, auto family>
+  std::unique_ptr<dds_listener_t, decltype(&dds_delete_listener)> inbox_listener() {
+    std::unique_ptr<dds_listener_t, decltype(&dds_delete_listener)> listener(dds_create_listener(this),
+                                                                             &dds_delete_listener);
+    dds_lset_data_available(listener.get(), [](dds_entity_t reader, void* arg) {
+      auto* impl = static_cast<Impl*>(arg);
+      const std::lock_guard lock(impl->inbox_mutex);
+      auto& samples = impl->inbox.*family;
+      try {
+        take_all<Wire>(
+            reader,
+            [&samples](const Wire& wire, std::int64_t source_ns, std::int64_t taken_ns) {
+              auto decoded = decode(wire);
+              decoded.source_timestamp_ns = source_ns;
+              decoded.taken_ns = taken_ns;
+              samples.push_back(std::move(decoded));
+            },
+            &impl->latencies);
+      } catch (const std::exception&) {
+        // No exception may unwind through Cyclone's C frames. A failed take (the reader is being
+        // deleted) or allocation leaves the rest of the samples in the reader; count it.
+        ++impl->failed_listener_takes;
+      }
+    });
+    return listener;
+  }
+
   AgentId self;
   std::vector<AgentId> neighbours;
-  DomainLease domain;  // declared before the participant: released after it
-  Entity participant;  // owns every entity below
+  // Filled by the inter-agent readers' listeners (receive thread), emptied by wait_and_take. Declared
+  // before the participant, so they outlive every reader and its listener.
+  mutable std::mutex inbox_mutex;
+  AgentInbound inbox;          // guarded by inbox_mutex
+  LatencyHistogram latencies;  // guarded by inbox_mutex; inter-agent samples: source timestamp -> take
+  std::uint64_t failed_listener_takes = 0;  // guarded by inbox_mutex (not exposed yet)
+  DomainLease domain;                       // declared before the participant: released after it
+  Entity participant;                       // owns every entity below
   dds_entity_t state_writer = 0, information_writer = 0, consensus_writer = 0, belief_writer = 0;
   dds_entity_t estimate_writer = 0;
   dds_entity_t state_reader = 0, information_reader = 0, consensus_reader = 0, belief_reader = 0;
   dds_entity_t measurement_reader = 0, control_reader = 0;
   dds_entity_t waitset = 0;
   std::uint64_t dropped_malformed = 0;  // malformed measurement batches / control samples (not exposed yet)
-  LatencyHistogram latencies;           // inter-agent samples: source timestamp -> take
 };
 
 AgentTransport::AgentTransport(const config::Scenario& scenario, const Topology& topology)
@@ -172,9 +216,13 @@ void AgentTransport::publish_estimate(const sim::EstimateReport& report) {
   write(impl_->estimate_writer, &wire.sample, kTopicEstimate);
 }
 
-void AgentTransport::reset_latency() { impl_->latencies.clear(); }
+void AgentTransport::reset_latency() {
+  const std::lock_guard lock(impl_->inbox_mutex);
+  impl_->latencies.clear();
+}
 
 LatencySummary AgentTransport::inter_agent_latency() const {
+  const std::lock_guard lock(impl_->inbox_mutex);
   const LatencyHistogram& histogram = impl_->latencies;
   LatencySummary summary;
   summary.samples = histogram.total();
@@ -187,21 +235,10 @@ LatencySummary AgentTransport::inter_agent_latency() const {
 AgentInbound AgentTransport::wait_and_take(double timeout_s) {
   wait(impl_->waitset, timeout_s);
   AgentInbound inbound;
-  // Senders outside the neighbour list are passed on (the runtime counts them as unknown senders).
-  auto* latencies = &impl_->latencies;
-  // Each inter-agent sample keeps its source timestamp and take time (--record sample logs).
-  auto into = [](auto& samples) {
-    return [&samples](const auto& wire, std::int64_t source_ns, std::int64_t taken_ns) {
-      auto decoded = decode(wire);
-      decoded.source_timestamp_ns = source_ns;
-      decoded.taken_ns = taken_ns;
-      samples.push_back(std::move(decoded));
-    };
-  };
-  take_all<swarmloc_msg_State>(impl_->state_reader, into(inbound.states), latencies);
-  take_all<swarmloc_msg_Information>(impl_->information_reader, into(inbound.information), latencies);
-  take_all<swarmloc_msg_Consensus>(impl_->consensus_reader, into(inbound.consensus), latencies);
-  take_all<swarmloc_msg_Belief>(impl_->belief_reader, into(inbound.beliefs), latencies);
+  {
+    const std::lock_guard lock(impl_->inbox_mutex);
+    std::swap(inbound, impl_->inbox);
+  }
   take_all<swarmloc_msg_MeasurementBatch>(
       impl_->measurement_reader, [&](const swarmloc_msg_MeasurementBatch& wire) {
         auto decoded = decode(wire);

@@ -97,7 +97,9 @@ class AgentTransport {
   void publish_belief(const sim::Header& header, const estimators::BeliefMessage& message);
   void publish_estimate(const sim::EstimateReport& report);
 
-  /// Blocks up to timeout_s (or until data arrives), then takes everything available.
+  /// Blocks up to timeout_s or until a measurement batch or control sample arrives, then returns those
+  /// and every neighbour sample received since the last call. Neighbour samples do not wake the caller:
+  /// a listener takes them on Cyclone's receive thread as they arrive (one wake-up fewer per sample).
   AgentInbound wait_and_take(double timeout_s);
 
   /// Number of neighbours whose State writer is currently matched (discovery progress).
