@@ -113,7 +113,12 @@ class Orchestrator {
       recording_ = std::make_unique<sim::RecordingWriter>(run_dir_ / sim::kRecordingFile, scenario_, world_);
     }
     dds::OrchestratorTransport transport(scenario_, n);
-    if (options_.launch_agents) launch_agents();
+    if (options_.launch_agents) {
+      const auto launch_start = std::chrono::steady_clock::now();
+      launch_agents();
+      spdlog::info("launched {} processes in {:.2f} s", launcher_.size(),
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - launch_start).count());
+    }
     spdlog::info("run directory {}: {} agents ({} anchors, mean degree {:.1f}), {} steps at {} Hz{}",
                  run_dir_.string(), n, record_.anchors, record_.mean_degree, scenario_.run.steps,
                  scenario_.run.rate_hz,

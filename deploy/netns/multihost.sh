@@ -146,7 +146,8 @@ for ((i = 0; i < AGENTS; ++i)); do
       --log "$LOGS/agent-$i.log" >"$LOGS/agent-$i.out" 2>&1 &
     CONTAINERS=$((CONTAINERS + 1))
   else
-    ip netns exec "$host" "$BIN" agent --scenario "$OUT/scenario.yaml" --id "$i" "${SETS[@]}" \
+    # One OpenBLAS thread: its pool spins ~0.1 s of CPU per process start (orchestrator/launcher.cpp).
+    OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1} ip netns exec "$host" "$BIN" agent --scenario "$OUT/scenario.yaml" --id "$i" "${SETS[@]}" \
       --log "$LOGS/agent-$i.log" >"$LOGS/agent-$i.out" 2>&1 &
   fi
 done

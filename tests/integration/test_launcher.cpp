@@ -1,0 +1,50 @@
+// The local launcher's child environment: agents run with one OpenBLAS thread unless the user chose
+// otherwise (the pthreads OpenBLAS the binary links spins ~0.1 s of CPU per process start otherwise).
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "launcher.hpp"
+#include "process_helpers.hpp"
+
+namespace {
+
+using swarmloc::orchestrator::ProcessLauncher;
+
+/// Runs `sh -c 'printf %s "$OPENBLAS_NUM_THREADS"'` through the launcher and returns what it printed.
+std::string child_blas_threads(const std::string& name) {
+  const auto output = swarmloc::testing::fresh_directory(name) / "child.out";
+  ProcessLauncher launcher;
+  const int child = launcher.launch({"/bin/sh", "-c", "printf %s \"${OPENBLAS_NUM_THREADS-unset}\""}, output);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (launcher.poll() > 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(launcher.exit_code(child), std::optional<int>(0));
+  std::ifstream in(output);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST(Launcher, ChildrenGetOneOpenBlasThreadUnlessTheUserSetIt) {
+  const char* saved = std::getenv("OPENBLAS_NUM_THREADS");
+  const std::optional<std::string> previous = saved ? std::optional<std::string>(saved) : std::nullopt;
+
+  unsetenv("OPENBLAS_NUM_THREADS");
+  EXPECT_EQ(child_blas_threads("launcher-blas-default"), "1");
+  setenv("OPENBLAS_NUM_THREADS", "3", 1);
+  EXPECT_EQ(child_blas_threads("launcher-blas-user"), "3");
+
+  if (previous)
+    setenv("OPENBLAS_NUM_THREADS", previous->c_str(), 1);
+  else
+    unsetenv("OPENBLAS_NUM_THREADS");
+}
+
+}  // namespace
