@@ -161,13 +161,13 @@ const AbsoluteFix* usable_fix(const Linearization& rows) {
 
 /// Φ = Σ u uᵀ/r̃ (+ R_fix⁻¹) and b = Σ u ν/r̃ (+ R_fix⁻¹ (z_fix − x̂)): the information both update forms
 /// need (001 eq. (49); the Kalman form through the push-through identity).
-struct RowInformation {
+struct RangeRowsInformation {
   Mat2 Phi = Mat2::Zero();
   Vec2 b = Vec2::Zero();
 };
 
-RowInformation row_information(const Vec2& x_pred, const Linearization& rows) {
-  RowInformation out;
+RangeRowsInformation row_information(const Vec2& x_pred, const Linearization& rows) {
+  RangeRowsInformation out;
   for (Eigen::Index m = 0; m < rows.jacobian.rows(); ++m) {
     const Vec2 u = rows.jacobian.row(m).transpose();
     out.Phi += u * u.transpose() / rows.variance(m);
@@ -186,7 +186,7 @@ RowInformation row_information(const Vec2& x_pred, const Linearization& rows) {
 InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows) {
   InformationUpdate out;
   // 001 eq. (49), ALGORITHMS.md §3.2: Φ = Σ u uᵀ/r̃, ι = Σ u z′/r̃, z′ = ν + uᵀ x̂_i, i.e. ι = b + Φ x̂_i.
-  const RowInformation info = row_information(x_pred, rows);
+  const RangeRowsInformation info = row_information(x_pred, rows);
   out.Phi = info.Phi;
   out.iota = info.b + info.Phi * x_pred;
   out.Phi = core::symmetrized(out.Phi);
@@ -211,7 +211,7 @@ KalmanUpdate kalman_update(const Vec2& x_pred, const Mat2& P_pred, const Lineari
   // only A and b = Hᵀ R̃⁻¹ ν are needed, O(M) instead of factoring the M×M S (360 nodes: M = 359).
   // P_pred is never inverted; I + P A is invertible because P and A are PSD.
   if (rows.jacobian.rows() == 0 && usable_fix(rows) == nullptr) return KalmanUpdate{x_pred, P_pred};
-  const RowInformation info = row_information(x_pred, rows);
+  const RangeRowsInformation info = row_information(x_pred, rows);
   const Mat2& A = info.Phi;
   const Vec2& b = info.b;
   const Mat2 M_inv = (Mat2::Identity() + P_pred * A).inverse();

@@ -21,7 +21,7 @@ nlohmann::json number_or_null(double value) {
   return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json();
 }
 
-void write_text(const std::filesystem::path& path, const std::string& text) {
+void write_file(const std::filesystem::path& path, const std::string& text) {
   std::ofstream out(path);
   out << text;
   if (!out) throw std::runtime_error("cannot write " + path.string());
@@ -119,8 +119,8 @@ nlohmann::json summary_json(const RunRecord& record) {
 
 void write_run_directory(const std::filesystem::path& directory, const RunRecord& record) {
   std::filesystem::create_directories(directory);
-  write_text(directory / "scenario.yaml", config::to_yaml(record.scenario));
-  write_text(directory / "seed", std::to_string(record.scenario.seed) + "\n");
+  write_file(directory / "scenario.yaml", config::to_yaml(record.scenario));
+  write_file(directory / "seed", std::to_string(record.scenario.seed) + "\n");
   {
     std::ofstream out(directory / "metrics.csv");
     out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing\n";
@@ -159,7 +159,7 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
           << a.cpu_s << ',' << (a.exit_code ? std::to_string(*a.exit_code) : "") << '\n';
     }
   }
-  write_text(directory / "summary.json", summary_json(record).dump(2) + "\n");
+  write_file(directory / "summary.json", summary_json(record).dump(2) + "\n");
   write_tum_trajectories(directory, record);
   write_plots(directory, record);
 }

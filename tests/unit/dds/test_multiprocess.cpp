@@ -28,7 +28,7 @@ constexpr const char* kChildEnv = "SWARMLOC_DDS_TEST_CHILD";
 constexpr int kDomainId = 19;
 constexpr int kAgents = 3;
 
-config::Scenario unicast_scenario() {
+config::Scenario multiprocess_scenario() {
   config::Scenario scenario;
   scenario.dds.domain_id = kDomainId;
   scenario.dds.interface = "lo";
@@ -57,7 +57,7 @@ TEST(DdsChild, RunAgentFromEnvironment) {
     GTEST_SKIP() << "runs only as a child of DdsMultiProcess tests";
   }
   const AgentId self = std::atoi(role);
-  AgentTransport transport(unicast_scenario(), Topology{self, kAgents, neighbours_of(self)});
+  AgentTransport transport(multiprocess_scenario(), Topology{self, kAgents, neighbours_of(self)});
   std::map<AgentId, std::uint32_t> states_from;
   std::uint32_t batches = 0;
   bool stop = false;
@@ -98,7 +98,7 @@ std::set<AgentId> senders(const sim::EstimateReport& report) {
 }
 
 TEST(DdsMultiProcess, UnicastPeersDiscoverNeighboursAndRouteOnlyTheirData) {
-  const auto scenario = unicast_scenario();
+  const auto scenario = multiprocess_scenario();
   OrchestratorTransport orchestrator(scenario, kAgents);
 
   std::vector<pid_t> children;

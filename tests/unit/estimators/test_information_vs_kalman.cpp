@@ -12,8 +12,8 @@
 namespace swarmloc::estimators {
 namespace {
 
-Received<StateMessage> state_from(AgentId sender, std::int64_t step, const Vec2& mean, const Mat2& cov,
-                                  bool anchor) {
+Received<StateMessage> kalman_state_from(AgentId sender, std::int64_t step, const Vec2& mean, const Mat2& cov,
+                                         bool anchor) {
   Received<StateMessage> r;
   r.sender = sender;
   r.sender_step = step;
@@ -61,10 +61,10 @@ TEST(InformationForm, IeifAndIekfAgreeWhenP0EqualsInversePsi0) {
 
   const Vec2 truth(5.0, 5.0);
   Inbox inbox;
-  inbox.states = {state_from(1, -1, Vec2(0.0, 0.0), Mat2::Zero(), true),
-                  state_from(2, -1, Vec2(10.0, 0.0), Mat2::Zero(), true),
-                  state_from(3, -1, Vec2(9.0, 9.5), Mat2{{0.2, 0.05}, {0.05, 0.1}}, false),
-                  state_from(4, -1, Vec2(1.0, 8.0), 0.3 * Mat2::Identity(), false)};
+  inbox.states = {kalman_state_from(1, -1, Vec2(0.0, 0.0), Mat2::Zero(), true),
+                  kalman_state_from(2, -1, Vec2(10.0, 0.0), Mat2::Zero(), true),
+                  kalman_state_from(3, -1, Vec2(9.0, 9.5), Mat2{{0.2, 0.05}, {0.05, 0.1}}, false),
+                  kalman_state_from(4, -1, Vec2(1.0, 8.0), 0.3 * Mat2::Identity(), false)};
   const std::vector<Vec2> neighbour_truth = {Vec2(0.0, 0.0), Vec2(10.0, 0.0), Vec2(9.2, 9.4), Vec2(0.8, 8.3)};
   std::mt19937_64 rng(3);
   std::normal_distribution<double> noise(0.0, 0.1);

@@ -11,17 +11,17 @@
 namespace swarmloc::sim {
 namespace {
 
-const std::string kDefault = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kDefaultScenarioFile = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
 
-config::Scenario scenario(const std::vector<std::string>& overrides) {
+config::Scenario faults_scenario(const std::vector<std::string>& overrides) {
   std::vector<std::string> all{"run.steps=200"};
   all.insert(all.end(), overrides.begin(), overrides.end());
-  return config::load_scenario(kDefault, all);
+  return config::load_scenario(kDefaultScenarioFile, all);
 }
 
 std::string error_of(const std::vector<std::string>& overrides) {
   try {
-    (void)scenario(overrides);
+    (void)faults_scenario(overrides);
   } catch (const config::ScenarioError& error) {
     return error.what();
   }
@@ -56,10 +56,10 @@ double rmse_at(const RunRecord& record, std::int64_t step) {
 
 TEST(SimulatedFaults, KilledAgentsAreNotScoredTheOthersHoldAndRestartedOnesRecover) {
   // Six agents (20 %) die at step 100 and come back with fresh state at 150.
-  const auto faulty =
-      run_simulation(scenario({"faults.kill=1@100-150,2@100-150,3@100-150,4@100-150,5@100-150,6@100-150"}));
-  const auto clean = run_simulation(scenario({}));
-  const World world = build_world(scenario({}));
+  const auto faulty = run_simulation(
+      faults_scenario({"faults.kill=1@100-150,2@100-150,3@100-150,4@100-150,5@100-150,6@100-150"}));
+  const auto clean = run_simulation(faults_scenario({}));
+  const World world = build_world(faults_scenario({}));
   int killed_non_anchors = 0;
   for (int k = 1; k <= 6; ++k) killed_non_anchors += world.is_anchor[static_cast<std::size_t>(k)] ? 0 : 1;
   EXPECT_EQ(faulty.metrics[120].errors.scored, 22 - killed_non_anchors);
@@ -75,9 +75,9 @@ TEST(SimulatedFaults, KilledAgentsAreNotScoredTheOthersHoldAndRestartedOnesRecov
 }
 
 TEST(SimulatedFaults, PartitionDropsOnlyCrossingSamplesAndTheErrorHealsWithinThirtySteps) {
-  const auto parted = run_simulation(scenario({"faults.partition=100-119"}));
-  const auto clean = run_simulation(scenario({}));
-  const World world = build_world(scenario({}));
+  const auto parted = run_simulation(faults_scenario({"faults.partition=100-119"}));
+  const auto clean = run_simulation(faults_scenario({}));
+  const World world = build_world(faults_scenario({}));
   const auto group = partition_groups(world);
   std::uint64_t dropped = 0;
   for (const auto& [link, counters] : parted.links) {
@@ -93,8 +93,8 @@ TEST(SimulatedFaults, PartitionDropsOnlyCrossingSamplesAndTheErrorHealsWithinThi
 }
 
 TEST(SimulatedFaults, PausedAgentIsNotScoredAndResumesWithItsState) {
-  const auto paused = run_simulation(scenario({"faults.pause=10@100-120"}));
-  const World world = build_world(scenario({}));
+  const auto paused = run_simulation(faults_scenario({"faults.pause=10@100-120"}));
+  const World world = build_world(faults_scenario({}));
   const int expected = world.is_anchor[10] ? 22 : 21;
   EXPECT_EQ(paused.metrics[110].errors.scored, expected);
   EXPECT_EQ(paused.metrics[121].errors.scored, 22);

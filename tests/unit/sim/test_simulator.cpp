@@ -9,7 +9,7 @@
 namespace swarmloc::sim {
 namespace {
 
-config::Scenario small_scenario() {
+config::Scenario simulator_scenario() {
   config::Scenario s;
   s.seed = 7;
   s.world.agents = 30;
@@ -22,7 +22,7 @@ config::Scenario small_scenario() {
 }
 
 TEST(World, SameSeedBuildsTheSameWorldAndEveryAgentReachesAnAnchor) {
-  const auto s = small_scenario();
+  const auto s = simulator_scenario();
   const auto a = build_world(s);
   const auto b = build_world(s);
   ASSERT_EQ(a.size(), 30);
@@ -39,7 +39,7 @@ TEST(World, SameSeedBuildsTheSameWorldAndEveryAgentReachesAnAnchor) {
 // The default scenario's seed 9 first draws a connected but flexible world (an agent's range CRLB is
 // infinite; IEIF ended at 1.7 m lossless and 3.5–6 m under loss). world.require_localizable redraws it.
 TEST(World, RangeScenariosRedrawFlexibleWorldsUntilEveryAgentIsLocalizable) {
-  auto s = small_scenario();
+  auto s = simulator_scenario();
   s.seed = 9;
   s.world.require_localizable = false;
   const auto flexible = build_world(s);
@@ -52,7 +52,7 @@ TEST(World, RangeScenariosRedrawFlexibleWorldsUntilEveryAgentIsLocalizable) {
 }
 
 TEST(Simulator, IeifConvergesBelowRangeNoiseAndNearTheCrlb) {
-  const auto record = run_simulation(small_scenario());
+  const auto record = run_simulation(simulator_scenario());
   const auto* last = record.final_metrics();
   ASSERT_NE(last, nullptr);
   EXPECT_EQ(last->errors.scored, 22);
@@ -65,7 +65,7 @@ TEST(Simulator, IeifConvergesBelowRangeNoiseAndNearTheCrlb) {
 
 TEST(Simulator, RangeCrlbIsComputedUpToAThousandUnknownAgentsAndSkippedBeyond) {
   // The dense 2n x 2n bound ran for over 10 minutes at 10^4 agents; beyond 1000 unknowns it is NaN.
-  auto s = small_scenario();
+  auto s = simulator_scenario();
   s.world.anchors = 10;
   s.world.area_m = 40.0 * std::sqrt(1010.0 / 30.0);  // the default density
   s.world.agents = 1010;
@@ -77,7 +77,7 @@ TEST(Simulator, RangeCrlbIsComputedUpToAThousandUnknownAgentsAndSkippedBeyond) {
 }
 
 TEST(Simulator, IsDeterministicInTheSeed) {
-  auto s = small_scenario();
+  auto s = simulator_scenario();
   s.run.steps = 40;
   s.network.loss = 0.2;
   const auto a = run_simulation(s);
@@ -92,7 +92,7 @@ TEST(Simulator, IsDeterministicInTheSeed) {
 // A round's agents on several threads: every estimate, loss draw and reject count is identical to the
 // serial run (each thread touches only its own agents; receivers take senders in ascending order).
 TEST(Simulator, ParallelRoundsGiveBitIdenticalResults) {
-  auto s = small_scenario();
+  auto s = simulator_scenario();
   s.world.agents = 400;
   s.world.anchors = 100;
   s.world.area_m = 40.0 * std::sqrt(400.0 / 30.0);
@@ -118,7 +118,7 @@ TEST(Simulator, ParallelRoundsGiveBitIdenticalResults) {
 }
 
 TEST(Simulator, InjectedLossDropsItsShareAndStillConverges) {
-  auto s = small_scenario();
+  auto s = simulator_scenario();
   s.network.loss = 0.3;
   const auto record = run_simulation(s);
   const auto totals = link_totals(record);

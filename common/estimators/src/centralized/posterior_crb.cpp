@@ -7,7 +7,7 @@
 namespace swarmloc::estimators::centralized {
 namespace {
 
-MatX spd_inverse(const MatX& a) {
+MatX information_inverse(const MatX& a) {
   Eigen::LLT<MatX> llt(a);
   if (llt.info() != Eigen::Success)
     throw std::domain_error("PosteriorCrb: information is not positive definite");
@@ -34,11 +34,11 @@ void PosteriorCrb::step(const CentralizedMeasurements& pattern, const VecX& true
   } else {
     MatX predicted = bound_;
     predicted.diagonal().array() += process_var_;  // J_{k−1}⁻¹ + σ_p I
-    prior = spd_inverse(predicted);
+    prior = information_inverse(predicted);
   }
   // The residual vector is irrelevant here; S at the truth is the Fisher information of step k.
   information_ = prior + assemble_measurement_information(pattern, true_positions, {}).information;
-  bound_ = spd_inverse(information_);
+  bound_ = information_inverse(information_);
   ++steps_done_;
 }
 
