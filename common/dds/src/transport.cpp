@@ -159,8 +159,7 @@ struct AgentTransport::Impl {
             &impl->latencies);
       } catch (const std::exception&) {
         // No exception may unwind through Cyclone's C frames. A failed take (the reader is being
-        // deleted) or allocation leaves the rest of the samples in the reader; count it.
-        ++impl->failed_listener_takes;
+        // deleted) or allocation leaves the rest of the samples in the reader for the next callback.
       }
     });
     return listener;
@@ -173,9 +172,8 @@ struct AgentTransport::Impl {
   mutable std::mutex inbox_mutex;
   AgentInbound inbox;          // guarded by inbox_mutex
   LatencyHistogram latencies;  // guarded by inbox_mutex; inter-agent samples: source timestamp -> take
-  std::uint64_t failed_listener_takes = 0;  // guarded by inbox_mutex (not exposed yet)
-  DomainLease domain;                       // declared before the participant: released after it
-  Entity participant;                       // owns every entity below
+  DomainLease domain;          // declared before the participant: released after it
+  Entity participant;          // owns every entity below
   dds_entity_t state_writer = 0, information_writer = 0, consensus_writer = 0, belief_writer = 0;
   dds_entity_t estimate_writer = 0;
   dds_entity_t state_reader = 0, information_reader = 0, consensus_reader = 0, belief_reader = 0;
