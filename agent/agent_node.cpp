@@ -96,6 +96,7 @@ class AgentProcess {
     auto next_tick = std::chrono::steady_clock::now() +
                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
     auto last_hello = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+    auto last_announcement = std::chrono::steady_clock::now();
     auto last_batch_seen = std::chrono::steady_clock::now();
     int last_matched = -1;
     while (!g_stop_requested.load()) {
@@ -122,17 +123,29 @@ class AgentProcess {
           }
           initial_published_ = true;
         }
-        // Until START: re-announce the initial state and say hello so the orchestrator can count us
-        // (lockstep: only once the initial sample is with every neighbour).
-        if (after - last_hello > std::chrono::milliseconds(200) && (!lockstep_ || initial_published_)) {
+        // Until START: announce the initial state whenever another neighbour's reader has matched
+        // (best-effort samples written before that are lost to it), and once a second as a backstop.
+        // At 5 Hz to every neighbour the announcements alone kept 2 cores busy at N = 500 and START
+        // took over a minute (docs/scale.md, "pre-START chatter").
+        const int readers = transport_.matched_neighbour_readers();
+        if (!lockstep_ && readers > announced_to_) {
+          announced_to_ = readers;
+          publish(runtime_.initial_publication(local_stamp_ns()));
+          last_announcement = after;
+        }
+        if (!lockstep_ && after - last_announcement > std::chrono::milliseconds(200)) {
+          last_announcement = after;
+          publish(runtime_.initial_publication(local_stamp_ns()));
+        }
+        // Say hello so the orchestrator can count us (lockstep: once the initial sample is with every
+        // neighbour), but only once START and our measurements can reach us (control and measurement
+        // readers matched): with N >= 150 an agent matched the orchestrator's one reader long before its
+        // writers, said hello, and the orchestrator sent START to agents not yet listening. Repeated
+        // every 0.5 s: a hello written before the orchestrator's reader matched ours is lost.
+        if (after - last_hello > std::chrono::milliseconds(500) && (!lockstep_ || initial_published_) &&
+            transport_.orchestrator_matched()) {
           last_hello = after;
-          if (!lockstep_) publish(runtime_.initial_publication(local_stamp_ns()));
-          // Hello only once START and our measurements can reach us (control and measurement readers
-          // matched): with N >= 150 an agent matched the orchestrator's one reader long before its N + 1
-          // writers, said hello, and the orchestrator sent START to agents not yet listening.
-          if (transport_.orchestrator_matched()) {
-            transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
-          }
+          transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
         }
         if (std::chrono::duration<double>(after - started_).count() >
             scenario_.run.startup_timeout_s + 30.0) {
@@ -331,6 +344,7 @@ class AgentProcess {
   bool sensor_only_ = false;  ///< centralized algorithm: batches only, no estimator steps
   bool lockstep_ = false;     ///< run.mode = lockstep: step on batches, not on the clock
   bool initial_published_ = false;
+  int announced_to_ = 0;    ///< free run before START: neighbour readers our last announcement reached
   dds::AgentInbound held_;  ///< lockstep: samples of steps not yet run
   static constexpr double kAckTimeoutS = 5.0;
   bool started_run_ = false;

@@ -30,7 +30,7 @@
 #                  disc_med_s / disc_max_s = median / max of t_full(i) - t_started(i) (per agent).
 #                  start_s      = the orchestrator's "all N agents reporting after X s; START" figure.
 #   CPU/agent      summary.json cpu_per_agent_fraction: mean over agents of the CPU the agent process
-#                  used from START to STOP, divided by steps / rate (the run phase). Start-up and
+#                  used from START to STOP, divided by the wall time from START to STOP (world_phase_s). Start-up and
 #                  discovery are excluded (the agents log them separately; pre_start_cpu_s column).
 #                  Only agents that received START report it: check "agents that got START".
 #   RSS/agent      VmRSS of every agent process sampled every 0.5 s from /proc; per process the max,
@@ -41,6 +41,12 @@
 #                  reach each neighbour. Samples written before a neighbour had matched count as missing.
 #                  Also delivered / (links * steps) (one sample per neighbour per world step) and the
 #                  in-transport ratio delivered / sent (sent inferred by the receiver from the seq range).
+#                  "in steps": the same counting only samples written in a step (header step >= 0) on both
+#                  sides (links.csv delivered_in_steps, agents.csv samples_published_in_steps), i.e. without
+#                  the start-up announcements, which go out while neighbours are still being discovered.
+#   world rate     steps / summary.json world_steps_s (START to the last step): below the scenario's rate
+#                  when the orchestrator cannot keep up. CPU/agent is normalized by world_phase_s (START to
+#                  STOP, the span the agents report CPU over).
 #   RMSE           summary.json final.rmse_m.
 #   other_cpu      machine CPU used by processes other than this run during the run (from /proc/stat
 #                  minus this run's processes), in cores: the machine is shared.
@@ -265,6 +271,14 @@ for r in runs:
         delivered = sum(int(l["delivered"]) for l in links)
         sent = sum(int(l["sent"]) for l in links)
         expected = sum(nb[a] * int(agents[a]["samples_published"]) for a in nb if a in agents)
+        # The same, counting only samples written in a step (step >= 0), not the start-up announcements
+        delivered_steps = sum(int(l.get("delivered_in_steps") or 0) for l in links)
+        expected_steps = sum(nb[a] * int(agents[a].get("samples_published_in_steps") or 0) for a in nb if a in agents)
+        row["delivered_steps"] = delivered_steps; row["expected_steps"] = expected_steps
+        row["ratio_expected_steps"] = delivered_steps / expected_steps if expected_steps else None
+        row["world_phase_s"] = s.get("world_phase_s")
+        ws = s.get("world_steps_s")
+        row["world_hz"] = steps / ws if ws else None
         dur = steps / rate
         row["links"] = nlinks; row["links_with_data"] = len(links)
         row["delivered"] = delivered; row["expected"] = expected
@@ -306,7 +320,8 @@ for r in runs:
 keys = ["n", "rc", "domain", "area_m", "anchors", "mean_degree", "agents_started", "launch_s", "disc_all_s", "disc_med_s", "disc_max_s",
         "start_s", "agents_all_matched", "agents_matched_at_end", "cpu_frac", "cpu_s", "pre_start_cpu_s", "rss_med_mib",
         "rss_max_mib", "rss_procs", "rx_per_agent_s", "links", "links_with_data", "delivered", "expected",
-        "ratio_expected", "ratio_steps", "ratio_sent", "lat_p50_us", "lat_p99_us", "lat_p99_max_us", "rmse_m", "run_cores", "other_cores", "machine_busy_cores",
+        "ratio_expected", "delivered_steps", "expected_steps", "ratio_expected_steps", "ratio_steps", "ratio_sent",
+        "world_phase_s", "world_hz", "lat_p50_us", "lat_p99_us", "lat_p99_max_us", "rmse_m", "run_cores", "other_cores", "machine_busy_cores",
         "elapsed_s"]
 with open(f"{out}/scale.csv", "w", newline="") as f:
     w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore"); w.writeheader()
@@ -314,14 +329,15 @@ with open(f"{out}/scale.csv", "w", newline="") as f:
 
 def fmt(v, spec, scale=1.0):
     return "–" if v is None else format(v * scale, spec)
-lines = ["| N | mean degree | agents that got START | launch spread (s) | discovery all (s) | per-agent disc. med / max (s) | START after (s) | CPU/agent (% core) | RSS/agent med / max (MiB) | samples rx/s/agent | delivered / expected | delivered / sent (seq) | final RMSE (m) | other load (cores) | rc |",
-         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+lines = ["| N | mean degree | agents that got START | launch spread (s) | discovery all (s) | per-agent disc. med / max (s) | START after (s) | CPU/agent (% core) | RSS/agent med / max (MiB) | samples rx/s/agent | delivered / expected | delivered / expected, in steps | delivered / sent (seq) | world rate (Hz) | final RMSE (m) | other load (cores) | rc |",
+         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 for r in rows:
     lines.append(f"| {r['n']} | {fmt(r.get('mean_degree'), '.2f')} | {r.get('agents_started', '–')}/{r['n']} | {fmt(r.get('launch_s'), '.1f')} | {fmt(r.get('disc_all_s'), '.2f')} | "
                  f"{fmt(r.get('disc_med_s'), '.2f')} / {fmt(r.get('disc_max_s'), '.2f')} | {fmt(r.get('start_s'), '.1f')} | "
                  f"{fmt(r.get('cpu_frac'), '.2f', 100)} | {fmt(r.get('rss_med_mib'), '.1f')} / {fmt(r.get('rss_max_mib'), '.1f')} | "
                  f"{fmt(r.get('rx_per_agent_s'), '.1f')} | {fmt(r.get('ratio_expected'), '.2f', 100)} % | "
-                 f"{fmt(r.get('ratio_sent'), '.2f', 100)} % | "
+                 f"{fmt(r.get('ratio_expected_steps'), '.2f', 100)} % | "
+                 f"{fmt(r.get('ratio_sent'), '.2f', 100)} % | {fmt(r.get('world_hz'), '.2f')} | "
                  f"{fmt(r.get('rmse_m'), '.4f')} | {fmt(r.get('other_cores'), '.2f')} | {r['rc']} |")
 lines.append("")
 for t, name in (("b2b", "back-to-back, 64 B"), ("100hz", "100 Hz, 64 B"), ("rate", f"{rate:g} Hz = the agents' rate, 64 B")):

@@ -126,7 +126,10 @@ class Orchestrator {
 
     const bool ready = wait_for_agents(transport, started);
     bool failed = !ready;
+    const auto world_phase_start = Clock::now();
     if (ready) failed = !drive(transport, started);
+    // The world's own rate: below run.rate_hz when the orchestrator cannot keep up (docs/scale.md).
+    if (ready) record_.extra["world_steps_s"] = seconds_since(world_phase_start);
     // Let the last estimates arrive, then stop everyone.
     publish_view("settling");
     const auto settle_until =
@@ -136,6 +139,7 @@ class Orchestrator {
     stop.command = sim::ControlCommand::kStop;
     stop.header.agent_id = kOrchestratorId;
     transport.publish_control(stop);
+    if (ready) record_.world_phase_s = seconds_since(world_phase_start);
     collect(transport, 0.3);
     finish_scoring();
     launcher_.stop_all(5.0);
@@ -328,10 +332,8 @@ class Orchestrator {
       for (AgentId i = 0; i < world_.size(); ++i)
         batches.push_back(sim::generate_batch(world_, scenario_, i, step));
       if (recording_) recording_->append_step(step, world_.truth, batches);
-      for (AgentId i = 0; i < world_.size(); ++i) {
-        sim::Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns};
-        transport.publish_batch(i, header, batches[static_cast<std::size_t>(i)]);
-      }
+      transport.publish_batches(
+          sim::Header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns}, batches);
       if (lockstep_) {
         wait_for_step(transport, step);
       } else {
@@ -446,6 +448,7 @@ class Orchestrator {
       if (const auto& report = reports_[static_cast<std::size_t>(i)]) {
         summary.steps_run = report->steps_run;
         summary.samples_published = report->samples_published;
+        summary.samples_published_in_steps = report->samples_published_in_steps;
         summary.cpu_s = report->cpu_s;
         summary.rejected_by_reason = report->rejected_by_reason;
         for (const auto& link : report->links) record_.links[{link.sender, i}] = link;

@@ -52,17 +52,25 @@ TEST(RunOverDds, ThirtyAgentProcessesConvergeBelowRangeNoiseAndAgreeWithSimulato
   const double dds_rmse = dds["final"]["rmse_m"];
   const double sim_rmse = sim["final"]["rmse_m"];
   EXPECT_LT(dds_rmse, 0.1) << "final RMSE must be below the range noise std";
-  EXPECT_LT(dds_rmse, 1.25 * sim_rmse) << "DDS " << dds_rmse << " vs in-process " << sim_rmse;
+  // Free run is not deterministic (agents tick at their own phase, batches and neighbour states arrive
+  // when they arrive): ten runs of this seed on 2026-11-29 ended at 0.88–1.78x the simulator's final RMSE
+  // (0.032–0.065 m against 0.037 m), with the binary before and after that day's changes alike. Lockstep
+  // runs are compared to 1e-9 (test_cooperative_dds.cpp); this bound catches a free run that stops
+  // cooperating.
+  EXPECT_LT(dds_rmse, 2.0 * sim_rmse) << "DDS " << dds_rmse << " vs in-process " << sim_rmse;
   EXPECT_GT(dds["final"]["crlb_single_snapshot_rmse_m"].get<double>(), 0.0);
   EXPECT_GT(dds["crlb"]["accumulated_rmse_m"].get<double>(), 0.0);
   EXPECT_EQ(dds["links"]["dropped_injected"], 0);
   EXPECT_GT(dds["links"]["delivered"].get<double>(), 0.9 * dds["links"]["sent"].get<double>());
   // Every agent timed its inter-agent samples after START. Not a speed check: a p50 outside (0, 1 s)
   // means the two timestamps are not from one clock or not in nanoseconds.
-  std::ifstream log(std::filesystem::path(dds["run_directory"].get<std::string>()) / "logs" / "agent_000.log");
+  std::ifstream log(std::filesystem::path(dds["run_directory"].get<std::string>()) / "logs" /
+                    "agent_000.log");
   const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
   std::smatch match;
-  ASSERT_TRUE(std::regex_search(text, match, std::regex(R"(inter-agent latency .*: p50 ([\d.]+) us p99 ([\d.]+) us over (\d+) samples)")))
+  ASSERT_TRUE(std::regex_search(
+      text, match,
+      std::regex(R"(inter-agent latency .*: p50 ([\d.]+) us p99 ([\d.]+) us over (\d+) samples)")))
       << text;
   const double p50_us = std::stod(match[1]), p99_us = std::stod(match[2]);
   EXPECT_GT(p50_us, 0.0);

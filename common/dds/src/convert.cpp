@@ -282,13 +282,23 @@ WireBatch::WireBatch(AgentId recipient, const sim::Header& header,
   point_at(sample.neighbours, neighbours);
 }
 
+void WireBlock::add(AgentId recipient, const sim::Header& header, const estimators::MeasurementBatch& batch) {
+  owned.push_back(std::make_unique<WireBatch>(recipient, header, batch));
+  batches.push_back(owned.back()->sample);  // shallow: points into the WireBatch, which stays put
+}
+
+const swarmloc_msg_MeasurementBlock& WireBlock::sample() {
+  point_at(block.batches, batches);
+  return block;
+}
+
 WireEstimate::WireEstimate(const sim::EstimateReport& report)
     : rejected_by_reason(report.rejected_by_reason.begin(), report.rejected_by_reason.end()) {
   links.reserve(report.links.size());
   for (const auto& link : report.links) {
     links.push_back(swarmloc_msg_LinkCounters{link.sender, link.arrived, link.delivered,
                                               link.dropped_injected, link.rejected, link.first_seq,
-                                              link.last_seq});
+                                              link.last_seq, link.delivered_in_steps});
   }
   sample.agent_id = report.header.agent_id;
   sample.header = encode_header(report.header);
@@ -297,6 +307,7 @@ WireEstimate::WireEstimate(const sim::EstimateReport& report)
   sample.valid = report.estimate.valid;
   sample.steps_run = report.steps_run;
   sample.samples_published = report.samples_published;
+  sample.samples_published_in_steps = report.samples_published_in_steps;
   sample.cpu_s = report.cpu_s;
   point_at(sample.links, links);
   point_at(sample.rejected_by_reason, rejected_by_reason);
@@ -461,6 +472,7 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
   report.estimate.valid = wire.valid;
   report.steps_run = wire.steps_run;
   report.samples_published = wire.samples_published;
+  report.samples_published_in_steps = wire.samples_published_in_steps;
   report.cpu_s = wire.cpu_s;
   const auto links = view(wire.links);
   const auto reasons = view(wire.rejected_by_reason);
@@ -473,7 +485,8 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
   report.links.reserve(links->size());
   for (const auto& link : *links) {
     report.links.push_back(sim::LinkCounters{link.sender, link.arrived, link.delivered, link.dropped_injected,
-                                             link.rejected, link.first_seq, link.last_seq});
+                                             link.rejected, link.first_seq, link.last_seq,
+                                             link.delivered_in_steps});
   }
   std::copy(reasons->begin(), reasons->end(), report.rejected_by_reason.begin());
   return decoded;

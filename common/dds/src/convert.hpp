@@ -3,6 +3,7 @@
 // sample plus the buffers its sequences point into; it must outlive the dds_write call and is neither
 // copyable nor movable (the sample points into its own members). Reads: decode(...) never throws on bad
 // content; it reports well_formed = false instead.
+#include <memory>
 #include <vector>
 
 #include "swarmloc.h"
@@ -60,6 +61,21 @@ struct WireBatch {
   swarmloc_msg_MeasurementBatch sample{};
 };
 
+/// A block of batches as one sample; the WireBatch objects own what the sample's sequences point at.
+struct WireBlock {
+  WireBlock(const WireBlock&) = delete;
+  WireBlock& operator=(const WireBlock&) = delete;
+  explicit WireBlock(int block_index) { block.block = block_index; }
+  void add(AgentId recipient, const sim::Header& header, const estimators::MeasurementBatch& batch);
+  /// The sample, valid until the next add().
+  const swarmloc_msg_MeasurementBlock& sample();
+  [[nodiscard]] bool empty() const { return owned.empty(); }
+
+  std::vector<std::unique_ptr<WireBatch>> owned;
+  std::vector<swarmloc_msg_MeasurementBatch> batches;
+  swarmloc_msg_MeasurementBlock block{};
+};
+
 struct WireEstimate {
   explicit WireEstimate(const sim::EstimateReport& report);
   WireEstimate(const WireEstimate&) = delete;
@@ -81,6 +97,25 @@ Inbound<estimators::InformationMessage> decode(const swarmloc_msg_Information& w
 Inbound<estimators::ConsensusMessage> decode(const swarmloc_msg_Consensus& wire);
 Inbound<estimators::BeliefMessage> decode(const swarmloc_msg_Belief& wire);
 codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire);
+/// Calls on_batch(DecodedBatch&&) for every batch of the block addressed to `recipient` (every batch if
+/// recipient is kAnyRecipient); returns the number of those that were malformed (not passed on).
+inline constexpr AgentId kAnyRecipient = -1000;
+template <typename OnBatch>
+std::uint64_t decode_block(const swarmloc_msg_MeasurementBlock& wire, AgentId recipient, OnBatch&& on_batch) {
+  if (wire.batches._length > 0 && wire.batches._buffer == nullptr) return 1;
+  std::uint64_t malformed = 0;
+  for (std::uint32_t k = 0; k < wire.batches._length; ++k) {
+    const swarmloc_msg_MeasurementBatch& batch = wire.batches._buffer[k];
+    if (recipient != kAnyRecipient && batch.agent_id != recipient) continue;
+    auto decoded = decode(batch);
+    if (!decoded.well_formed) {
+      ++malformed;
+      continue;
+    }
+    on_batch(std::move(decoded));
+  }
+  return malformed;
+}
 codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire);
 codec::DecodedControl decode(const swarmloc_msg_Control& wire);
 

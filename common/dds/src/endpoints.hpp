@@ -29,7 +29,22 @@ inline constexpr const char* kPartitionControl = "ctl";
 inline constexpr const char* kPartitionNothing = "none";
 
 inline std::string agent_partition(AgentId agent) { return "a" + std::to_string(agent); }
-inline std::string measurement_partition(AgentId agent) { return "m" + std::to_string(agent); }
+
+/// The orchestrator writes each world step's measurements as one MeasurementBlock sample per block of
+/// consecutive agents, through one writer per block (partition "m<block>"). With one writer per agent,
+/// every agent had to discover the hub's N + 2 endpoints: N (N + 2) announcements in all, which kept
+/// N = 500 from ever starting (docs/scale.md, "measurement blocks"). At most kMaxMeasurementWriters
+/// blocks; N <= 50 keeps one agent per block, i.e. one sample per agent per step as before. With DDS
+/// Security each agent may read only its own partition m<i> (deploy/security/make-pki.sh), so no blocks.
+inline constexpr int kMaxMeasurementWriters = 50;
+inline int measurement_block_size(const config::Scenario& scenario, int agent_count) {
+  if (!scenario.dds.security_dir.empty()) return 1;
+  return std::max(1, (agent_count + kMaxMeasurementWriters - 1) / kMaxMeasurementWriters);
+}
+inline int measurement_block_count(int agent_count, int block_size) {
+  return (agent_count + block_size - 1) / block_size;
+}
+inline std::string measurement_partition(int block) { return "m" + std::to_string(block); }
 
 inline dds_duration_t to_duration(double timeout_s) {
   if (!(timeout_s > 0.0)) {

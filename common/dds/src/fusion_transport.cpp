@@ -18,19 +18,20 @@ namespace swarmloc::dds {
 struct FusionTransport::Impl {
   Impl(const config::Scenario& scenario, int count)
       : agent_count(count > 0 ? count : throw DdsError("FusionTransport: agent count must be positive")),
+        block_size(measurement_block_size(scenario, count)),
         domain(static_cast<dds_domainid_t>(scenario.dds.domain_id),
                cyclone_config(scenario, Topology{kFusionCenterId, count, {}})),
         participant(create_participant(domain)) {
     const dds_entity_t pp = participant.get();
     const auto qos = effective_qos(scenario);
     const dds_entity_t t_measurements =
-        create_topic(pp, swarmloc_msg_MeasurementBatch_desc, kTopicMeasurements);
+        create_topic(pp, swarmloc_msg_MeasurementBlock_desc, kTopicMeasurements);
     const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);
     const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
 
     std::vector<std::string> partitions;
-    partitions.reserve(static_cast<std::size_t>(agent_count));
-    for (AgentId agent = 0; agent < agent_count; ++agent) partitions.push_back(measurement_partition(agent));
+    for (int block = 0; block < measurement_block_count(agent_count, block_size); ++block)
+      partitions.push_back(measurement_partition(block));
     const dds_entity_t measurements = create_subscriber(pp, partitions);
     measurement_reader = create_reader(measurements, t_measurements, qos.measurements, kTopicMeasurements);
     const dds_entity_t control = create_subscriber(pp, {kPartitionControl});
@@ -44,6 +45,7 @@ struct FusionTransport::Impl {
   }
 
   int agent_count;
+  int block_size;      ///< agents per measurement block (endpoints.hpp)
   DomainLease domain;  // declared before the participant: released after it
   Entity participant;  // owns every entity below
   dds_entity_t measurement_reader = 0, control_reader = 0;
@@ -65,14 +67,15 @@ void FusionTransport::publish_estimate(const sim::EstimateReport& report) {
 FusionInbound FusionTransport::wait_and_take(double timeout_s) {
   wait(impl_->waitset, timeout_s);
   FusionInbound inbound;
-  take_all<swarmloc_msg_MeasurementBatch>(
-      impl_->measurement_reader, [&](const swarmloc_msg_MeasurementBatch& wire) {
-        auto decoded = decode(wire);
-        if (!decoded.well_formed || decoded.recipient < 0 || decoded.recipient >= impl_->agent_count) {
-          ++impl_->dropped_malformed;
-          return;
-        }
-        inbound.batches.push_back(FusionBatch{decoded.recipient, decoded.header, std::move(decoded.batch)});
+  take_all<swarmloc_msg_MeasurementBlock>(
+      impl_->measurement_reader, [&](const swarmloc_msg_MeasurementBlock& wire) {
+        impl_->dropped_malformed += decode_block(wire, kAnyRecipient, [&](codec::DecodedBatch&& decoded) {
+          if (decoded.recipient < 0 || decoded.recipient >= impl_->agent_count) {
+            ++impl_->dropped_malformed;
+            return;
+          }
+          inbound.batches.push_back(FusionBatch{decoded.recipient, decoded.header, std::move(decoded.batch)});
+        });
       });
   take_all<swarmloc_msg_Control>(impl_->control_reader, [&](const swarmloc_msg_Control& wire) {
     auto decoded = decode(wire);
@@ -88,7 +91,8 @@ FusionInbound FusionTransport::wait_and_take(double timeout_s) {
 std::uint64_t FusionTransport::dropped_malformed() const { return impl_->dropped_malformed; }
 
 bool FusionTransport::orchestrator_matched() const {
-  return matched_count(impl_->measurement_reader) >= impl_->agent_count;
+  return matched_count(impl_->measurement_reader) >=
+         measurement_block_count(impl_->agent_count, impl_->block_size);
 }
 
 }  // namespace swarmloc::dds

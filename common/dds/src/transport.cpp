@@ -4,8 +4,10 @@
 //   agent i   publisher "a<i>"        : state, information, consensus, belief writers
 //             publisher "est"         : estimate writer
 //             subscriber a<j>…        : the four inter-agent readers (j = neighbours; "none" if none)
-//             subscriber "m<i>"       : measurement reader;   subscriber "ctl": control reader
-//   orch.     publisher "m<i>" per agent: one measurement writer each
+//             subscriber "m<b>"       : measurement reader (b = i's block);   subscriber "ctl": control
+//             reader
+//   orch.     publisher "m<b>" per block of agents: one measurement writer each, one MeasurementBlock
+//             sample per block and step (endpoints.hpp, measurement_block_size)
 //             publisher "ctl"         : control writer (transient-local per scenario.qos.control)
 //             subscriber "est"        : estimate reader
 // Waits: one waitset per participant with a DDS_ANY_STATE read condition per reader (triggered while
@@ -88,7 +90,7 @@ struct AgentTransport::Impl {
     const dds_entity_t pp = participant.get();
     const auto qos = effective_qos(scenario);
     const dds_entity_t t_measurements =
-        create_topic(pp, swarmloc_msg_MeasurementBatch_desc, kTopicMeasurements);
+        create_topic(pp, swarmloc_msg_MeasurementBlock_desc, kTopicMeasurements);
     const dds_entity_t t_state = create_topic(pp, swarmloc_msg_State_desc, kTopicState);
     const dds_entity_t t_information = create_topic(pp, swarmloc_msg_Information_desc, kTopicInformation);
     const dds_entity_t t_consensus = create_topic(pp, swarmloc_msg_Consensus_desc, kTopicConsensus);
@@ -124,16 +126,19 @@ struct AgentTransport::Impl {
                       inbox_listener<swarmloc_msg_Consensus, &AgentInbound::consensus>().get());
     belief_reader = create_reader(from_neighbours, t_belief, qos.belief, kTopicBelief,
                                   inbox_listener<swarmloc_msg_Belief, &AgentInbound::beliefs>().get());
-    const dds_entity_t from_orchestrator = create_subscriber(pp, {measurement_partition(self)});
+    const dds_entity_t from_orchestrator = create_subscriber(
+        pp, {measurement_partition(
+                self / measurement_block_size(scenario, std::max(topology.agent_count, self + 1)))});
     measurement_reader =
         create_reader(from_orchestrator, t_measurements, qos.measurements, kTopicMeasurements);
     const dds_entity_t control = create_subscriber(pp, {kPartitionControl});
     control_reader = create_reader(control, t_control, qos.control, kTopicControl);
 
     waitset = check(dds_create_waitset(pp), "dds_create_waitset");
-    for (const dds_entity_t reader : {measurement_reader, control_reader}) {
-      attach_reader(waitset, reader);
-    }
+    attach_reader(waitset, control_reader);
+    // Lockstep steps on each batch, so a batch must wake the agent. A free-running agent consumes its
+    // batch at its own next tick anyway, and takes it then: one wake-up fewer per step.
+    if (scenario.run.mode == config::RunMode::kLockstep) attach_reader(waitset, measurement_reader);
   }
 
   /// A listener whose data-available callback takes every sample of a `Wire` reader into
@@ -237,14 +242,12 @@ AgentInbound AgentTransport::wait_and_take(double timeout_s) {
     const std::lock_guard lock(impl_->inbox_mutex);
     std::swap(inbound, impl_->inbox);
   }
-  take_all<swarmloc_msg_MeasurementBatch>(
-      impl_->measurement_reader, [&](const swarmloc_msg_MeasurementBatch& wire) {
-        auto decoded = decode(wire);
-        if (!decoded.well_formed || decoded.recipient != impl_->self) {
-          ++impl_->dropped_malformed;
-          return;
-        }
-        inbound.batches.emplace_back(decoded.header, std::move(decoded.batch));
+  take_all<swarmloc_msg_MeasurementBlock>(
+      impl_->measurement_reader, [&](const swarmloc_msg_MeasurementBlock& wire) {
+        // The block's other batches are for the other agents of our block.
+        impl_->dropped_malformed += decode_block(wire, impl_->self, [&](codec::DecodedBatch&& decoded) {
+          inbound.batches.emplace_back(decoded.header, std::move(decoded.batch));
+        });
       });
   take_all<swarmloc_msg_Control>(impl_->control_reader, [&](const swarmloc_msg_Control& wire) {
     auto decoded = decode(wire);
@@ -261,6 +264,15 @@ int AgentTransport::matched_neighbours() const {
   const auto matched = matched_agent_partitions(impl_->state_reader);
   return static_cast<int>(std::count_if(impl_->neighbours.begin(), impl_->neighbours.end(),
                                         [&](AgentId neighbour) { return matched.contains(neighbour); }));
+}
+
+int AgentTransport::matched_neighbour_readers() const {
+  int32_t most = 0;
+  for (const dds_entity_t writer :
+       {impl_->state_writer, impl_->information_writer, impl_->consensus_writer, impl_->belief_writer}) {
+    most = std::max(most, matched_reader_count(writer));
+  }
+  return static_cast<int>(most);
 }
 
 bool AgentTransport::neighbours_matched_both_ways() const {
@@ -299,19 +311,21 @@ bool AgentTransport::orchestrator_matched() const {
 struct OrchestratorTransport::Impl {
   Impl(const config::Scenario& scenario, int count)
       : agent_count(count >= 0 ? count : throw DdsError("OrchestratorTransport: negative agent count")),
+        block_size(measurement_block_size(scenario, count)),
         domain(static_cast<dds_domainid_t>(scenario.dds.domain_id),
                cyclone_config(scenario, Topology{kOrchestratorId, count, {}})),
         participant(create_participant(domain)) {
     const dds_entity_t pp = participant.get();
     const auto qos = effective_qos(scenario);
     const dds_entity_t t_measurements =
-        create_topic(pp, swarmloc_msg_MeasurementBatch_desc, kTopicMeasurements);
+        create_topic(pp, swarmloc_msg_MeasurementBlock_desc, kTopicMeasurements);
     const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);
     const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
 
-    measurement_writers.reserve(static_cast<std::size_t>(agent_count));
-    for (AgentId agent = 0; agent < agent_count; ++agent) {
-      const dds_entity_t publisher = create_publisher(pp, {measurement_partition(agent)});
+    const int blocks = measurement_block_count(agent_count, block_size);
+    measurement_writers.reserve(static_cast<std::size_t>(blocks));
+    for (int block = 0; block < blocks; ++block) {
+      const dds_entity_t publisher = create_publisher(pp, {measurement_partition(block)});
       measurement_writers.push_back(
           create_writer(publisher, t_measurements, qos.measurements, kTopicMeasurements));
     }
@@ -325,9 +339,10 @@ struct OrchestratorTransport::Impl {
   }
 
   int agent_count;
-  DomainLease domain;  // declared before the participant: released after it
-  Entity participant;  // owns every entity below
-  std::vector<dds_entity_t> measurement_writers;
+  int block_size;                                 ///< agents per measurement block (endpoints.hpp)
+  DomainLease domain;                             // declared before the participant: released after it
+  Entity participant;                             // owns every entity below
+  std::vector<dds_entity_t> measurement_writers;  ///< one per block of agents
   dds_entity_t control_writer = 0;
   dds_entity_t estimate_reader = 0;
   dds_entity_t waitset = 0;
@@ -345,8 +360,27 @@ void OrchestratorTransport::publish_batch(AgentId agent, const sim::Header& head
     throw DdsError("publish_batch: agent " + std::to_string(agent) + " outside [0, " +
                    std::to_string(impl_->agent_count) + ")");
   }
-  const WireBatch wire(agent, header, batch);
-  write(impl_->measurement_writers[static_cast<std::size_t>(agent)], &wire.sample, kTopicMeasurements);
+  const auto writer = agent / impl_->block_size;
+  WireBlock block(writer);
+  block.add(agent, header, batch);
+  write(impl_->measurement_writers[static_cast<std::size_t>(writer)], &block.sample(), kTopicMeasurements);
+}
+
+void OrchestratorTransport::publish_batches(const sim::Header& header,
+                                            const std::vector<estimators::MeasurementBatch>& batches) {
+  if (batches.size() != static_cast<std::size_t>(impl_->agent_count)) {
+    throw DdsError("publish_batches: " + std::to_string(batches.size()) + " batches for " +
+                   std::to_string(impl_->agent_count) + " agents");
+  }
+  const int block_size = impl_->block_size;
+  for (std::size_t writer = 0; writer < impl_->measurement_writers.size(); ++writer) {
+    WireBlock block(static_cast<int>(writer));
+    const int first = static_cast<int>(writer) * block_size;
+    for (AgentId agent = first; agent < std::min(first + block_size, impl_->agent_count); ++agent) {
+      block.add(agent, header, batches[static_cast<std::size_t>(agent)]);
+    }
+    write(impl_->measurement_writers[writer], &block.sample(), kTopicMeasurements);
+  }
 }
 
 void OrchestratorTransport::publish_control(const sim::ControlMessage& message) {
@@ -373,9 +407,16 @@ std::uint64_t OrchestratorTransport::rejected_reports() const { return impl_->re
 int OrchestratorTransport::matched_agents() const { return matched_count(impl_->estimate_reader); }
 
 int OrchestratorTransport::agents_listening() const {
+  // Each agent has one reader on its block's writer (a fusion centre reads every block: with one, a
+  // block's count can include it, hence the cap at the block's size).
+  const int block_size = impl_->block_size;
   int listening = 0;
-  for (const dds_entity_t writer : impl_->measurement_writers)
-    listening += matched_reader_count(writer) > 0 ? 1 : 0;
+  for (std::size_t writer = 0; writer < impl_->measurement_writers.size(); ++writer) {
+    const int first = static_cast<int>(writer) * block_size;
+    const int in_block = std::min(block_size, impl_->agent_count - first);
+    listening +=
+        std::min(in_block, static_cast<int>(matched_reader_count(impl_->measurement_writers[writer])));
+  }
   return std::min(listening, static_cast<int>(matched_reader_count(impl_->control_writer)));
 }
 

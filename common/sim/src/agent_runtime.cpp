@@ -161,6 +161,7 @@ estimators::Received<Message>* AgentRuntime::on_sample(core::TopicFamily family,
     return nullptr;
   }
   ++link->delivered;
+  if (header.step >= 0) ++link->delivered_in_steps;
   mailbox.has[at] = true;
   mailbox.newest_seq[at] = header.seq;
   auto& stored = mailbox.newest[at];
@@ -314,6 +315,7 @@ AgentRuntime::Publication AgentRuntime::publish(estimators::Outbox outbox, std::
                                                   out.consensus.size() + (out.belief ? 1 : 0));
   next_seq_ += samples;
   samples_published_ += samples;
+  if (step >= 0) samples_published_in_steps_ += samples;
   return publication;
 }
 
@@ -377,6 +379,7 @@ EstimateReport AgentRuntime::report(std::int64_t sender_stamp_ns, double cpu_s) 
   r.estimate = estimator_->estimate();
   r.steps_run = static_cast<std::uint32_t>(local_step_);
   r.samples_published = samples_published_;
+  r.samples_published_in_steps = samples_published_in_steps_;
   r.cpu_s = cpu_s;
   r.links.reserve(neighbours_.size());
   for (const auto& [sender, counters] : links()) r.links.push_back(counters);

@@ -37,6 +37,7 @@ LinkTotals link_totals(const RunRecord& record) {
     totals.delivered += link.delivered;
     totals.dropped_injected += link.dropped_injected;
     totals.rejected += link.rejected;
+    totals.delivered_in_steps += link.delivered_in_steps;
   }
   return totals;
 }
@@ -88,6 +89,7 @@ nlohmann::json summary_json(const RunRecord& record) {
   summary["links"] = {{"sent", totals.sent},
                       {"arrived", totals.arrived},
                       {"delivered", totals.delivered},
+                      {"delivered_in_steps", totals.delivered_in_steps},
                       {"dropped_injected", totals.dropped_injected},
                       {"rejected", totals.rejected},
                       {"lost_in_transport", totals.sent >= totals.arrived ? totals.sent - totals.arrived : 0},
@@ -108,10 +110,14 @@ nlohmann::json summary_json(const RunRecord& record) {
   summary["processes"] = record.processes;
   summary["wall_s"] = record.wall_s;
   summary["cpu_per_agent_s"] = cpu_count > 0 ? json(cpu_sum / cpu_count) : json();
-  // Agents report CPU since START, so normalize by the run's world duration.
-  const double run_duration_s = static_cast<double>(record.metrics.size()) / record.scenario.run.rate_hz;
+  // Agents report CPU since START, so normalize by the world phase's wall time (a DDS orchestrator that
+  // cannot keep the rate runs longer than steps / rate).
+  const double run_duration_s =
+      record.world_phase_s > 0.0 ? record.world_phase_s
+                                 : static_cast<double>(record.metrics.size()) / record.scenario.run.rate_hz;
   summary["cpu_per_agent_fraction"] =
       cpu_count > 0 && run_duration_s > 0.0 ? json(cpu_sum / cpu_count / run_duration_s) : json();
+  if (record.world_phase_s > 0.0) summary["world_phase_s"] = record.world_phase_s;
   summary["interrupted"] = record.interrupted;
   for (const auto& [key, value] : record.extra.items()) summary[key] = value;
   return summary;
@@ -145,18 +151,20 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
   }
   {
     std::ofstream out(directory / "links.csv");
-    out << "sender,receiver,sent,arrived,delivered,dropped_injected,rejected\n";
+    out << "sender,receiver,sent,arrived,delivered,dropped_injected,rejected,delivered_in_steps\n";
     for (const auto& [key, link] : record.links) {
       out << key.first << ',' << key.second << ',' << link.sent() << ',' << link.arrived << ','
-          << link.delivered << ',' << link.dropped_injected << ',' << link.rejected << '\n';
+          << link.delivered << ',' << link.dropped_injected << ',' << link.rejected << ','
+          << link.delivered_in_steps << '\n';
     }
   }
   {
     std::ofstream out(directory / "agents.csv");
-    out << "agent,anchor,steps_run,samples_published,cpu_s,exit_code\n";
+    out << "agent,anchor,steps_run,samples_published,cpu_s,exit_code,samples_published_in_steps\n";
     for (const auto& a : record.agent_summaries) {
       out << a.agent << ',' << (a.anchor ? 1 : 0) << ',' << a.steps_run << ',' << a.samples_published << ','
-          << a.cpu_s << ',' << (a.exit_code ? std::to_string(*a.exit_code) : "") << '\n';
+          << a.cpu_s << ',' << (a.exit_code ? std::to_string(*a.exit_code) : "") << ','
+          << a.samples_published_in_steps << '\n';
     }
   }
   write_file(directory / "summary.json", summary_json(record).dump(2) + "\n");

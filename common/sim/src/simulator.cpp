@@ -86,6 +86,8 @@ void record_agents(RunRecord& record, const World& world, const std::vector<Agen
     summary.agent = i;
     summary.anchor = world.is_anchor[static_cast<std::size_t>(i)];
     summary.steps_run = static_cast<std::uint32_t>(agent.steps_run());
+    summary.samples_published = agent.samples_published();
+    summary.samples_published_in_steps = agent.samples_published_in_steps();
     summary.rejected_by_reason = agent.rejected_by_reason();
     record.agent_summaries.push_back(summary);
   }

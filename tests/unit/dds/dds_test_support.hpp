@@ -109,8 +109,9 @@ inline sim::EstimateReport make_estimate(AgentId agent, std::uint32_t seq) {
   r.estimate.valid = true;
   r.steps_run = 400 + seq;
   r.samples_published = 1234;
+  r.samples_published_in_steps = 1201;
   r.cpu_s = 0.123456789;
-  r.links = {{1, 10, 9, 1, 0, 0, 9}, {4, 20, 15, 3, 2, 5, 24}};
+  r.links = {{1, 10, 9, 1, 0, 0, 9, 7}, {4, 20, 15, 3, 2, 5, 24, 13}};
   for (std::size_t i = 0; i < r.rejected_by_reason.size(); ++i) {
     r.rejected_by_reason[i] = static_cast<std::uint32_t>(10 * i + 1);
   }
@@ -194,6 +195,7 @@ inline void expect_estimate_eq(const sim::EstimateReport& a, const sim::Estimate
   EXPECT_EQ(a.estimate.valid, b.estimate.valid);
   EXPECT_EQ(a.steps_run, b.steps_run);
   EXPECT_EQ(a.samples_published, b.samples_published);
+  EXPECT_EQ(a.samples_published_in_steps, b.samples_published_in_steps);
   EXPECT_EQ(a.cpu_s, b.cpu_s);
   ASSERT_EQ(a.links.size(), b.links.size());
   for (std::size_t i = 0; i < a.links.size(); ++i) {
@@ -204,6 +206,7 @@ inline void expect_estimate_eq(const sim::EstimateReport& a, const sim::Estimate
     EXPECT_EQ(a.links[i].rejected, b.links[i].rejected);
     EXPECT_EQ(a.links[i].first_seq, b.links[i].first_seq);
     EXPECT_EQ(a.links[i].last_seq, b.links[i].last_seq);
+    EXPECT_EQ(a.links[i].delivered_in_steps, b.links[i].delivered_in_steps);
   }
   EXPECT_EQ(a.rejected_by_reason, b.rejected_by_reason);
 }

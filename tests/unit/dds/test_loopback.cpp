@@ -157,6 +157,46 @@ TEST(DdsLoopback, RoutesBatchesStatesAndEstimatesOnlyAlongTheTopology) {
   EXPECT_EQ(orchestrator.rejected_reports(), 0U);
 }
 
+// Above 50 agents the orchestrator writes one MeasurementBlock per block of agents (120 agents: blocks
+// of 3, 40 writers instead of 120). Agents 1 and 2 share block 0 with agent 0, agent 3 opens block 1:
+// each must take exactly its own batch of the step, and the hub must count all three as listening.
+TEST(DdsLoopback, OneSamplePerBlockCarriesEveryAgentItsOwnBatchOnly) {
+  const auto scenario = loopback_scenario(22);
+  constexpr int kAgents = 120;
+  OrchestratorTransport orchestrator(scenario, kAgents);
+  AgentTransport agent1(scenario, Topology{1, kAgents, {}});
+  AgentTransport agent2(scenario, Topology{2, kAgents, {}});
+  AgentTransport agent3(scenario, Topology{3, kAgents, {}});
+  ASSERT_TRUE(poll_until(10.0,
+                         [&] {
+                           return agent1.orchestrator_matched() && agent2.orchestrator_matched() &&
+                                  agent3.orchestrator_matched() && orchestrator.agents_listening() == 3;
+                         }))
+      << "listening " << orchestrator.agents_listening();
+
+  const auto header = test::make_header(kOrchestratorId, 7);
+  std::vector<estimators::MeasurementBatch> batches;
+  for (AgentId agent = 0; agent < kAgents; ++agent) {
+    batches.push_back(test::make_batch(header.step, header.world_stamp_ns));
+    batches.back().ranges.front().range_m = 100.0 + agent;  // tells the batches apart
+  }
+  orchestrator.publish_batches(header, batches);
+  Collected in1, in2, in3;
+  ASSERT_TRUE(poll_until(10.0, [&] {
+    in1.take(agent1, 0.05);
+    in2.take(agent2, 0.05);
+    in3.take(agent3, 0.05);
+    return !in1.batches.empty() && !in2.batches.empty() && !in3.batches.empty();
+  }));
+  in1.take(agent1, 0.2);
+  for (auto [agent, in] : {std::pair{1, &in1}, std::pair{2, &in2}, std::pair{3, &in3}}) {
+    ASSERT_EQ(in->batches.size(), 1U) << "agent " << agent;
+    test::expect_header_eq(in->batches[0].first, header);
+    test::expect_batch_eq(in->batches[0].second, batches[static_cast<std::size_t>(agent)]);
+  }
+  EXPECT_THROW(orchestrator.publish_batches(header, {batches.front()}), DdsError);
+}
+
 TEST(DdsLoopback, WaitReturnsAfterTheTimeoutWhenNothingArrives) {
   const auto scenario = loopback_scenario(20);
   AgentTransport agent(scenario, Topology{0, 1, {}});

@@ -128,5 +128,31 @@ TEST(Simulator, InjectedLossDropsItsShareAndStillConverges) {
   EXPECT_LT(record.final_metrics()->errors.rmse_m, 0.1);
 }
 
+// The counters the scale benchmark's "delivered / expected, in steps" rests on: losslessly, every sample
+// an agent wrote in a step reaches each neighbour, except the last round's (no round consumes it), and
+// the initial announcement (step -1) is delivered but not counted in steps.
+TEST(Simulator, CountsSamplesWrittenInStepsApartFromTheInitialAnnouncement) {
+  auto s = simulator_scenario();
+  s.run.steps = 40;
+  const auto record = run_simulation(s);
+  ASSERT_FALSE(record.links.empty());
+  for (const auto& [key, link] : record.links) {
+    const auto& sender = record.agent_summaries.at(static_cast<std::size_t>(key.first));
+    EXPECT_EQ(sender.samples_published, sender.samples_published_in_steps + 1);  // IEIF: one per step
+    EXPECT_EQ(sender.samples_published_in_steps, 40U);
+    EXPECT_EQ(link.delivered_in_steps, sender.samples_published_in_steps - 1)
+        << key.first << "->" << key.second;
+    EXPECT_EQ(link.delivered, link.delivered_in_steps + 1);
+  }
+  s.network.loss = 0.3;
+  const auto lossy = run_simulation(s);
+  std::uint64_t delivered = 0, expected = 0;
+  for (const auto& [key, link] : lossy.links) {
+    delivered += link.delivered_in_steps;
+    expected += lossy.agent_summaries.at(static_cast<std::size_t>(key.first)).samples_published_in_steps - 1;
+  }
+  EXPECT_NEAR(static_cast<double>(delivered) / static_cast<double>(expected), 0.7, 0.03);
+}
+
 }  // namespace
 }  // namespace swarmloc::sim

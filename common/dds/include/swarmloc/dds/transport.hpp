@@ -97,13 +97,17 @@ class AgentTransport {
   void publish_belief(const sim::Header& header, const estimators::BeliefMessage& message);
   void publish_estimate(const sim::EstimateReport& report);
 
-  /// Blocks up to timeout_s or until a measurement batch or control sample arrives, then returns those
-  /// and every neighbour sample received since the last call. Neighbour samples do not wake the caller:
-  /// a listener takes them on Cyclone's receive thread as they arrive (one wake-up fewer per sample).
+  /// Blocks up to timeout_s or until a control sample (lockstep: also a measurement batch) arrives, then
+  /// returns every batch, control sample and neighbour sample received since the last call. Neighbour
+  /// samples do not wake the caller: a listener takes them on Cyclone's receive thread as they arrive
+  /// (one wake-up fewer per sample); a free-running agent takes its batches at its own tick.
   AgentInbound wait_and_take(double timeout_s);
 
   /// Number of neighbours whose State writer is currently matched (discovery progress).
   [[nodiscard]] int matched_neighbours() const;
+  /// Neighbour readers our writers reach (the largest count over the four inter-agent writers): a rise
+  /// means a neighbour can now receive our samples (the agent re-announces its state then).
+  [[nodiscard]] int matched_neighbour_readers() const;
   /// True once the orchestrator's measurement writer and control writer are both matched (the agent can
   /// receive its measurements and START).
   [[nodiscard]] bool orchestrator_matched() const;
@@ -123,7 +127,7 @@ class AgentTransport {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Orchestrator side: one measurement writer per agent partition, control writer, estimate reader.
+/// Orchestrator side: one measurement writer per block of agents, control writer, estimate reader.
 class OrchestratorTransport {
  public:
   OrchestratorTransport(const config::Scenario& scenario, int agent_count);
@@ -131,7 +135,10 @@ class OrchestratorTransport {
   OrchestratorTransport(const OrchestratorTransport&) = delete;
   OrchestratorTransport& operator=(const OrchestratorTransport&) = delete;
 
+  /// One batch, sent alone (tests, single sends); a step's batches go through publish_batches.
   void publish_batch(AgentId agent, const sim::Header& header, const estimators::MeasurementBatch& batch);
+  /// One world step: batches[i] is agent i's (size = agent count); one sample per block of agents.
+  void publish_batches(const sim::Header& header, const std::vector<estimators::MeasurementBatch>& batches);
   void publish_control(const sim::ControlMessage& message);
 
   /// Blocks up to timeout_s, then takes every estimate report available (well-formed ones only;

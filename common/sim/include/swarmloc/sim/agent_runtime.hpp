@@ -87,6 +87,9 @@ class AgentRuntime {
   [[nodiscard]] estimators::Estimate estimate() const { return estimator_->estimate(); }
   [[nodiscard]] AgentId id() const { return setup_.id; }
   [[nodiscard]] std::int64_t steps_run() const { return local_step_; }
+  [[nodiscard]] std::uint32_t samples_published() const { return samples_published_; }
+  /// Samples written in a step (header.step >= 0), i.e. not the initial announcement(s).
+  [[nodiscard]] std::uint32_t samples_published_in_steps() const { return samples_published_in_steps_; }
   /// Per-sender counters; sent() spans the sender's restarts (faults.kill).
   [[nodiscard]] std::map<AgentId, LinkCounters> links() const;
   [[nodiscard]] const std::array<std::uint32_t, kRejectReasonCount>& rejected_by_reason() const {
@@ -141,6 +144,7 @@ class AgentRuntime {
   std::int64_t local_step_ = 0;
   std::uint32_t next_seq_ = 0;
   std::uint32_t samples_published_ = 0;
+  std::uint32_t samples_published_in_steps_ = 0;
   /// Newest state per neighbour; sender_step holds (receiver's step at receipt − 1), so the estimator's
   /// staleness rule measures age in the receiver's own steps (clocks and step counters of different
   /// agents are not comparable: they start at different times and drift).

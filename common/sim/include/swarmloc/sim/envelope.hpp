@@ -21,13 +21,13 @@ struct Header {
 
 /// Why an inbound sample was rejected (counted per reason, never passed to an estimator).
 enum class RejectReason : std::uint8_t {
-  kNonFinite = 0,      ///< NaN or Inf anywhere
-  kNotSymmetricPsd,    ///< covariance not symmetric positive semi-definite
-  kAbsurdMagnitude,    ///< |mean| or covariance beyond physical bounds
-  kUnknownSender,      ///< not a neighbour / unknown agent id
-  kDuplicate,          ///< seq already seen
-  kReordered,          ///< older than the newest sample already held
-  kMalformed,          ///< wrong sizes, bad enum values
+  kNonFinite = 0,    ///< NaN or Inf anywhere
+  kNotSymmetricPsd,  ///< covariance not symmetric positive semi-definite
+  kAbsurdMagnitude,  ///< |mean| or covariance beyond physical bounds
+  kUnknownSender,    ///< not a neighbour / unknown agent id
+  kDuplicate,        ///< seq already seen
+  kReordered,        ///< older than the newest sample already held
+  kMalformed,        ///< wrong sizes, bad enum values
   kCount
 };
 inline constexpr std::size_t kRejectReasonCount = static_cast<std::size_t>(RejectReason::kCount);
@@ -42,6 +42,9 @@ struct LinkCounters {
   std::uint32_t rejected = 0;
   std::uint32_t first_seq = 0;
   std::uint32_t last_seq = 0;
+  /// Delivered samples the sender wrote in a step (header.step >= 0), i.e. not its start-up
+  /// announcements, which go out before every neighbour has matched and are expected to be lost.
+  std::uint32_t delivered_in_steps = 0;
   /// Samples the sender wrote while this link was up, inferred from the seq range seen.
   [[nodiscard]] std::uint32_t sent() const { return arrived == 0 ? 0 : last_seq - first_seq + 1; }
 };
@@ -52,6 +55,7 @@ struct EstimateReport {
   estimators::Estimate estimate;
   std::uint32_t steps_run = 0;
   std::uint32_t samples_published = 0;
+  std::uint32_t samples_published_in_steps = 0;  ///< of those, written in a step (header.step >= 0)
   double cpu_s = 0.0;
   std::vector<LinkCounters> links;
   std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason{};

@@ -35,6 +35,7 @@ struct AgentSummary {
   bool anchor = false;
   std::uint32_t steps_run = 0;
   std::uint32_t samples_published = 0;
+  std::uint32_t samples_published_in_steps = 0;  ///< not counting start-up announcements
   double cpu_s = 0.0;
   std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason{};
   std::optional<int> exit_code;  ///< DDS runs: the process's exit status
@@ -53,6 +54,8 @@ struct RunRecord {
   std::vector<AgentSummary> agent_summaries;
   int processes = 0;
   double wall_s = 0.0;
+  /// DDS runs: wall time from START to STOP, over which agents report their CPU (0: steps / rate).
+  double world_phase_s = 0.0;
   bool interrupted = false;
   nlohmann::json extra = nlohmann::json::object();  ///< runtime-specific fields
 
@@ -63,6 +66,7 @@ struct RunRecord {
 
 struct LinkTotals {
   std::uint64_t sent = 0, arrived = 0, delivered = 0, dropped_injected = 0, rejected = 0;
+  std::uint64_t delivered_in_steps = 0;
 };
 LinkTotals link_totals(const RunRecord& record);
 
