@@ -18,6 +18,8 @@
 #   RUN_TIMEOUT   timeout per run, s       (default 240)
 #   STARTUP_TIMEOUT  run.startup_timeout_s (default 120)
 #   DDSPERF       0 = skip the ddsperf reference (default 1)
+#   AGENT_NICE    run.agent_nice (default 0): agents this much nicer than the orchestrator, which then
+#                 keeps the world's rate when the agents saturate the machine (N = 500 on 2 cores)
 #
 # Per N: area = 40 m * sqrt(N/30) (comm radius kept at 15 m), anchors = round(8 N / 30), so the mean
 # degree stays about equal (the summary's mean_degree is reported to check that). Measured:
@@ -60,6 +62,7 @@ rate=${RATE:-10}
 domain_base=${DOMAIN_BASE:-215}
 run_timeout=${RUN_TIMEOUT:-240}
 startup_timeout=${STARTUP_TIMEOUT:-120}
+agent_nice=${AGENT_NICE:-0}
 sizes=("$@")
 [ ${#sizes[@]} -gt 0 ] || sizes=(20 50 100 200)
 out=${OUT:-runs/scale-$(date -u +%Y%m%d-%H%M%S)}
@@ -77,6 +80,7 @@ echo "scale benchmark: ${sizes[*]} agents, $steps steps at $rate Hz; output $out
   echo "binary: $bin"
   echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
   echo "command: bench/scale.sh ${sizes[*]}"
+  echo "agent_nice: $agent_nice"
 } > "$out/machine.txt"
 
 # --- ddsperf loopback reference (ping/pong, see reference/ddsperf.md) ----------------------------
@@ -191,7 +195,7 @@ for n in "${sizes[@]}"; do
   timeout --signal=INT --kill-after=20 "$run_timeout" "$bin" run scenarios/default.yaml -q --out "$dir" \
     --set world.agents="$n" --set world.anchors="$anchors" --set world.area_m="$area" \
     --set run.steps="$steps" --set run.rate_hz="$rate" --set dds.domain_id="$dom" \
-    --set run.startup_timeout_s="$startup_timeout" > "$out/n$n.out" 2>&1 &
+    --set run.startup_timeout_s="$startup_timeout" --set run.agent_nice="$agent_nice" > "$out/n$n.out" 2>&1 &
   rpid=$!
   sleep 0.3
   opid=$(pgrep -P "$rpid" -f "$bin" | head -1 || true)

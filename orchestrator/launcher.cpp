@@ -2,9 +2,11 @@
 
 #include <fcntl.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <csignal>
@@ -43,7 +45,8 @@ std::vector<char*> c_strings(const std::vector<std::string>& strings) {
 
 }  // namespace
 
-int ProcessLauncher::launch(const std::vector<std::string>& argv, const std::string& output_path) {
+int ProcessLauncher::launch(const std::vector<std::string>& argv, const std::string& output_path,
+                            int nice_increment) {
   const std::vector<char*> args = c_strings(argv);
   const std::vector<std::string> environment = child_environment();
   const std::vector<char*> envp = c_strings(environment);
@@ -54,6 +57,10 @@ int ProcessLauncher::launch(const std::vector<std::string>& argv, const std::str
     // Child: die with the parent, even if the parent is SIGKILLed.
     prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (getppid() != parent) _exit(1);  // parent already gone
+    // Lower than the orchestrator (run.agent_nice); if the kernel refuses, the child keeps ours.
+    if (nice_increment > 0) {
+      setpriority(PRIO_PROCESS, 0, std::min(19, getpriority(PRIO_PROCESS, 0) + nice_increment));
+    }
     const int fd = open(output_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
     if (fd >= 0) {
       dup2(fd, STDOUT_FILENO);

@@ -16,8 +16,9 @@ class ProcessLauncher {
   ProcessLauncher(const ProcessLauncher&) = delete;
   ProcessLauncher& operator=(const ProcessLauncher&) = delete;
 
-  /// Starts `argv[0]` with `argv`; stdout/stderr go to `output_path` (appended). Returns the index.
-  int launch(const std::vector<std::string>& argv, const std::string& output_path);
+  /// Starts `argv[0]` with `argv`; stdout/stderr go to `output_path` (appended). The child runs at our
+  /// nice value + nice_increment (every thread it starts inherits it). Returns the index.
+  int launch(const std::vector<std::string>& argv, const std::string& output_path, int nice_increment = 0);
 
   /// Non-blocking reap; returns how many are still running.
   int poll();
@@ -27,9 +28,13 @@ class ProcessLauncher {
 
   [[nodiscard]] int size() const { return static_cast<int>(children_.size()); }
   [[nodiscard]] pid_t pid(int index) const { return children_.at(static_cast<std::size_t>(index)).pid; }
-  [[nodiscard]] bool running(int index) const { return children_.at(static_cast<std::size_t>(index)).running; }
+  [[nodiscard]] bool running(int index) const {
+    return children_.at(static_cast<std::size_t>(index)).running;
+  }
   /// Exit code (or 128 + signal) once reaped.
-  [[nodiscard]] std::optional<int> exit_code(int index) const { return children_.at(static_cast<std::size_t>(index)).exit_code; }
+  [[nodiscard]] std::optional<int> exit_code(int index) const {
+    return children_.at(static_cast<std::size_t>(index)).exit_code;
+  }
 
  private:
   struct Child {

@@ -213,7 +213,7 @@ class Orchestrator {
       const auto log = (run_dir_ / "logs" / "fusion_center.log").string();
       launcher_.launch(
           {options_.agent_binary, "agent", "--role", "fusion", "--scenario", scenario_file, "--log", log},
-          log + ".out");
+          log + ".out", scenario_.run.agent_nice);
     }
   }
 
@@ -239,7 +239,8 @@ class Orchestrator {
         options_.hostile_agents.end()) {
       argv.emplace_back("--hostile");
     }
-    launcher_index_[static_cast<std::size_t>(id)] = launcher_.launch(argv, log + ".out");
+    launcher_index_[static_cast<std::size_t>(id)] =
+        launcher_.launch(argv, log + ".out", scenario_.run.agent_nice);
   }
 
   /// faults.kill / faults.pause at world step `step` (free run: real signals to real processes).

@@ -323,6 +323,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(run.mode),
       SWARMLOC_KEY(run.startup_timeout_s),
       SWARMLOC_KEY(run.settle_s),
+      SWARMLOC_KEY(run.agent_nice),
       SWARMLOC_KEY(run.sim_clock),
   };
   SWARMLOC_QOS(measurements);

@@ -191,6 +191,7 @@ void validate(const Scenario& scenario) {
   }
   require_positive(run.startup_timeout_s, "run.startup_timeout_s");
   require_non_negative(run.settle_s, "run.settle_s");
+  require_within(run.agent_nice, 0, 19, "run.agent_nice");
   // Only the simulator's agents clock models latency: a delay under rounds would silently do nothing.
   if (run.sim_clock == SimClock::kRounds) {
     if (scenario.network.delay_ms != 0.0) fail("network.delay_ms", "needs run.sim_clock = agents");

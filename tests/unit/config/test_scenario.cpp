@@ -87,6 +87,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.run.mode, b.run.mode);
   EXPECT_EQ(a.run.startup_timeout_s, b.run.startup_timeout_s);
   EXPECT_EQ(a.run.settle_s, b.run.settle_s);
+  EXPECT_EQ(a.run.agent_nice, b.run.agent_nice);
   EXPECT_EQ(a.run.sim_clock, b.run.sim_clock);
   expect_qos_equal(a.qos.measurements, b.qos.measurements, "measurements");
   expect_qos_equal(a.qos.state, b.qos.state, "state");
@@ -130,7 +131,7 @@ Scenario everything_changed() {
   s.clock = {1e5, 0.25};
   s.network.delay_ms = 250.5;
   s.network.jitter_ms = 10000.0;
-  s.run = {1, 1000.0, RunMode::kLockstep, 0.5, 0.0, SimClock::kAgents};
+  s.run = {1, 1000.0, RunMode::kLockstep, 0.5, 0.0, SimClock::kAgents, 19};
   s.qos.measurements = {Reliability::kBestEffort, 2, Durability::kTransientLocal, 1.5, 2.5};
   s.qos.state = {Reliability::kReliable, 3, Durability::kTransientLocal, 0.1, 0.2};
   s.qos.information = {Reliability::kReliable, 5, Durability::kTransientLocal, 0.3, 0.4};
@@ -276,7 +277,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 14U + 19U + 11U + 4U + 2U + 6U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 14U + 19U + 11U + 4U + 2U + 7U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -470,6 +471,8 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
       {[](Scenario& s) { s.run.rate_hz = 1000.5; }, "run.rate_hz: 1000.5 is outside (0, 1000]"},
       {[](Scenario& s) { s.run.startup_timeout_s = 0.0; }, "run.startup_timeout_s: 0 must be > 0"},
       {[](Scenario& s) { s.run.settle_s = -1.0; }, "run.settle_s: -1 must be >= 0"},
+      {[](Scenario& s) { s.run.agent_nice = -1; }, "run.agent_nice: -1 is outside [0, 19]"},
+      {[](Scenario& s) { s.run.agent_nice = 20; }, "run.agent_nice: 20 is outside [0, 19]"},
       {[](Scenario& s) { s.qos.measurements.history_depth = 0; },
        "qos.measurements.history_depth: 0 must be >= 1"},
       {[](Scenario& s) { s.qos.control.deadline_s = -1.0; }, "qos.control.deadline_s: -1 must be >= 0"},

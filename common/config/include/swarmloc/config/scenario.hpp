@@ -128,6 +128,7 @@ struct Scenario {
     double startup_timeout_s = 30.0;         ///< agents must report within this time
     double settle_s = 1.0;                   ///< extra time after the last step for final estimates
     SimClock sim_clock = SimClock::kRounds;  ///< the simulator's schedule (DDS runs ignore it)
+    int agent_nice = 0;  ///< DDS: agent processes run this much nicer than the orchestrator
   } run;
 
   struct Qos {
