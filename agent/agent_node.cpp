@@ -127,15 +127,13 @@ class AgentProcess {
         // (best-effort samples written before that are lost to it), and once a second as a backstop.
         // At 5 Hz to every neighbour the announcements alone kept 2 cores busy at N = 500 and START
         // took over a minute (docs/scale.md, "Less chatter before START").
-        const int readers = transport_.matched_neighbour_readers();
-        if (!lockstep_ && readers > announced_to_) {
-          announced_to_ = readers;
-          publish(runtime_.initial_publication(local_stamp_ns()));
-          last_announcement = after;
-        }
-        if (!lockstep_ && after - last_announcement > std::chrono::seconds(1)) {
-          last_announcement = after;
-          publish(runtime_.initial_publication(local_stamp_ns()));
+        if (!lockstep_) {
+          const int readers = transport_.matched_neighbour_readers();
+          if (readers > announced_to_ || after - last_announcement > std::chrono::seconds(1)) {
+            announced_to_ = std::max(announced_to_, readers);
+            last_announcement = after;
+            publish(runtime_.initial_publication(local_stamp_ns()));
+          }
         }
         // Say hello so the orchestrator can count us (lockstep: once the initial sample is with every
         // neighbour), but only once START and our measurements can reach us (control and measurement

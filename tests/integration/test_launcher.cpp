@@ -21,11 +21,11 @@ namespace {
 
 using swarmloc::orchestrator::ProcessLauncher;
 
-/// Runs `sh -c 'printf %s "$OPENBLAS_NUM_THREADS"'` through the launcher and returns what it printed.
-std::string child_blas_threads(const std::string& name) {
+/// Runs `sh -c script` through the launcher at `nice_increment` and returns what it printed.
+std::string child_output(const std::string& name, const std::string& script, int nice_increment = 0) {
   const auto output = swarmloc::testing::fresh_directory(name) / "child.out";
   ProcessLauncher launcher;
-  const int child = launcher.launch({"/bin/sh", "-c", "printf %s \"${OPENBLAS_NUM_THREADS-unset}\""}, output);
+  const int child = launcher.launch({"/bin/sh", "-c", script}, output, nice_increment);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   while (launcher.poll() > 0 && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -33,6 +33,10 @@ std::string child_blas_threads(const std::string& name) {
   EXPECT_EQ(launcher.exit_code(child), std::optional<int>(0));
   std::ifstream in(output);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::string child_blas_threads(const std::string& name) {
+  return child_output(name, "printf %s \"${OPENBLAS_NUM_THREADS-unset}\"");
 }
 
 TEST(Launcher, ChildrenGetOneOpenBlasThreadUnlessTheUserSetIt) {
@@ -52,18 +56,7 @@ TEST(Launcher, ChildrenGetOneOpenBlasThreadUnlessTheUserSetIt) {
 
 /// The nice value a child launched with `increment` reports (coreutils `nice` prints it).
 int child_nice(const std::string& name, int increment) {
-  const auto output = swarmloc::testing::fresh_directory(name) / "child.out";
-  ProcessLauncher launcher;
-  const int child = launcher.launch({"/bin/sh", "-c", "nice"}, output, increment);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (launcher.poll() > 0 && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  EXPECT_EQ(launcher.exit_code(child), std::optional<int>(0));
-  std::ifstream in(output);
-  int value = -100;
-  in >> value;
-  return value;
+  return std::stoi(child_output(name, "nice", increment));
 }
 
 // run.agent_nice: agents run nicer than the orchestrator, so on a saturated machine the world keeps

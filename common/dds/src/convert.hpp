@@ -69,7 +69,6 @@ struct WireBlock {
   void add(AgentId recipient, const sim::Header& header, const estimators::MeasurementBatch& batch);
   /// The sample, valid until the next add().
   const swarmloc_msg_MeasurementBlock& sample();
-  [[nodiscard]] bool empty() const { return owned.empty(); }
 
   std::vector<std::unique_ptr<WireBatch>> owned;
   std::vector<swarmloc_msg_MeasurementBatch> batches;
