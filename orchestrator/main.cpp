@@ -113,7 +113,7 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   sim->add_option("--threads", threads,
                   "Worker threads: trials with --trials (default: every core), else the agents of one round "
-                  "(default 1; results do not depend on it)")
+                  "(default: every core from 1000 agents on, else 1; results do not depend on it)")
       ->check(CLI::NonNegativeNumber);
   std::vector<int> sim_hostile;
   sim->add_option("--hostile", sim_hostile,

@@ -634,9 +634,8 @@ int run_sim_command(config::Scenario scenario, const SimCommandOptions& options)
       return 0;
     }
     sim::SimOptions sim_options;
-    // Serial unless asked: on this 2-core VM two threads made a 10^4-agent step slower (58-60 ms vs
-    // 45-50 ms serial, docs/scale.md). Results are identical for any count.
-    sim_options.round_threads = options.threads > 0 ? options.threads : 1;
+    // Results are identical for any count; unasked, large worlds use every core (auto_round_threads).
+    sim_options.round_threads = options.threads;
     sim_options.hostile_agents = options.hostile_agents;
     sim_options.recorded = options.recorded;
     std::unique_ptr<sim::DirectoryRecorder> recorder;

@@ -42,7 +42,8 @@ struct SimCommandOptions {
   std::filesystem::path out_dir;
   bool progress = true;
   int trials = 1;      ///< > 1: Monte Carlo over every core
-  int threads = 0;     ///< trials (0 = every core), or one run's rounds (SimOptions::round_threads; 0 = 1)
+  int threads = 0;     ///< trials (0 = every core), or one run's rounds (SimOptions::round_threads; 0 =
+                       ///< auto_round_threads)
   int view_port = -1;  ///< >= 0: paced playback in the live view on 127.0.0.1:view_port (0: any port)
   double view_hold_s = 10.0;            ///< after the playback, keep serving this long (inf: until Ctrl-C)
   std::vector<AgentId> hostile_agents;  ///< publish garbage, as `run --hostile` (single runs only)

@@ -116,6 +116,11 @@ void for_each_agent(int n, int threads, Fn&& fn) {
 
 }  // namespace
 
+int auto_round_threads(int agents) {
+  if (agents < kParallelRoundsFromAgents) return 1;
+  return static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+}
+
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options) {
   if (scenario.run.sim_clock == config::SimClock::kAgents)
     return run_agent_clock_simulation(scenario, options);
@@ -169,7 +174,9 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
     for (AgentId receiver : world.neighbours[static_cast<std::size_t>(sender)])
       incoming[static_cast<std::size_t>(receiver)].push_back(sender);
   }
-  const int threads = options.recorder != nullptr || world.recorded ? 1 : options.round_threads;
+  const int threads = options.recorder != nullptr || world.recorded ? 1
+                      : options.round_threads == 0                  ? auto_round_threads(n)
+                                                                    : options.round_threads;
   for (std::int64_t step = 0; step < scenario.run.steps; ++step) {
     if (step > 0) advance_truth(world, scenario, step);
     for (const auto& fault : kills) {

@@ -1,7 +1,9 @@
 // The in-process runner: world construction, determinism, convergence and loss accounting.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <thread>
 
 #include "swarmloc/sim/metrics.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -115,6 +117,14 @@ TEST(Simulator, ParallelRoundsGiveBitIdenticalResults) {
   EXPECT_EQ(link_totals(a).dropped_injected, link_totals(b).dropped_injected);
   EXPECT_GT(link_totals(a).dropped_injected, 0);
   EXPECT_EQ(a.final_metrics()->errors.rmse_m, b.final_metrics()->errors.rmse_m);
+}
+
+TEST(Simulator, UnaskedRoundThreadsAreEveryCoreFromAThousandAgentsAndOneBelow) {
+  const int cores = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+  EXPECT_EQ(auto_round_threads(30), 1);
+  EXPECT_EQ(auto_round_threads(kParallelRoundsFromAgents - 1), 1);
+  EXPECT_EQ(auto_round_threads(kParallelRoundsFromAgents), cores);
+  EXPECT_EQ(auto_round_threads(10000), cores);
 }
 
 TEST(Simulator, InjectedLossDropsItsShareAndStillConverges) {
