@@ -185,6 +185,9 @@ struct AgentTransport::Impl {
   dds_entity_t measurement_reader = 0, control_reader = 0;
   dds_entity_t waitset = 0;
   std::uint64_t dropped_malformed = 0;  // malformed measurement batches / control samples (not exposed yet)
+  // matched_neighbours(): the count and the state reader's match status it was taken at.
+  std::pair<uint32_t, int32_t> neighbours_counted_at{0, -1};
+  int matched_neighbour_count = 0;
 };
 
 AgentTransport::AgentTransport(const config::Scenario& scenario, const Topology& topology)
@@ -261,9 +264,16 @@ AgentInbound AgentTransport::wait_and_take(double timeout_s) {
 }
 
 int AgentTransport::matched_neighbours() const {
+  // Asked on every wake-up; reading each matched writer's QoS allocates and copies, which at N = 500 cost
+  // ~50 000 calls per second across the machine. Recount only when the match status moved.
+  const auto signature = matched_signature(impl_->state_reader);
+  if (signature == impl_->neighbours_counted_at) return impl_->matched_neighbour_count;
   const auto matched = matched_agent_partitions(impl_->state_reader);
-  return static_cast<int>(std::count_if(impl_->neighbours.begin(), impl_->neighbours.end(),
-                                        [&](AgentId neighbour) { return matched.contains(neighbour); }));
+  impl_->matched_neighbour_count =
+      static_cast<int>(std::count_if(impl_->neighbours.begin(), impl_->neighbours.end(),
+                                     [&](AgentId neighbour) { return matched.contains(neighbour); }));
+  impl_->neighbours_counted_at = signature;
+  return impl_->matched_neighbour_count;
 }
 
 int AgentTransport::matched_neighbour_readers() const {
