@@ -197,6 +197,25 @@ TEST(DdsLoopback, OneSamplePerBlockCarriesEveryAgentItsOwnBatchOnly) {
   EXPECT_THROW(orchestrator.publish_batches(header, {batches.front()}), DdsError);
 }
 
+// matched_neighbours() caches its count between changes of the match status: it must still follow a
+// neighbour that appears, disappears and comes back (a restarted agent is a new writer).
+TEST(DdsLoopback, MatchedNeighboursFollowNeighboursThatComeGoAndComeBack) {
+  const auto scenario = loopback_scenario(23);
+  constexpr int kAgents = 3;
+  AgentTransport agent0(scenario, Topology{0, kAgents, {1, 2}});
+  EXPECT_EQ(agent0.matched_neighbours(), 0);
+  auto agent1 = std::make_unique<AgentTransport>(scenario, Topology{1, kAgents, {0}});
+  ASSERT_TRUE(poll_until(10.0, [&] { return agent0.matched_neighbours() == 1; }));
+  auto agent2 = std::make_unique<AgentTransport>(scenario, Topology{2, kAgents, {0}});
+  ASSERT_TRUE(poll_until(10.0, [&] { return agent0.matched_neighbours() == 2; }));
+  agent1.reset();
+  ASSERT_TRUE(poll_until(10.0, [&] { return agent0.matched_neighbours() == 1; }))
+      << agent0.matched_neighbours();
+  agent1 = std::make_unique<AgentTransport>(scenario, Topology{1, kAgents, {0}});
+  ASSERT_TRUE(poll_until(10.0, [&] { return agent0.matched_neighbours() == 2; }))
+      << agent0.matched_neighbours();
+}
+
 TEST(DdsLoopback, WaitReturnsAfterTheTimeoutWhenNothingArrives) {
   const auto scenario = loopback_scenario(20);
   AgentTransport agent(scenario, Topology{0, 1, {}});
