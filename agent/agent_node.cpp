@@ -361,7 +361,7 @@ int run_agent(const AgentOptions& options) {
   sim::World world;
   try {
     scenario = config::load_scenario(options.scenario_path, options.overrides);
-    world = sim::build_world(scenario);
+    world = sim::build_world(scenario, 0, options.world_draw);
   } catch (const config::ScenarioError& error) {
     logger->error("{}", error.what());
     return 2;

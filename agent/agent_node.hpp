@@ -17,6 +17,7 @@ struct AgentOptions {
   bool hostile = false;     ///< publish NaN / non-PSD / absurd states (robustness tests)
   int incarnation = 0;      ///< restarts so far (faults.kill): numbers samples from a new range
   std::string record_path;  ///< non-empty: log every inter-agent sample received to this file (--record)
+  int world_draw = -1;      ///< ≥ 0: the world draw the orchestrator accepted (sim::build_world)
 };
 
 /// Runs the agent until STOP, SIGINT/SIGTERM or the orchestrator goes silent. Returns the process

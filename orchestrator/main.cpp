@@ -143,6 +143,11 @@ int main(int argc, char** argv) {
       ->add_option("--incarnation", agent_options.incarnation,
                    "Restart count of this agent (set by the orchestrator for faults.kill restarts)")
       ->check(CLI::Range(0, 255));
+  agent
+      ->add_option("--world-draw", agent_options.world_draw,
+                   "Set by `swarmloc run`: the world draw the orchestrator accepted, so the agent does not "
+                   "repeat the localizability check (a wrong value gives the agent another world)")
+      ->check(CLI::Range(0, 999));
   agent->add_option("--security", security_dir, security_help);
   agent->add_flag("--hostile", agent_options.hostile,
                   "Publish NaN / non-PSD / absurd states (robustness tests)");

@@ -192,18 +192,27 @@ std::uint64_t trial_seed(std::uint64_t seed, std::uint64_t trial) {
   return trial == 0 ? seed : core::hash_keys(seed, 0x7472696171ULL, trial);
 }
 
-World build_world(const Scenario& s, std::uint64_t trial) {
+World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw) {
   if (s.world.source == config::WorldSource::kMrclam) return build_mrclam_world(s);
   World world;
   world.trial = trial;
   constexpr int kMaxAttempts = 1000;
+  if (accepted_draw >= kMaxAttempts)
+    throw config::ScenarioError("accepted world draw " + std::to_string(accepted_draw) +
+                                " is >= " + std::to_string(kMaxAttempts));
   const bool random_placement = s.world.placement == config::Placement::kUniform;
-  for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+  for (int attempt = std::max(accepted_draw, 0); attempt < kMaxAttempts; ++attempt) {
     world.truth = place(s, attempt);
     world.is_anchor = choose_anchors(s, attempt);
     world.neighbours = disk_graph(world.truth, s.world.comm_radius_m);
     world.placement_attempts = attempt + 1;
     const bool connected = !s.world.require_connected || acceptable(world.neighbours, world.is_anchor);
+    if (accepted_draw >= 0) {
+      if (!connected)
+        throw config::ScenarioError("accepted world draw " + std::to_string(accepted_draw) +
+                                    " is not connected: it does not belong to this scenario");
+      break;
+    }
     const bool localizable = !connected || !s.world.require_localizable ||
                              !measurement_kinds(s.algorithm.name).ranges ||
                              range_localizable(world.truth, world.is_anchor, world.neighbours);

@@ -53,6 +53,25 @@ TEST(World, RangeScenariosRedrawFlexibleWorldsUntilEveryAgentIsLocalizable) {
   EXPECT_TRUE(std::isfinite(range_crlb(rigid, 0.1).single_snapshot_rmse_m));
 }
 
+// Agents started by `swarmloc run` get the orchestrator's accepted draw (--world-draw) and skip the
+// localizability check; they must still end up in the orchestrator's world.
+TEST(World, TheAcceptedDrawRebuildsTheSameWorldWithoutTheCheck) {
+  auto s = simulator_scenario();
+  s.seed = 9;  // its first draw is flexible: the accepted draw is a later one
+  const auto checked = build_world(s);
+  ASSERT_GT(checked.placement_attempts, 1);
+  const auto rebuilt = build_world(s, 0, checked.placement_attempts - 1);
+  EXPECT_EQ(rebuilt.placement_attempts, checked.placement_attempts);
+  EXPECT_EQ(rebuilt.truth, checked.truth);
+  EXPECT_EQ(rebuilt.is_anchor, checked.is_anchor);
+  EXPECT_EQ(rebuilt.neighbours, checked.neighbours);
+  EXPECT_EQ(rebuilt.initial_guess, checked.initial_guess);
+  // Draw 0 is connected but flexible: taken as given, it is the other (unchecked) world.
+  const auto unchecked = build_world(s, 0, 0);
+  EXPECT_NE(unchecked.truth, checked.truth);
+  EXPECT_THROW(build_world(s, 0, 1000), config::ScenarioError);
+}
+
 TEST(Simulator, IeifConvergesBelowRangeNoiseAndNearTheCrlb) {
   const auto record = run_simulation(simulator_scenario());
   const auto* last = record.final_metrics();

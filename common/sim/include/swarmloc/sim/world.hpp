@@ -50,7 +50,12 @@ struct World {
 /// Builds the world of `scenario` (placement, anchors, graph, initial guesses, clocks).
 /// Throws config::ScenarioError if the positions file is unreadable or no connected placement is
 /// found within 1000 draws.
-World build_world(const config::Scenario& scenario, std::uint64_t trial = 0);
+///
+/// `accepted_draw` ≥ 0: the draw an earlier build_world of the same scenario accepted
+/// (World::placement_attempts − 1), taken without re-running the localizability check — a dense
+/// 2n × 2n factorization that made up about half of an agent's start-up CPU at N = 500. The cheap
+/// connectivity check still runs; a draw that fails it throws config::ScenarioError.
+World build_world(const config::Scenario& scenario, std::uint64_t trial = 0, int accepted_draw = -1);
 
 /// Attaches recorded steps to `world` (World::recorded) and takes its truth of step 0. Throws
 /// std::invalid_argument if the recording's agent count differs or it holds no step.
