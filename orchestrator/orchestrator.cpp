@@ -524,6 +524,7 @@ int run_orchestrator(config::Scenario scenario, const RunOptions& options) {
   try {
     check_hostile_ids(options.hostile_agents, scenario);
     check_runnable(scenario);  // placement and algorithm errors are bad input, found before anything starts
+    dds::require_ports_fit(scenario);
     if (!scenario.dds.security_dir.empty()) {
       // Agents read the run directory's scenario.yaml, possibly from another working directory.
       scenario.dds.security_dir = std::filesystem::absolute(scenario.dds.security_dir).lexically_normal();

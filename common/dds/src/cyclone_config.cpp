@@ -61,6 +61,20 @@ int discovery_port(int slot, int domain_id) {
 
 }  // namespace
 
+void require_ports_fit(const config::Scenario& scenario) {
+  if (!scenario.dds.neighbour_discovery) return;
+  const int last_slot = scenario.world.agents + (sim::is_centralized(scenario.algorithm.name) ? 1 : 0);
+  const int highest = discovery_port(last_slot, scenario.dds.domain_id) + 1;  // its data port
+  constexpr int kMaxPort = 65535;
+  if (highest <= kMaxPort) return;
+  const int largest_domain = (kMaxPort - (discovery_port(last_slot, 0) + 1)) / kDomainGain;
+  throw config::ScenarioError("dds.domain_id: " + std::to_string(scenario.dds.domain_id) +
+                              " with world.agents = " + std::to_string(scenario.world.agents) +
+                              " puts the highest DDS port at " + std::to_string(highest) + " (> 65535); " +
+                              (largest_domain >= 0 ? "use dds.domain_id <= " + std::to_string(largest_domain)
+                                                   : std::string("too many agents for fixed ports")));
+}
+
 std::string cyclone_config(const config::Scenario& scenario, const Topology& topology) {
   const auto& dds = scenario.dds;
   const bool orchestrator = topology.self == kOrchestratorId;

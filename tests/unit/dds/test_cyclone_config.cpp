@@ -38,6 +38,32 @@ config::Scenario unicast_scenario(int domain_id = 0) {
   return scenario;
 }
 
+// Fixed ports: the highest is the orchestrator's (slot N) or the fusion centre's (slot N + 1) data port,
+// 7400 + 200 (s / 100) + 250 d + 10 + 2 (s % 100) + 1. At d = 229 slot 437 is the last that fits (65535).
+TEST(CycloneConfig, RunsWhoseHighestFixedPortPassesTheLastPortAreRefusedNamingTheDomain) {
+  auto scenario = unicast_scenario(229);
+  scenario.world.agents = 437;
+  EXPECT_NO_THROW(require_ports_fit(scenario));
+  scenario.algorithm.name = "ekf";  // + the fusion centre's slot
+  EXPECT_THROW(require_ports_fit(scenario), config::ScenarioError);
+  scenario.algorithm.name = "ieif";
+  scenario.world.agents = 500;
+  try {
+    require_ports_fit(scenario);
+    ADD_FAILURE() << "no error for d = 229, N = 500";
+  } catch (const config::ScenarioError& error) {
+    const std::string message = error.what();
+    EXPECT_TRUE(contains(message, "dds.domain_id")) << message;
+    EXPECT_TRUE(contains(message, "65661")) << message;
+    EXPECT_TRUE(contains(message, "<= 228")) << message;
+  }
+  scenario.dds.domain_id = 228;
+  EXPECT_NO_THROW(require_ports_fit(scenario));
+  scenario.dds.domain_id = 229;
+  scenario.dds.neighbour_discovery = false;  // Cyclone picks the ports
+  EXPECT_NO_THROW(require_ports_fit(scenario));
+}
+
 TEST(CycloneConfig, AgentZeroListsItsNeighboursAndTheOrchestrator) {
   const auto xml = cyclone_config(unicast_scenario(), Topology{0, 30, {1, 2, 29}});
   EXPECT_TRUE(contains(xml, "<NetworkInterface name=\"lo\"/>")) << xml;

@@ -34,6 +34,11 @@ struct Topology {
 /// only the orchestrator as its peer, and the orchestrator lists it too.
 std::string cyclone_config(const config::Scenario& scenario, const Topology& topology);
 
+/// With scenario.dds.neighbour_discovery every participant has a fixed port pair (layout above); throws
+/// config::ScenarioError naming dds.domain_id, with the largest domain id that fits, if the highest of
+/// them (the orchestrator's, or the fusion centre's) would pass 65535.
+void require_ports_fit(const config::Scenario& scenario);
+
 /// One participant's DDS Security files (absolute paths) in a PKI folder made by
 /// deploy/security/make-pki.sh: shared identity_ca.pem, permissions_ca.pem, governance.p7s, and the
 /// participant's own folder (agent-<id>, orchestrator or fusion) with cert.pem, key.pem, permissions.p7s.
