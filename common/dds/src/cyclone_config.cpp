@@ -70,7 +70,8 @@ void require_ports_fit(const config::Scenario& scenario) {
   const int largest_domain = (kMaxPort - (discovery_port(last_slot, 0) + 1)) / kDomainGain;
   throw config::ScenarioError("dds.domain_id: " + std::to_string(scenario.dds.domain_id) +
                               " with world.agents = " + std::to_string(scenario.world.agents) +
-                              " puts the highest DDS port at " + std::to_string(highest) + " (> 65535); " +
+                              " puts the highest DDS port at " + std::to_string(highest) + " (> " +
+                              std::to_string(kMaxPort) + "); " +
                               (largest_domain >= 0 ? "use dds.domain_id <= " + std::to_string(largest_domain)
                                                    : std::string("too many agents for fixed ports")));
 }

@@ -195,12 +195,6 @@ inline void wait(dds_entity_t waitset, double timeout_s) {
   check(dds_waitset_wait(waitset, nullptr, 0, to_duration(timeout_s)), "dds_waitset_wait");
 }
 
-inline int32_t matched_count(dds_entity_t reader) {
-  dds_subscription_matched_status_t status{};
-  check(dds_get_subscription_matched_status(reader, &status), "dds_get_subscription_matched_status");
-  return static_cast<int32_t>(status.current_count);
-}
-
 /// (total_count, current_count) of a reader's matched writers: changes whenever a writer matches or
 /// unmatches, so it tells when a cached view of the matched writers is stale. One status read, no copies.
 inline std::pair<uint32_t, int32_t> matched_signature(dds_entity_t reader) {
@@ -208,6 +202,8 @@ inline std::pair<uint32_t, int32_t> matched_signature(dds_entity_t reader) {
   check(dds_get_subscription_matched_status(reader, &status), "dds_get_subscription_matched_status");
   return {status.total_count, static_cast<int32_t>(status.current_count)};
 }
+
+inline int32_t matched_count(dds_entity_t reader) { return matched_signature(reader).second; }
 
 inline int32_t matched_reader_count(dds_entity_t writer) {
   dds_publication_matched_status_t status{};

@@ -174,9 +174,8 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
     for (AgentId receiver : world.neighbours[static_cast<std::size_t>(sender)])
       incoming[static_cast<std::size_t>(receiver)].push_back(sender);
   }
-  const int threads = options.recorder != nullptr || world.recorded ? 1
-                      : options.round_threads == 0                  ? auto_round_threads(n)
-                                                                    : options.round_threads;
+  int threads = options.round_threads == 0 ? auto_round_threads(n) : options.round_threads;
+  if (options.recorder != nullptr || world.recorded) threads = 1;  // ordered side effects
   for (std::int64_t step = 0; step < scenario.run.steps; ++step) {
     if (step > 0) advance_truth(world, scenario, step);
     for (const auto& fault : kills) {
