@@ -83,7 +83,10 @@ TEST(RunOverDds, TwentyPercentInjectedLossStillConvergesAndDropsTwentyPercent) {
   const auto lossless = run_sim("loss-reference", "");
   const auto lossy = run_dds("loss", " --set network.loss=0.2", 12);
   const double rmse = lossy["final"]["rmse_m"];
-  EXPECT_LT(rmse, 2.0 * lossless["final"]["rmse_m"].get<double>());
+  // A free run's error varies with process timing (lossless DDS 0.88-1.78x the simulator, 10 runs) and
+  // 20 % loss adds up to ~1.5x (loss campaign over DDS): 3x the lossless simulator still separates
+  // "converged" (CI runs: up to 2.3x, 0.085 against 0.037 m) from a diverged or stale-fused run (metres).
+  EXPECT_LT(rmse, 3.0 * lossless["final"]["rmse_m"].get<double>());
   const double arrived = lossy["links"]["arrived"];
   const double dropped = lossy["links"]["dropped_injected"];
   ASSERT_GT(arrived, 1000.0);
