@@ -135,3 +135,59 @@ TEST(GradientExperiment, TrustRegionMakesLocalBbConvergeAndLeavesDgBbUnchangedOn
 
 }  // namespace
 }  // namespace swarmloc::sim::experiments
+
+namespace swarmloc::sim::experiments {
+namespace {
+
+JointFieldExperimentConfig small_field(estimators::consensus::FieldSensing sensing,
+                                       SensorPlacement placement) {
+  JointFieldExperimentConfig config;  // 002 Fig. 5 at a fifth of the size: 60 sensors, 5 × 5 cells of 10 m
+  config.num_nodes = 60;
+  config.num_edges = 258;
+  config.side_m = 50.0;
+  config.cells_per_side = 5;
+  config.steps = 80;
+  config.runs = 4;
+  config.threads = 2;
+  config.sensing = sensing;
+  config.placement = placement;
+  return config;
+}
+
+// 002 Fig. 5: with a continuous model both errors fall; with sensors on the cell boundaries of a model that
+// jumps there, the field error stalls while the same DLE with true positions keeps falling.
+TEST(JointFieldExperiment, FieldErrorFallsWithAContinuousModelAndStallsOnCellBoundaries) {
+  using estimators::consensus::FieldSensing;
+  const auto continuous =
+      run_joint_field_experiment(small_field(FieldSensing::kContinuous, SensorPlacement::kUniform));
+  EXPECT_LT(continuous.location_rmse[80], 0.3 * continuous.location_rmse[0]);
+  EXPECT_LT(continuous.field_rmse[80], 0.4 * continuous.field_rmse[10]);
+  EXPECT_LT(continuous.field_rmse[80], continuous.field_rmse[50]);
+  EXPECT_LT(continuous.known_position_field_rmse[80], continuous.field_rmse[80]);
+
+  const auto boundaries =
+      run_joint_field_experiment(small_field(FieldSensing::kCellBased, SensorPlacement::kCellBoundaries));
+  EXPECT_LT(boundaries.location_rmse[80], 0.3 * boundaries.location_rmse[0]);
+  EXPECT_GT(boundaries.field_rmse[80], 0.8 * boundaries.field_rmse[20]);  // stalls
+  EXPECT_LT(boundaries.known_position_field_rmse[80], 0.3 * boundaries.known_position_field_rmse[10]);
+  EXPECT_GT(boundaries.field_rmse[80], 10.0 * boundaries.known_position_field_rmse[80]);
+  EXPECT_LT(boundaries.centralized_field_rmse[80], 0.02);  // observable with true positions
+}
+
+TEST(JointFieldExperiment, ResultsDoNotDependOnTheThreadCount) {
+  auto config = small_field(estimators::consensus::FieldSensing::kContinuous, SensorPlacement::kUniform);
+  config.steps = 8;
+  config.runs = 3;
+  config.threads = 1;
+  const auto serial = run_joint_field_experiment(config);
+  config.threads = 2;
+  const auto parallel = run_joint_field_experiment(config);
+  EXPECT_EQ(serial.location_rmse, parallel.location_rmse);
+  for (std::size_t t = 1; t < serial.field_rmse.size(); ++t) {  // [0] is NaN (no estimate yet)
+    EXPECT_EQ(serial.field_rmse[t], parallel.field_rmse[t]);
+    EXPECT_EQ(serial.known_position_field_rmse[t], parallel.known_position_field_rmse[t]);
+  }
+}
+
+}  // namespace
+}  // namespace swarmloc::sim::experiments

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "consensus/information_consensus.hpp"
+
 namespace swarmloc::estimators::consensus {
 
 void validate(const DleParams& params) {
@@ -44,7 +46,7 @@ Outbox Dle::published() const {
   StateMessage state;
   state.mean_m = setup_.initial_guess_m;
   state.anchor = setup_.anchor;
-  state.degree = static_cast<std::uint16_t>(degree_);
+  state.degree = static_cast<std::uint16_t>(degrees_.own);
   outbox.state = state;
   return outbox;
 }
@@ -54,50 +56,8 @@ Outbox Dle::initial_outbox() const { return published(); }
 StepOutput Dle::step(const StepInput& input) {
   StepOutput out;
   const Eigen::Index d = params_.target_dim;
-  if (input.inbox != nullptr) {
-    for (const auto& received : input.inbox->states)
-      neighbour_degrees_[received.sender] = received.message.degree;
-  }
-  // Neighbour priors of this target (newest per sender, §4.5).
-  std::vector<const Received<InformationMessage>*> priors;
-  if (input.inbox != nullptr) {
-    for (const auto& received : input.inbox->information) {
-      const auto& m = received.message;
-      if (m.target != params_.target || m.info_vec.size() != d || m.info_mat.rows() != d ||
-          m.info_mat.cols() != d || !m.info_vec.allFinite() || !m.info_mat.allFinite()) {
-        ++out.diagnostics.neighbours_skipped;
-        continue;
-      }
-      priors.push_back(&received);
-    }
-  }
-  if (input.measurements != nullptr && !input.measurements->neighbours.empty()) {
-    degree_ = static_cast<int>(input.measurements->neighbours.size());
-  } else {
-    degree_ = std::max(degree_, static_cast<int>(priors.size()));
-  }
-  // Metropolis κ over the received set; missing neighbours dropped, then renormalized with self (§4.5).
-  std::vector<double> kappa;
-  double kappa_sum = 0.0;
-  for (const auto* received : priors) {
-    const auto it = neighbour_degrees_.find(received->sender);
-    const int degree_j = it != neighbour_degrees_.end() && it->second > 0 ? it->second : degree_;
-    kappa.push_back(metropolis_edge_weight(std::max(degree_, 1), std::max(degree_j, 1), params_.weights));
-    kappa_sum += kappa.back();
-  }
-  double self_weight = 1.0 - kappa_sum;
-  if (self_weight <= 0.0) {  // more senders than the declared degree: fall back to equal weights
-    kappa.assign(kappa.size(), 1.0 / static_cast<double>(kappa.size() + 1));
-    self_weight = 1.0 / static_cast<double>(kappa.size() + 1);
-  }
-  // 002 Algorithm 1: consensus on the priors, plus the local innovation.
-  VecX omega_plus = self_weight * omega_;
-  MatX Omega_plus = self_weight * Omega_;
-  for (std::size_t k = 0; k < priors.size(); ++k) {
-    omega_plus += kappa[k] * priors[k]->message.info_vec;
-    Omega_plus += kappa[k] * priors[k]->message.info_mat;
-  }
-  out.diagnostics.neighbours_used = static_cast<int>(priors.size());
+  auto [omega_plus, Omega_plus] = detail::combine_priors(omega_, Omega_, params_.target, input,
+                                                         params_.weights, degrees_, out.diagnostics);
   if (input.measurements != nullptr) {
     for (const TargetObservation& z : input.measurements->targets) {
       if (z.target != params_.target || z.kind != 0) continue;

@@ -2,11 +2,13 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <random>
 #include <stdexcept>
+#include <thread>
 
 #include "experiments/sync_bus.hpp"
 #include "swarmloc/estimators/consensus/dle.hpp"
@@ -63,18 +65,24 @@ Graph make_graph(const std::vector<Vec2>& points, double radius_m) {
   return g;
 }
 
-/// Uniform points; radius = the num_edges-th smallest pairwise distance (exactly num_edges edges, [C-5]).
+/// The graph on `points` whose radius is the num_edges-th smallest pairwise distance (exactly num_edges
+/// edges, [C-5]).
+Graph graph_with_edges(const std::vector<Vec2>& points, int num_edges) {
+  std::vector<double> distances;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (std::size_t j = i + 1; j < points.size(); ++j) distances.push_back((points[i] - points[j]).norm());
+  }
+  if (num_edges < 1 || static_cast<std::size_t>(num_edges) > distances.size())
+    throw std::invalid_argument("num_edges: must be in 1 .. n(n-1)/2");
+  const auto k = static_cast<std::size_t>(num_edges - 1);
+  std::nth_element(distances.begin(), distances.begin() + static_cast<std::ptrdiff_t>(k), distances.end());
+  return make_graph(points, distances[k]);
+}
+
+/// Uniform points with exactly num_edges edges, redrawn until connected.
 Graph draw_graph_with_edges(const JacobiExperimentConfig& c, std::mt19937_64& rng, int& rejected) {
   for (int attempt = 0; attempt < c.max_graph_attempts; ++attempt) {
-    const auto points = uniform_points(c.num_nodes, c.side_m, rng);
-    std::vector<double> distances;
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      for (std::size_t j = i + 1; j < points.size(); ++j) distances.push_back((points[i] - points[j]).norm());
-    }
-    const auto k = static_cast<std::size_t>(c.num_edges - 1);
-    if (k >= distances.size()) throw std::invalid_argument("jacobi_experiment.num_edges: more than n(n-1)/2");
-    std::nth_element(distances.begin(), distances.begin() + static_cast<std::ptrdiff_t>(k), distances.end());
-    Graph g = make_graph(points, distances[k]);
+    Graph g = graph_with_edges(uniform_points(c.num_nodes, c.side_m, rng), c.num_edges);
     if (detail::connected(g.adjacency)) return g;
     ++rejected;
   }
@@ -108,6 +116,43 @@ Graph draw_gnm_graph(const JacobiExperimentConfig& c, std::mt19937_64& rng, int&
     ++rejected;
   }
   throw std::runtime_error("jacobi_experiment: no connected graph in max_graph_attempts draws");
+}
+
+/// Sensor i sits on the left or the bottom edge of cell i mod cells² (uniform along the edge), the edge that
+/// the floor convention assigns to that cell: every cell is read by its own sensors (so the field is
+/// observable with true positions), and every sensor sits on a cell boundary.
+std::vector<Vec2> cell_boundary_points(int n, double side_m, int cells, std::mt19937_64& rng) {
+  const double cell_m = side_m / cells;
+  std::uniform_real_distribution<double> along(0.0, cell_m);
+  std::bernoulli_distribution left_edge(0.5);
+  std::vector<Vec2> points(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const int cell = i % (cells * cells);
+    const Vec2 corner = cell_m * Vec2(cell % cells, cell / cells);
+    const double offset = along(rng);
+    points[static_cast<std::size_t>(i)] = corner + (left_edge(rng) ? Vec2(0.0, offset) : Vec2(offset, 0.0));
+  }
+  return points;
+}
+
+/// y = σ L ξ with L Lᵀ = C, C_kl = exp(−‖c_k − c_l‖² / (2ℓ²)) over the cell centres.
+VecX draw_field(const estimators::consensus::FieldGrid& grid, double std_dev, double correlation_m,
+                std::mt19937_64& rng) {
+  const int d = grid.cells();
+  MatX C(d, d);
+  for (int k = 0; k < d; ++k) {
+    for (int l = 0; l < d; ++l) {
+      const double r2 = (grid.centre(k) - grid.centre(l)).squaredNorm();
+      C(k, l) = std::exp(-r2 / (2.0 * correlation_m * correlation_m));
+    }
+  }
+  C.diagonal().array() += 1e-9;  // the squared-exponential kernel is numerically semi-definite
+  const Eigen::LLT<MatX> llt(C);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  VecX xi(d);
+  for (int k = 0; k < d; ++k) xi(k) = normal(rng);
+  const VecX correlated = llt.matrixL() * xi;
+  return std_dev * correlated;
 }
 
 }  // namespace
@@ -311,6 +356,182 @@ StaticDleExperimentResult run_static_dle_experiment(const StaticDleExperimentCon
     result.centralized_mse[t] = central_se[t] / c.runs;
     result.centralized_crb[t] = central_crb[t] / c.runs;
     result.fraction_with_estimate[t] = counted[t] / (static_cast<double>(c.runs) * c.num_nodes);
+  }
+  return result;
+}
+
+namespace {
+
+/// Squared errors of one run of the field experiment, summed over sensors (and cells), per step.
+struct JointFieldRunSums {
+  std::vector<double> location_se, field_se, known_se, central_se;
+  double radius_m = 0.0;
+  int graphs_rejected = 0;
+};
+
+JointFieldRunSums run_joint_field_once(const JointFieldExperimentConfig& c,
+                                       const estimators::consensus::FieldSensor& sensor, int run) {
+  namespace consensus = estimators::consensus;
+  std::seed_seq seeds{c.seed, static_cast<std::uint64_t>(run)};  // runs are independent of thread count
+  std::mt19937_64 rng(seeds);
+  const auto steps = static_cast<std::size_t>(c.steps);
+  const int n = c.num_nodes;
+  const int d = sensor.grid.cells();
+  const double var = c.measurement_std_m * c.measurement_std_m;
+  const double reading_var = c.observation_std * c.observation_std;
+  JointFieldRunSums sums;
+  std::vector<double>& location_se = sums.location_se;
+  std::vector<double>& field_se = sums.field_se;
+  std::vector<double>& known_se = sums.known_se;
+  std::vector<double>& central_se = sums.central_se;
+  for (auto* v : {&location_se, &field_se, &known_se, &central_se}) v->assign(steps + 1, 0.0);
+  Graph g;
+  for (int attempt = 0;; ++attempt) {
+    if (attempt >= c.max_graph_attempts)
+      throw std::runtime_error("joint_field_experiment: no connected graph in max_graph_attempts draws");
+    const auto points = c.placement == SensorPlacement::kCellBoundaries
+                            ? cell_boundary_points(n, c.side_m, c.cells_per_side, rng)
+                            : uniform_points(n, c.side_m, rng);
+    g = graph_with_edges(points, c.num_edges);
+    if (detail::connected(g.adjacency)) break;
+    ++sums.graphs_rejected;
+  }
+  sums.radius_m = g.radius_m;
+  const VecX y = draw_field(sensor.grid, c.field_std, c.field_correlation_m, rng);
+  consensus::JointFieldParams params;
+  params.sensor = sensor;
+  params.reference_position_m = g.positions[0];
+  params.delta = c.delta;
+  std::vector<std::unique_ptr<estimators::Estimator>> joint_agents;
+  std::vector<std::unique_ptr<estimators::Estimator>> known_agents;
+  std::vector<const consensus::JointLocalizationField*> joint;
+  std::vector<const consensus::JointLocalizationField*> known;
+  std::vector<Vec2> truth(g.positions.size());
+  MatX M = MatX::Zero(d, d);  // Σ_i h_i h_iᵀ / V (true positions)
+  std::vector<VecX> h_true;
+  for (int i = 0; i < n; ++i) {
+    const auto u = static_cast<std::size_t>(i);
+    truth[u] = g.positions[u] - g.positions[0];  // node 0's frame
+    h_true.push_back(consensus::field_observation_row(sensor, g.positions[u]));
+    M += h_true.back() * h_true.back().transpose() / reading_var;
+    estimators::AgentSetup setup;
+    setup.id = i;
+    setup.anchor = i == 0;
+    setup.initial_guess_m = i == 0 ? Vec2::Zero() : Vec2(truth[u] + normal2(rng, c.prior_std_m));
+    params.localize = true;
+    auto agent = std::make_unique<consensus::JointLocalizationField>(setup, params);
+    joint.push_back(agent.get());
+    joint_agents.push_back(std::move(agent));
+    setup.initial_guess_m = truth[u];
+    params.localize = false;
+    auto baseline = std::make_unique<consensus::JointLocalizationField>(setup, params);
+    known.push_back(baseline.get());
+    known_agents.push_back(std::move(baseline));
+  }
+  MatX M_regularized = M;
+  M_regularized.diagonal().array() += c.delta;
+  const Eigen::LLT<MatX> central_llt(M_regularized);
+  VecX central_info = VecX::Zero(d);
+  for (int i = 1; i < n; ++i) {
+    const auto u = static_cast<std::size_t>(i);
+    location_se[0] += (joint[u]->estimate().mean_m - truth[u]).squaredNorm();
+  }
+  detail::SyncBus joint_bus(g.adjacency);
+  detail::SyncBus known_bus(g.adjacency);
+  joint_bus.publish_initial(joint_agents);
+  known_bus.publish_initial(known_agents);
+  std::vector<estimators::MeasurementBatch> batches(static_cast<std::size_t>(n));
+  std::vector<const estimators::MeasurementBatch*> batch_ptrs;
+  for (std::size_t i = 0; i < batches.size(); ++i) {
+    for (const int j : g.adjacency[i]) batches[i].neighbours.push_back(j);
+    batch_ptrs.push_back(&batches[i]);
+  }
+  std::normal_distribution<double> reading_noise(0.0, c.observation_std);
+  for (std::size_t t = 0; t < steps; ++t) {
+    for (std::size_t i = 0; i < batches.size(); ++i) {
+      auto& batch = batches[i];
+      batch.relative.clear();
+      batch.world_step = static_cast<std::int64_t>(t);
+      const double z = h_true[i].dot(y) + reading_noise(rng);  // 002 eq. (2), true position
+      Mat2 reading_cov = Mat2::Identity();
+      reading_cov(0, 0) = reading_var;
+      batch.targets = {estimators::TargetObservation{0, Vec2(z, 0.0), reading_cov, consensus::kFieldReading}};
+      central_info += h_true[i] * (z / reading_var);
+    }
+    for (const Edge& e : g.edges) {
+      const auto i = static_cast<std::size_t>(e.i);
+      const auto j = static_cast<std::size_t>(e.j);
+      const Vec2 s_ij = truth[j] - truth[i] + normal2(rng, c.measurement_std_m);  // eq. (3), shared [C-7]
+      batches[i].relative.push_back(estimators::RelativeMeasurement{e.j, s_ij, var * Mat2::Identity()});
+      batches[j].relative.push_back(estimators::RelativeMeasurement{e.i, -s_ij, var * Mat2::Identity()});
+    }
+    joint_bus.round(joint_agents, static_cast<std::int64_t>(t), batch_ptrs);
+    known_bus.round(known_agents, static_cast<std::int64_t>(t), batch_ptrs);
+    for (int i = 0; i < n; ++i) {
+      const auto u = static_cast<std::size_t>(i);
+      if (i > 0) location_se[t + 1] += (joint[u]->estimate().mean_m - truth[u]).squaredNorm();
+      field_se[t + 1] += (joint[u]->field_estimate() - y).squaredNorm();
+      known_se[t + 1] += (known[u]->field_estimate() - y).squaredNorm();
+    }
+    // (t+1)(M + δI) ŷ = Σ_τ Σ_i h_i z_i(τ)/V
+    central_se[t + 1] += (central_llt.solve(central_info / static_cast<double>(t + 1)) - y).squaredNorm();
+  }
+  return sums;
+}
+
+}  // namespace
+
+JointFieldExperimentResult run_joint_field_experiment(const JointFieldExperimentConfig& c) {
+  namespace consensus = estimators::consensus;
+  if (c.num_nodes < 2 || c.steps < 1 || c.runs < 1 || c.cells_per_side < 2 || c.threads < 1)
+    throw std::invalid_argument("joint_field_experiment: bad sizes");
+  consensus::FieldSensor sensor;
+  sensor.grid.cell_m = c.side_m / c.cells_per_side;
+  sensor.grid.columns = c.cells_per_side;
+  sensor.grid.rows = c.cells_per_side;
+  sensor.sensing = c.sensing;
+  sensor.radius_m = c.sensing_radius_m;
+  consensus::validate(sensor);
+  std::vector<JointFieldRunSums> runs(static_cast<std::size_t>(c.runs));
+  std::atomic<int> next{0};
+  std::vector<std::thread> pool;
+  for (int k = 0; k < std::min(c.threads, c.runs); ++k) {
+    pool.emplace_back([&] {
+      for (int run = next++; run < c.runs; run = next++)
+        runs[static_cast<std::size_t>(run)] = run_joint_field_once(c, sensor, run);
+    });
+  }
+  for (auto& thread : pool) thread.join();
+  const auto steps = static_cast<std::size_t>(c.steps);
+  const int n = c.num_nodes;
+  const int d = sensor.grid.cells();
+  std::vector<double> location_se(steps + 1, 0.0);
+  std::vector<double> field_se(steps + 1, 0.0);
+  std::vector<double> known_se(steps + 1, 0.0);
+  std::vector<double> central_se(steps + 1, 0.0);
+  JointFieldExperimentResult result;
+  for (const JointFieldRunSums& run : runs) {  // in run order: bit-identical for any thread count
+    for (std::size_t t = 0; t <= steps; ++t) {
+      location_se[t] += run.location_se[t];
+      field_se[t] += run.field_se[t];
+      known_se[t] += run.known_se[t];
+      central_se[t] += run.central_se[t];
+    }
+    result.mean_radius_m += run.radius_m / c.runs;
+    result.graphs_rejected += run.graphs_rejected;
+  }
+  const double location_denom = static_cast<double>(c.runs) * (n - 1);
+  const double field_denom = static_cast<double>(c.runs) * n * d;
+  result.location_rmse.resize(steps + 1);
+  result.field_rmse.assign(steps + 1, kNaN);
+  result.known_position_field_rmse.assign(steps + 1, kNaN);
+  result.centralized_field_rmse.assign(steps + 1, kNaN);
+  for (std::size_t t = 0; t <= steps; ++t) {
+    result.location_rmse[t] = std::sqrt(location_se[t] / location_denom);
+    if (t == 0) continue;
+    result.field_rmse[t] = std::sqrt(field_se[t] / field_denom);
+    result.known_position_field_rmse[t] = std::sqrt(known_se[t] / field_denom);
+    result.centralized_field_rmse[t] = std::sqrt(central_se[t] / (static_cast<double>(c.runs) * d));
   }
   return result;
 }

@@ -2,7 +2,6 @@
 // Distributed linear estimator of a target by information consensus (002 Algorithm 1, eqs. (6)–(7),
 // ALGORITHMS.md §4.2, §4.5).
 #include <cstdint>
-#include <map>
 #include <string_view>
 
 #include "swarmloc/estimators/consensus/metropolis.hpp"
@@ -60,8 +59,7 @@ class Dle final : public Estimator {
   MatX Omega_;
   VecX y_;
   bool has_estimate_ = false;
-  int degree_ = 0;
-  std::map<AgentId, int> neighbour_degrees_;
+  ConsensusDegrees degrees_;
 };
 
 }  // namespace swarmloc::estimators::consensus

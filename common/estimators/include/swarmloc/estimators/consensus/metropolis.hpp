@@ -1,6 +1,7 @@
 #pragma once
 // Metropolis consensus weights (ALGORITHMS.md §1.2, [E-2]). Each node needs only its own degree and its
 // neighbours' degrees.
+#include <map>
 #include <span>
 #include <vector>
 
@@ -23,6 +24,12 @@ struct LocalWeights {
 };
 LocalWeights metropolis_weights(int own_degree, std::span<const int> neighbour_degrees,
                                 MetropolisRule rule = MetropolisRule::kPlusOne);
+
+/// Degrees known to one node: its own and its neighbours' (from their STATE messages).
+struct ConsensusDegrees {
+  int own = 0;
+  std::map<AgentId, int> neighbours;
+};
 
 /// The full n×n matrix for an undirected graph given as adjacency lists (a test and experiment helper).
 MatX metropolis_matrix(const std::vector<std::vector<int>>& adjacency,

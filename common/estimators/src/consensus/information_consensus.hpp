@@ -1,0 +1,23 @@
+#pragma once
+// The consensus half of a DLE step (002 Algorithm 1, ALGORITHMS.md §4.2, §4.5), shared by the DLE and the
+// joint localization + field estimator. Internal to the estimators library.
+#include <cstdint>
+
+#include "swarmloc/estimators/consensus/metropolis.hpp"
+#include "swarmloc/estimators/estimator.hpp"
+
+namespace swarmloc::estimators::consensus::detail {
+
+/// Σ_{j∈N_i∪{i}} κ_ij (ω_j, Ω_j) over the own prior and the neighbour priors of `target` in the inbox.
+/// κ are Metropolis weights; the own degree is |batch.neighbours| if given, else the number of neighbours
+/// heard from. The κ of missing or malformed priors (wrong size, non-finite) are dropped and the rest
+/// renormalized with self (§4.5); malformed ones count as skipped in `diagnostics`.
+struct CombinedPrior {
+  VecX omega;
+  MatX Omega;
+};
+CombinedPrior combine_priors(const VecX& omega, const MatX& Omega, std::int32_t target,
+                             const StepInput& input, MetropolisRule rule, ConsensusDegrees& degrees,
+                             StepDiagnostics& diagnostics);
+
+}  // namespace swarmloc::estimators::consensus::detail
