@@ -153,6 +153,7 @@ struct RunResult {
   double crlb_rmse_m = kNaN;  ///< accumulated CRLB at the last step (NaN: no bound, e.g. multipath)
   std::int64_t converge_step = -1;
   double converge_s = kNaN;
+  bool still_falling = false;
   std::uint64_t sent = 0, delivered = 0, dropped_injected = 0;
   double wall_s = 0.0;
   std::filesystem::path run_dir;
@@ -176,6 +177,7 @@ void measure(RunResult& result, const nlohmann::json& summary, const std::vector
   result.crlb_rmse_m = json_number(
       summary.value("crlb", nlohmann::json::object()).value("accumulated_rmse_m", nlohmann::json()));
   result.converge_step = converge_step(steps);
+  result.still_falling = still_falling(steps);
   result.converge_s = result.converge_step >= 0 ? static_cast<double>(result.converge_step) / rate_hz : kNaN;
   const auto links = summary.value("links", nlohmann::json::object());
   result.sent = links.value("sent", std::uint64_t{0});
@@ -309,6 +311,7 @@ struct CellStats {
   /// Median over seeds of (this seed's RMSE / the same seed's reference RMSE): one badly placed world
   /// (a seed where the algorithm is poor even without loss) cannot dominate it.
   double seed_ratio_median = kNaN;
+  std::vector<std::uint64_t> still_falling_seeds;  ///< runs whose RMSE was still falling at the horizon
 };
 
 double median_of(std::vector<double> values) {
@@ -361,6 +364,7 @@ std::map<CellKey, CellStats> aggregate(const std::vector<RunResult>& runs) {
       if (ref != reference.end()) seed_ratios.push_back(run->final_rmse_m / ref->second);
       if (std::isfinite(run->crlb_rmse_m)) crlb.push_back(run->crlb_rmse_m);
       if (std::isfinite(run->converge_s)) converge.push_back(run->converge_s);
+      if (run->still_falling) stats.still_falling_seeds.push_back(run->seed);
       sent += run->sent;
       delivered += run->delivered;
     }
@@ -472,6 +476,21 @@ std::string campaign_markdown(const CampaignSpec& spec, const std::vector<ModeRu
       }
       md << "\n\n";
     }
+    std::string unsettled;  // references still falling at the horizon: their ratios compare transients
+    for (std::size_t a = 0; a < spec.algorithms.size(); ++a) {
+      for (std::size_t v = 0; v < spec.variants.size(); ++v) {
+        const auto found = cells.find({mode, a, v, 0});
+        if (found == cells.end() || found->second.still_falling_seeds.empty()) continue;
+        unsettled += " " + spec.algorithms[a].label +
+                     (spec.variants.size() > 1 ? " " + spec.variants[v].label : "") + " (seed";
+        for (const auto seed : found->second.still_falling_seeds) unsettled += " " + std::to_string(seed);
+        unsettled += ");";
+      }
+    }
+    md << "Reference runs (" << spec.swept_key << " = " << spec.swept_values.front()
+       << ") still falling at the horizon (RMSE over the last 10 % of steps < 0.8 × over 70–80 %):"
+       << (unsettled.empty() ? " none." : unsettled + " their ratios compare transients: lengthen run.steps.")
+       << "\n\n";
   }
   md << "Plot: campaign.png (final RMSE ratio and time to converge vs " << spec.swept_key
      << "). Per-run rows: campaign.csv.\n";
@@ -488,7 +507,8 @@ void write_csv(const std::filesystem::path& path, const CampaignSpec& spec,
   }
   std::ofstream out(path);
   out << "mode,algorithm,variant,swept_key,swept_value,seed,ok,final_rmse_m,crlb_rmse_m,rmse_over_crlb,"
-         "ratio_to_reference,converge_step,converge_s,sent,delivered,dropped_injected,delivered_fraction,"
+         "ratio_to_reference,converge_step,converge_s,still_falling,sent,delivered,dropped_injected,"
+         "delivered_fraction,"
          "wall_s,"
          "run_dir,error\n"
       << std::setprecision(9);
@@ -505,8 +525,8 @@ void write_csv(const std::filesystem::path& path, const CampaignSpec& spec,
         << ',' << spec.swept_key << ',' << spec.swept_values[run.value] << ',' << run.seed << ','
         << (run.ok ? 1 : 0) << ',' << number(run.final_rmse_m) << ',' << number(run.crlb_rmse_m) << ','
         << number(run.final_rmse_m / run.crlb_rmse_m) << ',' << number(ratio) << ',' << run.converge_step
-        << ',' << number(run.converge_s) << ',' << run.sent << ',' << run.delivered << ','
-        << run.dropped_injected << ','
+        << ',' << number(run.converge_s) << ',' << (run.still_falling ? 1 : 0) << ',' << run.sent << ','
+        << run.delivered << ',' << run.dropped_injected << ','
         << number(run.sent > 0 ? static_cast<double>(run.delivered) / static_cast<double>(run.sent) : kNaN)
         << ',' << number(run.wall_s) << ',' << run.run_dir.string() << ',' << error << '\n';
   }
@@ -633,6 +653,24 @@ std::int64_t converge_step(const std::vector<RmseSample>& steps) {
     converged = k;
   }
   return converged;
+}
+
+bool still_falling(const std::vector<RmseSample>& steps) {
+  const std::size_t n = steps.size();
+  if (n < 20) return false;
+  auto mean_rmse = [&](std::size_t begin, std::size_t end) {
+    double sum = 0.0;
+    int count = 0;
+    for (std::size_t k = begin; k < end; ++k) {
+      if (steps[k].missing != 0) continue;
+      sum += steps[k].rmse_m;
+      ++count;
+    }
+    return count > 0 ? sum / count : kNaN;
+  };
+  const double earlier = mean_rmse(7 * n / 10, 8 * n / 10);
+  const double last = mean_rmse(9 * n / 10, n);
+  return std::isfinite(earlier) && std::isfinite(last) && last < 0.8 * earlier;
 }
 
 CampaignSpec load_campaign_spec(const std::filesystem::path& path) {

@@ -53,6 +53,12 @@ struct RmseSample {
 };
 std::int64_t converge_step(const std::vector<RmseSample>& steps);
 
+/// True if the RMSE is still falling at the end of the run: the mean over the last 10 % of the steps is
+/// below 0.8 × the mean over the steps from 70 % to 80 % (steps with unscored agents left out; false for
+/// runs shorter than 20 steps). A reference run that is still falling makes a "final RMSE" ratio compare
+/// two transients (how far each run got), not two final errors.
+bool still_falling(const std::vector<RmseSample>& steps);
+
 struct CampaignOptions {
   std::filesystem::path spec_path;
   std::filesystem::path out_dir;  ///< empty: runs/campaign-<name>-<utc stamp>

@@ -2,6 +2,7 @@
 // directories, the loss figures themselves) and spec validation (exit 2 naming the key).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -180,6 +181,27 @@ TEST(Campaign, ConvergeStepIsWhereTheRmseEntersItsFinalBandForGood) {
   EXPECT_EQ(converge_step({{0.1, 0}, {0.105, 0}, {0.1, 0}}), 0);
   // Agents missing at the end: no final value, no convergence.
   EXPECT_EQ(converge_step({{1.0, 0}, {0.1, 2}}), -1);
+}
+
+TEST(Campaign, StillFallingFlagsARunWhoseLastTenthIsWellBelowItsSeventhToEighthTenth) {
+  auto decaying = [](double per_step, double floor) {  // rmse(k) = floor + per_step^k, 100 steps
+    std::vector<RmseSample> steps;
+    for (int k = 0; k < 100; ++k) steps.push_back({floor + std::pow(per_step, k), 0});
+    return steps;
+  };
+  // 0.976 per step (the slow Jacobi world of the loss campaign, seed 9): steps 90–99 average
+  // 0.976^20 ≈ 0.6 of steps 70–79, still falling. 0.9 per step settled on its floor long before.
+  EXPECT_TRUE(still_falling(decaying(0.976, 0.0)));
+  EXPECT_FALSE(still_falling(decaying(0.9, 0.01)));
+  // A noisy flat run is not falling; a run shorter than 20 steps is never judged.
+  std::vector<RmseSample> noisy;
+  for (int k = 0; k < 100; ++k) noisy.push_back({k % 2 == 0 ? 0.12 : 0.08, 0});
+  EXPECT_FALSE(still_falling(noisy));
+  EXPECT_FALSE(still_falling({{1.0, 0}, {0.5, 0}, {0.1, 0}}));
+  // Unscored steps are left out of both windows.
+  auto gaps = decaying(0.976, 0.0);
+  for (int k = 70; k < 80; k += 2) gaps[static_cast<std::size_t>(k)] = {1e9, 3};
+  EXPECT_TRUE(still_falling(gaps));
 }
 
 }  // namespace
