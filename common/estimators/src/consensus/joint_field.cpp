@@ -89,9 +89,8 @@ StepOutput JointLocalizationField::step(const StepInput& input) {
       if (z.target != params_.target || z.kind != kFieldReading || !std::isfinite(z.value(0)) ||
           !(variance > 0.0) || !std::isfinite(variance))
         continue;
-      omega += h * (z.value(0) / variance);                                 // Ĥᵀ V⁻¹ z
-      Omega.selfadjointView<Eigen::Lower>().rankUpdate(h, 1.0 / variance);  // Ĥᵀ V⁻¹ Ĥ
-      Omega.triangularView<Eigen::StrictlyUpper>() = Omega.transpose();
+      omega += h * (z.value(0) / variance);             // Ĥᵀ V⁻¹ z
+      Omega.noalias() += h * h.transpose() / variance;  // Ĥᵀ V⁻¹ Ĥ, exactly symmetric
       out.diagnostics.updated = true;
     }
   }
