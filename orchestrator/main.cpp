@@ -189,7 +189,8 @@ int main(int argc, char** argv) {
   reproduce
       ->add_option(
           "experiment", reproduce_options.experiment,
-          "ea1 | ea2 | ea3 | ieif-table1 | ieif-table2 | jacobi-002 | joint-field-002 | multipath-003 | "
+          "ea1 | ea2 | ea3 | ieif-table1 | ieif-table2 | jacobi-002 | joint-field-002 | tracking-002 | "
+          "multipath-003 | "
           "dgbb-004-table1 | "
           "dgbb-004-table2 | dgbb-004-table3")
       ->required()

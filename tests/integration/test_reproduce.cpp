@@ -33,6 +33,7 @@ TEST(ReproduceCommands, PapersTwoToFourWriteTheirTables) {
   std::filesystem::remove_all(dir);
   for (const auto& [experiment, table] :
        std::vector<std::pair<std::string, std::string>>{{"jacobi-002", "jacobi_002.md"},
+                                                        {"tracking-002", "tracking_002.md"},
                                                         {"multipath-003", "multipath_003.md"},
                                                         {"dgbb-004-table2", "dgbb_004_table2.md"}}) {
     ReproduceOptions options;

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "eigen_gtest.hpp"
 #include "swarmloc/estimators/consensus/dle.hpp"
 
@@ -59,6 +61,28 @@ TEST(Dle, TrackingPredictionUsesTheUpdatedInformation) {  // [C-2]
   const double omega = 1.0 / (4.0 * p + 1.0);
   EXPECT_MATRIX_NEAR(node.info_mat(), MatX(omega * Mat2::Identity()), 1e-12);
   EXPECT_MATRIX_NEAR(node.info_vec(), VecX(omega * 2.0 * p * Vec2(1.0, -1.0)), 1e-12);
+}
+
+// Range–bearing (kind 1) across the ±π cut: the predicted bearing is +π − ε, the measured one −π + ε. A
+// wrapped residual moves the estimate by millimetres; an unwrapped one (−2π) would put it ~190 m away.
+TEST(Dle, RangeBearingIsLinearizedAtThePredictionWithTheBearingResidualWrapped) {
+  DleParams params;
+  params.target_dim = 2;
+  const Vec2 truth(-25.0, 2.0 - 1e-4);
+  params.initial_mean = Vec2(-25.0, 2.0 + 1e-4);
+  AgentSetup setup;
+  setup.initial_guess_m = Vec2(5.0, 2.0);
+  Dle node(setup, params);
+  const Vec2 d = truth - setup.initial_guess_m;
+  MeasurementBatch batch;
+  batch.targets = {
+      TargetObservation{0, Vec2(d.norm(), std::atan2(d.y(), d.x())), Mat2(Vec2(0.01, 1e-6).asDiagonal()), 1}};
+  ASSERT_LT(batch.targets[0].value(1), -3.14);
+  Inbox inbox;
+  node.step(StepInput{0, &batch, &inbox});
+  ASSERT_TRUE(node.has_target_estimate());
+  // One Gauss–Newton step from 2e-4 m away: the linearization error is second order (~1e-9 m).
+  EXPECT_LT((node.target_estimate() - VecX(truth)).norm(), 1e-6);
 }
 
 TEST(Dle, RejectsMismatchedDimensions) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "consensus/information_consensus.hpp"
+#include "swarmloc/models/measurement_models.hpp"
 
 namespace swarmloc::estimators::consensus {
 
@@ -23,6 +24,8 @@ void validate(const DleParams& params) {
   if (params.H.size() != 0 && (params.H.rows() != 2 || params.H.cols() != d))
     fail("H: must be 2 x target_dim");
   if (params.H.size() == 0 && d < 2) fail("H: required when target_dim < 2");
+  if (params.initial_mean.size() != 0 && params.initial_mean.size() != d)
+    fail("initial_mean: must have target_dim entries");
   if (!(params.initial_information >= 0.0)) fail("initial_information: must be >= 0");
 }
 
@@ -38,6 +41,7 @@ Dle::Dle(const AgentSetup& setup, const DleParams& params) : setup_(setup), para
   omega_ = VecX::Zero(d);  // ω_{i,0} = 0 (§4.2)
   Omega_ = params.initial_information * MatX::Identity(d, d);
   y_ = VecX::Zero(d);
+  predicted_ = params.initial_mean.size() != 0 ? params.initial_mean : VecX::Zero(d);
 }
 
 Outbox Dle::published() const {
@@ -60,12 +64,25 @@ StepOutput Dle::step(const StepInput& input) {
                                                          params_.weights, degrees_, out.diagnostics);
   if (input.measurements != nullptr) {
     for (const TargetObservation& z : input.measurements->targets) {
-      if (z.target != params_.target || z.kind != 0) continue;
+      if (z.target != params_.target || (z.kind != 0 && z.kind != 1) || !z.value.allFinite()) continue;
       const Eigen::LLT<Mat2> V(z.covariance);
       if (V.info() != Eigen::Success) continue;
-      const MatX Vinv_H = V.solve(H_);
-      omega_plus += Vinv_H.transpose() * z.value;  // H_iᵀV_i⁻¹z_i
-      Omega_plus += H_.transpose() * Vinv_H;       // H_iᵀV_i⁻¹H_i
+      MatX H = H_;
+      Vec2 value = z.value;
+      if (z.kind == 1) {  // range–bearing: linearize at ŷ_pred (§4.2)
+        const Vec2 target = predicted_.head<2>();
+        const auto r = models::range(setup_.initial_guess_m, target);
+        const auto b = models::bearing(setup_.initial_guess_m, target);
+        if (!r || !b) continue;
+        H = MatX::Zero(2, d);
+        H.block<1, 2>(0, 0) = r->d_xj;
+        H.block<1, 2>(1, 0) = b->d_xj;
+        const Vec2 linear_part = H * predicted_;
+        value = Vec2(z.value(0) - r->value, models::bearing_residual(z.value(1), b->value)) + linear_part;
+      }
+      const MatX Vinv_H = V.solve(H);
+      omega_plus += Vinv_H.transpose() * value;  // H_iᵀV_i⁻¹z_i
+      Omega_plus += H.transpose() * Vinv_H;      // H_iᵀV_i⁻¹H_i
       out.diagnostics.updated = true;
     }
   }
@@ -75,6 +92,7 @@ StepOutput Dle::step(const StepInput& input) {
   const bool invertible = eig.eigenvalues().minCoeff() > 1e-12 * std::max(1.0, eig.eigenvalues().maxCoeff());
   if (invertible) {
     y_ = ldlt.solve(omega_plus);
+    predicted_ = y_;
     has_estimate_ = true;
   }
   if (params_.F.size() == 0) {  // static target: no prediction
@@ -86,7 +104,8 @@ StepOutput Dle::step(const StepInput& input) {
     P_pred = 0.5 * (P_pred + P_pred.transpose());
     Omega_ = P_pred.ldlt().solve(MatX::Identity(d, d));
     Omega_ = 0.5 * (Omega_ + Omega_.transpose());
-    omega_ = Omega_ * (params_.F * y_);  // ω_{t+1} = Ω_{t+1} F ŷ_i(t+1)
+    predicted_ = params_.F * y_;
+    omega_ = Omega_ * predicted_;  // ω_{t+1} = Ω_{t+1} F ŷ_i(t+1)
   } else {
     omega_ = omega_plus;
     Omega_ = Omega_plus;

@@ -15,6 +15,8 @@ struct DleParams {
   MatX F;                   ///< d_y×d_y; empty = static target (F = I, W = 0: no prediction)
   MatX W;                   ///< process covariance (tracking only)
   MatX H;  ///< 2×d_y observation matrix of kind-0 observations (value = H y + v); empty = [I₂ 0]
+  /// Where kind-1 (range–bearing) observations are linearized before the first estimate exists; empty = 0.
+  VecX initial_mean;
   double initial_information = 0.0;  ///< Ω_0 = ε I; use > 0 (e.g. 1e-6) when tracking (§4.2)
   MetropolisRule weights = MetropolisRule::kPlusOne;
 };
@@ -28,6 +30,12 @@ void validate(const DleParams& params);
 /// Ω⁺). κ are Metropolis weights (own degree = |MeasurementBatch::neighbours| if given, else the number of
 /// neighbours heard from; neighbour degrees from their STATE messages); the κ of neighbours whose
 /// INFO message is missing are dropped and the rest renormalized (§4.5).
+///
+/// Observations of kind 0 are linear (z = H y + v). Observations of kind 1 are range and bearing from this
+/// sensor (at AgentSetup::initial_guess_m) to the target's position y[0..1] (002 eq. (4), [C-1]: atan2):
+/// linearized at the sensor's predicted estimate ŷ_pred = F ŷ (ŷ before any prediction; initial_mean at
+/// first), as the pseudo-measurement z − h(ŷ_pred) + H ŷ_pred with the bearing residual wrapped (§4.2); a
+/// target predicted within 1 nm of the sensor makes the row undefined and the observation is skipped.
 ///
 /// Publishes INFO {target, ω_{i,t+1}, Ω_{i,t+1}} (the prior for the next step) and a STATE carrying the
 /// sensor's (known) position and its degree, which neighbours need for the weights. estimate() reports the
@@ -58,6 +66,7 @@ class Dle final : public Estimator {
   VecX omega_;
   MatX Omega_;
   VecX y_;
+  VecX predicted_;  ///< ŷ_pred: where kind-1 observations are linearized
   bool has_estimate_ = false;
   ConsensusDegrees degrees_;
 };
