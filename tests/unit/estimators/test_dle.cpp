@@ -85,6 +85,17 @@ TEST(Dle, RangeBearingIsLinearizedAtThePredictionWithTheBearingResidualWrapped) 
   EXPECT_LT((node.target_estimate() - VecX(truth)).norm(), 1e-6);
 }
 
+TEST(Dle, RangeBearingToAOneDimensionalTargetIsSkipped) {
+  DleParams params;
+  params.target_dim = 1;
+  params.H = MatX::Ones(2, 1);
+  Dle node(AgentSetup{}, params);
+  MeasurementBatch batch;
+  batch.targets = {TargetObservation{0, Vec2(10.0, 0.5), Mat2::Identity(), 1}};
+  Inbox inbox;
+  EXPECT_FALSE(node.step(StepInput{0, &batch, &inbox}).diagnostics.updated);
+}
+
 TEST(Dle, RejectsMismatchedDimensions) {
   DleParams params;
   params.target_dim = 3;

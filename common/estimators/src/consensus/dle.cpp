@@ -69,7 +69,8 @@ StepOutput Dle::step(const StepInput& input) {
       if (V.info() != Eigen::Success) continue;
       MatX H = H_;
       Vec2 value = z.value;
-      if (z.kind == 1) {  // range–bearing: linearize at ŷ_pred (§4.2)
+      if (z.kind == 1) {      // range–bearing: linearize at ŷ_pred (§4.2)
+        if (d < 2) continue;  // no target position to range to
         const Vec2 target = predicted_.head<2>();
         const auto r = models::range(setup_.initial_guess_m, target);
         const auto b = models::bearing(setup_.initial_guess_m, target);

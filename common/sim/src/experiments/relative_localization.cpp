@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <random>
 #include <stdexcept>
 #include <thread>
@@ -551,7 +552,7 @@ TrackingExperimentResult run_tracking_experiment(const TrackingExperimentConfig&
   W *= c.q;
   const Eigen::LLT<MatX> W_root(W);
   std::normal_distribution<double> normal(0.0, 1.0);
-  std::uniform_real_distribution<double> heading(0.0, 0.5 * 3.14159265358979323846);
+  std::uniform_real_distribution<double> heading(0.0, 0.5 * std::numbers::pi);
   std::vector<double> node0_pos(steps + 1, 0.0), others_pos(steps + 1, 0.0), central_pos(steps + 1, 0.0);
   std::vector<double> node0_vel(steps + 1, 0.0), others_vel(steps + 1, 0.0), central_vel(steps + 1, 0.0);
   const auto n = static_cast<std::size_t>(c.num_sensors);
