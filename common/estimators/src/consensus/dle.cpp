@@ -115,12 +115,6 @@ StepOutput Dle::step(const StepInput& input) {
   return out;
 }
 
-Estimate Dle::estimate() const {
-  Estimate estimate;
-  estimate.mean_m = setup_.initial_guess_m;
-  estimate.covariance = Mat2::Zero();
-  estimate.valid = true;
-  return estimate;
-}
+Estimate Dle::estimate() const { return detail::known_position_estimate(setup_.initial_guess_m); }
 
 }  // namespace swarmloc::estimators::consensus

@@ -29,6 +29,14 @@ bool all_finite(const Eigen::DenseBase<Derived>& m) {
 
 }  // namespace
 
+Estimate known_position_estimate(const Vec2& position_m) {
+  Estimate known;
+  known.mean_m = position_m;
+  known.covariance = Mat2::Zero();
+  known.valid = true;
+  return known;
+}
+
 CombinedPrior combine_priors(const VecX& omega, const MatX& Omega, std::int32_t target,
                              const StepInput& input, MetropolisRule rule, ConsensusDegrees& degrees,
                              StepDiagnostics& diagnostics) {

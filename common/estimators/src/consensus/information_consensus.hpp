@@ -16,6 +16,10 @@ struct CombinedPrior {
   VecX omega;
   MatX Omega;
 };
+/// The estimate of a sensor whose position is known exactly (the DLE's sensors, the joint estimator's
+/// true-position baseline).
+Estimate known_position_estimate(const Vec2& position_m);
+
 CombinedPrior combine_priors(const VecX& omega, const MatX& Omega, std::int32_t target,
                              const StepInput& input, MetropolisRule rule, ConsensusDegrees& degrees,
                              StepDiagnostics& diagnostics);

@@ -98,9 +98,8 @@ StepOutput JointLocalizationField::step(const StepInput& input) {
   Omega_ = std::move(Omega);
   ++steps_taken_;
   // eq. (10): ŷ = (Ω + (t+1) δ I)⁻¹ ω; the regularization keeps the system positive definite.
-  MatX regularized = Omega_;
-  regularized.diagonal().array() += static_cast<double>(steps_taken_) * params_.delta;
-  const Eigen::LLT<MatX> llt(regularized);
+  const double regularization = static_cast<double>(steps_taken_) * params_.delta;
+  const Eigen::LLT<MatX> llt(Omega_ + regularization * MatX::Identity(Omega_.rows(), Omega_.cols()));
   if (llt.info() == Eigen::Success) y_ = llt.solve(omega_);
 
   StepOutput localization;
@@ -114,12 +113,7 @@ StepOutput JointLocalizationField::step(const StepInput& input) {
 }
 
 Estimate JointLocalizationField::estimate() const {
-  if (params_.localize) return jacobi_.estimate();
-  Estimate known;
-  known.mean_m = setup_.initial_guess_m;
-  known.covariance = Mat2::Zero();
-  known.valid = true;
-  return known;
+  return params_.localize ? jacobi_.estimate() : detail::known_position_estimate(setup_.initial_guess_m);
 }
 
 }  // namespace swarmloc::estimators::consensus

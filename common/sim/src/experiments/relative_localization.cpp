@@ -629,17 +629,15 @@ TrackingExperimentResult run_tracking_experiment(const TrackingExperimentConfig&
         bus.round(agents, static_cast<std::int64_t>(t), batch_ptrs);
         central_info += info_sum;
         central_mean += central_info.ldlt().solve(score);
-        const auto tracked = [&](const VecX& estimate, std::vector<double>& pos, std::vector<double>& vel) {
-          pos[t] += (estimate.head<2>() - y.head<2>()).squaredNorm();
-          vel[t] += (estimate.tail<2>() - y.tail<2>()).squaredNorm();
+        const auto tracked = [&](const VecX& estimate, std::vector<double>& pos, std::vector<double>& vel,
+                                 double weight) {
+          pos[t] += weight * (estimate.head<2>() - y.head<2>()).squaredNorm();
+          vel[t] += weight * (estimate.tail<2>() - y.tail<2>()).squaredNorm();
         };
-        tracked(dle[0]->target_estimate(), node0_pos, node0_vel);
-        for (std::size_t i = 1; i < n; ++i) {
-          const VecX& estimate = dle[i]->target_estimate();
-          others_pos[t] += (estimate.head<2>() - y.head<2>()).squaredNorm() / static_cast<double>(n - 1);
-          others_vel[t] += (estimate.tail<2>() - y.tail<2>()).squaredNorm() / static_cast<double>(n - 1);
-        }
-        tracked(central_mean, central_pos, central_vel);
+        tracked(dle[0]->target_estimate(), node0_pos, node0_vel, 1.0);
+        for (std::size_t i = 1; i < n; ++i)  // others: the mean over sensors 2…n of the squared error
+          tracked(dle[i]->target_estimate(), others_pos, others_vel, 1.0 / static_cast<double>(n - 1));
+        tracked(central_mean, central_pos, central_vel, 1.0);
         // Centralized prediction: P = F Λ⁻¹ Fᵀ + W.
         const MatX P = F * central_info.ldlt().solve(MatX::Identity(4, 4)) * F.transpose() + W;
         central_info = P.ldlt().solve(MatX::Identity(4, 4));
