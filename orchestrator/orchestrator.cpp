@@ -415,12 +415,13 @@ class Orchestrator {
     sim::StepMetrics metrics;
     metrics.step = step;
     metrics.time_s = sim::reported_time_s(scenario_, step);
-    metrics.errors = sim::score(world_.truth, world_.is_anchor, scored);
+    metrics.errors = sim::score(world_, scored);
     metrics.crlb_rmse_m = record_.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
     record_.metrics.push_back(metrics);
     for (std::size_t i = 0; i < scored.size(); ++i) {
       if (scored[i])
-        record_.estimates.push_back({step, static_cast<AgentId>(i), *scored[i], world_.truth[i]});
+        record_.estimates.push_back(
+            {step, static_cast<AgentId>(i), *scored[i], world_.scored_truth(static_cast<AgentId>(i))});
     }
   }
 

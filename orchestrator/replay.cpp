@@ -50,15 +50,17 @@ std::string kinds_text(const sim::MeasurementKinds& k) {
   add(k.anchor_fixes, "anchor fixes");
   add(k.relative, "relative positions");
   add(k.paths, "reflected paths");
+  add(k.targets, "target readings");
   return text.empty() ? "nothing" : text;
 }
 
-/// The replayed algorithm must consume what the recorded one was fed (ranges, relative positions or
-/// reflected paths); a missing kind would leave it without measurements.
+/// The replayed algorithm must consume what the recorded one was fed (ranges, relative positions,
+/// reflected paths or target readings); a missing kind would leave it without measurements.
 void check_measurement_kinds(const std::string& recorded_algorithm, const std::string& algorithm) {
   const auto had = sim::measurement_kinds(recorded_algorithm);
   const auto needs = sim::measurement_kinds(algorithm);
-  if ((needs.ranges && !had.ranges) || (needs.relative && !had.relative) || (needs.paths && !had.paths)) {
+  if ((needs.ranges && !had.ranges) || (needs.relative && !had.relative) || (needs.paths && !had.paths) ||
+      (needs.targets && !had.targets)) {
     throw config::ScenarioError("algorithm.name: " + algorithm + " consumes " + kinds_text(needs) +
                                 " but the recording (" + recorded_algorithm + ") holds " + kinds_text(had));
   }

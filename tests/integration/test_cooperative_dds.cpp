@@ -1,6 +1,6 @@
 // Papers 002, 003, 004 as one OS process per agent over Cyclone DDS: Jacobi (STATE), DG-BB (STATE +
-// CONSENSUS rounds) and multipath BP (BELIEF), each against the simulator on the same seed, and under
-// 20 % injected loss.
+// CONSENSUS rounds), multipath BP (BELIEF) and the DLE (INFO + STATE), each against the simulator on the
+// same seed, and under 20 % injected loss.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -38,6 +38,13 @@ struct Case {
   const char* flags;  ///< keeps each run around 10 s of world time
 };
 
+// The DLE's error is one 2-D realization shared by every sensor, and each sensor's estimate over-weights
+// its own newest reading (weight 1/(t+1) instead of 1/(N(t+1))). A free run, where agents sometimes step
+// without a fresh batch, washes that out; synchronous rounds do not. At 100 steps that alone put DDS 12 %
+// below the simulator (0.0273 against 0.0317 m; the centralized mean of every reading: 0.0273 m); at 200
+// steps the term is smaller (DDS / sim 0.94–0.95).
+constexpr const char* kDleFlags = " --set run.rate_hz=20 --set run.steps=200";
+
 class CooperativeOverDds : public ::testing::TestWithParam<Case> {};
 
 TEST_P(CooperativeOverDds, FinalErrorMatchesTheSimulatorWithinTenPercentAndSurvivesTwentyPercentLoss) {
@@ -62,7 +69,7 @@ TEST_P(CooperativeOverDds, FinalErrorMatchesTheSimulatorWithinTenPercentAndSurvi
 
 INSTANTIATE_TEST_SUITE_P(Papers002To004, CooperativeOverDds,
                          ::testing::Values(Case{"jacobi", 31, " --set run.rate_hz=20"}, Case{"dgbb", 33, ""},
-                                           Case{"multipath_bp", 35, ""}),
+                                           Case{"multipath_bp", 35, ""}, Case{"dle", 56, kDleFlags}),
                          [](const ::testing::TestParamInfo<Case>& param_info) {
                            return std::string(param_info.param.scenario);
                          });
@@ -96,7 +103,8 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(Case{"default", 37, " --set run.steps=60 --set network.loss=0.2"},
                       Case{"jacobi", 38, " --set run.steps=60 --set network.loss=0.2"},
                       Case{"dgbb", 39, " --set run.steps=150"},
-                      Case{"multipath_bp", 40, " --set run.steps=30 --set network.loss=0.2"}),
+                      Case{"multipath_bp", 40, " --set run.steps=30 --set network.loss=0.2"},
+                      Case{"dle_tracking", 58, " --set run.steps=60 --set network.loss=0.2"}),
     [](const ::testing::TestParamInfo<Case>& param_info) { return std::string(param_info.param.scenario); });
 
 }  // namespace

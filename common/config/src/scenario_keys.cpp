@@ -26,6 +26,10 @@ constexpr std::array<std::pair<Placement, std::string_view>, 3> kPlacementNames{
 constexpr EnumNames<WorldSource> kWorldSourceNames{
     {{WorldSource::kGenerated, "generated"}, {WorldSource::kMrclam, "mrclam"}}};
 constexpr EnumNames<Motion> kMotionNames{{{Motion::kStatic, "static"}, {Motion::kRandomWalk, "random_walk"}}};
+constexpr EnumNames<TargetMotion> kTargetMotionNames{
+    {{TargetMotion::kStatic, "static"}, {TargetMotion::kDoubleIntegrator, "double_integrator"}}};
+constexpr EnumNames<TargetSensing> kTargetSensingNames{
+    {{TargetSensing::kLinear, "linear"}, {TargetSensing::kRangeBearing, "range_bearing"}}};
 constexpr EnumNames<RunMode> kRunModeNames{
     {{RunMode::kFreeRun, "free_run"}, {RunMode::kLockstep, "lockstep"}}};
 constexpr EnumNames<SimClock> kSimClockNames{{{SimClock::kRounds, "rounds"}, {SimClock::kAgents, "agents"}}};
@@ -44,6 +48,8 @@ constexpr EnumNames<NoiseDraw> kNoiseDrawNames{
 const auto& names_of(Placement /*tag*/) { return kPlacementNames; }
 const auto& names_of(WorldSource /*tag*/) { return kWorldSourceNames; }
 const auto& names_of(Motion /*tag*/) { return kMotionNames; }
+const auto& names_of(TargetMotion /*tag*/) { return kTargetMotionNames; }
+const auto& names_of(TargetSensing /*tag*/) { return kTargetSensingNames; }
 const auto& names_of(RunMode /*tag*/) { return kRunModeNames; }
 const auto& names_of(SimClock /*tag*/) { return kSimClockNames; }
 const auto& names_of(InitialGuess /*tag*/) { return kInitialGuessNames; }
@@ -298,6 +304,14 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(world.wall_first_angle_deg),
       SWARMLOC_KEY(world.wall_angle_step_deg),
       SWARMLOC_KEY(world.wall_margin_m),
+      SWARMLOC_KEY(world.target_motion),
+      SWARMLOC_KEY(world.target_x_m),
+      SWARMLOC_KEY(world.target_y_m),
+      SWARMLOC_KEY(world.target_vx_mps),
+      SWARMLOC_KEY(world.target_vy_mps),
+      SWARMLOC_KEY(world.target_accel_psd),
+      SWARMLOC_KEY(world.target_sensing),
+      SWARMLOC_KEY(world.target_sensing_radius_m),
       SWARMLOC_KEY(world.source),
       SWARMLOC_KEY(world.data_dir),
       SWARMLOC_KEY(world.data_step_s),
@@ -308,6 +322,8 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(noise.shared_range_draws),
       SWARMLOC_KEY(noise.relative_std_m),
       SWARMLOC_KEY(noise.doa_error_deg),
+      SWARMLOC_KEY(noise.target_std_m),
+      SWARMLOC_KEY(noise.target_bearing_std_rad),
       SWARMLOC_KEY(noise.bearing_std_rad),
       SWARMLOC_KEY(noise.odometry_v_std),
       SWARMLOC_KEY(noise.odometry_omega_std),
@@ -454,12 +470,12 @@ std::string suggestion_for(std::string_view path) {
 }
 
 const std::vector<std::string>& known_algorithms() {
-  // Every algorithm `run` and `sim` can execute (the DLE and the joint procedure of 002 exist as library
-  // estimators with their experiments, but the world has no targets or field yet).
-  static const std::vector<std::string> names{"ieif",     "iekf",      "ekf",           "lbekf",
-                                              "lbekf_vr", "lbekf_i",   "jacobi",        "multipath_bp",
-                                              "dgbb",     "local_bb",  "fixed_step",    "step_length",
-                                              "pose_ekf", "pose_ieif", "dead_reckoning"};
+  // Every algorithm `run` and `sim` can execute (the joint procedure of 002 exists as a library estimator
+  // with its experiment, but the world has no field yet).
+  static const std::vector<std::string> names{"ieif",         "iekf",     "ekf",       "lbekf",
+                                              "lbekf_vr",     "lbekf_i",  "jacobi",    "dle",
+                                              "multipath_bp", "dgbb",     "local_bb",  "fixed_step",
+                                              "step_length",  "pose_ekf", "pose_ieif", "dead_reckoning"};
   return names;
 }
 

@@ -152,6 +152,16 @@ void validate(const Scenario& scenario) {
   require_finite(world.wall_first_angle_deg, "world.wall_first_angle_deg");
   require_finite(world.wall_angle_step_deg, "world.wall_angle_step_deg");
   require_non_negative(world.wall_margin_m, "world.wall_margin_m");
+  require_finite(world.target_x_m, "world.target_x_m");
+  require_finite(world.target_y_m, "world.target_y_m");
+  // 1 km/s is far beyond any target this runtime tracks; more is a unit mistake.
+  require_within(world.target_vx_mps, -1000.0, 1000.0, "world.target_vx_mps");
+  require_within(world.target_vy_mps, -1000.0, 1000.0, "world.target_vy_mps");
+  require_within(world.target_accel_psd, 0.0, 1e6, "world.target_accel_psd");
+  require_non_negative(world.target_sensing_radius_m, "world.target_sensing_radius_m");
+  if (algorithm.name == "dle" && world.motion != Motion::kStatic) {
+    fail("world.motion", "must be static for dle (its sensors use their known, fixed positions)");
+  }
   if (algorithm.name == "multipath_bp" && world.wall_count < 1) {
     fail("world.wall_count",
          "multipath_bp needs at least one reflecting wall (it uses reflected paths only)");
@@ -167,6 +177,11 @@ void validate(const Scenario& scenario) {
   require_within(scenario.noise.odometry_omega_std, 0.0, 100.0, "noise.odometry_omega_std");
   if (algorithm.name == "multipath_bp" && !(scenario.noise.range_std_m > 0.0)) {
     fail("noise.range_std_m", "must be > 0 for multipath_bp (its path-length variance is range_std_m²)");
+  }
+  require_non_negative(scenario.noise.target_std_m, "noise.target_std_m");
+  require_within(scenario.noise.target_bearing_std_rad, 1e-6, 3.2, "noise.target_bearing_std_rad");
+  if (algorithm.name == "dle" && !(scenario.noise.target_std_m > 0.0)) {
+    fail("noise.target_std_m", "must be > 0 for dle (its reading information is 1/target_std_m²)");
   }
   if (algorithm.name == "jacobi" && !(scenario.noise.relative_std_m > 0.0)) {
     fail("noise.relative_std_m", "must be > 0 for jacobi (its measurement information is 1/relative_std_m²)");

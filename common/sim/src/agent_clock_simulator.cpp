@@ -228,14 +228,14 @@ class AgentClockSimulation {
     StepMetrics metrics;
     metrics.step = score_step.step;
     metrics.time_s = world_time(score_step.step);
-    metrics.errors = score(world_.truth, world_.is_anchor, estimates);
+    metrics.errors = score(world_, estimates);
     metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(score_step.step + 1));
     record.metrics.push_back(metrics);
     if (options_.record_estimates) {
       for (std::size_t k = 0; k < n; ++k) {
         if (estimates[k])
-          record.estimates.push_back(
-              {score_step.step, static_cast<AgentId>(k), *estimates[k], world_.truth[k]});
+          record.estimates.push_back({score_step.step, static_cast<AgentId>(k), *estimates[k],
+                                      world_.scored_truth(static_cast<AgentId>(k))});
       }
     }
     if (options_.on_step) options_.on_step(score_step.step, metrics.errors);

@@ -279,10 +279,13 @@ void AgentRuntime::carry_over(const estimators::MeasurementBatch& superseded,
                               estimators::MeasurementBatch& batch) {
   // Free run: a batch that arrived since the last step is superseded by this one before any step used
   // it. Its measurements are independent draws, so keep their information instead of losing it:
-  // relative-position samples are appended (Jacobi averages every sample), and each range is fused
+  // relative-position samples and target readings are appended (Jacobi averages every sample; the DLE
+  // sums every reading's information, and counts a moving target's reading of one world step ago as
+  // current, a lag of one period's motion), and each range is fused
   // with the newer range to the same peer by inverse-variance weighting (one range per peer, so a
   // Kalman update does not count the neighbour's position uncertainty twice).
   batch.relative.insert(batch.relative.begin(), superseded.relative.begin(), superseded.relative.end());
+  batch.targets.insert(batch.targets.begin(), superseded.targets.begin(), superseded.targets.end());
   for (auto& range : batch.ranges) {
     const auto old =
         std::find_if(superseded.ranges.begin(), superseded.ranges.end(),

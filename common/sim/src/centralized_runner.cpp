@@ -158,14 +158,13 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
     StepMetrics metrics;
     metrics.step = step;
     metrics.time_s = reported_time_s(scenario, step);
-    metrics.errors = score(world.truth, world.is_anchor, estimates);
+    metrics.errors = score(world, estimates);
     metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
     record.metrics.push_back(metrics);
     total_mse.push_back(total_squared_error(world.truth, estimates));
     if (options.record_estimates) {
       for (AgentId i = 0; i < n; ++i) {
-        record.estimates.push_back(
-            {step, i, *estimates[static_cast<std::size_t>(i)], world.truth[static_cast<std::size_t>(i)]});
+        record.estimates.push_back({step, i, *estimates[static_cast<std::size_t>(i)], world.scored_truth(i)});
       }
     }
     if (options.on_step) options.on_step(step, metrics.errors);

@@ -46,6 +46,17 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
   return stats;
 }
 
+ErrorStats score(const World& world, const std::vector<std::optional<estimators::Estimate>>& estimates) {
+  const auto n = static_cast<std::size_t>(world.size());
+  std::vector<Vec2> truth(n);
+  std::vector<bool> excluded(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    truth[i] = world.scored_truth(static_cast<AgentId>(i));
+    excluded[i] = !world.scored(static_cast<AgentId>(i));
+  }
+  return score(truth, excluded, estimates);
+}
+
 double RangeCrlb::accumulated_rmse_m(double snapshots) const {
   if (!fresh_draws_per_step) return single_snapshot_rmse_m;
   return snapshots > 0.0 ? single_snapshot_rmse_m / std::sqrt(snapshots) : single_snapshot_rmse_m;
@@ -121,6 +132,43 @@ RangeCrlb relative_crlb(const World& world, double relative_std_m) {
   return crlb;
 }
 
+/// The static target's bound: J_1 = Σ H_iᵀ V_i⁻¹ H_i over the sensors that read it, at the true target
+/// (the centralized estimate's information from one step of readings). Every sensor estimates the same
+/// target, so the per-sensor bound is the network's.
+RangeCrlb target_crlb(const World& world, const config::Scenario& s) {
+  RangeCrlb crlb;
+  if (s.world.target_motion != config::TargetMotion::kStatic) {
+    crlb.single_snapshot_rmse_m = std::numeric_limits<double>::quiet_NaN();
+    return crlb;
+  }
+  const Vec2 target = world.target.head<2>();
+  Mat2 information = Mat2::Zero();
+  const double range_variance = s.noise.target_std_m * s.noise.target_std_m;
+  const double bearing_variance = s.noise.target_bearing_std_rad * s.noise.target_bearing_std_rad;
+  for (const Vec2& sensor : world.truth) {
+    const Vec2 offset = target - sensor;
+    const double distance = offset.norm();
+    if (s.world.target_sensing_radius_m > 0.0 && distance > s.world.target_sensing_radius_m) continue;
+    if (s.world.target_sensing == config::TargetSensing::kLinear) {
+      information += Mat2::Identity() / range_variance;
+    } else if (distance >= 1e-9) {
+      const Vec2 along = offset / distance;
+      const Vec2 across = Vec2(-offset.y(), offset.x()) / (distance * distance);  // d bearing / d target
+      information +=
+          along * along.transpose() / range_variance + across * across.transpose() / bearing_variance;
+    }
+  }
+  const Eigen::LDLT<Mat2> ldlt(information);
+  if (ldlt.info() != Eigen::Success || !(information.determinant() > 0.0)) {
+    crlb.localizable = false;
+    crlb.single_snapshot_rmse_m = std::numeric_limits<double>::infinity();
+    return crlb;
+  }
+  crlb.single_snapshot_rmse_m = std::sqrt(information.inverse().trace());
+  crlb.per_agent_single_rmse_m.assign(static_cast<std::size_t>(world.size()), crlb.single_snapshot_rmse_m);
+  return crlb;
+}
+
 }  // namespace
 
 RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario) {
@@ -133,7 +181,9 @@ RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario) {
     crlb.single_snapshot_rmse_m = std::numeric_limits<double>::quiet_NaN();
     return crlb;
   }
-  if (kinds.relative) {
+  if (kinds.targets) {
+    crlb = target_crlb(world, scenario);
+  } else if (kinds.relative) {
     crlb = relative_crlb(world, scenario.noise.relative_std_m);
   } else if (kinds.ranges && scenario.noise.range_model == config::RangeNoise::kProportional) {
     std::vector<estimators::RangeObservation> observations;

@@ -26,6 +26,18 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
   if (std::find(cooperative.begin(), cooperative.end(), s.algorithm.name) != cooperative.end()) {
     estimators::CooperativeParams params;
     params.bp.sigma2 = s.noise.range_std_m * s.noise.range_std_m;  // [D-6]: the algorithm knows the noise
+    if (s.algorithm.name == "dle") {
+      const TargetModel model = target_model(s);
+      auto& dle = params.dle;
+      dle.target = 0;
+      dle.target_dim = model.dim;
+      dle.F = model.F;
+      dle.W = model.W;
+      dle.initial_information = s.algorithm.initial_information;
+      // Range–bearing readings are linearized at the area's centre until the first estimate exists.
+      dle.initial_mean = VecX::Zero(model.dim);
+      dle.initial_mean.head<2>() = Vec2::Constant(0.5 * s.world.area_m);
+    }
     auto& gradient = params.gradient;
     gradient.consensus_rounds = s.algorithm.consensus_rounds;
     gradient.fixed_step = s.algorithm.fixed_step;
@@ -232,14 +244,13 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
     StepMetrics metrics;
     metrics.step = step;
     metrics.time_s = reported_time_s(scenario, step);
-    metrics.errors = score(world.truth, world.is_anchor, estimates);
+    metrics.errors = score(world, estimates);
     metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
     record.metrics.push_back(metrics);
     if (options.record_estimates) {
       for (AgentId i = 0; i < n; ++i) {
         if (!estimates[static_cast<std::size_t>(i)]) continue;  // down (faults)
-        record.estimates.push_back(
-            {step, i, *estimates[static_cast<std::size_t>(i)], world.truth[static_cast<std::size_t>(i)]});
+        record.estimates.push_back({step, i, *estimates[static_cast<std::size_t>(i)], world.scored_truth(i)});
       }
     }
     if (options.on_step) options.on_step(step, metrics.errors);

@@ -15,6 +15,7 @@
 
 #include "swarmloc/core/random.hpp"
 #include "swarmloc/estimators/crlb.hpp"
+#include "swarmloc/models/measurement_models.hpp"
 #include "swarmloc/sim/mrclam.hpp"
 
 namespace swarmloc::sim {
@@ -181,6 +182,14 @@ double World::mean_degree() const {
   return static_cast<double>(edges) / static_cast<double>(neighbours.size());
 }
 
+Vec2 World::scored_truth(AgentId id) const {
+  return estimates_target() ? Vec2(target.head<2>()) : truth.at(static_cast<std::size_t>(id));
+}
+
+bool World::scored(AgentId id) const {
+  return estimates_target() || !is_anchor.at(static_cast<std::size_t>(id));
+}
+
 estimators::AgentSetup World::setup_of(AgentId id) const {
   const auto i = static_cast<std::size_t>(id);
   estimators::AgentSetup setup{id, is_anchor.at(i), is_anchor.at(i) ? truth.at(i) : initial_guess.at(i)};
@@ -239,7 +248,14 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw) {
     } else {
       world.initial_guess[i] = world.truth[i] + s.world.initial_guess_std_m * Vec2(gauss(rng), gauss(rng));
     }
-    if (world.is_anchor[i]) world.initial_guess[i] = world.truth[i];
+    // Anchors know their position; so does every sensor of a target-estimating world (002 Sec. II).
+    if (world.is_anchor[i] || measurement_kinds(s.algorithm.name).targets)
+      world.initial_guess[i] = world.truth[i];
+  }
+  if (measurement_kinds(s.algorithm.name).targets) {
+    world.target = VecX::Zero(target_model(s).dim);
+    world.target.head<2>() = Vec2(s.world.target_x_m, s.world.target_y_m);
+    if (world.target.size() == 4) world.target.tail<2>() = Vec2(s.world.target_vx_mps, s.world.target_vy_mps);
   }
   if (measurement_kinds(s.algorithm.name).paths) world.walls = make_walls(s);
   world.clocks.reserve(n);
@@ -262,7 +278,40 @@ void attach_recorded(World& world, std::shared_ptr<const RecordedSteps> recorded
   world.recorded = std::move(recorded);
 }
 
+TargetModel target_model(const Scenario& s) {
+  TargetModel model;
+  if (s.world.target_motion == config::TargetMotion::kStatic) return model;
+  const double tau = 1.0 / s.run.rate_hz;
+  model.dim = 4;
+  model.F = MatX::Identity(4, 4);
+  model.F.topRightCorner<2, 2>() = tau * Mat2::Identity();
+  model.W = MatX(4, 4);
+  model.W << tau * tau * tau / 3.0 * Mat2::Identity(), tau * tau / 2.0 * Mat2::Identity(),
+      tau * tau / 2.0 * Mat2::Identity(), tau * Mat2::Identity();
+  model.W *= s.world.target_accel_psd;
+  return model;
+}
+
+namespace {
+
+/// y(k) = F y(k−1) + η, η ~ N(0, W) (002 eq. (1)); one seeded draw per step.
+void advance_target(World& world, const Scenario& s, std::int64_t step) {
+  if (!world.estimates_target() || s.world.target_motion == config::TargetMotion::kStatic) return;
+  const TargetModel model = target_model(s);
+  const Eigen::LLT<MatX> root(model.W);
+  auto rng = core::make_engine(trial_seed(s.seed, world.trial), core::Stream::kMotion, step, -1);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  VecX eta(model.dim);
+  for (auto& e : eta) e = gauss(rng);
+  // W is singular when q = 0 (a constant-velocity target): no noise then.
+  world.target = model.F * world.target;
+  if (root.info() == Eigen::Success) world.target += root.matrixL() * eta;
+}
+
+}  // namespace
+
 void advance_truth(World& world, const Scenario& s, std::int64_t step) {
+  advance_target(world, s, step);
   if (world.recorded) {
     world.truth = world.recorded->truth(step);
     return;
@@ -281,6 +330,8 @@ MeasurementKinds measurement_kinds(const std::string& algorithm) {
   MeasurementKinds kinds;
   if (algorithm == "jacobi") {
     kinds.relative = true;
+  } else if (algorithm == "dle") {
+    kinds.targets = true;
   } else if (algorithm == "multipath_bp") {
     kinds.paths = true;
   } else if (algorithm == "dgbb" || algorithm == "local_bb" || algorithm == "fixed_step" ||
@@ -338,6 +389,29 @@ void add_paths(const World& world, const Scenario& s, AgentId agent, AgentId pee
   }
 }
 
+/// Agent `agent`'s reading of the target, if it is within sensing range (world.hpp, generate_batch).
+void add_target_reading(const World& world, const Scenario& s, AgentId agent, std::int64_t step,
+                        estimators::MeasurementBatch& batch) {
+  const Vec2 target = world.target.head<2>();
+  const Vec2 offset = target - world.truth[static_cast<std::size_t>(agent)];
+  const double distance = offset.norm();
+  const double radius = s.world.target_sensing_radius_m;
+  if (radius > 0.0 && distance > radius) return;
+  const std::uint64_t key = noise_key(world, s, step, agent, -7);
+  const Vec2 noise(core::standard_normal(key), core::standard_normal(key + 1));
+  const double std_m = s.noise.target_std_m;
+  if (s.world.target_sensing == config::TargetSensing::kLinear) {
+    batch.targets.push_back({0, target + std_m * noise, Mat2::Identity() * std_m * std_m, 0});
+    return;
+  }
+  if (distance < 1e-9) return;  // bearing undefined: the sensor sits on the target
+  const double bearing_std = s.noise.target_bearing_std_rad;
+  const Vec2 value(std::abs(distance + std_m * noise.x()),
+                   models::wrap_angle(std::atan2(offset.y(), offset.x()) + bearing_std * noise.y()));
+  const Mat2 covariance = Vec2(std_m * std_m, bearing_std * bearing_std).asDiagonal();
+  batch.targets.push_back({0, value, covariance, 1});
+}
+
 }  // namespace
 
 estimators::MeasurementBatch generate_batch(const World& world, const Scenario& s, AgentId agent,
@@ -382,6 +456,7 @@ estimators::MeasurementBatch generate_batch(const World& world, const Scenario& 
     fix.covariance = Mat2::Identity() * s.noise.anchor_fix_std_m * s.noise.anchor_fix_std_m;
     batch.fix = fix;
   }
+  if (kinds.targets) add_target_reading(world, s, agent, step, batch);
   return batch;
 }
 

@@ -74,7 +74,17 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.world.initial_guess, b.world.initial_guess);
   EXPECT_EQ(a.world.initial_guess_std_m, b.world.initial_guess_std_m);
   EXPECT_EQ(a.world.require_connected, b.world.require_connected);
+  EXPECT_EQ(a.world.target_motion, b.world.target_motion);
+  EXPECT_EQ(a.world.target_x_m, b.world.target_x_m);
+  EXPECT_EQ(a.world.target_y_m, b.world.target_y_m);
+  EXPECT_EQ(a.world.target_vx_mps, b.world.target_vx_mps);
+  EXPECT_EQ(a.world.target_vy_mps, b.world.target_vy_mps);
+  EXPECT_EQ(a.world.target_accel_psd, b.world.target_accel_psd);
+  EXPECT_EQ(a.world.target_sensing, b.world.target_sensing);
+  EXPECT_EQ(a.world.target_sensing_radius_m, b.world.target_sensing_radius_m);
   EXPECT_EQ(a.noise.range_std_m, b.noise.range_std_m);
+  EXPECT_EQ(a.noise.target_std_m, b.noise.target_std_m);
+  EXPECT_EQ(a.noise.target_bearing_std_rad, b.noise.target_bearing_std_rad);
   EXPECT_EQ(a.noise.anchor_fix_std_m, b.noise.anchor_fix_std_m);
   EXPECT_EQ(a.network.loss, b.network.loss);
   EXPECT_EQ(a.network.burst.mean_length, b.network.burst.mean_length);
@@ -125,6 +135,16 @@ Scenario everything_changed() {
   s.world.wall_first_angle_deg = 10.0;
   s.world.wall_angle_step_deg = 10.0;
   s.world.wall_margin_m = 0.5;
+  s.world.target_motion = TargetMotion::kDoubleIntegrator;
+  s.world.target_x_m = -3.25;
+  s.world.target_y_m = 1e6;
+  s.world.target_vx_mps = 1000.0;
+  s.world.target_vy_mps = -0.5;
+  s.world.target_accel_psd = 0.0;
+  s.world.target_sensing = TargetSensing::kRangeBearing;
+  s.world.target_sensing_radius_m = 12.0;
+  s.noise.target_std_m = 0.0;
+  s.noise.target_bearing_std_rad = 3.2;
   s.faults = {"3@0, 4@0", "", "0-0"};  // run.steps is 1; lockstep (below) takes kills without restarts
   s.network.loss = 1.0;
   s.network.burst.mean_length = 12.5;
@@ -277,7 +297,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 14U + 19U + 11U + 4U + 2U + 7U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 14U + 27U + 13U + 4U + 2U + 7U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -31,6 +31,27 @@ TEST(Dle, OneStepCombinesPriorsWithMetropolisWeightsAndAddsTheObservation) {
   EXPECT_MATRIX_NEAR(node.target_estimate(), VecX(Vec2(1.0, 2.0)), 1e-12);
 }
 
+TEST(Dle, EstimateIsTheTargetPositionWithTheInverseOfTheUpdatedInformation) {
+  DleParams params;
+  params.target_dim = 4;  // position and velocity; kind-0 readings see the position (H = [I 0])
+  params.F = MatX::Identity(4, 4);
+  params.W = 0.01 * MatX::Identity(4, 4);
+  params.initial_information = 0.5;
+  AgentSetup setup;
+  setup.initial_guess_m = Vec2(-7.0, 3.0);  // the sensor's own position, which is not what it reports
+  Dle node(setup, params);
+  EXPECT_FALSE(node.estimate().valid) << "no estimate before the first step";
+  MeasurementBatch batch;
+  batch.targets = {TargetObservation{0, Vec2(1.0, 2.0), Mat2(0.25 * Mat2::Identity()), 0}};
+  const Inbox inbox;
+  node.step(StepInput{0, &batch, &inbox});
+  // No neighbours: Ω⁺ = 0.5 I + diag(4, 4, 0, 0); ŷ = Ω⁺⁻¹ (4·(1, 2), 0, 0) = (8/9)(1, 2, 0, 0).
+  const Estimate estimate = node.estimate();
+  ASSERT_TRUE(estimate.valid);
+  EXPECT_MATRIX_NEAR(estimate.mean_m, Vec2(Vec2(1.0, 2.0) * 8.0 / 9.0), 1e-12);
+  EXPECT_MATRIX_NEAR(estimate.covariance, Mat2(Mat2::Identity() / 4.5), 1e-12);
+}
+
 TEST(Dle, MissingNeighbourIsDroppedAndTheWeightReturnsToSelf) {  // §4.5
   DleParams params;
   AgentSetup setup;

@@ -95,6 +95,7 @@ StepOutput Dle::step(const StepInput& input) {
     y_ = ldlt.solve(omega_plus);
     predicted_ = y_;
     has_estimate_ = true;
+    if (d >= 2) position_covariance_ = ldlt.solve(MatX::Identity(d, 2)).topRows<2>();
   }
   if (params_.F.size() == 0) {  // static target: no prediction
     omega_ = omega_plus;
@@ -115,6 +116,13 @@ StepOutput Dle::step(const StepInput& input) {
   return out;
 }
 
-Estimate Dle::estimate() const { return detail::known_position_estimate(setup_.initial_guess_m); }
+Estimate Dle::estimate() const {
+  Estimate estimate;
+  if (!has_estimate_ || params_.target_dim < 2) return estimate;
+  estimate.mean_m = y_.head<2>();
+  estimate.covariance = position_covariance_;
+  estimate.valid = true;
+  return estimate;
+}
 
 }  // namespace swarmloc::estimators::consensus

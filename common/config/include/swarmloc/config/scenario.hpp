@@ -23,6 +23,11 @@ enum class Placement { kUniform, kGrid, kFile };
 /// Where the world comes from: the seeded generator, or a real dataset (UTIAS MRCLAM, docs/real-data.md).
 enum class WorldSource { kGenerated, kMrclam };
 enum class Motion { kStatic, kRandomWalk };
+/// The target of algorithm dle (002 Sec. II): still, or a double integrator driven by white acceleration.
+enum class TargetMotion { kStatic, kDoubleIntegrator };
+/// What a sensor reads of the target: its position plus noise (H = [I 0]), or range and bearing from the
+/// sensor (002 eq. (4)).
+enum class TargetSensing { kLinear, kRangeBearing };
 enum class RunMode { kFreeRun, kLockstep };
 /// How `swarmloc sim` drives the agents: synchronous rounds, or each agent on its own clock over a
 /// network with delay (discrete events on virtual time, docs/architecture.md "Simulator").
@@ -89,6 +94,15 @@ struct Scenario {
     double wall_first_angle_deg = 0.0;
     double wall_angle_step_deg = 45.0;
     double wall_margin_m = 5.0;
+    // The one target algorithm dle estimates (002 Sec. II): where it starts, how it moves, who sees it.
+    TargetMotion target_motion = TargetMotion::kStatic;
+    double target_x_m = 20.0;  ///< start (the default area's centre)
+    double target_y_m = 20.0;
+    double target_vx_mps = 0.0;  ///< start velocity (double_integrator)
+    double target_vy_mps = 0.0;
+    double target_accel_psd = 0.01;  ///< q of the process covariance W (double_integrator, 002 eq. (1))
+    TargetSensing target_sensing = TargetSensing::kLinear;
+    double target_sensing_radius_m = 0.0;  ///< sensors within this distance read the target; 0 = every one
   } world;
 
   struct Noise {
@@ -101,9 +115,11 @@ struct Scenario {
     double doa_error_deg = 5.0;       ///< angle-of-arrival error, uniform in ±this (multipath_bp)
     NoiseDraw draw = NoiseDraw::kPerStep;
     // Pose-state algorithms on recorded data (world.source = mrclam): the filters' noise model.
-    double bearing_std_rad = 0.05;    ///< robot-frame bearing std
-    double odometry_v_std = 0.05;     ///< m/√s on the travelled distance
-    double odometry_omega_std = 0.1;  ///< rad/√s on the turned angle
+    double bearing_std_rad = 0.05;         ///< robot-frame bearing std
+    double odometry_v_std = 0.05;          ///< m/√s on the travelled distance
+    double odometry_omega_std = 0.1;       ///< rad/√s on the turned angle
+    double target_std_m = 1.0;             ///< dle target readings: std per axis (linear) or of the range
+    double target_bearing_std_rad = 0.05;  ///< dle range–bearing readings: bearing std
   } noise;
 
   struct Network {

@@ -22,6 +22,10 @@ struct ErrorStats {
 ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anchor,
                  const std::vector<std::optional<estimators::Estimate>>& estimates);
 
+/// Scores every agent World::scored says is scored against World::scored_truth: the non-anchor agents'
+/// positions, or every sensor's estimate of the target.
+ErrorStats score(const World& world, const std::vector<std::optional<estimators::Estimate>>& estimates);
+
 /// CRLB of the static range network of `world` (each endpoint measures each edge once per snapshot,
 /// anchors exactly known): network RMSE bound for one snapshot and per agent.
 struct RangeCrlb {
@@ -37,7 +41,9 @@ RangeCrlb range_crlb(const World& world, double range_std_m);
 
 /// The bound that matches the scenario's measurements (at the initial truth): ranges (additive or
 /// proportional noise), relative positions (each link one shared draw: the BLUE covariance σ²·L⁻¹ per
-/// axis), or NaN for multipath paths (no bound implemented). Anchors are known.
+/// axis), a static target's readings (the centralized estimate from every sensor's readings; the same
+/// bound for each sensor), or NaN for multipath paths and a moving target (no bound implemented).
+/// Anchors are known.
 RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario);
 
 }  // namespace swarmloc::sim

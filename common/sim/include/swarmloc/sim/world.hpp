@@ -40,8 +40,16 @@ struct World {
   std::uint64_t trial = 0;
   std::vector<double> initial_heading;            ///< pose-state algorithms (empty: all 0)
   std::shared_ptr<const RecordedSteps> recorded;  ///< set: truth and batches come from data
+  /// The true state of the target the agents estimate (algorithm dle): position, then velocity for a
+  /// moving target. Empty: the agents estimate their own positions.
+  VecX target;
 
   [[nodiscard]] int size() const { return static_cast<int>(truth.size()); }
+  [[nodiscard]] bool estimates_target() const { return target.size() > 0; }
+  /// What agent `id`'s estimate is scored against: its own true position, or the target's.
+  [[nodiscard]] Vec2 scored_truth(AgentId id) const;
+  /// Whether agent `id` is scored: anchors know their position, but every sensor estimates a target.
+  [[nodiscard]] bool scored(AgentId id) const;
   [[nodiscard]] int anchor_count() const;
   [[nodiscard]] double mean_degree() const;
   [[nodiscard]] estimators::AgentSetup setup_of(AgentId id) const;
@@ -61,18 +69,31 @@ World build_world(const config::Scenario& scenario, std::uint64_t trial = 0, int
 /// std::invalid_argument if the recording's agent count differs or it holds no step.
 void attach_recorded(World& world, std::shared_ptr<const RecordedSteps> recorded);
 
-/// Moves the truth one world step (random walk when world.motion = random_walk). Seeded by (seed, step).
+/// Moves the truth one world step (random walk when world.motion = random_walk) and the target (double
+/// integrator). Seeded by (seed, step). A recorded world takes its agents' truth from the recording; its
+/// target, a function of the scenario seed, moves as generated.
 void advance_truth(World& world, const config::Scenario& scenario, std::int64_t step);
 
 /// What the world measures for an algorithm: ranges (+ anchor fixes) for the Kalman and gradient
-/// families, relative positions for jacobi (002 eq. (3)), reflected paths for multipath_bp (003 eq. (1)).
+/// families, relative positions for jacobi (002 eq. (3)), reflected paths for multipath_bp (003 eq. (1)),
+/// target readings for dle (002 eqs. (2), (4)).
 struct MeasurementKinds {
   bool ranges = false;
   bool anchor_fixes = false;
   bool relative = false;
   bool paths = false;
+  bool targets = false;
 };
 MeasurementKinds measurement_kinds(const std::string& algorithm);
+
+/// The target's model at the world period 1 / run.rate_hz (002 eq. (1)): state dimension 2 (static, F and
+/// W empty) or 4 (double integrator: F = [I τI; 0 I], W = q [τ³/3 I, τ²/2 I; τ²/2 I, τ I]).
+struct TargetModel {
+  int dim = 2;
+  MatX F;
+  MatX W;
+};
+TargetModel target_model(const config::Scenario& scenario);
 
 /// The walls of scenario.world (wall_count lines outside the area, ALGORITHMS.md §5.4).
 std::vector<models::Wall> make_walls(const config::Scenario& scenario);
@@ -84,7 +105,10 @@ std::vector<models::Wall> make_walls(const config::Scenario& scenario);
 /// - relative positions s_ij = x_j − x_i + ε, one draw per link shared by both ends (i gets s_ij, j gets
 ///   −s_ij, [C-7]);
 /// - one reflected path per wall with both ends on its side: a length draw shared by both ends and an
-///   independent angle-of-arrival error at each end (ALGORITHMS.md §5.4).
+///   independent angle-of-arrival error at each end (ALGORITHMS.md §5.4);
+/// - a reading of the target (target 0) if the sensor is within world.target_sensing_radius_m of it:
+///   its position + N(0, target_std² I) (kind 0), or range + N(0, target_std²) and bearing +
+///   N(0, target_bearing_std²) from the sensor (kind 1).
 /// With noise.draw = once every step repeats step 0's draws (a static snapshot).
 estimators::MeasurementBatch generate_batch(const World& world, const config::Scenario& scenario,
                                             AgentId agent, std::int64_t step);

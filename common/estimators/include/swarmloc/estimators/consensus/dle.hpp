@@ -39,8 +39,8 @@ void validate(const DleParams& params);
 ///
 /// Publishes INFO {target, ω_{i,t+1}, Ω_{i,t+1}} (the prior for the next step) and a STATE carrying the
 /// sensor's (known) position and its degree, which neighbours need for the weights. estimate() reports the
-/// sensor's own known position (the DLE does not localize the sensor); the target estimate is
-/// target_estimate().
+/// target's position: ŷ's first two entries with the matching block of Ω⁺⁻¹ (invalid before the first
+/// estimate); the whole target state is target_estimate().
 class Dle final : public Estimator {
  public:
   Dle(const AgentSetup& setup, const DleParams& params);
@@ -66,7 +66,8 @@ class Dle final : public Estimator {
   VecX omega_;
   MatX Omega_;
   VecX y_;
-  VecX predicted_;  ///< ŷ_pred: where kind-1 observations are linearized
+  VecX predicted_;                               ///< ŷ_pred: where kind-1 observations are linearized
+  Mat2 position_covariance_ = Mat2::Identity();  ///< the position block of Ω⁺⁻¹
   bool has_estimate_ = false;
   ConsensusDegrees degrees_;
 };
