@@ -51,6 +51,7 @@ std::string kinds_text(const sim::MeasurementKinds& k) {
   add(k.relative, "relative positions");
   add(k.paths, "reflected paths");
   add(k.targets, "target readings");
+  add(k.field, "field readings");
   return text.empty() ? "nothing" : text;
 }
 
@@ -60,7 +61,7 @@ void check_measurement_kinds(const std::string& recorded_algorithm, const std::s
   const auto had = sim::measurement_kinds(recorded_algorithm);
   const auto needs = sim::measurement_kinds(algorithm);
   if ((needs.ranges && !had.ranges) || (needs.relative && !had.relative) || (needs.paths && !had.paths) ||
-      (needs.targets && !had.targets)) {
+      (needs.targets && !had.targets) || (needs.field && !had.field)) {
     throw config::ScenarioError("algorithm.name: " + algorithm + " consumes " + kinds_text(needs) +
                                 " but the recording (" + recorded_algorithm + ") holds " + kinds_text(had));
   }

@@ -30,6 +30,8 @@ constexpr EnumNames<TargetMotion> kTargetMotionNames{
     {{TargetMotion::kStatic, "static"}, {TargetMotion::kDoubleIntegrator, "double_integrator"}}};
 constexpr EnumNames<TargetSensing> kTargetSensingNames{
     {{TargetSensing::kLinear, "linear"}, {TargetSensing::kRangeBearing, "range_bearing"}}};
+constexpr EnumNames<FieldSensing> kFieldSensingNames{
+    {{FieldSensing::kContinuous, "continuous"}, {FieldSensing::kCellBased, "cell_based"}}};
 constexpr EnumNames<RunMode> kRunModeNames{
     {{RunMode::kFreeRun, "free_run"}, {RunMode::kLockstep, "lockstep"}}};
 constexpr EnumNames<SimClock> kSimClockNames{{{SimClock::kRounds, "rounds"}, {SimClock::kAgents, "agents"}}};
@@ -50,6 +52,7 @@ const auto& names_of(WorldSource /*tag*/) { return kWorldSourceNames; }
 const auto& names_of(Motion /*tag*/) { return kMotionNames; }
 const auto& names_of(TargetMotion /*tag*/) { return kTargetMotionNames; }
 const auto& names_of(TargetSensing /*tag*/) { return kTargetSensingNames; }
+const auto& names_of(FieldSensing /*tag*/) { return kFieldSensingNames; }
 const auto& names_of(RunMode /*tag*/) { return kRunModeNames; }
 const auto& names_of(SimClock /*tag*/) { return kSimClockNames; }
 const auto& names_of(InitialGuess /*tag*/) { return kInitialGuessNames; }
@@ -312,6 +315,11 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(world.target_accel_psd),
       SWARMLOC_KEY(world.target_sensing),
       SWARMLOC_KEY(world.target_sensing_radius_m),
+      SWARMLOC_KEY(world.field_cells_per_side),
+      SWARMLOC_KEY(world.field_std),
+      SWARMLOC_KEY(world.field_correlation_m),
+      SWARMLOC_KEY(world.field_sensing),
+      SWARMLOC_KEY(world.field_sensing_radius_m),
       SWARMLOC_KEY(world.source),
       SWARMLOC_KEY(world.data_dir),
       SWARMLOC_KEY(world.data_step_s),
@@ -324,6 +332,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(noise.doa_error_deg),
       SWARMLOC_KEY(noise.target_std_m),
       SWARMLOC_KEY(noise.target_bearing_std_rad),
+      SWARMLOC_KEY(noise.field_std),
       SWARMLOC_KEY(noise.bearing_std_rad),
       SWARMLOC_KEY(noise.odometry_v_std),
       SWARMLOC_KEY(noise.odometry_omega_std),
@@ -470,12 +479,11 @@ std::string suggestion_for(std::string_view path) {
 }
 
 const std::vector<std::string>& known_algorithms() {
-  // Every algorithm `run` and `sim` can execute (the joint procedure of 002 exists as a library estimator
-  // with its experiment, but the world has no field yet).
-  static const std::vector<std::string> names{"ieif",         "iekf",     "ekf",       "lbekf",
-                                              "lbekf_vr",     "lbekf_i",  "jacobi",    "dle",
-                                              "multipath_bp", "dgbb",     "local_bb",  "fixed_step",
-                                              "step_length",  "pose_ekf", "pose_ieif", "dead_reckoning"};
+  // Every algorithm `run` and `sim` can execute.
+  static const std::vector<std::string> names{
+      "ieif",       "iekf",        "ekf",         "lbekf",        "lbekf_vr",      "lbekf_i",
+      "jacobi",     "dle",         "joint_field", "multipath_bp", "dgbb",          "local_bb",
+      "fixed_step", "step_length", "pose_ekf",    "pose_ieif",    "dead_reckoning"};
   return names;
 }
 

@@ -162,6 +162,13 @@ void validate(const Scenario& scenario) {
   if (algorithm.name == "dle" && world.motion != Motion::kStatic) {
     fail("world.motion", "must be static for dle (its sensors use their known, fixed positions)");
   }
+  require_within(world.field_cells_per_side, 1, 8, "world.field_cells_per_side");
+  require_non_negative(world.field_std, "world.field_std");
+  require_positive(world.field_correlation_m, "world.field_correlation_m");
+  require_positive(world.field_sensing_radius_m, "world.field_sensing_radius_m");
+  if (algorithm.name == "joint_field" && world.motion != Motion::kStatic) {
+    fail("world.motion", "must be static for joint_field (Jacobi localizes static sensors)");
+  }
   if (algorithm.name == "multipath_bp" && world.wall_count < 1) {
     fail("world.wall_count",
          "multipath_bp needs at least one reflecting wall (it uses reflected paths only)");
@@ -183,8 +190,14 @@ void validate(const Scenario& scenario) {
   if (algorithm.name == "dle" && !(scenario.noise.target_std_m > 0.0)) {
     fail("noise.target_std_m", "must be > 0 for dle (its reading information is 1/target_std_m²)");
   }
-  if (algorithm.name == "jacobi" && !(scenario.noise.relative_std_m > 0.0)) {
-    fail("noise.relative_std_m", "must be > 0 for jacobi (its measurement information is 1/relative_std_m²)");
+  require_non_negative(scenario.noise.field_std, "noise.field_std");
+  if (algorithm.name == "joint_field" && !(scenario.noise.field_std > 0.0)) {
+    fail("noise.field_std", "must be > 0 for joint_field (its reading information is 1/field_std²)");
+  }
+  if ((algorithm.name == "jacobi" || algorithm.name == "joint_field") &&
+      !(scenario.noise.relative_std_m > 0.0)) {
+    fail("noise.relative_std_m",
+         "must be > 0 for " + algorithm.name + " (its measurement information is 1/relative_std_m²)");
   }
 
   require_within(scenario.network.loss, 0.0, 1.0, "network.loss");

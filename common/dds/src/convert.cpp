@@ -293,7 +293,8 @@ const swarmloc_msg_MeasurementBlock& WireBlock::sample() {
 }
 
 WireEstimate::WireEstimate(const sim::EstimateReport& report)
-    : rejected_by_reason(report.rejected_by_reason.begin(), report.rejected_by_reason.end()) {
+    : rejected_by_reason(report.rejected_by_reason.begin(), report.rejected_by_reason.end()),
+      field(report.estimate.field.begin(), report.estimate.field.end()) {
   links.reserve(report.links.size());
   for (const auto& link : report.links) {
     links.push_back(swarmloc_msg_LinkCounters{link.sender, link.arrived, link.delivered,
@@ -311,6 +312,7 @@ WireEstimate::WireEstimate(const sim::EstimateReport& report)
   sample.cpu_s = report.cpu_s;
   point_at(sample.links, links);
   point_at(sample.rejected_by_reason, rejected_by_reason);
+  point_at(sample.field, field);
 }
 
 WireControl::WireControl(const sim::ControlMessage& message) {
@@ -476,12 +478,14 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
   report.cpu_s = wire.cpu_s;
   const auto links = view(wire.links);
   const auto reasons = view(wire.rejected_by_reason);
+  const auto field = view(wire.field);
   // A sender may know fewer reasons (older build: the rest stay 0), never more than this build.
-  if (!links || !reasons || reasons->size() > sim::kRejectReasonCount ||
+  if (!links || !reasons || !field || reasons->size() > sim::kRejectReasonCount ||
       wire.agent_id != wire.header.agent_id) {
     decoded.well_formed = false;
     return decoded;
   }
+  report.estimate.field = Eigen::Map<const VecX>(field->data(), static_cast<Eigen::Index>(field->size()));
   report.links.reserve(links->size());
   for (const auto& link : *links) {
     report.links.push_back(sim::LinkCounters{link.sender, link.arrived, link.delivered, link.dropped_injected,

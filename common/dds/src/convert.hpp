@@ -81,6 +81,7 @@ struct WireEstimate {
   WireEstimate& operator=(const WireEstimate&) = delete;
   std::vector<swarmloc_msg_LinkCounters> links;
   std::vector<uint32_t> rejected_by_reason;
+  std::vector<double> field;
   swarmloc_msg_Estimate sample{};
 };
 

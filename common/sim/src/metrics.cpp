@@ -54,7 +54,18 @@ ErrorStats score(const World& world, const std::vector<std::optional<estimators:
     truth[i] = world.scored_truth(static_cast<AgentId>(i));
     excluded[i] = !world.scored(static_cast<AgentId>(i));
   }
-  return score(truth, excluded, estimates);
+  ErrorStats stats = score(truth, excluded, estimates);
+  if (world.field.size() == 0) return stats;
+  double squared = 0.0;
+  for (const auto& estimate : estimates) {
+    if (!estimate || estimate->field.size() != world.field.size()) continue;
+    const double error = (estimate->field - world.field).squaredNorm();
+    if (!std::isfinite(error)) continue;
+    squared += error / static_cast<double>(world.field.size());
+    ++stats.field_scored;
+  }
+  if (stats.field_scored > 0) stats.field_rmse = std::sqrt(squared / stats.field_scored);
+  return stats;
 }
 
 double RangeCrlb::accumulated_rmse_m(double snapshots) const {

@@ -76,6 +76,10 @@ nlohmann::json summary_json(const RunRecord& record) {
     final_json["scored_agents"] = last->errors.scored;
     final_json["missing_agents"] = last->errors.missing;
     final_json["crlb_rmse_m"] = number_or_null(last->crlb_rmse_m);
+    if (measurement_kinds(record.scenario.algorithm.name).field) {
+      final_json["field_rmse"] = number_or_null(last->errors.field_rmse);
+      final_json["field_scored_agents"] = last->errors.field_scored;
+    }
   }
   final_json["crlb_single_snapshot_rmse_m"] = number_or_null(record.crlb.single_snapshot_rmse_m);
   summary["final"] = final_json;
@@ -129,12 +133,17 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
   write_file(directory / "seed", std::to_string(record.scenario.seed) + "\n");
   {
     std::ofstream out(directory / "metrics.csv");
-    out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing\n";
+    // A field world adds the field's error (joint_field); every other run keeps the nine columns.
+    const bool field = measurement_kinds(record.scenario.algorithm.name).field;
+    out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing"
+        << (field ? ",field_rmse\n" : "\n");
     out << std::setprecision(9);
     for (const auto& m : record.metrics) {
       out << m.step << ',' << m.time_s << ',' << m.errors.rmse_m << ',' << m.errors.mean_error_m << ','
           << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored
-          << ',' << m.errors.missing << '\n';
+          << ',' << m.errors.missing;
+      if (field) out << ',' << m.errors.field_rmse;
+      out << '\n';
     }
   }
   {
@@ -190,6 +199,8 @@ std::string result_table(const RunRecord& record) {
     row("final max error", last->errors.max_error_m, "m");
     row("final NEES (2 = consistent)", last->errors.nees, "");
     row("RMSE over the whole run", whole_run_error(record).rmse_m, "m");
+    if (measurement_kinds(record.scenario.algorithm.name).field)
+      row("final field RMSE (per cell)", last->errors.field_rmse, "");
     if (std::isfinite(record.crlb.single_snapshot_rmse_m)) {
       row("CRLB, single snapshot", record.crlb.single_snapshot_rmse_m, "m");
       row("CRLB, accumulated over the run", last->crlb_rmse_m, "m");
@@ -206,7 +217,10 @@ std::string result_table(const RunRecord& record) {
     }
     // The noise of what the algorithm measures (multipath path lengths use the range std).
     const auto kinds = measurement_kinds(record.scenario.algorithm.name);
-    if (kinds.targets) {
+    if (kinds.field) {
+      row("noise std (relative, per axis)", record.scenario.noise.relative_std_m, "m");
+      row("noise std (field reading)", record.scenario.noise.field_std, "");
+    } else if (kinds.targets) {
       row("noise std (target reading)", record.scenario.noise.target_std_m, "m");
     } else if (kinds.relative) {
       row("noise std (relative, per axis)", record.scenario.noise.relative_std_m, "m");

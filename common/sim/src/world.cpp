@@ -252,6 +252,11 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw) {
     if (world.is_anchor[i] || measurement_kinds(s.algorithm.name).targets)
       world.initial_guess[i] = world.truth[i];
   }
+  if (measurement_kinds(s.algorithm.name).field) {
+    auto field_rng = core::make_engine(s.seed, core::Stream::kPlacement, -2);  // the world's, not the trial's
+    world.field =
+        draw_gaussian_field(field_sensor(s).grid, s.world.field_std, s.world.field_correlation_m, field_rng);
+  }
   if (measurement_kinds(s.algorithm.name).targets) {
     world.target = VecX::Zero(target_model(s).dim);
     world.target.head<2>() = Vec2(s.world.target_x_m, s.world.target_y_m);
@@ -290,6 +295,37 @@ TargetModel target_model(const Scenario& s) {
       tau * tau / 2.0 * Mat2::Identity(), tau * Mat2::Identity();
   model.W *= s.world.target_accel_psd;
   return model;
+}
+
+estimators::consensus::FieldSensor field_sensor(const Scenario& s) {
+  estimators::consensus::FieldSensor sensor;
+  sensor.grid.columns = s.world.field_cells_per_side;
+  sensor.grid.rows = s.world.field_cells_per_side;
+  sensor.grid.cell_m = s.world.area_m / s.world.field_cells_per_side;
+  sensor.sensing = s.world.field_sensing == config::FieldSensing::kContinuous
+                       ? estimators::consensus::FieldSensing::kContinuous
+                       : estimators::consensus::FieldSensing::kCellBased;
+  sensor.radius_m = s.world.field_sensing_radius_m;
+  return sensor;
+}
+
+VecX draw_gaussian_field(const estimators::consensus::FieldGrid& grid, double std_dev, double correlation_m,
+                         std::mt19937_64& rng) {
+  const int d = grid.cells();
+  MatX C(d, d);
+  for (int k = 0; k < d; ++k) {
+    for (int l = 0; l < d; ++l) {
+      const double r2 = (grid.centre(k) - grid.centre(l)).squaredNorm();
+      C(k, l) = std::exp(-r2 / (2.0 * correlation_m * correlation_m));
+    }
+  }
+  C.diagonal().array() += 1e-9;  // the squared-exponential kernel is numerically semi-definite
+  const Eigen::LLT<MatX> llt(C);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  VecX xi(d);
+  for (int k = 0; k < d; ++k) xi(k) = normal(rng);
+  const VecX correlated = llt.matrixL() * xi;
+  return std_dev * correlated;
 }
 
 namespace {
@@ -332,6 +368,9 @@ MeasurementKinds measurement_kinds(const std::string& algorithm) {
     kinds.relative = true;
   } else if (algorithm == "dle") {
     kinds.targets = true;
+  } else if (algorithm == "joint_field") {
+    kinds.relative = true;
+    kinds.field = true;
   } else if (algorithm == "multipath_bp") {
     kinds.paths = true;
   } else if (algorithm == "dgbb" || algorithm == "local_bb" || algorithm == "fixed_step" ||
@@ -457,6 +496,14 @@ estimators::MeasurementBatch generate_batch(const World& world, const Scenario& 
     batch.fix = fix;
   }
   if (kinds.targets) add_target_reading(world, s, agent, step, batch);
+  if (kinds.field) {
+    const double reading =
+        estimators::consensus::field_observation_row(field_sensor(s), xi).dot(world.field) +
+        s.noise.field_std * core::standard_normal(noise_key(world, s, step, agent, -8));
+    const double variance = s.noise.field_std * s.noise.field_std;
+    batch.targets.push_back(
+        {0, Vec2(reading, 0.0), Vec2(variance, 1.0).asDiagonal(), estimators::consensus::kFieldReading});
+  }
   return batch;
 }
 

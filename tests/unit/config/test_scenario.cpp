@@ -85,6 +85,12 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.noise.range_std_m, b.noise.range_std_m);
   EXPECT_EQ(a.noise.target_std_m, b.noise.target_std_m);
   EXPECT_EQ(a.noise.target_bearing_std_rad, b.noise.target_bearing_std_rad);
+  EXPECT_EQ(a.world.field_cells_per_side, b.world.field_cells_per_side);
+  EXPECT_EQ(a.world.field_std, b.world.field_std);
+  EXPECT_EQ(a.world.field_correlation_m, b.world.field_correlation_m);
+  EXPECT_EQ(a.world.field_sensing, b.world.field_sensing);
+  EXPECT_EQ(a.world.field_sensing_radius_m, b.world.field_sensing_radius_m);
+  EXPECT_EQ(a.noise.field_std, b.noise.field_std);
   EXPECT_EQ(a.noise.anchor_fix_std_m, b.noise.anchor_fix_std_m);
   EXPECT_EQ(a.network.loss, b.network.loss);
   EXPECT_EQ(a.network.burst.mean_length, b.network.burst.mean_length);
@@ -145,6 +151,12 @@ Scenario everything_changed() {
   s.world.target_sensing_radius_m = 12.0;
   s.noise.target_std_m = 0.0;
   s.noise.target_bearing_std_rad = 3.2;
+  s.world.field_cells_per_side = 8;
+  s.world.field_std = 0.0;
+  s.world.field_correlation_m = 1e-3;
+  s.world.field_sensing = FieldSensing::kCellBased;
+  s.world.field_sensing_radius_m = 99.5;
+  s.noise.field_std = 7.0;
   s.faults = {"3@0, 4@0", "", "0-0"};  // run.steps is 1; lockstep (below) takes kills without restarts
   s.network.loss = 1.0;
   s.network.burst.mean_length = 12.5;
@@ -297,7 +309,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 14U + 27U + 13U + 4U + 2U + 7U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 14U + 32U + 14U + 4U + 2U + 7U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -7,8 +7,8 @@
 namespace swarmloc::estimators {
 
 const std::vector<std::string>& cooperative_algorithms() {
-  static const std::vector<std::string> names{"jacobi",   "dle",        "multipath_bp", "dgbb",
-                                              "local_bb", "fixed_step", "step_length"};
+  static const std::vector<std::string> names{"jacobi", "dle",      "joint_field", "multipath_bp",
+                                              "dgbb",   "local_bb", "fixed_step",  "step_length"};
   return names;
 }
 
@@ -16,6 +16,8 @@ std::unique_ptr<Estimator> make_cooperative_estimator(const std::string& algorit
                                                       const CooperativeParams& params) {
   if (algorithm == "jacobi") return std::make_unique<consensus::JacobiLocalization>(setup);
   if (algorithm == "dle") return std::make_unique<consensus::Dle>(setup, params.dle);
+  if (algorithm == "joint_field")
+    return std::make_unique<consensus::JointLocalizationField>(setup, params.joint_field);
   if (algorithm == "multipath_bp") return std::make_unique<bp::MultipathBp>(setup, params.bp);
   gradient::DgBbParams gradient = params.gradient;
   if (algorithm == "dgbb") {

@@ -113,7 +113,10 @@ StepOutput JointLocalizationField::step(const StepInput& input) {
 }
 
 Estimate JointLocalizationField::estimate() const {
-  return params_.localize ? jacobi_.estimate() : detail::known_position_estimate(setup_.initial_guess_m);
+  Estimate estimate =
+      params_.localize ? jacobi_.estimate() : detail::known_position_estimate(setup_.initial_guess_m);
+  if (steps_taken_ > 0) estimate.field = y_;
+  return estimate;
 }
 
 }  // namespace swarmloc::estimators::consensus

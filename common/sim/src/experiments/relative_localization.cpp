@@ -15,6 +15,7 @@
 #include "swarmloc/estimators/consensus/dle.hpp"
 #include "swarmloc/estimators/consensus/jacobi.hpp"
 #include "swarmloc/models/measurement_models.hpp"
+#include "swarmloc/sim/world.hpp"
 
 namespace swarmloc::sim::experiments {
 namespace {
@@ -137,25 +138,6 @@ std::vector<Vec2> cell_boundary_points(int n, double side_m, int cells, std::mt1
   return points;
 }
 
-/// y = σ L ξ with L Lᵀ = C, C_kl = exp(−‖c_k − c_l‖² / (2ℓ²)) over the cell centres.
-VecX draw_field(const estimators::consensus::FieldGrid& grid, double std_dev, double correlation_m,
-                std::mt19937_64& rng) {
-  const int d = grid.cells();
-  MatX C(d, d);
-  for (int k = 0; k < d; ++k) {
-    for (int l = 0; l < d; ++l) {
-      const double r2 = (grid.centre(k) - grid.centre(l)).squaredNorm();
-      C(k, l) = std::exp(-r2 / (2.0 * correlation_m * correlation_m));
-    }
-  }
-  C.diagonal().array() += 1e-9;  // the squared-exponential kernel is numerically semi-definite
-  const Eigen::LLT<MatX> llt(C);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  VecX xi(d);
-  for (int k = 0; k < d; ++k) xi(k) = normal(rng);
-  const VecX correlated = llt.matrixL() * xi;
-  return std_dev * correlated;
-}
 
 }  // namespace
 
@@ -399,7 +381,7 @@ JointFieldRunSums run_joint_field_once(const JointFieldExperimentConfig& c,
     ++sums.graphs_rejected;
   }
   sums.radius_m = g.radius_m;
-  const VecX y = draw_field(sensor.grid, c.field_std, c.field_correlation_m, rng);
+  const VecX y = draw_gaussian_field(sensor.grid, c.field_std, c.field_correlation_m, rng);
   consensus::JointFieldParams params;
   params.sensor = sensor;
   params.reference_position_m = g.positions[0];

@@ -28,6 +28,9 @@ enum class TargetMotion { kStatic, kDoubleIntegrator };
 /// What a sensor reads of the target: its position plus noise (H = [I 0]), or range and bearing from the
 /// sensor (002 eq. (4)).
 enum class TargetSensing { kLinear, kRangeBearing };
+/// How a sensor reads the field of algorithm joint_field (002 Fig. 5): tents around the cell centres,
+/// continuous in its position, or the value of the cell it is in, which jumps at cell boundaries.
+enum class FieldSensing { kContinuous, kCellBased };
 enum class RunMode { kFreeRun, kLockstep };
 /// How `swarmloc sim` drives the agents: synchronous rounds, or each agent on its own clock over a
 /// network with delay (discrete events on virtual time, docs/architecture.md "Simulator").
@@ -103,6 +106,13 @@ struct Scenario {
     double target_accel_psd = 0.01;  ///< q of the process covariance W (double_integrator, 002 eq. (1))
     TargetSensing target_sensing = TargetSensing::kLinear;
     double target_sensing_radius_m = 0.0;  ///< sensors within this distance read the target; 0 = every one
+    // The static scalar field of algorithm joint_field (002 Sec. IV, Fig. 5) on cells_per_side² square cells
+    // covering the area: y ~ N(0, σ² C), C_kl = exp(−‖c_k − c_l‖² / (2ℓ²)) over the cell centres.
+    int field_cells_per_side = 5;  ///< ≤ 8: the INFO sample carries at most 64 values
+    double field_std = 1.0;
+    double field_correlation_m = 16.0;
+    FieldSensing field_sensing = FieldSensing::kContinuous;
+    double field_sensing_radius_m = 12.0;  ///< r_s of the continuous tents
   } world;
 
   struct Noise {
@@ -120,6 +130,7 @@ struct Scenario {
     double odometry_omega_std = 0.1;       ///< rad/√s on the turned angle
     double target_std_m = 1.0;             ///< dle target readings: std per axis (linear) or of the range
     double target_bearing_std_rad = 0.05;  ///< dle range–bearing readings: bearing std
+    double field_std = 0.1;                ///< joint_field readings: std of each scalar reading
   } noise;
 
   struct Network {

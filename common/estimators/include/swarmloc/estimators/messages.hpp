@@ -163,11 +163,12 @@ struct Outbox {
   std::optional<BeliefMessage> belief;
 };
 
-/// Position estimate of the agent itself.
+/// Position estimate of the agent itself (or of the target it estimates, dle).
 struct Estimate {
   Vec2 mean_m = Vec2::Zero();
   Mat2 covariance = Mat2::Identity() * 1e12;
   bool valid = false;
+  VecX field;  ///< joint_field: the field estimate ŷ, one value per cell (empty otherwise)
 };
 
 }  // namespace swarmloc::estimators

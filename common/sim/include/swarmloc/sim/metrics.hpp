@@ -1,6 +1,7 @@
 #pragma once
 // Scoring estimates against truth (ALGORITHMS.md §1.4) and the CRLB reference (§1.3).
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "swarmloc/estimators/messages.hpp"
@@ -16,6 +17,9 @@ struct ErrorStats {
   double nees = 0.0;  ///< mean of eᵀP⁻¹e over agents with a valid covariance (2 if consistent)
   int scored = 0;     ///< non-anchor agents with an estimate
   int missing = 0;    ///< non-anchor agents without any estimate yet
+  /// joint_field: sqrt of the mean over agents with a field estimate of ‖ŷ_i − y‖² / cells (NaN otherwise).
+  double field_rmse = std::numeric_limits<double>::quiet_NaN();
+  int field_scored = 0;
 };
 
 /// `estimates[i]` may be nullopt (no report from agent i yet): counted as missing, not scored.
@@ -23,7 +27,8 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
                  const std::vector<std::optional<estimators::Estimate>>& estimates);
 
 /// Scores every agent World::scored says is scored against World::scored_truth: the non-anchor agents'
-/// positions, or every sensor's estimate of the target.
+/// positions, or every sensor's estimate of the target. In a field world it also scores every agent's
+/// (anchors' too) field estimate against World::field.
 ErrorStats score(const World& world, const std::vector<std::optional<estimators::Estimate>>& estimates);
 
 /// CRLB of the static range network of `world` (each endpoint measures each edge once per snapshot,

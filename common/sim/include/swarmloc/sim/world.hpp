@@ -4,10 +4,12 @@
 // every agent process and the simulator build the same world independently.
 #include <cstdint>
 #include <memory>
+#include <random>
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/core/clock.hpp"
+#include "swarmloc/estimators/consensus/joint_field.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/models/multipath.hpp"
 
@@ -43,6 +45,8 @@ struct World {
   /// The true state of the target the agents estimate (algorithm dle): position, then velocity for a
   /// moving target. Empty: the agents estimate their own positions.
   VecX target;
+  /// The true static field (algorithm joint_field): one value per cell of field_sensor(scenario).grid.
+  VecX field;
 
   [[nodiscard]] int size() const { return static_cast<int>(truth.size()); }
   [[nodiscard]] bool estimates_target() const { return target.size() > 0; }
@@ -76,13 +80,15 @@ void advance_truth(World& world, const config::Scenario& scenario, std::int64_t 
 
 /// What the world measures for an algorithm: ranges (+ anchor fixes) for the Kalman and gradient
 /// families, relative positions for jacobi (002 eq. (3)), reflected paths for multipath_bp (003 eq. (1)),
-/// target readings for dle (002 eqs. (2), (4)).
+/// target readings for dle (002 eqs. (2), (4)), relative positions and field readings for joint_field
+/// (002 eqs. (3), (10)).
 struct MeasurementKinds {
   bool ranges = false;
   bool anchor_fixes = false;
   bool relative = false;
   bool paths = false;
   bool targets = false;
+  bool field = false;
 };
 MeasurementKinds measurement_kinds(const std::string& algorithm);
 
@@ -94,6 +100,14 @@ struct TargetModel {
   MatX W;
 };
 TargetModel target_model(const config::Scenario& scenario);
+
+/// The field's grid over the area (world.field_cells_per_side² cells) and the sensing model of its readings.
+estimators::consensus::FieldSensor field_sensor(const config::Scenario& scenario);
+
+/// y = σ L ξ with L Lᵀ = C, C_kl = exp(−‖c_k − c_l‖² / (2ℓ²)) over the cell centres (a discrete Gaussian
+/// random field; ξ standard normal from `rng`).
+VecX draw_gaussian_field(const estimators::consensus::FieldGrid& grid, double std_dev, double correlation_m,
+                         std::mt19937_64& rng);
 
 /// The walls of scenario.world (wall_count lines outside the area, ALGORITHMS.md §5.4).
 std::vector<models::Wall> make_walls(const config::Scenario& scenario);
@@ -108,7 +122,9 @@ std::vector<models::Wall> make_walls(const config::Scenario& scenario);
 ///   independent angle-of-arrival error at each end (ALGORITHMS.md §5.4);
 /// - a reading of the target (target 0) if the sensor is within world.target_sensing_radius_m of it:
 ///   its position + N(0, target_std² I) (kind 0), or range + N(0, target_std²) and bearing +
-///   N(0, target_bearing_std²) from the sensor (kind 1).
+///   N(0, target_bearing_std²) from the sensor (kind 1);
+/// - a reading of the field, h(x)ᵀ y + N(0, field_std²) at the sensor's true position x (kind
+///   kFieldReading: value(0) = the reading, covariance(0, 0) = its variance).
 /// With noise.draw = once every step repeats step 0's draws (a static snapshot).
 estimators::MeasurementBatch generate_batch(const World& world, const config::Scenario& scenario,
                                             AgentId agent, std::int64_t step);

@@ -84,7 +84,8 @@ class JointLocalizationField final : public Estimator {
   [[nodiscard]] std::string_view name() const override { return "joint_field"; }
   [[nodiscard]] Outbox initial_outbox() const override;
   StepOutput step(const StepInput& input) override;
-  /// The position estimate in the reference node's frame (as JacobiLocalization's).
+  /// The position estimate in the reference node's frame (as JacobiLocalization's), with the field estimate
+  /// ŷ_i once a step has run.
   [[nodiscard]] Estimate estimate() const override;
 
   /// ŷ_i after the last step (zero before the first).
