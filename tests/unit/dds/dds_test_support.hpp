@@ -107,6 +107,7 @@ inline sim::EstimateReport make_estimate(AgentId agent, std::uint32_t seq) {
   r.estimate.mean_m = Vec2(3.25 + agent, 1.0 / 3.0);
   r.estimate.covariance = sym2(0.2, 0.01, 0.3);
   r.estimate.valid = true;
+  r.estimate.field = (VecX(3) << -1.5, 1.0 / 7.0, 1e-300).finished();  // joint_field's field estimate
   r.steps_run = 400 + seq;
   r.samples_published = 1234;
   r.samples_published_in_steps = 1201;
@@ -193,6 +194,8 @@ inline void expect_estimate_eq(const sim::EstimateReport& a, const sim::Estimate
   EXPECT_MATRIX_NEAR(a.estimate.mean_m, b.estimate.mean_m, 0.0);
   EXPECT_MATRIX_NEAR(a.estimate.covariance, b.estimate.covariance, 0.0);
   EXPECT_EQ(a.estimate.valid, b.estimate.valid);
+  ASSERT_EQ(a.estimate.field.size(), b.estimate.field.size());
+  EXPECT_MATRIX_NEAR(a.estimate.field, b.estimate.field, 0.0);
   EXPECT_EQ(a.steps_run, b.steps_run);
   EXPECT_EQ(a.samples_published, b.samples_published);
   EXPECT_EQ(a.samples_published_in_steps, b.samples_published_in_steps);

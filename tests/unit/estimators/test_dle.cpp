@@ -52,6 +52,47 @@ TEST(Dle, EstimateIsTheTargetPositionWithTheInverseOfTheUpdatedInformation) {
   EXPECT_MATRIX_NEAR(estimate.covariance, Mat2(Mat2::Identity() / 4.5), 1e-12);
 }
 
+// A free-running sensor may step without a batch, or get two world steps' batches at once. Its prior must
+// follow world time, not its own step count: the same readings give the same estimate either way.
+TEST(Dle, TrackingPredictsByWorldStepsNotBySensorSteps) {
+  constexpr double tau = 0.1;
+  DleParams params;
+  params.target_dim = 4;
+  params.F = MatX::Identity(4, 4);
+  params.F.topRightCorner<2, 2>() = tau * Mat2::Identity();
+  params.W = 0.01 * MatX::Identity(4, 4);
+  params.initial_information = 1e-3;
+  const auto batch = [](std::int64_t world_step, bool with_reading) {
+    MeasurementBatch b;
+    b.world_step = world_step;
+    if (with_reading)
+      b.targets = {TargetObservation{0, Vec2(1.0 + world_step, 2.0), Mat2(0.25 * Mat2::Identity()), 0}};
+    return b;
+  };
+  const Inbox inbox;
+  const AgentSetup setup;
+  // Every world step in order, one batch each (step 1 holds no reading).
+  Dle in_order(setup, params);
+  for (std::int64_t k = 0; k < 3; ++k) {
+    const auto b = batch(k, k != 1);
+    in_order.step(StepInput{k, &b, &inbox});
+  }
+  // The batch of step 1 never came; a step without a batch in between.
+  Dle skipped(setup, params);
+  const auto b0 = batch(0, true);
+  const auto b2 = batch(2, true);
+  skipped.step(StepInput{0, &b0, &inbox});
+  const Estimate after_first = skipped.estimate();
+  const VecX prior_after_first = skipped.info_vec();
+  skipped.step(StepInput{1, nullptr, &inbox});
+  EXPECT_EQ(skipped.estimate().mean_m, after_first.mean_m) << "no batch: the estimate stays";
+  EXPECT_MATRIX_NEAR(skipped.info_vec(), prior_after_first, 1e-12)
+      << "no batch, no neighbours: no prediction";
+  skipped.step(StepInput{2, &b2, &inbox});
+  EXPECT_MATRIX_NEAR(skipped.target_estimate(), in_order.target_estimate(), 1e-9);
+  EXPECT_MATRIX_NEAR(skipped.info_mat(), in_order.info_mat(), 1e-6);
+}
+
 TEST(Dle, MissingNeighbourIsDroppedAndTheWeightReturnsToSelf) {  // §4.5
   DleParams params;
   AgentSetup setup;

@@ -57,11 +57,43 @@ Outbox Dle::published() const {
 
 Outbox Dle::initial_outbox() const { return published(); }
 
+void Dle::predict_prior(std::int64_t periods) {
+  const Eigen::Index d = params_.target_dim;
+  const Eigen::LDLT<MatX> ldlt(Omega_);
+  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 0.0)) return;
+  VecX mean = ldlt.solve(omega_);
+  MatX P = ldlt.solve(MatX::Identity(d, d));
+  for (std::int64_t k = 0; k < periods; ++k) {
+    mean = params_.F * mean;
+    P = params_.F * P * params_.F.transpose() + params_.W;
+  }
+  P = 0.5 * (P + P.transpose());
+  Omega_ = P.ldlt().solve(MatX::Identity(d, d));
+  Omega_ = 0.5 * (Omega_ + Omega_.transpose());
+  omega_ = Omega_ * mean;
+  predicted_ = mean;
+}
+
 StepOutput Dle::step(const StepInput& input) {
   StepOutput out;
   const Eigen::Index d = params_.target_dim;
+  const bool tracking = params_.F.size() != 0;
+  const std::int64_t batch_step = input.measurements != nullptr ? input.measurements->world_step : -1;
+  // Free run: batches of world steps this sensor never stepped on were carried into this one, so its prior
+  // (predicted one period past its last batch) lags; bring it to this batch's time first.
+  if (tracking && prior_world_step_ >= 0 && batch_step > prior_world_step_)
+    predict_prior(batch_step - prior_world_step_);
   auto [omega_plus, Omega_plus] = detail::combine_priors(omega_, Omega_, params_.target, input,
                                                          params_.weights, degrees_, out.diagnostics);
+  if (tracking && input.measurements == nullptr) {
+    // Free run, no batch since the last step: no world time has passed that this sensor knows of. Mix the
+    // neighbours' priors but neither predict nor move the estimate (it stays the one of the newest
+    // reading, so it is not carried past the world's last step).
+    omega_ = omega_plus;
+    Omega_ = 0.5 * (Omega_plus + Omega_plus.transpose());
+    out.outbox = published();
+    return out;
+  }
   if (input.measurements != nullptr) {
     for (const TargetObservation& z : input.measurements->targets) {
       if (z.target != params_.target || (z.kind != 0 && z.kind != 1) || !z.value.allFinite()) continue;
@@ -108,6 +140,7 @@ StepOutput Dle::step(const StepInput& input) {
     Omega_ = 0.5 * (Omega_ + Omega_.transpose());
     predicted_ = params_.F * y_;
     omega_ = Omega_ * predicted_;  // ω_{t+1} = Ω_{t+1} F ŷ_i(t+1)
+    prior_world_step_ = batch_step >= 0 ? batch_step + 1 : -1;
   } else {
     omega_ = omega_plus;
     Omega_ = Omega_plus;

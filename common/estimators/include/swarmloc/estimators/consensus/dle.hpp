@@ -31,6 +31,11 @@ void validate(const DleParams& params);
 /// neighbours heard from; neighbour degrees from their STATE messages); the κ of neighbours whose
 /// INFO message is missing are dropped and the rest renormalized (§4.5).
 ///
+/// Tracking in a free run (ALGORITHMS.md §4.5): a step without a batch mixes the neighbours' priors only —
+/// no prediction, and the estimate stays that of the newest reading; a batch whose world step is ahead of
+/// the prior's (the batches between were carried into it) first predicts the prior over the gap. With a
+/// batch every step, as in synchronous rounds, this is Algorithm 1 unchanged.
+///
 /// Observations of kind 0 are linear (z = H y + v). Observations of kind 1 are range and bearing from this
 /// sensor (at AgentSetup::initial_guess_m) to the target's position y[0..1] (002 eq. (4), [C-1]: atan2):
 /// linearized at the sensor's predicted estimate ŷ_pred = F ŷ (ŷ before any prediction; initial_mean at
@@ -59,6 +64,8 @@ class Dle final : public Estimator {
 
  private:
   [[nodiscard]] Outbox published() const;
+  /// Predicts the published prior (ω, Ω) `periods` more steps ahead (tracking).
+  void predict_prior(std::int64_t periods);
 
   AgentSetup setup_;
   DleParams params_;
@@ -68,6 +75,7 @@ class Dle final : public Estimator {
   VecX y_;
   VecX predicted_;                               ///< ŷ_pred: where kind-1 observations are linearized
   Mat2 position_covariance_ = Mat2::Identity();  ///< the position block of Ω⁺⁻¹
+  std::int64_t prior_world_step_ = -1;  ///< tracking: the world step the prior is predicted to (-1: unknown)
   bool has_estimate_ = false;
   ConsensusDegrees degrees_;
 };
