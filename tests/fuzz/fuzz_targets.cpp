@@ -708,9 +708,10 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
     swarmloc_msg_Estimate& s = wire.sample;
     std::vector<swarmloc_msg_LinkCounters> links;
     std::vector<std::uint32_t> reasons;
+    std::vector<double> field;
     const auto mutations = rng.below(6);
     for (std::uint64_t m = 0; m < mutations; ++m) {
-      switch (rng.below(8)) {
+      switch (rng.below(9)) {
         case 0:
           s.agent_id = hostile_int<std::int32_t>(rng);
           break;
@@ -734,13 +735,19 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
           reshape(s.rejected_by_reason, reasons, dds::codec::kMaxRejectReasons, rng,
                   [&](std::uint32_t& count) { count = hostile_int<std::uint32_t>(rng); });
           break;
+        case 7:
+          reshape(s.field, field, dds::codec::kMaxFieldValues, rng,
+                  [&](double& value) { value = hostile_double(rng); });
+          break;
         default: {
           const auto saved_links = s.links;
           const auto saved_reasons = s.rejected_by_reason;
+          const auto saved_field = s.field;
           random_bytes(s, rng);
           s.valid = rng.chance(0.5);
           s.links = saved_links;
           s.rejected_by_reason = saved_reasons;
+          s.field = saved_field;
         }
       }
     }
@@ -748,6 +755,8 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
     const bool expect_well_formed =
         (s.links._length == 0 || s.links._buffer != nullptr) &&
         (s.rejected_by_reason._length == 0 || s.rejected_by_reason._buffer != nullptr) &&
+        (s.field._length == 0 || s.field._buffer != nullptr) &&
+        s.field._length <= dds::codec::kMaxFieldValues &&
         s.rejected_by_reason._length <= sim::kRejectReasonCount && s.agent_id == s.header.agent_id;
     record.check(decoded.well_formed == expect_well_formed, i, "estimate: well_formed differs from the rule");
     if (!decoded.well_formed) {
@@ -758,6 +767,11 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
     bool same = decoded.report.links.size() == s.links._length;
     for (std::size_t k = 0; same && k < s.rejected_by_reason._length; ++k)
       same = decoded.report.rejected_by_reason[k] == s.rejected_by_reason._buffer[k];
+    same = same && decoded.report.estimate.field.size() == static_cast<Eigen::Index>(s.field._length);
+    for (std::size_t k = 0; same && k < s.field._length; ++k) {  // bit for bit: NaN and ±0 pass through
+      same = std::memcmp(&decoded.report.estimate.field(static_cast<Eigen::Index>(k)), &s.field._buffer[k],
+                         sizeof(double)) == 0;
+    }
     record.check(same, i, "estimate: decoded values differ from the wire");
   }
 }

@@ -481,7 +481,7 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
   const auto field = view(wire.field);
   // A sender may know fewer reasons (older build: the rest stay 0), never more than this build.
   if (!links || !reasons || !field || reasons->size() > sim::kRejectReasonCount ||
-      wire.agent_id != wire.header.agent_id) {
+      field->size() > codec::kMaxFieldValues || wire.agent_id != wire.header.agent_id) {
     decoded.well_formed = false;
     return decoded;
   }

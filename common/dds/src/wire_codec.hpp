@@ -19,6 +19,8 @@ inline constexpr std::size_t kMaxInfoDim = 64;
 inline constexpr std::size_t kMaxInfoMat = 2080;  // 64 * 65 / 2
 inline constexpr std::size_t kMaxConsensusValues = 16;
 inline constexpr std::size_t kMaxRejectReasons = 16;
+/// Estimate.field's bound in the IDL: joint_field's field has at most 64 cells.
+inline constexpr std::size_t kMaxFieldValues = 64;
 
 inline constexpr std::uint8_t kStateFlagAnchor = 1;  // STATE_FLAG_ANCHOR
 inline constexpr std::uint8_t kStateFlagActive = 2;  // STATE_FLAG_ACTIVE
