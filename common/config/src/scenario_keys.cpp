@@ -291,6 +291,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(algorithm.range_gate_chi2),
       SWARMLOC_KEY(algorithm.initial_heading_std_rad),
       SWARMLOC_KEY(algorithm.range_bearing_gate_chi2),
+      SWARMLOC_KEY(algorithm.field_warmup_steps),
       SWARMLOC_KEY(world.agents),
       SWARMLOC_KEY(world.anchors),
       SWARMLOC_KEY(world.area_m),

@@ -112,6 +112,7 @@ void validate(const Scenario& scenario) {
   require_non_negative(algorithm.range_gate_chi2, "algorithm.range_gate_chi2");
   require_positive(algorithm.initial_heading_std_rad, "algorithm.initial_heading_std_rad");
   require_non_negative(algorithm.range_bearing_gate_chi2, "algorithm.range_bearing_gate_chi2");
+  require_within(algorithm.field_warmup_steps, 0, 1000000, "algorithm.field_warmup_steps");
 
   const auto& world = scenario.world;
   require_within(world.agents, 1, 100000, "world.agents");

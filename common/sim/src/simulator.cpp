@@ -40,6 +40,7 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
     }
     // Anchors give Jacobi the world frame, which the field lives in: the reference is the origin.
     params.joint_field.sensor = field_sensor(s);
+    params.joint_field.warmup_steps = s.algorithm.field_warmup_steps;
     auto& gradient = params.gradient;
     gradient.consensus_rounds = s.algorithm.consensus_rounds;
     gradient.fixed_step = s.algorithm.fixed_step;

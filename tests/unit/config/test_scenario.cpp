@@ -85,6 +85,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.noise.range_std_m, b.noise.range_std_m);
   EXPECT_EQ(a.noise.target_std_m, b.noise.target_std_m);
   EXPECT_EQ(a.noise.target_bearing_std_rad, b.noise.target_bearing_std_rad);
+  EXPECT_EQ(a.algorithm.field_warmup_steps, b.algorithm.field_warmup_steps);
   EXPECT_EQ(a.world.field_cells_per_side, b.world.field_cells_per_side);
   EXPECT_EQ(a.world.field_std, b.world.field_std);
   EXPECT_EQ(a.world.field_correlation_m, b.world.field_correlation_m);
@@ -151,6 +152,7 @@ Scenario everything_changed() {
   s.world.target_sensing_radius_m = 12.0;
   s.noise.target_std_m = 0.0;
   s.noise.target_bearing_std_rad = 3.2;
+  s.algorithm.field_warmup_steps = 1000000;
   s.world.field_cells_per_side = 8;
   s.world.field_std = 0.0;
   s.world.field_correlation_m = 1e-3;
@@ -309,7 +311,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 14U + 32U + 14U + 4U + 2U + 7U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 15U + 32U + 14U + 4U + 2U + 7U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -49,6 +49,7 @@ void validate(const JointFieldParams& params) {
     throw std::invalid_argument("joint_field.reference_position_m: must be finite");
   if (!(params.delta > 0.0) || !std::isfinite(params.delta))
     throw std::invalid_argument("joint_field.delta: must be > 0 (it keeps (Ω + sδI) invertible)");
+  if (params.warmup_steps < 0) throw std::invalid_argument("joint_field.warmup_steps: must be >= 0");
 }
 
 JointLocalizationField::JointLocalizationField(const AgentSetup& setup, const JointFieldParams& params)
@@ -83,7 +84,7 @@ StepOutput JointLocalizationField::step(const StepInput& input) {
   const VecX h = field_observation_row(params_.sensor, sensing_position());  // Ĥ_{i,t} = h(x̂_i(t))
   auto [omega, Omega] = detail::combine_priors(omega_, Omega_, params_.target, input, params_.weights,
                                                degrees_, out.diagnostics);
-  if (input.measurements != nullptr) {
+  if (input.measurements != nullptr && steps_taken_ >= params_.warmup_steps) {
     for (const TargetObservation& z : input.measurements->targets) {
       const double variance = z.covariance(0, 0);
       if (z.target != params_.target || z.kind != kFieldReading || !std::isfinite(z.value(0)) ||

@@ -71,6 +71,7 @@ struct Scenario {
     double range_gate_chi2 = 0.0;          ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
     double initial_heading_std_rad = 0.1;  ///< pose-state algorithms: heading prior std
     double range_bearing_gate_chi2 = 0.0;  ///< pose-state algorithms: 2-dof gate; 0 = off
+    int field_warmup_steps = 0;  ///< joint_field: readings of each agent's first steps are left out; 0 = 002
   } algorithm;
 
   struct World {

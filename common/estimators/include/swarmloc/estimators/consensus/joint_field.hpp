@@ -60,6 +60,10 @@ struct JointFieldParams {
   /// world frame, so sensor i is at reference + x̂_i.
   Vec2 reference_position_m = Vec2::Zero();
   double delta = 1e-3;  ///< δ of eq. (10) (unstated in 002; ALGORITHMS.md §4.4 default)
+  /// Field readings of the sensor's first `warmup_steps` steps are left out (not in 002, whose value is 0).
+  /// Eq. (10) never revises a reading's model row Ĥ = h(x̂), so readings taken while x̂ is still in its
+  /// transient bias ŷ for the rest of the run, and how much depends on the timing of early steps.
+  int warmup_steps = 0;
   /// false: the sensor does not localize and uses AgentSetup::initial_guess_m as its (known) position —
   /// the "DLE with true sensor positions" baseline of §4.6.
   bool localize = true;
@@ -73,7 +77,7 @@ void validate(const JointFieldParams& params);
 ///   1. Ĥ_{i,t} = h(reference + x̂_i(t)) with the position estimate before this step's Jacobi update (eq.
 ///   (10));
 ///   2. (ω, Ω) ← Σ_{j∈N_i∪{i}} κ_ij (ω_j, Ω_j) + Σ Ĥᵀ V⁻¹ (z, Ĥ) (static field: no prediction), κ Metropolis
-///      weights renormalized over the priors received (§4.5);
+///      weights renormalized over the priors received (§4.5); readings from step warmup_steps on;
 ///   3. x̂_i ← the Jacobi update of eq. (9) (skipped when localize = false);
 ///   4. ŷ_i = (Ω + s δ I)⁻¹ ω, s = the number of steps taken ([C-4]: identity of the field's dimension).
 /// Publishes the Jacobi STATE (with the degree the weights use) and INFO {target, ω, Ω}.
