@@ -93,6 +93,26 @@ TEST(Dle, TrackingPredictsByWorldStepsNotBySensorSteps) {
   EXPECT_MATRIX_NEAR(skipped.info_mat(), in_order.info_mat(), 1e-6);
 }
 
+TEST(Dle, AnAbsurdWorldStepGapPredictsABoundedNumberOfPeriods) {
+  DleParams params;
+  params.target_dim = 4;
+  params.F = MatX::Identity(4, 4);
+  params.F.topRightCorner<2, 2>() = 0.1 * Mat2::Identity();
+  params.W = 0.01 * MatX::Identity(4, 4);
+  params.initial_information = 1e-3;
+  Dle node(AgentSetup{}, params);
+  const Inbox inbox;
+  MeasurementBatch batch;
+  batch.world_step = 0;
+  batch.targets = {TargetObservation{0, Vec2(1.0, 2.0), Mat2::Identity(), 0}};
+  node.step(StepInput{0, &batch, &inbox});
+  batch.world_step = std::int64_t{1} << 60;  // ~10^18 periods: must not loop that often
+  node.step(StepInput{1, &batch, &inbox});
+  ASSERT_TRUE(node.estimate().valid);
+  EXPECT_TRUE(node.target_estimate().allFinite());
+  EXPECT_TRUE(node.info_mat().allFinite());
+}
+
 TEST(Dle, MissingNeighbourIsDroppedAndTheWeightReturnsToSelf) {  // §4.5
   DleParams params;
   AgentSetup setup;

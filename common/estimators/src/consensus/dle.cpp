@@ -81,8 +81,11 @@ StepOutput Dle::step(const StepInput& input) {
   const std::int64_t batch_step = input.measurements != nullptr ? input.measurements->world_step : -1;
   // Free run: batches of world steps this sensor never stepped on were carried into this one, so its prior
   // (predicted one period past its last batch) lags; bring it to this batch's time first.
+  // A gap beyond kMaxGapPeriods (a broken or hostile world step) predicts no further: the prior is
+  // uninformative long before, and the loop must stay bounded.
+  constexpr std::int64_t kMaxGapPeriods = 1000;
   if (tracking && prior_world_step_ >= 0 && batch_step > prior_world_step_)
-    predict_prior(batch_step - prior_world_step_);
+    predict_prior(std::min(batch_step - prior_world_step_, kMaxGapPeriods));
   auto [omega_plus, Omega_plus] = detail::combine_priors(omega_, Omega_, params_.target, input,
                                                          params_.weights, degrees_, out.diagnostics);
   if (tracking && input.measurements == nullptr) {
