@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "swarmloc/estimators/crlb.hpp"
+#include "swarmloc/models/measurement_models.hpp"
 
 namespace swarmloc::sim {
 
@@ -47,14 +48,12 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
 }
 
 ErrorStats score(const World& world, const std::vector<std::optional<estimators::Estimate>>& estimates) {
+  // Localization worlds score against the truth as it is (no per-step copies); a target world scores every
+  // sensor against the target.
   const auto n = static_cast<std::size_t>(world.size());
-  std::vector<Vec2> truth(n);
-  std::vector<bool> excluded(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    truth[i] = world.scored_truth(static_cast<AgentId>(i));
-    excluded[i] = !world.scored(static_cast<AgentId>(i));
-  }
-  ErrorStats stats = score(truth, excluded, estimates);
+  ErrorStats stats = world.estimates_target() ? score(std::vector<Vec2>(n, world.scored_truth(0)),
+                                                      std::vector<bool>(n, false), estimates)
+                                              : score(world.truth, world.is_anchor, estimates);
   if (world.field.size() == 0) return stats;
   double squared = 0.0;
   for (const auto& estimate : estimates) {
@@ -157,17 +156,17 @@ RangeCrlb target_crlb(const World& world, const config::Scenario& s) {
   const double range_variance = s.noise.target_std_m * s.noise.target_std_m;
   const double bearing_variance = s.noise.target_bearing_std_rad * s.noise.target_bearing_std_rad;
   for (const Vec2& sensor : world.truth) {
-    const Vec2 offset = target - sensor;
-    const double distance = offset.norm();
-    if (s.world.target_sensing_radius_m > 0.0 && distance > s.world.target_sensing_radius_m) continue;
+    if (s.world.target_sensing_radius_m > 0.0 && (target - sensor).norm() > s.world.target_sensing_radius_m)
+      continue;
     if (s.world.target_sensing == config::TargetSensing::kLinear) {
       information += Mat2::Identity() / range_variance;
-    } else if (distance >= 1e-9) {
-      const Vec2 along = offset / distance;
-      const Vec2 across = Vec2(-offset.y(), offset.x()) / (distance * distance);  // d bearing / d target
-      information +=
-          along * along.transpose() / range_variance + across * across.transpose() / bearing_variance;
+      continue;
     }
+    const auto r = models::range(sensor, target);
+    const auto b = models::bearing(sensor, target);
+    if (!r || !b) continue;  // the sensor sits on the target: no reading (world.cpp)
+    information +=
+        r->d_xj.transpose() * r->d_xj / range_variance + b->d_xj.transpose() * b->d_xj / bearing_variance;
   }
   const Eigen::LDLT<Mat2> ldlt(information);
   if (ldlt.info() != Eigen::Success || !(information.determinant() > 0.0)) {

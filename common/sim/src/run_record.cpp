@@ -217,16 +217,10 @@ std::string result_table(const RunRecord& record) {
     }
     // The noise of what the algorithm measures (multipath path lengths use the range std).
     const auto kinds = measurement_kinds(record.scenario.algorithm.name);
-    if (kinds.field) {
-      row("noise std (relative, per axis)", record.scenario.noise.relative_std_m, "m");
-      row("noise std (field reading)", record.scenario.noise.field_std, "");
-    } else if (kinds.targets) {
-      row("noise std (target reading)", record.scenario.noise.target_std_m, "m");
-    } else if (kinds.relative) {
-      row("noise std (relative, per axis)", record.scenario.noise.relative_std_m, "m");
-    } else {
-      row("noise std (range)", record.scenario.noise.range_std_m, "m");
-    }
+    if (kinds.relative) row("noise std (relative, per axis)", record.scenario.noise.relative_std_m, "m");
+    if (kinds.field) row("noise std (field reading)", record.scenario.noise.field_std, "");
+    if (kinds.targets) row("noise std (target reading)", record.scenario.noise.target_std_m, "m");
+    if (!kinds.relative && !kinds.targets) row("noise std (range)", record.scenario.noise.range_std_m, "m");
   }
   std::snprintf(line, sizeof line, "  %-34s %12llu\n", "messages sent",
                 static_cast<unsigned long long>(totals.sent));

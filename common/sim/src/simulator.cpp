@@ -38,9 +38,11 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
       dle.initial_mean = VecX::Zero(model.dim);
       dle.initial_mean.head<2>() = Vec2::Constant(0.5 * s.world.area_m);
     }
-    // Anchors give Jacobi the world frame, which the field lives in: the reference is the origin.
-    params.joint_field.sensor = field_sensor(s);
-    params.joint_field.warmup_steps = s.algorithm.field_warmup_steps;
+    if (s.algorithm.name == "joint_field") {
+      // Anchors give Jacobi the world frame, which the field lives in: the reference is the origin.
+      params.joint_field.sensor = field_sensor(s);
+      params.joint_field.warmup_steps = s.algorithm.field_warmup_steps;
+    }
     auto& gradient = params.gradient;
     gradient.consensus_rounds = s.algorithm.consensus_rounds;
     gradient.fixed_step = s.algorithm.fixed_step;

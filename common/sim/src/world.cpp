@@ -238,6 +238,7 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw) {
     }
   }
   const auto n = static_cast<std::size_t>(s.world.agents);
+  const MeasurementKinds kinds = measurement_kinds(s.algorithm.name);
   world.initial_guess.resize(n);
   auto rng = core::make_engine(trial_seed(s.seed, trial), core::Stream::kInitialGuess);
   std::normal_distribution<double> gauss(0.0, 1.0);
@@ -249,20 +250,19 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw) {
       world.initial_guess[i] = world.truth[i] + s.world.initial_guess_std_m * Vec2(gauss(rng), gauss(rng));
     }
     // Anchors know their position; so does every sensor of a target-estimating world (002 Sec. II).
-    if (world.is_anchor[i] || measurement_kinds(s.algorithm.name).targets)
-      world.initial_guess[i] = world.truth[i];
+    if (world.is_anchor[i] || kinds.targets) world.initial_guess[i] = world.truth[i];
   }
-  if (measurement_kinds(s.algorithm.name).field) {
+  if (kinds.field) {
     auto field_rng = core::make_engine(s.seed, core::Stream::kPlacement, -2);  // the world's, not the trial's
     world.field =
         draw_gaussian_field(field_sensor(s).grid, s.world.field_std, s.world.field_correlation_m, field_rng);
   }
-  if (measurement_kinds(s.algorithm.name).targets) {
+  if (kinds.targets) {
     world.target = VecX::Zero(target_model(s).dim);
     world.target.head<2>() = Vec2(s.world.target_x_m, s.world.target_y_m);
     if (world.target.size() == 4) world.target.tail<2>() = Vec2(s.world.target_vx_mps, s.world.target_vy_mps);
   }
-  if (measurement_kinds(s.algorithm.name).paths) world.walls = make_walls(s);
+  if (kinds.paths) world.walls = make_walls(s);
   world.clocks.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     world.clocks.push_back(
