@@ -354,6 +354,7 @@ void fuzz_information(std::uint64_t seed, std::uint64_t first, std::uint64_t inp
     estimators::InformationMessage message;
     const auto n = static_cast<Eigen::Index>(rng.chance(0.05) ? rng.below(65) : rng.below(7));
     message.target = static_cast<std::int32_t>(rng.below(10));
+    message.world_step = static_cast<std::int64_t>(rng.below(1000)) - 1;
     message.info_vec = VecX::Zero(n);
     message.info_mat = MatX::Identity(n, n);
     for (Eigen::Index r = 0; r < n; ++r) {
@@ -370,7 +371,7 @@ void fuzz_information(std::uint64_t seed, std::uint64_t first, std::uint64_t inp
     };
     const auto mutations = rng.below(6);
     for (std::uint64_t m = 0; m < mutations; ++m) {
-      switch (rng.below(7)) {
+      switch (rng.below(8)) {
         case 0:
           s.agent_id = hostile_int<std::int32_t>(rng);
           break;
@@ -379,6 +380,9 @@ void fuzz_information(std::uint64_t seed, std::uint64_t first, std::uint64_t inp
           break;
         case 2:
           s.target = hostile_int<std::int32_t>(rng);
+          break;
+        case 7:
+          s.world_step = hostile_int<std::int64_t>(rng);
           break;
         case 3:
           reshape(s.info_vec, vec_storage, dds::codec::kMaxInfoDim, rng, fill);
@@ -409,6 +413,7 @@ void fuzz_information(std::uint64_t seed, std::uint64_t first, std::uint64_t inp
     record.check(decoded.well_formed == expect_well_formed, i,
                  "information: well_formed differs from the rule");
     record.check(decoded.message.target == s.target, i, "information: target not carried");
+    record.check(decoded.message.world_step == s.world_step, i, "information: world step not carried");
     if (!decoded.well_formed) {
       ++result.rejected;
       continue;

@@ -177,6 +177,7 @@ WireInformation::WireInformation(const sim::Header& header, const estimators::In
   sample.agent_id = header.agent_id;
   sample.header = encode_header(header);
   sample.target = message.target;
+  sample.world_step = message.world_step;
   point_at(sample.info_vec, info_vec);
   point_at(sample.info_mat, info_mat);
 }
@@ -355,10 +356,13 @@ Inbound<estimators::InformationMessage> decode(const swarmloc_msg_Information& w
     Inbound<estimators::InformationMessage> inbound;
     inbound.header = header;
     inbound.message.target = wire.target;
+    inbound.message.world_step = wire.world_step;
     inbound.well_formed = false;
     return inbound;
   }
-  return codec::decode_information_fields(header, wire.agent_id, wire.target, *info_vec, *info_mat);
+  auto inbound = codec::decode_information_fields(header, wire.agent_id, wire.target, *info_vec, *info_mat);
+  inbound.message.world_step = wire.world_step;
+  return inbound;
 }
 
 Inbound<estimators::ConsensusMessage> decode(const swarmloc_msg_Consensus& wire) {

@@ -71,7 +71,8 @@ std::optional<RejectReason> AgentRuntime::check_content(const estimators::StateM
 
 std::optional<RejectReason> AgentRuntime::check_content(const estimators::InformationMessage& m) const {
   const auto n = m.info_vec.size();
-  if (static_cast<std::size_t>(n) > kMaxVectorLength || m.info_mat.rows() != n || m.info_mat.cols() != n) {
+  if (static_cast<std::size_t>(n) > kMaxVectorLength || m.info_mat.rows() != n || m.info_mat.cols() != n ||
+      m.world_step < -1) {
     return RejectReason::kMalformed;
   }
   if (!m.info_vec.allFinite() || !m.info_mat.allFinite()) return RejectReason::kNonFinite;

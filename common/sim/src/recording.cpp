@@ -108,6 +108,7 @@ void encode(Encoder& out, const estimators::InformationMessage& m) {
   out.count(static_cast<std::size_t>(m.info_mat.cols()));
   for (Eigen::Index r = 0; r < m.info_mat.rows(); ++r)
     for (Eigen::Index c = 0; c < m.info_mat.cols(); ++c) out.f64(m.info_mat(r, c));
+  out.i64(m.world_step);
 }
 void encode(Encoder& out, const estimators::ConsensusMessage& m) {
   out.i64(m.tau), out.i32(m.round);
@@ -221,9 +222,10 @@ class Decoder {
     }
     const auto version_at = offset_;
     const std::uint16_t version = u16();
-    if (version != kRecordingVersion) {
-      fail("format version " + std::to_string(version) + " is not supported (this build reads version " +
-               std::to_string(kRecordingVersion) + ")",
+    if (version < kOldestReadableRecordingVersion || version > kRecordingVersion) {
+      fail("format version " + std::to_string(version) + " is not supported (this build reads versions " +
+               std::to_string(kOldestReadableRecordingVersion) + " to " + std::to_string(kRecordingVersion) +
+               ")",
            version_at);
     }
     return version;
@@ -677,9 +679,12 @@ SampleLog parse_sample_log(const std::vector<std::uint8_t>& bytes, const std::st
         case 0:
           decode_into(in, s.message.emplace<estimators::StateMessage>());
           break;
-        case 1:
-          decode_into(in, s.message.emplace<estimators::InformationMessage>());
+        case 1: {
+          auto& information = s.message.emplace<estimators::InformationMessage>();
+          decode_into(in, information);
+          if (log.version >= 2) information.world_step = in.i64();  // version 1 logs predate it: −1
           break;
+        }
         case 2:
           decode_into(in, s.message.emplace<estimators::ConsensusMessage>());
           break;

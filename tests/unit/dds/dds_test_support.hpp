@@ -48,6 +48,7 @@ inline estimators::StateMessage make_state(double offset) {
 inline estimators::InformationMessage make_information(int n) {
   estimators::InformationMessage m;
   m.target = 3;
+  m.world_step = (std::int64_t{1} << 35) + 3;  // beyond 32 bits
   m.info_vec = VecX(n);
   m.info_mat = MatX(n, n);
   for (int r = 0; r < n; ++r) {
@@ -130,6 +131,7 @@ inline void expect_state_eq(const estimators::StateMessage& a, const estimators:
 inline void expect_information_eq(const estimators::InformationMessage& a,
                                   const estimators::InformationMessage& b) {
   EXPECT_EQ(a.target, b.target);
+  EXPECT_EQ(a.world_step, b.world_step);
   ASSERT_EQ(a.info_vec.size(), b.info_vec.size());
   ASSERT_EQ(a.info_mat.rows(), b.info_mat.rows());
   ASSERT_EQ(a.info_mat.cols(), b.info_mat.cols());

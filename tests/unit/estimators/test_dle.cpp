@@ -113,6 +113,97 @@ TEST(Dle, AnAbsurdWorldStepGapPredictsABoundedNumberOfPeriods) {
   EXPECT_TRUE(node.info_mat().allFinite());
 }
 
+/// A planar double integrator (position, velocity), τ = 0.1 s, as the tracking tests use.
+DleParams double_integrator() {
+  DleParams params;
+  params.target_dim = 4;
+  params.F = MatX::Identity(4, 4);
+  params.F.topRightCorner<2, 2>() = 0.1 * Mat2::Identity();
+  params.W = 0.01 * MatX::Identity(4, 4);
+  params.initial_information = 1e-3;
+  return params;
+}
+
+/// One tracking step of a fresh sensor (prior ε I, no world step yet) that reads z at world step 5 and has
+/// one neighbour (κ = 1/2 each) whose prior (ω, Ω) is about `neighbour_world_step`.
+struct AlignedStep {
+  Dle node{AgentSetup{}, double_integrator()};
+  StepOutput output;
+  AlignedStep(const VecX& omega, const MatX& Omega, std::int64_t neighbour_world_step) {
+    Inbox inbox;
+    inbox.information.push_back({1, 0, InformationMessage{0, omega, Omega, neighbour_world_step}});
+    MeasurementBatch batch;
+    batch.world_step = 5;
+    batch.neighbours = {1};
+    batch.targets = {TargetObservation{0, Vec2(1.3, 1.7), Mat2(0.25 * Mat2::Identity()), 0}};
+    output = node.step(StepInput{0, &batch, &inbox});
+  }
+  /// ŷ of the step had the neighbour's prior been (ω', Ω') about world step 5 (κ = 1/2; no κ: alone).
+  static VecX expected(const VecX& omega5, const MatX& Omega5, double kappa = 0.5) {
+    MatX H = MatX::Zero(2, 4);
+    H.leftCols<2>().setIdentity();
+    const MatX Omega_plus =
+        (1.0 - kappa) * 1e-3 * MatX::Identity(4, 4) + kappa * Omega5 + 4.0 * H.transpose() * H;
+    const VecX omega_plus = kappa * omega5 + 4.0 * H.transpose() * Vec2(1.3, 1.7);
+    return Omega_plus.ldlt().solve(omega_plus);
+  }
+};
+
+TEST(Dle, ANeighboursOlderPriorIsPredictedToTheReadingsWorldStepBeforeMixing) {
+  const DleParams params = double_integrator();
+  VecX mean3(4);
+  mean3 << 1.0, 2.0, 0.5, -0.5;
+  const MatX P3 = VecX((VecX(4) << 0.2, 0.3, 0.05, 0.05).finished()).asDiagonal();
+  const MatX Omega3 = P3.inverse();
+  const AlignedStep step(Omega3 * mean3, Omega3, 3);
+  // Two periods ahead in covariance form: the neighbour's prior as it would be at world step 5.
+  const MatX& F = params.F;
+  const MatX P5 = F * (F * P3 * F.transpose() + params.W) * F.transpose() + params.W;
+  const MatX Omega5 = P5.inverse();
+  ASSERT_TRUE(step.node.has_target_estimate());
+  EXPECT_MATRIX_NEAR(step.node.target_estimate(), AlignedStep::expected(Omega5 * (F * F * mean3), Omega5),
+                     1e-9);
+  ASSERT_TRUE(step.output.outbox.information.has_value());
+  EXPECT_EQ(step.output.outbox.information->world_step, 6) << "the published prior is predicted one step on";
+}
+
+TEST(Dle, ANeighboursNewerPriorIsTakenBackWithoutRemovingTheProcessNoise) {
+  const DleParams params = double_integrator();
+  VecX mean7(4);
+  mean7 << 1.2, 1.8, 0.5, -0.5;
+  const MatX Omega7 = VecX((VecX(4) << 4.0, 3.0, 20.0, 20.0).finished()).asDiagonal();
+  const AlignedStep step(Omega7 * mean7, Omega7, 7);
+  // Back two periods: Ω' = (F²)ᵀ Ω F², ω' = (F²)ᵀ ω — mean F⁻² m, covariance F⁻² P F⁻²ᵀ (≥ the true one).
+  const MatX F2 = params.F * params.F;
+  const MatX Omega5 = F2.transpose() * Omega7 * F2;
+  EXPECT_MATRIX_NEAR(step.node.target_estimate(),
+                     AlignedStep::expected(F2.transpose() * (Omega7 * mean7), Omega5), 1e-9);
+  EXPECT_MATRIX_NEAR(VecX(Omega5.ldlt().solve(F2.transpose() * (Omega7 * mean7))), VecX(F2.inverse() * mean7),
+                     1e-12);
+}
+
+TEST(Dle, ANeighboursPriorMoreThanAThousandWorldStepsAwayIsDropped) {
+  const MatX Omega = 4.0 * MatX::Identity(4, 4);
+  const VecX omega = Omega * VecX::Constant(4, 9.0);
+  for (const std::int64_t far : {std::int64_t{5 + 1001}, std::int64_t{1} << 60}) {
+    const AlignedStep step(omega, Omega, far);
+    EXPECT_EQ(step.output.diagnostics.neighbours_skipped, 1) << far;
+    EXPECT_EQ(step.output.diagnostics.neighbours_used, 0) << far;
+    EXPECT_MATRIX_NEAR(step.node.target_estimate(), AlignedStep::expected(omega, Omega, 0.0), 1e-9) << far;
+  }
+}
+
+TEST(Dle, AStaticTargetsPriorIsNotTiedToAWorldStep) {
+  Dle node(AgentSetup{}, DleParams{});
+  MeasurementBatch batch;
+  batch.world_step = 5;
+  batch.targets = {TargetObservation{0, Vec2(1.0, 1.0), Mat2::Identity(), 0}};
+  const Inbox inbox;
+  const auto output = node.step(StepInput{0, &batch, &inbox});
+  ASSERT_TRUE(output.outbox.information.has_value());
+  EXPECT_EQ(output.outbox.information->world_step, -1);
+}
+
 TEST(Dle, MissingNeighbourIsDroppedAndTheWeightReturnsToSelf) {  // §4.5
   DleParams params;
   AgentSetup setup;

@@ -346,6 +346,7 @@ std::vector<ReceivedSample> every_family() {
   information.target = -3;
   information.info_vec = VecX::LinSpaced(3, -1.0, 1.0);
   information.info_mat = MatX::Random(3, 2);
+  information.world_step = (std::int64_t{1} << 40) + 7;
   estimators::ConsensusMessage consensus;
   consensus.tau = -1, consensus.round = 19, consensus.values = {1.0, std::numeric_limits<double>::infinity()};
   estimators::BeliefMessage belief;
@@ -383,6 +384,7 @@ void expect_same(const ReceivedSample& a, const ReceivedSample& b) {
       EXPECT_EQ(x.target, y.target);
       EXPECT_EQ(x.info_vec, y.info_vec);
       EXPECT_EQ(x.info_mat, y.info_mat);
+      EXPECT_EQ(x.world_step, y.world_step);
       break;
     }
     case SampleFamily::kConsensus: {

@@ -46,7 +46,7 @@ Dle::Dle(const AgentSetup& setup, const DleParams& params) : setup_(setup), para
 
 Outbox Dle::published() const {
   Outbox outbox;
-  outbox.information = InformationMessage{params_.target, omega_, Omega_};
+  outbox.information = InformationMessage{params_.target, omega_, Omega_, prior_world_step_};
   StateMessage state;
   state.mean_m = setup_.initial_guess_m;
   state.anchor = setup_.anchor;
@@ -57,21 +57,32 @@ Outbox Dle::published() const {
 
 Outbox Dle::initial_outbox() const { return published(); }
 
-void Dle::predict_prior(std::int64_t periods) {
+bool Dle::shift_prior(VecX& omega, MatX& Omega, std::int64_t periods) const {
   const Eigen::Index d = params_.target_dim;
-  const Eigen::LDLT<MatX> ldlt(Omega_);
-  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 0.0)) return;
-  VecX mean = ldlt.solve(omega_);
+  if (periods < 0) {
+    // Back in time: the mean by F⁻ᵏ and the covariance by F⁻ᵏ P F⁻ᵏᵀ, without taking the process noise
+    // out again (that may leave no valid covariance), so the result is less certain than the true older
+    // prior. In information form this needs no inverse: Ω' = (Fᵏ)ᵀ Ω Fᵏ, ω' = (Fᵏ)ᵀ ω.
+    for (std::int64_t k = 0; k < -periods; ++k) {
+      omega = params_.F.transpose() * omega;
+      Omega = params_.F.transpose() * Omega * params_.F;
+    }
+    Omega = 0.5 * (Omega + Omega.transpose());
+    return true;
+  }
+  const Eigen::LDLT<MatX> ldlt(Omega);
+  if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 0.0)) return false;
+  VecX mean = ldlt.solve(omega);
   MatX P = ldlt.solve(MatX::Identity(d, d));
   for (std::int64_t k = 0; k < periods; ++k) {
     mean = params_.F * mean;
     P = params_.F * P * params_.F.transpose() + params_.W;
   }
   P = 0.5 * (P + P.transpose());
-  Omega_ = P.ldlt().solve(MatX::Identity(d, d));
-  Omega_ = 0.5 * (Omega_ + Omega_.transpose());
-  omega_ = Omega_ * mean;
-  predicted_ = mean;
+  Omega = P.ldlt().solve(MatX::Identity(d, d));
+  Omega = 0.5 * (Omega + Omega.transpose());
+  omega = Omega * mean;
+  return true;
 }
 
 StepOutput Dle::step(const StepInput& input) {
@@ -79,15 +90,35 @@ StepOutput Dle::step(const StepInput& input) {
   const Eigen::Index d = params_.target_dim;
   const bool tracking = params_.F.size() != 0;
   const std::int64_t batch_step = input.measurements != nullptr ? input.measurements->world_step : -1;
-  // Free run: batches of world steps this sensor never stepped on were carried into this one, so its prior
-  // (predicted one period past its last batch) lags; bring it to this batch's time first.
-  // A gap beyond kMaxGapPeriods (a broken or hostile world step) predicts no further: the prior is
-  // uninformative long before, and the loop must stay bounded.
+  // Tracking in a free run: priors are predicted to different world steps — this sensor's lags when
+  // batches of world steps it never stepped on were carried into this one, and a neighbour's is one step
+  // ahead or behind depending on when it stepped. Bring them all to one world step before mixing (a sum of
+  // priors about different times puts the target between them): this batch's, else this sensor's prior's
+  // (before its first reading there is none, and priors are mixed as they come). A prior further than
+  // kMaxGapPeriods away (a broken or hostile world step) is dropped: it says nothing about now, and the
+  // prediction loop must stay bounded.
   constexpr std::int64_t kMaxGapPeriods = 1000;
-  if (tracking && prior_world_step_ >= 0 && batch_step > prior_world_step_)
-    predict_prior(std::min(batch_step - prior_world_step_, kMaxGapPeriods));
+  const std::int64_t reference_step = batch_step >= 0 ? batch_step : prior_world_step_;
+  if (tracking && prior_world_step_ >= 0 && reference_step >= 0 && reference_step != prior_world_step_) {
+    const std::int64_t gap = std::clamp(reference_step - prior_world_step_, -kMaxGapPeriods, kMaxGapPeriods);
+    if (shift_prior(omega_, Omega_, gap)) {
+      const Eigen::LDLT<MatX> ldlt(Omega_);
+      if (ldlt.info() == Eigen::Success && ldlt.vectorD().minCoeff() > 0.0) predicted_ = ldlt.solve(omega_);
+    }
+  }
+  if (tracking && reference_step >= 0) prior_world_step_ = reference_step;
+  detail::AlignPrior align;
+  if (tracking && reference_step >= 0) {
+    align = [this, reference_step](InformationMessage& prior) {
+      if (prior.world_step < 0) return true;  // not tied to a world step: taken as current
+      const std::int64_t gap = reference_step - prior.world_step;
+      if (gap > kMaxGapPeriods || gap < -kMaxGapPeriods) return false;
+      prior.world_step = reference_step;
+      return gap == 0 || shift_prior(prior.info_vec, prior.info_mat, gap);
+    };
+  }
   auto [omega_plus, Omega_plus] = detail::combine_priors(omega_, Omega_, params_.target, input,
-                                                         params_.weights, degrees_, out.diagnostics);
+                                                         params_.weights, degrees_, out.diagnostics, align);
   if (tracking && input.measurements == nullptr) {
     // Free run, no batch since the last step: no world time has passed that this sensor knows of. Mix the
     // neighbours' priors but neither predict nor move the estimate (it stays the one of the newest

@@ -39,15 +39,21 @@ Estimate known_position_estimate(const Vec2& position_m) {
 
 CombinedPrior combine_priors(const VecX& omega, const MatX& Omega, std::int32_t target,
                              const StepInput& input, MetropolisRule rule, ConsensusDegrees& degrees,
-                             StepDiagnostics& diagnostics) {
+                             StepDiagnostics& diagnostics, const AlignPrior& align) {
   const Eigen::Index d = omega.size();
   if (input.inbox != nullptr) {
     for (const auto& received : input.inbox->states)
       degrees.neighbours[received.sender] = received.message.degree;
   }
-  // Neighbour priors of this target (newest per sender, §4.5).
-  std::vector<const Received<InformationMessage>*> priors;
+  // Neighbour priors of this target (newest per sender, §4.5), aligned copies when asked for.
+  struct Prior {
+    AgentId sender;
+    const InformationMessage* message;
+  };
+  std::vector<Prior> priors;
+  std::vector<InformationMessage> aligned;
   if (input.inbox != nullptr) {
+    aligned.reserve(align ? input.inbox->information.size() : 0);  // no reallocation: priors point into it
     for (const auto& received : input.inbox->information) {
       const auto& m = received.message;
       if (m.target != target || m.info_vec.size() != d || m.info_mat.rows() != d || m.info_mat.cols() != d ||
@@ -55,7 +61,17 @@ CombinedPrior combine_priors(const VecX& omega, const MatX& Omega, std::int32_t 
         ++diagnostics.neighbours_skipped;
         continue;
       }
-      priors.push_back(&received);
+      if (align) {
+        aligned.push_back(m);
+        if (!align(aligned.back())) {
+          aligned.pop_back();
+          ++diagnostics.neighbours_skipped;
+          continue;
+        }
+        priors.push_back({received.sender, &aligned.back()});
+      } else {
+        priors.push_back({received.sender, &m});
+      }
     }
   }
   if (input.measurements != nullptr && !input.measurements->neighbours.empty()) {
@@ -66,8 +82,8 @@ CombinedPrior combine_priors(const VecX& omega, const MatX& Omega, std::int32_t 
   // Metropolis κ over the received set; missing neighbours dropped, then renormalized with self (§4.5).
   std::vector<double> kappa;
   double kappa_sum = 0.0;
-  for (const auto* received : priors) {
-    const auto it = degrees.neighbours.find(received->sender);
+  for (const Prior& prior : priors) {
+    const auto it = degrees.neighbours.find(prior.sender);
     const int degree_j = it != degrees.neighbours.end() && it->second > 0 ? it->second : degrees.own;
     kappa.push_back(metropolis_edge_weight(std::max(degrees.own, 1), std::max(degree_j, 1), rule));
     kappa_sum += kappa.back();
@@ -80,9 +96,9 @@ CombinedPrior combine_priors(const VecX& omega, const MatX& Omega, std::int32_t 
   CombinedPrior combined{VecX(d), MatX(d, d)};
   std::vector<const double*> vectors;
   std::vector<const double*> matrices;
-  for (const auto* received : priors) {
-    vectors.push_back(received->message.info_vec.data());
-    matrices.push_back(received->message.info_mat.data());
+  for (const Prior& prior : priors) {
+    vectors.push_back(prior.message->info_vec.data());
+    matrices.push_back(prior.message->info_mat.data());
   }
   weighted_sum(self_weight, omega.data(), kappa, vectors, combined.omega.data(), d);
   weighted_sum(self_weight, Omega.data(), kappa, matrices, combined.Omega.data(), d * d);

@@ -2,6 +2,7 @@
 // The consensus half of a DLE step (002 Algorithm 1, ALGORITHMS.md §4.2, §4.5), shared by the DLE and the
 // joint localization + field estimator. Internal to the estimators library.
 #include <cstdint>
+#include <functional>
 
 #include "swarmloc/estimators/consensus/metropolis.hpp"
 #include "swarmloc/estimators/estimator.hpp"
@@ -20,8 +21,12 @@ struct CombinedPrior {
 /// true-position baseline).
 Estimate known_position_estimate(const Vec2& position_m);
 
+/// Brings a copy of a neighbour's well-formed prior to the receiver's time, in place (the tracking DLE);
+/// false drops it (counted as skipped, its κ dropped as for a missing one).
+using AlignPrior = std::function<bool(InformationMessage& prior)>;
+
 CombinedPrior combine_priors(const VecX& omega, const MatX& Omega, std::int32_t target,
                              const StepInput& input, MetropolisRule rule, ConsensusDegrees& degrees,
-                             StepDiagnostics& diagnostics);
+                             StepDiagnostics& diagnostics, const AlignPrior& align = nullptr);
 
 }  // namespace swarmloc::estimators::consensus::detail

@@ -119,6 +119,9 @@ struct InformationMessage {
   std::int32_t target = 0;
   VecX info_vec;
   MatX info_mat;
+  /// The world step a moving target's prior is predicted to, so a receiver can bring it to its own time
+  /// before mixing; −1: not tied to a world step (a static target, a field, no reading yet).
+  std::int64_t world_step = -1;
 };
 
 /// CONS scalars with (update τ, round t).

@@ -22,8 +22,10 @@
 
 namespace swarmloc::sim {
 
-/// Format version written by this build (both file kinds). Readers accept exactly this version.
-inline constexpr std::uint16_t kRecordingVersion = 1;
+/// Format version written by this build (both file kinds). Version 2 added an information sample's world
+/// step; readers accept versions 1 and 2 (a version 1 sample's world step reads as −1).
+inline constexpr std::uint16_t kRecordingVersion = 2;
+inline constexpr std::uint16_t kOldestReadableRecordingVersion = 1;
 /// Names in a run directory.
 inline constexpr const char* kRecordingFile = "recording.slrec";
 inline constexpr const char* kSampleLogDirectory = "recording";

@@ -31,10 +31,14 @@ void validate(const DleParams& params);
 /// neighbours heard from; neighbour degrees from their STATE messages); the κ of neighbours whose
 /// INFO message is missing are dropped and the rest renormalized (§4.5).
 ///
-/// Tracking in a free run (ALGORITHMS.md §4.5): a step without a batch mixes the neighbours' priors only —
-/// no prediction, and the estimate stays that of the newest reading; a batch whose world step is ahead of
-/// the prior's (the batches between were carried into it) first predicts the prior over the gap. With a
-/// batch every step, as in synchronous rounds, this is Algorithm 1 unchanged.
+/// Tracking in a free run (ALGORITHMS.md §4.5): every prior carries the world step it is predicted to
+/// (InformationMessage::world_step), and a step first brings its own prior and each neighbour's to one
+/// world step — its batch's, or without a batch its own prior's: forward by the prediction, back by
+/// ω' = (Fᵏ)ᵀω, Ω' = (Fᵏ)ᵀΩFᵏ (the process noise is not taken out, so the result is never more certain than
+/// the true older prior). A prior more than 1000 world steps away is dropped. A step without a batch mixes
+/// the priors only — no prediction, and the estimate stays that of the newest reading. With a batch every
+/// step, as in synchronous rounds, every prior is already at the batch's step and this is Algorithm 1
+/// unchanged.
 ///
 /// Observations of kind 0 are linear (z = H y + v). Observations of kind 1 are range and bearing from this
 /// sensor (at AgentSetup::initial_guess_m) to the target's position y[0..1] (002 eq. (4), [C-1]: atan2):
@@ -64,8 +68,9 @@ class Dle final : public Estimator {
 
  private:
   [[nodiscard]] Outbox published() const;
-  /// Predicts the published prior (ω, Ω) `periods` more steps ahead (tracking).
-  void predict_prior(std::int64_t periods);
+  /// Moves a prior (ω, Ω) `periods` world steps ahead (> 0, prediction) or back (< 0); false if a
+  /// prediction finds Ω singular (the prior is left as it was).
+  bool shift_prior(VecX& omega, MatX& Omega, std::int64_t periods) const;
 
   AgentSetup setup_;
   DleParams params_;
@@ -75,7 +80,9 @@ class Dle final : public Estimator {
   VecX y_;
   VecX predicted_;                               ///< ŷ_pred: where kind-1 observations are linearized
   Mat2 position_covariance_ = Mat2::Identity();  ///< the position block of Ω⁺⁻¹
-  std::int64_t prior_world_step_ = -1;  ///< tracking: the world step the prior is predicted to (-1: unknown)
+  /// Tracking: the world step the prior is predicted to (published with it); −1: none yet, or a static
+  /// target, whose prior is not tied to a world step.
+  std::int64_t prior_world_step_ = -1;
   bool has_estimate_ = false;
   ConsensusDegrees degrees_;
 };
