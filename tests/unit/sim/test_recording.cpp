@@ -462,6 +462,40 @@ TEST(SampleLog, EveryFamilyRoundTripsAndAnUnfinishedLogIsReadOnRequest) {
   }
 }
 
+TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep) {
+  const auto dir = temp_dir("samples_v1");
+  const auto path = dir / "agent_002.slrec";
+  const ReceivedSample information = every_family()[1];
+  {
+    SampleLogWriter writer(path, 4, 7);
+    writer.append(information);
+    writer.close();
+  }
+  const auto bytes = read_bytes(path);
+  ASSERT_EQ(bytes[6], kRecordingVersion);
+  // Version 1 is this log without the payload's last field (i64 world_step, before the 9-byte end marker).
+  std::vector<std::uint8_t> v1(bytes.begin(), bytes.end() - 9 - 8);
+  v1.insert(v1.end(), bytes.end() - 9, bytes.end());
+  v1[6] = 1;
+  const auto log = parse_sample_log(v1, "v1.slrec");
+  EXPECT_EQ(log.version, 1);
+  ASSERT_EQ(log.samples.size(), 1u);
+  auto expected = information;
+  std::get<estimators::InformationMessage>(expected.message).world_step = -1;
+  expect_same(log.samples[0], expected);
+  auto v3 = bytes;
+  v3[6] = 3;
+  try {
+    (void)parse_sample_log(v3, "v3.slrec");
+    ADD_FAILURE() << "version 3 was read";
+  } catch (const RecordingError& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("format version 3 is not supported (this build reads versions 1 to 2)"),
+        std::string::npos)
+        << e.what();
+  }
+}
+
 // ---- Replays in the simulator ----
 
 void expect_same_metrics(const RunRecord& a, const RunRecord& b) {
