@@ -60,6 +60,7 @@ nlohmann::json snapshot_json(const ViewSnapshot& s) {
           {"time_s", s.step >= 0 && s.rate_hz > 0.0 ? static_cast<double>(s.step) / s.rate_hz : 0.0},
           {"area_m", s.area_m},
           {"agents", std::move(agents)},
+          {"target", s.target ? point(*s.target) : nlohmann::json()},
           {"links", std::move(links)},
           {"rmse_m", metric(s.rmse_m)},
           {"mean_error_m", metric(s.mean_error_m)},
@@ -77,6 +78,7 @@ ViewSnapshot view_snapshot(const config::Scenario& scenario, const sim::World& w
   s.steps = static_cast<int>(scenario.run.steps);
   s.rate_hz = scenario.run.rate_hz;
   s.area_m = scenario.world.area_m;
+  if (world.estimates_target()) s.target = world.scored_truth(0);
   s.agents.reserve(static_cast<std::size_t>(world.size()));
   for (AgentId i = 0; i < world.size(); ++i) {
     const auto index = static_cast<std::size_t>(i);
@@ -131,12 +133,14 @@ void play_back(LiveView& view, const config::Scenario& scenario, const sim::RunR
     if (metrics.step > 0) sim::advance_truth(world, scenario, metrics.step);
     ViewSnapshot s = base;
     for (std::size_t i = 0; i < s.agents.size(); ++i) s.agents[i].truth = world.truth[i];
+    if (s.target) s.target = world.scored_truth(0);
     if (const auto it = rows.find(metrics.step); it != rows.end()) {
       for (const auto* row : it->second) {
         const auto index = static_cast<std::size_t>(row->agent);
         if (index >= s.agents.size()) continue;
         latest[index] = row->estimate;
-        s.agents[index].truth = row->truth;  // exactly what was scored
+        // Exactly what was scored: the target (dle), else the agent's own position.
+        (s.target ? *s.target : s.agents[index].truth) = row->truth;
       }
     }
     for (std::size_t i = 0; i < s.agents.size(); ++i) s.agents[i].estimate = latest[i];

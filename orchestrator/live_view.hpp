@@ -4,8 +4,9 @@
 // and the newest snapshot of the run as JSON:
 //   GET /            the page; it polls /state.json about five times a second and redraws
 //   GET /state.json  {step, steps, time_s, phase, done, agents: [{id, anchor, truth, estimate,
-//                    covariance}], links: [{a, b, delivered_fraction, delivered, sent}], rmse_m,
+//                    covariance}], target, links: [{a, b, delivered_fraction, delivered, sent}], rmse_m,
 //                    mean_error_m, max_error_m, crlb_rmse_m, nees, scored, …}
+//                    (target: [x, y] of the true target when the agents estimate it, dle; else null)
 // The run loop calls publish() once per world step: it swaps a shared pointer under a mutex and
 // returns, so the run never waits for the viewer; JSON is made on the server thread per request.
 #include <atomic>
@@ -48,6 +49,9 @@ struct ViewSnapshot {
   double rate_hz = 0.0;
   double area_m = 0.0;
   std::vector<ViewAgent> agents;
+  /// The true target when the agents estimate it (dle): each estimate is scored against it, while the
+  /// agents' truths stay their own positions.
+  std::optional<Vec2> target;
   std::vector<ViewLink> links;
   double rmse_m = 0.0, mean_error_m = 0.0, max_error_m = 0.0, nees = 0.0;
   double crlb_rmse_m = 0.0;  ///< accumulated CRLB after step + 1 snapshots

@@ -51,6 +51,7 @@ const char* live_view_page() {
       <p><b>Legend</b></p>
       <div><svg width="16" height="12"><circle cx="8" cy="6" r="4.5" fill="none" stroke="#111" stroke-width="1.5"/></svg> truth</div>
       <div><svg width="16" height="12"><rect x="3" y="1" width="10" height="10" fill="#111"/></svg> anchor (truth)</div>
+      <div id="target-legend" style="display:none"><svg width="16" height="12"><path d="M8 1 L13 6 L8 11 L3 6 Z" fill="none" stroke="#c62828" stroke-width="2"/></svg> target (truth): every agent estimates it</div>
       <div><svg width="16" height="12"><circle cx="8" cy="6" r="3" fill="#1565c0"/></svg> estimate, <span style="color:#888">grey line: error</span></div>
       <div><svg width="16" height="12"><ellipse cx="8" cy="6" rx="7" ry="4" fill="none" stroke="#1565c0"/></svg> 95 % covariance ellipse <span id="mag"></span></div>
       <div>links, coloured by delivered fraction (1 − lost-sample rate):</div>
@@ -100,12 +101,15 @@ function magnification(axes, extent) {
 
 function draw(s) {
   const agents = s.agents || [], links = s.links || [];
+  // dle: every agent estimates the target, so errors are measured from it, not from the agent.
+  const target = s.target && s.target[0] !== null ? s.target : null;
+  const scoredTruth = a => target || a.truth;
   // Map bounds: the area square and every true position, 4 % margin.
   let x0 = 0, y0 = 0, x1 = s.area_m || 1, y1 = s.area_m || 1;
-  for (const a of agents) {
-    if (a.truth[0] === null) continue;
-    x0 = Math.min(x0, a.truth[0]); x1 = Math.max(x1, a.truth[0]);
-    y0 = Math.min(y0, a.truth[1]); y1 = Math.max(y1, a.truth[1]);
+  for (const p of agents.map(a => a.truth).concat(target ? [target] : [])) {
+    if (p[0] === null) continue;
+    x0 = Math.min(x0, p[0]); x1 = Math.max(x1, p[0]);
+    y0 = Math.min(y0, p[1]); y1 = Math.max(y1, p[1]);
   }
   if (bounds) { x0 = Math.min(x0, bounds[0]); y0 = Math.min(y0, bounds[1]); x1 = Math.max(x1, bounds[2]); y1 = Math.max(y1, bounds[3]); }
   bounds = [x0, y0, x1, y1];
@@ -145,7 +149,8 @@ function draw(s) {
   for (const a of agents) {
     if (a.truth[0] === null) continue;
     if (a.estimate && !a.anchor) {
-      parts.push('<line x1="' + a.truth[0] + '" y1="' + (-a.truth[1]) + '" x2="' + a.estimate[0] + '" y2="' + (-a.estimate[1]) +
+      const t = scoredTruth(a);
+      parts.push('<line x1="' + t[0] + '" y1="' + (-t[1]) + '" x2="' + a.estimate[0] + '" y2="' + (-a.estimate[1]) +
         '" stroke="#888" stroke-width="1" vector-effect="non-scaling-stroke"/>');
     }
     if (a.anchor) {
@@ -160,10 +165,17 @@ function draw(s) {
   }
   for (const a of agents) {
     if (a.anchor || !a.estimate) continue;
-    const err = Math.hypot(a.estimate[0] - a.truth[0], a.estimate[1] - a.truth[1]);
+    const t = scoredTruth(a);
+    const err = Math.hypot(a.estimate[0] - t[0], a.estimate[1] - t[1]);
     parts.push('<circle class="estimate" data-id="' + a.id + '" cx="' + a.estimate[0] + '" cy="' + (-a.estimate[1]) + '" r="' + (0.55 * r) +
       '" fill="#1565c0"><title>agent ' + a.id + ': error ' + err.toFixed(4) + ' m</title></circle>');
   }
+  if (target) {  // on top, as an outline: the estimates it should be among stay visible inside it
+    parts.push('<path class="target" d="M' + target[0] + ' ' + (-target[1] - 1.6 * r) + ' l' + (1.6 * r) + ' ' + (1.6 * r) +
+      ' l' + (-1.6 * r) + ' ' + (1.6 * r) + ' l' + (-1.6 * r) + ' ' + (-1.6 * r) + ' Z" fill="none" stroke="#c62828"' +
+      ' stroke-width="2" vector-effect="non-scaling-stroke"><title>target (truth)</title></path>');
+  }
+  $("target-legend").style.display = target ? "" : "none";
   map.innerHTML = parts.join("");
 
   $("title").textContent = (s.name || "") + " · " + (s.algorithm || "") + " · " + (s.mode === "sim" ? "in-process run, paced playback" : "DDS, one process per agent");

@@ -215,6 +215,7 @@ TEST(LiveView, SimPlaybackEndsOnTheSummaryFiguresAndTheHoldExpires) {
   ASSERT_TRUE(final_state);
   const auto summary = read_json(dir / "summary.json");
   EXPECT_EQ((*final_state)["mode"], "sim");
+  EXPECT_TRUE((*final_state)["target"].is_null()) << "agents estimate themselves";
   EXPECT_EQ((*final_state)["step"], 39);
   EXPECT_EQ((*final_state)["agents"].size(), summary["agents"].get<std::size_t>());
   EXPECT_DOUBLE_EQ((*final_state)["rmse_m"].get<double>(), summary["final"]["rmse_m"].get<double>());
@@ -226,6 +227,41 @@ TEST(LiveView, SimPlaybackEndsOnTheSummaryFiguresAndTheHoldExpires) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   EXPECT_FALSE(get_state(port)) << "still serving after --view-hold 1";
   EXPECT_EQ(sim.stop(0), 0) << "sim --view exits 0 when the hold expires";
+}
+
+// dle: every sensor estimates the target. The view shows the sensors where they are and the target beside
+// them, and each estimate's error is its distance to the target (before, every sensor was drawn on the
+// target in a playback, and live the error lines ran from each sensor to its estimate of the target).
+TEST(LiveView, ADleRunShowsTheTargetAndEveryEstimatesErrorIsItsDistanceToIt) {
+  const auto dir = fresh_directory("live-view-dle");
+  const int port = free_port();
+  ASSERT_GT(port, 0);
+  Background sim(kBinary + " sim " + std::string(SWARMLOC_SOURCE_DIR) +
+                     "/scenarios/dle_tracking.yaml --out " + dir.string() +
+                     " -q --set run.steps=40 --set run.rate_hz=40 --view=" + std::to_string(port) +
+                     " --view-hold 1",
+                 dir.parent_path() / (dir.filename().string() + ".log"));
+  const auto final_state = wait_for_state(port, 20.0, [](const auto& s) { return s.value("done", false); });
+  ASSERT_TRUE(final_state);
+  const auto& state = *final_state;
+  ASSERT_TRUE(state["target"].is_array());
+  const double tx = state["target"][0], ty = state["target"][1];
+  double squared = 0.0;
+  int estimates = 0, away_from_target = 0;
+  for (const auto& agent : state["agents"]) {
+    if (std::hypot(agent["truth"][0].get<double>() - tx, agent["truth"][1].get<double>() - ty) > 1.0)
+      ++away_from_target;
+    if (agent["estimate"].is_null()) continue;
+    ++estimates;
+    squared += std::pow(agent["estimate"][0].get<double>() - tx, 2) +
+               std::pow(agent["estimate"][1].get<double>() - ty, 2);
+  }
+  const auto summary = read_json(dir / "summary.json");
+  EXPECT_EQ(estimates, 30);
+  EXPECT_GT(away_from_target, 25) << "the sensors are drawn where they are, not on the target";
+  const double rmse = summary["final"]["rmse_m"];
+  EXPECT_NEAR(std::sqrt(squared / estimates), rmse, 1e-9 * rmse);
+  EXPECT_EQ(sim.stop(0), 0);
 }
 
 TEST(LiveView, BusyPortIsReportedBeforeAnythingStarts) {
