@@ -289,6 +289,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(algorithm.max_move_fraction),
       SWARMLOC_KEY(algorithm.abs_tol),
       SWARMLOC_KEY(algorithm.range_gate_chi2),
+      SWARMLOC_KEY(algorithm.update_iterations),
       SWARMLOC_KEY(algorithm.initial_heading_std_rad),
       SWARMLOC_KEY(algorithm.range_bearing_gate_chi2),
       SWARMLOC_KEY(algorithm.field_warmup_steps),

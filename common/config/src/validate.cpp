@@ -110,6 +110,7 @@ void validate(const Scenario& scenario) {
   require_within(algorithm.max_move_fraction, 0.0, 10.0, "algorithm.max_move_fraction");
   require_positive(algorithm.abs_tol, "algorithm.abs_tol");
   require_non_negative(algorithm.range_gate_chi2, "algorithm.range_gate_chi2");
+  require_within(algorithm.update_iterations, 1, 100, "algorithm.update_iterations");
   require_positive(algorithm.initial_heading_std_rad, "algorithm.initial_heading_std_rad");
   require_non_negative(algorithm.range_bearing_gate_chi2, "algorithm.range_bearing_gate_chi2");
   require_within(algorithm.field_warmup_steps, 0, 1000000, "algorithm.field_warmup_steps");

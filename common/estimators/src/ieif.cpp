@@ -14,6 +14,7 @@ Ieif::Ieif(const AgentSetup& setup, const KalmanFamilyParams& params)
   if (!(params.initial_information >= 0.0) || !(params.process_noise_std_m >= 0.0)) {
     throw std::invalid_argument("ieif: initial_information and process_noise_std_m must be >= 0");
   }
+  if (params.update_iterations < 1) throw std::invalid_argument("ieif: update_iterations must be >= 1");
   if (!setup.initial_guess_m.allFinite()) throw std::invalid_argument("ieif: initial guess is not finite");
 }
 
@@ -63,7 +64,11 @@ StepOutput Ieif::step(const StepInput& input) {
     x_ = x_pred;
     Psi_ = Psi_pred;
   } else {
-    const InformationUpdate update = information_update(x_pred, Psi_pred, rows);
+    InformationUpdate update = information_update(x_pred, Psi_pred, rows);
+    if (params_.update_iterations > 1) {
+      update = iterated_information_update(x_pred, Psi_pred, selection.links, rows, std::move(update),
+                                           params_.update_iterations);
+    }
     x_ = update.mean;
     Psi_ = update.Psi;
     out.diagnostics.updated = true;

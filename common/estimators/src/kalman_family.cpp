@@ -83,6 +83,7 @@ Linearization linearize_ranges(const Vec2& x_i, const std::vector<RangeLink>& li
     rows.jacobian.row(m) = u;
     rows.innovation(m) = link.range_m - h->value;  // ν_j = z − d̂_ij
     rows.variance(m) = r_tilde;
+    rows.link_of_row.push_back(static_cast<std::size_t>(&link - links.data()));
     ++m;
   }
   rows.jacobian.conservativeResize(m, 2);
@@ -115,12 +116,14 @@ int gate_ranges(Linearization& rows, const Mat2& P_pred, double chi2_gate) {
       rows.jacobian.row(kept) = rows.jacobian.row(m);
       rows.innovation(kept) = rows.innovation(m);
       rows.variance(kept) = rows.variance(m);
+      if (!rows.link_of_row.empty()) rows.link_of_row[kept] = rows.link_of_row[m];
     }
     ++kept;
   }
   rows.jacobian.conservativeResize(kept, 2);
   rows.innovation.conservativeResize(kept);
   rows.variance.conservativeResize(kept);
+  if (!rows.link_of_row.empty()) rows.link_of_row.resize(static_cast<std::size_t>(kept));
   return static_cast<int>(count - kept);
 }
 
@@ -184,11 +187,17 @@ RangeRowsInformation row_information(const Vec2& x_pred, const Linearization& ro
 }  // namespace
 
 InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows) {
+  return information_update(x_pred, Psi_pred, rows, x_pred);
+}
+
+InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows,
+                                     const Vec2& linearized_at) {
   InformationUpdate out;
-  // 001 eq. (49), ALGORITHMS.md §3.2: Φ = Σ u uᵀ/r̃, ι = Σ u z′/r̃, z′ = ν + uᵀ x̂_i, i.e. ι = b + Φ x̂_i.
-  const RangeRowsInformation info = row_information(x_pred, rows);
+  // 001 eq. (49), ALGORITHMS.md §3.2: Φ = Σ u uᵀ/r̃, ι = Σ u z′/r̃, z′ = ν + uᵀ x̂_i, i.e. ι = b + Φ x̂_i,
+  // with x̂_i the point the rows are linearized at.
+  const RangeRowsInformation info = row_information(linearized_at, rows);
   out.Phi = info.Phi;
-  out.iota = info.b + info.Phi * x_pred;
+  out.iota = info.b + info.Phi * linearized_at;
   out.Phi = core::symmetrized(out.Phi);
   out.Psi = core::symmetrized(Psi_pred + out.Phi);
   out.y = Psi_pred * x_pred + out.iota;
@@ -203,6 +212,65 @@ InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, c
     }
   }
   return out;
+}
+
+namespace {
+
+/// The cost the iterated update minimizes: the prior term plus each range's squared residual over its
+/// interlaced variance (and the fix's), all at x.
+double update_cost(const Vec2& x, const Vec2& x_pred, const Mat2& Psi_pred,
+                   const std::vector<RangeLink>& links, const std::optional<AbsoluteFix>& fix) {
+  const Vec2 from_prior = x - x_pred;
+  double cost = from_prior.dot(Psi_pred * from_prior);
+  Linearization rows = linearize_ranges(x, links);
+  cost += (rows.innovation.array().square() / rows.variance.array()).sum();
+  rows.fix = fix;
+  if (const AbsoluteFix* usable = usable_fix(rows)) {
+    const Vec2 residual = usable->position_m - x;
+    cost += residual.dot(usable->covariance.inverse() * residual);
+  }
+  return cost;
+}
+
+}  // namespace
+
+InformationUpdate iterated_information_update(const Vec2& x_pred, const Mat2& Psi_pred,
+                                              const std::vector<RangeLink>& links, const Linearization& rows,
+                                              InformationUpdate first, int passes) {
+  std::vector<RangeLink> kept;  // the links of the first pass's rows (after gating)
+  kept.reserve(rows.link_of_row.size());
+  for (const std::size_t link : rows.link_of_row) kept.push_back(links[link]);
+  // Gauss–Newton with step halving: a pass's step is taken only as far as it lowers the cost. From a
+  // diffuse prior a full step can overshoot by tens of metres (the first linearization is far off).
+  InformationUpdate update = std::move(first);  // linearized at `at`, its mean the next Gauss–Newton point
+  Vec2 at = x_pred;
+  double cost = update_cost(at, x_pred, Psi_pred, kept, rows.fix);
+  for (int pass = 0; pass < passes && update.positive_definite; ++pass) {
+    const Vec2 step = update.mean - at;
+    bool lowered = false;
+    Vec2 next = at;
+    for (int halving = 0; halving < 30 && !lowered; ++halving) {
+      next = at + std::ldexp(1.0, -halving) * step;
+      const double next_cost = update_cost(next, x_pred, Psi_pred, kept, rows.fix);
+      if (next_cost < cost) {
+        cost = next_cost;
+        lowered = true;
+      }
+    }
+    if (!lowered) break;  // `at` is a local minimum to within rounding
+    const double moved = (next - at).norm();
+    at = next;
+    Linearization relinearized = linearize_ranges(at, kept);
+    relinearized.fix = rows.fix;
+    InformationUpdate relinearized_update = information_update(x_pred, Psi_pred, relinearized, at);
+    if (!relinearized_update.positive_definite) break;
+    update = relinearized_update;
+    if (!(moved >= 1e-9)) break;
+  }
+  // The estimate is the last point reached, its information that of the linearization there.
+  update.mean = at;
+  update.y = update.Psi * at;
+  return update;
 }
 
 KalmanUpdate kalman_update(const Vec2& x_pred, const Mat2& P_pred, const Linearization& rows) {

@@ -61,6 +61,7 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
   params.initial_std_m = s.algorithm.initial_std_m;
   params.inflate_stale = s.algorithm.inflate_stale;
   params.range_gate_chi2 = s.algorithm.range_gate_chi2;
+  params.update_iterations = s.algorithm.update_iterations;
   params.initial_heading_std_rad = s.algorithm.initial_heading_std_rad;
   params.range_bearing_gate_chi2 = s.algorithm.range_bearing_gate_chi2;
   return estimators::make_estimator(s.algorithm.name, world.setup_of(id), params);

@@ -311,7 +311,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 15U + 32U + 14U + 4U + 2U + 7U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 16U + 32U + 14U + 4U + 2U + 7U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------

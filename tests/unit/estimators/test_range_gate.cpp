@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
+#include "eigen_gtest.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/estimators/kalman_family.hpp"
 
@@ -24,13 +26,14 @@ struct Outcome {
   StepDiagnostics diagnostics;
 };
 
-Outcome outlier_step(const std::string& algorithm, double gate) {
+Outcome outlier_step(const std::string& algorithm, double gate, int update_iterations = 1) {
   AgentSetup setup;
   setup.id = 0;
   setup.initial_guess_m = Vec2(12.0, 8.5);
   KalmanFamilyParams params;
   params.range_gate_chi2 = gate;
   params.initial_std_m = 3.0;
+  params.update_iterations = update_iterations;
   const auto estimator = make_estimator(algorithm, setup, params);
   Inbox inbox;
   for (AgentId j = 1; j <= 4; ++j) {
@@ -85,6 +88,30 @@ TEST(RangeGate, OneOutlierRangeOfFiftyMetresIsGatedAndDoesNotMoveTheEstimate) {
     std::printf("[ gate ] %s: outlier +50 m moves the estimate %.3g m with gate 9, %.3g m without\n",
                 algorithm.c_str(), gated.moved_m, open.moved_m);
   }
+}
+
+// The iterated IEIF update linearizes again only the ranges the gate kept: from a prior 1 m off, with one
+// range 50 m long, it lands where the three good ranges alone put it.
+TEST(RangeGate, TheIteratedUpdateKeepsAGatedRangeOut) {
+  const Vec2 x_pred(10.6, 9.2);
+  const Mat2 Psi_pred = 4.0 * Mat2::Identity();  // prior std 0.5 m: the 1 m error passes a gate of 9
+  std::vector<RangeLink> links;
+  for (AgentId j = 1; j <= 4; ++j) {
+    const Vec2& at = kAnchors[static_cast<std::size_t>(j - 1)];
+    links.push_back(RangeLink{j, at, Mat2::Zero(), (kTruth - at).norm() + (j == 1 ? 50.0 : 0.0), 0.1});
+  }
+  const auto iterated = [&](const std::vector<RangeLink>& used, double gate) {
+    Linearization rows = linearize_ranges(x_pred, used);
+    gate_ranges(rows, Psi_pred.inverse(), gate);
+    return iterated_information_update(x_pred, Psi_pred, used, rows,
+                                       information_update(x_pred, Psi_pred, rows), 10);
+  };
+  const std::vector<RangeLink> good(links.begin() + 1, links.end());
+  const InformationUpdate gated = iterated(links, 9.0);
+  const InformationUpdate without_outlier = iterated(good, 0.0);
+  EXPECT_MATRIX_NEAR(gated.mean, without_outlier.mean, 1e-12);
+  EXPECT_LT((gated.mean - kTruth).norm(), 0.05);  // 0.02 m: the prior, 1 m off with std 0.5 m, pulls it
+  EXPECT_GT((iterated(links, 0.0).mean - kTruth).norm(), 1.0) << "ungated, the outlier pulls it away";
 }
 
 TEST(RangeGate, GateDropsRowsWhoseNormalizedInnovationExceedsTheThreshold) {

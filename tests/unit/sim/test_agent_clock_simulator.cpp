@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -164,6 +165,37 @@ TEST(AgentClockSimulator, CentralizedAlgorithmsAreRejectedNamingTheKey) {
             0U);
   EXPECT_EQ(error_of([&] { (void)run_monte_carlo(ekf, 2, 1); }).rfind("run.sim_clock: ", 0), 0U);
   EXPECT_EQ(error_of([&] { (void)run_simulation(scenario({"algorithm.name=ekf"})); }), "");
+}
+
+}  // namespace
+}  // namespace swarmloc::sim
+
+namespace swarmloc::sim {
+namespace {
+
+// Why scenarios/default.yaml iterates the IEIF update. In a free run an agent that steps after its
+// neighbours in the first period ranges to their first estimates; one linearization from the diffuse start
+// can throw such an estimate tens of metres (here agent 3 by 41 m, agent 0 by 20 m) with a small covariance,
+// and the cluster around it stays confidently wrong for hundreds of steps. Trial 12 of the default scenario
+// at 20 Hz, agent clocks: final RMSE 0.277 m with one linearization (synchronous rounds: 0.022 m); with the
+// iterated update 0.027 m. Over 150 trials the worst final RMSE falls from 0.277 to 0.053 m.
+TEST(AgentClockSimulator, TheIteratedIeifUpdateKeepsAFreeRunFromLockingInAWildFirstEstimate) {
+  const auto final_rmse = [](const std::string& iterations) {
+    SimOptions options;
+    options.trial = 12;
+    const auto record = run_simulation(agent_clock({"run.rate_hz=20", "run.steps=200", "clock.drift_ppm=100",
+                                                    "algorithm.update_iterations=" + iterations}),
+                                       options);
+    return record.metrics.back().errors.rmse_m;
+  };
+  const double once = final_rmse("1");
+  const double iterated = final_rmse("10");
+  EXPECT_GT(once, 0.15);
+  EXPECT_LT(iterated, 0.05);
+  std::printf(
+      "[ ieif ] default scenario, trial 12, free run: final RMSE %.4f m with one linearization, %.4f m "
+      "iterated\n",
+      once, iterated);
 }
 
 }  // namespace

@@ -48,6 +48,7 @@ struct Linearization {
   VecX variance;                                      ///< diag R̃ (M)
   std::optional<AbsoluteFix> fix;                     ///< used only if its covariance is PD
   int skipped = 0;                                    ///< links dropped (ρ < 1e−9 or r̃ not > 0)
+  std::vector<std::size_t> link_of_row;               ///< row m came from links[link_of_row[m]]
 
   [[nodiscard]] bool empty() const { return jacobian.rows() == 0 && !fix.has_value(); }
 };
@@ -77,7 +78,19 @@ struct InformationUpdate {
 };
 
 /// Information update from the predicted pair (x̂_{k|k−1}, Ψ_{k|k−1}); ŷ_{k|k−1} = Ψ_{k|k−1} x̂_{k|k−1}.
+/// `rows` are linearized at `linearized_at` (x̂_{k|k−1} in 001): z′ = ν + J_i·linearized_at.
 InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows);
+InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows,
+                                     const Vec2& linearized_at);
+
+/// The iterated update: up to `passes` linearizations of the rows' links, each at the previous pass's
+/// estimate and each from the same prior (Gauss–Newton on the step's ranges plus the prior, as the
+/// iterated extended Kalman filter). `first` is the update of pass 1 (linearized at x̂_{k|k−1}, after any
+/// gating: only the links of its rows are linearized again). Stops once the estimate moves less than
+/// 1 nm, or when a pass leaves Ψ_{k|k} not PD (keeping the previous pass).
+InformationUpdate iterated_information_update(const Vec2& x_pred, const Mat2& Psi_pred,
+                                              const std::vector<RangeLink>& links, const Linearization& rows,
+                                              InformationUpdate first, int passes);
 
 struct KalmanUpdate {
   Vec2 mean = Vec2::Zero();
