@@ -49,6 +49,22 @@ void filter_step_8_neighbours(benchmark::State& state) {
 BENCHMARK_TEMPLATE(filter_step_8_neighbours, est::Ieif);
 BENCHMARK_TEMPLATE(filter_step_8_neighbours, est::Iekf);
 
+/// The IEIF step with algorithm.update_iterations = Arg (1: 001's single linearization).
+void ieif_step_8_neighbours_update_iterations(benchmark::State& state) {
+  const Neighbourhood n = eight_neighbours();
+  est::AgentSetup setup;
+  setup.initial_guess_m = Vec2(10.3, 9.8);
+  est::KalmanFamilyParams params;
+  params.update_iterations = static_cast<int>(state.range(0));
+  est::Ieif filter(setup, params);
+  std::int64_t k = 1;
+  for (auto _ : state) {
+    est::StepOutput out = filter.step(est::StepInput{k++, &n.batch, &n.inbox});
+    benchmark::DoNotOptimize(out);
+  }
+}
+BENCHMARK(ieif_step_8_neighbours_update_iterations)->Arg(1)->Arg(10);
+
 void crlb_all_pairs(benchmark::State& state) {
   const auto n = static_cast<int>(state.range(0));
   std::mt19937_64 rng(1);

@@ -54,7 +54,7 @@ TEST(RunOverDds, ThirtyAgentProcessesConvergeBelowRangeNoiseAndAgreeWithSimulato
   EXPECT_LT(dds_rmse, 0.1) << "final RMSE must be below the range noise std";
   // Free run is not deterministic (agents tick at their own phase, batches and neighbour states arrive
   // when they arrive). With one linearization per IEIF update, fourteen runs of this seed ended at
-  // 0.88–2.22x the simulator's final RMSE (0.031–0.082 m against 0.037 m): an agent that stepped after its
+  // 0.83–2.22x the simulator's final RMSE (0.031–0.082 m against 0.037 m): an agent that stepped after its
   // neighbours in the first period could be thrown metres off and stay confidently wrong. With the
   // scenario's iterated update (algorithm.update_iterations: 10) eight runs ended at 0.93–1.25x
   // (0.0336–0.0454 m against 0.0362 m). Lockstep runs are compared to 1e-9 (test_cooperative_dds.cpp);

@@ -247,6 +247,10 @@ InformationUpdate iterated_information_update(const Vec2& x_pred, const Mat2& Ps
   double cost = update_cost(at, x_pred, Psi_pred, kept, rows.fix);
   for (int pass = 0; pass < passes && update.positive_definite; ++pass) {
     const Vec2 step = update.mean - at;
+    if (!(step.norm() >= 1e-9)) {  // converged; below rounding the cost cannot tell the halvings apart
+      at = update.mean;
+      break;
+    }
     bool lowered = false;
     Vec2 next = at;
     for (int halving = 0; halving < 30 && !lowered; ++halving) {
