@@ -83,11 +83,13 @@ InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, c
 InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows,
                                      const Vec2& linearized_at);
 
-/// The iterated update: up to `passes` linearizations of the rows' links, each at the previous pass's
-/// estimate and each from the same prior (Gauss–Newton on the step's ranges plus the prior, as the
-/// iterated extended Kalman filter). `first` is the update of pass 1 (linearized at x̂_{k|k−1}, after any
-/// gating: only the links of its rows are linearized again). Stops once the estimate moves less than
-/// 1 nm, or when a pass leaves Ψ_{k|k} not PD (keeping the previous pass).
+/// The iterated update (KalmanFamilyParams::update_iterations): up to `passes` Gauss–Newton steps on the
+/// step's cost — the prior term (x − x̂_{k|k−1})ᵀΨ_{k|k−1}(x − x̂_{k|k−1}) plus each range's squared residual
+/// over its interlaced variance (and the fix's) — as the iterated extended Kalman filter. `first` is the
+/// update linearized at x̂_{k|k−1} (after any gating: only the links of its rows are used again). Each step
+/// is halved until it lowers the cost; the update is then linearized again at the new point. Stops when a
+/// step is below 1 nm, no halving lowers the cost, or a linearization leaves Ψ_{k|k} not PD. The result's
+/// mean is the last point reached and its Ψ_{k|k} that of the linearization there.
 InformationUpdate iterated_information_update(const Vec2& x_pred, const Mat2& Psi_pred,
                                               const std::vector<RangeLink>& links, const Linearization& rows,
                                               InformationUpdate first, int passes);
