@@ -54,14 +54,19 @@ TEST(Dle, EstimateIsTheTargetPositionWithTheInverseOfTheUpdatedInformation) {
 
 // A free-running sensor may step without a batch, or get two world steps' batches at once. Its prior must
 // follow world time, not its own step count: the same readings give the same estimate either way.
-TEST(Dle, TrackingPredictsByWorldStepsNotBySensorSteps) {
-  constexpr double tau = 0.1;
+/// A planar double integrator (position, velocity), τ = 0.1 s, as the tracking tests use.
+DleParams double_integrator() {
   DleParams params;
   params.target_dim = 4;
   params.F = MatX::Identity(4, 4);
-  params.F.topRightCorner<2, 2>() = tau * Mat2::Identity();
+  params.F.topRightCorner<2, 2>() = 0.1 * Mat2::Identity();
   params.W = 0.01 * MatX::Identity(4, 4);
   params.initial_information = 1e-3;
+  return params;
+}
+
+TEST(Dle, TrackingPredictsByWorldStepsNotBySensorSteps) {
+  const DleParams params = double_integrator();
   const auto batch = [](std::int64_t world_step, bool with_reading) {
     MeasurementBatch b;
     b.world_step = world_step;
@@ -94,13 +99,7 @@ TEST(Dle, TrackingPredictsByWorldStepsNotBySensorSteps) {
 }
 
 TEST(Dle, AnAbsurdWorldStepGapPredictsABoundedNumberOfPeriods) {
-  DleParams params;
-  params.target_dim = 4;
-  params.F = MatX::Identity(4, 4);
-  params.F.topRightCorner<2, 2>() = 0.1 * Mat2::Identity();
-  params.W = 0.01 * MatX::Identity(4, 4);
-  params.initial_information = 1e-3;
-  Dle node(AgentSetup{}, params);
+  Dle node(AgentSetup{}, double_integrator());
   const Inbox inbox;
   MeasurementBatch batch;
   batch.world_step = 0;
@@ -111,17 +110,6 @@ TEST(Dle, AnAbsurdWorldStepGapPredictsABoundedNumberOfPeriods) {
   ASSERT_TRUE(node.estimate().valid);
   EXPECT_TRUE(node.target_estimate().allFinite());
   EXPECT_TRUE(node.info_mat().allFinite());
-}
-
-/// A planar double integrator (position, velocity), τ = 0.1 s, as the tracking tests use.
-DleParams double_integrator() {
-  DleParams params;
-  params.target_dim = 4;
-  params.F = MatX::Identity(4, 4);
-  params.F.topRightCorner<2, 2>() = 0.1 * Mat2::Identity();
-  params.W = 0.01 * MatX::Identity(4, 4);
-  params.initial_information = 1e-3;
-  return params;
 }
 
 /// One tracking step of a fresh sensor (prior ε I, no world step yet) that reads z at world step 5 and has

@@ -88,33 +88,41 @@ TEST(Ieif, OneStepWithTwoAnchorsMatchesHandArithmetic) {
   EXPECT_MATRIX_NEAR(e.covariance, Mat2(Vec2(1.0 / 3.38, 1.0 / 5.62).asDiagonal()), 1e-12);
 }
 
+/// Exact ranges (declared σ 0.1 m) from an agent at `truth` to three anchors.
+struct AnchorFix {
+  Inbox inbox;
+  MeasurementBatch batch;
+  AnchorFix(const Vec2& truth, const std::array<Vec2, 3>& anchors) {
+    for (AgentId j = 1; j <= 3; ++j) {
+      const Vec2& at = anchors[static_cast<std::size_t>(j - 1)];
+      inbox.states.push_back(state_from(j, -1, at, Mat2::Zero(), true));
+      batch.ranges.push_back(RangeMeasurement{j, (truth - at).norm(), 0.1});
+    }
+  }
+  /// The position after one IEIF step from `guess` (Ψ_0 = 1e-6 I) with `iterations` update passes.
+  [[nodiscard]] Vec2 after_one_step(const Vec2& guess, int iterations) const {
+    KalmanFamilyParams params;
+    params.update_iterations = iterations;
+    AgentSetup setup;
+    setup.initial_guess_m = guess;
+    Ieif node(setup, params);
+    node.step(StepInput{0, &batch, &inbox});
+    return node.mean();
+  }
+};
+
 // From the diffuse start (Ψ_0 = 1e-6 I) one linearization at a guess 11 m off lands far from the position the
 // exact ranges give; the iterated update (Gauss–Newton with step halving, KalmanFamilyParams::
 // update_iterations) reaches it. Anchors at three corners of a 20 m square, the agent at (12, 7).
 TEST(Ieif, IteratedUpdateFromADiffusePriorReachesTheExactFixWhereOneLinearizationDoesNot) {
   const Vec2 truth(12.0, 7.0);
-  const std::array<Vec2, 3> anchors{Vec2(0.0, 0.0), Vec2(20.0, 0.0), Vec2(0.0, 20.0)};
-  Inbox inbox;
-  MeasurementBatch batch;
-  for (AgentId j = 1; j <= 3; ++j) {
-    const Vec2& at = anchors[static_cast<std::size_t>(j - 1)];
-    inbox.states.push_back(state_from(j, -1, at, Mat2::Zero(), true));
-    batch.ranges.push_back(RangeMeasurement{j, (truth - at).norm(), 0.1});
-  }
-  const auto error_after_one_step = [&](int iterations) {
-    KalmanFamilyParams params;
-    params.update_iterations = iterations;
-    AgentSetup setup;
-    setup.initial_guess_m = Vec2(2.0, 17.0);
-    Ieif node(setup, params);
-    node.step(StepInput{0, &batch, &inbox});
-    return (node.mean() - truth).norm();
-  };
-  const double once = error_after_one_step(1);
-  const double iterated = error_after_one_step(10);
+  const AnchorFix fix(truth, {Vec2(0.0, 0.0), Vec2(20.0, 0.0), Vec2(0.0, 20.0)});
+  const Vec2 guess(2.0, 17.0);
+  const double once = (fix.after_one_step(guess, 1) - truth).norm();
+  const double iterated = (fix.after_one_step(guess, 10) - truth).norm();
   EXPECT_GT(once, 1.0);
   EXPECT_LT(iterated, 1e-4);
-  EXPECT_LT(error_after_one_step(3), once) << "every pass lowers the cost";
+  EXPECT_LT((fix.after_one_step(guess, 3) - truth).norm(), once) << "every pass lowers the cost";
   std::printf("[ ieif ] one step from 11 m off: error %.3g m with one linearization, %.3g m iterated\n", once,
               iterated);
 }
@@ -124,21 +132,8 @@ TEST(Ieif, IteratedUpdateFromADiffusePriorReachesTheExactFixWhereOneLinearizatio
 // off on the far side (found by a seeded search over random layouts).
 TEST(Ieif, IteratedUpdateHalvesStepsThatWouldRaiseTheCost) {
   const Vec2 truth(15.824, 12.944);
-  const std::array<Vec2, 3> anchors{Vec2(11.911, 10.844), Vec2(14.906, 10.032), Vec2(10.596, 11.493)};
-  Inbox inbox;
-  MeasurementBatch batch;
-  for (AgentId j = 1; j <= 3; ++j) {
-    const Vec2& at = anchors[static_cast<std::size_t>(j - 1)];
-    inbox.states.push_back(state_from(j, -1, at, Mat2::Zero(), true));
-    batch.ranges.push_back(RangeMeasurement{j, (truth - at).norm(), 0.1});
-  }
-  KalmanFamilyParams params;
-  params.update_iterations = 10;
-  AgentSetup setup;
-  setup.initial_guess_m = Vec2(1.219, 17.901);
-  Ieif node(setup, params);
-  node.step(StepInput{0, &batch, &inbox});
-  EXPECT_LT((node.mean() - truth).norm(), 1e-4);
+  const AnchorFix fix(truth, {Vec2(11.911, 10.844), Vec2(14.906, 10.032), Vec2(10.596, 11.493)});
+  EXPECT_LT((fix.after_one_step(Vec2(1.219, 17.901), 10) - truth).norm(), 1e-4);
 }
 
 TEST(Ieif, UpdateEqualsPredictionPlusGainTimesInnovation) {
