@@ -16,6 +16,7 @@ Iekf::Iekf(const AgentSetup& setup, const KalmanFamilyParams& params)
     throw std::invalid_argument("iekf: initial_std_m must be > 0 and process_noise_std_m >= 0");
   }
   if (!setup.initial_guess_m.allFinite()) throw std::invalid_argument("iekf: initial guess is not finite");
+  if (params.update_iterations < 1) throw std::invalid_argument("iekf: update_iterations must be >= 1");
 }
 
 Outbox Iekf::published() const {
@@ -60,7 +61,17 @@ StepOutput Iekf::step(const StepInput& input) {
     x_ = x_pred;
     P_ = P_pred;
   } else {
-    const KalmanUpdate update = kalman_update(x_pred, P_pred, rows);  // 001 eqs. (30)–(31)
+    KalmanUpdate update = kalman_update(x_pred, P_pred, rows);  // 001 eqs. (30)–(31)
+    if (params_.update_iterations > 1 && positive_definite(P_pred)) {
+      // The iterated update in information form: the same Gauss–Newton passes as the IEIF's, from the
+      // prior Ψ = P_{k|k−1}⁻¹ (the two forms are algebraically equal, ALGORITHMS.md §3.5).
+      const Mat2 Psi_pred = core::symmetrized(Mat2(P_pred.inverse()));
+      const InformationUpdate iterated =
+          iterated_information_update(x_pred, Psi_pred, selection.links, rows,
+                                      information_update(x_pred, Psi_pred, rows), params_.update_iterations);
+      if (iterated.positive_definite)
+        update = {iterated.mean, core::symmetrized(Mat2(iterated.Psi.inverse()))};
+    }
     if (update.mean.allFinite() && update.covariance.allFinite()) {
       x_ = update.mean;
       P_ = update.covariance;

@@ -69,7 +69,7 @@ struct Scenario {
     double max_move_fraction = 1.0;        ///< BB trust region: move ≤ this × shortest range; 0 = off
     double abs_tol = 1e-10;                ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
     double range_gate_chi2 = 0.0;          ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
-    int update_iterations = 1;             ///< ieif: linearizations of a step's ranges; 1 = 001 as printed
+    int update_iterations = 1;             ///< ieif, iekf: Gauss–Newton passes per update; 1 = 001 as printed
     double initial_heading_std_rad = 0.1;  ///< pose-state algorithms: heading prior std
     double range_bearing_gate_chi2 = 0.0;  ///< pose-state algorithms: 2-dof gate; 0 = off
     int field_warmup_steps = 0;  ///< joint_field: readings of each agent's first steps are left out; 0 = 002
