@@ -63,6 +63,7 @@ LinkSelection collect_range_links(const StepInput& input, AgentId self, const Ka
 
 Linearization linearize_ranges(const Vec2& x_i, const std::vector<RangeLink>& links) {
   Linearization rows;
+  rows.link_of_row.reserve(links.size());
   rows.jacobian.resize(static_cast<Eigen::Index>(links.size()), 2);
   rows.innovation.resize(static_cast<Eigen::Index>(links.size()));
   rows.variance.resize(static_cast<Eigen::Index>(links.size()));
@@ -244,19 +245,20 @@ InformationUpdate iterated_information_update(const Vec2& x_pred, const Mat2& Ps
   // diffuse prior a full step can overshoot by tens of metres (the first linearization is far off).
   InformationUpdate update = std::move(first);  // linearized at `at`, its mean the next Gauss–Newton point
   Vec2 at = x_pred;
-  double cost = update_cost(at, x_pred, Psi_pred, kept, rows.fix);
+  std::optional<double> cost;  // at `at`; evaluated only once a step needs checking (not when converged)
   for (int pass = 0; pass < passes && update.positive_definite; ++pass) {
     const Vec2 step = update.mean - at;
     if (!(step.norm() >= 1e-9)) {  // converged; below rounding the cost cannot tell the halvings apart
       at = update.mean;
       break;
     }
+    if (!cost) cost = update_cost(at, x_pred, Psi_pred, kept, rows.fix);
     bool lowered = false;
     Vec2 next = at;
     for (int halving = 0; halving < 30 && !lowered; ++halving) {
       next = at + std::ldexp(1.0, -halving) * step;
       const double next_cost = update_cost(next, x_pred, Psi_pred, kept, rows.fix);
-      if (next_cost < cost) {
+      if (next_cost < *cost) {
         cost = next_cost;
         lowered = true;
       }
