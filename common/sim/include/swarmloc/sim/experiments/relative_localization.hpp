@@ -24,6 +24,7 @@ struct JacobiExperimentConfig {
   double prior_std_m = 5.0;        ///< x̂_i(0) = x_i + N(0, std² I)
   double measurement_std_m = 1.0;  ///< 𝓔_ij = std² I₂
   int steps = 50;
+  int sweeps_per_step = 1;          ///< eq. (9) exchanges per measurement step (1 = 002 as printed)
   int runs = 50;                    ///< a fresh connected graph, priors and noise per run
   bool shared_measurements = true;  ///< [C-7]: one draw per edge per step, s_ji = −s_ij
   std::uint64_t seed = 1;
