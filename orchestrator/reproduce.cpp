@@ -441,14 +441,15 @@ int reproduce_jacobi(const ReproduceOptions& options) {
     // measure). What it takes for the transient to drain by step 50 on these graphs.
     md << "\nNot in the source — several eq. (9) sweeps per measurement step (the agents exchange estimates "
           "this many times between two measurements; same seed, graphs, priors and noise):\n\n"
-       << "| sweeps per step | RMSE step 10 [m] | / BLUE | RMSE step 50 [m] | / BLUE |\n|---|---|---|---|---|\n";
+       << "| sweeps per step | RMSE step 10 [m] | / BLUE | RMSE step 50 [m] | / BLUE "
+          "|\n|---|---|---|---|---|\n";
     for (const int sweeps : {1, 10, 20, 30, 50}) {
       auto swept = config;
       swept.sweeps_per_step = sweeps;
       const auto r = sweeps == 1 ? result : sim::experiments::run_jacobi_experiment(swept);
-      md << "| " << sweeps << " | " << fmt("%.4f", r.rmse[10]) << " | " << fmt("%.2f", r.rmse[10] / r.blue_rmse[10])
-         << " | " << fmt("%.4f", r.rmse[last]) << " | " << fmt("%.2f", r.rmse[last] / r.blue_rmse[last])
-         << " |\n";
+      md << "| " << sweeps << " | " << fmt("%.4f", r.rmse[10]) << " | "
+         << fmt("%.2f", r.rmse[10] / r.blue_rmse[10]) << " | " << fmt("%.4f", r.rmse[last]) << " | "
+         << fmt("%.2f", r.rmse[last] / r.blue_rmse[last]) << " |\n";
     }
     std::filesystem::create_directories(options.out_dir);
     std::ofstream csv(options.out_dir / (gnm ? "jacobi_002_gnm.csv" : "jacobi_002.csv"));

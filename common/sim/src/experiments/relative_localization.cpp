@@ -138,7 +138,6 @@ std::vector<Vec2> cell_boundary_points(int n, double side_m, int cells, std::mt1
   return points;
 }
 
-
 }  // namespace
 
 JacobiExperimentResult run_jacobi_experiment(const JacobiExperimentConfig& c) {
@@ -230,7 +229,8 @@ JacobiExperimentResult run_jacobi_experiment(const JacobiExperimentConfig& c) {
       edge_count += 1.0;
       bus.round(agents, static_cast<std::int64_t>(t), batch_ptrs);
       // Further exchanges before the next measurement: each sweeps eq. (9) again on the same means.
-      for (int sweep = 1; sweep < c.sweeps_per_step; ++sweep) bus.round(agents, static_cast<std::int64_t>(t), {});
+      for (int sweep = 1; sweep < c.sweeps_per_step; ++sweep)
+        bus.round(agents, static_cast<std::int64_t>(t), {});
       accumulate_error(t + 1);
       // BLUE on the samples 0…t: L̃ x = Σ_edges ±s̄/σ².
       VecX rhs = VecX::Zero(2 * m);
