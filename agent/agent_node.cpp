@@ -77,8 +77,10 @@ class AgentProcess {
 
   int run() {
     const double period_local_s = 1.0 / scenario_.run.rate_hz;
-    // The timer runs on the agent's own clock: a local period lasts period/(1+drift) in real time.
-    const auto period = std::chrono::duration<double>(clock_.mono_duration(period_local_s));
+    // The timer runs on the agent's own clock: a local period lasts period/(1+drift) in real time. It
+    // steps run.agent_steps_per_world_step times per world period (one exchange each).
+    const auto period = std::chrono::duration<double>(
+        clock_.mono_duration(period_local_s / scenario_.run.agent_steps_per_world_step));
     // Lockstep publishes its initial sample exactly once, when every neighbour can receive it, so that
     // sample numbers (and with them the seeded loss decisions) match the simulator's.
     if (!lockstep_) publish(runtime_.initial_publication(local_stamp_ns()));
@@ -281,6 +283,9 @@ class AgentProcess {
     if (lockstep_ && !transport_.wait_for_acks(kAckTimeoutS)) {
       logger_->warn("step {}: samples not acknowledged within {} s", publication.header.step, kAckTimeoutS);
     }
+    // One report per world period is what the orchestrator scores; more would only load it.
+    if (++ticks_since_report_ < scenario_.run.agent_steps_per_world_step) return;
+    ticks_since_report_ = 0;
     transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
   }
 
@@ -342,8 +347,9 @@ class AgentProcess {
   bool sensor_only_ = false;  ///< centralized algorithm: batches only, no estimator steps
   bool lockstep_ = false;     ///< run.mode = lockstep: step on batches, not on the clock
   bool initial_published_ = false;
-  int announced_to_ = 0;    ///< free run before START: neighbour readers our last announcement reached
-  dds::AgentInbound held_;  ///< lockstep: samples of steps not yet run
+  int announced_to_ = 0;        ///< free run before START: neighbour readers our last announcement reached
+  int ticks_since_report_ = 0;  ///< run.agent_steps_per_world_step: estimate reports go every this many
+  dds::AgentInbound held_;      ///< lockstep: samples of steps not yet run
   static constexpr double kAckTimeoutS = 5.0;
   bool started_run_ = false;
   double cpu_at_start_ = 0.0;

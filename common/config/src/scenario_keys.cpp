@@ -352,6 +352,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(run.settle_s),
       SWARMLOC_KEY(run.agent_nice),
       SWARMLOC_KEY(run.sim_clock),
+      SWARMLOC_KEY(run.agent_steps_per_world_step),
   };
   SWARMLOC_QOS(measurements);
   SWARMLOC_QOS(state);

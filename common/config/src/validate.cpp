@@ -5,6 +5,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <vector>
 
 #include "scenario_keys.hpp"
 #include "swarmloc/config/scenario.hpp"
@@ -222,6 +223,27 @@ void validate(const Scenario& scenario) {
   require_positive(run.startup_timeout_s, "run.startup_timeout_s");
   require_non_negative(run.settle_s, "run.settle_s");
   require_within(run.agent_nice, 0, 19, "run.agent_nice");
+  require_within(run.agent_steps_per_world_step, 1, 1000, "run.agent_steps_per_world_step");
+  if (run.agent_steps_per_world_step > 1) {
+    // An agent step without a batch is a pure exchange only for these: the Kalman family and the pose
+    // filters predict on it (process noise per step), the centralized ones have no agent steps.
+    static const std::vector<std::string> kExchangeOnly{"jacobi", "dle",      "joint_field", "multipath_bp",
+                                                        "dgbb",   "local_bb", "fixed_step",  "step_length"};
+    if (std::find(kExchangeOnly.begin(), kExchangeOnly.end(), scenario.algorithm.name) ==
+        kExchangeOnly.end()) {
+      fail("run.agent_steps_per_world_step",
+           "above 1 needs an algorithm whose step without a measurement is an exchange only (jacobi, dle, "
+           "joint_field, multipath_bp, dgbb, local_bb, fixed_step, step_length); '" +
+               scenario.algorithm.name + "' would predict on every extra step");
+    }
+    if (run.mode == RunMode::kLockstep) {
+      fail("run.agent_steps_per_world_step",
+           "above 1 is not supported with run.mode = lockstep (use free_run)");
+    }
+    if (run.rate_hz * run.agent_steps_per_world_step > 10000.0) {
+      fail("run.agent_steps_per_world_step", "run.rate_hz × this is above 10 kHz of agent steps");
+    }
+  }
   // Only the simulator's agents clock models latency: a delay under rounds would silently do nothing.
   if (run.sim_clock == SimClock::kRounds) {
     if (scenario.network.delay_ms != 0.0) fail("network.delay_ms", "needs run.sim_clock = agents");

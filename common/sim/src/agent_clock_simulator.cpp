@@ -149,10 +149,12 @@ class AgentClockSimulation {
   }
 
   /// Tick m of the agent's current timer: m local periods after the timer started, i.e. m·T/(1+drift)
-  /// of virtual time. Computed from m (not accumulated), so a drift-free clock ticks exactly at m·T.
+  /// of virtual time (T: the world period over run.agent_steps_per_world_step). Computed from m (not
+  /// accumulated), so a drift-free clock ticks exactly at m·T.
   void schedule_tick(AgentId id, std::int64_t index) {
     const auto k = static_cast<std::size_t>(id);
-    const double tick_period_s = world_.clocks[k].mono_duration(period_s_);
+    const double tick_period_s =
+        world_.clocks[k].mono_duration(period_s_ / scenario_.run.agent_steps_per_world_step);
     push(timer_start_s_[k] + static_cast<double>(index) * tick_period_s, Phase::kTick,
          Tick{id, incarnation_[k], index});
   }

@@ -205,22 +205,25 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
     }
     // Deliver round k−1's samples over the lossy bus, then the world-step-k batches. Each receiver takes
     // its senders in ascending id order, so its mailbox and loss draws do not depend on the threads.
-    for_each_agent(n, threads, [&](AgentId receiver) {
-      if (within(kills, receiver, step)) return;
-      auto& agent = agents[static_cast<std::size_t>(receiver)];
-      for (AgentId sender : incoming[static_cast<std::size_t>(receiver)]) {
-        const auto& publication = published[static_cast<std::size_t>(sender)];
-        AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
-          if (options.recorder) {
-            // Published in the previous round, delivered in this one (virtual world time).
-            options.recorder->sample(ReceivedSample{receiver, agent.steps_run(),
-                                                    publication.header.sender_stamp_ns, stamp_ns(step), true,
-                                                    header, SampleMessage(message)});
-          }
-          agent.on_sample(header, message);
-        });
-      }
-    });
+    auto deliver_previous_round = [&](std::int64_t delivered_ns) {
+      for_each_agent(n, threads, [&](AgentId receiver) {
+        if (within(kills, receiver, step)) return;
+        auto& agent = agents[static_cast<std::size_t>(receiver)];
+        for (AgentId sender : incoming[static_cast<std::size_t>(receiver)]) {
+          const auto& publication = published[static_cast<std::size_t>(sender)];
+          AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
+            if (options.recorder) {
+              // Published in the previous round, delivered in this one (virtual world time).
+              options.recorder->sample(ReceivedSample{receiver, agent.steps_run(),
+                                                      publication.header.sender_stamp_ns, delivered_ns, true,
+                                                      header, SampleMessage(message)});
+            }
+            agent.on_sample(header, message);
+          });
+        }
+      });
+    };
+    deliver_previous_round(stamp_ns(step));
     for_each_agent(n, threads, [&](AgentId i) {
       batches[static_cast<std::size_t>(i)] = generate_batch(world, scenario, i, step);
     });
@@ -247,6 +250,19 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
       make_hostile_if_listed(options.hostile_agents, i, published[k].outbox, published[k].header.step);
       estimates[k] = agents[k].estimate();
     });
+    // run.agent_steps_per_world_step: further exchanges within the period, without a batch.
+    for (int round = 1; round < scenario.run.agent_steps_per_world_step; ++round) {
+      const std::int64_t round_ns = stamp_ns(step) + (stamp_ns(step + 1) - stamp_ns(step)) * round /
+                                                         scenario.run.agent_steps_per_world_step;
+      deliver_previous_round(round_ns);
+      for_each_agent(n, threads, [&](AgentId i) {
+        const auto k = static_cast<std::size_t>(i);
+        if (within(kills, i, step) || within(pauses, i, step)) return;
+        published[k] = agents[k].step(round_ns);
+        make_hostile_if_listed(options.hostile_agents, i, published[k].outbox, published[k].header.step);
+        estimates[k] = agents[k].estimate();
+      });
+    }
     StepMetrics metrics;
     metrics.step = step;
     metrics.time_s = reported_time_s(scenario, step);

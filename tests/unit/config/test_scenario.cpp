@@ -106,6 +106,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.run.settle_s, b.run.settle_s);
   EXPECT_EQ(a.run.agent_nice, b.run.agent_nice);
   EXPECT_EQ(a.run.sim_clock, b.run.sim_clock);
+  EXPECT_EQ(a.run.agent_steps_per_world_step, b.run.agent_steps_per_world_step);
   expect_qos_equal(a.qos.measurements, b.qos.measurements, "measurements");
   expect_qos_equal(a.qos.state, b.qos.state, "state");
   expect_qos_equal(a.qos.information, b.qos.information, "information");
@@ -311,7 +312,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 16U + 32U + 14U + 4U + 2U + 7U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 16U + 32U + 14U + 4U + 2U + 8U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -507,6 +508,24 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
       {[](Scenario& s) { s.run.settle_s = -1.0; }, "run.settle_s: -1 must be >= 0"},
       {[](Scenario& s) { s.run.agent_nice = -1; }, "run.agent_nice: -1 is outside [0, 19]"},
       {[](Scenario& s) { s.run.agent_nice = 20; }, "run.agent_nice: 20 is outside [0, 19]"},
+      {[](Scenario& s) { s.run.agent_steps_per_world_step = 0; },
+       "run.agent_steps_per_world_step: 0 is outside [1, 1000]"},
+      {[](Scenario& s) { s.run.agent_steps_per_world_step = 2; },
+       "run.agent_steps_per_world_step: above 1 needs an algorithm whose step without a measurement is an "
+       "exchange only (jacobi, dle, joint_field, multipath_bp, dgbb, local_bb, fixed_step, step_length); "
+       "'ieif' would predict on every extra step"},
+      {[](Scenario& s) {
+         s.algorithm.name = "jacobi";
+         s.run.agent_steps_per_world_step = 2;
+         s.run.mode = RunMode::kLockstep;
+       },
+       "run.agent_steps_per_world_step: above 1 is not supported with run.mode = lockstep (use free_run)"},
+      {[](Scenario& s) {
+         s.algorithm.name = "jacobi";
+         s.run.agent_steps_per_world_step = 11;
+         s.run.rate_hz = 1000.0;
+       },
+       "run.agent_steps_per_world_step: run.rate_hz × this is above 10 kHz of agent steps"},
       {[](Scenario& s) { s.qos.measurements.history_depth = 0; },
        "qos.measurements.history_depth: 0 must be >= 1"},
       {[](Scenario& s) { s.qos.control.deadline_s = -1.0; }, "qos.control.deadline_s: -1 must be >= 0"},
@@ -591,6 +610,7 @@ TEST(ScenarioYaml, RoundTripOfEveryChangedFieldIsExact) {
   Scenario free_run_faults = everything_changed();  // restarts and pauses need run.mode = free_run
   free_run_faults.run.mode = RunMode::kFreeRun;
   free_run_faults.faults = {"3@0-9, 4@0", "5@0-2", "0-0"};
+  free_run_faults.run.agent_steps_per_world_step = 7;  // lockstep refuses it
   for (const Scenario& changed : {everything_changed(), free_run_faults}) {
     ASSERT_NO_THROW(validate(changed));
     const std::string text = to_yaml(changed);

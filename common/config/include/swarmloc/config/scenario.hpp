@@ -158,6 +158,8 @@ struct Scenario {
     double settle_s = 1.0;                   ///< extra time after the last step for final estimates
     SimClock sim_clock = SimClock::kRounds;  ///< the simulator's schedule (DDS runs ignore it)
     int agent_nice = 0;  ///< DDS: agent processes run this much nicer than the orchestrator
+    /// Agent steps (one exchange with the neighbours each) per world step; the first gets the batch.
+    int agent_steps_per_world_step = 1;
   } run;
 
   struct Qos {
