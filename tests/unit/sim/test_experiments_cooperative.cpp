@@ -11,14 +11,19 @@
 namespace swarmloc::sim::experiments {
 namespace {
 
-TEST(JacobiExperiment, RmseFallsFarBelowThePriorsAndStaysAboveTheBlue) {
-  JacobiExperimentConfig config;  // 002 §4.6 scaled to 60 nodes at the same density and edges per node
+/// 002 §4.6 scaled to 60 nodes at the same density and edges per node, 10 runs.
+JacobiExperimentConfig scaled_geometric_experiment() {
+  JacobiExperimentConfig config;
   config.num_nodes = 60;
   config.num_edges = 258;
   config.side_m = 100.0 * std::sqrt(60.0 / 300.0);
   config.runs = 10;
   config.seed = 3;
-  const JacobiExperimentResult r = run_jacobi_experiment(config);
+  return config;
+}
+
+TEST(JacobiExperiment, RmseFallsFarBelowThePriorsAndStaysAboveTheBlue) {
+  const JacobiExperimentResult r = run_jacobi_experiment(scaled_geometric_experiment());
   ASSERT_EQ(r.rmse.size(), 51U);
   EXPECT_LT(r.rmse[50], 0.1 * r.rmse[0]);
   EXPECT_LT(r.rmse[50], r.rmse[20]);
@@ -34,12 +39,7 @@ TEST(JacobiExperiment, RmseFallsFarBelowThePriorsAndStaysAboveTheBlue) {
 // Not in 002: agents that exchange estimates several times between two measurements drain the prior
 // transient, and at step 50 Jacobi comes within the acceptance's 1.2x of the BLUE (300 nodes: 30 sweeps).
 TEST(JacobiExperiment, SweepsBetweenMeasurementsBringJacobiToTheBlue) {
-  JacobiExperimentConfig config;
-  config.num_nodes = 60;
-  config.num_edges = 258;
-  config.side_m = 100.0 * std::sqrt(60.0 / 300.0);
-  config.runs = 10;
-  config.seed = 3;
+  JacobiExperimentConfig config = scaled_geometric_experiment();
   const JacobiExperimentResult one = run_jacobi_experiment(config);
   config.sweeps_per_step = 30;
   const JacobiExperimentResult swept = run_jacobi_experiment(config);
