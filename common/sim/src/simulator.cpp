@@ -51,6 +51,7 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
     gradient.max_step =
         s.algorithm.max_step > 0.0 ? s.algorithm.max_step : std::numeric_limits<double>::infinity();
     gradient.max_move_fraction = s.algorithm.max_move_fraction;
+    gradient.own_move_curvature = s.algorithm.local_bb_difference == config::LocalBbDifference::kOwnMove;
     // A run lasts run.steps rounds; the node itself never stops early for lack of updates.
     gradient.max_updates = std::numeric_limits<std::int64_t>::max() / 4;
     return estimators::make_cooperative_estimator(s.algorithm.name, world.setup_of(id), params);

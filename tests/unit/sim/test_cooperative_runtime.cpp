@@ -395,6 +395,21 @@ TEST(CooperativeSimulation, SeveralAgentStepsPerWorldStepDrainJacobisTransient) 
   EXPECT_NEAR(agents_30_sent, 30 * agents_1_sent, 0.02 * agents_30_sent);
 }
 
+// algorithm.local_bb_difference on 004's Table I lattice (10 × 10 with diagonals, noiseless, no trust
+// region): eq. (15) as printed (own_move) converges, the [E-6] reading (gradient_change) diverges.
+TEST(CooperativeSimulation, LocalBbAsPrintedConvergesWhereTheGradientChangeReadingDiverges) {
+  auto final_rmse = [](const std::string& difference) {
+    const auto record = run_simulation(scenario_named(
+        "dgbb.yaml",
+        {"world.agents=100", "world.comm_radius_m=0.16", "noise.range_factor=0", "algorithm.name=local_bb",
+         "algorithm.max_move_fraction=0", "run.steps=1000", "algorithm.local_bb_difference=" + difference}));
+    return record.final_metrics()->errors.rmse_m;
+  };
+  EXPECT_LT(final_rmse("own_move"), 1e-4);  // 7.8e-6 m at step 1000
+  const double gradient_change = final_rmse("gradient_change");
+  EXPECT_FALSE(gradient_change < 1e-2) << gradient_change;  // diverged (or NaN)
+}
+
 TEST(CooperativeSimulation, DgbbConvergesToTheNoisyRangesOptimum) {
   const auto record = run_simulation(scenario_named("dgbb.yaml"));
   const auto& last = record.metrics.back().errors;

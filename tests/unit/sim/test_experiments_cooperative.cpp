@@ -153,6 +153,28 @@ TEST(GradientExperiment, TrustRegionMakesLocalBbConvergeAndLeavesDgBbUnchangedOn
   EXPECT_LT(local.final_error, 1e-3);
 }
 
+// 004 eq. (15) as printed takes ΔD_i = ∇_i f(p_i^(τ)) − ∇_i f(p_i^(τ−1)), both at the neighbours' newest
+// positions: the change node i's own move made. Read that way, local BB converges on the Table I lattice
+// without any trust region (seed 1, first lattice: τ_end 1414, DG-BB 250), where the [E-6] reading (the
+// change of ∇_i f(p), the neighbours' moves in it) diverges.
+TEST(GradientExperiment, EquationFifteenAsPrintedConvergesOnTheTableOneLattice) {
+  LatticeConfig config;
+  config.both_diagonals = true;
+  std::mt19937_64 rng(1);
+  const LatticeProblem lattice = make_lattice_problem(config, rng);
+  estimators::gradient::DgBbParams params;
+  params.consensus_rounds = 20;
+  const GradientRun dgbb = run_gradient_agents(lattice, params);
+  params.rule = estimators::gradient::StepRule::kLocalBb;
+  params.own_move_curvature = true;
+  const GradientRun printed = run_gradient_agents(lattice, params);
+  EXPECT_TRUE(printed.converged);
+  EXPECT_LT(printed.final_error, 1e-6);
+  EXPECT_EQ(printed.trust_region_fires, 0);
+  EXPECT_GT(printed.tau_end, dgbb.tau_end);
+  EXPECT_LT(printed.tau_end, 10000) << "fixed alpha = 0.1 needs ~77 000 updates here (Table I)";
+}
+
 }  // namespace
 }  // namespace swarmloc::sim::experiments
 

@@ -74,12 +74,14 @@ Outbox DgBb::published(bool with_consensus) const {
 
 Outbox DgBb::initial_outbox() const { return published(false); }
 
-bool DgBb::direction(Vec2& D) const {
+bool DgBb::direction(Vec2& D) const { return direction_at(p_, D); }
+
+bool DgBb::direction_at(const Vec2& position, Vec2& D) const {
   D = Vec2::Zero();
   for (const auto& [peer, range] : ranges_) {
     const auto it = neighbours_.find(peer);
     if (it == neighbours_.end() || !it->second.have_state) return false;
-    const Vec2 delta = p_ - it->second.position;
+    const Vec2 delta = position - it->second.position;
     D += (delta.squaredNorm() - range * range) * delta;  // g_ij (p_i − p_j), 004 eq. (13) [E-1]
   }
   D *= params_.grad_scale;
@@ -193,7 +195,11 @@ StepOutput DgBb::step(const StepInput& input) {
     double alpha = params_.fixed_step;
     if (params_.rule == StepRule::kConsensusBb || params_.rule == StepRule::kLocalBb) {
       const Vec2 dp = p_ - p_prev_;
-      const Vec2 dD = D - D_prev_;
+      Vec2 D_before_own_move = D_prev_;
+      if (params_.rule == StepRule::kLocalBb && params_.own_move_curvature) {
+        direction_at(p_prev_, D_before_own_move);  // the neighbours where they are now
+      }
+      const Vec2 dD = D - D_before_own_move;
       const double rho = dp.squaredNorm();
       const double psi = dp.dot(dD);
       alpha = rho / psi;  // 004 eq. (15)

@@ -166,6 +166,10 @@ std::vector<TableOneRow> run_table_one(const LatticeConfig& config, const gradie
   with("Step length k = 10/sqrt(tau)", gradient::StepRule::kStepLength, base.fixed_step);
   methods.back().params.step_length = 10.0;
   methods.back().params.schedule = gradient::StepLengthSchedule::kOverSqrtTau;
+  // Eq. (15) as printed: ΔD_i from node i's own move, the neighbours where they are now (the row above
+  // takes [E-6], the change of ∇_i f(p) with the neighbours' moves in it).
+  with("Local BB (T = 0), eq. (15) as printed: own move", gradient::StepRule::kLocalBb, base.fixed_step);
+  methods.back().params.own_move_curvature = true;
   // Not in the source: the BB trust region (DgBbParams::max_move_fraction), which the runtime uses.
   if (base.max_move_fraction == 0.0) {
     with("DG-BB, T = " + std::to_string(base.consensus_rounds) + ", trust region 1",

@@ -36,6 +36,10 @@ enum class RunMode { kFreeRun, kLockstep };
 /// network with delay (discrete events on virtual time, docs/architecture.md "Simulator").
 enum class SimClock { kRounds, kAgents };
 enum class InitialGuess { kNoisyTruth, kUniform };
+/// local_bb's ΔD_i in 004 eq. (15): the change of D_i(p) between updates, neighbours' moves included
+/// (ALGORITHMS.md [E-6]), or the change node i's own move made at the neighbours' newest positions (the
+/// equation as printed).
+enum class LocalBbDifference { kGradientChange, kOwnMove };
 enum class Reliability { kBestEffort, kReliable };
 enum class Durability { kVolatile, kTransientLocal };
 /// Range noise: additive N(0, range_std²), or proportional N(0, (range_factor·d)²) (004 eq. (16)).
@@ -73,6 +77,7 @@ struct Scenario {
     double initial_heading_std_rad = 0.1;  ///< pose-state algorithms: heading prior std
     double range_bearing_gate_chi2 = 0.0;  ///< pose-state algorithms: 2-dof gate; 0 = off
     int field_warmup_steps = 0;  ///< joint_field: readings of each agent's first steps are left out; 0 = 002
+    LocalBbDifference local_bb_difference = LocalBbDifference::kGradientChange;  ///< local_bb, eq. (15)
   } algorithm;
 
   struct World {

@@ -41,6 +41,10 @@ struct DgBbParams {
   /// cost, which no later step undoes. A node never needs to jump past half its nearest neighbour.
   double max_move_fraction = 0.0;
   double grad_scale = 1.0;  ///< [E-1]: 1 = D_i = ½∇_i f, 2 = ∇_i f
+  /// kLocalBb: eq. (15) as printed, ∇_i f(p_i^(τ)) − ∇_i f(p_i^(τ−1)), both with the neighbours' newest
+  /// positions, so ΔD_i is the change that node i's own move made (off: [E-6], the change of ∇_i f(p),
+  /// neighbours' moves included).
+  bool own_move_curvature = false;
   consensus::MetropolisRule weights = consensus::MetropolisRule::kPlusOne;
 };
 
@@ -91,6 +95,8 @@ class DgBb final : public Estimator {
   /// D_i(p) = grad_scale · Σ_j g_ij (p_i − p_j), g_ij = ‖p_i − p_j‖² − d̄_ij² ([E-1]); false if a neighbour is
   /// missing.
   bool direction(Vec2& D) const;
+  /// The same with node i at `position` (the neighbours' newest positions unchanged).
+  bool direction_at(const Vec2& position, Vec2& D) const;
   void apply_update(const Vec2& D, double alpha);
   /// α capped by max_step and by the max_move_fraction trust region (counted in trust_region_count_).
   double capped_bb_step(double alpha, const Vec2& D);

@@ -27,14 +27,14 @@ struct LatticeProblem {
 LatticeProblem make_lattice_problem(const LatticeConfig& config, std::mt19937_64& rng);
 
 struct GradientRun {
-  std::int64_t tau_end = 0;         ///< updates until all nodes inactive or τ_max (warm-up included)
-  double mean_node_updates = 0.0;   ///< updates per non-anchor node, averaged over those nodes
-  std::int64_t rounds = 0;          ///< communication rounds actually simulated (DG-BB: T + 1 per update)
-  std::int64_t source_rounds = 0;   ///< the source's count: τ_end·T (DG-BB) or τ_end (others) (§6.2)
-  double final_error = 0.0;         ///< Φ = (1/n) Σ_i ‖p_i − p̂_i‖ over all nodes ([E-9])
-  bool converged = false;           ///< Φ < 1e−3 ([E-9])
-  int safeguard_fires = 0;          ///< [E-4] replacements summed over nodes
-  int trust_region_fires = 0;       ///< BB steps shortened by DgBbParams::max_move_fraction, summed over nodes
+  std::int64_t tau_end = 0;        ///< updates until all nodes inactive or τ_max (warm-up included)
+  double mean_node_updates = 0.0;  ///< updates per non-anchor node, averaged over those nodes
+  std::int64_t rounds = 0;         ///< communication rounds actually simulated (DG-BB: T + 1 per update)
+  std::int64_t source_rounds = 0;  ///< the source's count: τ_end·T (DG-BB) or τ_end (others) (§6.2)
+  double final_error = 0.0;        ///< Φ = (1/n) Σ_i ‖p_i − p̂_i‖ over all nodes ([E-9])
+  bool converged = false;          ///< Φ < 1e−3 ([E-9])
+  int safeguard_fires = 0;         ///< [E-4] replacements summed over nodes
+  int trust_region_fires = 0;      ///< BB steps shortened by DgBbParams::max_move_fraction, summed over nodes
   std::vector<double> error_trace;  ///< Φ after every update τ (only if requested)
 };
 
@@ -58,8 +58,9 @@ struct TableOneRow {
   double mean_trust_region_fires = 0.0;  ///< per run, summed over nodes
 };
 
-/// Table I of 004: DG-BB (T), local BB, fixed 0.1, fixed 0.01, step length 10/√τ, each over config.runs
-/// lattices (the same draws for every method). `base` supplies T, η, τ_max, warm-up and the safeguard.
+/// Table I of 004: DG-BB (T), local BB ([E-6]), fixed 0.1, fixed 0.01, step length 10/√τ, local BB with
+/// eq. (15) as printed (DgBbParams::own_move_curvature), each over config.runs lattices (the same draws for
+/// every method). `base` supplies T, η, τ_max, warm-up and the safeguard.
 /// With base.max_move_fraction = 0 (the source) two rows follow that are not in the source: DG-BB and local
 /// BB with the trust region at 1.
 std::vector<TableOneRow> run_table_one(const LatticeConfig& config,
