@@ -12,14 +12,17 @@ template <typename A, typename B>
                                          const Eigen::MatrixBase<A>& a, const Eigen::MatrixBase<B>& b,
                                          double tolerance) {
   if (a.rows() != b.rows() || a.cols() != b.cols()) {
-    return ::testing::AssertionFailure() << a_expr << " is " << a.rows() << "x" << a.cols() << " but " << b_expr
-                                         << " is " << b.rows() << "x" << b.cols();
+    return ::testing::AssertionFailure() << a_expr << " is " << a.rows() << "x" << a.cols() << " but "
+                                         << b_expr << " is " << b.rows() << "x" << b.cols();
   }
   const double max_diff = (a - b).cwiseAbs().maxCoeff();
   if (max_diff <= tolerance) return ::testing::AssertionSuccess();
   std::ostringstream os;
   os << a_expr << " and " << b_expr << " differ by " << max_diff << " > " << tolerance << "\n"
-     << a_expr << " =\n" << a << "\n" << b_expr << " =\n" << b;
+     << a_expr << " =\n"
+     << a << "\n"
+     << b_expr << " =\n"
+     << b;
   return ::testing::AssertionFailure() << os.str();
 }
 

@@ -66,18 +66,19 @@ struct Scenario {
     double initial_std_m = 8.66;
     bool inflate_stale = true;
     // Distributed gradient family (dgbb, local_bb, fixed_step, step_length; ALGORITHMS.md §6).
-    int consensus_rounds = 20;             ///< T: consensus rounds per DG-BB update
-    double fixed_step = 0.1;               ///< α of fixed_step
-    double step_length = 10.0;             ///< k of step_length (α = k/(√τ‖D_i‖))
-    double max_step = 0.0;                 ///< cap on any BB step; 0 = no cap (the source has none)
-    double max_move_fraction = 1.0;        ///< BB trust region: move ≤ this × shortest range; 0 = off
-    double abs_tol = 1e-10;                ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
-    double range_gate_chi2 = 0.0;          ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
-    int update_iterations = 1;             ///< ieif, iekf: Gauss–Newton passes per update; 1 = 001 as printed
+    int consensus_rounds = 20;       ///< T: consensus rounds per DG-BB update
+    double fixed_step = 0.1;         ///< α of fixed_step
+    double step_length = 10.0;       ///< k of step_length (α = k/(√τ‖D_i‖))
+    double max_step = 0.0;           ///< cap on any BB step; 0 = no cap (the source has none)
+    double max_move_fraction = 1.0;  ///< BB trust region: move ≤ this × shortest range; 0 = off
+    double abs_tol = 1e-10;          ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
+    double range_gate_chi2 = 0.0;    ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
+    int update_iterations = 1;       ///< ieif, iekf: Gauss–Newton passes per update; 1 = 001 as printed
     double initial_heading_std_rad = 0.1;  ///< pose-state algorithms: heading prior std
     double range_bearing_gate_chi2 = 0.0;  ///< pose-state algorithms: 2-dof gate; 0 = off
     int field_warmup_steps = 0;  ///< joint_field: readings of each agent's first steps are left out; 0 = 002
-    LocalBbDifference local_bb_difference = LocalBbDifference::kGradientChange;  ///< local_bb, eq. (15)
+    /// local_bb: ΔD_i of 004 eq. (15) (gradient_change = [E-6], own_move = as printed).
+    LocalBbDifference local_bb_difference = LocalBbDifference::kGradientChange;
   } algorithm;
 
   struct World {

@@ -9,9 +9,13 @@ struct ClockModel {
   double offset_s = 0.0;   ///< added to the local reading
   double drift_ppm = 0.0;  ///< rate error in parts per million
 
-  [[nodiscard]] double local_time(double mono_s) const { return offset_s + (1.0 + drift_ppm * 1e-6) * mono_s; }
+  [[nodiscard]] double local_time(double mono_s) const {
+    return offset_s + (1.0 + drift_ppm * 1e-6) * mono_s;
+  }
   /// Monotonic duration that elapses while the local clock advances by `local_dt_s`.
-  [[nodiscard]] double mono_duration(double local_dt_s) const { return local_dt_s / (1.0 + drift_ppm * 1e-6); }
+  [[nodiscard]] double mono_duration(double local_dt_s) const {
+    return local_dt_s / (1.0 + drift_ppm * 1e-6);
+  }
 };
 
 /// Draws agent `id`'s clock from the seed: offset ~ U[-offset_max, offset_max], drift ~ U[-ppm, ppm].

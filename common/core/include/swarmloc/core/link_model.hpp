@@ -25,7 +25,15 @@
 
 namespace swarmloc::core {
 
-enum class TopicFamily : std::uint8_t { kMeasurement = 0, kState = 1, kInformation = 2, kConsensus = 3, kBelief = 4, kEstimate = 5, kControl = 6 };
+enum class TopicFamily : std::uint8_t {
+  kMeasurement = 0,
+  kState = 1,
+  kInformation = 2,
+  kConsensus = 3,
+  kBelief = 4,
+  kEstimate = 5,
+  kControl = 6
+};
 
 struct LinkLossParams {
   double loss_probability = 0.0;   ///< mean drop probability in [0, 1]
