@@ -196,8 +196,10 @@ StepOutput DgBb::step(const StepInput& input) {
     if (params_.rule == StepRule::kConsensusBb || params_.rule == StepRule::kLocalBb) {
       const Vec2 dp = p_ - p_prev_;
       Vec2 D_before_own_move = D_prev_;
-      if (params_.rule == StepRule::kLocalBb && params_.own_move_curvature) {
-        direction_at(p_prev_, D_before_own_move);  // the neighbours where they are now
+      // The neighbours where they are now (all of them are known once the node has started).
+      if (params_.rule == StepRule::kLocalBb && params_.own_move_curvature &&
+          !direction_at(p_prev_, D_before_own_move)) {
+        D_before_own_move = D_prev_;
       }
       const Vec2 dD = D - D_before_own_move;
       const double rho = dp.squaredNorm();
