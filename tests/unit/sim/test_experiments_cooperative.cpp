@@ -127,11 +127,16 @@ TEST(GradientExperiment, DgBbNeedsFewerUpdatesThanLocalBbAndFixedStepOn5x5Lattic
 // 004 Table I lattice (10 × 10, both diagonals, σ_I = 0.05, noiseless): the BB trust region of one shortest
 // range never fires for DG-BB (same τ_end as the source's algorithm) and makes local BB converge, which
 // diverges without it (a near-zero positive ψ_i gives a huge step); local BB still needs more updates.
-TEST(GradientExperiment, TrustRegionMakesLocalBbConvergeAndLeavesDgBbUnchangedOnTheTableOneLattice) {
+/// The first lattice of 004 Table I's runs (seed 1): 10 × 10, both diagonals, σ_I = 0.05, noiseless.
+LatticeProblem first_table_one_lattice() {
   LatticeConfig config;
   config.both_diagonals = true;
   std::mt19937_64 rng(1);
-  const LatticeProblem lattice = make_lattice_problem(config, rng);
+  return make_lattice_problem(config, rng);
+}
+
+TEST(GradientExperiment, TrustRegionMakesLocalBbConvergeAndLeavesDgBbUnchangedOnTheTableOneLattice) {
+  const LatticeProblem lattice = first_table_one_lattice();
   estimators::gradient::DgBbParams params;
   params.consensus_rounds = 20;
   params.rule = estimators::gradient::StepRule::kConsensusBb;
@@ -158,10 +163,7 @@ TEST(GradientExperiment, TrustRegionMakesLocalBbConvergeAndLeavesDgBbUnchangedOn
 // without any trust region (seed 1, first lattice: τ_end 1414, DG-BB 250), where the [E-6] reading (the
 // change of ∇_i f(p), the neighbours' moves in it) diverges.
 TEST(GradientExperiment, EquationFifteenAsPrintedConvergesOnTheTableOneLattice) {
-  LatticeConfig config;
-  config.both_diagonals = true;
-  std::mt19937_64 rng(1);
-  const LatticeProblem lattice = make_lattice_problem(config, rng);
+  const LatticeProblem lattice = first_table_one_lattice();
   estimators::gradient::DgBbParams params;
   params.consensus_rounds = 20;
   const GradientRun dgbb = run_gradient_agents(lattice, params);
