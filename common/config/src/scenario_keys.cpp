@@ -525,3 +525,13 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
 }
 
 }  // namespace swarmloc::config::detail
+
+namespace swarmloc::config {
+
+const std::vector<std::string>& exchange_only_algorithms() {
+  static const std::vector<std::string> names{"jacobi", "dle",      "joint_field", "multipath_bp",
+                                              "dgbb",   "local_bb", "fixed_step",  "step_length"};
+  return names;
+}
+
+}  // namespace swarmloc::config

@@ -225,16 +225,16 @@ void validate(const Scenario& scenario) {
   require_within(run.agent_nice, 0, 19, "run.agent_nice");
   require_within(run.agent_steps_per_world_step, 1, 1000, "run.agent_steps_per_world_step");
   if (run.agent_steps_per_world_step > 1) {
-    // An agent step without a batch is a pure exchange only for these: the Kalman family and the pose
-    // filters predict on it (process noise per step), the centralized ones have no agent steps.
-    static const std::vector<std::string> kExchangeOnly{"jacobi", "dle",      "joint_field", "multipath_bp",
-                                                        "dgbb",   "local_bb", "fixed_step",  "step_length"};
-    if (std::find(kExchangeOnly.begin(), kExchangeOnly.end(), scenario.algorithm.name) ==
-        kExchangeOnly.end()) {
+    // The Kalman family and the pose filters predict on a step without a batch (process noise per step);
+    // the centralized ones have no agent steps.
+    const auto& exchange_only = exchange_only_algorithms();
+    if (std::find(exchange_only.begin(), exchange_only.end(), scenario.algorithm.name) ==
+        exchange_only.end()) {
+      std::string list;
+      for (const auto& name : exchange_only) list += (list.empty() ? "" : ", ") + name;
       fail("run.agent_steps_per_world_step",
-           "above 1 needs an algorithm whose step without a measurement is an exchange only (jacobi, dle, "
-           "joint_field, multipath_bp, dgbb, local_bb, fixed_step, step_length); '" +
-               scenario.algorithm.name + "' would predict on every extra step");
+           "above 1 needs an algorithm whose step without a measurement is an exchange only (" + list +
+               "); '" + scenario.algorithm.name + "' would predict on every extra step");
     }
     if (run.mode == RunMode::kLockstep) {
       fail("run.agent_steps_per_world_step",

@@ -366,6 +366,12 @@ TEST(CooperativeSimulation, JacobiApproachesTheBlueBoundOfItsRelativeMeasurement
 // run.agent_steps_per_world_step: agents that exchange several times per measurement drain Jacobi's prior
 // transient (150 agents, one anchor, step 50: 0.197 / 0.024 / 0.0078 m in rounds with 1 / 10 / 30 steps
 // per world step, 0.260 / 0.0087 / 0.0080 m on agent clocks), and every agent step is one exchange.
+// config (which must not depend on the estimators) keeps its own list of the algorithms that take extra
+// agent steps; it must be the estimators' cooperative family.
+TEST(CooperativeSimulation, TheExchangeOnlyAlgorithmsAreTheCooperativeFamily) {
+  EXPECT_EQ(config::exchange_only_algorithms(), estimators::cooperative_algorithms());
+}
+
 TEST(CooperativeSimulation, SeveralAgentStepsPerWorldStepDrainJacobisTransient) {
   const std::vector<std::string> sparse{"world.agents=150",       "world.anchors=1", "world.area_m=120",
                                         "world.comm_radius_m=20", "run.steps=50",    "clock.drift_ppm=100"};

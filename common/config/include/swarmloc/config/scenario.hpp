@@ -231,4 +231,8 @@ std::uint64_t scenario_hash(const Scenario& scenario);
 /// Every canonical key path accepted by --set (for --help and tests).
 const std::vector<std::string>& known_keys();
 
+/// The algorithms whose agent step without a measurement is an exchange alone, the only ones that take
+/// run.agent_steps_per_world_step > 1 (the estimators' cooperative family; a test keeps the two equal).
+const std::vector<std::string>& exchange_only_algorithms();
+
 }  // namespace swarmloc::config
