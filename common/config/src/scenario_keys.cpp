@@ -39,6 +39,8 @@ constexpr EnumNames<InitialGuess> kInitialGuessNames{
     {{InitialGuess::kNoisyTruth, "noisy_truth"}, {InitialGuess::kUniform, "uniform"}}};
 constexpr EnumNames<LocalBbDifference> kLocalBbDifferenceNames{
     {{LocalBbDifference::kGradientChange, "gradient_change"}, {LocalBbDifference::kOwnMove, "own_move"}}};
+constexpr EnumNames<PathVariance> kPathVarianceNames{
+    {{PathVariance::kRangeOnly, "range_only"}, {PathVariance::kWithDoa, "with_doa"}}};
 constexpr EnumNames<Reliability> kReliabilityNames{
     {{Reliability::kBestEffort, "best_effort"}, {Reliability::kReliable, "reliable"}}};
 constexpr EnumNames<Durability> kDurabilityNames{
@@ -59,6 +61,7 @@ const auto& names_of(RunMode /*tag*/) { return kRunModeNames; }
 const auto& names_of(SimClock /*tag*/) { return kSimClockNames; }
 const auto& names_of(InitialGuess /*tag*/) { return kInitialGuessNames; }
 const auto& names_of(LocalBbDifference /*tag*/) { return kLocalBbDifferenceNames; }
+const auto& names_of(PathVariance /*tag*/) { return kPathVarianceNames; }
 const auto& names_of(Reliability /*tag*/) { return kReliabilityNames; }
 const auto& names_of(Durability /*tag*/) { return kDurabilityNames; }
 const auto& names_of(RangeNoise /*tag*/) { return kRangeNoiseNames; }
@@ -297,6 +300,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(algorithm.range_bearing_gate_chi2),
       SWARMLOC_KEY(algorithm.field_warmup_steps),
       SWARMLOC_KEY(algorithm.local_bb_difference),
+      SWARMLOC_KEY(algorithm.path_variance),
       SWARMLOC_KEY(world.agents),
       SWARMLOC_KEY(world.anchors),
       SWARMLOC_KEY(world.area_m),

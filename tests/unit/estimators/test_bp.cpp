@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include "eigen_gtest.hpp"
 #include "swarmloc/estimators/bp/multipath_bp.hpp"
@@ -63,7 +64,94 @@ TEST(MultipathBp, SinglePathUsesTheGeneralMessage) {  // R = 1: C = σ² + g P_j
   ASSERT_TRUE(message.has_value());
   const Vec2 g = set.G.row(0).transpose();
   EXPECT_MATRIX_NEAR(message->information, Mat2(g * g.transpose() / (params.sigma2 + g.dot(P_j * g))), 1e-12);
-  EXPECT_FALSE(pairwise_from_parent(Gaussian2{}, set, params.sigma2).has_value());
+  EXPECT_FALSE(pairwise_from_parent(Gaussian2{}, set, params).has_value());
+}
+
+// One reflected path off the horizontal wall y = −1 as seen from s_i, with its angles perturbed.
+struct ReflectedPath {
+  double length = 0.0;
+  double theta_ij = 0.0;  // at S_j
+  double theta_ji = 0.0;  // at S_i
+};
+ReflectedPath reflected(const Vec2& s_i, const Vec2& s_j) {
+  const auto path = models::reflect_path(s_i, s_j, models::Wall{Vec2(0.0, -1.0), 0.0});
+  return {path->length_m, path->theta_ij_rad, path->theta_ji_rad};
+}
+PathSet single_path(const ReflectedPath& p) {
+  PathSet set;
+  set.G = models::path_direction(p.theta_ij, p.theta_ji).transpose();
+  set.d = VecX::Constant(1, p.length);
+  return set;
+}
+
+TEST(MultipathBp, PathVarianceIsTheFirstOrderEffectOfBothAngleErrors) {
+  MultipathBpParams params;
+  params.sigma2 = 0.01;
+  params.doa_variance_rad2 = 1e-4;  // 0.57° std
+  // Finite differences of eq. (1)'s prediction g(θ_ij, θ_ji)ᵀ(s_i − s_j) in each angle.
+  const auto sensitivity2 = [](const Vec2& s_i, const Vec2& s_j) {
+    const ReflectedPath p = reflected(s_i, s_j);
+    const Vec2 rel = s_i - s_j;
+    constexpr double h = 1e-6;
+    const double by_ij = (models::path_direction(p.theta_ij + h, p.theta_ji).dot(rel) -
+                          models::path_direction(p.theta_ij - h, p.theta_ji).dot(rel)) /
+                         (2 * h);
+    const double by_ji = (models::path_direction(p.theta_ij, p.theta_ji + h).dot(rel) -
+                          models::path_direction(p.theta_ij, p.theta_ji - h).dot(rel)) /
+                         (2 * h);
+    return by_ij * by_ij + by_ji * by_ji;
+  };
+  // Both ends equally far above the wall: the scatter point halves the path, as path_variances assumes.
+  const Vec2 s_i(2.0, 5.0);
+  const Vec2 s_j(8.0, 5.0);
+  const double exact = params.sigma2 + params.doa_variance_rad2 * sensitivity2(s_i, s_j);
+  EXPECT_NEAR(path_variances(single_path(reflected(s_i, s_j)), params)(0), exact, 1e-6 * exact);
+  // Unequal heights: the equal split under-states the angle term, by less than a factor 2.
+  const Vec2 low(2.0, 0.5);
+  const Vec2 high(8.0, 9.0);
+  const double angle_term = path_variances(single_path(reflected(low, high)), params)(0) - params.sigma2;
+  const double true_term = params.doa_variance_rad2 * sensitivity2(low, high);
+  EXPECT_LT(angle_term, true_term);
+  EXPECT_GT(angle_term, 0.5 * true_term);
+  // The same variance from sampled angle errors (uniform, variance σ_θ²) at both ends, 20 000 draws.
+  std::mt19937_64 rng(3);
+  const double half_width = std::sqrt(3.0 * params.doa_variance_rad2);
+  std::uniform_real_distribution<double> angle_error(-half_width, half_width);
+  std::normal_distribution<double> length_error(0.0, std::sqrt(params.sigma2));
+  const ReflectedPath p = reflected(s_i, s_j);
+  double sum = 0.0;
+  double squares = 0.0;
+  constexpr int kDraws = 20000;
+  for (int k = 0; k < kDraws; ++k) {
+    const double error_ij = angle_error(rng);  // named draws: argument order is unspecified
+    const double error_ji = angle_error(rng);
+    const Vec2 g = models::path_direction(p.theta_ij + error_ij, p.theta_ji + error_ji);
+    const double residual = p.length + length_error(rng) - g.dot(s_i - s_j);
+    sum += residual;
+    squares += residual * residual;
+  }
+  const double sampled = squares / kDraws - (sum / kDraws) * (sum / kDraws);
+  EXPECT_NEAR(sampled, exact, 0.05 * exact);
+  EXPECT_GT(exact, 3.0 * params.sigma2) << "the angles dominate on this path";
+}
+
+TEST(MultipathBp, WithoutAngleErrorsOrOnALineOfSightPathTheVarianceIsSigmaSquared) {
+  MultipathBpParams params;
+  params.sigma2 = 0.7;
+  const PathSet reflections = path_set(two_paths(Vec2(3.0, 7.0), Vec2(8.0, 3.0), 1), 1);
+  EXPECT_MATRIX_NEAR(path_variances(reflections, params), VecX::Constant(2, 0.7), 0.0);
+  params.doa_variance_rad2 = 1e-4;
+  PathSet line_of_sight;
+  line_of_sight.G = models::unit_direction(0.3).transpose();
+  line_of_sight.d = VecX::Constant(1, 6.0);
+  EXPECT_NEAR(path_variances(line_of_sight, params)(0), 0.7, 1e-12);
+  // With angle errors each reflected path weighs by its own variance: A = GᵀV⁻¹G from the anchor.
+  const VecX v = path_variances(reflections, params);
+  EXPECT_GT(v.minCoeff(), 0.7);
+  const auto anchor = neighbour_message(reflections, Vec2::Zero(), Mat2::Zero(), true, params);
+  ASSERT_TRUE(anchor.has_value());
+  const Mat2 expected = reflections.G.transpose() * v.cwiseInverse().asDiagonal() * reflections.G;
+  EXPECT_MATRIX_NEAR(anchor->information, expected, 1e-12 * expected.norm());
 }
 
 TEST(MultipathBp, AnchorPublishesInfiniteInformationAndNodeLocalizesFromIt) {

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "swarmloc/models/multipath.hpp"
@@ -44,12 +45,42 @@ PathSet path_set(const std::vector<MultipathMeasurement>& paths, AgentId peer, d
   return set;
 }
 
-std::optional<Gaussian2> pairwise_from_parent(const Gaussian2& parent, const PathSet& paths, double sigma2) {
+VecX path_variances(const PathSet& paths, const MultipathBpParams& params) {
+  VecX variances = VecX::Constant(paths.G.rows(), params.sigma2);
+  if (params.doa_variance_rad2 > 0.0) {
+    for (Eigen::Index r = 0; r < paths.G.rows(); ++r) {
+      const double cot2_half_angle = std::max(0.0, paths.G.row(r).squaredNorm() - 1.0);
+      const double half_length = 0.5 * paths.d(r);
+      variances(r) += params.doa_variance_rad2 * cot2_half_angle * 2.0 * half_length * half_length;
+    }
+  }
+  return variances;
+}
+
+namespace {
+/// A_ji = GᵀV⁻¹G and the relative position it implies, (GᵀV⁻¹G)⁻¹GᵀV⁻¹d (G†d when V = σ²I).
+struct PathInformation {
+  Mat2 A;
+  Vec2 relative;
+};
+PathInformation path_information(const PathSet& paths, const MultipathBpParams& params) {
+  const VecX inverse_variances = path_variances(paths, params).cwiseInverse();
+  const MatX weighted_transpose = paths.G.transpose() * inverse_variances.asDiagonal();
+  PathInformation info;
+  info.A = weighted_transpose * paths.G;
+  info.A = 0.5 * (info.A + info.A.transpose());
+  info.relative = info.A.ldlt().solve(weighted_transpose * paths.d);
+  return info;
+}
+}  // namespace
+
+std::optional<Gaussian2> pairwise_from_parent(const Gaussian2& parent, const PathSet& paths,
+                                              const MultipathBpParams& params) {
   if (!full_column_rank(paths.G)) return std::nullopt;
-  const Mat2 Sigma = (paths.G.transpose() * paths.G).inverse();  // Σ_ji = (GᵀG)⁻¹
+  const PathInformation info = path_information(paths, params);
   Gaussian2 child;
-  child.mean = parent.mean + Sigma * paths.G.transpose() * paths.d;  // eq. (2): s_j + G†d
-  child.covariance = parent.covariance + sigma2 * Sigma;
+  child.mean = parent.mean + info.relative;                 // eq. (2): s_j + G†d
+  child.covariance = parent.covariance + info.A.inverse();  // P_j + σ²Σ_ji
   return child;
 }
 
@@ -59,8 +90,9 @@ std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec
   if (!anchor_j && !positive_definite(info_j, params.min_information)) return std::nullopt;  // P_j infinite
   InformationPair message;
   if (full_column_rank(paths.G)) {
-    const Mat2 A = paths.G.transpose() * paths.G / params.sigma2;  // A_ji = (σ²Σ_ji)⁻¹
-    const Vec2 nu = mean_j + (paths.G.transpose() * paths.G).ldlt().solve(paths.G.transpose() * paths.d);
+    const PathInformation info = path_information(paths, params);
+    const Mat2& A = info.A;                  // A_ji = (σ²Σ_ji)⁻¹
+    const Vec2 nu = mean_j + info.relative;  // ν_ji = μ_j + G†d
     // W_ji⁻¹ = A − A(A + Λ_j)⁻¹A = (A⁻¹ + Λ_j⁻¹)⁻¹ (§5.2); anchor: W⁻¹ = A.
     message.information = anchor_j ? A : Mat2(A - A * (A + info_j).ldlt().solve(A));
     message.information = 0.5 * (message.information + message.information.transpose());
@@ -68,8 +100,7 @@ std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec
     return message;
   }
   // General message (R = 1 or rank-deficient G): C = σ²I + G P_j Gᵀ.
-  const auto R = paths.G.rows();
-  MatX C = params.sigma2 * MatX::Identity(R, R);
+  MatX C = path_variances(paths, params).asDiagonal();
   if (!anchor_j) C += paths.G * info_j.inverse() * paths.G.transpose();
   const Eigen::LDLT<MatX> ldlt(C);
   message.information = paths.G.transpose() * ldlt.solve(paths.G);
@@ -80,6 +111,8 @@ std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec
 MultipathBp::MultipathBp(const AgentSetup& setup, const MultipathBpParams& params)
     : setup_(setup), params_(params), mu_(setup.initial_guess_m), localized_(setup.anchor) {
   if (!(params.sigma2 > 0.0)) throw std::invalid_argument("multipath_bp.sigma2: must be > 0");
+  if (!(params.doa_variance_rad2 >= 0.0) || !std::isfinite(params.doa_variance_rad2))
+    throw std::invalid_argument("multipath_bp.doa_variance_rad2: must be finite and >= 0");
   if (!setup.initial_guess_m.allFinite())
     throw std::invalid_argument("multipath_bp: initial guess is not finite");
 }

@@ -45,6 +45,7 @@ MultipathExperimentResult run_multipath_experiment(const MultipathExperimentConf
   const double sigma2 = c.algorithm_sigma2 > 0.0 ? c.algorithm_sigma2 : c.range_std_m * c.range_std_m;
   estimators::bp::MultipathBpParams params;
   params.sigma2 = sigma2;
+  if (c.doa_aware_paths) params.doa_variance_rad2 = doa * doa / 3.0;
 
   // Walls outside the square, both endpoints of every pair on the same side (§5.4 [D-6]).
   const Vec2 center(0.5 * c.side_m, 0.5 * c.side_m);
@@ -150,7 +151,7 @@ MultipathExperimentResult run_multipath_experiment(const MultipathExperimentConf
       const int parent = kPairwiseParent[k];
       const auto paths = estimators::bp::path_set(batches[k].paths, parent);
       const auto child =
-          estimators::bp::pairwise_from_parent(pairwise[static_cast<std::size_t>(parent)], paths, sigma2);
+          estimators::bp::pairwise_from_parent(pairwise[static_cast<std::size_t>(parent)], paths, params);
       if (!child) {
         pairwise_ok = false;
         break;

@@ -40,6 +40,7 @@ enum class InitialGuess { kNoisyTruth, kUniform };
 /// (ALGORITHMS.md [E-6]), or the change node i's own move made at the neighbours' newest positions (the
 /// equation as printed).
 enum class LocalBbDifference { kGradientChange, kOwnMove };
+enum class PathVariance { kRangeOnly, kWithDoa };
 enum class Reliability { kBestEffort, kReliable };
 enum class Durability { kVolatile, kTransientLocal };
 /// Range noise: additive N(0, range_std²), or proportional N(0, (range_factor·d)²) (004 eq. (16)).
@@ -79,6 +80,8 @@ struct Scenario {
     int field_warmup_steps = 0;  ///< joint_field: readings of each agent's first steps are left out; 0 = 002
     /// local_bb: ΔD_i of 004 eq. (15) (gradient_change = [E-6], own_move = as printed).
     LocalBbDifference local_bb_difference = LocalBbDifference::kGradientChange;
+    /// multipath_bp: a path's variance is σ² (range_only, 003) or also carries its angle errors (with_doa).
+    PathVariance path_variance = PathVariance::kRangeOnly;
   } algorithm;
 
   struct World {

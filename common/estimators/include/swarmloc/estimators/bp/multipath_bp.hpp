@@ -11,7 +11,11 @@
 namespace swarmloc::estimators::bp {
 
 struct MultipathBpParams {
-  double sigma2 = 9.0;             ///< σ² of eq. (1) (variance, m²); default: std 3 m reading of [D-5]
+  double sigma2 = 9.0;  ///< σ² of eq. (1) (variance, m²); default: std 3 m reading of [D-5]
+  /// Variance of each measured angle of arrival (rad²). 0, as in 003: the angles in G_ji are taken as
+  /// exact and σ² is a path's only noise. > 0 (not in 003): a path's variance also carries what its two
+  /// angle errors do to eq. (1), see path_variances().
+  double doa_variance_rad2 = 0.0;
   double los_threshold = 1e-3;     ///< [D-2]
   double min_information = 1e-12;  ///< neighbours whose Λ_j has an eigenvalue below this are skipped (§5.2)
 };
@@ -30,9 +34,19 @@ struct Gaussian2 {
   Mat2 covariance = Mat2::Zero();
 };
 
-/// Pairwise baseline step (§5.4, eq. (2)): s_i = s_j + G_ji†d_ji with covariance P_j + σ²(G_jiᵀG_ji)⁻¹.
-/// nullopt if G_ji has rank < 2.
-std::optional<Gaussian2> pairwise_from_parent(const Gaussian2& parent, const PathSet& paths, double sigma2);
+/// Each path's noise variance v_r. With exact angles it is σ². With angle errors of variance σ_θ² at both
+/// ends (not in 003), eq. (1)'s prediction moves too: ∂d/∂θ_ij = a cot(Δ/2) and ∂d/∂θ_ji = b cot(Δ/2),
+/// where Δ = θ_ji − θ_ij, a and b are the scatter point's distances from S_j and S_i, and
+/// cot²(Δ/2) = ‖g‖² − 1. Hence v_r = σ² + σ_θ² (‖g_r‖² − 1)(a² + b²), with a = b = d_r/2 since the
+/// split of the path is unknown (it under-states a² + b² by at most a factor 2, when one end is at the wall).
+/// LOS paths (‖g‖ = 1) keep σ². Nearly parallel rays make ‖g‖ large: the angles then dominate.
+VecX path_variances(const PathSet& paths, const MultipathBpParams& params);
+
+/// Pairwise baseline step (§5.4, eq. (2)): s_i = s_j + G_ji†d_ji with covariance P_j + σ²(G_jiᵀG_ji)⁻¹;
+/// with angle errors (params.doa_variance_rad2 > 0) the weighted least-squares form with the paths'
+/// variances V: s_j + (GᵀV⁻¹G)⁻¹GᵀV⁻¹d and P_j + (GᵀV⁻¹G)⁻¹. nullopt if G_ji has rank < 2.
+std::optional<Gaussian2> pairwise_from_parent(const Gaussian2& parent, const PathSet& paths,
+                                              const MultipathBpParams& params);
 
 /// Message of one neighbour in information form: (W_ji⁻¹, W_ji⁻¹ ν_ji) (§5.2 numerically safe form).
 struct InformationPair {
@@ -40,7 +54,8 @@ struct InformationPair {
   Vec2 info_vec = Vec2::Zero();
 };
 /// Anchor neighbour (P_j = 0): A_ji = G_jiᵀG_ji/σ²; otherwise A − A(A + Λ_j)⁻¹A; the general form
-/// C = σ²I + G P_j Gᵀ when rank(G) < 2. nullopt if Λ_j is not PD (the neighbour carries no information).
+/// C = σ²I + G P_j Gᵀ when rank(G) < 2. With angle errors σ²I becomes V = diag(path_variances()) and
+/// A_ji = G_jiᵀV⁻¹G_ji. nullopt if Λ_j is not PD (the neighbour carries no information).
 std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec2& mean_j, const Mat2& info_j,
                                                  bool anchor_j, const MultipathBpParams& params);
 

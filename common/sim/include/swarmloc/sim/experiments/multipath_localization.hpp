@@ -16,6 +16,9 @@ struct MultipathExperimentConfig {
                                       45.0};  ///< one reflected path per wall per linked pair (R = #walls)
   double wall_margin_m = 5.0;                 ///< walls lie this far beyond the square's circumscribed circle
   double algorithm_sigma2 = -1.0;             ///< σ² used by BP/pairwise; ≤ 0: range_std² ([D-6])
+  /// Not in 003: BP and pairwise also weight each path by what its angle errors do to eq. (1)
+  /// (MultipathBpParams::doa_variance_rad2 = the uniform error's variance, doa_error² / 3).
+  bool doa_aware_paths = false;
   std::uint64_t seed = 1;
 };
 
