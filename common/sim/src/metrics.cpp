@@ -7,6 +7,7 @@
 
 #include "swarmloc/estimators/crlb.hpp"
 #include "swarmloc/models/measurement_models.hpp"
+#include "swarmloc/models/multipath.hpp"
 
 namespace swarmloc::sim {
 
@@ -142,6 +143,66 @@ RangeCrlb relative_crlb(const World& world, double relative_std_m) {
   return crlb;
 }
 
+/// The paths' bound (ALGORITHMS.md §5.4): eq. (1)'s linear model with the noise-free angles, each
+/// neighbour pair's reflections one shared draw of variance σ² (world.cpp add_paths), anchors known. It
+/// takes the angles as exact, so angle errors (noise.doa_error_deg) are not in it.
+RangeCrlb multipath_crlb(const World& world, const config::Scenario& s) {
+  RangeCrlb crlb;
+  std::vector<int> unknown_index(static_cast<std::size_t>(world.size()), -1);
+  int unknowns = 0;
+  for (int i = 0; i < world.size(); ++i) {
+    if (!world.is_anchor[static_cast<std::size_t>(i)])
+      unknown_index[static_cast<std::size_t>(i)] = unknowns++;
+  }
+  if (unknowns == 0 || unknowns > kMaxDenseRangeCrlbAgents) {
+    crlb.single_snapshot_rmse_m = unknowns == 0 ? 0.0 : std::numeric_limits<double>::quiet_NaN();
+    return crlb;
+  }
+  const double variance = s.noise.range_std_m * s.noise.range_std_m;
+  MatX information = MatX::Zero(2 * unknowns, 2 * unknowns);
+  for (int lo = 0; lo < world.size(); ++lo) {
+    for (AgentId hi : world.neighbours[static_cast<std::size_t>(lo)]) {
+      if (hi <= lo) continue;
+      const Vec2& s_lo = world.truth[static_cast<std::size_t>(lo)];
+      const Vec2& s_hi = world.truth[static_cast<std::size_t>(hi)];
+      Mat2 block = Mat2::Zero();
+      for (const auto& wall : world.walls) {
+        const auto path = models::reflect_path(s_lo, s_hi, wall);
+        if (!path) continue;
+        const Vec2 g = models::path_direction(path->theta_ij_rad, path->theta_ji_rad);  // d = gᵀ(s_lo − s_hi)
+        block += g * g.transpose() / variance;
+      }
+      const int a = unknown_index[static_cast<std::size_t>(lo)];
+      const int b = unknown_index[static_cast<std::size_t>(hi)];
+      if (a >= 0) information.block<2, 2>(2 * a, 2 * a) += block;
+      if (b >= 0) information.block<2, 2>(2 * b, 2 * b) += block;
+      if (a >= 0 && b >= 0) {
+        information.block<2, 2>(2 * a, 2 * b) -= block;
+        information.block<2, 2>(2 * b, 2 * a) -= block;
+      }
+    }
+  }
+  const Eigen::LDLT<MatX> ldlt(information);
+  if (ldlt.info() != Eigen::Success ||
+      !(ldlt.vectorD().minCoeff() > 1e-12 * information.diagonal().maxCoeff())) {
+    crlb.localizable = false;
+    crlb.single_snapshot_rmse_m = std::numeric_limits<double>::infinity();
+    return crlb;
+  }
+  const MatX covariance = ldlt.solve(MatX::Identity(2 * unknowns, 2 * unknowns));
+  double total = 0.0;
+  crlb.per_agent_single_rmse_m.assign(static_cast<std::size_t>(world.size()), 0.0);
+  for (int i = 0; i < world.size(); ++i) {
+    const int a = unknown_index[static_cast<std::size_t>(i)];
+    if (a < 0) continue;
+    const double mse = covariance(2 * a, 2 * a) + covariance(2 * a + 1, 2 * a + 1);
+    crlb.per_agent_single_rmse_m[static_cast<std::size_t>(i)] = std::sqrt(mse);
+    total += mse;
+  }
+  crlb.single_snapshot_rmse_m = std::sqrt(total / unknowns);
+  return crlb;
+}
+
 /// The static target's bound: J_1 = Σ H_iᵀ V_i⁻¹ H_i over the sensors that read it, at the true target
 /// (the centralized estimate's information from one step of readings). Every sensor estimates the same
 /// target, so the per-sensor bound is the network's.
@@ -195,6 +256,8 @@ RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario) {
     crlb = target_crlb(world, scenario);
   } else if (kinds.relative) {
     crlb = relative_crlb(world, scenario.noise.relative_std_m);
+  } else if (kinds.paths) {
+    crlb = multipath_crlb(world, scenario);
   } else if (kinds.ranges && scenario.noise.range_model == config::RangeNoise::kProportional) {
     std::vector<estimators::RangeObservation> observations;
     for (int i = 0; i < world.size(); ++i) {

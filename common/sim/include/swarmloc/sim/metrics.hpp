@@ -47,8 +47,8 @@ RangeCrlb range_crlb(const World& world, double range_std_m);
 /// The bound that matches the scenario's measurements (at the initial truth): ranges (additive or
 /// proportional noise), relative positions (each link one shared draw: the BLUE covariance σ²·L⁻¹ per
 /// axis), a static target's readings (the centralized estimate from every sensor's readings; the same
-/// bound for each sensor), or NaN for multipath paths and a moving target (no bound implemented).
-/// Anchors are known.
+/// bound for each sensor), reflected paths (eq. (1) with the noise-free angles taken as exact, ALGORITHMS.md
+/// §5.4: angle errors are not in it), or NaN for a moving target (no bound implemented). Anchors are known.
 RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario);
 
 }  // namespace swarmloc::sim
