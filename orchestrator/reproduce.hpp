@@ -16,7 +16,7 @@ struct ReproduceOptions {
 };
 
 /// Experiments: ea1, ea2, ea3 (paper 000), ieif-table1, ieif-table2 (paper 001), jacobi-002, joint-field-002,
-/// tracking-002, multipath-003, dgbb-004-table1, dgbb-004-table2, dgbb-004-table3.
+/// tracking-002, multipath-003, dgbb-004-table1, dgbb-004-figs, dgbb-004-table2, dgbb-004-table3.
 const std::vector<std::string>& known_experiments();
 
 /// Returns the exit code (2 for an unknown experiment).

@@ -4,6 +4,7 @@
 #include <random>
 #include <stdexcept>
 
+#include "swarmloc/sim/experiments/gradient_figures.hpp"
 #include "swarmloc/sim/experiments/gradient_localization.hpp"
 #include "swarmloc/sim/experiments/multipath_localization.hpp"
 #include "swarmloc/sim/experiments/relative_localization.hpp"
@@ -200,6 +201,58 @@ JointFieldExperimentConfig small_field(estimators::consensus::FieldSensing sensi
 
 // 002 Fig. 5: with a continuous model both errors fall; with sensors on the cell boundaries of a model that
 // jumps there, the field error stalls while the same DLE with true positions keeps falling.
+// 004 Figs. 6–7, small: consensus rounds cut τ_end at every size, and τ_end grows with n.
+TEST(GradientFigures, MoreConsensusRoundsNeedFewerUpdatesAndLargerLatticesMore) {
+  ScalingFiguresConfig config;
+  config.lattice.both_diagonals = true;
+  config.lattice.runs = 3;
+  config.sides = {4, 6};
+  config.consensus_rounds = {1, 20};
+  config.sides_at_t20 = {};
+  config.abs_tols = {1e-14};
+  config.threads = 2;
+  const auto cells = run_scaling_figures(config, estimators::gradient::DgBbParams{});
+  ASSERT_EQ(cells.size(), 4U);  // (16, 1), (16, 20), (36, 1), (36, 20)
+  for (const auto& cell : cells)
+    EXPECT_EQ(cell.fraction_converged, 1.0) << cell.nodes << ", T " << cell.consensus_rounds;
+  EXPECT_LT(cells[1].mean_tau_end, 0.8 * cells[0].mean_tau_end);
+  EXPECT_LT(cells[3].mean_tau_end, 0.8 * cells[2].mean_tau_end);
+  EXPECT_GT(cells[3].mean_tau_end, 1.2 * cells[1].mean_tau_end);
+  // The same runs, thread count 1: identical (every run's lattice comes from its own seed).
+  config.threads = 1;
+  const auto serial = run_scaling_figures(config, estimators::gradient::DgBbParams{});
+  for (std::size_t k = 0; k < cells.size(); ++k) EXPECT_EQ(serial[k].mean_tau_end, cells[k].mean_tau_end);
+}
+
+// 004 Figs. 4–5, small (6 × 6 lattice, 3 runs): DG-BB ahead of local BB and far ahead of the fixed step.
+TEST(GradientFigures, DgBbIsAheadOfLocalBbAndTheFixedStepAtEveryTracedUpdate) {
+  ConvergenceFiguresConfig config;
+  config.lattice.side = 6;
+  config.lattice.both_diagonals = true;
+  config.lattice.runs = 3;
+  config.initial_stds = {0.05, 0.1};
+  config.trace_taus = {30, 100, 300};
+  config.threads = 2;
+  estimators::gradient::DgBbParams base;
+  base.max_updates = 20000;
+  const ConvergenceFiguresResult r = run_convergence_figures(config, base);
+  ASSERT_EQ(r.curves.size(), 3U);  // local BB, DG-BB, fixed 0.1
+  ASSERT_EQ(r.cells.size(), 6U);
+  const auto& local = r.curves[0].mean_error;
+  const auto& dgbb = r.curves[1].mean_error;
+  const auto& fixed = r.curves[2].mean_error;
+  for (std::size_t k = 0; k < dgbb.size(); ++k)
+    EXPECT_LT(dgbb[k], fixed[k]) << "τ = " << config.trace_taus[k];
+  EXPECT_LT(dgbb[1], local[1]);
+  EXPECT_LT(dgbb[1], 1e-3);
+  EXPECT_GT(fixed[2], 1e-3) << "the fixed step's long tail";
+  for (const auto& cell : r.cells) {
+    if (cell.method.rfind("DG-BB", 0) == 0) {
+      EXPECT_EQ(cell.fraction_converged, 1.0) << cell.initial_std;
+    }
+  }
+}
+
 TEST(JointFieldExperiment, FieldErrorFallsWithAContinuousModelAndStallsOnCellBoundaries) {
   using estimators::consensus::FieldSensing;
   const auto continuous =

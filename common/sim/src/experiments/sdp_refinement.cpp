@@ -1,33 +1,20 @@
 #include "swarmloc/sim/experiments/sdp_refinement.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
-#include <thread>
 
+#include "experiments/parallel_runs.hpp"
 #include "experiments/sync_bus.hpp"
 
 namespace swarmloc::sim::experiments {
 
 namespace gradient = estimators::gradient;
+using detail::parallel_runs;
 
 namespace {
-
-/// Runs fn(run) for run in [0, runs) on `threads` threads (each run writes only its own slot).
-template <typename Fn>
-void parallel_runs(int runs, int threads, Fn&& fn) {
-  std::atomic<int> next{0};
-  std::vector<std::thread> pool;
-  for (int k = 0; k < std::max(1, std::min(threads, runs)); ++k) {
-    pool.emplace_back([&] {
-      for (int r = next++; r < runs; r = next++) fn(r);
-    });
-  }
-  for (auto& thread : pool) thread.join();
-}
 
 double median(std::vector<double> values) {
   if (values.empty()) return std::numeric_limits<double>::quiet_NaN();

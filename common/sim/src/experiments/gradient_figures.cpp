@@ -1,0 +1,165 @@
+#include "swarmloc/sim/experiments/gradient_figures.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "experiments/parallel_runs.hpp"
+#include "swarmloc/core/random.hpp"
+
+namespace swarmloc::sim::experiments {
+
+namespace gradient = estimators::gradient;
+
+namespace {
+
+/// The lattice of one run of one cell: the same draws for every method and T of that cell.
+LatticeProblem cell_lattice(LatticeConfig config, int side, double initial_std, int run) {
+  config.side = side;
+  config.initial_std = initial_std;
+  std::mt19937_64 rng(core::hash_keys(config.seed, side, std::llround(initial_std * 1e9), run));
+  return make_lattice_problem(config, rng);
+}
+
+struct Method {
+  std::string name;
+  gradient::DgBbParams params;
+};
+
+std::vector<Method> convergence_methods(const gradient::DgBbParams& base) {
+  std::vector<Method> methods(3, Method{"", base});
+  methods[0].name = "Local BB (T = 0), eq. (15) as printed";
+  methods[0].params.rule = gradient::StepRule::kLocalBb;
+  methods[0].params.own_move_curvature = true;
+  methods[1].name = "DG-BB, T = " + std::to_string(base.consensus_rounds);
+  methods[1].params.rule = gradient::StepRule::kConsensusBb;
+  methods[2].name = "Fixed alpha = 0.1";
+  methods[2].params.rule = gradient::StepRule::kFixed;
+  methods[2].params.fixed_step = 0.1;
+  return methods;
+}
+
+int spikes(const std::vector<double>& trace) {
+  int count = 0;
+  for (std::size_t k = 1; k < trace.size(); ++k) count += trace[k] > 1.1 * trace[k - 1] ? 1 : 0;
+  return count;
+}
+
+}  // namespace
+
+ConvergenceFiguresResult run_convergence_figures(const ConvergenceFiguresConfig& config,
+                                                 const gradient::DgBbParams& base) {
+  const auto traced = std::find(config.initial_stds.begin(), config.initial_stds.end(), config.traced_initial_std);
+  if (config.lattice.runs < 1 || config.initial_stds.empty() || traced == config.initial_stds.end())
+    throw std::invalid_argument("convergence_figures: runs >= 1 and traced_initial_std among initial_stds");
+  const auto traced_cell = static_cast<int>(traced - config.initial_stds.begin());
+  const std::vector<Method> methods = convergence_methods(base);
+  const auto method_count = static_cast<int>(methods.size());
+  const int cells = static_cast<int>(config.initial_stds.size());
+  const int runs = config.lattice.runs;
+  // One slot per (σ_I, method, run); runs of the traced σ_I keep their Φ trace.
+  std::vector<GradientRun> results(static_cast<std::size_t>(cells * method_count * runs));
+  detail::parallel_runs(static_cast<int>(results.size()), config.threads, [&](int k) {
+    const int run = k % runs;
+    const int method = (k / runs) % method_count;
+    const int cell = k / (runs * method_count);
+    const double initial_std = config.initial_stds[static_cast<std::size_t>(cell)];
+    const LatticeProblem lattice = cell_lattice(config.lattice, config.lattice.side, initial_std, run);
+    results[static_cast<std::size_t>(k)] =
+        run_gradient_agents(lattice, methods[static_cast<std::size_t>(method)].params, cell == traced_cell);
+  });
+  auto result_of = [&](int cell, int method, int run) -> const GradientRun& {
+    return results[static_cast<std::size_t>((cell * method_count + method) * runs + run)];
+  };
+
+  ConvergenceFiguresResult out;
+  for (int m = 0; m < method_count; ++m) {
+    ConvergenceCurve curve;
+    curve.method = methods[static_cast<std::size_t>(m)].name;
+    curve.mean_error.assign(config.trace_taus.size(), 0.0);
+    for (int run = 0; run < runs; ++run) {
+      const auto& trace = result_of(traced_cell, m, run).error_trace;
+      curve.spikes_per_run += static_cast<double>(spikes(trace)) / runs;
+      for (std::size_t k = 0; k < config.trace_taus.size(); ++k) {
+        // error_trace[τ − 1] is Φ after update τ; past the end the run had stopped with its last Φ.
+        const auto tau = static_cast<std::size_t>(std::max<std::int64_t>(1, config.trace_taus[k]));
+        const double phi = trace.empty() ? std::numeric_limits<double>::quiet_NaN()
+                                         : trace[std::min(tau, trace.size()) - 1];
+        curve.mean_error[k] += phi / runs;
+      }
+    }
+    out.curves.push_back(curve);
+    for (int cell = 0; cell < cells; ++cell) {
+      ConvergenceCell c;
+      c.method = curve.method;
+      c.initial_std = config.initial_stds[static_cast<std::size_t>(cell)];
+      for (int run = 0; run < runs; ++run) {
+        const GradientRun& r = result_of(cell, m, run);
+        c.fraction_converged += (r.converged ? 1.0 : 0.0) / runs;
+        c.mean_tau_end += static_cast<double>(r.tau_end) / runs;
+      }
+      out.cells.push_back(c);
+    }
+  }
+  return out;
+}
+
+std::vector<ScalingCell> run_scaling_figures(const ScalingFiguresConfig& config, const gradient::DgBbParams& base) {
+  if (config.lattice.runs < 1 || config.abs_tols.empty())
+    throw std::invalid_argument("scaling_figures: runs >= 1 and at least one abs_tol");
+  std::vector<ScalingCell> cells;
+  std::vector<int> sides;
+  for (const double abs_tol : config.abs_tols) {
+    for (const int side : config.sides) {
+      for (const int t : config.consensus_rounds) {
+        cells.push_back(ScalingCell{side * side, t, abs_tol});
+        sides.push_back(side);
+      }
+    }
+    for (const int side : config.sides_at_t20) {
+      cells.push_back(ScalingCell{side * side, 20, abs_tol});
+      sides.push_back(side);
+    }
+  }
+  const int runs = config.lattice.runs;
+  std::vector<GradientRun> results(cells.size() * static_cast<std::size_t>(runs));
+  // Largest lattices and T first: they take longest, and the pool then ends evenly.
+  std::vector<int> order(results.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    const auto& ca = cells[static_cast<std::size_t>(a / runs)];
+    const auto& cb = cells[static_cast<std::size_t>(b / runs)];
+    return ca.nodes * (ca.consensus_rounds + 1) > cb.nodes * (cb.consensus_rounds + 1);
+  });
+  detail::parallel_runs(static_cast<int>(order.size()), config.threads, [&](int slot) {
+    const int k = order[static_cast<std::size_t>(slot)];
+    const auto cell = static_cast<std::size_t>(k / runs);
+    gradient::DgBbParams params = base;
+    params.rule = gradient::StepRule::kConsensusBb;
+    params.consensus_rounds = cells[cell].consensus_rounds;
+    params.abs_tol = cells[cell].abs_tol;
+    const double spacing = 1.0 / (sides[cell] - 1);
+    const double initial_std = config.initial_std_per_spacing > 0.0 ? config.initial_std_per_spacing * spacing
+                                                                     : config.lattice.initial_std;
+    const LatticeProblem lattice = cell_lattice(config.lattice, sides[cell], initial_std, k % runs);
+    results[static_cast<std::size_t>(k)] = run_gradient_agents(lattice, params);
+  });
+  for (std::size_t c = 0; c < cells.size(); ++c) {
+    int converged = 0;
+    for (int run = 0; run < runs; ++run) {
+      const GradientRun& r = results[c * static_cast<std::size_t>(runs) + static_cast<std::size_t>(run)];
+      cells[c].mean_tau_end += static_cast<double>(r.tau_end) / runs;
+      cells[c].mean_final_error += r.final_error / runs;
+      if (!r.converged) continue;
+      ++converged;
+      cells[c].mean_tau_end_converged += static_cast<double>(r.tau_end);
+    }
+    cells[c].fraction_converged = static_cast<double>(converged) / runs;
+    cells[c].mean_tau_end_converged =
+        converged > 0 ? cells[c].mean_tau_end_converged / converged : std::numeric_limits<double>::quiet_NaN();
+  }
+  return cells;
+}
+
+}  // namespace swarmloc::sim::experiments
