@@ -237,7 +237,7 @@ TEST(GradientFigures, DgBbIsAheadOfLocalBbAndTheFixedStepAtEveryTracedUpdate) {
   base.max_updates = 20000;
   const ConvergenceFiguresResult r = run_convergence_figures(config, base);
   ASSERT_EQ(r.curves.size(), 3U);  // local BB, DG-BB, fixed 0.1
-  ASSERT_EQ(r.cells.size(), 6U);
+  ASSERT_EQ(r.cells.size(), 12U);  // η = 1e−10, then 1e−14; σ_I; method
   const auto& local = r.curves[0].mean_error;
   const auto& dgbb = r.curves[1].mean_error;
   const auto& fixed = r.curves[2].mean_error;
@@ -246,9 +246,17 @@ TEST(GradientFigures, DgBbIsAheadOfLocalBbAndTheFixedStepAtEveryTracedUpdate) {
   EXPECT_LT(dgbb[1], local[1]);
   EXPECT_LT(dgbb[1], 1e-3);
   EXPECT_GT(fixed[2], 1e-3) << "the fixed step's long tail";
-  for (const auto& cell : r.cells) {
-    if (cell.method.rfind("DG-BB", 0) == 0) {
-      EXPECT_EQ(cell.fraction_converged, 1.0) << cell.initial_std;
+  for (std::size_t k = 0; k < 6; ++k) {
+    const auto& loose = r.cells[k];
+    const auto& tight = r.cells[k + 6];
+    EXPECT_EQ(tight.method, loose.method);
+    EXPECT_EQ(tight.abs_tol, 1e-14);
+    EXPECT_GE(tight.fraction_converged, loose.fraction_converged)
+        << loose.method << ", σ_I " << loose.initial_std;
+    EXPECT_GE(tight.mean_tau_end, loose.mean_tau_end) << "a smaller η lets the runs go on";
+    if (tight.method.rfind("DG-BB", 0) == 0) {
+      EXPECT_EQ(tight.fraction_converged, 1.0) << tight.initial_std;
+      EXPECT_GT(tight.mean_tau_end, 1.2 * loose.mean_tau_end) << "on towards Φ ≈ 1e−12";
     }
   }
 }

@@ -50,28 +50,37 @@ int spikes(const std::vector<double>& trace) {
 
 ConvergenceFiguresResult run_convergence_figures(const ConvergenceFiguresConfig& config,
                                                  const gradient::DgBbParams& base) {
-  const auto traced = std::find(config.initial_stds.begin(), config.initial_stds.end(), config.traced_initial_std);
-  if (config.lattice.runs < 1 || config.initial_stds.empty() || traced == config.initial_stds.end())
-    throw std::invalid_argument("convergence_figures: runs >= 1 and traced_initial_std among initial_stds");
-  const auto traced_cell = static_cast<int>(traced - config.initial_stds.begin());
+  const auto traced =
+      std::find(config.initial_stds.begin(), config.initial_stds.end(), config.traced_initial_std);
+  if (config.lattice.runs < 1 || config.initial_stds.empty() || config.abs_tols.empty() ||
+      traced == config.initial_stds.end())
+    throw std::invalid_argument(
+        "convergence_figures: runs >= 1, an abs_tol, and traced_initial_std among initial_stds");
+  const auto traced_std = static_cast<int>(traced - config.initial_stds.begin());
   const std::vector<Method> methods = convergence_methods(base);
   const auto method_count = static_cast<int>(methods.size());
-  const int cells = static_cast<int>(config.initial_stds.size());
+  const auto std_count = static_cast<int>(config.initial_stds.size());
+  const int cells = static_cast<int>(config.abs_tols.size()) * std_count;  // (η, σ_I), η outer
   const int runs = config.lattice.runs;
-  // One slot per (σ_I, method, run); runs of the traced σ_I keep their Φ trace.
+  // One slot per (η, σ_I, method, run); the traced σ_I with the first η keeps its Φ trace.
   std::vector<GradientRun> results(static_cast<std::size_t>(cells * method_count * runs));
-  detail::parallel_runs(static_cast<int>(results.size()), config.threads, [&](int k) {
+  auto slot_of = [&](int cell, int method, int run) { return (cell * method_count + method) * runs + run; };
+  // The fixed step runs longest (up to τ_max): start those first so the pool ends evenly.
+  std::vector<int> order(results.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return (a / runs) % method_count > (b / runs) % method_count; });
+  detail::parallel_runs(static_cast<int>(order.size()), config.threads, [&](int slot) {
+    const int k = order[static_cast<std::size_t>(slot)];
     const int run = k % runs;
     const int method = (k / runs) % method_count;
     const int cell = k / (runs * method_count);
-    const double initial_std = config.initial_stds[static_cast<std::size_t>(cell)];
+    const double initial_std = config.initial_stds[static_cast<std::size_t>(cell % std_count)];
+    gradient::DgBbParams params = methods[static_cast<std::size_t>(method)].params;
+    params.abs_tol = config.abs_tols[static_cast<std::size_t>(cell / std_count)];
     const LatticeProblem lattice = cell_lattice(config.lattice, config.lattice.side, initial_std, run);
-    results[static_cast<std::size_t>(k)] =
-        run_gradient_agents(lattice, methods[static_cast<std::size_t>(method)].params, cell == traced_cell);
+    results[static_cast<std::size_t>(k)] = run_gradient_agents(lattice, params, cell == traced_std);
   });
-  auto result_of = [&](int cell, int method, int run) -> const GradientRun& {
-    return results[static_cast<std::size_t>((cell * method_count + method) * runs + run)];
-  };
 
   ConvergenceFiguresResult out;
   for (int m = 0; m < method_count; ++m) {
@@ -79,23 +88,26 @@ ConvergenceFiguresResult run_convergence_figures(const ConvergenceFiguresConfig&
     curve.method = methods[static_cast<std::size_t>(m)].name;
     curve.mean_error.assign(config.trace_taus.size(), 0.0);
     for (int run = 0; run < runs; ++run) {
-      const auto& trace = result_of(traced_cell, m, run).error_trace;
+      const auto& trace = results[static_cast<std::size_t>(slot_of(traced_std, m, run))].error_trace;
       curve.spikes_per_run += static_cast<double>(spikes(trace)) / runs;
       for (std::size_t k = 0; k < config.trace_taus.size(); ++k) {
         // error_trace[τ − 1] is Φ after update τ; past the end the run had stopped with its last Φ.
         const auto tau = static_cast<std::size_t>(std::max<std::int64_t>(1, config.trace_taus[k]));
-        const double phi = trace.empty() ? std::numeric_limits<double>::quiet_NaN()
-                                         : trace[std::min(tau, trace.size()) - 1];
+        const double phi =
+            trace.empty() ? std::numeric_limits<double>::quiet_NaN() : trace[std::min(tau, trace.size()) - 1];
         curve.mean_error[k] += phi / runs;
       }
     }
     out.curves.push_back(curve);
-    for (int cell = 0; cell < cells; ++cell) {
+  }
+  for (int cell = 0; cell < cells; ++cell) {
+    for (int m = 0; m < method_count; ++m) {
       ConvergenceCell c;
-      c.method = curve.method;
-      c.initial_std = config.initial_stds[static_cast<std::size_t>(cell)];
+      c.method = methods[static_cast<std::size_t>(m)].name;
+      c.initial_std = config.initial_stds[static_cast<std::size_t>(cell % std_count)];
+      c.abs_tol = config.abs_tols[static_cast<std::size_t>(cell / std_count)];
       for (int run = 0; run < runs; ++run) {
-        const GradientRun& r = result_of(cell, m, run);
+        const GradientRun& r = results[static_cast<std::size_t>(slot_of(cell, m, run))];
         c.fraction_converged += (r.converged ? 1.0 : 0.0) / runs;
         c.mean_tau_end += static_cast<double>(r.tau_end) / runs;
       }
@@ -105,7 +117,8 @@ ConvergenceFiguresResult run_convergence_figures(const ConvergenceFiguresConfig&
   return out;
 }
 
-std::vector<ScalingCell> run_scaling_figures(const ScalingFiguresConfig& config, const gradient::DgBbParams& base) {
+std::vector<ScalingCell> run_scaling_figures(const ScalingFiguresConfig& config,
+                                             const gradient::DgBbParams& base) {
   if (config.lattice.runs < 1 || config.abs_tols.empty())
     throw std::invalid_argument("scaling_figures: runs >= 1 and at least one abs_tol");
   std::vector<ScalingCell> cells;
@@ -141,7 +154,7 @@ std::vector<ScalingCell> run_scaling_figures(const ScalingFiguresConfig& config,
     params.abs_tol = cells[cell].abs_tol;
     const double spacing = 1.0 / (sides[cell] - 1);
     const double initial_std = config.initial_std_per_spacing > 0.0 ? config.initial_std_per_spacing * spacing
-                                                                     : config.lattice.initial_std;
+                                                                    : config.lattice.initial_std;
     const LatticeProblem lattice = cell_lattice(config.lattice, sides[cell], initial_std, k % runs);
     results[static_cast<std::size_t>(k)] = run_gradient_agents(lattice, params);
   });
@@ -156,8 +169,8 @@ std::vector<ScalingCell> run_scaling_figures(const ScalingFiguresConfig& config,
       cells[c].mean_tau_end_converged += static_cast<double>(r.tau_end);
     }
     cells[c].fraction_converged = static_cast<double>(converged) / runs;
-    cells[c].mean_tau_end_converged =
-        converged > 0 ? cells[c].mean_tau_end_converged / converged : std::numeric_limits<double>::quiet_NaN();
+    cells[c].mean_tau_end_converged = converged > 0 ? cells[c].mean_tau_end_converged / converged
+                                                    : std::numeric_limits<double>::quiet_NaN();
   }
   return cells;
 }

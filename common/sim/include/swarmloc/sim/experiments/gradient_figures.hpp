@@ -19,6 +19,9 @@ struct ConvergenceFiguresConfig {
   std::vector<double> initial_stds{0.01, 0.02, 0.05, 0.1, 0.15, 0.2};  ///< Fig. 5's x axis ([E-8])
   double traced_initial_std = 0.05;  ///< Fig. 4's σ_I (Table I's, [E-8]); must be in initial_stds
   std::vector<std::int64_t> trace_taus{1, 3, 10, 30, 100, 300, 1000, 3000, 10000, 30000, 100000};
+  /// η_abstol of each Fig. 5 table (base.abs_tol is not used); Fig. 4 traces the first. See
+  /// ScalingFiguresConfig::abs_tols for why 1e−14 is there.
+  std::vector<double> abs_tols{1e-10, 1e-14};
   int threads = 1;
 };
 
@@ -34,13 +37,14 @@ struct ConvergenceCurve {
 struct ConvergenceCell {
   std::string method;
   double initial_std = 0.0;
+  double abs_tol = 0.0;
   double fraction_converged = 0.0;  ///< Φ < 1e−3 before τ_max ([E-9])
   double mean_tau_end = 0.0;
 };
 
 struct ConvergenceFiguresResult {
   std::vector<ConvergenceCurve> curves;  ///< Fig. 4, σ_I = traced_initial_std
-  std::vector<ConvergenceCell> cells;    ///< Fig. 5, one per method and σ_I
+  std::vector<ConvergenceCell> cells;    ///< Fig. 5: per η (outer), σ_I, then method
 };
 
 /// `base` supplies η_abstol, τ_max, warm-up and the safeguard; T is base.consensus_rounds.
@@ -49,10 +53,10 @@ ConvergenceFiguresResult run_convergence_figures(const ConvergenceFiguresConfig&
 
 /// Figs. 6–7: DG-BB on side × side lattices for each T.
 struct ScalingFiguresConfig {
-  LatticeConfig lattice;  ///< diagonals, σ_I, runs and seed; its side is replaced per cell
-  std::vector<int> sides{5, 7, 10, 15};                 ///< Fig. 6: n = 25, 49, 100, 225
+  LatticeConfig lattice;                 ///< diagonals, σ_I, runs and seed; its side is replaced per cell
+  std::vector<int> sides{5, 7, 10, 15};  ///< Fig. 6: n = 25, 49, 100, 225
   std::vector<int> consensus_rounds{1, 2, 5, 10, 20, 50};  ///< Fig. 6's x axis (T)
-  std::vector<int> sides_at_t20{20};  ///< Fig. 7: more sizes, T = 20 only (n = 400)
+  std::vector<int> sides_at_t20{20};                       ///< Fig. 7: more sizes, T = 20 only (n = 400)
   /// σ_I in lattice spacings (004 does not say how σ_I scales with n): 0.45 is Table I's 0.05 on the
   /// 10 × 10 lattice, and keeps a guess as likely to fold over on every size. 0: lattice.initial_std.
   double initial_std_per_spacing = 0.45;
