@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "swarmloc/estimators/crlb.hpp"
 #include "swarmloc/models/measurement_models.hpp"
@@ -97,14 +98,20 @@ constexpr int kMaxDenseCrlbAgents = 3000;  // dense L⁻¹ beyond this costs sec
 /// The range bound's dense 2n x 2n Fisher inverse: ~1 s at this size, O(n³) beyond (docs/scale.md).
 constexpr long kMaxDenseRangeCrlbAgents = 1000;
 
-RangeCrlb relative_crlb(const World& world, double relative_std_m) {
-  RangeCrlb crlb;
+/// Each non-anchor agent's row in the bounds' matrices (−1 for anchors), and how many there are.
+std::pair<std::vector<int>, int> index_unknowns(const World& world) {
   std::vector<int> unknown_index(static_cast<std::size_t>(world.size()), -1);
   int unknowns = 0;
   for (int i = 0; i < world.size(); ++i) {
     if (!world.is_anchor[static_cast<std::size_t>(i)])
       unknown_index[static_cast<std::size_t>(i)] = unknowns++;
   }
+  return {std::move(unknown_index), unknowns};
+}
+
+RangeCrlb relative_crlb(const World& world, double relative_std_m) {
+  RangeCrlb crlb;
+  const auto [unknown_index, unknowns] = index_unknowns(world);
   if (unknowns == 0 || unknowns > kMaxDenseCrlbAgents) {
     crlb.single_snapshot_rmse_m = unknowns == 0 ? 0.0 : std::numeric_limits<double>::quiet_NaN();
     return crlb;
@@ -148,12 +155,7 @@ RangeCrlb relative_crlb(const World& world, double relative_std_m) {
 /// takes the angles as exact, so angle errors (noise.doa_error_deg) are not in it.
 RangeCrlb multipath_crlb(const World& world, const config::Scenario& s) {
   RangeCrlb crlb;
-  std::vector<int> unknown_index(static_cast<std::size_t>(world.size()), -1);
-  int unknowns = 0;
-  for (int i = 0; i < world.size(); ++i) {
-    if (!world.is_anchor[static_cast<std::size_t>(i)])
-      unknown_index[static_cast<std::size_t>(i)] = unknowns++;
-  }
+  const auto [unknown_index, unknowns] = index_unknowns(world);
   if (unknowns == 0 || unknowns > kMaxDenseRangeCrlbAgents) {
     crlb.single_snapshot_rmse_m = unknowns == 0 ? 0.0 : std::numeric_limits<double>::quiet_NaN();
     return crlb;

@@ -2,15 +2,14 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <numbers>
 #include <random>
 #include <stdexcept>
-#include <thread>
 
+#include "experiments/parallel_runs.hpp"
 #include "experiments/sync_bus.hpp"
 #include "swarmloc/estimators/consensus/dle.hpp"
 #include "swarmloc/estimators/consensus/jacobi.hpp"
@@ -479,15 +478,9 @@ JointFieldExperimentResult run_joint_field_experiment(const JointFieldExperiment
   sensor.radius_m = c.sensing_radius_m;
   consensus::validate(sensor);
   std::vector<JointFieldRunSums> runs(static_cast<std::size_t>(c.runs));
-  std::atomic<int> next{0};
-  std::vector<std::thread> pool;
-  for (int k = 0; k < std::min(c.threads, c.runs); ++k) {
-    pool.emplace_back([&] {
-      for (int run = next++; run < c.runs; run = next++)
-        runs[static_cast<std::size_t>(run)] = run_joint_field_once(c, sensor, run);
-    });
-  }
-  for (auto& thread : pool) thread.join();
+  detail::parallel_runs(c.runs, c.threads, [&](int run) {
+    runs[static_cast<std::size_t>(run)] = run_joint_field_once(c, sensor, run);
+  });
   const auto steps = static_cast<std::size_t>(c.steps);
   const int n = c.num_nodes;
   const int d = sensor.grid.cells();
