@@ -40,6 +40,8 @@ enum class InitialGuess { kNoisyTruth, kUniform };
 /// (ALGORITHMS.md [E-6]), or the change node i's own move made at the neighbours' newest positions (the
 /// equation as printed).
 enum class LocalBbDifference { kGradientChange, kOwnMove };
+/// multipath_bp: each path's variance is σ² alone (003), or σ² plus what its angle-of-arrival errors do to
+/// eq. (1) (not in 003; estimators::bp::path_variances).
 enum class PathVariance { kRangeOnly, kWithDoa };
 enum class Reliability { kBestEffort, kReliable };
 enum class Durability { kVolatile, kTransientLocal };
