@@ -123,17 +123,19 @@ std::vector<ScalingCell> run_scaling_figures(const ScalingFiguresConfig& config,
     throw std::invalid_argument("scaling_figures: runs >= 1 and at least one abs_tol");
   std::vector<ScalingCell> cells;
   std::vector<int> sides;
+  auto add_cell = [&](int side, int consensus_rounds, double abs_tol) {
+    ScalingCell cell{side * side, consensus_rounds, abs_tol};
+    cell.initial_std = config.initial_std_per_spacing > 0.0
+                           ? config.initial_std_per_spacing * (1.0 / (side - 1))
+                           : config.lattice.initial_std;
+    cells.push_back(cell);
+    sides.push_back(side);
+  };
   for (const double abs_tol : config.abs_tols) {
     for (const int side : config.sides) {
-      for (const int t : config.consensus_rounds) {
-        cells.push_back(ScalingCell{side * side, t, abs_tol});
-        sides.push_back(side);
-      }
+      for (const int t : config.consensus_rounds) add_cell(side, t, abs_tol);
     }
-    for (const int side : config.sides_at_t20) {
-      cells.push_back(ScalingCell{side * side, 20, abs_tol});
-      sides.push_back(side);
-    }
+    for (const int side : config.sides_at_t20) add_cell(side, 20, abs_tol);
   }
   const int runs = config.lattice.runs;
   std::vector<GradientRun> results(cells.size() * static_cast<std::size_t>(runs));
@@ -152,10 +154,8 @@ std::vector<ScalingCell> run_scaling_figures(const ScalingFiguresConfig& config,
     params.rule = gradient::StepRule::kConsensusBb;
     params.consensus_rounds = cells[cell].consensus_rounds;
     params.abs_tol = cells[cell].abs_tol;
-    const double spacing = 1.0 / (sides[cell] - 1);
-    const double initial_std = config.initial_std_per_spacing > 0.0 ? config.initial_std_per_spacing * spacing
-                                                                    : config.lattice.initial_std;
-    const LatticeProblem lattice = cell_lattice(config.lattice, sides[cell], initial_std, k % runs);
+    const LatticeProblem lattice =
+        cell_lattice(config.lattice, sides[cell], cells[cell].initial_std, k % runs);
     results[static_cast<std::size_t>(k)] = run_gradient_agents(lattice, params);
   });
   for (std::size_t c = 0; c < cells.size(); ++c) {

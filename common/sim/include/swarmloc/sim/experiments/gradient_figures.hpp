@@ -71,6 +71,7 @@ struct ScalingCell {
   int nodes = 0;
   int consensus_rounds = 0;
   double abs_tol = 0.0;
+  double initial_std = 0.0;             ///< σ_I the cell ran with
   double mean_tau_end = 0.0;            ///< over all runs
   double mean_tau_end_converged = 0.0;  ///< over the runs with Φ < 1e−3 (NaN if none)
   double fraction_converged = 0.0;
