@@ -506,11 +506,18 @@ void fuzz_belief(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, 
     message.mean_m = Vec2(rng.uniform(-50.0, 50.0), rng.uniform(-50.0, 50.0));
     message.information = random_psd(rng, 3.0);
     message.infinite_information = rng.chance(0.2);
+    message.contributions.resize(rng.below(4));  // exact GaBP's per-neighbour messages
+    for (auto& c : message.contributions) {
+      c.from = static_cast<AgentId>(rng.below(8));
+      c.information = random_psd(rng, 2.0);
+      c.info_vec = Vec2(rng.uniform(-9.0, 9.0), rng.uniform(-9.0, 9.0));
+    }
     const dds::WireBelief wire(random_header(rng, 3, static_cast<std::uint32_t>(i)), message);
     swarmloc_msg_Belief s = wire.sample;
+    std::vector<swarmloc_msg_BeliefContribution> storage;
     const auto mutations = rng.below(6);
     for (std::uint64_t m = 0; m < mutations; ++m) {
-      switch (rng.below(7)) {
+      switch (rng.below(8)) {
         case 0:
           s.agent_id = hostile_int<std::int32_t>(rng);
           break;
@@ -529,14 +536,26 @@ void fuzz_belief(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, 
         case 5:
           s.infinite_information = rng.chance(0.5);
           break;
-        default:
+        case 6:
+          reshape(s.contributions, storage, dds::codec::kMaxBeliefContributions, rng,
+                  [&](swarmloc_msg_BeliefContribution& c) {
+                    random_bytes(c, rng);
+                    if (rng.chance(0.5)) c.information[rng.below(3)] = hostile_double(rng);
+                  });
+          break;
+        default: {
+          const auto contributions = s.contributions;  // random pointers would be read
           random_bytes(s, rng);
+          s.contributions = contributions;
           s.infinite_information = rng.chance(0.5);  // CDR booleans are 0 or 1
+        }
       }
     }
     const auto decoded = dds::decode(s);
-    record.check(decoded.well_formed == (s.agent_id == s.header.agent_id), i,
-                 "belief: well_formed differs from the rule");
+    const bool expect_well_formed = (s.contributions._length == 0 || s.contributions._buffer != nullptr) &&
+                                    s.contributions._length <= dds::codec::kMaxBeliefContributions &&
+                                    s.agent_id == s.header.agent_id;
+    record.check(decoded.well_formed == expect_well_formed, i, "belief: well_formed differs from the rule");
     if (!decoded.well_formed) {
       ++result.rejected;
       continue;
@@ -550,6 +569,18 @@ void fuzz_belief(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, 
                      same_bits(b.information(1, 1), s.information[2]) &&
                      b.infinite_information == s.infinite_information && b.iteration == s.iteration,
                  i, "belief: decoded values differ from the wire");
+    bool same = b.contributions.size() == s.contributions._length;
+    for (std::size_t k = 0; same && k < b.contributions.size(); ++k) {
+      const auto& wire_c = s.contributions._buffer[k];
+      const auto& c = b.contributions[k];
+      same = c.from == wire_c.from && same_bits(c.info_vec.x(), wire_c.info_vec[0]) &&
+             same_bits(c.info_vec.y(), wire_c.info_vec[1]) &&
+             same_bits(c.information(0, 0), wire_c.information[0]) &&
+             same_bits(c.information(0, 1), wire_c.information[1]) &&
+             same_bits(c.information(1, 0), wire_c.information[1]) &&
+             same_bits(c.information(1, 1), wire_c.information[2]);
+    }
+    record.check(same, i, "belief: decoded contributions differ from the wire");
   }
 }
 

@@ -64,6 +64,10 @@ constexpr const char* kFiveStepsPerWorldStep =
     " --set world.agents=40 --set world.anchors=1 --set world.area_m=80 --set world.comm_radius_m=20"
     " --set run.steps=100 --set run.rate_hz=10 --set run.agent_steps_per_world_step=5";
 
+// algorithm.bp_messages=exact (not in 003): cavity messages, each BELIEF listing the messages its sender
+// summed.
+constexpr const char* kExactGaBp = " --set algorithm.bp_messages=exact";
+
 class CooperativeOverDds : public ::testing::TestWithParam<Case> {};
 
 TEST_P(CooperativeOverDds, FinalErrorMatchesTheSimulatorWithinTenPercentAndSurvivesTwentyPercentLoss) {
@@ -105,7 +109,8 @@ INSTANTIATE_TEST_SUITE_P(Papers002To004, CooperativeOverDds,
                                            Case{"multipath_bp", 35, ""}, Case{"dle", 56, kDleFlags},
                                            Case{"dle_tracking", 60, ""}, Case{"joint_field", 66, ""},
                                            Case{"jacobi", 62, kFiveStepsPerWorldStep,
-                                                "jacobi_five_steps_per_world_step"}),
+                                                "jacobi_five_steps_per_world_step"},
+                                           Case{"multipath_bp", 74, kExactGaBp, "multipath_bp_exact"}),
                          case_name);
 
 }  // namespace
@@ -120,14 +125,15 @@ class LockstepOverDds : public ::testing::TestWithParam<Case> {};
 TEST_P(LockstepOverDds, FinalErrorsEqualTheSimulatorsToOneInABillion) {
   const Case c = GetParam();
   const std::string flags = std::string(c.flags) + " --set run.mode=lockstep";
-  const auto sim = run("sim", c.scenario, std::string(c.scenario) + "-lockstep-sim", flags);
-  const auto dds = run("run", c.scenario, std::string(c.scenario) + "-lockstep-dds",
+  const std::string name = case_name({c, 0});
+  const auto sim = run("sim", c.scenario, name + "-lockstep-sim", flags);
+  const auto dds = run("run", c.scenario, name + "-lockstep-dds",
                        flags + " --set dds.domain_id=" + std::to_string(c.domain));
   for (const char* key : {"rmse_m", "mean_error_m", "max_error_m", "field_rmse"}) {
     if (!sim["final"].contains(key)) continue;
     const double expected = sim["final"][key];
     EXPECT_NEAR(dds["final"][key].get<double>(), expected, 1e-9 * std::max(1e-3, expected))
-        << c.scenario << ' ' << key;
+        << name << ' ' << key;
   }
   EXPECT_EQ(dds["links"]["dropped_injected"], sim["links"]["dropped_injected"]);
   EXPECT_EQ(dds["lockstep_timeouts"], 0);
@@ -140,7 +146,10 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"dgbb", 39, " --set run.steps=150"},
                       Case{"multipath_bp", 40, " --set run.steps=30 --set network.loss=0.2"},
                       Case{"dle_tracking", 58, " --set run.steps=60 --set network.loss=0.2"},
-                      Case{"joint_field", 68, " --set run.steps=40 --set network.loss=0.2"}),
-    [](const ::testing::TestParamInfo<Case>& param_info) { return std::string(param_info.param.scenario); });
+                      Case{"joint_field", 68, " --set run.steps=40 --set network.loss=0.2"},
+                      Case{"multipath_bp", 76,
+                           " --set run.steps=30 --set network.loss=0.2 --set algorithm.bp_messages=exact",
+                           "multipath_bp_exact"}),
+    case_name);
 
 }  // namespace

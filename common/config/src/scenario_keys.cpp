@@ -41,6 +41,8 @@ constexpr EnumNames<LocalBbDifference> kLocalBbDifferenceNames{
     {{LocalBbDifference::kGradientChange, "gradient_change"}, {LocalBbDifference::kOwnMove, "own_move"}}};
 constexpr EnumNames<PathVariance> kPathVarianceNames{
     {{PathVariance::kRangeOnly, "range_only"}, {PathVariance::kWithDoa, "with_doa"}}};
+constexpr EnumNames<BpMessages> kBpMessagesNames{
+    {{BpMessages::kBeliefs, "beliefs"}, {BpMessages::kExact, "exact"}}};
 constexpr EnumNames<Reliability> kReliabilityNames{
     {{Reliability::kBestEffort, "best_effort"}, {Reliability::kReliable, "reliable"}}};
 constexpr EnumNames<Durability> kDurabilityNames{
@@ -62,6 +64,7 @@ const auto& names_of(SimClock /*tag*/) { return kSimClockNames; }
 const auto& names_of(InitialGuess /*tag*/) { return kInitialGuessNames; }
 const auto& names_of(LocalBbDifference /*tag*/) { return kLocalBbDifferenceNames; }
 const auto& names_of(PathVariance /*tag*/) { return kPathVarianceNames; }
+const auto& names_of(BpMessages /*tag*/) { return kBpMessagesNames; }
 const auto& names_of(Reliability /*tag*/) { return kReliabilityNames; }
 const auto& names_of(Durability /*tag*/) { return kDurabilityNames; }
 const auto& names_of(RangeNoise /*tag*/) { return kRangeNoiseNames; }
@@ -301,6 +304,7 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(algorithm.field_warmup_steps),
       SWARMLOC_KEY(algorithm.local_bb_difference),
       SWARMLOC_KEY(algorithm.path_variance),
+      SWARMLOC_KEY(algorithm.bp_messages),
       SWARMLOC_KEY(world.agents),
       SWARMLOC_KEY(world.anchors),
       SWARMLOC_KEY(world.area_m),

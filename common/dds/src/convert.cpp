@@ -201,6 +201,19 @@ WireBelief::WireBelief(const sim::Header& header, const estimators::BeliefMessag
   put_vec2(message.mean_m, sample.mean_m);
   put_sym2(message.information, sample.information);
   sample.infinite_information = message.infinite_information;
+  if (message.contributions.size() > codec::kMaxBeliefContributions) {
+    throw DdsError("publish_belief: " + std::to_string(message.contributions.size()) +
+                   " contributions (IDL bound 1024)");
+  }
+  contributions.reserve(message.contributions.size());
+  for (const auto& c : message.contributions) {
+    swarmloc_msg_BeliefContribution wire{};
+    wire.from = c.from;
+    put_vec2(c.info_vec, wire.info_vec);
+    put_sym2(c.information, wire.information);
+    contributions.push_back(wire);
+  }
+  point_at(sample.contributions, contributions);
 }
 
 WireBatch::WireBatch(AgentId recipient, const sim::Header& header,
@@ -386,7 +399,16 @@ Inbound<estimators::BeliefMessage> decode(const swarmloc_msg_Belief& wire) {
   inbound.message.mean_m = get_vec2(wire.mean_m);
   inbound.message.information = get_sym2(wire.information);
   inbound.message.infinite_information = wire.infinite_information;
-  inbound.well_formed = wire.agent_id == wire.header.agent_id;
+  const auto contributions = view(wire.contributions);
+  if (!contributions || contributions->size() > codec::kMaxBeliefContributions ||
+      wire.agent_id != wire.header.agent_id) {
+    inbound.well_formed = false;
+    return inbound;
+  }
+  for (const auto& c : *contributions) {
+    inbound.message.contributions.push_back(
+        estimators::BeliefContribution{c.from, get_sym2(c.information), get_vec2(c.info_vec)});
+  }
   return inbound;
 }
 

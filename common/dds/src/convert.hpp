@@ -41,6 +41,7 @@ struct WireBelief {
   WireBelief(const sim::Header& header, const estimators::BeliefMessage& message);
   WireBelief(const WireBelief&) = delete;
   WireBelief& operator=(const WireBelief&) = delete;
+  std::vector<swarmloc_msg_BeliefContribution> contributions;
   swarmloc_msg_Belief sample{};
 };
 

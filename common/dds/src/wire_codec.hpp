@@ -21,6 +21,8 @@ inline constexpr std::size_t kMaxConsensusValues = 16;
 inline constexpr std::size_t kMaxRejectReasons = 16;
 /// Estimate.field's bound in the IDL: joint_field's field has at most 64 cells.
 inline constexpr std::size_t kMaxFieldValues = 64;
+/// Belief.contributions' bound: exact GaBP's messages, one per neighbour.
+inline constexpr std::size_t kMaxBeliefContributions = 1024;
 
 inline constexpr std::uint8_t kStateFlagAnchor = 1;  // STATE_FLAG_ANCHOR
 inline constexpr std::uint8_t kStateFlagActive = 2;  // STATE_FLAG_ACTIVE

@@ -56,6 +56,8 @@ namespace {
 constexpr std::size_t kMaxVectorLength = 64;
 // Consensus scalars (ρ, ψ of DG-BB: squared step lengths and curvatures) stay far below this.
 constexpr double kAbsurdScalar = 1e30;
+/// Belief.contributions' IDL bound (exact GaBP: one per neighbour).
+constexpr std::size_t kMaxBeliefContributions = 1024;
 
 }  // namespace
 
@@ -101,6 +103,21 @@ std::optional<RejectReason> AgentRuntime::check_content(const estimators::Belief
     return RejectReason::kAbsurdMagnitude;
   }
   if (!core::is_symmetric_psd(m.information, 1e-9)) return RejectReason::kNotSymmetricPsd;
+  // Exact GaBP's contributions: at most one per neighbour, each a message with PSD information.
+  if (m.contributions.size() > kMaxBeliefContributions) return RejectReason::kMalformed;
+  std::vector<AgentId> senders;
+  senders.reserve(m.contributions.size());
+  for (const auto& c : m.contributions) {
+    if (c.from < 0) return RejectReason::kMalformed;
+    if (!c.information.allFinite() || !c.info_vec.allFinite()) return RejectReason::kNonFinite;
+    if (c.information.cwiseAbs().maxCoeff() > kAbsurdScalar ||
+        c.info_vec.cwiseAbs().maxCoeff() > kAbsurdScalar)
+      return RejectReason::kAbsurdMagnitude;
+    if (!core::is_symmetric_psd(c.information, 1e-9)) return RejectReason::kNotSymmetricPsd;
+    senders.push_back(c.from);
+  }
+  std::sort(senders.begin(), senders.end());
+  if (std::adjacent_find(senders.begin(), senders.end()) != senders.end()) return RejectReason::kMalformed;
   return std::nullopt;
 }
 

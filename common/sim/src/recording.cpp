@@ -117,6 +117,8 @@ void encode(Encoder& out, const estimators::ConsensusMessage& m) {
 }
 void encode(Encoder& out, const estimators::BeliefMessage& m) {
   out.i64(m.iteration), out.vec2(m.mean_m), out.mat2(m.information), out.boolean(m.infinite_information);
+  out.count(m.contributions.size());
+  for (const auto& c : m.contributions) out.i32(c.from), out.mat2(c.information), out.vec2(c.info_vec);
 }
 
 void write_bytes(std::ofstream& out, const std::string& bytes, const std::filesystem::path& path) {
@@ -688,9 +690,16 @@ SampleLog parse_sample_log(const std::vector<std::uint8_t>& bytes, const std::st
         case 2:
           decode_into(in, s.message.emplace<estimators::ConsensusMessage>());
           break;
-        case 3:
-          decode_into(in, s.message.emplace<estimators::BeliefMessage>());
+        case 3: {
+          auto& belief = s.message.emplace<estimators::BeliefMessage>();
+          decode_into(in, belief);
+          if (log.version >= 3) {  // older logs predate exact GaBP's contributions
+            belief.contributions.resize(in.count(4 + 6 * 8, "belief contributions"));
+            for (auto& c : belief.contributions)
+              c.from = in.i32(), c.information = in.mat2(), c.info_vec = in.vec2();
+          }
           break;
+        }
         default:
           in.fail("unknown sample family", family_at);
       }

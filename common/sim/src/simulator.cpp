@@ -27,6 +27,7 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
   if (std::find(cooperative.begin(), cooperative.end(), s.algorithm.name) != cooperative.end()) {
     estimators::CooperativeParams params;
     params.bp.sigma2 = s.noise.range_std_m * s.noise.range_std_m;  // [D-6]: the algorithm knows the noise
+    params.bp.exact_messages = s.algorithm.bp_messages == config::BpMessages::kExact;
     if (s.algorithm.path_variance == config::PathVariance::kWithDoa) {
       const double doa_max_rad = s.noise.doa_error_deg * std::numbers::pi / 180.0;
       params.bp.doa_variance_rad2 = doa_max_rad * doa_max_rad / 3.0;  // uniform on ±doa_max (world.cpp)

@@ -88,6 +88,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.algorithm.field_warmup_steps, b.algorithm.field_warmup_steps);
   EXPECT_EQ(a.algorithm.local_bb_difference, b.algorithm.local_bb_difference);
   EXPECT_EQ(a.algorithm.path_variance, b.algorithm.path_variance);
+  EXPECT_EQ(a.algorithm.bp_messages, b.algorithm.bp_messages);
   EXPECT_EQ(a.world.field_cells_per_side, b.world.field_cells_per_side);
   EXPECT_EQ(a.world.field_std, b.world.field_std);
   EXPECT_EQ(a.world.field_correlation_m, b.world.field_correlation_m);
@@ -158,6 +159,7 @@ Scenario everything_changed() {
   s.algorithm.field_warmup_steps = 1000000;
   s.algorithm.local_bb_difference = LocalBbDifference::kOwnMove;
   s.algorithm.path_variance = PathVariance::kWithDoa;
+  s.algorithm.bp_messages = BpMessages::kExact;
   s.world.field_cells_per_side = 8;
   s.world.field_std = 0.0;
   s.world.field_correlation_m = 1e-3;
@@ -316,7 +318,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 18U + 32U + 14U + 4U + 2U + 8U + 7U * 5U + 3U + 5U);
+  EXPECT_EQ(keys.size(), 2U + 19U + 32U + 14U + 4U + 2U + 8U + 7U * 5U + 3U + 5U);
 }
 
 // ---------------------------------------------------------------------------------------------------

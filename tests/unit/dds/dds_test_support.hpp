@@ -77,6 +77,8 @@ inline estimators::BeliefMessage make_belief() {
   m.mean_m = Vec2(-1.0 / 7.0, 2.0 / 3.0);
   m.information = sym2(100.0, 1e-9, 3.5);
   m.infinite_information = true;
+  m.contributions = {{3, sym2(2.0, -0.5, 1.0 / 3.0), Vec2(0.1, -7.25)},
+                     {0, sym2(1e-300, 0.0, 5.0), Vec2(-0.0, 1e9)}};
   return m;
 }
 

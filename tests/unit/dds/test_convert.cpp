@@ -136,6 +136,15 @@ TEST(Convert, BeliefRoundTripsExactly) {
   EXPECT_MATRIX_NEAR(back.message.mean_m, message.mean_m, 0.0);
   EXPECT_MATRIX_NEAR(back.message.information, message.information, 0.0);
   EXPECT_EQ(back.message.infinite_information, message.infinite_information);
+  ASSERT_EQ(back.message.contributions.size(), message.contributions.size());
+  for (std::size_t k = 0; k < message.contributions.size(); ++k) {
+    EXPECT_EQ(back.message.contributions[k].from, message.contributions[k].from);
+    EXPECT_MATRIX_NEAR(back.message.contributions[k].information, message.contributions[k].information, 0.0);
+    EXPECT_MATRIX_NEAR(back.message.contributions[k].info_vec, message.contributions[k].info_vec, 0.0);
+  }
+  auto too_many = message;
+  too_many.contributions.resize(codec::kMaxBeliefContributions + 1);
+  EXPECT_THROW(codec::round_trip(header, too_many), DdsError);
 }
 
 TEST(Convert, NonFiniteValuesPassThroughForTheRuntimeToJudge) {

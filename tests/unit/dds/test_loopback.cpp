@@ -109,6 +109,9 @@ TEST(DdsLoopback, RoutesBatchesStatesAndEstimatesOnlyAlongTheTopology) {
   EXPECT_EQ(in2.consensus.front().message.tau, consensus.tau);
   EXPECT_EQ(in2.beliefs.front().message.iteration, belief.iteration);
   EXPECT_MATRIX_NEAR(in2.beliefs.front().message.information, belief.information, 0.0);
+  ASSERT_EQ(in2.beliefs.front().message.contributions.size(), belief.contributions.size());
+  EXPECT_MATRIX_NEAR(in2.beliefs.front().message.contributions[1].info_vec, belief.contributions[1].info_vec,
+                     0.0);
   ASSERT_TRUE(poll_until(5.0, [&] {
     in3.take(agent3, 0.05);
     return in3.states_from(1) > 0;

@@ -100,6 +100,37 @@ TEST(MultipathExperiment, CovariancesNeverGrowAndCooperationBeatsPairwiseAtS3S4)
   }
 }
 
+// Exact GaBP (not in 003) converges on the experiment's five-node loop to the centralized weighted least
+// squares of the same paths, trial by trial; 003's beliefs reach another point nearby.
+TEST(MultipathExperiment, ExactGaBpReachesTheCentralizedSolutionInEveryTrial) {
+  MultipathExperimentConfig config;
+  config.trials = 100;
+  config.iterations = 100;
+  config.seed = 7;
+  config.exact_messages = true;
+  const MultipathExperimentResult exact = run_multipath_experiment(config);
+  config.exact_messages = false;
+  const MultipathExperimentResult printed = run_multipath_experiment(config);
+  double exact_gap = 0.0;
+  double printed_gap = 0.0;
+  for (std::size_t node = 1; node <= 4; ++node) {
+    ASSERT_EQ(exact.bp_x_error[node].size(), exact.centralized_x_error[node].size());
+    ASSERT_EQ(printed.bp_x_error[node].size(), 100u);
+    for (std::size_t t = 0; t < exact.bp_x_error[node].size(); ++t) {
+      exact_gap =
+          std::max(exact_gap, std::abs(exact.bp_x_error[node][t] - exact.centralized_x_error[node][t]));
+      exact_gap =
+          std::max(exact_gap, std::abs(exact.bp_y_error[node][t] - exact.centralized_y_error[node][t]));
+      printed_gap =
+          std::max(printed_gap, std::abs(printed.bp_x_error[node][t] - printed.centralized_x_error[node][t]));
+    }
+  }
+  EXPECT_LT(exact_gap, 1e-6);
+  EXPECT_GT(printed_gap, 1e-3);
+  // The same draws for both runs: the centralized solution does not depend on the message form.
+  EXPECT_EQ(exact.centralized_x_error[3], printed.centralized_x_error[3]);
+}
+
 TEST(GradientExperiment, DgBbNeedsFewerUpdatesThanLocalBbAndFixedStepOn5x5Lattice) {
   LatticeConfig config;
   config.side = 5;

@@ -352,6 +352,9 @@ std::vector<ReceivedSample> every_family() {
   estimators::BeliefMessage belief;
   belief.iteration = 1LL << 40, belief.mean_m = Vec2(3.0, 4.0), belief.information = Mat2::Identity() * 7.0;
   belief.infinite_information = true;
+  Mat2 asymmetric;
+  asymmetric << 1.0, -2.0, 3.0, std::numeric_limits<double>::quiet_NaN();
+  belief.contributions = {{-7, asymmetric, Vec2(-0.0, 5e-310)}, {2, Mat2::Identity(), Vec2(1.0, 2.0)}};
   return {sample_of(state, 0), sample_of(information, 1), sample_of(consensus, 2), sample_of(belief, 3)};
 }
 
@@ -402,6 +405,12 @@ void expect_same(const ReceivedSample& a, const ReceivedSample& b) {
       expect_same(x.mean_m, y.mean_m);
       expect_same(x.information, y.information);
       EXPECT_EQ(x.infinite_information, y.infinite_information);
+      ASSERT_EQ(x.contributions.size(), y.contributions.size());
+      for (std::size_t k = 0; k < x.contributions.size(); ++k) {
+        EXPECT_EQ(x.contributions[k].from, y.contributions[k].from);
+        expect_same(x.contributions[k].information, y.contributions[k].information);
+        expect_same(x.contributions[k].info_vec, y.contributions[k].info_vec);
+      }
       break;
     }
   }
@@ -483,17 +492,41 @@ TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep)
   auto expected = information;
   std::get<estimators::InformationMessage>(expected.message).world_step = -1;
   expect_same(log.samples[0], expected);
-  auto v3 = bytes;
-  v3[6] = 3;
+  auto v4 = bytes;
+  v4[6] = 4;
   try {
-    (void)parse_sample_log(v3, "v3.slrec");
-    ADD_FAILURE() << "version 3 was read";
+    (void)parse_sample_log(v4, "v4.slrec");
+    ADD_FAILURE() << "version 4 was read";
   } catch (const RecordingError& e) {
     EXPECT_NE(
-        std::string(e.what()).find("format version 3 is not supported (this build reads versions 1 to 2)"),
+        std::string(e.what()).find("format version 4 is not supported (this build reads versions 1 to 3)"),
         std::string::npos)
         << e.what();
   }
+}
+
+TEST(SampleLog, AVersionTwoLogReadsWithItsBeliefsWithoutContributions) {
+  const auto dir = temp_dir("samples_v2");
+  const auto path = dir / "agent_002.slrec";
+  const ReceivedSample belief = every_family()[3];
+  const auto contributions = std::get<estimators::BeliefMessage>(belief.message).contributions.size();
+  {
+    SampleLogWriter writer(path, 4, 7);
+    writer.append(belief);
+    writer.close();
+  }
+  const auto bytes = read_bytes(path);
+  // Version 2 is this log without the payload's contributions (count + 52 bytes each) before the end marker.
+  const auto cut = static_cast<std::ptrdiff_t>(9 + 4 + 52 * contributions);
+  std::vector<std::uint8_t> v2(bytes.begin(), bytes.end() - cut);
+  v2.insert(v2.end(), bytes.end() - 9, bytes.end());
+  v2[6] = 2;
+  const auto log = parse_sample_log(v2, "v2.slrec");
+  EXPECT_EQ(log.version, 2);
+  ASSERT_EQ(log.samples.size(), 1u);
+  auto expected = belief;
+  std::get<estimators::BeliefMessage>(expected.message).contributions.clear();
+  expect_same(log.samples[0], expected);
 }
 
 // ---- Replays in the simulator ----

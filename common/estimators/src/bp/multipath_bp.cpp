@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -21,6 +22,26 @@ bool full_column_rank(const MatX& G) {
   if (G.rows() < 2) return false;
   const Mat2 gram = G.transpose() * G;
   return positive_definite(gram, 1e-12 * std::max(1.0, gram.trace()));
+}
+
+/// A belief as mean and information Λ = P⁻¹.
+struct MeanInformation {
+  Vec2 mean;
+  Mat2 information;
+};
+
+/// Exact GaBP: the sender's belief without what `self` contributed to it. nullopt if what is left is not
+/// PD (the sender knows nothing but what came from `self`).
+std::optional<MeanInformation> cavity(const BeliefMessage& belief, AgentId self, double min_information) {
+  if (!positive_definite(belief.information, min_information)) return std::nullopt;
+  const auto own = std::find_if(belief.contributions.begin(), belief.contributions.end(),
+                                [&](const BeliefContribution& c) { return c.from == self; });
+  if (own == belief.contributions.end()) return MeanInformation{belief.mean_m, belief.information};
+  Mat2 information = belief.information - own->information;
+  information = 0.5 * (information + information.transpose());
+  if (!positive_definite(information, min_information)) return std::nullopt;
+  const Vec2 info_vec = belief.information * belief.mean_m - own->info_vec;
+  return MeanInformation{information.ldlt().solve(info_vec), information};
 }
 
 }  // namespace
@@ -108,6 +129,59 @@ std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec
   return message;
 }
 
+std::optional<std::vector<Gaussian2>> centralized_from_paths(
+    const std::vector<std::optional<Vec2>>& anchor_positions, const std::vector<LinkPaths>& links,
+    const MultipathBpParams& params) {
+  const auto nodes = anchor_positions.size();
+  std::vector<Eigen::Index> unknown(nodes, -1);  // node -> first row of its block in the normal equations
+  Eigen::Index unknowns = 0;
+  for (std::size_t k = 0; k < nodes; ++k) {
+    if (!anchor_positions[k]) unknown[k] = 2 * unknowns++;
+  }
+  MatX normal = MatX::Zero(2 * unknowns, 2 * unknowns);
+  VecX rhs = VecX::Zero(2 * unknowns);
+  for (const auto& link : links) {
+    if (link.i < 0 || link.j < 0 || static_cast<std::size_t>(link.i) >= nodes ||
+        static_cast<std::size_t>(link.j) >= nodes || link.i == link.j) {
+      throw std::invalid_argument("centralized_from_paths: link with an unknown or repeated node");
+    }
+    if (link.paths.G.rows() == 0) continue;
+    // Residual d − G(s_i − s_j): s_i enters with +G, s_j with −G.
+    const VecX inverse_variances = path_variances(link.paths, params).cwiseInverse();
+    const MatX weighted_transpose = link.paths.G.transpose() * inverse_variances.asDiagonal();
+    const Mat2 information = weighted_transpose * link.paths.G;
+    Vec2 info_vec = weighted_transpose * link.paths.d;
+    const std::array<std::pair<AgentId, double>, 2> ends{{{link.i, 1.0}, {link.j, -1.0}}};
+    for (const auto& [node, sign] : ends) {
+      const auto& fixed = anchor_positions[static_cast<std::size_t>(node)];
+      if (fixed) info_vec -= sign * information * *fixed;  // move a known position to the right side
+    }
+    for (const auto& [row_node, row_sign] : ends) {
+      const Eigen::Index row = unknown[static_cast<std::size_t>(row_node)];
+      if (row < 0) continue;
+      rhs.segment<2>(row) += row_sign * info_vec;
+      for (const auto& [col_node, col_sign] : ends) {
+        const Eigen::Index col = unknown[static_cast<std::size_t>(col_node)];
+        if (col >= 0) normal.block<2, 2>(row, col) += row_sign * col_sign * information;
+      }
+    }
+  }
+  const Eigen::LLT<MatX> llt(0.5 * (normal + normal.transpose()));
+  if (llt.info() != Eigen::Success) return std::nullopt;
+  const VecX solution = llt.solve(rhs);
+  const MatX covariance = llt.solve(MatX::Identity(2 * unknowns, 2 * unknowns));
+  std::vector<Gaussian2> result(nodes);
+  for (std::size_t k = 0; k < nodes; ++k) {
+    if (anchor_positions[k]) {
+      result[k].mean = *anchor_positions[k];
+      continue;
+    }
+    result[k].mean = solution.segment<2>(unknown[k]);
+    result[k].covariance = covariance.block<2, 2>(unknown[k], unknown[k]);
+  }
+  return result;
+}
+
 MultipathBp::MultipathBp(const AgentSetup& setup, const MultipathBpParams& params)
     : setup_(setup), params_(params), mu_(setup.initial_guess_m), localized_(setup.anchor) {
   if (!(params.sigma2 > 0.0)) throw std::invalid_argument("multipath_bp.sigma2: must be > 0");
@@ -123,6 +197,7 @@ Outbox MultipathBp::published() const {
   belief.mean_m = mu_;
   belief.information = Lambda_;
   belief.infinite_information = setup_.anchor;
+  belief.contributions = contributions_;
   Outbox outbox;
   outbox.belief = belief;
   return outbox;
@@ -150,18 +225,28 @@ StepOutput MultipathBp::step(const StepInput& input) {
   }
   Mat2 information = Mat2::Zero();
   Vec2 info_vec = Vec2::Zero();
+  contributions_.clear();
   for (const auto& received : input.inbox->beliefs) {
     const auto link = links_.find(received.sender);
     if (link == links_.end()) continue;
     const BeliefMessage& b = received.message;
-    const auto message =
-        neighbour_message(link->second, b.mean_m, b.information, b.infinite_information, params_);
+    std::optional<InformationPair> message;
+    if (params_.exact_messages && !b.infinite_information) {
+      const auto belief = cavity(b, setup_.id, params_.min_information);
+      if (belief)
+        message = neighbour_message(link->second, belief->mean, belief->information, false, params_);
+    } else {
+      message = neighbour_message(link->second, b.mean_m, b.information, b.infinite_information, params_);
+    }
     if (!message) {
       ++out.diagnostics.neighbours_skipped;
       continue;
     }
     information += message->information;  // eq. (3)
     info_vec += message->info_vec;
+    if (params_.exact_messages) {
+      contributions_.push_back(BeliefContribution{received.sender, message->information, message->info_vec});
+    }
     ++out.diagnostics.neighbours_used;
   }
   Lambda_ = information;

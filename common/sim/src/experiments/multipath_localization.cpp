@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <stdexcept>
 
@@ -46,6 +47,7 @@ MultipathExperimentResult run_multipath_experiment(const MultipathExperimentConf
   estimators::bp::MultipathBpParams params;
   params.sigma2 = sigma2;
   if (c.doa_aware_paths) params.doa_variance_rad2 = doa * doa / 3.0;
+  params.exact_messages = c.exact_messages;
 
   // Walls outside the square, both endpoints of every pair on the same side (§5.4 [D-6]).
   const Vec2 center(0.5 * c.side_m, 0.5 * c.side_m);
@@ -63,8 +65,8 @@ MultipathExperimentResult run_multipath_experiment(const MultipathExperimentConf
   }
 
   MultipathExperimentResult result;
-  for (auto* v :
-       {&result.bp_x_error, &result.bp_y_error, &result.pairwise_x_error, &result.pairwise_y_error}) {
+  for (auto* v : {&result.bp_x_error, &result.bp_y_error, &result.pairwise_x_error, &result.pairwise_y_error,
+                  &result.centralized_x_error, &result.centralized_y_error}) {
     v->assign(kNodes, {});
   }
   const auto iterations = static_cast<std::size_t>(c.iterations);
@@ -141,6 +143,21 @@ MultipathExperimentResult run_multipath_experiment(const MultipathExperimentConf
       const auto k = static_cast<std::size_t>(i);
       result.bp_x_error[k].push_back(bp[k]->mean().x() - s[k].x());
       result.bp_y_error[k].push_back(bp[k]->mean().y() - s[k].y());
+    }
+    // Centralized baseline (not in 003): every link's paths in one weighted least-squares problem.
+    std::vector<std::optional<Vec2>> anchor_positions(kNodes);
+    anchor_positions[0] = s[0];
+    std::vector<estimators::bp::LinkPaths> links;
+    for (const auto& link : kLinks) {
+      links.push_back({link[0], link[1],
+                       estimators::bp::path_set(batches[static_cast<std::size_t>(link[0])].paths, link[1])});
+    }
+    if (const auto central = estimators::bp::centralized_from_paths(anchor_positions, links, params)) {
+      for (int i = 1; i < kNodes; ++i) {
+        const auto k = static_cast<std::size_t>(i);
+        result.centralized_x_error[k].push_back((*central)[k].mean.x() - s[k].x());
+        result.centralized_y_error[k].push_back((*central)[k].mean.y() - s[k].y());
+      }
     }
     // Pairwise baseline (§5.4): S_1, S_2 from S_0; S_3 from S_1; S_4 from S_2.
     std::array<estimators::bp::Gaussian2, kNodes> pairwise;

@@ -43,6 +43,9 @@ enum class LocalBbDifference { kGradientChange, kOwnMove };
 /// multipath_bp: each path's variance is σ² alone (003), or σ² plus what its angle-of-arrival errors do to
 /// eq. (1) (not in 003; estimators::bp::path_variances).
 enum class PathVariance { kRangeOnly, kWithDoa };
+/// multipath_bp: nodes exchange full beliefs (003 as printed, [D-4]), or exact GaBP's cavity messages (not
+/// in 003; estimators::bp::MultipathBpParams::exact_messages).
+enum class BpMessages { kBeliefs, kExact };
 enum class Reliability { kBestEffort, kReliable };
 enum class Durability { kVolatile, kTransientLocal };
 /// Range noise: additive N(0, range_std²), or proportional N(0, (range_factor·d)²) (004 eq. (16)).
@@ -84,6 +87,8 @@ struct Scenario {
     LocalBbDifference local_bb_difference = LocalBbDifference::kGradientChange;
     /// multipath_bp: a path's variance is σ² (range_only, 003) or also carries its angle errors (with_doa).
     PathVariance path_variance = PathVariance::kRangeOnly;
+    /// multipath_bp: full beliefs (beliefs, 003) or cavity messages (exact, not in 003).
+    BpMessages bp_messages = BpMessages::kBeliefs;
   } algorithm;
 
   struct World {

@@ -131,12 +131,23 @@ struct ConsensusMessage {
   std::vector<double> values;
 };
 
+/// One neighbour's message as the sender of a BELIEF added it to its belief, in information form (exact
+/// GaBP only, not in 003): the neighbour `from` subtracts it to get the sender's belief without its own
+/// contribution (the cavity).
+struct BeliefContribution {
+  AgentId from = 0;
+  Mat2 information = Mat2::Zero();
+  Vec2 info_vec = Vec2::Zero();
+};
+
 /// BELIEF of the sender's own position.
 struct BeliefMessage {
   std::int64_t iteration = 0;
   Vec2 mean_m = Vec2::Zero();
   Mat2 information = Mat2::Zero();
   bool infinite_information = false;
+  /// Exact GaBP: what each neighbour contributed to `information` (empty for 003 as printed).
+  std::vector<BeliefContribution> contributions;
 };
 
 /// A received message with the sender's identity and step (the mailbox keeps the newest per sender).

@@ -23,8 +23,9 @@
 namespace swarmloc::sim {
 
 /// Format version written by this build (both file kinds). Version 2 added an information sample's world
-/// step; readers accept versions 1 and 2 (a version 1 sample's world step reads as −1).
-inline constexpr std::uint16_t kRecordingVersion = 2;
+/// step, version 3 a belief sample's contributions (exact GaBP); readers accept versions 1 to 3 (a version 1
+/// sample's world step reads as −1, an older belief has no contributions).
+inline constexpr std::uint16_t kRecordingVersion = 3;
 inline constexpr std::uint16_t kOldestReadableRecordingVersion = 1;
 /// Names in a run directory.
 inline constexpr const char* kRecordingFile = "recording.slrec";

@@ -16,6 +16,10 @@ struct MultipathBpParams {
   /// exact and σ² is a path's only noise. > 0 (not in 003): a path's variance also carries what its two
   /// angle errors do to eq. (1), see path_variances().
   double doa_variance_rad2 = 0.0;
+  /// Exact GaBP (not in 003, the ablation of [D-4]): a neighbour's message is built from its belief with
+  /// this node's own contribution divided out (the cavity), so no evidence comes back over the edge it
+  /// left by. false, as in 003: full beliefs are exchanged.
+  bool exact_messages = false;
   double los_threshold = 1e-3;     ///< [D-2]
   double min_information = 1e-12;  ///< neighbours whose Λ_j has an eigenvalue below this are skipped (§5.2)
 };
@@ -59,6 +63,22 @@ struct InformationPair {
 std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec2& mean_j, const Mat2& info_j,
                                                  bool anchor_j, const MultipathBpParams& params);
 
+/// The paths of one link (i, j) as seen from S_i: G_ji and d_ji.
+struct LinkPaths {
+  AgentId i = 0;
+  AgentId j = 0;
+  PathSet paths;
+};
+
+/// Centralized baseline (not in 003): weighted least squares on every path length of eq. (1) at once,
+/// d_ji − G_ji(s_i − s_j) with weights V⁻¹ (V = diag(path_variances())), over the nodes whose
+/// `anchor_positions` entry is empty; anchors are fixed. It is what exact GaBP's means converge to. Returns
+/// every node's mean and covariance (anchors: their position, zero covariance), or nullopt if the links do
+/// not determine every node (the normal matrix is not PD).
+std::optional<std::vector<Gaussian2>> centralized_from_paths(
+    const std::vector<std::optional<Vec2>>& anchor_positions, const std::vector<LinkPaths>& links,
+    const MultipathBpParams& params);
+
 /// One sensor of 003 Algorithm 1. Each step(): W_ji, ν_ji from every neighbour's newest BELIEF (§5.3), then
 /// Λ_i = Σ_j W_ji⁻¹ (eq. (3)) and μ_i = Λ_i⁻¹ Σ_j W_ji⁻¹ν_ji (eq. (4)). Beliefs, not cavity messages, are
 /// exchanged ([D-4], as printed). Paths come from MeasurementBatch::paths (newest set per peer kept;
@@ -66,7 +86,9 @@ std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec
 /// singular, μ_i keeps its previous value ("not yet localized").
 ///
 /// Publishes BELIEF {iteration l, μ_i, Λ_i}; the anchor S_0 publishes its known position with
-/// infinite_information = true.
+/// infinite_information = true. With exact_messages (not in 003) the belief also lists each neighbour's
+/// message (W_ji⁻¹, W_ji⁻¹ν_ji) as added, and a receiver S_j subtracts its own entry from (Λ_i, Λ_iμ_i)
+/// before it forms W_ij: Gaussian BP with cavity messages, exact on trees.
 class MultipathBp final : public Estimator {
  public:
   MultipathBp(const AgentSetup& setup, const MultipathBpParams& params);
@@ -88,6 +110,7 @@ class MultipathBp final : public Estimator {
   std::map<AgentId, PathSet> links_;
   Vec2 mu_;
   Mat2 Lambda_ = Mat2::Zero();
+  std::vector<BeliefContribution> contributions_;  ///< exact_messages: the last step's terms of Λ_i
   bool localized_ = false;
   std::int64_t iteration_ = 0;
 };

@@ -19,6 +19,9 @@ struct MultipathExperimentConfig {
   /// Not in 003: BP and pairwise also weight each path by what its angle errors do to eq. (1)
   /// (MultipathBpParams::doa_variance_rad2 = the uniform error's variance, doa_error² / 3).
   bool doa_aware_paths = false;
+  /// Not in 003: exact GaBP, cavity messages instead of full beliefs ([D-4] ablation,
+  /// MultipathBpParams::exact_messages).
+  bool exact_messages = false;
   std::uint64_t seed = 1;
 };
 
@@ -28,6 +31,10 @@ struct MultipathExperimentResult {
   std::vector<std::vector<double>> bp_y_error;
   std::vector<std::vector<double>> pairwise_x_error;
   std::vector<std::vector<double>> pairwise_y_error;
+  /// Centralized baseline (not in 003): weighted least squares on all five links' paths at once
+  /// (bp::centralized_from_paths), the best linear use of the same measurements.
+  std::vector<std::vector<double>> centralized_x_error;
+  std::vector<std::vector<double>> centralized_y_error;
   /// [l] mean |x error| over nodes 1…4 and trials after BP iteration l = 1…iterations ([0] = NaN).
   std::vector<double> bp_mean_abs_x_error;
   /// Trials in which some node's BP covariance grew between iterations (Thm. 1 says never).
