@@ -20,9 +20,17 @@ void make_hostile(estimators::Outbox& outbox, std::int64_t step) {
     auto& belief = *outbox.belief;
     belief.infinite_information = false;
     belief.information = Mat2::Identity();
-    if (variant == 0) belief.mean_m.x() = nan;
-    if (variant == 1) belief.information << 1.0, 5.0, 5.0, 1.0;
-    if (variant == 2) belief.mean_m = Vec2(1e12, -1e12);
+    if (!belief.contributions.empty() && variant != 1) {
+      // Exact GaBP: a belief that is well formed itself, with broken contributions.
+      for (auto& contribution : belief.contributions) {
+        if (variant == 0) contribution.info_vec.x() = nan;
+        if (variant == 2) contribution.information = Mat2::Identity() * 1e300;
+      }
+    } else {
+      if (variant == 0) belief.mean_m.x() = nan;
+      if (variant == 1) belief.information << 1.0, 5.0, 5.0, 1.0;
+      if (variant == 2) belief.mean_m = Vec2(1e12, -1e12);
+    }
   }
   for (auto& consensus : outbox.consensus) {
     for (double& value : consensus.values) value = variant == 0 ? nan : (variant == 1 ? -1e300 : 1e300);

@@ -163,6 +163,7 @@ INSTANTIATE_TEST_SUITE_P(
     EveryRuntimeAlgorithm, HostileAgent,
     ::testing::Values(HostileCase{"default", "run.steps=100"}, HostileCase{"jacobi", "run.steps=60"},
                       HostileCase{"dgbb", "run.steps=150"}, HostileCase{"multipath_bp", "run.steps=30"},
+                      HostileCase{"multipath_bp", "run.steps=30", "algorithm.bp_messages=exact", "_exact"},
                       HostileCase{"default", "run.steps=100", "run.sim_clock=agents", "_agent_clocks"}),
     [](const ::testing::TestParamInfo<HostileCase>& param_info) {
       return std::string(param_info.param.scenario) + param_info.param.label;

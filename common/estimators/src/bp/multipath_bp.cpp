@@ -40,8 +40,9 @@ std::optional<MeanInformation> cavity(const BeliefMessage& belief, AgentId self,
   Mat2 information = belief.information - own->information;
   information = 0.5 * (information + information.transpose());
   if (!positive_definite(information, min_information)) return std::nullopt;
-  const Vec2 info_vec = belief.information * belief.mean_m - own->info_vec;
-  return MeanInformation{information.ldlt().solve(info_vec), information};
+  const Vec2 mean = information.ldlt().solve(Vec2(belief.information * belief.mean_m - own->info_vec));
+  if (!mean.allFinite()) return std::nullopt;
+  return MeanInformation{mean, information};
 }
 
 }  // namespace
