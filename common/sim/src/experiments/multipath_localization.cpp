@@ -89,9 +89,14 @@ MultipathExperimentResult run_multipath_experiment(const MultipathExperimentConf
             models::reflect_path(s[static_cast<std::size_t>(i)], s[static_cast<std::size_t>(j)], walls[r]);
         if (!path) throw std::logic_error("multipath_experiment: wall between two nodes");
         // One noisy path shared by both ends; DOA errors independent at each end (§5.4).
-        const double length = path->length_m + range_noise(rng);
+        const double length_error = range_noise(rng);
         const double theta_ji = path->theta_ji_rad + doa_noise(rng);
         const double theta_ij = path->theta_ij_rad + doa_noise(rng);
+        const double length =
+            length_error + (c.lengths_from_measured_angles
+                                ? models::path_direction(theta_ij, theta_ji)
+                                      .dot(s[static_cast<std::size_t>(i)] - s[static_cast<std::size_t>(j)])
+                                : path->length_m);
         const int index = static_cast<int>(r);
         batches[static_cast<std::size_t>(i)].paths.push_back({j, index, length, theta_ji, theta_ij});
         batches[static_cast<std::size_t>(j)].paths.push_back({i, index, length, theta_ij, theta_ji});

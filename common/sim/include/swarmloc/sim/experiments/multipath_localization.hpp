@@ -22,6 +22,11 @@ struct MultipathExperimentConfig {
   /// Not in 003: exact GaBP, cavity messages instead of full beliefs ([D-4] ablation,
   /// MultipathBpParams::exact_messages).
   bool exact_messages = false;
+  /// How a path's measured length is drawn. false (ALGORITHMS.md §5.4): the image method's length plus
+  /// N(0, range_std²), so the angle errors make eq. (1) wrong by what they move g. true (another reading of
+  /// 003 Sec. 4, whose theory takes eq. (1) as exact): the length eq. (1) predicts at the measured angles,
+  /// g(θ̃_ij, θ̃_ji)ᵀ(s_i − s_j), plus N(0, range_std²); the angle errors then enter only through G.
+  bool lengths_from_measured_angles = false;
   std::uint64_t seed = 1;
 };
 
