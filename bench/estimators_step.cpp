@@ -1,13 +1,16 @@
-// One IEIF / IEKF step with 8 neighbours, and one CRLB build at N = 30 and N = 300.
+// One IEIF / IEKF step with 8 neighbours, one multipath BP step with 8 neighbours (003's beliefs and exact
+// GaBP), and one CRLB build at N = 30 and N = 300.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
 #include <random>
 
 #include "kalman_reference.hpp"
+#include "swarmloc/estimators/bp/multipath_bp.hpp"
 #include "swarmloc/estimators/crlb.hpp"
 #include "swarmloc/estimators/ieif.hpp"
 #include "swarmloc/estimators/iekf.hpp"
+#include "swarmloc/models/multipath.hpp"
 
 namespace {
 
@@ -64,6 +67,40 @@ void ieif_step_8_neighbours_update_iterations(benchmark::State& state) {
   }
 }
 BENCHMARK(ieif_step_8_neighbours_update_iterations)->Arg(1)->Arg(10);
+
+/// One multipath BP iteration at a node with 8 neighbours, two reflected paths each (walls at 0° and 45°),
+/// after the paths arrived; Arg 0: 003's beliefs, 1: exact GaBP (each neighbour lists its contributions).
+void multipath_bp_step_8_neighbours(benchmark::State& state) {
+  const bool exact = state.range(0) == 1;
+  const Vec2 self(10.0, 10.0);
+  const swarmloc::models::Wall walls[] = {{Vec2(10.0, -8.0), 0.0}, {Vec2(30.0, 0.0), 0.785398}};
+  est::MeasurementBatch batch;
+  est::Inbox inbox;
+  for (int j = 1; j <= 8; ++j) {
+    const double angle = 0.785 * j + 0.1;
+    const Vec2 s_j = self + 5.0 * Vec2(std::cos(angle), std::sin(angle));
+    for (int r = 0; r < 2; ++r) {
+      const auto path = swarmloc::models::reflect_path(self, s_j, walls[r]);
+      batch.paths.push_back({j, r, path->length_m + 0.01 * j, path->theta_ji_rad, path->theta_ij_rad});
+    }
+    est::BeliefMessage belief;
+    belief.mean_m = s_j + Vec2(0.05, -0.02);
+    belief.information = Mat2::Identity() * (4.0 + j);
+    if (exact)
+      belief.contributions = {{0, Mat2::Identity(), Vec2(10.0, 10.0)}, {j + 10, Mat2::Identity(), s_j}};
+    inbox.beliefs.push_back(est::Received<est::BeliefMessage>{j, 0, belief});
+  }
+  est::bp::MultipathBpParams params;
+  params.exact_messages = exact;
+  est::bp::MultipathBp node(est::AgentSetup{}, params);
+  (void)node.step(est::StepInput{0, &batch, &inbox});
+  std::int64_t k = 1;
+  for (auto _ : state) {
+    est::StepOutput out = node.step(est::StepInput{k++, nullptr, &inbox});
+    benchmark::DoNotOptimize(out);
+  }
+}
+BENCHMARK(multipath_bp_step_8_neighbours)->Arg(0)->Arg(1);
 
 void crlb_all_pairs(benchmark::State& state) {
   const auto n = static_cast<int>(state.range(0));

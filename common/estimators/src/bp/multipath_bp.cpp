@@ -1,7 +1,6 @@
 #include "swarmloc/estimators/bp/multipath_bp.hpp"
 
 #include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -12,10 +11,14 @@
 namespace swarmloc::estimators::bp {
 namespace {
 
+/// The smaller eigenvalue of the symmetric part of m exceeds min_eigenvalue (closed form for 2 × 2:
+/// (a + c)/2 − √(((a − c)/2)² + b²); an iterative eigensolver per neighbour and iteration cost more
+/// than the message itself).
 bool positive_definite(const Mat2& m, double min_eigenvalue) {
   if (!m.allFinite()) return false;
-  const Eigen::SelfAdjointEigenSolver<Mat2> eig(0.5 * (m + m.transpose()), Eigen::EigenvaluesOnly);
-  return eig.eigenvalues().minCoeff() > min_eigenvalue;
+  const double off_diagonal = 0.5 * (m(0, 1) + m(1, 0));
+  const double smaller = 0.5 * (m(0, 0) + m(1, 1)) - std::hypot(0.5 * (m(0, 0) - m(1, 1)), off_diagonal);
+  return smaller > min_eigenvalue;
 }
 
 bool full_column_rank(const MatX& G) {
@@ -79,42 +82,39 @@ VecX path_variances(const PathSet& paths, const MultipathBpParams& params) {
   return variances;
 }
 
-namespace {
-/// A_ji = GᵀV⁻¹G and the relative position it implies, (GᵀV⁻¹G)⁻¹GᵀV⁻¹d (G†d when V = σ²I).
-struct PathInformation {
-  Mat2 A;
-  Vec2 relative;
-};
-PathInformation path_information(const PathSet& paths, const MultipathBpParams& params) {
-  const VecX inverse_variances = path_variances(paths, params).cwiseInverse();
-  const MatX weighted_transpose = paths.G.transpose() * inverse_variances.asDiagonal();
-  PathInformation info;
-  info.A = weighted_transpose * paths.G;
-  info.A = 0.5 * (info.A + info.A.transpose());
-  info.relative = info.A.ldlt().solve(weighted_transpose * paths.d);
-  return info;
+LinkModel link_model(PathSet paths, const MultipathBpParams& params) {
+  LinkModel link;
+  link.variances = path_variances(paths, params);
+  link.full_rank = full_column_rank(paths.G);
+  if (link.full_rank) {
+    const MatX weighted_transpose = paths.G.transpose() * link.variances.cwiseInverse().asDiagonal();
+    link.A = weighted_transpose * paths.G;
+    link.A = 0.5 * (link.A + link.A.transpose());
+    link.relative = link.A.ldlt().solve(weighted_transpose * paths.d);
+  }
+  link.paths = std::move(paths);
+  return link;
 }
-}  // namespace
 
 std::optional<Gaussian2> pairwise_from_parent(const Gaussian2& parent, const PathSet& paths,
                                               const MultipathBpParams& params) {
-  if (!full_column_rank(paths.G)) return std::nullopt;
-  const PathInformation info = path_information(paths, params);
+  const LinkModel link = link_model(paths, params);
+  if (!link.full_rank) return std::nullopt;
   Gaussian2 child;
-  child.mean = parent.mean + info.relative;                 // eq. (2): s_j + G†d
-  child.covariance = parent.covariance + info.A.inverse();  // P_j + σ²Σ_ji
+  child.mean = parent.mean + link.relative;                 // eq. (2): s_j + G†d
+  child.covariance = parent.covariance + link.A.inverse();  // P_j + σ²Σ_ji
   return child;
 }
 
-std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec2& mean_j, const Mat2& info_j,
-                                                 bool anchor_j, const MultipathBpParams& params) {
-  if (paths.G.rows() == 0) return std::nullopt;
+std::optional<InformationPair> neighbour_message(const LinkModel& link, const Vec2& mean_j,
+                                                 const Mat2& info_j, bool anchor_j,
+                                                 const MultipathBpParams& params) {
+  if (link.paths.G.rows() == 0) return std::nullopt;
   if (!anchor_j && !positive_definite(info_j, params.min_information)) return std::nullopt;  // P_j infinite
   InformationPair message;
-  if (full_column_rank(paths.G)) {
-    const PathInformation info = path_information(paths, params);
-    const Mat2& A = info.A;                  // A_ji = (σ²Σ_ji)⁻¹
-    const Vec2 nu = mean_j + info.relative;  // ν_ji = μ_j + G†d
+  if (link.full_rank) {
+    const Mat2& A = link.A;                  // A_ji = (σ²Σ_ji)⁻¹
+    const Vec2 nu = mean_j + link.relative;  // ν_ji = μ_j + G†d
     // W_ji⁻¹ = A − A(A + Λ_j)⁻¹A = (A⁻¹ + Λ_j⁻¹)⁻¹ (§5.2); anchor: W⁻¹ = A.
     message.information = anchor_j ? A : Mat2(A - A * (A + info_j).ldlt().solve(A));
     message.information = 0.5 * (message.information + message.information.transpose());
@@ -122,12 +122,18 @@ std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec
     return message;
   }
   // General message (R = 1 or rank-deficient G): C = σ²I + G P_j Gᵀ.
-  MatX C = path_variances(paths, params).asDiagonal();
+  const PathSet& paths = link.paths;
+  MatX C = link.variances.asDiagonal();
   if (!anchor_j) C += paths.G * info_j.inverse() * paths.G.transpose();
   const Eigen::LDLT<MatX> ldlt(C);
   message.information = paths.G.transpose() * ldlt.solve(paths.G);
   message.info_vec = paths.G.transpose() * ldlt.solve(paths.d + paths.G * mean_j);
   return message;
+}
+
+std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec2& mean_j, const Mat2& info_j,
+                                                 bool anchor_j, const MultipathBpParams& params) {
+  return neighbour_message(link_model(paths, params), mean_j, info_j, anchor_j, params);
 }
 
 std::optional<std::vector<Gaussian2>> centralized_from_paths(
@@ -216,7 +222,7 @@ StepOutput MultipathBp::step(const StepInput& input) {
       }
     }
     for (const AgentId peer : peers) {
-      links_[peer] = path_set(input.measurements->paths, peer, params_.los_threshold);
+      links_[peer] = link_model(path_set(input.measurements->paths, peer, params_.los_threshold), params_);
     }
   }
   ++iteration_;

@@ -57,9 +57,25 @@ struct InformationPair {
   Mat2 information = Mat2::Zero();
   Vec2 info_vec = Vec2::Zero();
 };
+/// What one peer's paths give before any belief arrives, computed once per path set (not per iteration):
+/// the paths' variances and, when G_ji has full column rank, A_ji = G_jiᵀV⁻¹G_ji and the relative position
+/// (G_jiᵀV⁻¹G_ji)⁻¹G_jiᵀV⁻¹d_ji (G†d with V = σ²I).
+struct LinkModel {
+  PathSet paths;
+  VecX variances;
+  bool full_rank = false;
+  Mat2 A = Mat2::Zero();
+  Vec2 relative = Vec2::Zero();
+};
+LinkModel link_model(PathSet paths, const MultipathBpParams& params);
+
 /// Anchor neighbour (P_j = 0): A_ji = G_jiᵀG_ji/σ²; otherwise A − A(A + Λ_j)⁻¹A; the general form
 /// C = σ²I + G P_j Gᵀ when rank(G) < 2. With angle errors σ²I becomes V = diag(path_variances()) and
 /// A_ji = G_jiᵀV⁻¹G_ji. nullopt if Λ_j is not PD (the neighbour carries no information).
+std::optional<InformationPair> neighbour_message(const LinkModel& link, const Vec2& mean_j,
+                                                 const Mat2& info_j, bool anchor_j,
+                                                 const MultipathBpParams& params);
+/// The same from the raw paths (builds their LinkModel first).
 std::optional<InformationPair> neighbour_message(const PathSet& paths, const Vec2& mean_j, const Mat2& info_j,
                                                  bool anchor_j, const MultipathBpParams& params);
 
@@ -107,7 +123,7 @@ class MultipathBp final : public Estimator {
 
   AgentSetup setup_;
   MultipathBpParams params_;
-  std::map<AgentId, PathSet> links_;
+  std::map<AgentId, LinkModel> links_;
   Vec2 mu_;
   Mat2 Lambda_ = Mat2::Zero();
   std::vector<BeliefContribution> contributions_;  ///< exact_messages: the last step's terms of Λ_i
