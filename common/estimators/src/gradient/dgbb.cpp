@@ -59,30 +59,48 @@ std::string_view DgBb::name() const {
   return "dgbb";
 }
 
-Outbox DgBb::published(bool with_consensus) const {
-  Outbox outbox;
+void DgBb::publish(Outbox& outbox, bool with_consensus) const {
   StateMessage state;
   state.mean_m = p_;
   state.covariance = Mat2::Zero();
   state.anchor = setup_.anchor;
   state.active = active();
-  state.degree = static_cast<std::uint16_t>(ranges_.size());
+  state.degree = static_cast<std::uint16_t>(range_count_);
   outbox.state = state;
   if (with_consensus) outbox.consensus.push_back(ConsensusMessage{tau_, round_, {rho_, psi_}});
+}
+
+Outbox DgBb::initial_outbox() const {
+  Outbox outbox;
+  publish(outbox, false);
   return outbox;
 }
 
-Outbox DgBb::initial_outbox() const { return published(false); }
+std::size_t DgBb::peer_index(AgentId id) {
+  auto it = std::lower_bound(peers_.begin(), peers_.end(), id,
+                             [](const Peer& p, AgentId key) { return p.id < key; });
+  if (it == peers_.end() || it->id != id) {
+    Peer added;
+    added.id = id;
+    it = peers_.insert(it, added);
+  }
+  return static_cast<std::size_t>(it - peers_.begin());
+}
+
+DgBb::Peer& DgBb::inbox_peer(std::size_t& hint, AgentId id) {
+  if (hint >= peers_.size() || peers_[hint].id != id) hint = peer_index(id);
+  return peers_[hint];
+}
 
 bool DgBb::direction(Vec2& D) const { return direction_at(p_, D); }
 
 bool DgBb::direction_at(const Vec2& position, Vec2& D) const {
   D = Vec2::Zero();
-  for (const auto& [peer, range] : ranges_) {
-    const auto it = neighbours_.find(peer);
-    if (it == neighbours_.end() || !it->second.have_state) return false;
-    const Vec2 delta = position - it->second.position;
-    D += (delta.squaredNorm() - range * range) * delta;  // g_ij (p_i − p_j), 004 eq. (13) [E-1]
+  for (const Peer& peer : peers_) {
+    if (!peer.has_range) continue;
+    if (!peer.have_state) return false;
+    const Vec2 delta = position - peer.position;
+    D += (delta.squaredNorm() - peer.range * peer.range) * delta;  // g_ij (p_i − p_j), 004 eq. (13) [E-1]
   }
   D *= params_.grad_scale;
   return true;
@@ -90,9 +108,11 @@ bool DgBb::direction_at(const Vec2& position, Vec2& D) const {
 
 double DgBb::capped_bb_step(double alpha, const Vec2& D) {
   alpha = std::min(alpha, params_.max_step);
-  if (params_.max_move_fraction > 0.0 && !ranges_.empty()) {
+  if (params_.max_move_fraction > 0.0 && range_count_ > 0) {
     double shortest = std::numeric_limits<double>::infinity();
-    for (const auto& entry : ranges_) shortest = std::min(shortest, entry.second);
+    for (const Peer& peer : peers_) {
+      if (peer.has_range) shortest = std::min(shortest, peer.range);
+    }
     const double max_move = params_.max_move_fraction * shortest;
     const double move = alpha * D.norm();
     if (move > max_move && max_move > 0.0) {
@@ -120,21 +140,24 @@ void DgBb::apply_update(const Vec2& D, double alpha) {
 
 void DgBb::consensus_round() {
   // 004 eqs. (10)–(11) with Metropolis weights (ALGORITHMS.md §1.2); newest value per neighbour (§6.4).
-  const int own_degree = static_cast<int>(ranges_.size());
+  const int own_degree = range_count_;
   double rho = rho_;
   double psi = psi_;
   double self_weight = 1.0;
   double rho_sum = 0.0;
   double psi_sum = 0.0;
-  for (const auto& [peer, range] : ranges_) {
-    const auto it = neighbours_.find(peer);
-    const bool known = it != neighbours_.end();
-    const int degree = known && it->second.degree > 0 ? it->second.degree : own_degree;
-    const double w = consensus::metropolis_edge_weight(own_degree, degree, params_.weights);
+  for (Peer& peer : peers_) {
+    if (!peer.has_range) continue;
+    const int degree = peer.degree > 0 ? peer.degree : own_degree;
+    // The degrees rarely change, so the weight is recomputed only when they do.
+    if (peer.weight_degree != degree) {
+      peer.weight = consensus::metropolis_edge_weight(own_degree, degree, params_.weights);
+      peer.weight_degree = degree;
+    }
+    const double w = peer.weight;
     self_weight -= w;
-    const bool have = known && it->second.have_consensus;
-    rho_sum += w * (have ? it->second.rho : rho);
-    psi_sum += w * (have ? it->second.psi : psi);
+    rho_sum += w * (peer.have_consensus ? peer.rho : rho);
+    psi_sum += w * (peer.have_consensus ? peer.psi : psi);
   }
   rho_ = self_weight * rho + rho_sum;
   psi_ = self_weight * psi + psi_sum;
@@ -144,35 +167,48 @@ StepOutput DgBb::step(const StepInput& input) {
   StepOutput out;
   if (input.measurements != nullptr) {
     for (const RangeMeasurement& m : input.measurements->ranges) {
-      if (m.peer != setup_.id && std::isfinite(m.range_m)) ranges_[m.peer] = m.range_m;
+      if (m.peer == setup_.id || !std::isfinite(m.range_m)) continue;
+      Peer& n = peers_[peer_index(m.peer)];
+      if (!n.has_range) {
+        n.has_range = true;
+        ++range_count_;
+        for (Peer& other : peers_) other.weight_degree = 0;  // every W_ij depends on the own degree
+      }
+      n.range = m.range_m;
     }
   }
   if (input.inbox != nullptr) {
-    for (const auto& received : input.inbox->states) {
-      Neighbour& n = neighbours_[received.sender];
+    const auto& states = input.inbox->states;
+    state_hints_.resize(states.size(), 0);
+    for (std::size_t k = 0; k < states.size(); ++k) {
+      const auto& received = states[k];
+      Peer& n = inbox_peer(state_hints_[k], received.sender);
       if (!received.message.mean_m.allFinite()) continue;
       n.position = received.message.mean_m;
       n.degree = received.message.degree;
       n.have_state = true;
     }
-    for (const auto& received : input.inbox->consensus) {
+    const auto& consensus_values = input.inbox->consensus;
+    consensus_hints_.resize(consensus_values.size(), 0);
+    for (std::size_t k = 0; k < consensus_values.size(); ++k) {
+      const auto& received = consensus_values[k];
       if (received.message.values.size() < 2) continue;
-      Neighbour& n = neighbours_[received.sender];
+      Peer& n = inbox_peer(consensus_hints_[k], received.sender);
       n.rho = received.message.values[0];
       n.psi = received.message.values[1];
       n.have_consensus = true;
     }
   }
-  out.diagnostics.neighbours_used = static_cast<int>(ranges_.size());
-  if (tau_ >= params_.max_updates || ranges_.empty()) {
-    out.outbox = published(false);
+  out.diagnostics.neighbours_used = range_count_;
+  if (tau_ >= params_.max_updates || range_count_ == 0) {
+    publish(out.outbox, false);
     return out;
   }
 
   Vec2 D;
   if (phase_ == Phase::kWaiting) {  // §6.4: start only once every neighbour has been heard from
     if (!direction(D)) {
-      out.outbox = published(false);
+      publish(out.outbox, false);
       return out;
     }
     phase_ = params_.warmup_updates > 0 ? Phase::kWarmup : Phase::kRound;
@@ -184,7 +220,7 @@ StepOutput DgBb::step(const StepInput& input) {
     apply_update(D, params_.warmup_step);
     out.diagnostics.updated = true;
     if (tau_ >= params_.warmup_updates) phase_ = Phase::kRound;
-    out.outbox = published(false);
+    publish(out.outbox, false);
     return out;
   }
 
@@ -224,7 +260,7 @@ StepOutput DgBb::step(const StepInput& input) {
     if (active_) last_alpha_ = alpha;
     apply_update(D, alpha);
     out.diagnostics.updated = true;
-    out.outbox = published(false);
+    publish(out.outbox, false);
     return out;
   }
 
@@ -234,13 +270,13 @@ StepOutput DgBb::step(const StepInput& input) {
     const Vec2 dp = p_ - p_prev_;
     rho_ = dp.squaredNorm();
     psi_ = dp.dot(D_cur_ - D_prev_);
-    out.outbox = published(true);
+    publish(out.outbox, true);
     round_ = 1;
     return out;
   }
   consensus_round();
   if (round_ < params_.consensus_rounds) {
-    out.outbox = published(true);
+    publish(out.outbox, true);
     ++round_;
     return out;
   }
@@ -260,7 +296,7 @@ StepOutput DgBb::step(const StepInput& input) {
   apply_update(D_cur_, alpha);
   out.diagnostics.updated = true;
   round_ = 0;
-  out.outbox = published(false);
+  publish(out.outbox, false);
   return out;
 }
 

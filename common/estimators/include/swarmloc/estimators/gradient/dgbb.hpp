@@ -1,9 +1,9 @@
 #pragma once
 // Distributed gradient localization with a consensus Barzilai–Borwein step (004, ALGORITHMS.md §6) and its
 // baselines: local BB (T = 0), fixed step, specified step length; centralized BB as a plain function.
+#include <cstddef>
 #include <cstdint>
 #include <limits>
-#include <map>
 #include <string_view>
 #include <vector>
 
@@ -91,7 +91,9 @@ class DgBb final : public Estimator {
  private:
   enum class Phase { kWaiting, kWarmup, kRound };
 
-  [[nodiscard]] Outbox published(bool with_consensus) const;
+  /// Writes what the node publishes into the empty `outbox` (step() fills its StepOutput's in place, which
+  /// spares a move per round).
+  void publish(Outbox& outbox, bool with_consensus) const;
   /// D_i(p) = grad_scale · Σ_j g_ij (p_i − p_j), g_ij = ‖p_i − p_j‖² − d̄_ij² ([E-1]); false if a neighbour is
   /// missing.
   bool direction(Vec2& D) const;
@@ -109,16 +111,34 @@ class DgBb final : public Estimator {
   Vec2 D_prev_ = Vec2::Zero();
   Vec2 D_cur_ = Vec2::Zero();
   bool have_prev_ = false;
-  std::map<AgentId, double> ranges_;
-  struct Neighbour {
+  /// What the node knows of one peer: its range, if measured, and the newest STATE and CONS received.
+  struct Peer {
+    AgentId id = 0;
+    bool has_range = false;
+    double range = 0.0;  ///< d̄_ij, the newest
     Vec2 position = Vec2::Zero();
     int degree = 0;
     bool have_state = false;
     double rho = 0.0;
     double psi = 0.0;
     bool have_consensus = false;
+    /// Metropolis weight W_ij, computed for the neighbour degree `weight_degree` (0: not computed yet, or
+    /// the node's own degree has changed since).
+    int weight_degree = 0;
+    double weight = 0.0;
   };
-  std::map<AgentId, Neighbour> neighbours_;
+  /// Index in peers_ of the peer `id`, added (knowing nothing) if new.
+  std::size_t peer_index(AgentId id);
+  /// The peer `id` of an inbox entry, tried first at `hint` (where that entry's sender was found in the
+  /// previous step; updated): an inbox lists the same senders in the same order step after step, so this
+  /// spares nearly every search.
+  Peer& inbox_peer(std::size_t& hint, AgentId id);
+  /// Sorted by id, so range neighbours are summed in the same order everywhere. A flat vector rather than
+  /// maps: every round looks each neighbour up two or three times, and a node has only a few.
+  std::vector<Peer> peers_;
+  int range_count_ = 0;                       ///< peers with a range: the node's degree
+  std::vector<std::size_t> state_hints_;      ///< inbox_peer() hint per entry of Inbox::states
+  std::vector<std::size_t> consensus_hints_;  ///< and of Inbox::consensus
   Phase phase_ = Phase::kWaiting;
   std::int64_t tau_ = 0;
   int round_ = 0;
