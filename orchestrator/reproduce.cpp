@@ -386,6 +386,20 @@ int reproduce_kalman_table(const ReproduceOptions& options, const std::string& n
 }
 
 // ---------------- 002 Figs. 2, 4: distributed Jacobi vs BLUE ----------------
+/// The Jacobi experiment once per variant k < count, on the reproduction's threads; `vary(config, k)` turns
+/// the base configuration into variant k.
+template <typename Vary>
+std::vector<sim::experiments::JacobiExperimentResult> run_jacobi_variants(
+    const sim::experiments::JacobiExperimentConfig& base, std::size_t count, int threads, Vary vary) {
+  std::vector<sim::experiments::JacobiExperimentResult> results(count);
+  parallel_trials(static_cast<int>(count), threads, [&](int k) {
+    auto variant = base;
+    vary(variant, static_cast<std::size_t>(k));
+    results[static_cast<std::size_t>(k)] = sim::experiments::run_jacobi_experiment(variant);
+  });
+  return results;
+}
+
 // Both readings of "randomly generated graphs with 300 nodes and 1288 edges" ([C-5]): the spec's random
 // geometric default and Erdős–Rényi G(n, m). One table and one CSV per reading.
 int reproduce_jacobi(const ReproduceOptions& options) {
@@ -446,12 +460,9 @@ int reproduce_jacobi(const ReproduceOptions& options) {
           "|\n|---|---|---|---|---|\n";
     // Largest first, so that the threads finish together (the cost grows with the sweeps).
     const std::vector<int> sweep_counts{50, 30, 20, 10};
-    std::vector<sim::experiments::JacobiExperimentResult> swept(sweep_counts.size());
-    parallel_trials(static_cast<int>(sweep_counts.size()), options.threads, [&](int k) {
-      auto swept_config = config;
-      swept_config.sweeps_per_step = sweep_counts[static_cast<std::size_t>(k)];
-      swept[static_cast<std::size_t>(k)] = sim::experiments::run_jacobi_experiment(swept_config);
-    });
+    const auto swept =
+        run_jacobi_variants(config, sweep_counts.size(), options.threads,
+                            [&](auto& variant, std::size_t k) { variant.sweeps_per_step = sweep_counts[k]; });
     for (const int sweeps : {1, 10, 20, 30, 50}) {
       const auto at = std::find(sweep_counts.begin(), sweep_counts.end(), sweeps);
       const auto& r =
@@ -466,12 +477,9 @@ int reproduce_jacobi(const ReproduceOptions& options) {
           "002; same seed, graphs and priors):\n\n"
        << "| 𝓔 std [m] | RMSE step 50 [m] | BLUE step 50 [m] | / BLUE |\n|---|---|---|---|\n";
     const std::vector<double> noise_levels{2.0, 3.0, 5.0, 8.0};
-    std::vector<sim::experiments::JacobiExperimentResult> noisier(noise_levels.size());
-    parallel_trials(static_cast<int>(noise_levels.size()), options.threads, [&](int k) {
-      auto noisier_config = config;
-      noisier_config.measurement_std_m = noise_levels[static_cast<std::size_t>(k)];
-      noisier[static_cast<std::size_t>(k)] = sim::experiments::run_jacobi_experiment(noisier_config);
-    });
+    const auto noisier = run_jacobi_variants(
+        config, noise_levels.size(), options.threads,
+        [&](auto& variant, std::size_t k) { variant.measurement_std_m = noise_levels[k]; });
     for (std::size_t k = 0; k <= noise_levels.size(); ++k) {
       const auto& r = k == 0 ? result : noisier[k - 1];
       const double std_m = k == 0 ? config.measurement_std_m : noise_levels[k - 1];
