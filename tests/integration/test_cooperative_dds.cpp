@@ -64,10 +64,6 @@ constexpr const char* kFiveStepsPerWorldStep =
     " --set world.agents=40 --set world.anchors=1 --set world.area_m=80 --set world.comm_radius_m=20"
     " --set run.steps=100 --set run.rate_hz=10 --set run.agent_steps_per_world_step=5";
 
-// algorithm.bp_messages=exact (not in 003): cavity messages, each BELIEF listing the messages its sender
-// summed.
-constexpr const char* kExactGaBp = " --set algorithm.bp_messages=exact";
-
 class CooperativeOverDds : public ::testing::TestWithParam<Case> {};
 
 TEST_P(CooperativeOverDds, FinalErrorMatchesTheSimulatorWithinTenPercentAndSurvivesTwentyPercentLoss) {
@@ -109,8 +105,7 @@ INSTANTIATE_TEST_SUITE_P(Papers002To004, CooperativeOverDds,
                                            Case{"multipath_bp", 35, ""}, Case{"dle", 56, kDleFlags},
                                            Case{"dle_tracking", 60, ""}, Case{"joint_field", 66, ""},
                                            Case{"jacobi", 62, kFiveStepsPerWorldStep,
-                                                "jacobi_five_steps_per_world_step"},
-                                           Case{"multipath_bp", 74, kExactGaBp, "multipath_bp_exact"}),
+                                                "jacobi_five_steps_per_world_step"}),
                          case_name);
 
 }  // namespace
@@ -147,6 +142,10 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"multipath_bp", 40, " --set run.steps=30 --set network.loss=0.2"},
                       Case{"dle_tracking", 58, " --set run.steps=60 --set network.loss=0.2"},
                       Case{"joint_field", 68, " --set run.steps=40 --set network.loss=0.2"},
+                      // algorithm.bp_messages=exact (not in 003): each BELIEF lists the messages its sender
+                      // summed. Its free run is not in CI (26 s): 2026-12-01, seed 1, DDS 0.36103 m = the
+                      // simulator's free run, and 0.36103 m with 20 % loss (cavity messages reach the same
+                      // fixed point, later).
                       Case{"multipath_bp", 76,
                            " --set run.steps=30 --set network.loss=0.2 --set algorithm.bp_messages=exact",
                            "multipath_bp_exact"}),
