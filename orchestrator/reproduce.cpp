@@ -600,10 +600,10 @@ int reproduce_multipath(const ReproduceOptions& options) {
     const auto summary = summarize_multipath(r);
     md << "| " << setup.label << " | std " << fmt("%.2f", setup.range_std) << " m | " << config.trials
        << " | " << fmt("%.1f %%", 100.0 * summary.far_bp_below_2m) << " | "
-       << fmt("%.1f %%", 100.0 * summary.all_bp_below_3m) << " | " << fmt("%.2f", summary.far_bp_median)
+       << fmt("%.2f %%", 100.0 * summary.all_bp_below_3m) << " | " << fmt("%.2f", summary.far_bp_median)
        << " | " << fmt("%.2f", summary.far_pairwise_median) << " | "
        << fmt("%.2f", summary.near_pairwise_median) << " | "
-       << fmt("%.1f %%", 100.0 * summary.all_central_below_3m) << " | " << r.covariance_increase_trials
+       << fmt("%.2f %%", 100.0 * summary.all_central_below_3m) << " | " << r.covariance_increase_trials
        << " |\n";
   }
   md << "\n|x error| of nodes S1–S4 after 50 iterations; 'Thm. 1 violations' counts trials in which some "
