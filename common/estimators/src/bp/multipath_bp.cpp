@@ -82,15 +82,22 @@ VecX path_variances(const PathSet& paths, const MultipathBpParams& params) {
   return variances;
 }
 
+namespace {
+/// GᵀV⁻¹G and GᵀV⁻¹d of one link's paths (V = diag(variances)): its weighted least-squares terms.
+InformationPair weighted_normal_terms(const PathSet& paths, const VecX& variances) {
+  const MatX weighted_transpose = paths.G.transpose() * variances.cwiseInverse().asDiagonal();
+  return InformationPair{weighted_transpose * paths.G, weighted_transpose * paths.d};
+}
+}  // namespace
+
 LinkModel link_model(PathSet paths, const MultipathBpParams& params) {
   LinkModel link;
   link.variances = path_variances(paths, params);
   link.full_rank = full_column_rank(paths.G);
   if (link.full_rank) {
-    const MatX weighted_transpose = paths.G.transpose() * link.variances.cwiseInverse().asDiagonal();
-    link.A = weighted_transpose * paths.G;
-    link.A = 0.5 * (link.A + link.A.transpose());
-    link.relative = link.A.ldlt().solve(weighted_transpose * paths.d);
+    const InformationPair terms = weighted_normal_terms(paths, link.variances);
+    link.A = 0.5 * (terms.information + terms.information.transpose());
+    link.relative = link.A.ldlt().solve(terms.info_vec);
   }
   link.paths = std::move(paths);
   return link;
@@ -154,10 +161,9 @@ std::optional<std::vector<Gaussian2>> centralized_from_paths(
     }
     if (link.paths.G.rows() == 0) continue;
     // Residual d − G(s_i − s_j): s_i enters with +G, s_j with −G.
-    const VecX inverse_variances = path_variances(link.paths, params).cwiseInverse();
-    const MatX weighted_transpose = link.paths.G.transpose() * inverse_variances.asDiagonal();
-    const Mat2 information = weighted_transpose * link.paths.G;
-    Vec2 info_vec = weighted_transpose * link.paths.d;
+    const auto [information, path_info_vec] =
+        weighted_normal_terms(link.paths, path_variances(link.paths, params));
+    Vec2 info_vec = path_info_vec;
     const std::array<std::pair<AgentId, double>, 2> ends{{{link.i, 1.0}, {link.j, -1.0}}};
     for (const auto& [node, sign] : ends) {
       const auto& fixed = anchor_positions[static_cast<std::size_t>(node)];
