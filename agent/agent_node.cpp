@@ -10,7 +10,9 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <map>
 #include <memory>
+#include <optional>
 #include <thread>
 #include <type_traits>
 
@@ -19,6 +21,7 @@
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/hostile.hpp"
 #include "swarmloc/sim/recording.hpp"
+#include "swarmloc/sim/run_health.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/sim/world.hpp"
 
@@ -68,7 +71,11 @@ class AgentProcess {
         neighbour_count_(static_cast<int>(world.neighbours.at(static_cast<std::size_t>(options.id)).size())),
         sensor_only_(sim::is_centralized(scenario.algorithm.name)),
         lockstep_(scenario.run.mode == config::RunMode::kLockstep && !sensor_only_),
-        started_(std::chrono::steady_clock::now()) {
+        started_(std::chrono::steady_clock::now()),
+        results_hash_(config::results_hash(scenario)),
+        health_(1.0 / (scenario.run.rate_hz * scenario.run.agent_steps_per_world_step)) {
+    for (const AgentId neighbour : world.neighbours.at(static_cast<std::size_t>(options.id)))
+      if (neighbour != options.id) last_heard_[neighbour] = std::nullopt;
     if (!options.record_path.empty()) {
       sample_log_ = std::make_unique<sim::SampleLogWriter>(options.record_path, world.size(),
                                                            config::scenario_hash(scenario));
@@ -107,7 +114,9 @@ class AgentProcess {
       const double wait_s =
           lockstep_ ? 0.1 : std::clamp(std::chrono::duration<double>(next_tick - now).count(), 0.0, 0.1);
       auto inbound = transport_.wait_and_take(wait_s);
-      if (handle(inbound)) break;
+      const Verdict verdict = handle(inbound);
+      if (verdict == Verdict::kRefused) return 2;
+      if (verdict == Verdict::kStop) break;
       if (!inbound.batches.empty()) last_batch_seen = std::chrono::steady_clock::now();
 
       const auto after = std::chrono::steady_clock::now();
@@ -145,7 +154,7 @@ class AgentProcess {
         if (after - last_hello > std::chrono::milliseconds(500) && (!lockstep_ || initial_published_) &&
             transport_.orchestrator_matched()) {
           last_hello = after;
-          transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
+          transport_.publish_estimate(report());
         }
         if (std::chrono::duration<double>(after - started_).count() >
             scenario_.run.startup_timeout_s + 30.0) {
@@ -160,20 +169,27 @@ class AgentProcess {
       if (sensor_only_) {
         // Centralized algorithm: the fusion centre estimates and reports every agent. Keep saying hello
         // (steps_run = 0, so these never replace the fusion centre's reports) and run no estimator.
-        if (after - last_hello > std::chrono::seconds(1)) {
+        if (after - last_hello > std::chrono::milliseconds(500)) {
           last_hello = after;
-          transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
+          transport_.publish_estimate(report());
         }
         next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
       } else if (lockstep_) {
         // One step per world-step batch, on the neighbours' samples of earlier steps only.
         if (runtime_.has_pending_batch()) {
           release_held(runtime_.steps_run());
+          health_.on_tick(0.0, 0);  // lockstep steps on data, not on a schedule: nothing to be late for
           tick();
         }
       } else if (after >= next_tick) {
+        const double lateness_s = std::chrono::duration<double>(after - next_tick).count();
         next_tick += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
-        if (next_tick < after) next_tick = after;  // overran: do not burst to catch up
+        std::uint32_t missed = 0;
+        if (next_tick < after) {  // overran: do not burst to catch up
+          missed = static_cast<std::uint32_t>(std::floor(lateness_s / period.count()));
+          next_tick = after;
+        }
+        health_.on_tick(lateness_s, missed);
         tick();
       }
       // The orchestrator normally says STOP; if it vanished (crash, kill -9), do not linger.
@@ -186,7 +202,7 @@ class AgentProcess {
         break;
       }
     }
-    transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
+    transport_.publish_estimate(report());
     log_diagnostics();
     if (sample_log_) {
       sample_log_->close();
@@ -196,10 +212,28 @@ class AgentProcess {
   }
 
  private:
-  /// Feeds inbound samples to the runtime; returns true on STOP.
-  bool handle(const dds::AgentInbound& inbound) {
+  enum class Verdict { kContinue, kStop, kRefused };
+
+  /// Feeds inbound samples to the runtime; STOP, or a refusal of our scenario, ends the run.
+  Verdict handle(const dds::AgentInbound& inbound) {
     for (const auto& control : inbound.control) {
       if (control.target != kOrchestratorId && control.target != options_.id) continue;
+      // A refusal names the hash it refuses: a corrected agent restarted under the same id ignores the
+      // refusal its predecessor got (control samples are transient-local).
+      const bool refused =
+          control.command == sim::ControlCommand::kRefuse && control.scenario_hash == results_hash_;
+      const bool foreign =
+          control.command == sim::ControlCommand::kStart && control.scenario_hash != results_hash_;
+      if (refused || foreign) {
+        logger_->error(
+            "refused by the orchestrator: this agent's scenario (results hash {:016x}) differs from the "
+            "run's; "
+            "start it with the run directory's scenario.yaml and no --set that changes the world, the "
+            "algorithm, the network, the clocks or the run",
+            results_hash_);
+        return Verdict::kRefused;
+      }
+      if (control.command == sim::ControlCommand::kRefuse) continue;
       if (control.command == sim::ControlCommand::kStart && !started_run_) {
         started_run_ = true;
         cpu_at_start_ = process_cpu_s();
@@ -208,14 +242,15 @@ class AgentProcess {
         logger_->info("START received");
       } else if (control.command == sim::ControlCommand::kStop) {
         logger_->info("STOP received");
-        return true;
+        return Verdict::kStop;
       }
     }
     if (sample_log_) record(inbound);
+    note_arrivals(inbound);
     for (const auto& [header, batch] : inbound.batches) runtime_.on_batch(header, batch);
     if (lockstep_) {
       hold(inbound);
-      return false;
+      return Verdict::kContinue;
     }
     for (const auto& sample : inbound.states)
       runtime_.on_state(sample.header, sample.message, sample.well_formed);
@@ -226,7 +261,46 @@ class AgentProcess {
       runtime_.on_consensus(sample.header, sample.message, sample.well_formed);
     for (const auto& sample : inbound.beliefs)
       runtime_.on_belief(sample.header, sample.message, sample.well_formed);
-    return false;
+    return Verdict::kContinue;
+  }
+
+  /// Run health: when batches and each neighbour's samples arrived (docs/robustness.md).
+  void note_arrivals(const dds::AgentInbound& inbound) {
+    const auto now = std::chrono::steady_clock::now();
+    for (std::size_t k = 0; k < inbound.batches.size(); ++k) {
+      health_.on_batch(batch_waiting_since_.has_value());
+      if (!batch_waiting_since_) batch_waiting_since_ = now;
+    }
+    auto heard = [&](const auto& samples) {
+      for (const auto& sample : samples) {
+        if (const auto it = last_heard_.find(sample.header.agent_id); it != last_heard_.end())
+          it->second = now;
+      }
+    };
+    heard(inbound.states);
+    heard(inbound.information);
+    heard(inbound.consensus);
+    heard(inbound.beliefs);
+  }
+
+  /// Run health at a step: how long the used batch waited, how old each neighbour's newest sample is.
+  void note_step() {
+    const auto now = std::chrono::steady_clock::now();
+    if (batch_waiting_since_) {
+      health_.on_batch_used(std::chrono::duration<double>(now - *batch_waiting_since_).count());
+      batch_waiting_since_.reset();
+    }
+    for (const auto& [neighbour, when] : last_heard_) {
+      if (when) health_.on_neighbour_age(std::chrono::duration<double>(now - *when).count());
+    }
+  }
+
+  /// The estimate report with what only the process knows: its scenario's hash and its timing.
+  sim::EstimateReport report() const {
+    auto r = runtime_.report(local_stamp_ns(), run_cpu_s());
+    r.results_hash = results_hash_;
+    r.health = health_.figures();
+    return r;
   }
 
   /// --record: every inter-agent sample as taken, with its DDS source timestamp and take time.
@@ -275,6 +349,7 @@ class AgentProcess {
   }
 
   void tick() {
+    note_step();
     auto publication = runtime_.step(local_stamp_ns());
     if (options_.hostile) sim::make_hostile(publication.outbox, publication.header.step);
     publish(publication);
@@ -286,7 +361,7 @@ class AgentProcess {
     // One report per world period is what the orchestrator scores; more would only load it.
     if (++ticks_since_report_ < scenario_.run.agent_steps_per_world_step) return;
     ticks_since_report_ = 0;
-    transport_.publish_estimate(runtime_.report(local_stamp_ns(), run_cpu_s()));
+    transport_.publish_estimate(report());
   }
 
   void publish(const sim::AgentRuntime::Publication& publication) {
@@ -355,6 +430,11 @@ class AgentProcess {
   double cpu_at_start_ = 0.0;
   std::chrono::steady_clock::time_point started_;
   std::unique_ptr<sim::SampleLogWriter> sample_log_;  ///< --record
+  std::uint64_t results_hash_;                        ///< config::results_hash of our scenario
+  sim::HealthMeter health_;
+  std::optional<std::chrono::steady_clock::time_point> batch_waiting_since_;  ///< oldest unused batch
+  /// Each neighbour's newest sample, taken at (empty: not heard yet).
+  std::map<AgentId, std::optional<std::chrono::steady_clock::time_point>> last_heard_;
 };
 
 }  // namespace
@@ -362,6 +442,8 @@ class AgentProcess {
 int run_agent(const AgentOptions& options) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  std::signal(SIGHUP, on_signal);
+  std::signal(SIGPIPE, SIG_IGN);
   auto logger = make_logger(options);
   config::Scenario scenario;
   sim::World world;
@@ -370,6 +452,12 @@ int run_agent(const AgentOptions& options) {
     world = sim::build_world(scenario, 0, options.world_draw);
   } catch (const config::ScenarioError& error) {
     logger->error("{}", error.what());
+    return 2;
+  }
+  if (scenario.dds.run_id.empty()) {
+    logger->error(
+        "dds.run_id is empty: start agents with the run directory's scenario.yaml (`swarmloc run` writes "
+        "the run id there) or pass --set dds.run_id=<the id the orchestrator printed>");
     return 2;
   }
   if (options.id < 0 || options.id >= world.size()) {

@@ -63,7 +63,8 @@ class FusionProcess {
         filter_(sim::make_fusion_filter(scenario, world)),
         transport_(scenario, world.size()),
         period_s_(1.0 / scenario.run.rate_hz),
-        started_(Clock::now()) {}
+        started_(Clock::now()),
+        results_hash_(config::results_hash(scenario)) {}
 
   int run() {
     logger_->info("started: {} for {} agents, L = {}", filter_->name(), agent_count_,
@@ -73,7 +74,9 @@ class FusionProcess {
     bool matched_logged = false;
     while (!g_stop_requested.load()) {
       const auto inbound = transport_.wait_and_take(std::min(0.05, period_s_ / 4.0));
-      if (handle_control(inbound)) break;
+      const Verdict verdict = handle_control(inbound);
+      if (verdict == Verdict::kRefused) return 2;
+      if (verdict == Verdict::kStop) break;
       const auto now = Clock::now();
       if (!inbound.batches.empty()) last_batch_seen = now;
       for (const auto& batch : inbound.batches) store(batch, now);
@@ -89,6 +92,7 @@ class FusionProcess {
           sim::EstimateReport hello;
           hello.header = sim::Header{dds::kFusionCenterId, 0, 0, stamp_ns(), 0};
           hello.cpu_s = process_cpu_s();
+          hello.results_hash = results_hash_;
           transport_.publish_estimate(hello);
         }
         const double limit_s = scenario_.run.startup_timeout_s + 30.0;
@@ -122,18 +126,31 @@ class FusionProcess {
     double world_time_s = 0.0;
   };
 
-  /// Returns true on STOP.
-  bool handle_control(const dds::FusionInbound& inbound) {
+  enum class Verdict { kContinue, kStop, kRefused };
+
+  /// STOP, or a refusal of our scenario (as for an agent, agent_node.cpp), ends the run.
+  Verdict handle_control(const dds::FusionInbound& inbound) {
     for (const auto& control : inbound.control) {
+      const bool refused = control.command == sim::ControlCommand::kRefuse &&
+                           control.target == dds::kFusionCenterId && control.scenario_hash == results_hash_;
+      const bool foreign =
+          control.command == sim::ControlCommand::kStart && control.scenario_hash != results_hash_;
+      if (refused || foreign) {
+        logger_->error(
+            "refused by the orchestrator: this fusion centre's scenario (results hash {:016x}) differs from "
+            "the run's; start it with the run directory's scenario.yaml",
+            results_hash_);
+        return Verdict::kRefused;
+      }
       if (control.command == sim::ControlCommand::kStart && !started_run_) {
         started_run_ = true;
         logger_->info("START received");
       } else if (control.command == sim::ControlCommand::kStop) {
         logger_->info("STOP received");
-        return true;
+        return Verdict::kStop;
       }
     }
-    return false;
+    return Verdict::kContinue;
   }
 
   void store(const dds::FusionBatch& in, Clock::time_point now) {
@@ -198,6 +215,7 @@ class FusionProcess {
       report.steps_run = static_cast<std::uint32_t>(next_step_);
       report.samples_published = static_cast<std::uint32_t>(next_step_);
       report.cpu_s = cpu_s;
+      report.results_hash = results_hash_;
       transport_.publish_estimate(report);
     }
   }
@@ -214,6 +232,7 @@ class FusionProcess {
   std::int64_t next_step_ = 0;
   int incomplete_steps_ = 0;
   std::uint64_t late_batches_ = 0;
+  std::uint64_t results_hash_;
 };
 
 }  // namespace
@@ -221,6 +240,8 @@ class FusionProcess {
 int run_fusion_center(const FusionOptions& options) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  std::signal(SIGHUP, on_signal);
+  std::signal(SIGPIPE, SIG_IGN);
   auto logger = make_logger(options);
   config::Scenario scenario;
   sim::World world;
@@ -236,6 +257,10 @@ int run_fusion_center(const FusionOptions& options) {
   if (!sim::is_centralized(scenario.algorithm.name)) {
     logger->error("algorithm.name: '{}' is not a centralized algorithm (ekf, lbekf, lbekf_vr, lbekf_i)",
                   scenario.algorithm.name);
+    return 2;
+  }
+  if (scenario.dds.run_id.empty()) {
+    logger->error("dds.run_id is empty: start the fusion centre with the run directory's scenario.yaml");
     return 2;
   }
   try {

@@ -23,6 +23,8 @@
 
 #include "orchestrator.hpp"
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/sim/output_file.hpp"
+#include "swarmloc/sim/plots.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::orchestrator {
@@ -186,7 +188,7 @@ void measure(RunResult& result, const nlohmann::json& summary, const std::vector
 }
 
 void write_metrics_csv(const std::filesystem::path& path, const sim::RunRecord& record) {
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing\n"
       << std::setprecision(9);
   for (const auto& m : record.metrics) {
@@ -194,6 +196,7 @@ void write_metrics_csv(const std::filesystem::path& path, const sim::RunRecord& 
         << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored
         << ',' << m.errors.missing << '\n';
   }
+  sim::write_text_file(path, out.str());
 }
 
 /// A simulator cell: in-process, writing a slim run directory (scenario.yaml, summary.json,
@@ -208,11 +211,12 @@ void run_sim_cell(const CampaignSpec& spec, RunResult& result) {
     options.record_estimates = false;
     auto record = sim::run_simulation(scenario, options);
     record.wall_s = seconds_since(started);
-    std::filesystem::create_directories(result.run_dir);
-    std::ofstream(result.run_dir / "scenario.yaml") << config::to_yaml(scenario);
+    sim::create_output_directories(result.run_dir);
+    sim::write_text_file(result.run_dir / "scenario.yaml", config::to_yaml(scenario));
     const auto summary = sim::summary_json(record);
-    std::ofstream(result.run_dir / "summary.json") << summary.dump(2) << "\n";
     write_metrics_csv(result.run_dir / "metrics.csv", record);
+    // Last and atomic, as in a full run directory: its presence means the cell's files are complete.
+    sim::write_text_file_atomic(result.run_dir / "summary.json", summary.dump(2) + "\n");
     std::vector<RmseSample> steps;
     for (const auto& m : record.metrics) steps.push_back({m.errors.rmse_m, m.errors.missing});
     result.ok = true;
@@ -277,12 +281,17 @@ void run_dds_cell(const CampaignSpec& spec, RunResult& result, const std::string
   options.out_dir = result.run_dir;
   options.agent_binary = agent_binary;
   options.progress = false;
-  std::filesystem::create_directories(result.run_dir);
+  // The orchestrator wants an empty run directory: its output goes beside it first, then inside.
+  std::error_code ec;
+  std::filesystem::create_directories(result.run_dir.parent_path(), ec);
+  const auto log = result.run_dir.parent_path() / (result.run_dir.filename().string() + ".orchestrator.out");
   int code = 1;
   {
-    StdoutToFile redirect(result.run_dir / "orchestrator.out");
+    StdoutToFile redirect(log);
     code = run_orchestrator(options);
   }
+  std::filesystem::create_directories(result.run_dir, ec);
+  std::filesystem::rename(log, result.run_dir / "orchestrator.out", ec);
   result.wall_s = seconds_since(started);
   try {
     nlohmann::json summary;
@@ -291,6 +300,12 @@ void run_dds_cell(const CampaignSpec& spec, RunResult& result, const std::string
     const auto scenario = config::load_scenario((result.run_dir / "scenario.yaml").string());
     result.ok = code == 0;
     if (code != 0) result.error = "swarmloc run exited with " + std::to_string(code);
+    if (code == 3) {
+      // Degraded: complete, but not representative of the configured system; left out of the cell.
+      result.error = "degraded (exit 3):";
+      for (const auto& reason : summary["health"].value("reasons", nlohmann::json::array()))
+        result.error += " " + reason.get<std::string>() + ";";
+    }
     const std::string error = result.error;
     measure(result, summary, read_metrics_csv(result.run_dir / "metrics.csv"), scenario.run.rate_hz);
     if (!error.empty()) result.ok = false, result.error = error;
@@ -505,7 +520,7 @@ void write_csv(const std::filesystem::path& path, const CampaignSpec& spec,
     if (run.value == 0 && run.ok)
       reference[{run.mode, run.algorithm, run.variant, run.seed}] = run.final_rmse_m;
   }
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "mode,algorithm,variant,swept_key,swept_value,seed,ok,final_rmse_m,crlb_rmse_m,rmse_over_crlb,"
          "ratio_to_reference,converge_step,converge_s,still_falling,sent,delivered,dropped_injected,"
          "delivered_fraction,"
@@ -530,6 +545,13 @@ void write_csv(const std::filesystem::path& path, const CampaignSpec& spec,
         << number(run.sent > 0 ? static_cast<double>(run.delivered) / static_cast<double>(run.sent) : kNaN)
         << ',' << number(run.wall_s) << ',' << run.run_dir.string() << ',' << error << '\n';
   }
+  sim::write_text_file(path, out.str());
+}
+
+/// A data file's quoted column cannot hold a double quote.
+std::string without_double_quotes(std::string text) {
+  std::replace(text.begin(), text.end(), '"', '\'');
+  return text;
 }
 
 /// campaign.gp + campaign_plot.dat (always) and campaign.png (when gnuplot is installed): per mode one
@@ -548,7 +570,7 @@ void write_plot(const std::filesystem::path& directory, const CampaignSpec& spec
   if (!numeric) {
     for (std::size_t k = 0; k < xs.size(); ++k) xs[k] = static_cast<double>(k);
   }
-  std::ofstream data(directory / "campaign_plot.dat");
+  std::ostringstream data;
   data << std::setprecision(9);
   std::ostringstream gp;
   gp << "# Made by `swarmloc campaign`; run `gnuplot campaign.gp` in this directory to redraw.\n"
@@ -567,7 +589,7 @@ void write_plot(const std::filesystem::path& directory, const CampaignSpec& spec
           if (found == cells.end()) continue;
           auto cell = [](double y) { return std::isfinite(y) ? std::to_string(y) : std::string("NaN"); };
           data << xs[value] << ' ' << cell(found->second.ratio) << ' ' << cell(found->second.converge_s_mean)
-               << " \"" << spec.swept_values[value] << "\"\n";
+               << " \"" << without_double_quotes(spec.swept_values[value]) << "\"\n";
         }
         data << "\n\n";
         series.emplace_back(block++, spec.algorithms[a].label +
@@ -580,16 +602,20 @@ void write_plot(const std::filesystem::path& directory, const CampaignSpec& spec
     for (int panel = 0; panel < 2; ++panel) {
       // Log scale for the ratio: one run in a wrong local minimum (×30) must not flatten every other line.
       gp << (panel == 0 ? "set logscale y\n" : "unset logscale y\n");
-      gp << "set title '" << (panel == 0 ? "final RMSE ÷ reference (" : "time to converge, s (") << where
-         << ")'\n"
-         << "set xlabel '" << spec.swept_key << "'\n"
-         << "set ylabel '" << (panel == 0 ? "RMSE ÷ RMSE at " + spec.swept_values.front() : "s") << "'\n"
+      // Labels come from the spec: quoted for gnuplot, never pasted into a command.
+      gp << "set title "
+         << sim::gnuplot_quote((panel == 0 ? "final RMSE ÷ reference (" : "time to converge, s (") + where +
+                               ")")
+         << "\n"
+         << "set xlabel " << sim::gnuplot_quote(spec.swept_key) << "\n"
+         << "set ylabel "
+         << sim::gnuplot_quote(panel == 0 ? "RMSE ÷ RMSE at " + spec.swept_values.front() : "s") << "\n"
          << "plot ";
       for (std::size_t s = 0; s < series.size(); ++s) {
         gp << (s ? ", \\\n     " : "") << "'campaign_plot.dat' index " << series[s].first
            << " using 1:" << (panel == 0 ? 2 : 3) << xtics << " with linespoints lc " << style[s].first + 1
-           << " dt " << style[s].second + 1 << " pt " << style[s].first + 4 << " title '" << series[s].second
-           << "'";
+           << " dt " << style[s].second + 1 << " pt " << style[s].first + 4 << " title "
+           << sim::gnuplot_quote(series[s].second);
       }
       if (panel == 0 && spec.check_value) {
         gp << ", \\\n     " << spec.check_max_ratio << " with lines lc rgb 'gray' dt 3 title '"
@@ -599,11 +625,9 @@ void write_plot(const std::filesystem::path& directory, const CampaignSpec& spec
     }
   }
   gp << "unset multiplot\n";
-  std::ofstream(directory / "campaign.gp") << gp.str();
-  data.close();
-  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) return;
-  const std::string command = "cd '" + directory.string() + "' && gnuplot campaign.gp >/dev/null 2>&1";
-  if (std::system(command.c_str()) != 0) std::fprintf(stderr, "warning: gnuplot failed on campaign.gp\n");
+  sim::write_text_file(directory / "campaign_plot.dat", data.str());
+  sim::write_text_file(directory / "campaign.gp", gp.str());
+  sim::run_gnuplot(directory, "campaign.gp", {"campaign.png"});
 }
 
 std::filesystem::path default_campaign_directory(const CampaignSpec& spec) {
@@ -864,10 +888,15 @@ int run_campaign(const CampaignOptions& options) {
     return 2;
   }
   const auto out_dir = options.out_dir.empty() ? default_campaign_directory(spec) : options.out_dir;
-  std::filesystem::create_directories(out_dir);
-  std::ofstream(out_dir / "spec.yaml")
-      << "# The campaign as run (swarmloc campaign " << options.spec_path.string() << ")\n"
-      << campaign_spec_yaml(spec);
+  try {
+    sim::create_output_directories(out_dir);
+    sim::write_text_file(out_dir / "spec.yaml", "# The campaign as run (swarmloc campaign " +
+                                                    options.spec_path.string() + ")\n" +
+                                                    campaign_spec_yaml(spec));
+  } catch (const sim::OutputError& error) {
+    std::fprintf(stderr, "error: --out: %s\n", error.what());
+    return 2;
+  }
 
   std::vector<RunResult> runs;
   std::vector<ModeRun> mode_runs;
@@ -955,9 +984,14 @@ int run_campaign(const CampaignOptions& options) {
 
   const auto cells = aggregate(runs);
   const auto markdown = campaign_markdown(spec, mode_runs, cells);
-  std::ofstream(out_dir / "campaign.md") << markdown;
-  write_csv(out_dir / "campaign.csv", spec, runs);
-  write_plot(out_dir, spec, mode_runs, cells);
+  try {
+    sim::write_text_file(out_dir / "campaign.md", markdown);
+    write_csv(out_dir / "campaign.csv", spec, runs);
+    write_plot(out_dir, spec, mode_runs, cells);
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 1;
+  }
   std::printf("%s\n", markdown.c_str());
   std::printf("campaign directory: %s (%.0f s)\n", out_dir.string().c_str(), seconds_since(campaign_started));
   return failed ? 1 : 0;

@@ -162,8 +162,13 @@ struct LiveView::Server {
 
 LiveView::LiveView(int port) : server_(std::make_unique<Server>()) {
   auto& http = server_->http;
-  // Two workers are plenty for one or two browser tabs; the default pool is sized for servers.
-  http.new_task_queue = [] { return new httplib::ThreadPool(2); };
+  // httplib gives each connection a worker until it closes, and waits for an idle connection's request
+  // for the keep-alive timeout (5 s by default): two idle sockets — a browser's speculative preconnects —
+  // held both of two workers and stalled every poll for 5 s. Eight workers and a one-second wait bound
+  // such a stall to a second even with more idle sockets than workers.
+  http.new_task_queue = [] { return new httplib::ThreadPool(8); };
+  http.set_keep_alive_timeout(1);
+  http.set_read_timeout(1, 0);
   http.Get("/", [](const httplib::Request&, httplib::Response& response) {
     response.set_header("Cache-Control", "no-store");
     response.set_content(live_view_page(), "text/html; charset=utf-8");

@@ -5,7 +5,11 @@
 
 #include <CLI/CLI.hpp>
 #include <array>
+#include <cerrno>
+#include <climits>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -45,9 +49,56 @@ void add_view_options(CLI::App* command, int& port, double& hold_s) {
       ->expected(0, 1)
       ->default_str("8765")
       ->check(CLI::Range(0, 65535));
-  command->add_option("--view-hold", hold_s,
-                      "With --view: keep serving the final state this many seconds after the run "
-                      "(default 10; inf = until Ctrl-C)");
+  command
+      ->add_option("--view-hold", hold_s,
+                   "With --view: keep serving the final state this many seconds after the run "
+                   "(default 10; inf = until Ctrl-C)")
+      ->check(CLI::Validator(
+          [](const std::string& text) -> std::string {
+            char* end = nullptr;
+            const double value = std::strtod(text.c_str(), &end);
+            const bool parsed = end != text.c_str() && *end == '\0';
+            if (parsed && value >= 0.0) return {};  // NaN compares false
+            return "'" + text + "' must be a number of seconds >= 0, or inf";
+          },
+          "SECONDS >= 0 or inf"));
+}
+
+/// CLI::PositiveNumber's message prints the double range 0 to 1.8e308; this one says what is wanted.
+const CLI::Validator kPositiveInteger(
+    [](const std::string& text) -> std::string {
+      char* end = nullptr;
+      errno = 0;
+      const long value = std::strtol(text.c_str(), &end, 10);
+      if (end != text.c_str() && *end == '\0' && errno == 0 && value >= 1 && value <= INT_MAX) return {};
+      return "'" + text + "' must be a positive integer";
+    },
+    "INT >= 1");
+
+/// --force on run, sim and replay.
+void add_force_flag(CLI::App* command, bool& force) {
+  command->add_flag("--force", force,
+                    "Replace the earlier run in a non-empty --out directory (only a swarmloc run directory "
+                    "is ever cleared)");
+}
+
+/// `swarmloc frobnicate`: name the unknown word and list the commands (CLI11 would only say that a
+/// subcommand is required, or that an argument was not expected).
+bool reject_unknown_command(const CLI::App& app, int argc, char** argv) {
+  if (argc >= 2 && argv[1][0] == '-') return false;
+  const std::string word = argc >= 2 ? argv[1] : "";
+  std::string names;
+  for (const auto* command : app.get_subcommands([](const CLI::App*) { return true; })) {
+    if (command->get_name() == word) return false;
+    names += (names.empty() ? "" : ", ") + command->get_name();
+  }
+  if (word.empty()) {
+    std::fprintf(stderr, "error: a command is required (commands: %s; see swarmloc --help)\n", names.c_str());
+  } else {
+    std::fprintf(stderr, "error: unknown command '%s' (commands: %s; see swarmloc --help)\n", word.c_str(),
+                 names.c_str());
+  }
+  return true;
 }
 
 }  // namespace
@@ -96,6 +147,8 @@ int main(int argc, char** argv) {
   int run_view_port = -1;
   double run_view_hold = 10.0;
   add_view_options(run, run_view_port, run_view_hold);
+  bool force = false;
+  add_force_flag(run, force);
   run->footer(keys_help());
 
   auto* sim = app.add_subcommand("sim",
@@ -110,7 +163,7 @@ int main(int argc, char** argv) {
   int threads = 0;
   sim->add_option("--trials", trials,
                   "Monte Carlo trials (fixed configuration; noise, initial guesses and loss per trial)")
-      ->check(CLI::PositiveNumber);
+      ->check(kPositiveInteger);
   sim->add_option("--threads", threads,
                   "Worker threads: trials with --trials (default: every core), else the agents of one round "
                   "(default: every core from 1000 agents on, else 1; results do not depend on it)")
@@ -121,6 +174,7 @@ int main(int argc, char** argv) {
   int sim_view_port = -1;
   double sim_view_hold = 10.0;
   add_view_options(sim, sim_view_port, sim_view_hold);
+  add_force_flag(sim, force);
   sim->footer(keys_help());
 
   auto* agent =
@@ -180,6 +234,7 @@ int main(int argc, char** argv) {
   replay->add_flag("--record", record,
                    "Record the replay as well (e.g. the inter-agent samples of another algorithm)");
   replay->add_flag("-q,--quiet", quiet, "No progress line");
+  add_force_flag(replay, force);
   replay->footer(keys_help());
 
   auto* reproduce = app.add_subcommand(
@@ -196,9 +251,11 @@ int main(int argc, char** argv) {
       ->required()
       ->check(CLI::IsMember(swarmloc::orchestrator::known_experiments()));
   reproduce->add_option("--out", reproduce_out, "Output directory (default runs/reproduce)");
-  reproduce->add_option("--trials", reproduce_options.trials,
-                        "Monte Carlo trials (default: the paper's count)");
-  reproduce->add_option("--threads", reproduce_options.threads, "Worker threads (default: every core)");
+  reproduce
+      ->add_option("--trials", reproduce_options.trials, "Monte Carlo trials (default: the paper's count)")
+      ->check(kPositiveInteger);
+  reproduce->add_option("--threads", reproduce_options.threads, "Worker threads (default: every core)")
+      ->check(CLI::NonNegativeNumber);
   reproduce->add_option("--seed", reproduce_options.seed, "Seed");
 
   auto* campaign = app.add_subcommand(
@@ -220,6 +277,9 @@ int main(int argc, char** argv) {
   bool campaign_quiet = false;
   campaign->add_flag("-q,--quiet", campaign_quiet, "No line per finished run");
 
+  // A file size limit (ulimit -f) must fail a write with EFBIG, named like a full disk, not kill us.
+  std::signal(SIGXFSZ, SIG_IGN);
+  if (reject_unknown_command(app, argc, argv)) return 2;
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -249,6 +309,7 @@ int main(int argc, char** argv) {
     options.view_port = run_view_port;
     options.view_hold_s = run_view_hold;
     options.record = record;
+    options.force = force;
     return swarmloc::orchestrator::run_orchestrator(options);
   }
   if (sim->parsed()) {
@@ -263,6 +324,7 @@ int main(int argc, char** argv) {
     options.view_hold_s = sim_view_hold;
     options.hostile_agents.assign(sim_hostile.begin(), sim_hostile.end());
     options.record = record;
+    options.force = force;
     return swarmloc::orchestrator::run_sim_command(options);
   }
   if (agent->parsed()) {
@@ -285,6 +347,7 @@ int main(int argc, char** argv) {
     replay_options.out_dir = out_dir;
     replay_options.progress = !quiet;
     replay_options.record = record;
+    replay_options.force = force;
     replay_options.agent_binary = self_executable(argv[0]);
     return swarmloc::orchestrator::run_replay(replay_options);
   }

@@ -11,81 +11,69 @@
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <optional>
+#include <random>
+#include <set>
 #include <thread>
 
+#include "console.hpp"
 #include "launcher.hpp"
 #include "live_view.hpp"
+#include "preflight.hpp"
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
+#include "swarmloc/sim/liveness.hpp"
 #include "swarmloc/sim/recording.hpp"
+#include "swarmloc/sim/run_health.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/sim/world.hpp"
 
 namespace swarmloc::orchestrator {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-std::atomic<bool> g_interrupted{false};
-void on_signal(int /*signal*/) { g_interrupted.store(true); }  // flag only; never DDS from a handler
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-/// "for 10 s" / "until Ctrl-C" (--view-hold).
-std::string hold_text(double seconds) {
-  if (!std::isfinite(seconds)) return "until Ctrl-C";
-  char text[64];
-  std::snprintf(text, sizeof text, "for %g s", seconds);
-  return text;
-}
-
-/// One progress line, rewritten in place on a terminal.
-class Progress {
- public:
-  explicit Progress(bool enabled) : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0) {}
-  void update(const std::string& line, bool force = false) {
-    if (!enabled_) return;
-    const auto now = Clock::now();
-    if (!force && now - last_ < std::chrono::milliseconds(tty_ ? 250 : 5000)) return;
-    last_ = now;
-    std::fprintf(stderr, tty_ ? "\r%-100s" : "%s\n", line.c_str());
-    std::fflush(stderr);
-  }
-  void finish() {
-    if (enabled_ && tty_) std::fprintf(stderr, "\n");
-  }
-
- private:
-  bool enabled_;
-  bool tty_;
-  Clock::time_point last_ = Clock::now() - std::chrono::hours(1);
-};
-
-std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& errors, int reporting,
-                          int agents, double elapsed_s) {
-  char line[200];
-  std::snprintf(line, sizeof line,
-                "[%5.1fs] step %4lld/%d  rmse %8.4f m  max %8.4f m  agents reporting %d/%d", elapsed_s,
-                static_cast<long long>(step + 1), steps, errors.rmse_m, errors.max_error_m, reporting,
-                agents);
-  return line;
-}
-
-sim::World make_world(const config::Scenario& scenario, const RunOptions& options) {
-  sim::World world = sim::build_world(scenario);
+sim::World with_recording(sim::World world, const RunOptions& options) {
   sim::attach_recorded(world, options.recorded);
   return world;
 }
 
+/// A run directory this command created and left empty (bad input, Ctrl-C) is removed again.
+void discard_if_empty(const std::filesystem::path& run_dir, bool existed) {
+  std::error_code ignored;
+  if (!run_dir.empty() && !existed && std::filesystem::is_empty(run_dir, ignored))
+    std::filesystem::remove(run_dir, ignored);
+}
+
+/// 12 hex digits from the OS's entropy: a run id no other run on the domain shares.
+std::string fresh_run_id() {
+  std::random_device entropy;
+  const std::uint64_t value = (static_cast<std::uint64_t>(entropy()) << 32) ^ entropy();
+  char text[24];
+  std::snprintf(text, sizeof text, "r%012llx", static_cast<unsigned long long>(value & 0xffffffffffffULL));
+  return text;
+}
+
+/// How old an estimate may be and still count as current, and when silence is a stall (free run: a few
+/// world periods; lockstep: the barrier decides, docs/robustness.md "Liveness").
+sim::LivenessLimits liveness_limits(const config::Scenario& scenario, bool lockstep) {
+  sim::LivenessLimits limits;
+  const double period_s = 1.0 / scenario.run.rate_hz;
+  limits.restart_grace_s = scenario.run.startup_timeout_s;
+  if (lockstep) {
+    limits.stall_s = scenario.run.startup_timeout_s;
+  } else {
+    limits.current_s = std::max(0.25, 3.0 * period_s);
+    limits.stall_s = std::max(2.0, 5.0 * period_s);
+  }
+  return limits;
+}
+
 class Orchestrator {
  public:
-  Orchestrator(config::Scenario scenario, RunOptions options, std::filesystem::path run_dir)
+  Orchestrator(config::Scenario scenario, RunOptions options, std::filesystem::path run_dir, sim::World world)
       : scenario_(std::move(scenario)),
         options_(std::move(options)),
         run_dir_(std::move(run_dir)),
-        world_(make_world(scenario_, options_)),
+        world_(with_recording(std::move(world), options_)),
         centralized_(sim::is_centralized(scenario_.algorithm.name)),
         lockstep_(scenario_.run.mode == config::RunMode::kLockstep && !centralized_),
         lockstep_excluded_(static_cast<std::size_t>(scenario_.world.agents), false),
@@ -94,10 +82,12 @@ class Orchestrator {
         down_(static_cast<std::size_t>(scenario_.world.agents), false),
         incarnation_(static_cast<std::size_t>(scenario_.world.agents), 0),
         launcher_index_(static_cast<std::size_t>(scenario_.world.agents), -1),
-        progress_(options_.progress) {}
+        progress_(options_.progress),
+        results_hash_(config::results_hash(scenario_)),
+        liveness_(scenario_.world.agents, liveness_limits(scenario_, lockstep_)) {}
 
   int run() {
-    const auto started = Clock::now();
+    const auto started = origin_;
     const int n = world_.size();
     latest_.assign(static_cast<std::size_t>(n), std::nullopt);
     reports_.assign(static_cast<std::size_t>(n), std::nullopt);
@@ -112,6 +102,9 @@ class Orchestrator {
     if (options_.record) {
       recording_ = std::make_unique<sim::RecordingWriter>(run_dir_ / sim::kRecordingFile, scenario_, world_);
     }
+    // Before our own participant binds its port: a busy block means another run on this domain.
+    dds::require_ports_free(scenario_, options_.launch_agents);
+    spdlog::info("run id {} (dds.run_id: every partition name starts with it)", scenario_.dds.run_id);
     dds::OrchestratorTransport transport(scenario_, n);
     if (options_.launch_agents) {
       const auto launch_start = std::chrono::steady_clock::now();
@@ -134,7 +127,10 @@ class Orchestrator {
     publish_view("settling");
     const auto settle_until =
         Clock::now() + std::chrono::duration<double>(failed ? 0.0 : scenario_.run.settle_s);
-    while (Clock::now() < settle_until && !g_interrupted.load()) collect(transport, 0.05);
+    while (Clock::now() < settle_until && !interrupted().load()) {
+      collect(transport, 0.05);
+      if (ready) watch_processes(scenario_.run.steps - 1);
+    }
     sim::ControlMessage stop;
     stop.command = sim::ControlCommand::kStop;
     stop.header.agent_id = kOrchestratorId;
@@ -144,7 +140,7 @@ class Orchestrator {
     finish_scoring();
     launcher_.stop_all(5.0);
     record_.processes = launcher_.size() + 1;
-    record_.interrupted = g_interrupted.load();
+    record_.interrupted = interrupted().load();
     record_.wall_s = seconds_since(started);
     if (options_.launch_agents) {
       for (std::size_t i = 0; i < record_.agent_summaries.size() && i < launcher_index_.size(); ++i) {
@@ -154,6 +150,11 @@ class Orchestrator {
       }
     }
     record_.extra["rejected_reports"] = transport.rejected_reports();
+    record_.extra["liveness"] = liveness_.to_json();
+    if (fusion_exit_) record_.extra["liveness"]["fusion_center_ended"] = *fusion_exit_;
+    if (!refused_.empty()) record_.extra["refused_agents"] = refused_json();
+    const sim::RunHealth health = assess_health(ready);
+    record_.extra["health"] = sim::to_json(health);
     if (lockstep_) record_.extra["lockstep_timeouts"] = lockstep_timeouts_;
     record_.extra["run_directory"] = run_dir_.string();
     if (recording_) {
@@ -168,13 +169,15 @@ class Orchestrator {
     publish_view(record_.interrupted || failed ? "stopped" : "done", true);  // done: summary.json is written
     progress_.finish();
     std::printf("%s", sim::result_table(record_).c_str());
+    print_health(health);
     std::printf("  run directory: %s\n", run_dir_.string().c_str());
-    const int code = record_.interrupted ? 1 : (failed ? 1 : 0);
-    if (view_ && !g_interrupted.load()) {
+    // 3: completed, but not representative of the configured system (README, exit codes).
+    const int code = record_.interrupted || failed ? 1 : (health.healthy ? 0 : 3);
+    if (view_ && !interrupted().load()) {
       std::printf("  live view: %s (serving the final state %s; Ctrl-C ends)\n", view_->url().c_str(),
                   hold_text(options_.view_hold_s).c_str());
       std::fflush(stdout);
-      view_->hold(options_.view_hold_s, g_interrupted);
+      view_->hold(options_.view_hold_s, interrupted());
     }
     return code;
   }
@@ -211,7 +214,7 @@ class Orchestrator {
     if (centralized_) {
       // Launched last, so the agents keep launcher indices 0 … N−1 (their summaries' exit codes).
       const auto log = (run_dir_ / "logs" / "fusion_center.log").string();
-      launcher_.launch(
+      fusion_index_ = launcher_.launch(
           {options_.agent_binary, "agent", "--role", "fusion", "--scenario", scenario_file, "--log", log},
           log + ".out", scenario_.run.agent_nice);
     }
@@ -253,8 +256,10 @@ class Orchestrator {
     for (const auto& fault : kills_) {
       const auto k = static_cast<std::size_t>(fault.agent);
       if (fault.from_step == step && launcher_.running(launcher_index_[k])) {
+        expected_exits_.insert(launcher_index_[k]);
         launcher_.kill(launcher_index_[k], SIGKILL);
         down_[k] = true;
+        liveness_.scheduled_down(fault.agent);
         reports_[k].reset();
         latest_[k].reset();
         spdlog::warn("fault: killed agent {} (kill -9) at step {}", fault.agent, step);
@@ -262,6 +267,7 @@ class Orchestrator {
       if (fault.to_step == step) {
         launch_agent(fault.agent, ++incarnation_[k]);
         down_[k] = false;
+        liveness_.scheduled_up(fault.agent, seconds_since(origin_), true);
         spdlog::warn("fault: restarted agent {} at step {} (incarnation {}, fresh state)", fault.agent, step,
                      incarnation_[k]);
       }
@@ -271,11 +277,13 @@ class Orchestrator {
       if (fault.from_step == step) {
         launcher_.kill(launcher_index_[k], SIGSTOP);
         down_[k] = true;
+        liveness_.scheduled_down(fault.agent);
         spdlog::warn("fault: paused agent {} (SIGSTOP) at step {}", fault.agent, step);
       }
       if (fault.to_step == step) {
         launcher_.kill(launcher_index_[k], SIGCONT);
         down_[k] = false;
+        liveness_.scheduled_up(fault.agent, seconds_since(origin_), false);
         spdlog::warn("fault: resumed agent {} (SIGCONT) at step {}", fault.agent, step);
       }
     }
@@ -285,7 +293,7 @@ class Orchestrator {
   bool wait_for_agents(dds::OrchestratorTransport& transport, Clock::time_point started) {
     const int n = world_.size();
     const auto deadline = Clock::now() + std::chrono::duration<double>(scenario_.run.startup_timeout_s);
-    while (!g_interrupted.load()) {
+    while (!interrupted().load()) {
       collect(transport, 0.1);
       const int reporting = count_reporting();
       progress_.update(
@@ -308,14 +316,14 @@ class Orchestrator {
         return false;
       }
     }
-    if (g_interrupted.load()) return false;
+    if (interrupted().load()) return false;
     // Neighbour discovery is scoped and fast (~0.1–0.4 s, reference/discovery.md); give it a moment.
     const auto grace_until = Clock::now() + std::chrono::milliseconds(1000);
     while (Clock::now() < grace_until) collect(transport, 0.05);
     sim::ControlMessage start;
     start.command = sim::ControlCommand::kStart;
     start.header.agent_id = kOrchestratorId;
-    start.scenario_hash = config::scenario_hash(scenario_);
+    start.scenario_hash = results_hash_;
     transport.publish_control(start);
     spdlog::info("all {} agents reporting after {:.1f} s; START", n, seconds_since(started));
     return true;
@@ -327,7 +335,9 @@ class Orchestrator {
         std::chrono::duration<double>(1.0 / scenario_.run.rate_hz));
     auto next = Clock::now();
     for (std::int64_t step = 0; step < scenario_.run.steps; ++step) {
-      if (g_interrupted.load()) return false;
+      if (interrupted().load()) return false;
+      current_step_ = step;
+      if (!lockstep_) note_world_step_lateness(std::chrono::duration<double>(Clock::now() - next).count());
       if (step > 0) sim::advance_truth(world_, scenario_, step);
       apply_faults(step);
       const auto stamp_ns =
@@ -343,14 +353,15 @@ class Orchestrator {
         wait_for_step(transport, step);
       } else {
         next += period;
-        while (Clock::now() < next && !g_interrupted.load()) {
+        while (Clock::now() < next && !interrupted().load()) {
           collect(transport, std::chrono::duration<double>(next - Clock::now()).count());
         }
       }
+      watch_processes(step);
       score_step(step);
       publish_view("running");
       progress_.update(progress_line(step, scenario_.run.steps, record_.metrics.back().errors,
-                                     count_reporting(), world_.size(), seconds_since(started)),
+                                     current_agents_, world_.size(), seconds_since(started)),
                        step + 1 == scenario_.run.steps);
     }
     return true;
@@ -366,7 +377,7 @@ class Orchestrator {
       return lockstep_excluded_[i] || down_[i] ||
              (reports_[i] && static_cast<std::int64_t>(reports_[i]->steps_run) >= step + 1);
     };
-    while (!g_interrupted.load()) {
+    while (!interrupted().load()) {
       bool all = true;
       for (std::size_t i = 0; i < reports_.size() && all; ++i) all = done(i);
       if (all) return;
@@ -387,13 +398,22 @@ class Orchestrator {
   void collect(dds::OrchestratorTransport& transport, double timeout_s) {
     for (auto& report : transport.wait_and_take_estimates(std::max(0.0, timeout_s))) {
       const AgentId id = report.header.agent_id;
+      if (id != dds::kFusionCenterId && (id < 0 || id >= world_.size())) continue;  // unknown: not scored
+      if (report.results_hash != results_hash_) {
+        // A fusion centre's estimates carry each agent's id; its hello carries its own.
+        refuse(centralized_ && report.steps_run > 0 ? dds::kFusionCenterId : id, report.results_hash,
+               transport);
+        continue;
+      }
       if (id == dds::kFusionCenterId) {
         fusion_ready_ = true;  // the fusion centre's hello; its estimates carry each agent's id
         continue;
       }
-      if (id < 0 || id >= world_.size()) continue;  // unknown agent id: not scored
       auto& slot = reports_[static_cast<std::size_t>(id)];
       if (slot && report.steps_run < slot->steps_run) continue;  // older than what we hold
+      // A centralized run's agents only say hello (steps_run 0): the fusion centre's estimates are what
+      // must stay current.
+      if (!centralized_ || report.steps_run > 0) liveness_.heard(id, current_step_, seconds_since(origin_));
       latest_[static_cast<std::size_t>(id)] = report.estimate;
       slot = std::move(report);
     }
@@ -405,14 +425,117 @@ class Orchestrator {
     return count;
   }
 
-  void score_step(std::int64_t step) {
+  /// Each death, stall and resumption once, when it is found.
+  void log_liveness_events() {
+    const auto& events = liveness_.events();
+    for (; logged_events_ < events.size(); ++logged_events_) {
+      const auto& e = events[logged_events_];
+      if (e.kind == sim::LivenessEvent::Kind::kResumed) {
+        spdlog::warn("agent {} resumed at step {}: {}", e.agent, e.step, e.reason);
+      } else {
+        spdlog::warn("agent {} {} at step {}: {}; its estimate is not scored from now on", e.agent,
+                     sim::to_string(e.kind), e.step, e.reason);
+      }
+    }
+  }
+
+  /// Our children that ended outside the fault schedule (we are their parent: waitpid tells).
+  void watch_processes(std::int64_t step) {
+    if (!options_.launch_agents) return;
+    launcher_.poll();
+    const double now_s = seconds_since(origin_);
+    for (AgentId i = 0; i < world_.size(); ++i) {
+      const int index = launcher_index_[static_cast<std::size_t>(i)];
+      if (index < 0 || launcher_.running(index) || !reaped_.insert(index).second) continue;
+      if (expected_exits_.contains(index)) continue;
+      liveness_.exited(i, step, now_s, launcher_.exit_code(index).value_or(-1));
+    }
+    if (fusion_index_ >= 0 && !launcher_.running(fusion_index_) && reaped_.insert(fusion_index_).second) {
+      fusion_exit_ = sim::describe_exit(launcher_.exit_code(fusion_index_).value_or(-1));
+      spdlog::error("the fusion centre ended at step {} ({}); no agent is estimated any more", step,
+                    *fusion_exit_);
+    }
+  }
+
+  /// An agent (or fusion centre) whose scenario differs from ours is told so once, and never scored.
+  void refuse(AgentId who, std::uint64_t their_hash, dds::OrchestratorTransport& transport) {
+    if (!refused_.insert({who, their_hash}).second) return;
+    const std::string name =
+        who == dds::kFusionCenterId ? "the fusion centre" : "agent " + std::to_string(who);
+    spdlog::error(
+        "{} refused: its scenario (results hash {:016x}) differs from this run's ({:016x}); start it with {} "
+        "and "
+        "no --set that changes the world, the algorithm, the network, the clocks or the run",
+        name, their_hash, results_hash_, (run_dir_ / "scenario.yaml").string());
+    sim::ControlMessage refusal;
+    refusal.command = sim::ControlCommand::kRefuse;
+    refusal.header.agent_id = kOrchestratorId;
+    refusal.target = who;
+    refusal.scenario_hash = their_hash;
+    transport.publish_control(refusal);
+  }
+
+  nlohmann::json refused_json() const {
+    nlohmann::json out = nlohmann::json::array();
+    for (const auto& [who, hash] : refused_) {
+      char text[24];
+      std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(hash));
+      out.push_back({{"agent", who}, {"results_hash", text}});
+    }
+    return out;
+  }
+
+  void note_world_step_lateness(double lateness_s) {
+    lateness_s = std::max(0.0, lateness_s);
+    if (lateness_s > 0.5 / scenario_.run.rate_hz) ++late_world_steps_;
+    max_world_step_lateness_s_ = std::max(max_world_step_lateness_s_, lateness_s);
+  }
+
+  /// The run's verdict from the liveness events and everyone's timing (docs/robustness.md).
+  [[nodiscard]] sim::RunHealth assess_health(bool started) const {
+    sim::RunHealthInput input;
+    input.free_run = !lockstep_;
+    input.rate_hz = scenario_.run.rate_hz;
+    input.world_steps = started ? static_cast<std::int64_t>(record_.metrics.size()) : 0;
+    if (record_.extra.contains("world_steps_s"))
+      input.world_steps_s = record_.extra["world_steps_s"].get<double>();
+    input.late_world_steps = late_world_steps_;
+    input.max_world_step_lateness_s = max_world_step_lateness_s_;
+    input.unscheduled_deaths = liveness_.deaths() + (fusion_exit_ ? 1 : 0);
+    input.stalls = liveness_.stalls();
+    input.lockstep_timeouts = lockstep_timeouts_;
+    for (const auto& report : reports_) {
+      if (report && report->health.ticks > 0) input.agents.push_back(report->health);
+    }
+    return sim::assess_health(input);
+  }
+
+  static void print_health(const sim::RunHealth& health) {
+    std::printf("  health: %s\n",
+                health.healthy ? "healthy" : "DEGRADED (completed; results not representative)");
+    for (const auto& reason : health.reasons) std::printf("    - %s\n", reason.c_str());
+  }
+
+  /// `as_of_s`: the time currency is judged at (the final re-score judges at the last world step, so a
+  /// fusion centre's last estimates, which arrive once and then stop, still count).
+  void score_step(std::int64_t step, std::optional<double> as_of_s = std::nullopt) {
     // Scored only once the agent has run at least one step (hello reports carry the prior).
+    const double now_s = seconds_since(origin_);
+    liveness_.check(step, now_s);
+    const double judged_s = as_of_s.value_or(now_s);
+    if (!as_of_s) last_scored_at_s_ = now_s;
     std::vector<std::optional<estimators::Estimate>> scored(latest_.size());
     for (std::size_t i = 0; i < latest_.size(); ++i) {
-      // Dead or paused agents are not scored (their last estimate is not a living agent's).
-      if (reports_[i] && reports_[i]->steps_run > 0 && !down_[i]) scored[i] = latest_[i];
+      // Dead, paused, stalled or excluded agents are not scored: a stale estimate is not a living agent's.
+      const bool current =
+          !down_[i] && !lockstep_excluded_[i] && liveness_.current(static_cast<AgentId>(i), judged_s);
+      if (reports_[i] && reports_[i]->steps_run > 0 && current) scored[i] = latest_[i];
     }
+    current_agents_ = static_cast<int>(
+        std::count_if(scored.begin(), scored.end(), [](const auto& e) { return e.has_value(); }));
+    log_liveness_events();
     sim::StepMetrics metrics;
+    metrics.lost = liveness_.lost_count();
     metrics.step = step;
     metrics.time_s = sim::reported_time_s(scenario_, step);
     metrics.errors = sim::score(world_, scored);
@@ -432,12 +555,13 @@ class Orchestrator {
       record_.metrics.pop_back();
       while (!record_.estimates.empty() && record_.estimates.back().step == last_step)
         record_.estimates.pop_back();
-      score_step(last_step);
+      score_step(last_step, last_scored_at_s_);
       if (centralized_) {
         // E-A2's total MSE (ALGORITHMS.md §2.8): every agent, beacons included, at the final step.
         std::vector<std::optional<estimators::Estimate>> scored(latest_.size());
         for (std::size_t i = 0; i < latest_.size(); ++i) {
-          if (reports_[i] && reports_[i]->steps_run > 0) scored[i] = latest_[i];
+          const bool current = liveness_.current(static_cast<AgentId>(i), last_scored_at_s_);
+          if (reports_[i] && reports_[i]->steps_run > 0 && current) scored[i] = latest_[i];
         }
         record_.extra["final_total_mse_m2"] = sim::total_squared_error(world_.truth, scored);
         record_.extra["fusion_center"] = {
@@ -451,6 +575,10 @@ class Orchestrator {
       sim::AgentSummary summary;
       summary.agent = i;
       summary.anchor = world_.is_anchor[static_cast<std::size_t>(i)];
+      const auto fate = liveness_.fate(i);
+      summary.fate = fate.status;
+      summary.fate_step = fate.step;
+      summary.fate_reason = fate.reason;
       if (const auto& report = reports_[static_cast<std::size_t>(i)]) {
         summary.steps_run = report->steps_run;
         summary.samples_published = report->samples_published;
@@ -479,7 +607,21 @@ class Orchestrator {
   std::vector<int> incarnation_;            ///< restarts so far per agent
   std::vector<int> launcher_index_;         ///< the launcher's index of each agent's newest process
   bool fusion_ready_ = false;               ///< the fusion centre has said hello
+  int fusion_index_ = -1;                   ///< the fusion centre's launcher index
+  std::optional<std::string> fusion_exit_;  ///< how the fusion centre ended, if it did before STOP
+  std::set<int> expected_exits_;            ///< launcher indices killed by faults.kill
+  std::set<int> reaped_;                    ///< launcher indices whose end was already handled
+  std::set<std::pair<AgentId, std::uint64_t>> refused_;  ///< (agent, its results hash) told REFUSE
   Progress progress_;
+  Clock::time_point origin_ = Clock::now();  ///< the time origin of liveness and of the run's wall time
+  std::uint64_t results_hash_;               ///< config::results_hash: agents must agree on it
+  sim::LivenessTracker liveness_;
+  std::int64_t current_step_ = 0;
+  std::size_t logged_events_ = 0;  ///< liveness events already logged
+  double last_scored_at_s_ = 0.0;  ///< when the last world step was scored (the final re-score's time)
+  int current_agents_ = 0;         ///< agents (anchors included) whose estimate was current at the last step
+  std::int64_t late_world_steps_ = 0;  ///< free run: world steps published > half a period late
+  double max_world_step_lateness_s_ = 0.0;
   ProcessLauncher launcher_;
   sim::RunRecord record_;
   std::vector<std::optional<estimators::Estimate>> latest_;
@@ -488,27 +630,7 @@ class Orchestrator {
   std::unique_ptr<sim::RecordingWriter> recording_;  ///< --record
 };
 
-void check_hostile_ids(const std::vector<AgentId>& hostile_agents, const config::Scenario& scenario) {
-  for (AgentId id : hostile_agents) {
-    if (id < 0 || id >= scenario.world.agents) {
-      throw config::ScenarioError("--hostile: agent " + std::to_string(id) + " is outside [0, world.agents)");
-    }
-  }
-}
-
 }  // namespace
-
-/// Builds the world and one agent's estimator, so that an unplaceable world or an algorithm this
-/// runtime cannot run yet is reported as bad input (exit 2) naming the key.
-static void check_runnable(const config::Scenario& scenario) {
-  const auto world = sim::build_world(scenario);
-  try {
-    (void)sim::make_agent_estimator(scenario, world, 0);
-  } catch (const std::invalid_argument& error) {
-    throw config::ScenarioError("algorithm.name: '" + scenario.algorithm.name +
-                                "' is not runnable by swarmloc run/sim yet (" + error.what() + ")");
-  }
-}
 
 int run_orchestrator(const RunOptions& options) {
   config::Scenario scenario;
@@ -522,9 +644,23 @@ int run_orchestrator(const RunOptions& options) {
 }
 
 int run_orchestrator(config::Scenario scenario, const RunOptions& options) {
+  // First: Ctrl-C must work while a large world is built (docs/robustness.md, "Large inputs").
+  install_interrupt_handlers();
+  Progress progress(options.progress);
+  const auto started = Clock::now();
+  sim::WorkControl control;
+  control.cancel = &interrupted();
+  control.on_progress = [&](const std::string& phase, double fraction) {
+    char line[240];
+    std::snprintf(line, sizeof line, "[%5.1fs] %s: %.0f %%", seconds_since(started), phase.c_str(),
+                  100.0 * fraction);
+    progress.update(line);
+  };
+  std::filesystem::path run_dir;
+  bool run_dir_existed = false;
+  sim::World world;
   try {
     check_hostile_ids(options.hostile_agents, scenario);
-    check_runnable(scenario);  // placement and algorithm errors are bad input, found before anything starts
     dds::require_ports_fit(scenario);
     if (!scenario.dds.security_dir.empty()) {
       // Agents read the run directory's scenario.yaml, possibly from another working directory.
@@ -538,150 +674,33 @@ int run_orchestrator(config::Scenario scenario, const RunOptions& options) {
         }
       }
     }
-  } catch (const config::ScenarioError& error) {
-    std::fprintf(stderr, "error: %s\n", error.what());
-    return 2;
-  }
-  const auto run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
-  std::filesystem::create_directories(run_dir);
-  {
-    // Agents read the scenario as run (overrides applied, defaults filled) from the run directory.
-    std::ofstream out(run_dir / "scenario.yaml");
-    out << config::to_yaml(scenario);
-  }
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  try {
-    Orchestrator orchestrator(scenario, options, run_dir);
-    return orchestrator.run();
-  } catch (const std::exception& error) {
-    std::fprintf(stderr, "error: %s\n", error.what());
-    return 1;
-  }
-}
-
-int run_sim_command(const SimCommandOptions& options) {
-  config::Scenario scenario;
-  try {
-    scenario = config::load_scenario(options.scenario_path, options.overrides);
-  } catch (const config::ScenarioError& error) {
-    std::fprintf(stderr, "error: %s\n", error.what());
-    return 2;
-  }
-  return run_sim_command(std::move(scenario), options);
-}
-
-int run_sim_command(config::Scenario scenario, const SimCommandOptions& options) {
-  try {
-    check_hostile_ids(options.hostile_agents, scenario);
-    check_runnable(scenario);
-  } catch (const config::ScenarioError& error) {
-    std::fprintf(stderr, "error: %s\n", error.what());
-    return 2;
-  }
-  if (!options.hostile_agents.empty() && options.trials > 1) {
-    std::fprintf(stderr, "error: --hostile is for single runs; it cannot be combined with --trials\n");
-    return 2;
-  }
-  if ((options.record || options.recorded) && options.trials > 1) {
-    std::fprintf(stderr,
-                 "error: --record and replay are single runs; they cannot be combined with --trials\n");
-    return 2;
-  }
-  const auto run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
-  if (options.view_port >= 0 && options.trials > 1) {
-    std::fprintf(stderr, "error: --view shows one run; it cannot be combined with --trials\n");
-    return 2;
-  }
-  try {
-    std::unique_ptr<LiveView> view;
-    if (options.view_port >= 0) {
-      view = std::make_unique<LiveView>(options.view_port);
-      std::signal(SIGINT, on_signal);
-      std::signal(SIGTERM, on_signal);
-      auto waiting = view_snapshot(scenario, sim::build_world(scenario));
-      waiting.mode = "sim";
-      waiting.phase = "simulating";
-      view->publish(std::move(waiting));
-      spdlog::info("live view: {} (the in-process run is played back at run.rate_hz once it is done)",
-                   view->url());
-    }
-    Progress progress(options.progress);
-    const auto started = Clock::now();
-    if (options.trials > 1) {
-      auto result = sim::run_monte_carlo(scenario, options.trials, options.threads, [&](int done, int total) {
-        progress.update("[" + std::to_string(static_cast<int>(seconds_since(started))) + "s] trials " +
-                            std::to_string(done) + "/" + std::to_string(total),
-                        done == total);
-      });
-      progress.finish();
-      double mean = 0.0, sq = 0.0;
-      for (double r : result.final_rmse_per_trial) mean += r, sq += r * r;
-      mean /= result.trials;
-      const double spread = std::sqrt(std::max(0.0, sq / result.trials - mean * mean));
-      auto& record = result.first_trial;
-      record.wall_s = result.wall_s;
-      record.extra["run_directory"] = run_dir.string();
-      record.extra["monte_carlo"] = {{"trials", result.trials},
-                                     {"threads", result.threads},
-                                     {"wall_s", result.wall_s},
-                                     {"final_rmse_mean_m", mean},
-                                     {"final_rmse_std_m", spread},
-                                     {"final_mse_mean_m2", result.steps.back().mse_mean},
-                                     {"final_nees_mean", result.steps.back().nees_mean}};
-      sim::write_run_directory(run_dir, record);
-      sim::write_monte_carlo(run_dir, result);
-      std::printf("%s", sim::result_table(record).c_str());
-      std::printf(
-          "  Monte Carlo: %d trials on %d threads in %.2f s; final RMSE %.4f ± %.4f m (mean ± std over "
-          "trials)\n",
-          result.trials, result.threads, result.wall_s, mean, spread);
-      std::printf("  run directory: %s\n", run_dir.string().c_str());
-      return 0;
-    }
-    sim::SimOptions sim_options;
-    // Results are identical for any count; unasked, large worlds use every core (auto_round_threads).
-    sim_options.round_threads = options.threads;
-    sim_options.hostile_agents = options.hostile_agents;
-    sim_options.recorded = options.recorded;
-    std::unique_ptr<sim::DirectoryRecorder> recorder;
-    if (options.record) {
-      recorder = std::make_unique<sim::DirectoryRecorder>(run_dir);
-      sim_options.recorder = recorder.get();
-    }
-    sim_options.on_step = [&](std::int64_t step, const sim::ErrorStats& errors) {
-      progress.update(progress_line(step, scenario.run.steps, errors, scenario.world.agents,
-                                    scenario.world.agents, seconds_since(started)),
-                      step + 1 == scenario.run.steps);
-    };
-    auto record = sim::run_simulation(scenario, sim_options);
+    // An unusable --out is bad input, found before any work (docs/robustness.md, "Outputs").
+    run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
+    std::error_code ignored;
+    run_dir_existed = std::filesystem::exists(run_dir, ignored);
+    sim::prepare_run_directory(run_dir, options.force);
+    // Placement and algorithm errors are bad input, found before anything starts; the world built for
+    // the check is the run's.
+    world = check_runnable(scenario, control);
     progress.finish();
-    record.extra["run_directory"] = run_dir.string();
-    if (recorder) {
-      recorder->close();
-      record.extra["recording"] = {
-          {"file", sim::kRecordingFile},
-          {"steps", recorder->steps()},
-          {"sample_log", std::string(sim::kSampleLogDirectory) + "/" + sim::kSimSampleLogFile},
-          {"samples", recorder->samples()}};
-    }
-    for (const auto& [key, value] : options.summary_extra.items()) record.extra[key] = value;
-    sim::write_run_directory(run_dir, record);
-    std::printf("%s", sim::result_table(record).c_str());
-    std::printf("  run directory: %s\n", run_dir.string().c_str());
-    if (view) {
-      std::printf(
-          "  live view: %s (playing back %zu steps at %g Hz, then serving the final state %s; Ctrl-C ends)\n",
-          view->url().c_str(), record.metrics.size(), scenario.run.rate_hz,
-          hold_text(options.view_hold_s).c_str());
-      std::fflush(stdout);
-      play_back(*view, scenario, record, g_interrupted);
-      view->hold(options.view_hold_s, g_interrupted);
-    }
-    return 0;
+  } catch (const sim::Cancelled&) {
+    progress.finish();
+    discard_if_empty(run_dir, run_dir_existed);
+    std::fprintf(stderr, "interrupted while the world was built; nothing written\n");
+    return 1;
   } catch (const config::ScenarioError& error) {
+    discard_if_empty(run_dir, run_dir_existed);
     std::fprintf(stderr, "error: %s\n", error.what());
     return 2;
+  }
+  // Launched agents read the run id from the run directory's scenario.yaml, so it is always fresh there.
+  // Agents started elsewhere (--no-launch) may need a known one: an explicit dds.run_id is kept then.
+  if (options.launch_agents || scenario.dds.run_id.empty()) scenario.dds.run_id = fresh_run_id();
+  try {
+    // Agents read the scenario as run (overrides applied, defaults filled) from the run directory.
+    sim::write_text_file(run_dir / "scenario.yaml", config::to_yaml(scenario));
+    Orchestrator orchestrator(scenario, options, run_dir, std::move(world));
+    return orchestrator.run();
   } catch (const std::exception& error) {
     std::fprintf(stderr, "error: %s\n", error.what());
     return 1;

@@ -17,6 +17,7 @@ struct RunOptions {
   std::string scenario_path;
   std::vector<std::string> overrides;
   std::filesystem::path out_dir;        ///< empty: runs/<name>-<stamp>-seed<seed>
+  bool force = false;                   ///< --force: a non-empty out_dir holding an earlier run is cleared
   std::string agent_binary;             ///< the swarmloc executable used to start agents
   bool launch_agents = true;            ///< false: wait for agents started elsewhere
   std::vector<AgentId> hostile_agents;  ///< agents started with --hostile
@@ -40,6 +41,7 @@ struct SimCommandOptions {
   std::string scenario_path;
   std::vector<std::string> overrides;
   std::filesystem::path out_dir;
+  bool force = false;  ///< --force: a non-empty out_dir holding an earlier run is cleared
   bool progress = true;
   int trials = 1;      ///< > 1: Monte Carlo over every core
   int threads = 0;     ///< trials (0 = every core), or one run's rounds (SimOptions::round_threads; 0 =

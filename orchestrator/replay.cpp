@@ -193,6 +193,11 @@ int run_replay(const ReplayOptions& options) {
   } catch (const config::ScenarioError& error) {
     std::fprintf(stderr, "error: %s\n", error.what());
     return 2;
+  } catch (const std::exception& error) {
+    // Anything else while reading the input (a dataset file, memory for a huge recording) is still about
+    // the input: a message and exit 2, never an uncaught exception (exit 134).
+    std::fprintf(stderr, "error: replay: %s\n", error.what());
+    return 2;
   }
   const bool dds = mrclam ? !options.in_process : options.dds;
   if (!mrclam) {
@@ -203,8 +208,11 @@ int run_replay(const ReplayOptions& options) {
   nlohmann::json extra = {{"replay", source.provenance}};
   if (!source.baselines.is_null()) extra["baselines"] = source.baselines;
   if (dds) {
+    // The run directory is prepared (sim::prepare_run_directory: writable, empty unless --force) by the
+    // runtime, before any work.
     RunOptions run;
     run.out_dir = options.out_dir;
+    run.force = options.force;
     run.agent_binary = options.agent_binary;
     run.progress = options.progress;
     run.record = options.record;
@@ -214,6 +222,7 @@ int run_replay(const ReplayOptions& options) {
   }
   SimCommandOptions sim;
   sim.out_dir = options.out_dir;
+  sim.force = options.force;
   sim.progress = options.progress;
   sim.record = options.record;
   sim.recorded = source.steps;

@@ -17,6 +17,7 @@ struct ReplayOptions {
   bool dds = false;                    ///< over DDS agent processes (default: the simulator)
   std::vector<std::string> overrides;  ///< --set on the recorded scenario (no world.* or seed)
   std::filesystem::path out_dir;       ///< empty: runs/<name>-<stamp>-seed<seed>
+  bool force = false;                  ///< --force: a non-empty out_dir holding an earlier run is cleared
   bool progress = true;
   bool record = false;       ///< record the replay too (e.g. the inter-agent samples of another algorithm)
   std::string agent_binary;  ///< --dds: the swarmloc executable used to start agents

@@ -95,22 +95,22 @@ grant() {  # grant NAME ROLE [AGENT_ID]
   echo "      <subject_name>$(subject_dn "$name")</subject_name>"
   echo "      <validity><not_before>2020-01-01T00:00:00</not_before><not_after>2099-01-01T00:00:00</not_after></validity>"
   case $role in
-    agent)
-      rule publish "$families" "a$id"         # its own inter-agent samples, only in its own partition
-      rule publish "swarmloc_estimate" "est"
-      rule subscribe "$families" "a* none"    # neighbours' partitions ("none": no neighbours)
-      rule subscribe "swarmloc_measurements" "m$id"
-      rule subscribe "swarmloc_control" "ctl"
+    agent)  # "*.": every partition name starts with the run id (<run_id>.a3, docs/robustness.md)
+      rule publish "$families" "*.a$id"           # its own inter-agent samples, only in its own partition
+      rule publish "swarmloc_estimate" "*.est"
+      rule subscribe "$families" "*.a* *.none"    # neighbours' partitions ("none": no neighbours)
+      rule subscribe "swarmloc_measurements" "*.m$id"
+      rule subscribe "swarmloc_control" "*.ctl"
       ;;
     orchestrator)
-      rule publish "swarmloc_measurements" "m*"
-      rule publish "swarmloc_control" "ctl"
-      rule subscribe "swarmloc_estimate" "est"
+      rule publish "swarmloc_measurements" "*.m*"
+      rule publish "swarmloc_control" "*.ctl"
+      rule subscribe "swarmloc_estimate" "*.est"
       ;;
     fusion)
-      rule subscribe "swarmloc_measurements" "m*"
-      rule subscribe "swarmloc_control" "ctl"
-      rule publish "swarmloc_estimate" "est"
+      rule subscribe "swarmloc_measurements" "*.m*"
+      rule subscribe "swarmloc_control" "*.ctl"
+      rule publish "swarmloc_estimate" "*.est"
       ;;
   esac
   echo "      <default>DENY</default>"

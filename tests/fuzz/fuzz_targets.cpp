@@ -747,12 +747,20 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
     std::vector<double> field;
     const auto mutations = rng.below(6);
     for (std::uint64_t m = 0; m < mutations; ++m) {
-      switch (rng.below(9)) {
+      switch (rng.below(10)) {
         case 0:
           s.agent_id = hostile_int<std::int32_t>(rng);
           break;
         case 1:
           mutate_header(s.header, rng);
+          break;
+        case 8:
+          // Run health: durations and counts a hostile agent may bend.
+          s.health.ticks = hostile_int<std::uint32_t>(rng);
+          s.health.late_ticks = hostile_int<std::uint32_t>(rng);
+          s.health.batches_merged = hostile_int<std::uint32_t>(rng);
+          s.health.max_tick_lateness_s = hostile_double(rng);
+          s.health.neighbour_age_mean_s = hostile_double(rng);
           break;
         case 2:
           s.mean_m[rng.below(2)] = hostile_double(rng);
@@ -788,8 +796,14 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
       }
     }
     const auto decoded = dds::decode(s);
+    const auto duration = [](double d) { return std::isfinite(d) && d >= 0.0 && d < 1e9; };
+    const auto& h = s.health;
+    const bool health_ok = duration(h.max_tick_lateness_s) && duration(h.mean_tick_lateness_s) &&
+                           duration(h.max_batch_wait_s) && duration(h.neighbour_age_mean_s) &&
+                           duration(h.neighbour_age_max_s) && h.late_ticks <= h.ticks &&
+                           h.batches_merged <= h.batches_received;
     const bool expect_well_formed =
-        (s.links._length == 0 || s.links._buffer != nullptr) &&
+        health_ok && (s.links._length == 0 || s.links._buffer != nullptr) &&
         (s.rejected_by_reason._length == 0 || s.rejected_by_reason._buffer != nullptr) &&
         (s.field._length == 0 || s.field._buffer != nullptr) &&
         s.field._length <= dds::codec::kMaxFieldValues &&
@@ -818,7 +832,7 @@ void fuzz_control(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs,
     Rng rng(core::hash_keys(seed, 7, i));
     sim::ControlMessage message;
     message.header = random_header(rng, kOrchestratorId, static_cast<std::uint32_t>(i));
-    message.command = static_cast<sim::ControlCommand>(rng.below(3));
+    message.command = static_cast<sim::ControlCommand>(rng.below(4));
     message.scenario_hash = rng.next();
     const dds::WireControl wire(message);
     swarmloc_msg_Control s = wire.sample;
@@ -840,7 +854,7 @@ void fuzz_control(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs,
     }
     const auto decoded = dds::decode(s);
     const bool known = s.command == swarmloc_msg_CONTROL_HELLO || s.command == swarmloc_msg_CONTROL_START ||
-                       s.command == swarmloc_msg_CONTROL_STOP;
+                       s.command == swarmloc_msg_CONTROL_STOP || s.command == swarmloc_msg_CONTROL_REFUSE;
     record.check(decoded.well_formed == known, i, "control: well_formed differs from the command rule");
     record.check(decoded.message.scenario_hash == s.scenario_hash && decoded.message.target == s.agent_id, i,
                  "control: fields not carried");

@@ -67,7 +67,9 @@ long rejected_total(const nlohmann::json& summary) {
 /// the constructor so that the honest agents are up: Cyclone re-sends SPDP to an absent unicast peer
 /// only slowly, and a rogue that starts first is found late even without security. It takes Cyclone
 /// participant index `index` (the unused fusion-centre slot N + 1 and beyond), so it does not collide
-/// with honest agent kRogueId's ports, and lists that agent's neighbours as its peers.
+/// with honest agent kRogueId's ports, and lists that agent's neighbours as its peers. It reads the run
+/// directory's scenario.yaml, written by then, for the run id (every partition name starts with it), with
+/// its own security setting (none: not the run's PKI, which that file names).
 struct Rogue {
   pid_t pid = -1;
   std::filesystem::path log;
@@ -79,9 +81,10 @@ struct Rogue {
                               std::to_string(index) + "</ParticipantIndex></Discovery></Domain></CycloneDDS>";
     const auto started =
         run_command("(sleep 2; SWARMLOC_CYCLONE_URI_EXTRA='" + extra + "' exec timeout -s TERM 120 " +
-                    kBinary + " agent --scenario " + kScenario + " --id " + std::to_string(kRogueId) +
-                    " --hostile" + world_flags(domain, mode) + security + " --log " + log.string() + ") > " +
-                    (dir / (name + ".out")).string() + " 2>&1 & echo $!");
+                    kBinary + " agent --scenario " + (dir / "run" / "scenario.yaml").string() + " --id " +
+                    std::to_string(kRogueId) + " --hostile" + world_flags(domain, mode) +
+                    (security.empty() ? " --set dds.security_dir=" : security) + " --log " + log.string() +
+                    ") > " + (dir / (name + ".out")).string() + " 2>&1 & echo $!");
     pid = std::stoi(started.output);
   }
   /// SIGTERM (the agent exits cleanly), then the rogue's log.
@@ -115,8 +118,10 @@ nlohmann::json run_dds(const std::filesystem::path& dir, const std::string& flag
                        const char* mode = "lockstep") {
   const auto result = run_command(kBinary + " run " + kScenario + " -q --out " + (dir / "run").string() +
                                   world_flags(domain, mode) + flags);
-  EXPECT_EQ(result.exit_code, 0) << result.output;
-  EXPECT_EQ(count_processes_matching((dir / "run").string()), 0) << "agent processes outlived the run";
+  EXPECT_TRUE(swarmloc::testing::completed_run(result.exit_code)) << result.output;
+  // The launched agents' logs are in the run directory (the rogues read its scenario.yaml, and live on).
+  EXPECT_EQ(count_processes_matching((dir / "run" / "logs").string()), 0)
+      << "agent processes outlived the run";
   return read_json(dir / "run" / "summary.json");
 }
 
@@ -158,12 +163,13 @@ TEST(Security, TamperedPermissionsDocumentIsRejected) {
   const auto copy = dir / "pki";
   std::filesystem::copy(pki().honest, copy, std::filesystem::copy_options::recursive);
   auto text = read_text(copy / "agent-1" / "permissions.p7s");
-  const auto at = text.find("<partition>a1</partition>");
+  const std::string own = "<partition>*.a1</partition>";
+  const auto at = text.find(own);
   ASSERT_NE(at, std::string::npos);
-  text.replace(at, 25, "<partition>a*</partition>");  // widen the grant without re-signing
+  text.replace(at, own.size(), "<partition>*.a*</partition>");  // widen the grant without re-signing
   std::ofstream(copy / "agent-1" / "permissions.p7s") << text;
   const auto result = run_command("timeout 60 " + kBinary + " agent --scenario " + kScenario + " --id 1" +
-                                  world_flags(54) + " --security " + copy.string());
+                                  world_flags(54) + " --set dds.run_id=tamper --security " + copy.string());
   EXPECT_EQ(result.exit_code, 1) << result.output;  // participant creation fails: a runtime failure
   EXPECT_NE(result.output.find("runtime failure"), std::string::npos) << result.output;
 }

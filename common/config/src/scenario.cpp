@@ -4,6 +4,7 @@
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstdio>
@@ -260,14 +261,37 @@ std::string to_yaml(const Scenario& scenario) {
   return out;
 }
 
-std::uint64_t scenario_hash(const Scenario& scenario) {
-  // FNV-1a, 64 bit.
+namespace {
+
+std::uint64_t fnv1a(const std::string& text) {
   std::uint64_t hash = 14695981039346656037ULL;
-  for (const char c : to_yaml(scenario)) {
+  for (const char c : text) {
     hash ^= static_cast<unsigned char>(c);
     hash *= 1099511628211ULL;
   }
   return hash;
+}
+
+}  // namespace
+
+std::uint64_t scenario_hash(const Scenario& scenario) {
+  Scenario hashed = scenario;
+  hashed.dds.run_id.clear();
+  return fnv1a(to_yaml(hashed));
+}
+
+std::uint64_t results_hash(const Scenario& scenario) {
+  Scenario hashed = scenario;
+  hashed.name.clear();
+  hashed.dds = Scenario::Dds{};
+  return fnv1a(to_yaml(hashed));
+}
+
+bool valid_run_id(const std::string& run_id) {
+  if (run_id.empty() || run_id.size() > 32) return false;
+  return std::all_of(run_id.begin(), run_id.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+  });
 }
 
 const std::vector<std::string>& known_keys() {

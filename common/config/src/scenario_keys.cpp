@@ -381,6 +381,7 @@ std::vector<KeySpec> build_key_specs() {
   keys.push_back(SWARMLOC_KEY(dds.neighbour_discovery));
   keys.push_back(SWARMLOC_KEY(dds.peer_address));
   keys.push_back(SWARMLOC_KEY(dds.security_dir));
+  keys.push_back(SWARMLOC_KEY(dds.run_id));
   return keys;
 }
 

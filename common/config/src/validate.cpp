@@ -56,6 +56,24 @@ void require_non_empty(const std::string& value, std::string_view path) {
   if (value.empty()) fail(path, "must not be empty");
 }
 
+/// `name` becomes a path component, runs/<name>-<stamp>-seed<seed> (docs/robustness.md, "Outputs are
+/// complete or the run fails"): one component inside runs/, short enough for a file name with the stamp.
+void validate_name(const std::string& name) {
+  constexpr std::size_t kMaxLength = 100;
+  require_non_empty(name, "name");
+  if (name.size() > kMaxLength) {
+    fail("name", "is " + std::to_string(name.size()) + " bytes long; at most " + std::to_string(kMaxLength));
+  }
+  if (name.find('/') != std::string::npos) fail("name", "must not contain '/' (it names the run directory)");
+  if (name.find("..") != std::string::npos)
+    fail("name", "must not contain '..' (it names the run directory)");
+  if (name.front() == '.') fail("name", "must not start with '.' (it names the run directory)");
+  for (const char c : name) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte < 0x20 || byte == 0x7f) fail("name", "must not contain control characters");
+  }
+}
+
 void validate_qos(const QosSettings& qos, const std::string& family) {
   const std::string prefix = "qos." + family + ".";
   require_at_least(qos.history_depth, 1, prefix + "history_depth");
@@ -92,7 +110,7 @@ void validate(const Scenario& scenario) {
     if (value.starts_with("invalid_")) fail(key.path, "invalid enum value " + value.substr(8));
   }
 
-  require_non_empty(scenario.name, "name");
+  validate_name(scenario.name);
 
   const auto& algorithm = scenario.algorithm;
   const auto& known = detail::known_algorithms();
@@ -260,6 +278,10 @@ void validate(const Scenario& scenario) {
   validate_qos(qos.control, "control");
 
   require_within(scenario.dds.domain_id, 0, 230, "dds.domain_id");
+  if (!scenario.dds.run_id.empty() && !valid_run_id(scenario.dds.run_id)) {
+    throw ScenarioError("dds.run_id: '" + scenario.dds.run_id +
+                        "' must be 1 to 32 characters of [A-Za-z0-9_-]");
+  }
 
   const auto check_faults = [&](const std::vector<AgentFault>& faults, const std::string& key) {
     for (const auto& fault : faults) {

@@ -2,6 +2,7 @@
 #include "convert.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 namespace swarmloc::dds {
@@ -121,6 +122,8 @@ std::optional<sim::ControlCommand> control_command(std::uint8_t wire) {
       return sim::ControlCommand::kStart;
     case swarmloc_msg_CONTROL_STOP:
       return sim::ControlCommand::kStop;
+    case swarmloc_msg_CONTROL_REFUSE:
+      return sim::ControlCommand::kRefuse;
     default:
       return std::nullopt;
   }
@@ -324,6 +327,18 @@ WireEstimate::WireEstimate(const sim::EstimateReport& report)
   sample.samples_published = report.samples_published;
   sample.samples_published_in_steps = report.samples_published_in_steps;
   sample.cpu_s = report.cpu_s;
+  sample.results_hash = report.results_hash;
+  const auto& h = report.health;
+  sample.health = swarmloc_msg_AgentHealth{h.ticks,
+                                           h.late_ticks,
+                                           h.missed_ticks,
+                                           h.max_tick_lateness_s,
+                                           h.mean_tick_lateness_s,
+                                           h.batches_received,
+                                           h.batches_merged,
+                                           h.max_batch_wait_s,
+                                           h.neighbour_age_mean_s,
+                                           h.neighbour_age_max_s};
   point_at(sample.links, links);
   point_at(sample.rejected_by_reason, rejected_by_reason);
   point_at(sample.field, field);
@@ -502,12 +517,30 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
   report.samples_published = wire.samples_published;
   report.samples_published_in_steps = wire.samples_published_in_steps;
   report.cpu_s = wire.cpu_s;
+  report.results_hash = wire.results_hash;
+  const auto& h = wire.health;
+  report.health = sim::AgentHealth{h.ticks,
+                                   h.late_ticks,
+                                   h.missed_ticks,
+                                   h.max_tick_lateness_s,
+                                   h.mean_tick_lateness_s,
+                                   h.batches_received,
+                                   h.batches_merged,
+                                   h.max_batch_wait_s,
+                                   h.neighbour_age_mean_s,
+                                   h.neighbour_age_max_s};
   const auto links = view(wire.links);
   const auto reasons = view(wire.rejected_by_reason);
   const auto field = view(wire.field);
   // A sender may know fewer reasons (older build: the rest stay 0), never more than this build.
+  // Health figures are durations and counts: anything else is a broken or hostile sender.
+  const auto duration = [](double s) { return std::isfinite(s) && s >= 0.0 && s < 1e9; };
+  const bool health_ok = duration(h.max_tick_lateness_s) && duration(h.mean_tick_lateness_s) &&
+                         duration(h.max_batch_wait_s) && duration(h.neighbour_age_mean_s) &&
+                         duration(h.neighbour_age_max_s) && h.late_ticks <= h.ticks &&
+                         h.batches_merged <= h.batches_received;
   if (!links || !reasons || !field || reasons->size() > sim::kRejectReasonCount ||
-      field->size() > codec::kMaxFieldValues || wire.agent_id != wire.header.agent_id) {
+      field->size() > codec::kMaxFieldValues || wire.agent_id != wire.header.agent_id || !health_ok) {
     decoded.well_formed = false;
     return decoded;
   }

@@ -10,7 +10,13 @@
 // 2 (N + 1) ports (2 (N + 2) with a fusion centre); for N <= 123 the blocks of different domain ids
 // never overlap. The fusion centre talks to the orchestrator only: its one peer is the orchestrator,
 // and the orchestrator of a centralized run lists it besides the agents.
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <sstream>
 #include <string>
 
@@ -74,6 +80,68 @@ void require_ports_fit(const config::Scenario& scenario) {
                               std::to_string(kMaxPort) + "); " +
                               (largest_domain >= 0 ? "use dds.domain_id <= " + std::to_string(largest_domain)
                                                    : std::string("too many agents for fixed ports")));
+}
+
+namespace {
+
+/// 0 if UDP `port` can be bound on every address now, else the errno (EADDRINUSE: someone holds it).
+int udp_port_error(int port) {
+  const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return errno;
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_ANY);
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  const int result = ::bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address);
+  const int error = result == 0 ? 0 : errno;
+  ::close(fd);
+  return error;
+}
+
+struct BusyPort {
+  int port = -1;  ///< -1: every port is free
+  int slot = -1;
+  int error = 0;
+};
+
+/// The first port of slots [first, last] on `domain_id` that cannot be bound.
+BusyPort first_busy_port(int first_slot, int last_slot, int domain_id) {
+  for (int slot = first_slot; slot <= last_slot; ++slot) {
+    for (int offset = 0; offset < 2; ++offset) {
+      const int port = discovery_port(slot, domain_id) + offset;
+      if (const int error = udp_port_error(port); error != 0) return BusyPort{port, slot, error};
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+void require_ports_free(const config::Scenario& scenario, bool local_agents) {
+  if (!scenario.dds.neighbour_discovery) return;  // multicast discovery: Cyclone picks free ports itself
+  const int agents = scenario.world.agents;
+  const int last_slot = agents + (sim::is_centralized(scenario.algorithm.name) ? 1 : 0);
+  const int first_slot = local_agents ? 0 : agents;
+  const BusyPort busy = first_busy_port(first_slot, last_slot, scenario.dds.domain_id);
+  if (busy.port < 0) return;
+  const std::string owner = busy.slot == agents       ? "the orchestrator's"
+                            : busy.slot == agents + 1 ? "the fusion centre's"
+                                                      : "agent " + std::to_string(busy.slot) + "'s";
+  std::string message = "dds.domain_id " + std::to_string(scenario.dds.domain_id) + ": UDP port " +
+                        std::to_string(busy.port) + " (" + owner +
+                        " DDS port) cannot be bound: " + std::strerror(busy.error) + ". ";
+  if (busy.error == EADDRINUSE) {
+    message += "Another swarmloc run (or another DDS application) is using this domain. ";
+    for (int domain = 0; domain <= 230; ++domain) {
+      if (domain == scenario.dds.domain_id) continue;
+      if (discovery_port(last_slot, domain) + 1 > 65535) break;
+      if (first_busy_port(first_slot, last_slot, domain).port < 0) {
+        message += "Use a free domain: --set dds.domain_id=" + std::to_string(domain);
+        break;
+      }
+    }
+  }
+  throw PortsInUse(message);
 }
 
 std::string cyclone_config(const config::Scenario& scenario, const Topology& topology) {

@@ -7,6 +7,8 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -25,11 +27,34 @@ inline constexpr const char* kTopicBelief = "swarmloc_belief";
 inline constexpr const char* kTopicEstimate = "swarmloc_estimate";
 inline constexpr const char* kTopicControl = "swarmloc_control";
 
-inline constexpr const char* kPartitionEstimates = "est";
-inline constexpr const char* kPartitionControl = "ctl";
-inline constexpr const char* kPartitionNothing = "none";
+/// Partition names, each prefixed by the run id ("<run_id>.ctl"), so that two runs on one domain never
+/// see each other's samples (docs/robustness.md, "Run isolation"). An empty run id (unit tests of the
+/// transport alone) leaves the bare names.
+class Partitions {
+ public:
+  explicit Partitions(const std::string& run_id) : prefix_(run_id.empty() ? std::string() : run_id + ".") {}
+  [[nodiscard]] std::string estimates() const { return prefix_ + "est"; }
+  [[nodiscard]] std::string control() const { return prefix_ + "ctl"; }
+  [[nodiscard]] std::string nothing() const { return prefix_ + "none"; }
+  [[nodiscard]] std::string agent(AgentId agent) const { return prefix_ + "a" + std::to_string(agent); }
+  [[nodiscard]] std::string measurement(int block) const { return prefix_ + "m" + std::to_string(block); }
+  /// "a<j>" of this run: j; anything else (another run's, another family's): nullopt.
+  [[nodiscard]] std::optional<AgentId> agent_of(const std::string& name) const {
+    if (name.size() <= prefix_.size() + 1 || name.compare(0, prefix_.size(), prefix_) != 0)
+      return std::nullopt;
+    const std::string rest = name.substr(prefix_.size());
+    if (rest[0] != 'a' || rest.size() > 10 ||
+        !std::all_of(rest.begin() + 1, rest.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+      return std::nullopt;
+    }
+    const long id = std::stol(rest.substr(1));
+    if (id > std::numeric_limits<AgentId>::max()) return std::nullopt;
+    return static_cast<AgentId>(id);
+  }
 
-inline std::string agent_partition(AgentId agent) { return "a" + std::to_string(agent); }
+ private:
+  std::string prefix_;
+};
 
 /// The orchestrator writes each world step's measurements as one MeasurementBlock sample per block of
 /// consecutive agents, through one writer per block (partition "m<block>"). With one writer per agent,
@@ -45,7 +70,6 @@ inline int measurement_block_size(const config::Scenario& scenario, int agent_co
 inline int measurement_block_count(int agent_count, int block_size) {
   return (agent_count + block_size - 1) / block_size;
 }
-inline std::string measurement_partition(int block) { return "m" + std::to_string(block); }
 
 inline dds_duration_t to_duration(double timeout_s) {
   if (!(timeout_s > 0.0)) {

@@ -29,14 +29,15 @@ struct FusionTransport::Impl {
     const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);
     const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
 
+    const Partitions partition_names(scenario.dds.run_id);
     std::vector<std::string> partitions;
     for (int block = 0; block < measurement_block_count(agent_count, block_size); ++block)
-      partitions.push_back(measurement_partition(block));
+      partitions.push_back(partition_names.measurement(block));
     const dds_entity_t measurements = create_subscriber(pp, partitions);
     measurement_reader = create_reader(measurements, t_measurements, qos.measurements, kTopicMeasurements);
-    const dds_entity_t control = create_subscriber(pp, {kPartitionControl});
+    const dds_entity_t control = create_subscriber(pp, {partition_names.control()});
     control_reader = create_reader(control, t_control, qos.control, kTopicControl);
-    const dds_entity_t estimates = create_publisher(pp, {kPartitionEstimates});
+    const dds_entity_t estimates = create_publisher(pp, {partition_names.estimates()});
     estimate_writer = create_writer(estimates, t_estimate, qos.estimate, kTopicEstimate);
 
     waitset = check(dds_create_waitset(pp), "dds_create_waitset");

@@ -36,8 +36,8 @@ namespace swarmloc::dds {
 
 namespace {
 
-/// Agent ids "j" of matched writers whose publisher has a partition "a<j>".
-std::set<AgentId> matched_agent_partitions(dds_entity_t reader) {
+/// Agent ids "j" of matched writers whose publisher has this run's partition "a<j>".
+std::set<AgentId> matched_agent_partitions(dds_entity_t reader, const Partitions& partitions) {
   std::vector<dds_instance_handle_t> handles(16);
   for (;;) {
     const dds_return_t count = check(dds_get_matched_publications(reader, handles.data(), handles.size()),
@@ -58,15 +58,7 @@ std::set<AgentId> matched_agent_partitions(dds_entity_t reader) {
     char** names = nullptr;
     if (endpoint->qos != nullptr && dds_qget_partition(endpoint->qos, &n, &names)) {
       for (uint32_t k = 0; k < n; ++k) {
-        const std::string name = names[k];
-        if (name.size() > 1 && name[0] == 'a' &&
-            std::all_of(name.begin() + 1, name.end(), [](char c) { return c >= '0' && c <= '9'; })) {
-          try {
-            agents.insert(static_cast<AgentId>(std::stol(name.substr(1))));
-          } catch (const std::exception&) {
-            // out of range: not one of ours
-          }
-        }
+        if (const auto agent = partitions.agent_of(names[k])) agents.insert(*agent);
         dds_free(names[k]);
       }
       dds_free(static_cast<void*>(names));
@@ -85,6 +77,7 @@ struct AgentTransport::Impl {
   Impl(const config::Scenario& scenario, const Topology& topology)
       : self(agent_id(topology.self)),
         neighbours(topology.neighbours),
+        partitions(scenario.dds.run_id),
         domain(static_cast<dds_domainid_t>(scenario.dds.domain_id), cyclone_config(scenario, topology)),
         participant(create_participant(domain)) {
     const dds_entity_t pp = participant.get();
@@ -98,22 +91,23 @@ struct AgentTransport::Impl {
     const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);
     const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
 
-    const dds_entity_t own = create_publisher(pp, {agent_partition(self)});
+    const Partitions& partition_names = partitions;
+    const dds_entity_t own = create_publisher(pp, {partition_names.agent(self)});
     state_writer = create_writer(own, t_state, qos.state, kTopicState);
     information_writer = create_writer(own, t_information, qos.information, kTopicInformation);
     consensus_writer = create_writer(own, t_consensus, qos.consensus, kTopicConsensus);
     belief_writer = create_writer(own, t_belief, qos.belief, kTopicBelief);
-    const dds_entity_t estimates = create_publisher(pp, {kPartitionEstimates});
+    const dds_entity_t estimates = create_publisher(pp, {partition_names.estimates()});
     estimate_writer = create_writer(estimates, t_estimate, qos.estimate, kTopicEstimate);
 
     std::vector<std::string> neighbour_partitions;
     for (const AgentId neighbour : neighbours) {
       if (neighbour != self && neighbour >= 0) {
-        neighbour_partitions.push_back(agent_partition(neighbour));
+        neighbour_partitions.push_back(partition_names.agent(neighbour));
       }
     }
     if (neighbour_partitions.empty()) {
-      neighbour_partitions.emplace_back(kPartitionNothing);
+      neighbour_partitions.push_back(partition_names.nothing());
     }
     const dds_entity_t from_neighbours = create_subscriber(pp, neighbour_partitions);
     state_reader = create_reader(from_neighbours, t_state, qos.state, kTopicState,
@@ -127,11 +121,11 @@ struct AgentTransport::Impl {
     belief_reader = create_reader(from_neighbours, t_belief, qos.belief, kTopicBelief,
                                   inbox_listener<swarmloc_msg_Belief, &AgentInbound::beliefs>().get());
     const dds_entity_t from_orchestrator = create_subscriber(
-        pp, {measurement_partition(
+        pp, {partition_names.measurement(
                 self / measurement_block_size(scenario, std::max(topology.agent_count, self + 1)))});
     measurement_reader =
         create_reader(from_orchestrator, t_measurements, qos.measurements, kTopicMeasurements);
-    const dds_entity_t control = create_subscriber(pp, {kPartitionControl});
+    const dds_entity_t control = create_subscriber(pp, {partition_names.control()});
     control_reader = create_reader(control, t_control, qos.control, kTopicControl);
 
     waitset = check(dds_create_waitset(pp), "dds_create_waitset");
@@ -172,6 +166,7 @@ struct AgentTransport::Impl {
 
   AgentId self;
   std::vector<AgentId> neighbours;
+  Partitions partitions;
   // Filled by the inter-agent readers' listeners (receive thread), emptied by wait_and_take. Declared
   // before the participant, so they outlive every reader and its listener.
   mutable std::mutex inbox_mutex;
@@ -268,7 +263,7 @@ int AgentTransport::matched_neighbours() const {
   // ~50 000 calls per second across the machine. Recount only when the match status moved.
   const auto signature = matched_signature(impl_->state_reader);
   if (signature == impl_->neighbours_counted_at) return impl_->matched_neighbour_count;
-  const auto matched = matched_agent_partitions(impl_->state_reader);
+  const auto matched = matched_agent_partitions(impl_->state_reader, impl_->partitions);
   impl_->matched_neighbour_count =
       static_cast<int>(std::count_if(impl_->neighbours.begin(), impl_->neighbours.end(),
                                      [&](AgentId neighbour) { return matched.contains(neighbour); }));
@@ -332,16 +327,17 @@ struct OrchestratorTransport::Impl {
     const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);
     const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
 
+    const Partitions partition_names(scenario.dds.run_id);
     const int blocks = measurement_block_count(agent_count, block_size);
     measurement_writers.reserve(static_cast<std::size_t>(blocks));
     for (int block = 0; block < blocks; ++block) {
-      const dds_entity_t publisher = create_publisher(pp, {measurement_partition(block)});
+      const dds_entity_t publisher = create_publisher(pp, {partition_names.measurement(block)});
       measurement_writers.push_back(
           create_writer(publisher, t_measurements, qos.measurements, kTopicMeasurements));
     }
-    const dds_entity_t control = create_publisher(pp, {kPartitionControl});
+    const dds_entity_t control = create_publisher(pp, {partition_names.control()});
     control_writer = create_writer(control, t_control, qos.control, kTopicControl);
-    const dds_entity_t estimates = create_subscriber(pp, {kPartitionEstimates});
+    const dds_entity_t estimates = create_subscriber(pp, {partition_names.estimates()});
     estimate_reader = create_reader(estimates, t_estimate, qos.estimate, kTopicEstimate);
 
     waitset = check(dds_create_waitset(pp), "dds_create_waitset");

@@ -1,11 +1,15 @@
 #include "swarmloc/sim/plots.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <fstream>
+#include <cstring>
 #include <iomanip>
 #include <limits>
 #include <map>
@@ -14,18 +18,50 @@
 #include <stdexcept>
 #include <string>
 
+#include "swarmloc/sim/external_program.hpp"
+#include "swarmloc/sim/output_file.hpp"
+
 namespace swarmloc::sim {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-void write_text(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text;
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+/// Whether `directory` can take a write the size of a plot: 0 if so, else the OS error (ENOSPC, EDQUOT,
+/// EROFS, EFBIG). Tells a full disk from a gnuplot script error when a PNG is missing.
+int room_for_a_plot(const std::filesystem::path& directory) {
+  const auto probe = directory / (".swarmloc-room-probe-" + std::to_string(::getpid()));
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return errno;
+  const std::string block(64 * 1024, '\0');
+  int error = 0;
+  for (std::size_t done = 0; done < block.size() && error == 0;) {
+    const ssize_t wrote = ::write(fd, block.data() + done, block.size() - done);
+    if (wrote < 0 && errno != EINTR) error = errno;
+    if (wrote > 0) done += static_cast<std::size_t>(wrote);
+  }
+  if (error == 0 && ::fsync(fd) != 0) error = errno;
+  if (::close(fd) != 0 && error == 0) error = errno;
+  ::unlink(probe.c_str());
+  return error;
 }
 
-bool have_gnuplot() { return std::system("command -v gnuplot >/dev/null 2>&1") == 0; }
+/// A PNG is whole when it ends with its IEND chunk (a full disk leaves a truncated one); anything else
+/// must be non-empty.
+bool complete_output(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec || size == 0) return false;
+  if (path.extension() != ".png") return true;
+  static constexpr unsigned char kIend[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};
+  if (size < sizeof kIend) return false;
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) return false;
+  unsigned char tail[sizeof kIend] = {};
+  const bool read = std::fseek(file, -static_cast<long>(sizeof kIend), SEEK_END) == 0 &&
+                    std::fread(tail, 1, sizeof tail, file) == sizeof tail;
+  std::fclose(file);
+  return read && std::memcmp(tail, kIend, sizeof kIend) == 0;
+}
 
 /// Each agent's newest row at the last recorded step (or its newest row overall if it missed that step).
 std::map<AgentId, const EstimateRow*> final_rows(const RunRecord& record) {
@@ -51,8 +87,8 @@ std::string header_title(const RunRecord& record) {
 
 std::string preamble(const std::string& output) {
   return "set datafile separator ','\nset terminal pngcairo size 900,640 enhanced font ',11'\nset grid\n"
-         "set output '" +
-         output + "'\n";
+         "set output " +
+         gnuplot_quote(output) + "\n";
 }
 
 std::string error_script(const RunRecord& record) {
@@ -80,8 +116,15 @@ std::string nees_script(const RunRecord& record) {
   return gp.str();
 }
 
-std::string positions_script(const RunRecord& record, bool have_links, bool have_ellipses,
-                             double magnification) {
+/// An agent that died or stalled (DDS runs): its last estimate is not a living agent's, so it is drawn
+/// apart and its links grey.
+bool is_lost(const RunRecord& record, AgentId agent) {
+  const auto index = static_cast<std::size_t>(agent);
+  return agent >= 0 && index < record.agent_summaries.size() && record.agent_summaries[index].fate != "ok";
+}
+
+std::string positions_script(const RunRecord& record, bool have_links, bool have_lost_links,
+                             bool have_ellipses, double magnification) {
   std::ostringstream gp;
   gp << preamble("positions.png") << "set size ratio -1\nset key outside bottom center horizontal box\n"
      << "set xlabel 'x [m]'\nset ylabel 'y [m]'\n"
@@ -93,6 +136,10 @@ std::string positions_script(const RunRecord& record, bool have_links, bool have
     gp << "'link_segments.csv' using 1:2:($3-$1):($4-$2):5 with vectors nohead lw 1 lc palette "
           "title 'link (colour: delivered fraction)', ";
   }
+  if (have_lost_links) {
+    gp << "'lost_link_segments.csv' using 1:2:($3-$1):($4-$2) with vectors nohead lw 1 dt 2 lc rgb '#7f7f7f' "
+          "title 'link of a lost agent', ";
+  }
   if (have_ellipses) {
     gp << "'ellipses.csv' using 3:4 with lines lw 1.5 lc rgb '#9467bd' title '95 % ellipse";
     if (magnification != 1.0) gp << " (drawn ×" << magnification << ")";
@@ -100,8 +147,15 @@ std::string positions_script(const RunRecord& record, bool have_links, bool have
   }
   gp << "'final_positions.csv' using ($2==0?$3:1/0):4 skip 1 with points pt 6 ps 1.6 lw 1.5 lc rgb 'black' "
         "title 'truth', "
-        "'' using ($2==0?$5:1/0):6 skip 1 with points pt 7 ps 0.7 lc rgb '#1f77b4' title 'estimate', "
-        "'' using ($2==1?$3:1/0):4 skip 1 with points pt 5 ps 1.6 lc rgb '#d62728' title 'anchor'\n";
+        "'' using ($2==0&&$8==0?$5:1/0):6 skip 1 with points pt 7 ps 0.7 lc rgb '#1f77b4' title 'estimate', "
+        "'' using ($2==1?$3:1/0):4 skip 1 with points pt 5 ps 1.6 lc rgb '#d62728' title 'anchor'";
+  bool lost = false;
+  for (const auto& agent : record.agent_summaries) lost = lost || agent.fate != "ok";
+  if (lost) {
+    gp << ", '' using ($8==1?$3:1/0):4 skip 1 with points pt 2 ps 2.2 lw 2 lc rgb '#d62728' "
+          "title 'lost agent (died or stalled; not scored)'";
+  }
+  gp << "\n";
   return gp.str();
 }
 
@@ -190,29 +244,30 @@ std::vector<Vec2> covariance_ellipse(const Vec2& mean, const Mat2& covariance, d
 
 bool write_plots(const std::filesystem::path& directory, const RunRecord& record) {
   const auto plots = directory / "plots";
-  std::filesystem::create_directories(plots);
+  create_output_directories(plots);
   std::map<std::string, std::string> scripts;  // file name -> script
   // A run without any scored step has nothing to plot over time (gnuplot would fail on empty data).
   if (!record.metrics.empty()) scripts["error.gp"] = error_script(record);
 
   // NEES with its per-step band (the number of scored agents can change from step to step).
   {
-    std::ofstream out(plots / "nees_band.csv");
+    std::ostringstream out;
     out << "# step,nees,band_lower,band_upper,scored_agents\n" << std::setprecision(9);
     for (const auto& m : record.metrics) {
       const auto band = nees_band(m.errors.scored);
       out << m.step << ',' << m.errors.nees << ',' << band.lower << ',' << band.upper << ','
           << m.errors.scored << '\n';
     }
+    write_text_file(plots / "nees_band.csv", out.str());
   }
   if (!record.metrics.empty()) scripts["nees.gp"] = nees_script(record);
 
   const auto finals = final_rows(record);
   if (!finals.empty()) {
     // Final positions, ellipses, links.
-    std::ofstream positions(plots / "final_positions.csv");
-    std::ofstream ellipses(plots / "ellipses.csv");
-    positions << "agent,anchor,truth_x,truth_y,est_x,est_y,error_m\n" << std::setprecision(9);
+    std::ostringstream positions;
+    std::ostringstream ellipses;
+    positions << "agent,anchor,truth_x,truth_y,est_x,est_y,error_m,lost\n" << std::setprecision(9);
     bool have_ellipses = false;
     std::vector<double> errors;
     std::vector<std::pair<Vec2, std::vector<Vec2>>> curves;  // estimate, ellipse
@@ -223,7 +278,8 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
       const bool anchor = is_anchor(record, agent);
       const auto& e = row->estimate;
       positions << agent << ',' << (anchor ? 1 : 0) << ',' << row->truth.x() << ',' << row->truth.y() << ','
-                << e.mean_m.x() << ',' << e.mean_m.y() << ',' << (e.mean_m - row->truth).norm() << '\n';
+                << e.mean_m.x() << ',' << e.mean_m.y() << ',' << (e.mean_m - row->truth).norm() << ','
+                << (is_lost(record, agent) ? 1 : 0) << '\n';
       low = low.cwiseMin(row->truth);
       high = high.cwiseMax(row->truth);
       if (anchor) continue;
@@ -266,6 +322,8 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
       }
       have_ellipses = true;
     }
+    write_text_file(plots / "final_positions.csv", positions.str());
+    write_text_file(plots / "ellipses.csv", ellipses.str());
     // Links, undirected: both directions' counters pooled, drawn between the true positions.
     std::map<std::pair<AgentId, AgentId>, std::pair<std::uint64_t, std::uint64_t>> pooled;  // delivered, sent
     for (const auto& [key, link] : record.links) {
@@ -274,13 +332,23 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
       delivered += link.delivered;
       sent += link.sent();
     }
-    std::ofstream segments(plots / "link_segments.csv");
+    std::ostringstream segments;
+    std::ostringstream lost_segments;
     segments << "# x1,y1,x2,y2,delivered_fraction,delivered,sent (agents a,b)\n" << std::setprecision(9);
+    lost_segments << "# x1,y1,x2,y2 (links of a lost agent: its counters stopped when it was lost)\n"
+                  << std::setprecision(9);
     bool have_links = false;
+    bool have_lost_links = false;
     for (const auto& [edge, counts] : pooled) {
       const auto a = finals.find(edge.first);
       const auto b = finals.find(edge.second);
       if (a == finals.end() || b == finals.end() || counts.second == 0) continue;
+      if (is_lost(record, edge.first) || is_lost(record, edge.second)) {
+        lost_segments << a->second->truth.x() << ',' << a->second->truth.y() << ',' << b->second->truth.x()
+                      << ',' << b->second->truth.y() << '\n';
+        have_lost_links = true;
+        continue;
+      }
       const double fraction =
           std::min(1.0, static_cast<double>(counts.first) / static_cast<double>(counts.second));
       segments << a->second->truth.x() << ',' << a->second->truth.y() << ',' << b->second->truth.x() << ','
@@ -288,7 +356,10 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
                << '\n';
       have_links = true;
     }
-    scripts["positions.gp"] = positions_script(record, have_links, have_ellipses, magnification);
+    write_text_file(plots / "link_segments.csv", segments.str());
+    write_text_file(plots / "lost_link_segments.csv", lost_segments.str());
+    scripts["positions.gp"] =
+        positions_script(record, have_links, have_lost_links, have_ellipses, magnification);
 
     // Histogram of the non-anchor agents' final errors.
     if (!errors.empty()) {
@@ -305,12 +376,13 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
         sum += err;
         sum_sq += err * err;
       }
-      std::ofstream histogram(plots / "error_histogram.csv");
+      std::ostringstream histogram;
       histogram << "bin_lo_m,bin_hi_m,bin_center_m,agents\n" << std::setprecision(9);
       for (std::size_t k = 0; k < counts.size(); ++k) {
         const double lo = width * static_cast<double>(k);
         histogram << lo << ',' << lo + width << ',' << lo + 0.5 * width << ',' << counts[k] << '\n';
       }
+      write_text_file(plots / "error_histogram.csv", histogram.str());
       const double n = static_cast<double>(errors.size());
       const auto* last = record.final_metrics();
       scripts["error_histogram.gp"] = histogram_script(
@@ -322,20 +394,69 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
   std::ostringstream all;
   all << "# Makes every plot of this run: cd into plots/ and run `gnuplot plots.gp`.\n";
   for (const auto& [name, script] : scripts) {
-    write_text(plots / name, script);
-    all << "reset\nload '" << name << "'\n";
+    write_text_file(plots / name, script);
+    all << "reset\nload " << gnuplot_quote(name) << "\n";
   }
-  write_text(plots / "plots.gp", all.str());
-  if (!have_gnuplot()) return false;
+  write_text_file(plots / "plots.gp", all.str());
   bool ok = true;
   for (const auto& [name, script] : scripts) {
-    const std::string command = "cd '" + plots.string() + "' && gnuplot '" + name + "' >/dev/null 2>&1";
-    if (std::system(command.c_str()) != 0) {
-      std::fprintf(stderr, "warning: gnuplot failed on %s\n", (plots / name).c_str());
-      ok = false;
+    const auto png = std::filesystem::path(name).replace_extension(".png").string();
+    const auto result = run_gnuplot(plots, name, {png});
+    if (result == GnuplotResult::kNotInstalled) {
+      static std::atomic<bool> noted{false};
+      if (!noted.exchange(true)) {
+        std::fprintf(stderr,
+                     "note: gnuplot is not installed; the plots/*.gp scripts are written, run "
+                     "`gnuplot plots.gp` in plots/ to make the PNGs\n");
+      }
+      return false;
     }
+    ok = ok && result == GnuplotResult::kDone;
   }
   return ok;
+}
+
+std::string gnuplot_quote(std::string_view text) {
+  std::string quoted = "'";
+  for (const char c : text) {
+    quoted += c;
+    if (c == '\'') quoted += '\'';
+  }
+  return quoted + "'";
+}
+
+GnuplotResult run_gnuplot(const std::filesystem::path& directory, const std::string& script,
+                          const std::vector<std::string>& outputs) {
+  const auto gnuplot = find_program("gnuplot");
+  if (!gnuplot) return GnuplotResult::kNotInstalled;
+  // A PNG left over from an earlier attempt must not pass for this one.
+  for (const auto& output : outputs) {
+    std::error_code ignored;
+    std::filesystem::remove(directory / output, ignored);
+  }
+  ProgramOptions options;
+  options.working_directory = directory;
+  options.stdin_path = options.stdout_path = options.stderr_path = "/dev/null";
+  const auto status = run_program({gnuplot->string(), script}, options);
+  for (const auto& output : outputs) {
+    const auto path = directory / output;
+    if (complete_output(path)) continue;
+    // Probed before the partial PNG is removed, which would free the room it lacked.
+    const int error = room_for_a_plot(directory);
+    std::error_code ignored;
+    std::filesystem::remove(path, ignored);  // no truncated PNG passes for a plot later
+    if (error != 0) throw OutputError(path, "write", error);
+    if (status.succeeded()) throw OutputError(path, "write (gnuplot left it incomplete)", EIO);
+    std::fprintf(stderr, "warning: gnuplot %s on %s; %s not made\n", status.describe().c_str(),
+                 (directory / script).c_str(), path.c_str());
+    return GnuplotResult::kFailed;
+  }
+  if (!status.succeeded()) {
+    std::fprintf(stderr, "warning: gnuplot %s on %s\n", status.describe().c_str(),
+                 (directory / script).c_str());
+    return GnuplotResult::kFailed;
+  }
+  return GnuplotResult::kDone;
 }
 
 }  // namespace swarmloc::sim

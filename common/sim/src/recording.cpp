@@ -1,11 +1,14 @@
 // Binary recordings and sample logs (recording.hpp; the format is described in docs/record-replay.md).
 #include "swarmloc/sim/recording.hpp"
 
+#include <zlib.h>
+
 #include <bit>
+#include <cerrno>
+#include <cstdio>
 #include <cstring>
-#include <iterator>
 #include <limits>
-#include <sstream>
+#include <system_error>
 
 namespace swarmloc::sim {
 namespace {
@@ -13,9 +16,35 @@ namespace {
 constexpr char kMagic[5] = {'S', 'L', 'R', 'E', 'C'};
 constexpr std::uint8_t kKindRecording = 'W';
 constexpr std::uint8_t kKindSampleLog = 'S';
+constexpr std::uint8_t kTagHead = 'H';  // version 4: the world at step 0, or a sample log's agent count
 constexpr std::uint8_t kTagStep = 'T';
 constexpr std::uint8_t kTagSample = 'R';
 constexpr std::uint8_t kTagEnd = 'E';
+/// Version 4 framing: the file header's CRC; a record's tag, length and their CRC; the payload's CRC.
+constexpr std::size_t kFileHeaderBytes = 8;
+constexpr std::size_t kRecordHeaderBytes = 1 + 4 + 4;
+constexpr std::size_t kRecordTrailerBytes = 4;
+
+/// zlib's CRC-32 (the IEEE polynomial; it detects every error burst of up to 32 bits).
+std::uint32_t crc32_of(const void* data, std::size_t size) {
+  return static_cast<std::uint32_t>(
+      crc32_z(crc32_z(0L, Z_NULL, 0), static_cast<const Bytef*>(data), static_cast<z_size_t>(size)));
+}
+
+std::string tag_name(std::uint8_t tag) {
+  switch (tag) {
+    case kTagHead:
+      return "header record";
+    case kTagStep:
+      return "step record";
+    case kTagSample:
+      return "sample record";
+    case kTagEnd:
+      return "end marker";
+    default:
+      return "record of unknown tag " + std::to_string(tag);
+  }
+}
 
 constexpr int kMaxAgents = 1'000'000;
 constexpr std::uint32_t kMaxScenarioBytes = 16u << 20;
@@ -54,10 +83,33 @@ class Encoder {
   std::string bytes_;
 };
 
-void header_bytes(Encoder& out, std::uint8_t kind) {
+/// Magic, kind, version and (version 4) the CRC-32 of those 8 bytes.
+std::string file_header(std::uint8_t kind) {
+  Encoder out;
   for (char c : kMagic) out.u8(static_cast<std::uint8_t>(c));
   out.u8(kind);
   out.u16(kRecordingVersion);
+  out.u32(crc32_of(out.bytes().data(), out.bytes().size()));
+  return out.bytes();
+}
+
+/// One version 4 record: u8 tag, u32 payload length, u32 CRC-32 of those 5 bytes, the payload, u32 CRC-32
+/// of the payload. The header's own checksum lets a reader tell a record cut by a kill (a shorter file)
+/// from a damaged length.
+void write_record(OutputFile& out, std::uint8_t tag, const std::string& payload) {
+  if (payload.size() > std::numeric_limits<std::uint32_t>::max()) {
+    throw std::length_error("recording: a " + tag_name(tag) + " of " + std::to_string(payload.size()) +
+                            " bytes exceeds 4 GiB");
+  }
+  Encoder head;
+  head.u8(tag);
+  head.u32(static_cast<std::uint32_t>(payload.size()));
+  head.u32(crc32_of(head.bytes().data(), head.bytes().size()));
+  Encoder trailer;
+  trailer.u32(crc32_of(payload.data(), payload.size()));
+  out.write(head.bytes());
+  out.write(payload);
+  out.write(trailer.bytes());
 }
 
 void encode(Encoder& out, const estimators::MeasurementBatch& b) {
@@ -121,16 +173,14 @@ void encode(Encoder& out, const estimators::BeliefMessage& m) {
   for (const auto& c : m.contributions) out.i32(c.from), out.mat2(c.information), out.vec2(c.info_vec);
 }
 
-void write_bytes(std::ofstream& out, const std::string& bytes, const std::filesystem::path& path) {
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  if (!out) throw std::runtime_error("cannot write " + path.string());
-}
-
-std::ofstream open_for_writing(const std::filesystem::path& path) {
-  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw std::runtime_error("cannot create " + path.string());
-  return out;
+/// `path` after creating its parent directories (OutputError naming the directory if that fails).
+const std::filesystem::path& with_parent_directories(const std::filesystem::path& path) {
+  if (path.has_parent_path()) {
+    std::error_code error;
+    std::filesystem::create_directories(path.parent_path(), error);
+    if (error) throw OutputError(path.parent_path(), "create the directory", error.value());
+  }
+  return path;
 }
 
 // ---- Decoding: every read checked against the bytes left ----
@@ -138,23 +188,77 @@ std::ofstream open_for_writing(const std::filesystem::path& path) {
 class Decoder {
  public:
   Decoder(const std::vector<std::uint8_t>& bytes, std::string source)
-      : bytes_(bytes), source_(std::move(source)) {}
+      : bytes_(bytes), source_(std::move(source)), limit_(bytes.size()) {}
+
+  /// A version 4 record whose checksums matched: its payload is bytes [payload_at, payload_end).
+  struct Record {
+    std::uint8_t tag = 0;
+    std::size_t at = 0;  ///< where its header starts
+    std::size_t payload_at = 0;
+    std::size_t payload_end = 0;
+  };
 
   [[noreturn]] void fail(const std::string& what, std::size_t at) const {
     throw RecordingError(source_ + ": byte " + std::to_string(at) + ": " + what);
   }
   [[noreturn]] void fail(const std::string& what) const { fail(what, offset_); }
-  /// The file ends (or a count claims more than the bytes left) inside a record.
+  /// The file ends (or a count claims more than the bytes left) inside a record. Inside a checksummed
+  /// payload the bytes are all there, so running short is damage, not a cut file.
   [[noreturn]] void fail_short(const std::string& what, std::size_t at) {
-    ran_out_ = true;
+    ran_out_ = limit_ == bytes_.size();
     fail(what, at);
   }
   [[nodiscard]] bool ran_out() const { return ran_out_; }
 
   [[nodiscard]] std::size_t offset() const { return offset_; }
   void seek(std::size_t offset) { offset_ = offset; }
-  [[nodiscard]] std::size_t left() const { return bytes_.size() - offset_; }
+  /// Bytes left in the current record's payload (version 4) or in the file.
+  [[nodiscard]] std::size_t left() const { return limit_ - offset_; }
   [[nodiscard]] bool at_end() const { return offset_ == bytes_.size(); }
+  [[nodiscard]] std::size_t bytes_left_in_file() const { return bytes_.size() - offset_; }
+
+  /// Version 4: the record at the offset, both checksums verified before any field is read. The reads
+  /// that follow are confined to its payload until end_record().
+  Record begin_record() {
+    Record r;
+    r.at = offset_;
+    if (left() < kRecordHeaderBytes) {
+      fail_short("truncated: a record header needs " + std::to_string(kRecordHeaderBytes) + " bytes, " +
+                     std::to_string(left()) + " left",
+                 r.at);
+    }
+    const std::uint32_t head_crc = crc32_of(bytes_.data() + offset_, 5);
+    r.tag = u8();
+    const std::uint32_t length = u32();
+    if (u32() != head_crc)
+      fail("checksum mismatch in a record header (tag and length): the file is damaged", r.at);
+    r.payload_at = offset_;
+    r.payload_end = offset_ + length;
+    if (length > left() || left() - length < kRecordTrailerBytes) {
+      fail_short("truncated: the " + tag_name(r.tag) + " of " + std::to_string(length) + " bytes needs " +
+                     std::to_string(std::size_t{length} + kRecordTrailerBytes) + " bytes, " +
+                     std::to_string(left()) + " left",
+                 r.at);
+    }
+    offset_ = r.payload_end;
+    const std::uint32_t stored = u32();
+    if (crc32_of(bytes_.data() + r.payload_at, length) != stored) {
+      fail("checksum mismatch in the " + tag_name(r.tag) + " (bytes " + std::to_string(r.at) + " to " +
+               std::to_string(offset_) + "): the file is damaged",
+           r.at);
+    }
+    offset_ = r.payload_at;
+    limit_ = r.payload_end;
+    return r;
+  }
+  /// Every byte of the payload must have been read; moves past the record's checksum.
+  void end_record(const Record& r) {
+    if (offset_ != r.payload_end) {
+      fail(std::to_string(r.payload_end - offset_) + " unread bytes at the end of the " + tag_name(r.tag));
+    }
+    limit_ = bytes_.size();
+    offset_ = r.payload_end + kRecordTrailerBytes;
+  }
 
   std::uint8_t u8() { return static_cast<std::uint8_t>(le(1)); }
   bool boolean() {
@@ -207,13 +311,20 @@ class Decoder {
     return s;
   }
 
-  /// Magic, kind and version. Returns the version.
+  /// Magic, kind, version and (version 4) the header's checksum. Returns the version.
   std::uint16_t file_header(std::uint8_t kind) {
     if (bytes_.size() < sizeof kMagic || std::memcmp(bytes_.data(), kMagic, sizeof kMagic) != 0)
       fail("not a swarmloc recording (bad magic; expected \"SLREC\")", 0);
     offset_ = sizeof kMagic;
     const auto at = offset_;
     const std::uint8_t found = u8();
+    const auto version_at = offset_;
+    const std::uint16_t version = u16();
+    if (version >= kFirstChecksummedRecordingVersion && version <= kRecordingVersion) {
+      // Checked first: a damaged kind or version byte is damage, not another kind of file.
+      if (u32() != crc32_of(bytes_.data(), kFileHeaderBytes))
+        fail("checksum mismatch in the file header: the file is damaged", 0);
+    }
     if (found != kind) {
       auto name = [](std::uint8_t k) -> std::string {
         if (k == kKindRecording) return "a world recording (recording.slrec)";
@@ -222,8 +333,6 @@ class Decoder {
       };
       fail("the file is " + name(found) + ", expected " + name(kind), at);
     }
-    const auto version_at = offset_;
-    const std::uint16_t version = u16();
     if (version < kOldestReadableRecordingVersion || version > kRecordingVersion) {
       fail("format version " + std::to_string(version) + " is not supported (this build reads versions " +
                std::to_string(kOldestReadableRecordingVersion) + " to " + std::to_string(kRecordingVersion) +
@@ -248,6 +357,7 @@ class Decoder {
 
   const std::vector<std::uint8_t>& bytes_;
   std::string source_;
+  std::size_t limit_;  ///< the end of the current version 4 payload, else of the file
   std::size_t offset_ = 0;
   bool ran_out_ = false;
 };
@@ -325,11 +435,23 @@ estimators::MeasurementBatch decode_batch(Decoder& in, int agents) {
   return b;
 }
 
+/// The whole file; RecordingError (naming the path and the OS error) for anything but a readable file.
 std::vector<std::uint8_t> read_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw RecordingError(path.string() + ": cannot be read");
-  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw RecordingError(path.string() + ": read error");
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error)) {
+    const auto inside = path / (path.filename() == kSampleLogDirectory ? "agent_<id>.slrec" : kRecordingFile);
+    throw RecordingError(path.string() + ": is a directory; pass " + inside.string());
+  }
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) throw RecordingError(path.string() + ": cannot be read: " + std::strerror(errno));
+  std::vector<std::uint8_t> bytes;
+  std::uint8_t chunk[1 << 16];
+  std::size_t got = 0;
+  while ((got = std::fread(chunk, 1, sizeof chunk, file)) > 0) bytes.insert(bytes.end(), chunk, chunk + got);
+  const bool failed = std::ferror(file) != 0;
+  const int read_error = errno;
+  std::fclose(file);
+  if (failed) throw RecordingError(path.string() + ": read error: " + std::strerror(read_error));
   return bytes;
 }
 
@@ -403,9 +525,8 @@ std::string RecordedWorld::difference(const World& world) const {
 
 RecordingWriter::RecordingWriter(const std::filesystem::path& path, const config::Scenario& scenario,
                                  const World& world)
-    : path_(path), out_(open_for_writing(path)), agents_(world.size()) {
+    : path_(path), out_(with_parent_directories(path)), agents_(world.size()) {
   Encoder e;
-  header_bytes(e, kKindRecording);
   e.text(config::to_yaml(scenario));
   e.i32(agents_);
   for (int i = 0; i < agents_; ++i) {
@@ -417,7 +538,8 @@ RecordingWriter::RecordingWriter(const std::filesystem::path& path, const config
   }
   e.count(world.initial_heading.size());
   for (double heading : world.initial_heading) e.f64(heading);
-  write_bytes(out_, e.bytes(), path_);
+  out_.write(file_header(kKindRecording));
+  write_record(out_, kTagHead, e.bytes());
 }
 
 RecordingWriter::~RecordingWriter() {
@@ -442,11 +564,10 @@ void RecordingWriter::append_step(std::int64_t step, const std::vector<Vec2>& tr
                            " batches for " + std::to_string(agents_) + " agents");
   }
   Encoder e;
-  e.u8(kTagStep);
   e.i64(step);
   for (const auto& p : truth) e.vec2(p);
   for (const auto& batch : batches) encode(e, batch);
-  write_bytes(out_, e.bytes(), path_);
+  write_record(out_, kTagStep, e.bytes());
   ++steps_;
 }
 
@@ -454,11 +575,9 @@ void RecordingWriter::close() {
   if (closed_) return;
   closed_ = true;
   Encoder e;
-  e.u8(kTagEnd);
   e.u64(static_cast<std::uint64_t>(steps_));
-  write_bytes(out_, e.bytes(), path_);
+  write_record(out_, kTagEnd, e.bytes());
   out_.close();
-  if (!out_) throw std::runtime_error("cannot write " + path_.string());
 }
 
 // ---- Recording ----
@@ -494,6 +613,13 @@ std::shared_ptr<const Recording> parse_recording(std::vector<std::uint8_t> bytes
   r.bytes_ = std::move(bytes);
   Decoder in(r.bytes_, source);
   r.version_ = in.file_header(kKindRecording);
+  const bool checksummed = r.version_ >= kFirstChecksummedRecordingVersion;
+  Decoder::Record head;
+  if (checksummed) {
+    head = in.begin_record();
+    if (head.tag != kTagHead)
+      in.fail("expected the header record ('H'), found the " + tag_name(head.tag), head.at);
+  }
   r.scenario_yaml_ = in.text(kMaxScenarioBytes, "scenario");
   const auto agents_at = in.offset();
   r.agents_ = in.i32();
@@ -528,11 +654,15 @@ std::shared_ptr<const Recording> parse_recording(std::vector<std::uint8_t> bytes
             headings_at);
   }
   for (auto& heading : world.initial_heading) heading = in.f64();
+  if (checksummed) in.end_record(head);
 
-  const std::size_t step_min_bytes = 1 + 8 + n * (16 + 8 + 8 + 6 * 4 + 3);
+  // The smallest step after its tag: the step number, the truth, N empty batches.
+  const std::size_t step_min_bytes = 8 + n * (16 + 8 + 8 + 6 * 4 + 3);
   for (;;) {
     const auto tag_at = in.offset();
-    const std::uint8_t tag = in.u8();
+    Decoder::Record record;
+    if (checksummed) record = in.begin_record();
+    const std::uint8_t tag = checksummed ? record.tag : in.u8();
     if (tag == kTagEnd) {
       const auto count_at = in.offset();
       const std::uint64_t steps = in.u64();
@@ -541,12 +671,13 @@ std::shared_ptr<const Recording> parse_recording(std::vector<std::uint8_t> bytes
                     std::to_string(r.truth_.size()),
                 count_at);
       }
-      if (!in.at_end()) in.fail(std::to_string(in.left()) + " bytes after the end marker");
+      if (checksummed) in.end_record(record);
+      if (!in.at_end()) in.fail(std::to_string(in.bytes_left_in_file()) + " bytes after the end marker");
       break;
     }
     if (tag != kTagStep)
       in.fail("expected a step ('T') or the end marker ('E'), found byte " + std::to_string(tag), tag_at);
-    if (in.left() + 1 < step_min_bytes)
+    if (in.left() < step_min_bytes)
       in.fail("truncated: step " + std::to_string(r.truth_.size()) + " is incomplete", tag_at);
     const auto step_at = in.offset();
     const std::int64_t step = in.i64();
@@ -563,6 +694,7 @@ std::shared_ptr<const Recording> parse_recording(std::vector<std::uint8_t> bytes
       const auto batch = decode_batch(in, r.agents_);  // validates; decoded again on demand
       if (batch.odometry || !batch.range_bearings.empty()) r.has_pose_measurements_ = true;
     }
+    if (checksummed) in.end_record(record);
   }
   return recording;
 }
@@ -585,12 +717,12 @@ const char* to_string(SampleFamily family) {
 
 SampleLogWriter::SampleLogWriter(const std::filesystem::path& path, int agent_count,
                                  std::uint64_t scenario_hash)
-    : path_(path), out_(open_for_writing(path)) {
+    : path_(path), out_(with_parent_directories(path)) {
   Encoder e;
-  header_bytes(e, kKindSampleLog);
   e.i32(agent_count);
   e.u64(scenario_hash);
-  write_bytes(out_, e.bytes(), path_);
+  out_.write(file_header(kKindSampleLog));
+  write_record(out_, kTagHead, e.bytes());
 }
 
 SampleLogWriter::~SampleLogWriter() {
@@ -604,7 +736,6 @@ SampleLogWriter::~SampleLogWriter() {
 void SampleLogWriter::append(const ReceivedSample& s) {
   if (closed_) throw std::logic_error("SampleLogWriter: append after close");
   Encoder e;
-  e.u8(kTagSample);
   e.i32(s.receiver);
   e.i64(s.receiver_steps);
   e.i64(s.source_timestamp_ns);
@@ -614,7 +745,7 @@ void SampleLogWriter::append(const ReceivedSample& s) {
   e.i64(s.header.sender_stamp_ns), e.i64(s.header.world_stamp_ns);
   e.u8(static_cast<std::uint8_t>(s.family()));
   std::visit([&](const auto& message) { encode(e, message); }, s.message);
-  write_bytes(out_, e.bytes(), path_);
+  write_record(out_, kTagSample, e.bytes());
   ++count_;
 }
 
@@ -622,22 +753,71 @@ void SampleLogWriter::close() {
   if (closed_) return;
   closed_ = true;
   Encoder e;
-  e.u8(kTagEnd);
   e.u64(count_);
-  write_bytes(out_, e.bytes(), path_);
+  write_record(out_, kTagEnd, e.bytes());
   out_.close();
-  if (!out_) throw std::runtime_error("cannot write " + path_.string());
 }
 
 SampleLog load_sample_log(const std::filesystem::path& path, bool allow_unfinished) {
   return parse_sample_log(read_file(path), path.string(), allow_unfinished);
 }
 
+namespace {
+
+/// A sample record's fields after its tag ('R'); `version` decides which payload fields exist.
+ReceivedSample decode_sample(Decoder& in, int agents, std::uint16_t version) {
+  ReceivedSample s;
+  s.receiver = in.agent(agents, "receiver");
+  s.receiver_steps = in.i64();
+  s.source_timestamp_ns = in.i64();
+  s.take_ns = in.i64();
+  s.well_formed = in.boolean();
+  s.header.agent_id = in.i32(), s.header.seq = in.u32(), s.header.step = in.i64();
+  s.header.sender_stamp_ns = in.i64(), s.header.world_stamp_ns = in.i64();
+  const auto family_at = in.offset();
+  switch (in.u8()) {
+    case 0:
+      decode_into(in, s.message.emplace<estimators::StateMessage>());
+      break;
+    case 1: {
+      auto& information = s.message.emplace<estimators::InformationMessage>();
+      decode_into(in, information);
+      if (version >= 2) information.world_step = in.i64();  // version 1 logs predate it: −1
+      break;
+    }
+    case 2:
+      decode_into(in, s.message.emplace<estimators::ConsensusMessage>());
+      break;
+    case 3: {
+      auto& belief = s.message.emplace<estimators::BeliefMessage>();
+      decode_into(in, belief);
+      if (version >= 3) {  // older logs predate exact GaBP's contributions
+        belief.contributions.resize(in.count(4 + 6 * 8, "belief contributions"));
+        for (auto& c : belief.contributions)
+          c.from = in.i32(), c.information = in.mat2(), c.info_vec = in.vec2();
+      }
+      break;
+    }
+    default:
+      in.fail("unknown sample family", family_at);
+  }
+  return s;
+}
+
+}  // namespace
+
 SampleLog parse_sample_log(const std::vector<std::uint8_t>& bytes, const std::string& source,
                            bool allow_unfinished) {
   SampleLog log;
   Decoder in(bytes, source);
   log.version = in.file_header(kKindSampleLog);
+  const bool checksummed = log.version >= kFirstChecksummedRecordingVersion;
+  Decoder::Record head;
+  if (checksummed) {
+    head = in.begin_record();
+    if (head.tag != kTagHead)
+      in.fail("expected the header record ('H'), found the " + tag_name(head.tag), head.at);
+  }
   const auto agents_at = in.offset();
   log.agents = in.i32();
   if (log.agents < 1 || log.agents > kMaxAgents) {
@@ -645,6 +825,7 @@ SampleLog parse_sample_log(const std::vector<std::uint8_t>& bytes, const std::st
             agents_at);
   }
   log.scenario_hash = in.u64();
+  if (checksummed) in.end_record(head);
   for (;;) {
     const auto record_at = in.offset();
     if (allow_unfinished && in.at_end()) {
@@ -652,7 +833,9 @@ SampleLog parse_sample_log(const std::vector<std::uint8_t>& bytes, const std::st
       return log;
     }
     try {
-      const std::uint8_t tag = in.u8();
+      Decoder::Record record;
+      if (checksummed) record = in.begin_record();
+      const std::uint8_t tag = checksummed ? record.tag : in.u8();
       if (tag == kTagEnd) {
         const auto count_at = in.offset();
         const std::uint64_t count = in.u64();
@@ -661,51 +844,19 @@ SampleLog parse_sample_log(const std::vector<std::uint8_t>& bytes, const std::st
                       std::to_string(log.samples.size()),
                   count_at);
         }
-        if (!in.at_end()) in.fail(std::to_string(in.left()) + " bytes after the end marker");
+        if (checksummed) in.end_record(record);
+        if (!in.at_end()) in.fail(std::to_string(in.bytes_left_in_file()) + " bytes after the end marker");
         return log;
       }
       if (tag != kTagSample) {
         in.fail("expected a sample ('R') or the end marker ('E'), found byte " + std::to_string(tag),
                 record_at);
       }
-      ReceivedSample s;
-      s.receiver = in.agent(log.agents, "receiver");
-      s.receiver_steps = in.i64();
-      s.source_timestamp_ns = in.i64();
-      s.take_ns = in.i64();
-      s.well_formed = in.boolean();
-      s.header.agent_id = in.i32(), s.header.seq = in.u32(), s.header.step = in.i64();
-      s.header.sender_stamp_ns = in.i64(), s.header.world_stamp_ns = in.i64();
-      const auto family_at = in.offset();
-      switch (in.u8()) {
-        case 0:
-          decode_into(in, s.message.emplace<estimators::StateMessage>());
-          break;
-        case 1: {
-          auto& information = s.message.emplace<estimators::InformationMessage>();
-          decode_into(in, information);
-          if (log.version >= 2) information.world_step = in.i64();  // version 1 logs predate it: −1
-          break;
-        }
-        case 2:
-          decode_into(in, s.message.emplace<estimators::ConsensusMessage>());
-          break;
-        case 3: {
-          auto& belief = s.message.emplace<estimators::BeliefMessage>();
-          decode_into(in, belief);
-          if (log.version >= 3) {  // older logs predate exact GaBP's contributions
-            belief.contributions.resize(in.count(4 + 6 * 8, "belief contributions"));
-            for (auto& c : belief.contributions)
-              c.from = in.i32(), c.information = in.mat2(), c.info_vec = in.vec2();
-          }
-          break;
-        }
-        default:
-          in.fail("unknown sample family", family_at);
-      }
-      log.samples.push_back(std::move(s));
+      log.samples.push_back(decode_sample(in, log.agents, log.version));
+      if (checksummed) in.end_record(record);
     } catch (const RecordingError&) {
-      // An unfinished file (a killed writer) ends in a cut record: keep what came before it.
+      // An unfinished file (a killed writer) ends in a cut record: keep what came before it. Since
+      // version 4 only a record the file's end cuts counts; a damaged one is an error.
       if (!allow_unfinished || !in.ran_out()) throw;
       log.complete = false;
       return log;

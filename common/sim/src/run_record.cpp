@@ -1,12 +1,15 @@
 #include "swarmloc/sim/run_record.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
+#include <cstring>
 #include <ctime>
-#include <fstream>
 #include <iomanip>
 #include <numeric>
 #include <sstream>
@@ -21,10 +24,23 @@ nlohmann::json number_or_null(double value) {
   return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json();
 }
 
-void write_file(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text;
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+/// What prepare_run_directory may clear with --force: a directory an earlier run wrote.
+bool looks_like_run_directory(const std::filesystem::path& directory) {
+  std::error_code ec;
+  return std::filesystem::exists(directory / "scenario.yaml", ec) ||
+         std::filesystem::exists(directory / "summary.json", ec) ||
+         std::filesystem::is_directory(directory / "logs", ec);
+}
+
+/// `name` as one path component: no '/', no control character, no leading '.', at most 100 bytes.
+std::string path_component(const std::string& name) {
+  std::string safe;
+  for (const char c : name.substr(0, 100)) {
+    const auto byte = static_cast<unsigned char>(c);
+    safe += (c == '/' || byte < 0x20 || byte == 0x7f) ? '_' : c;
+  }
+  while (!safe.empty() && safe.front() == '.') safe.front() = '_';
+  return safe.empty() ? std::string("run") : safe;
 }
 
 }  // namespace
@@ -75,6 +91,7 @@ nlohmann::json summary_json(const RunRecord& record) {
     final_json["nees"] = number_or_null(last->errors.nees);
     final_json["scored_agents"] = last->errors.scored;
     final_json["missing_agents"] = last->errors.missing;
+    final_json["lost_agents"] = last->lost;
     final_json["crlb_rmse_m"] = number_or_null(last->crlb_rmse_m);
     if (measurement_kinds(record.scenario.algorithm.name).field) {
       final_json["field_rmse"] = number_or_null(last->errors.field_rmse);
@@ -127,58 +144,139 @@ nlohmann::json summary_json(const RunRecord& record) {
   return summary;
 }
 
-void write_run_directory(const std::filesystem::path& directory, const RunRecord& record) {
-  std::filesystem::create_directories(directory);
-  write_file(directory / "scenario.yaml", config::to_yaml(record.scenario));
-  write_file(directory / "seed", std::to_string(record.scenario.seed) + "\n");
+void create_output_directories(const std::filesystem::path& directory) {
+  std::error_code ec;
+  std::filesystem::create_directories(directory, ec);
+  if (ec) throw OutputError(directory, "create directory", ec.value());
+}
+
+void write_run_directory(const std::filesystem::path& directory, const RunRecord& record,
+                         const WorkControl& control) {
+  create_output_directories(directory);
+  // A summary.json of an earlier attempt must not vouch for this one while it is half written.
+  std::error_code ignored;
+  std::filesystem::remove(directory / "summary.json", ignored);
+  write_text_file(directory / "scenario.yaml", config::to_yaml(record.scenario));
+  write_text_file(directory / "seed", std::to_string(record.scenario.seed) + "\n");
   {
-    std::ofstream out(directory / "metrics.csv");
+    std::ostringstream out;
     // A field world adds the field's error (joint_field); every other run keeps the nine columns.
     const bool field = measurement_kinds(record.scenario.algorithm.name).field;
+    // `lost` (dead or stalled agents, among the missing) comes last, so older readers keep their columns.
     out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing"
-        << (field ? ",field_rmse\n" : "\n");
+        << (field ? ",field_rmse,lost\n" : ",lost\n");
     out << std::setprecision(9);
     for (const auto& m : record.metrics) {
       out << m.step << ',' << m.time_s << ',' << m.errors.rmse_m << ',' << m.errors.mean_error_m << ','
           << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored
           << ',' << m.errors.missing;
       if (field) out << ',' << m.errors.field_rmse;
-      out << '\n';
+      out << ',' << m.lost << '\n';
     }
+    write_text_file(directory / "metrics.csv", out.str());
   }
   {
-    std::ofstream out(directory / "estimates.csv");
+    // Large runs hold millions of rows: written in chunks, not built whole in memory.
+    OutputFile file(directory / "estimates.csv");
+    std::ostringstream out;
     out << "step,agent,x_m,y_m,cov_xx,cov_xy,cov_yy,valid,truth_x_m,truth_y_m,error_m\n";
     out << std::setprecision(9);
+    std::size_t rows = 0;
     for (const auto& row : record.estimates) {
       const auto& e = row.estimate;
       out << row.step << ',' << row.agent << ',' << e.mean_m.x() << ',' << e.mean_m.y() << ','
           << e.covariance(0, 0) << ',' << e.covariance(0, 1) << ',' << e.covariance(1, 1) << ','
           << (e.valid ? 1 : 0) << ',' << row.truth.x() << ',' << row.truth.y() << ','
           << (e.mean_m - row.truth).norm() << '\n';
+      if (++rows % 4096 == 0) {
+        file.write(out.view());
+        out.str({});
+      }
     }
+    file.write(out.view());
+    file.close();
   }
   {
-    std::ofstream out(directory / "links.csv");
+    std::ostringstream out;
     out << "sender,receiver,sent,arrived,delivered,dropped_injected,rejected,delivered_in_steps\n";
     for (const auto& [key, link] : record.links) {
       out << key.first << ',' << key.second << ',' << link.sent() << ',' << link.arrived << ','
           << link.delivered << ',' << link.dropped_injected << ',' << link.rejected << ','
           << link.delivered_in_steps << '\n';
     }
+    write_text_file(directory / "links.csv", out.str());
   }
+  control.throw_if_cancelled();
   {
-    std::ofstream out(directory / "agents.csv");
-    out << "agent,anchor,steps_run,samples_published,cpu_s,exit_code,samples_published_in_steps\n";
+    std::ostringstream out;
+    out << "agent,anchor,steps_run,samples_published,cpu_s,exit_code,samples_published_in_steps,fate,fate_"
+           "step,"
+           "fate_reason\n";
     for (const auto& a : record.agent_summaries) {
+      std::string reason = a.fate_reason;
+      std::replace(reason.begin(), reason.end(), ',', ';');
       out << a.agent << ',' << (a.anchor ? 1 : 0) << ',' << a.steps_run << ',' << a.samples_published << ','
           << a.cpu_s << ',' << (a.exit_code ? std::to_string(*a.exit_code) : "") << ','
-          << a.samples_published_in_steps << '\n';
+          << a.samples_published_in_steps << ',' << a.fate << ','
+          << (a.fate_step >= 0 ? std::to_string(a.fate_step) : "") << ',' << reason << '\n';
     }
+    write_text_file(directory / "agents.csv", out.str());
   }
-  write_file(directory / "summary.json", summary_json(record).dump(2) + "\n");
-  write_tum_trajectories(directory, record);
+  control.throw_if_cancelled();
+  write_tum_trajectories(directory, record, control);
+  control.throw_if_cancelled();
   write_plots(directory, record);
+  control.throw_if_cancelled();
+  write_text_file_atomic(directory / "summary.json", summary_json(record).dump(2) + "\n");
+}
+
+void prepare_run_directory(const std::filesystem::path& directory, bool force) {
+  namespace fs = std::filesystem;
+  const std::string where = "--out: " + directory.string();
+  std::error_code ec;
+  const auto status = fs::status(directory, ec);
+  if (ec && ec != std::errc::no_such_file_or_directory)
+    throw config::ScenarioError(where + ": " + ec.message());
+  if (fs::exists(status)) {
+    if (!fs::is_directory(status)) throw config::ScenarioError(where + " exists and is not a directory");
+    fs::directory_iterator entries(directory, ec);
+    if (ec) throw config::ScenarioError(where + ": cannot list it: " + ec.message());
+    if (entries != fs::directory_iterator()) {
+      const bool earlier_run = looks_like_run_directory(directory);
+      if (!earlier_run) {
+        throw config::ScenarioError(where + " is not empty and is not a swarmloc run directory; " +
+                                    (force ? "refusing to clear it" : "choose another directory"));
+      }
+      if (!force) {
+        throw config::ScenarioError(where +
+                                    " is not empty (it holds an earlier run); pass --force to replace it, or "
+                                    "choose another directory");
+      }
+      std::vector<fs::path> contents;
+      for (; entries != fs::directory_iterator(); entries.increment(ec)) {
+        if (ec) break;
+        contents.push_back(entries->path());
+      }
+      for (const auto& entry : contents) {
+        if (ec) break;
+        fs::remove_all(entry, ec);
+      }
+      if (ec) throw config::ScenarioError(where + ": cannot clear the earlier run: " + ec.message());
+    }
+  } else {
+    fs::create_directories(directory, ec);
+    if (ec) throw config::ScenarioError(where + ": cannot create it: " + ec.message());
+  }
+  // Writable now, not after the run: a read-only mount or a missing permission is bad input (exit 2).
+  const auto probe = directory / (".swarmloc-probe-" + std::to_string(::getpid()));
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    throw config::ScenarioError(where + " is not writable: " + std::strerror(errno));
+  }
+  ::close(fd);
+  if (::unlink(probe.c_str()) != 0) {
+    throw config::ScenarioError(where + ": cannot remove " + probe.string() + ": " + std::strerror(errno));
+  }
 }
 
 std::string result_table(const RunRecord& record) {
@@ -248,10 +346,11 @@ std::filesystem::path default_run_directory(const config::Scenario& scenario) {
   gmtime_r(&now, &utc);
   char stamp[32];
   std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &utc);
-  auto base =
-      std::filesystem::path("runs") / (scenario.name + "-" + stamp + "-seed" + std::to_string(scenario.seed));
+  const auto base = std::filesystem::path("runs") /
+                    (path_component(scenario.name) + "-" + stamp + "-seed" + std::to_string(scenario.seed));
   auto candidate = base;
-  for (int k = 2; std::filesystem::exists(candidate); ++k)
+  std::error_code ec;
+  for (int k = 2; std::filesystem::exists(candidate, ec); ++k)
     candidate = base.string() + "-" + std::to_string(k);
   return candidate;
 }

@@ -9,6 +9,7 @@
 #include <limits>
 #include <mutex>
 #include <numbers>
+#include <sstream>
 #include <thread>
 
 #include "swarmloc/estimators/consensus/cooperative.hpp"
@@ -104,9 +105,17 @@ std::vector<std::uint8_t> partition_groups(const World& world) {
 }
 
 void record_agents(RunRecord& record, const World& world, const std::vector<AgentRuntime>& agents) {
+  // Inserted in key order (sender, receiver), each at the end: linear, where inserting receiver by
+  // receiver searched the tree for every one of the 10^6–10^7 links of a 10^5-agent run.
+  std::vector<std::pair<std::pair<AgentId, AgentId>, LinkCounters>> links;
+  for (AgentId i = 0; i < world.size(); ++i) {
+    for (const auto& [sender, counters] : agents[static_cast<std::size_t>(i)].links())
+      links.push_back({{sender, i}, counters});
+  }
+  std::sort(links.begin(), links.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [key, counters] : links) record.links.insert_or_assign(record.links.end(), key, counters);
   for (AgentId i = 0; i < world.size(); ++i) {
     const auto& agent = agents[static_cast<std::size_t>(i)];
-    for (const auto& [sender, counters] : agent.links()) record.links[{sender, i}] = counters;
     AgentSummary summary;
     summary.agent = i;
     summary.anchor = world.is_anchor[static_cast<std::size_t>(i)];
@@ -121,22 +130,28 @@ void record_agents(RunRecord& record, const World& world, const std::vector<Agen
 namespace {
 
 /// fn(i) for every agent i in [0, n) on `threads` threads (contiguous blocks); serial for threads ≤ 1.
+/// Every thread stops at the next agent once control's flag is set; then, all joined, this throws
+/// Cancelled. The calling thread reports its own block's progress to `phase`.
 template <typename Fn>
-void for_each_agent(int n, int threads, Fn&& fn) {
+void for_each_agent(int n, int threads, const WorkControl& control, WorkPhase& phase, Fn&& fn) {
+  auto run = [&](AgentId from, AgentId to, bool report) {
+    for (AgentId i = from; i < to && !control.cancelled(); ++i) {
+      if (report) phase.report(static_cast<std::size_t>(i - from), static_cast<std::size_t>(to - from));
+      fn(i);
+    }
+  };
   if (threads <= 1 || n < 2 * threads) {
-    for (AgentId i = 0; i < n; ++i) fn(i);
-    return;
+    run(0, n, true);
+  } else {
+    std::vector<std::thread> pool;
+    pool.reserve(static_cast<std::size_t>(threads - 1));
+    const int block = (n + threads - 1) / threads;
+    for (int t = 1; t < threads; ++t)
+      pool.emplace_back([&, t] { run(t * block, std::min(n, (t + 1) * block), false); });
+    run(0, std::min(n, block), true);
+    for (auto& thread : pool) thread.join();
   }
-  std::vector<std::thread> pool;
-  pool.reserve(static_cast<std::size_t>(threads - 1));
-  const int block = (n + threads - 1) / threads;
-  for (int t = 1; t < threads; ++t) {
-    pool.emplace_back([&, t] {
-      for (AgentId i = t * block; i < std::min(n, (t + 1) * block); ++i) fn(i);
-    });
-  }
-  for (AgentId i = 0; i < std::min(n, block); ++i) fn(i);
-  for (auto& thread : pool) thread.join();
+  control.throw_if_cancelled();
 }
 
 }  // namespace
@@ -150,17 +165,27 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
   if (scenario.run.sim_clock == config::SimClock::kAgents)
     return run_agent_clock_simulation(scenario, options);
   if (is_centralized(scenario.algorithm.name)) return run_centralized_simulation(scenario, options);
+  return run_simulation(scenario, build_world(scenario, options.trial, -1, options.control), options);
+}
+
+RunRecord run_simulation(const config::Scenario& scenario, World world, const SimOptions& options) {
+  if (scenario.run.sim_clock == config::SimClock::kAgents)
+    return run_agent_clock_simulation(scenario, options);
+  if (is_centralized(scenario.algorithm.name)) return run_centralized_simulation(scenario, options);
   const auto started = std::chrono::steady_clock::now();
-  World world = build_world(scenario, options.trial);
+  const WorkControl& control = options.control;
   attach_recorded(world, options.recorded);
-  if (options.recorder) options.recorder->begin(scenario, world);
   const int n = world.size();
   std::vector<AgentRuntime> agents;
   agents.reserve(static_cast<std::size_t>(n));
-  for (AgentId i = 0; i < n; ++i) {
-    agents.emplace_back(make_agent_estimator(scenario, world, i), world.setup_of(i),
-                        world.neighbours[static_cast<std::size_t>(i)],
-                        make_runtime_params(scenario, world, options.trial));
+  {
+    WorkPhase phase(control, "agents: creating " + std::to_string(n) + " agents");
+    for (AgentId i = 0; i < n; ++i) {
+      phase.tick(static_cast<std::size_t>(i), static_cast<std::size_t>(n));
+      agents.emplace_back(make_agent_estimator(scenario, world, i), world.setup_of(i),
+                          world.neighbours[static_cast<std::size_t>(i)],
+                          make_runtime_params(scenario, world, options.trial));
+    }
   }
 
   RunRecord record;
@@ -195,94 +220,115 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
   std::vector<estimators::MeasurementBatch> batches(static_cast<std::size_t>(n));
   // incoming[r]: the agents whose samples reach r, ascending (the order a serial sender loop delivers in).
   std::vector<std::vector<AgentId>> incoming(static_cast<std::size_t>(n));
-  for (AgentId sender = 0; sender < n; ++sender) {
-    for (AgentId receiver : world.neighbours[static_cast<std::size_t>(sender)])
-      incoming[static_cast<std::size_t>(receiver)].push_back(sender);
+  {
+    WorkPhase phase(control, "agents: links");
+    for (AgentId sender = 0; sender < n; ++sender) {
+      phase.tick(static_cast<std::size_t>(sender), static_cast<std::size_t>(n));
+      for (AgentId receiver : world.neighbours[static_cast<std::size_t>(sender)])
+        incoming[static_cast<std::size_t>(receiver)].push_back(sender);
+    }
   }
   int threads = options.round_threads == 0 ? auto_round_threads(n) : options.round_threads;
   if (options.recorder != nullptr || world.recorded) threads = 1;  // ordered side effects
+  control.throw_if_cancelled();
+  if (options.recorder) options.recorder->begin(scenario, world);
+  // A step of a large world takes seconds (a dense one: minutes), so the rounds report their progress and
+  // stop at the next agent on Ctrl-C; the step cut short is not scored.
+  WorkPhase step_phase(control, "");
   for (std::int64_t step = 0; step < scenario.run.steps; ++step) {
-    if (step > 0) advance_truth(world, scenario, step);
-    for (const auto& fault : kills) {
-      if (fault.to_step != step) continue;
-      const auto k = static_cast<std::size_t>(fault.agent);
-      agents[k] = AgentRuntime(make_agent_estimator(scenario, world, fault.agent),
-                               world.setup_of(fault.agent), world.neighbours[k],
-                               make_runtime_params(scenario, world, options.trial, ++incarnation[k]));
+    if (control.cancelled()) {
+      record.interrupted = true;
+      break;
     }
-    // Deliver round k−1's samples over the lossy bus, then the world-step-k batches. Each receiver takes
-    // its senders in ascending id order, so its mailbox and loss draws do not depend on the threads.
-    auto deliver_previous_round = [&](std::int64_t delivered_ns) {
-      for_each_agent(n, threads, [&](AgentId receiver) {
-        if (within(kills, receiver, step)) return;
-        auto& agent = agents[static_cast<std::size_t>(receiver)];
-        for (AgentId sender : incoming[static_cast<std::size_t>(receiver)]) {
-          const auto& publication = published[static_cast<std::size_t>(sender)];
-          AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
-            if (options.recorder) {
-              // Published in the previous round, delivered in this one (virtual world time).
-              options.recorder->sample(ReceivedSample{receiver, agent.steps_run(),
-                                                      publication.header.sender_stamp_ns, delivered_ns, true,
-                                                      header, SampleMessage(message)});
-            }
-            agent.on_sample(header, message);
-          });
-        }
-      });
-    };
-    deliver_previous_round(stamp_ns(step));
-    for_each_agent(n, threads, [&](AgentId i) {
-      batches[static_cast<std::size_t>(i)] = generate_batch(world, scenario, i, step);
-    });
-    if (options.recorder) options.recorder->world_step(step, world.truth, batches);
-    for_each_agent(n, threads, [&](AgentId i) {
-      const auto k = static_cast<std::size_t>(i);
-      Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns(step), stamp_ns(step)};
-      agents[k].on_batch(header, std::move(batches[k]));
-      if (within(kills, i, step) || within(pauses, i, step)) {
-        published[k] = AgentRuntime::Publication{};  // publishes nothing this round
-        estimates[k].reset();                        // not scored while down
-        return;
+    step_phase.restart("step " + std::to_string(step + 1) + "/" + std::to_string(scenario.run.steps));
+    try {
+      if (step > 0) advance_truth(world, scenario, step);
+      for (const auto& fault : kills) {
+        if (fault.to_step != step) continue;
+        const auto k = static_cast<std::size_t>(fault.agent);
+        agents[k] = AgentRuntime(make_agent_estimator(scenario, world, fault.agent),
+                                 world.setup_of(fault.agent), world.neighbours[k],
+                                 make_runtime_params(scenario, world, options.trial, ++incarnation[k]));
       }
-      const bool restarted_now = std::any_of(kills.begin(), kills.end(), [&](const config::AgentFault& f) {
-        return f.agent == i && f.to_step == step;
+      // Deliver round k−1's samples over the lossy bus, then the world-step-k batches. Each receiver takes
+      // its senders in ascending id order, so its mailbox and loss draws do not depend on the threads.
+      auto deliver_previous_round = [&](std::int64_t delivered_ns) {
+        for_each_agent(n, threads, control, step_phase, [&](AgentId receiver) {
+          if (within(kills, receiver, step)) return;
+          auto& agent = agents[static_cast<std::size_t>(receiver)];
+          for (AgentId sender : incoming[static_cast<std::size_t>(receiver)]) {
+            const auto& publication = published[static_cast<std::size_t>(sender)];
+            AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
+              if (options.recorder) {
+                // Published in the previous round, delivered in this one (virtual world time).
+                options.recorder->sample(ReceivedSample{receiver, agent.steps_run(),
+                                                        publication.header.sender_stamp_ns, delivered_ns,
+                                                        true, header, SampleMessage(message)});
+              }
+              agent.on_sample(header, message);
+            });
+          }
+        });
+      };
+      deliver_previous_round(stamp_ns(step));
+      for_each_agent(n, threads, control, step_phase, [&](AgentId i) {
+        batches[static_cast<std::size_t>(i)] = generate_batch(world, scenario, i, step);
       });
-      if (restarted_now) {
-        // A restarted process announces its prior first; its neighbours use it from the next round.
-        published[k] = agents[k].initial_publication(stamp_ns(step));
-        estimates[k].reset();
-        return;
-      }
-      published[k] = agents[k].step(stamp_ns(step));
-      make_hostile_if_listed(options.hostile_agents, i, published[k].outbox, published[k].header.step);
-      estimates[k] = agents[k].estimate();
-    });
-    // run.agent_steps_per_world_step: further exchanges within the period, without a batch.
-    for (int round = 1; round < scenario.run.agent_steps_per_world_step; ++round) {
-      const std::int64_t round_ns = stamp_ns(step) + (stamp_ns(step + 1) - stamp_ns(step)) * round /
-                                                         scenario.run.agent_steps_per_world_step;
-      deliver_previous_round(round_ns);
-      for_each_agent(n, threads, [&](AgentId i) {
+      if (options.recorder) options.recorder->world_step(step, world.truth, batches);
+      for_each_agent(n, threads, control, step_phase, [&](AgentId i) {
         const auto k = static_cast<std::size_t>(i);
-        if (within(kills, i, step) || within(pauses, i, step)) return;
-        published[k] = agents[k].step(round_ns);
+        Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns(step),
+                      stamp_ns(step)};
+        agents[k].on_batch(header, std::move(batches[k]));
+        if (within(kills, i, step) || within(pauses, i, step)) {
+          published[k] = AgentRuntime::Publication{};  // publishes nothing this round
+          estimates[k].reset();                        // not scored while down
+          return;
+        }
+        const bool restarted_now = std::any_of(kills.begin(), kills.end(), [&](const config::AgentFault& f) {
+          return f.agent == i && f.to_step == step;
+        });
+        if (restarted_now) {
+          // A restarted process announces its prior first; its neighbours use it from the next round.
+          published[k] = agents[k].initial_publication(stamp_ns(step));
+          estimates[k].reset();
+          return;
+        }
+        published[k] = agents[k].step(stamp_ns(step));
         make_hostile_if_listed(options.hostile_agents, i, published[k].outbox, published[k].header.step);
         estimates[k] = agents[k].estimate();
       });
-    }
-    StepMetrics metrics;
-    metrics.step = step;
-    metrics.time_s = reported_time_s(scenario, step);
-    metrics.errors = score(world, estimates);
-    metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
-    record.metrics.push_back(metrics);
-    if (options.record_estimates) {
-      for (AgentId i = 0; i < n; ++i) {
-        if (!estimates[static_cast<std::size_t>(i)]) continue;  // down (faults)
-        record.estimates.push_back({step, i, *estimates[static_cast<std::size_t>(i)], world.scored_truth(i)});
+      // run.agent_steps_per_world_step: further exchanges within the period, without a batch.
+      for (int round = 1; round < scenario.run.agent_steps_per_world_step; ++round) {
+        const std::int64_t round_ns = stamp_ns(step) + (stamp_ns(step + 1) - stamp_ns(step)) * round /
+                                                           scenario.run.agent_steps_per_world_step;
+        deliver_previous_round(round_ns);
+        for_each_agent(n, threads, control, step_phase, [&](AgentId i) {
+          const auto k = static_cast<std::size_t>(i);
+          if (within(kills, i, step) || within(pauses, i, step)) return;
+          published[k] = agents[k].step(round_ns);
+          make_hostile_if_listed(options.hostile_agents, i, published[k].outbox, published[k].header.step);
+          estimates[k] = agents[k].estimate();
+        });
       }
+      StepMetrics metrics;
+      metrics.step = step;
+      metrics.time_s = reported_time_s(scenario, step);
+      metrics.errors = score(world, estimates);
+      metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
+      record.metrics.push_back(metrics);
+      if (options.record_estimates) {
+        for (AgentId i = 0; i < n; ++i) {
+          if (!estimates[static_cast<std::size_t>(i)]) continue;  // down (faults)
+          record.estimates.push_back(
+              {step, i, *estimates[static_cast<std::size_t>(i)], world.scored_truth(i)});
+        }
+      }
+      if (options.on_step) options.on_step(step, metrics.errors);
+    } catch (const Cancelled&) {
+      record.interrupted = true;
+      break;
     }
-    if (options.on_step) options.on_step(step, metrics.errors);
   }
 
   record_agents(record, world, agents);
@@ -292,7 +338,8 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
 
 MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, int threads,
                                  const std::function<void(int, int)>& on_trial,
-                                 const std::function<void(int, const RunRecord&)>& on_record) {
+                                 const std::function<void(int, const RunRecord&)>& on_record,
+                                 const std::atomic<bool>* cancel) {
   require_supported_sim_clock(scenario);  // here, not in a worker thread, where it would terminate
   const auto started = std::chrono::steady_clock::now();
   MonteCarloResult result;
@@ -306,12 +353,20 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
   std::atomic<int> next{0};
   std::atomic<int> done{0};
   std::mutex progress_mutex;
+  const WorkControl control{cancel, {}};
   auto worker = [&] {
-    for (int t = next++; t < trials; t = next++) {
+    for (int t = next++; t < trials && !control.cancelled(); t = next++) {
       SimOptions options;
       options.trial = static_cast<std::uint64_t>(t);
       options.record_estimates = (t == 0) || static_cast<bool>(on_record);
-      auto record = run_simulation(scenario, options);
+      options.control = control;
+      RunRecord record;
+      try {
+        record = run_simulation(scenario, options);
+      } catch (const Cancelled&) {
+        return;  // an exception must not leave a worker thread
+      }
+      if (record.interrupted) return;
       if (on_record) on_record(t, record);
       auto& rows = per_trial[static_cast<std::size_t>(t)];
       rows.reserve(steps);
@@ -329,6 +384,7 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
   std::vector<std::thread> pool;
   for (int k = 0; k < result.threads; ++k) pool.emplace_back(worker);
   for (auto& thread : pool) thread.join();
+  control.throw_if_cancelled();
 
   const auto& reference = result.first_trial.metrics;
   for (std::size_t k = 0; k < steps; ++k) {
@@ -357,18 +413,20 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
 }
 
 void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result) {
-  std::filesystem::create_directories(directory);
-  std::ofstream out(directory / "montecarlo.csv");
+  create_output_directories(directory);
+  std::ostringstream out;
   out << "step,mse_mean_m2,mse_std_m2,rmse_mean_m,rmse_std_m,nees_mean,nees_std,crlb_rmse_m\n"
       << std::setprecision(9);
   for (const auto& r : result.steps) {
     out << r.step << ',' << r.mse_mean << ',' << r.mse_std << ',' << r.rmse_mean << ',' << r.rmse_std << ','
         << r.nees_mean << ',' << r.nees_std << ',' << r.crlb_rmse_m << '\n';
   }
-  std::ofstream trials(directory / "trials.csv");
+  write_text_file(directory / "montecarlo.csv", out.str());
+  std::ostringstream trials;
   trials << "trial,final_rmse_m\n" << std::setprecision(9);
   for (std::size_t t = 0; t < result.final_rmse_per_trial.size(); ++t)
     trials << t << ',' << result.final_rmse_per_trial[t] << '\n';
+  write_text_file(directory / "trials.csv", trials.str());
 }
 
 }  // namespace swarmloc::sim

@@ -1,22 +1,24 @@
 #include "swarmloc/sim/tum_export.hpp"
 
 #include <cmath>
-#include <fstream>
 #include <iomanip>
 #include <map>
-#include <stdexcept>
+#include <sstream>
 #include <string>
+
+#include "swarmloc/sim/output_file.hpp"
 
 namespace swarmloc::sim {
 namespace {
 
-void write_line(std::ofstream& out, double time_s, const Vec2& position) {
+void write_line(std::ostringstream& out, double time_s, const Vec2& position) {
   out << time_s << ' ' << position.x() << ' ' << position.y() << " 0 0 0 0 1\n";
 }
 
 }  // namespace
 
-int write_tum_trajectories(const std::filesystem::path& directory, const RunRecord& record) {
+int write_tum_trajectories(const std::filesystem::path& directory, const RunRecord& record,
+                           const WorkControl& control) {
   if (record.estimates.empty()) return 0;
   std::map<std::int64_t, double> step_time;
   for (const auto& m : record.metrics) step_time[m.step] = m.time_s;
@@ -31,12 +33,13 @@ int write_tum_trajectories(const std::filesystem::path& directory, const RunReco
   for (const auto& row : record.estimates) rows[row.agent][row.step] = &row;
 
   const auto out_dir = directory / "trajectories";
-  std::filesystem::create_directories(out_dir);
+  create_output_directories(out_dir);
   int written = 0;
   for (const auto& [agent, by_step] : rows) {
+    control.throw_if_cancelled();
     const auto stem = out_dir / ("agent_" + std::to_string(agent));
-    std::ofstream estimate(stem.string() + ".tum");
-    std::ofstream truth(stem.string() + "_truth.tum");
+    std::ostringstream estimate;
+    std::ostringstream truth;
     estimate << std::setprecision(12);
     truth << std::setprecision(12);
     for (const auto& [step, row] : by_step) {
@@ -45,7 +48,8 @@ int write_tum_trajectories(const std::filesystem::path& directory, const RunReco
       if (row->estimate.mean_m.allFinite()) write_line(estimate, t, row->estimate.mean_m);
       if (row->truth.allFinite()) write_line(truth, t, row->truth);
     }
-    if (!estimate || !truth) throw std::runtime_error("cannot write " + stem.string() + ".tum");
+    write_text_file(stem.string() + ".tum", estimate.str());
+    write_text_file(stem.string() + "_truth.tum", truth.str());
     ++written;
   }
   return written;

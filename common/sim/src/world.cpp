@@ -74,7 +74,8 @@ std::vector<Vec2> place(const Scenario& s, int attempt) {
   return positions;
 }
 
-std::vector<std::vector<AgentId>> disk_graph(const std::vector<Vec2>& positions, double radius) {
+std::vector<std::vector<AgentId>> disk_graph(const std::vector<Vec2>& positions, double radius,
+                                             const WorkControl& control, const std::string& draw) {
   const int n = static_cast<int>(positions.size());
   std::vector<std::vector<AgentId>> neighbours(static_cast<std::size_t>(n));
   // Grid bucketing keeps this O(N · degree) for the 10^4–10^5 agent simulations.
@@ -88,7 +89,16 @@ std::vector<std::vector<AgentId>> disk_graph(const std::vector<Vec2>& positions,
     return cx * 1000003LL + cy;
   };
   for (int i = 0; i < n; ++i) buckets[key(positions[static_cast<std::size_t>(i)], 0, 0)].push_back(i);
+  // A dense world (10^5 agents in the default 40 m square: ~31 000 neighbours each) takes minutes and
+  // gigabytes here: the running degree tells the user why.
+  WorkPhase phase(control, "world" + draw + ": neighbour graph");
+  std::size_t links = 0;
   for (int i = 0; i < n; ++i) {
+    if (i > 0 && i % 64 == 0) {
+      phase.rename("world" + draw + ": neighbour graph, " +
+                   std::to_string(links / static_cast<std::size_t>(i)) + " neighbours per agent so far");
+    }
+    phase.tick(static_cast<std::size_t>(i), static_cast<std::size_t>(n));
     const Vec2& p = positions[static_cast<std::size_t>(i)];
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
@@ -102,13 +112,17 @@ std::vector<std::vector<AgentId>> disk_graph(const std::vector<Vec2>& positions,
       }
     }
     std::sort(neighbours[static_cast<std::size_t>(i)].begin(), neighbours[static_cast<std::size_t>(i)].end());
+    links += neighbours[static_cast<std::size_t>(i)].size();
   }
   return neighbours;
 }
 
 /// Every non-anchor agent has >= 2 neighbours and reaches an anchor (a cheap proxy for localizability).
-bool acceptable(const std::vector<std::vector<AgentId>>& neighbours, const std::vector<bool>& is_anchor) {
+bool acceptable(const std::vector<std::vector<AgentId>>& neighbours, const std::vector<bool>& is_anchor,
+                const WorkControl& control, const std::string& draw) {
   const auto n = neighbours.size();
+  WorkPhase phase(control, "world" + draw + ": connectivity check");
+  std::size_t visited = 0;
   std::vector<bool> reached(n, false);
   std::queue<std::size_t> frontier;
   bool any_anchor = false;
@@ -123,6 +137,7 @@ bool acceptable(const std::vector<std::vector<AgentId>>& neighbours, const std::
   while (!frontier.empty()) {
     const auto i = frontier.front();
     frontier.pop();
+    phase.tick(visited++, n);
     for (AgentId j : neighbours[i]) {
       if (!reached[static_cast<std::size_t>(j)])
         reached[static_cast<std::size_t>(j)] = true, frontier.push(static_cast<std::size_t>(j));
@@ -201,7 +216,8 @@ std::uint64_t trial_seed(std::uint64_t seed, std::uint64_t trial) {
   return trial == 0 ? seed : core::hash_keys(seed, 0x7472696171ULL, trial);
 }
 
-World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw) {
+World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw, const WorkControl& control) {
+  control.throw_if_cancelled();
   if (s.world.source == config::WorldSource::kMrclam) return build_mrclam_world(s);
   World world;
   world.trial = trial;
@@ -210,12 +226,19 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw) {
     throw config::ScenarioError("accepted world draw " + std::to_string(accepted_draw) +
                                 " is >= " + std::to_string(kMaxAttempts));
   const bool random_placement = s.world.placement == config::Placement::kUniform;
+  // Up to kMaxAttempts draws (each a localizability check of up to 0.3 s): progress counts them.
+  WorkPhase draws(control, "world: placement draws");
   for (int attempt = std::max(accepted_draw, 0); attempt < kMaxAttempts; ++attempt) {
+    draws.rename("world: placement draw " + std::to_string(attempt + 1) + " of at most " +
+                 std::to_string(kMaxAttempts) + " (redrawn until every agent is connected and localizable)");
+    draws.tick(static_cast<std::size_t>(attempt), kMaxAttempts);
+    const std::string draw = attempt == 0 ? "" : " (draw " + std::to_string(attempt + 1) + ")";
     world.truth = place(s, attempt);
     world.is_anchor = choose_anchors(s, attempt);
-    world.neighbours = disk_graph(world.truth, s.world.comm_radius_m);
+    world.neighbours = disk_graph(world.truth, s.world.comm_radius_m, control, draw);
     world.placement_attempts = attempt + 1;
-    const bool connected = !s.world.require_connected || acceptable(world.neighbours, world.is_anchor);
+    const bool connected =
+        !s.world.require_connected || acceptable(world.neighbours, world.is_anchor, control, draw);
     if (accepted_draw >= 0) {
       if (!connected)
         throw config::ScenarioError("accepted world draw " + std::to_string(accepted_draw) +
@@ -268,6 +291,7 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw) {
     world.clocks.push_back(
         core::draw_clock(s.seed, static_cast<AgentId>(i), s.clock.offset_max_s, s.clock.drift_ppm));
   }
+  control.throw_if_cancelled();
   return world;
 }
 

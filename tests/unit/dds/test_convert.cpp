@@ -108,7 +108,8 @@ TEST(Convert, ControlCommandsOutOfRangeAreMalformed) {
   EXPECT_EQ(codec::control_command(0), sim::ControlCommand::kHello);
   EXPECT_EQ(codec::control_command(1), sim::ControlCommand::kStart);
   EXPECT_EQ(codec::control_command(2), sim::ControlCommand::kStop);
-  EXPECT_FALSE(codec::control_command(3).has_value());
+  EXPECT_EQ(codec::control_command(3), sim::ControlCommand::kRefuse);
+  EXPECT_FALSE(codec::control_command(4).has_value());
   EXPECT_FALSE(codec::control_command(255).has_value());
 }
 

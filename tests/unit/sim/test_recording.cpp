@@ -1,5 +1,6 @@
 // --record files and replay (recording.hpp): bit-exact round trips of every batch and sample field,
-// clear errors (never crashes) on hostile files, and simulator replays equal to the recorded run.
+// clear errors (never crashes) on hostile files, every single flipped bit refused (version 4 checksums),
+// older versions still read, and simulator replays equal to the recorded run.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -30,6 +31,72 @@ std::filesystem::path temp_dir(const std::string& name) {
 std::vector<std::uint8_t> read_bytes(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// ---- Version 4 framing, written out independently of recording.cpp (docs/record-replay.md) ----
+
+/// CRC-32 (IEEE, reflected, as zlib's crc32), bit by bit.
+std::uint32_t crc32_ieee(const std::uint8_t* data, std::size_t size) {
+  std::uint32_t crc = 0xFFFFFFFFu;
+  for (std::size_t k = 0; k < size; ++k) {
+    crc ^= data[k];
+    for (int bit = 0; bit < 8; ++bit) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  return ~crc;
+}
+
+std::uint32_t get_u32(const std::vector<std::uint8_t>& bytes, std::size_t at) {
+  std::uint32_t v = 0;
+  for (int k = 0; k < 4; ++k)
+    v |= static_cast<std::uint32_t>(bytes[at + static_cast<std::size_t>(k)]) << (8 * k);
+  return v;
+}
+void put_u32(std::vector<std::uint8_t>& bytes, std::size_t at, std::uint32_t v) {
+  for (int k = 0; k < 4; ++k)
+    bytes[at + static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(v >> (8 * k));
+}
+
+/// A version 4 record: tag, u32 length, u32 CRC of those 5 bytes, payload, u32 CRC of the payload.
+struct FramedRecord {
+  std::uint8_t tag = 0;
+  std::size_t at = 0;
+  std::size_t payload_at = 0;
+  std::size_t length = 0;
+  [[nodiscard]] std::size_t end() const { return payload_at + length + 4; }
+};
+
+/// The records of a whole version 4 file (after the 12-byte header), read by their lengths.
+std::vector<FramedRecord> records_of(const std::vector<std::uint8_t>& bytes) {
+  std::vector<FramedRecord> records;
+  for (std::size_t at = 12; at + 9 <= bytes.size();) {
+    FramedRecord r{bytes[at], at, at + 9, get_u32(bytes, at + 1)};
+    if (r.end() > bytes.size()) break;
+    records.push_back(r);
+    at = r.end();
+  }
+  return records;
+}
+
+/// Recomputes every checksum, so that a test can hand the reader a consistent file with a hostile field.
+void reseal(std::vector<std::uint8_t>& bytes) {
+  put_u32(bytes, 8, crc32_ieee(bytes.data(), 8));
+  for (const auto& r : records_of(bytes)) {
+    put_u32(bytes, r.at + 5, crc32_ieee(bytes.data() + r.at, 5));
+    put_u32(bytes, r.payload_at + r.length, crc32_ieee(bytes.data() + r.payload_at, r.length));
+  }
+}
+
+/// The same content in the unchecksummed layout of versions 1 to 3: the 8-byte header, the header
+/// record's payload, then per record its tag and payload.
+std::vector<std::uint8_t> without_checksums(const std::vector<std::uint8_t>& bytes, std::uint8_t version) {
+  std::vector<std::uint8_t> old(bytes.begin(), bytes.begin() + 8);
+  old[6] = version;
+  for (const auto& r : records_of(bytes)) {
+    if (r.tag != 'H') old.push_back(r.tag);
+    old.insert(old.end(), bytes.begin() + static_cast<std::ptrdiff_t>(r.payload_at),
+               bytes.begin() + static_cast<std::ptrdiff_t>(r.payload_at + r.length));
+  }
+  return old;
 }
 
 config::Scenario small_scenario() {
@@ -245,11 +312,6 @@ std::string load_error(const std::vector<std::uint8_t>& bytes) {
   return "";
 }
 
-void put_u32(std::vector<std::uint8_t>& bytes, std::size_t at, std::uint32_t v) {
-  for (int k = 0; k < 4; ++k)
-    bytes[at + static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(v >> (8 * k));
-}
-
 TEST(Recording, HostileFilesGiveClearErrorsNamingFileAndOffset) {
   const auto dir = temp_dir("hostile");
   const auto good = read_bytes(write_tiny_recording(dir, 2));
@@ -265,42 +327,55 @@ TEST(Recording, HostileFilesGiveClearErrorsNamingFileAndOffset) {
   EXPECT_NE(load_error(bad).find("byte 6: format version 99 is not supported"), std::string::npos)
       << load_error(bad);
   bad = good;
-  bad[5] = 'S';  // the kind byte of a sample log
+  bad[5] = 'S';  // the kind byte of a sample log: damage, unless the header's checksum says otherwise
+  EXPECT_NE(load_error(bad).find("byte 0: checksum mismatch in the file header"), std::string::npos)
+      << load_error(bad);
+  reseal(bad);
   EXPECT_NE(load_error(bad).find("is a sample log"), std::string::npos) << load_error(bad);
 
-  // Layout: magic(5) kind(1) version(2) | yaml length(4) yaml | agents(4) | per agent: anchor(1) guess(16)
-  // neighbour count(4) ids | heading count(4) headings | 'T' step(8) truth | batches | 'E' count(8).
-  std::uint32_t yaml_length = 0;
-  std::memcpy(&yaml_length, good.data() + 8, 4);  // the test host is little-endian, like the format
-  const std::size_t agents_at = 12 + yaml_length;
-  bad = good;
-  put_u32(bad, 8, 0xFFFFFFF0u);
-  EXPECT_NE(load_error(bad).find("byte 8: scenario: count 4294967280 exceeds"), std::string::npos)
-      << load_error(bad);
-  bad = good;
-  put_u32(bad, agents_at, 0x7FFFFFFF);
-  EXPECT_NE(load_error(bad).find("agent count 2147483647 outside"), std::string::npos) << load_error(bad);
-  bad = good;
-  put_u32(bad, agents_at + 4 + 1 + 16, 0xFFFFFFFFu);  // agent 0's neighbour count
-  EXPECT_NE(load_error(bad).find("neighbours: count 4294967295 exceeds"), std::string::npos)
-      << load_error(bad);
-  bad = good;
-  put_u32(bad, agents_at + 4 + 1 + 16 + 4, 77);  // agent 0's first neighbour id
-  EXPECT_NE(load_error(bad).find("neighbour 77 outside [0, 4)"), std::string::npos) << load_error(bad);
-  // The first batch's range count.
-  const auto world = build_world(tiny_scenario());
-  std::size_t world_bytes = 0;
-  for (const auto& neighbours : world.neighbours) world_bytes += 1 + 16 + 4 + 4 * neighbours.size();
-  const std::size_t first_batch_at = agents_at + 4 + world_bytes + 4 + 4 * 8 + 1 + 8 + 4 * 16;
-  bad = good;
-  put_u32(bad, first_batch_at + 16, 0x40000000u);
-  EXPECT_NE(load_error(bad).find("ranges: count 1073741824 exceeds"), std::string::npos) << load_error(bad);
-  bad = good;
-  put_u32(bad, first_batch_at + 16 + 4, 4);  // the first range's peer
-  EXPECT_NE(load_error(bad).find("range peer 4 outside [0, 4)"), std::string::npos) << load_error(bad);
+  // Layout: magic(5) kind(1) version(2) crc(4) | header record: 'H' length(4) crc(4), payload: yaml
+  // length(4) yaml, agents(4), per agent anchor(1) guess(16) neighbour count(4) ids, heading count(4)
+  // headings; crc(4) | per step 'T' length crc, payload: step(8) truth batches; crc | 'E' … count(8) crc.
+  // Each hostile field below is written with every checksum recomputed (reseal): the reader's field checks
+  // hold behind the checksums too.
+  const auto records = records_of(good);
+  ASSERT_EQ(records.size(), 4u);  // header, two steps, end
+  EXPECT_EQ(records[0].tag, 'H');
+  EXPECT_EQ(records[1].tag, 'T');
+  EXPECT_EQ(records[3].tag, 'E');
+  EXPECT_EQ(records[3].end(), good.size());
+  const std::size_t yaml_at = records[0].payload_at;
+  const std::uint32_t yaml_length = get_u32(good, yaml_at);
+  const std::size_t agents_at = yaml_at + 4 + yaml_length;
+  auto hostile = [&](std::size_t at, std::uint32_t value) {
+    auto bytes = good;
+    put_u32(bytes, at, value);
+    reseal(bytes);
+    return load_error(bytes);
+  };
+  EXPECT_NE(hostile(yaml_at, 0xFFFFFFF0u)
+                .find("byte " + std::to_string(yaml_at) + ": scenario: count 4294967280 exceeds"),
+            std::string::npos)
+      << hostile(yaml_at, 0xFFFFFFF0u);
+  EXPECT_NE(hostile(agents_at, 0x7FFFFFFF).find("agent count 2147483647 outside"), std::string::npos);
+  EXPECT_NE(hostile(agents_at + 4 + 1 + 16, 0xFFFFFFFFu).find("neighbours: count 4294967295 exceeds"),
+            std::string::npos);  // agent 0's neighbour count
+  EXPECT_NE(hostile(agents_at + 4 + 1 + 16 + 4, 77).find("neighbour 77 outside [0, 4)"), std::string::npos);
+  // The first batch: after step 0's number and truth.
+  const std::size_t first_batch_at = records[1].payload_at + 8 + 4 * 16;
+  EXPECT_NE(hostile(first_batch_at + 16, 0x40000000u).find("ranges: count 1073741824 exceeds"),
+            std::string::npos);
+  EXPECT_NE(hostile(first_batch_at + 16 + 4, 4).find("range peer 4 outside [0, 4)"), std::string::npos);
   bad = good;
   bad.push_back(0);
   EXPECT_NE(load_error(bad).find("1 bytes after the end marker"), std::string::npos) << load_error(bad);
+  // Without resealing, a changed field is a checksum mismatch naming the record's first byte.
+  bad = good;
+  put_u32(bad, first_batch_at + 16 + 4, 4);
+  EXPECT_NE(load_error(bad).find("hostile.slrec: byte " + std::to_string(records[1].at) +
+                                 ": checksum mismatch in the step record"),
+            std::string::npos)
+      << load_error(bad);
 
   // Every truncation is an error (the end marker is missing or cut), never a crash.
   for (std::size_t size = 0; size < good.size(); ++size) {
@@ -436,18 +511,22 @@ TEST(SampleLog, EveryFamilyRoundTripsAndAnUnfinishedLogIsReadOnRequest) {
 
   // A killed agent's file has no end marker and may end inside a record.
   const auto bytes = read_bytes(path);
-  const std::vector<std::uint8_t> cut(bytes.begin(),
-                                      bytes.end() - 9 - 20);  // end marker + part of the belief
+  const auto records = records_of(bytes);
+  ASSERT_EQ(records.size(), 6u);  // header, four samples, end
+  const auto end_marker = static_cast<std::ptrdiff_t>(bytes.size() - records.back().at);
+  const std::vector<std::uint8_t> cut(bytes.begin(), bytes.end() - end_marker - 20);  // part of the belief
   EXPECT_THROW((void)parse_sample_log(cut, "cut.slrec"), RecordingError);
   const auto partial = parse_sample_log(cut, "cut.slrec", true);
   EXPECT_FALSE(partial.complete);
   ASSERT_EQ(partial.samples.size(), 3u);
   expect_same(partial.samples[2], samples[2]);
-  const std::vector<std::uint8_t> at_boundary(bytes.begin(), bytes.end() - 9);
+  const std::vector<std::uint8_t> at_boundary(bytes.begin(), bytes.end() - end_marker);
   EXPECT_EQ(parse_sample_log(at_boundary, "b.slrec", true).samples.size(), 4u);
   // Hostile content is an error even when unfinished logs are accepted.
   auto bad = bytes;
-  bad[8] = 2;  // agent count 2: the first sample's receiver (2) is out of range
+  bad[records[0].payload_at] = 2;  // agent count 2: the first sample's receiver (2) is out of range
+  EXPECT_THROW((void)parse_sample_log(bad, "bad.slrec", true), RecordingError);
+  reseal(bad);
   EXPECT_THROW((void)parse_sample_log(bad, "bad.slrec", true), RecordingError);
   EXPECT_THROW((void)load_recording(path), RecordingError);  // a sample log is not a recording
 
@@ -455,7 +534,7 @@ TEST(SampleLog, EveryFamilyRoundTripsAndAnUnfinishedLogIsReadOnRequest) {
   for (std::size_t size = 0; size < bytes.size(); ++size) {
     const std::vector<std::uint8_t> prefix(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(size));
     EXPECT_THROW((void)parse_sample_log(prefix, "prefix.slrec"), RecordingError) << size;
-    if (size >= 20) {  // the header is complete: an unfinished log reads
+    if (size >= records[0].end()) {  // the header record is complete: an unfinished log reads
       EXPECT_NO_THROW((void)parse_sample_log(prefix, "prefix.slrec", true)) << size;
     }
   }
@@ -482,9 +561,10 @@ TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep)
   }
   const auto bytes = read_bytes(path);
   ASSERT_EQ(bytes[6], kRecordingVersion);
-  // Version 1 is this log without the payload's last field (i64 world_step, before the 9-byte end marker).
-  std::vector<std::uint8_t> v1(bytes.begin(), bytes.end() - 9 - 8);
-  v1.insert(v1.end(), bytes.end() - 9, bytes.end());
+  const auto v3 = without_checksums(bytes, 3);
+  // Version 1 is that log without the payload's last field (i64 world_step, before the 9-byte end marker).
+  std::vector<std::uint8_t> v1(v3.begin(), v3.end() - 9 - 8);
+  v1.insert(v1.end(), v3.end() - 9, v3.end());
   v1[6] = 1;
   const auto log = parse_sample_log(v1, "v1.slrec");
   EXPECT_EQ(log.version, 1);
@@ -492,14 +572,15 @@ TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep)
   auto expected = information;
   std::get<estimators::InformationMessage>(expected.message).world_step = -1;
   expect_same(log.samples[0], expected);
-  auto v4 = bytes;
-  v4[6] = 4;
+  auto v5 = bytes;
+  v5[6] = 5;
+  reseal(v5);
   try {
-    (void)parse_sample_log(v4, "v4.slrec");
-    ADD_FAILURE() << "version 4 was read";
+    (void)parse_sample_log(v5, "v5.slrec");
+    ADD_FAILURE() << "version 5 was read";
   } catch (const RecordingError& e) {
     EXPECT_NE(
-        std::string(e.what()).find("format version 4 is not supported (this build reads versions 1 to 3)"),
+        std::string(e.what()).find("format version 5 is not supported (this build reads versions 1 to 4)"),
         std::string::npos)
         << e.what();
   }
@@ -515,11 +596,11 @@ TEST(SampleLog, AVersionTwoLogReadsWithItsBeliefsWithoutContributions) {
     writer.append(belief);
     writer.close();
   }
-  const auto bytes = read_bytes(path);
-  // Version 2 is this log without the payload's contributions (count + 52 bytes each) before the end marker.
+  const auto v3 = without_checksums(read_bytes(path), 3);
+  // Version 2 is that log without the payload's contributions (count + 52 bytes each) before the end marker.
   const auto cut = static_cast<std::ptrdiff_t>(9 + 4 + 52 * contributions);
-  std::vector<std::uint8_t> v2(bytes.begin(), bytes.end() - cut);
-  v2.insert(v2.end(), bytes.end() - 9, bytes.end());
+  std::vector<std::uint8_t> v2(v3.begin(), v3.end() - cut);
+  v2.insert(v2.end(), v3.end() - 9, v3.end());
   v2[6] = 2;
   const auto log = parse_sample_log(v2, "v2.slrec");
   EXPECT_EQ(log.version, 2);
@@ -527,6 +608,173 @@ TEST(SampleLog, AVersionTwoLogReadsWithItsBeliefsWithoutContributions) {
   auto expected = belief;
   std::get<estimators::BeliefMessage>(expected.message).contributions.clear();
   expect_same(log.samples[0], expected);
+}
+
+TEST(SampleLog, AVersionThreeLogReadsEveryFamilyAndItsUnfinishedFormToo) {
+  const auto dir = temp_dir("samples_v3");
+  const auto path = dir / "agent_002.slrec";
+  const auto samples = every_family();
+  {
+    SampleLogWriter writer(path, 4, 0xABCDEF);
+    for (const auto& s : samples) writer.append(s);
+    writer.close();
+  }
+  const auto v3 = without_checksums(read_bytes(path), 3);
+  const auto log = parse_sample_log(v3, "v3.slrec");
+  EXPECT_EQ(log.version, 3);
+  EXPECT_TRUE(log.complete);
+  EXPECT_EQ(log.scenario_hash, 0xABCDEFu);
+  ASSERT_EQ(log.samples.size(), samples.size());
+  for (std::size_t k = 0; k < samples.size(); ++k) expect_same(log.samples[k], samples[k]);
+  const std::vector<std::uint8_t> cut(v3.begin(), v3.end() - 9 - 20);
+  EXPECT_THROW((void)parse_sample_log(cut, "v3-cut.slrec"), RecordingError);
+  EXPECT_EQ(parse_sample_log(cut, "v3-cut.slrec", true).samples.size(), 3u);
+}
+
+// ---- Checksums (version 4) ----
+
+void expect_same_metrics(const RunRecord& a, const RunRecord& b);  // below, with the replays
+
+/// Flips bit `bit` of `bytes`.
+std::vector<std::uint8_t> flipped(const std::vector<std::uint8_t>& bytes, std::size_t bit) {
+  auto copy = bytes;
+  copy[bit / 8] = static_cast<std::uint8_t>(copy[bit / 8] ^ (1u << (bit % 8)));
+  return copy;
+}
+
+TEST(Recording, EverySingleFlippedBitIsRefusedNamingTheFileAndOffset) {
+  const auto dir = temp_dir("bitflips");
+  const auto good = read_bytes(write_tiny_recording(dir, 2));
+  ASSERT_EQ(load_error(good), "");
+  const auto records = records_of(good);
+  std::size_t refused = 0;
+  std::vector<std::size_t> accepted;
+  for (std::size_t bit = 0; bit < 8 * good.size(); ++bit) {
+    const auto error = load_error(flipped(good, bit));
+    if (error.empty()) {
+      accepted.push_back(bit);
+      continue;
+    }
+    ++refused;
+    EXPECT_EQ(error.rfind("hostile.slrec: byte ", 0), 0u) << "bit " << bit << ": " << error;
+    // A flip inside a record's payload or its checksum names the record's first byte.
+    const std::size_t at = bit / 8;
+    for (const auto& r : records) {
+      if (at >= r.payload_at && at < r.end()) {
+        EXPECT_NE(error.find("byte " + std::to_string(r.at) + ": checksum mismatch in the "),
+                  std::string::npos)
+            << "bit " << bit << ": " << error;
+      }
+    }
+  }
+  EXPECT_TRUE(accepted.empty()) << accepted.size() << " single-bit flips were accepted, the first at bit "
+                                << accepted.front();
+  std::printf("  %zu of %zu single-bit flips of a %zu-byte recording refused\n", refused, 8 * good.size(),
+              good.size());
+}
+
+TEST(SampleLog, EverySingleFlippedBitIsRefusedEvenWhereAnUnfinishedLogIsAccepted) {
+  const auto dir = temp_dir("samples_bitflips");
+  const auto path = dir / "agent_002.slrec";
+  {
+    SampleLogWriter writer(path, 4, 0xABCDEF);
+    for (const auto& s : every_family()) writer.append(s);
+    writer.close();
+  }
+  const auto bytes = read_bytes(path);
+  auto refused = [](const std::vector<std::uint8_t>& log, bool allow_unfinished) {
+    try {
+      (void)parse_sample_log(log, "flip.slrec", allow_unfinished);
+    } catch (const RecordingError& error) {
+      return std::string(error.what()).rfind("flip.slrec: byte ", 0) == 0;
+    }
+    return false;
+  };
+  int accepted = 0;
+  for (std::size_t bit = 0; bit < 8 * bytes.size(); ++bit) {
+    const auto log = flipped(bytes, bit);
+    if (!refused(log, false)) ++accepted, ADD_FAILURE() << "bit " << bit << " accepted";
+    // A flipped length must not pass for a record cut by a kill.
+    if (!refused(log, true)) ++accepted, ADD_FAILURE() << "bit " << bit << " accepted as unfinished";
+  }
+  // An unfinished log (killed writer, cut inside the belief): every flip in its complete records is refused;
+  // the cut record itself cannot be checked and is dropped.
+  const auto records = records_of(bytes);
+  const std::vector<std::uint8_t> cut(bytes.begin(),
+                                      bytes.begin() + static_cast<std::ptrdiff_t>(records[4].at + 30));
+  ASSERT_EQ(parse_sample_log(cut, "flip.slrec", true).samples.size(), 3u);
+  for (std::size_t bit = 0; bit < 8 * records[4].at; ++bit) {
+    if (!refused(flipped(cut, bit), true))
+      ++accepted, ADD_FAILURE() << "bit " << bit << " of the cut log accepted";
+  }
+  EXPECT_EQ(accepted, 0);
+}
+
+TEST(Recording, OldVersionsWithoutChecksumsStillReadBitExactly) {
+  const auto dir = temp_dir("old-versions");
+  const auto current = read_bytes(write_tiny_recording(dir, 3));
+  // World recordings are the same in versions 1 to 3 (the versions changed sample payloads only).
+  for (std::uint8_t version : {1, 2, 3}) {
+    const auto old = without_checksums(current, version);
+    const auto recording = parse_recording(old, "old.slrec");
+    EXPECT_EQ(recording->version(), version);
+    EXPECT_EQ(recording->scenario_yaml(), config::to_yaml(tiny_scenario()));
+    ASSERT_EQ(recording->steps(), 3);
+    for (std::int64_t step = 0; step < 3; ++step) {
+      for (AgentId i = 0; i < 4; ++i) expect_same(recording->batch(i, step), full_batch(i, step, 4));
+    }
+    // The old reader's checks still apply: a cut file is refused.
+    const std::vector<std::uint8_t> cut(old.begin(), old.end() - 1);
+    EXPECT_NE(load_error(cut), "");
+  }
+}
+
+TEST(Recording, AVersionThreeRecordingReplaysLikeItsVersionFourOriginal) {
+  const auto s = small_scenario();
+  const auto dir = temp_dir("replay-v3");
+  DirectoryRecorder recorder(dir);
+  SimOptions record_options;
+  record_options.recorder = &recorder;
+  const auto recorded_run = run_simulation(s, record_options);
+  recorder.close();
+  const auto v3 = without_checksums(read_bytes(dir / kRecordingFile), 3);
+  SimOptions replay_options;
+  replay_options.recorded = parse_recording(v3, "v3.slrec");
+  expect_same_metrics(recorded_run, run_simulation(s, replay_options));
+}
+
+TEST(Recording, WriteFailuresAndUnreadablePathsAreReported) {
+  const auto s = tiny_scenario();
+  const auto world = build_world(s);
+  // A full disk: /dev/full takes the buffered writes and refuses the flush.
+  if (std::filesystem::exists("/dev/full")) {
+    RecordingWriter writer("/dev/full", s, world);
+    try {
+      writer.close();
+      ADD_FAILURE() << "closing a recording on a full disk did not throw";
+    } catch (const OutputError& error) {
+      EXPECT_NE(std::string(error.what()).find("/dev/full: No space left on device"), std::string::npos)
+          << error.what();
+    }
+    SampleLogWriter samples("/dev/full", 4, 7);
+    for (const auto& sample : every_family()) samples.append(sample);
+    EXPECT_THROW(samples.close(), OutputError);
+  }
+  const auto dir = temp_dir("unwritable");
+  { std::ofstream(dir / "file") << "x"; }
+  EXPECT_THROW(RecordingWriter(dir / "file" / "recording.slrec", s, world), OutputError);
+  // A run directory instead of its recording: the error says which file to pass.
+  try {
+    (void)load_recording(dir);
+    ADD_FAILURE() << "a directory was read as a recording";
+  } catch (const RecordingError& error) {
+    EXPECT_EQ(std::string(error.what()),
+              dir.string() + ": is a directory; pass " + (dir / kRecordingFile).string());
+  }
+  const auto empty = dir / "empty.slrec";
+  { std::ofstream{empty}; }
+  EXPECT_THROW((void)load_recording(empty), RecordingError);
+  EXPECT_THROW((void)load_sample_log(empty), RecordingError);
 }
 
 // ---- Replays in the simulator ----

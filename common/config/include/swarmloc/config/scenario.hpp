@@ -201,6 +201,10 @@ struct Scenario {
     bool neighbour_discovery = true;  ///< unicast, per-agent Peers lists (DESIGN.md §4)
     std::string peer_address = "127.0.0.1";
     std::string security_dir;  ///< DDS Security PKI (deploy/security/make-pki.sh); empty: no security
+    /// Prefix of every partition name, so no sample of one run reaches another run's processes on the
+    /// same domain. Empty: `swarmloc run` draws a fresh one and writes it to the run directory's
+    /// scenario.yaml, which agents started elsewhere read (docs/robustness.md, "Run isolation").
+    std::string run_id;
   } dds;
 };
 
@@ -235,8 +239,16 @@ void validate(const Scenario& scenario);
 /// Serializes the full scenario with every default filled in (the run directory's scenario.yaml).
 std::string to_yaml(const Scenario& scenario);
 
-/// Stable 64-bit hash of to_yaml(scenario) (carried by the Control topic).
+/// Stable 64-bit hash of to_yaml(scenario), dds.run_id left out (the same scenario hashes the same in
+/// every run).
 std::uint64_t scenario_hash(const Scenario& scenario);
+
+/// Hash of what decides a run's results: everything but `name` and the transport settings (dds.*),
+/// which may differ between hosts. Agents and the orchestrator must agree on it (Control, Estimate).
+std::uint64_t results_hash(const Scenario& scenario);
+
+/// True if `run_id` may be a dds.run_id: 1 to 32 characters of [A-Za-z0-9_-].
+bool valid_run_id(const std::string& run_id);
 
 /// Every canonical key path accepted by --set (for --help and tests).
 const std::vector<std::string>& known_keys();

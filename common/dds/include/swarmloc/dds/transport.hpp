@@ -39,6 +39,17 @@ std::string cyclone_config(const config::Scenario& scenario, const Topology& top
 /// them (the orchestrator's, or the fusion centre's) would pass 65535.
 void require_ports_fit(const config::Scenario& scenario);
 
+/// A run's fixed DDS ports are taken (another run on the same domain): named, with a free domain.
+class PortsInUse : public DdsError {
+ public:
+  using DdsError::DdsError;
+};
+
+/// Before anything starts: with scenario.dds.neighbour_discovery, binds each fixed port this host will
+/// use (the orchestrator's and fusion centre's, and every agent's if `local_agents`) and throws
+/// PortsInUse naming the first busy one, whose participant it is, and a domain id whose ports are free.
+void require_ports_free(const config::Scenario& scenario, bool local_agents);
+
 /// One participant's DDS Security files (absolute paths) in a PKI folder made by
 /// deploy/security/make-pki.sh: shared identity_ca.pem, permissions_ca.pem, governance.p7s, and the
 /// participant's own folder (agent-<id>, orchestrator or fusion) with cert.pem, key.pem, permissions.p7s.

@@ -49,6 +49,21 @@ struct LinkCounters {
   [[nodiscard]] std::uint32_t sent() const { return arrived == 0 ? 0 : last_seq - first_seq + 1; }
 };
 
+/// An agent's own timing since START (run health, docs/robustness.md), measured by the DDS agent
+/// process against its own clock. Zero in the simulator, whose agents have no real time.
+struct AgentHealth {
+  std::uint32_t ticks = 0;
+  std::uint32_t late_ticks = 0;    ///< started more than half a period after their time
+  std::uint32_t missed_ticks = 0;  ///< periods skipped after an overrun
+  double max_tick_lateness_s = 0.0;
+  double mean_tick_lateness_s = 0.0;
+  std::uint32_t batches_received = 0;
+  std::uint32_t batches_merged = 0;   ///< arrived while an earlier batch still waited for a step
+  double max_batch_wait_s = 0.0;      ///< a batch's arrival to the step that used it
+  double neighbour_age_mean_s = 0.0;  ///< age of each neighbour's newest sample at a step, mean
+  double neighbour_age_max_s = 0.0;
+};
+
 /// An agent's report to the orchestrator (the Estimate topic).
 struct EstimateReport {
   Header header;
@@ -59,9 +74,13 @@ struct EstimateReport {
   double cpu_s = 0.0;
   std::vector<LinkCounters> links;
   std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason{};
+  std::uint64_t results_hash = 0;  ///< config::results_hash of the agent's scenario (0: not said)
+  AgentHealth health;
 };
 
-enum class ControlCommand : std::uint8_t { kHello = 0, kStart = 1, kStop = 2 };
+/// kRefuse goes to one agent whose results_hash differs from the run's (scenario_hash: the refused
+/// hash, so that a corrected agent restarted under the same id is not refused); the agent exits 2.
+enum class ControlCommand : std::uint8_t { kHello = 0, kStart = 1, kStop = 2, kRefuse = 3 };
 
 struct ControlMessage {
   Header header;

@@ -8,6 +8,8 @@
 //                        delivered fraction (equal aspect)
 //   error_histogram.png  histogram of the non-anchor agents' final errors
 #include <filesystem>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "swarmloc/sim/run_record.hpp"
@@ -39,7 +41,21 @@ std::vector<Vec2> covariance_ellipse(const Vec2& mean, const Mat2& covariance,
                                      double chi_square = kChiSquare2Dof95, int points = 64);
 
 /// Writes plots/ under `directory` (which must already hold metrics.csv) and runs gnuplot if present.
-/// Returns true if gnuplot ran and succeeded on every script.
+/// Returns true if gnuplot ran and succeeded on every script. Throws OutputError if a file, or a PNG
+/// gnuplot could not write for want of room, did not make it to disk.
 bool write_plots(const std::filesystem::path& directory, const RunRecord& record);
+
+/// `text` as a gnuplot single-quoted string literal ('' stands for a quote inside it).
+std::string gnuplot_quote(std::string_view text);
+
+enum class GnuplotResult { kDone, kNotInstalled, kFailed };
+
+/// Runs `gnuplot script` in `directory` (no shell; stdout and stderr discarded) and checks that every
+/// file of `outputs` (names in `directory`) exists and is whole afterwards (a PNG ends with its IEND
+/// chunk; any other file is non-empty). A missing or partial output throws
+/// OutputError when the directory cannot take a write (disk full, quota, read-only, file size limit);
+/// otherwise a gnuplot failure is a warning on stderr and kFailed. Without gnuplot on PATH: kNotInstalled.
+GnuplotResult run_gnuplot(const std::filesystem::path& directory, const std::string& script,
+                          const std::vector<std::string>& outputs);
 
 }  // namespace swarmloc::sim

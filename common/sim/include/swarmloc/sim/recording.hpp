@@ -5,11 +5,13 @@
 // plus per-receiver logs of the inter-agent samples the agents received. A loaded Recording is a
 // RecordedSteps: attached to World::recorded, every runtime replays it unchanged.
 //
-// Readers validate everything (magic, version, counts against the bytes left, agent ids, the end
-// marker) and throw RecordingError naming the file and the byte offset; a hostile file never crashes.
+// Since version 4 every record carries CRC-32 checksums, so a damaged file (one flipped bit anywhere) is
+// refused instead of replayed. Readers validate everything (checksums, magic, version, counts against the
+// bytes left, agent ids, the end marker) and throw RecordingError naming the file and the byte offset; a
+// hostile file never crashes. Writes are checked (OutputFile): a full disk throws instead of leaving a
+// silently short file.
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -18,15 +20,19 @@
 
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/sim/envelope.hpp"
+#include "swarmloc/sim/output_file.hpp"
 #include "swarmloc/sim/world.hpp"
 
 namespace swarmloc::sim {
 
 /// Format version written by this build (both file kinds). Version 2 added an information sample's world
-/// step, version 3 a belief sample's contributions (exact GaBP); readers accept versions 1 to 3 (a version 1
-/// sample's world step reads as −1, an older belief has no contributions).
-inline constexpr std::uint16_t kRecordingVersion = 3;
+/// step, version 3 a belief sample's contributions (exact GaBP), version 4 checksummed records (a CRC-32
+/// of the file header, and of each record's header and payload). Readers accept versions 1 to 4 (a version
+/// 1 sample's world step reads as −1, an older belief has no contributions, files before 4 have no
+/// checksums to check).
+inline constexpr std::uint16_t kRecordingVersion = 4;
 inline constexpr std::uint16_t kOldestReadableRecordingVersion = 1;
+inline constexpr std::uint16_t kFirstChecksummedRecordingVersion = 4;
 /// Names in a run directory.
 inline constexpr const char* kRecordingFile = "recording.slrec";
 inline constexpr const char* kSampleLogDirectory = "recording";
@@ -55,23 +61,26 @@ struct RecordedWorld {
 /// marker (a file without it — an interrupted run — is reported as truncated by the reader).
 class RecordingWriter {
  public:
-  /// Creates `path` (and its parent directories) and writes the header. Throws std::runtime_error.
+  /// Creates `path` (and its parent directories) and writes the header. Throws OutputError (a
+  /// std::runtime_error naming the file and the OS error) if it cannot.
   RecordingWriter(const std::filesystem::path& path, const config::Scenario& scenario, const World& world);
   ~RecordingWriter();
   RecordingWriter(const RecordingWriter&) = delete;
   RecordingWriter& operator=(const RecordingWriter&) = delete;
 
   /// World step `step` (== steps()): the truth and the batch of every agent (one per agent, in id order).
+  /// Throws OutputError if the write fails.
   void append_step(std::int64_t step, const std::vector<Vec2>& truth,
                    const std::vector<estimators::MeasurementBatch>& batches);
-  /// Writes the end marker and flushes; idempotent. Throws std::runtime_error if the write failed.
+  /// Writes the end marker and flushes; idempotent. Throws OutputError if a write, the flush or the
+  /// close failed (e.g. "No space left on device").
   void close();
   [[nodiscard]] std::int64_t steps() const { return steps_; }
   [[nodiscard]] const std::filesystem::path& path() const { return path_; }
 
  private:
   std::filesystem::path path_;
-  std::ofstream out_;
+  OutputFile out_;
   int agents_ = 0;
   std::int64_t steps_ = 0;
   bool closed_ = false;
@@ -109,8 +118,9 @@ class Recording final : public RecordedSteps {
   bool has_pose_measurements_ = false;
 };
 
-/// Reads and validates a recording file. Throws RecordingError (bad magic or version, truncation,
-/// counts larger than the bytes left, agent ids out of range, trailing bytes).
+/// Reads and validates a recording file. Throws RecordingError (a path that is a directory or cannot be
+/// read, a checksum mismatch, bad magic or version, truncation, counts larger than the bytes left, agent
+/// ids out of range, trailing bytes).
 std::shared_ptr<const Recording> load_recording(const std::filesystem::path& path);
 /// The same for a file's bytes; `source` names it in errors.
 std::shared_ptr<const Recording> parse_recording(std::vector<std::uint8_t> bytes, const std::string& source);
@@ -142,20 +152,21 @@ struct ReceivedSample {
 /// simulator: recording/samples.slrec for every receiver).
 class SampleLogWriter {
  public:
-  /// Throws std::runtime_error if `path` cannot be created.
+  /// Throws OutputError if `path` cannot be created.
   SampleLogWriter(const std::filesystem::path& path, int agent_count, std::uint64_t scenario_hash);
   ~SampleLogWriter();
   SampleLogWriter(const SampleLogWriter&) = delete;
   SampleLogWriter& operator=(const SampleLogWriter&) = delete;
 
+  /// Throws OutputError if the write fails.
   void append(const ReceivedSample& sample);
-  /// Writes the end marker and flushes; idempotent. Throws std::runtime_error if the write failed.
+  /// Writes the end marker and flushes; idempotent. Throws OutputError if a write failed.
   void close();
   [[nodiscard]] std::uint64_t count() const { return count_; }
 
  private:
   std::filesystem::path path_;
-  std::ofstream out_;
+  OutputFile out_;
   std::uint64_t count_ = 0;
   bool closed_ = false;
 };
@@ -170,7 +181,9 @@ struct SampleLog {
 };
 
 /// Reads and validates a sample log. `allow_unfinished`: a file without its end marker (a killed
-/// process) yields the complete records before the cut, with complete = false, instead of an error.
+/// process) yields the complete records before the cut, with complete = false, instead of an error. A
+/// damaged record (checksum mismatch) is an error in either case; only a record cut by the end of the
+/// file counts as the cut.
 SampleLog load_sample_log(const std::filesystem::path& path, bool allow_unfinished = false);
 SampleLog parse_sample_log(const std::vector<std::uint8_t>& bytes, const std::string& source,
                            bool allow_unfinished = false);
@@ -196,7 +209,7 @@ class DirectoryRecorder final : public RunRecorder {
   void world_step(std::int64_t step, const std::vector<Vec2>& truth,
                   const std::vector<estimators::MeasurementBatch>& batches) override;
   void sample(const ReceivedSample& sample) override;
-  /// Closes both files. Throws std::runtime_error if a write failed.
+  /// Closes both files. Throws OutputError if a write failed.
   void close();
   [[nodiscard]] std::int64_t steps() const { return steps_ ? steps_->steps() : 0; }
   [[nodiscard]] std::uint64_t samples() const { return samples_ ? samples_->count() : 0; }

@@ -13,6 +13,8 @@
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/sim/envelope.hpp"
 #include "swarmloc/sim/metrics.hpp"
+#include "swarmloc/sim/output_file.hpp"
+#include "swarmloc/sim/world.hpp"
 
 namespace swarmloc::sim {
 
@@ -21,6 +23,7 @@ struct StepMetrics {
   double time_s = 0.0;
   ErrorStats errors;
   double crlb_rmse_m = 0.0;  ///< accumulated over step+1 snapshots
+  int lost = 0;              ///< agents dead or stalled (unscheduled) at this step: among `missing`
 };
 
 struct EstimateRow {
@@ -39,6 +42,10 @@ struct AgentSummary {
   double cpu_s = 0.0;
   std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason{};
   std::optional<int> exit_code;  ///< DDS runs: the process's exit status
+  /// DDS runs: "ok", or "died" / "stalled" (its last unscheduled loss, docs/robustness.md "Liveness").
+  std::string fate = "ok";
+  std::int64_t fate_step = -1;  ///< the world step the loss was found at
+  std::string fate_reason;      ///< e.g. "process ended: killed by signal 9 (Killed)"
 };
 
 struct RunRecord {
@@ -81,13 +88,27 @@ WholeRunError whole_run_error(const RunRecord& record);
 nlohmann::json summary_json(const RunRecord& record);
 
 /// Writes the run directory; creates it if needed. Plots are made with gnuplot when it is installed
-/// (a plots/*.gp script is always written so they can be made later).
-void write_run_directory(const std::filesystem::path& directory, const RunRecord& record);
+/// (a plots/*.gp script is always written so they can be made later). Every write is checked and
+/// summary.json comes last, written atomically: its presence marks a complete directory. A failed write
+/// throws OutputError naming the file and the OS error.
+/// `control.cancel` (Ctrl-C) is polled between files and per agent: once set, writing stops with
+/// Cancelled and no summary.json, so the directory reads as incomplete.
+void write_run_directory(const std::filesystem::path& directory, const RunRecord& record,
+                         const WorkControl& control = {});
+
+/// create_directories, throwing OutputError (the directory and the OS error) on failure.
+void create_output_directories(const std::filesystem::path& directory);
 
 /// The human-readable result table printed at the end of a run.
 std::string result_table(const RunRecord& record);
 
-/// A fresh run directory name: runs/<scenario name>-<UTC yyyymmdd-hhmmss>-seed<seed>.
+/// Makes `directory` ready for a run before any work starts, or throws config::ScenarioError (exit 2)
+/// naming the path and the cause: it must be creatable and writable, and empty, unless `force` is set
+/// and it holds an earlier swarmloc run, which is then cleared.
+void prepare_run_directory(const std::filesystem::path& directory, bool force);
+
+/// A fresh run directory name: runs/<scenario name>-<UTC yyyymmdd-hhmmss>-seed<seed>, always directly
+/// under runs/ (a name validate() would refuse is made path-safe first).
 std::filesystem::path default_run_directory(const config::Scenario& scenario);
 
 }  // namespace swarmloc::sim

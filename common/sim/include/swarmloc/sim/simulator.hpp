@@ -27,6 +27,11 @@ struct SimOptions {
   /// (each touches only its own agents, so the result is identical for any count); 1 = serial, 0 =
   /// auto_round_threads. Runs with a recorder or a replayed world are always serial (ordered side effects).
   int round_threads = 1;
+  /// Progress of the long phases (the world, the agents, a step's rounds) and cancellation, polled per
+  /// agent. Set before the first step: run_simulation throws Cancelled; later it returns the steps done
+  /// with RunRecord::interrupted set (a step cut short is not scored; with a recorder, recording.slrec may
+  /// hold its measurements). run.sim_clock = agents and centralized algorithms report per step only.
+  WorkControl control;
 };
 
 /// Below this many agents a round is too short (~4 µs per agent) to pay for starting threads.
@@ -41,6 +46,10 @@ int auto_round_threads(int agents);
 /// round k−1, then steps. run.sim_clock = agents: run_agent_clock_simulation.
 /// Centralized algorithms (ekf, lbekf*) delegate to run_centralized_simulation (centralized_runner.hpp).
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options = {});
+/// The same on `world` = build_world(scenario, options.trial), e.g. the one a preflight check built (at
+/// 10^5 agents a dense world takes minutes to build). run.sim_clock = agents and centralized algorithms
+/// build their own.
+RunRecord run_simulation(const config::Scenario& scenario, World world, const SimOptions& options);
 
 /// run.sim_clock = agents: a discrete-event simulation on virtual time. World step k's batches are
 /// published at k·T (T = 1/run.rate_hz) and the truth advances then; agent i's timer starts with the
@@ -75,10 +84,12 @@ struct MonteCarloResult {
 /// Runs `trials` independent trials of `scenario` on `threads` threads (0 = every core). The
 /// configuration is fixed by the seed; noise, initial guesses and loss differ per trial.
 /// `on_record`, if set, is called from the worker thread with every trial's full record (estimates
-/// included); it must only touch per-trial state.
+/// included); it must only touch per-trial state. `cancel` (Ctrl-C), polled per agent: once set, the
+/// trials stop and run_monte_carlo throws Cancelled.
 MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, int threads = 0,
                                  const std::function<void(int done, int total)>& on_trial = {},
-                                 const std::function<void(int trial, const RunRecord&)>& on_record = {});
+                                 const std::function<void(int trial, const RunRecord&)>& on_record = {},
+                                 const std::atomic<bool>* cancel = nullptr);
 
 /// Writes montecarlo.csv (per-step mean and spread) and trials.csv into `directory`.
 void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result);

@@ -2,9 +2,14 @@
 // The world model: ground truth, anchors, the communication graph and each agent's private start-up
 // facts (anchor flag, initial guess, clock). Deterministic in the scenario seed, so the orchestrator,
 // every agent process and the simulator build the same world independently.
+#include <atomic>
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <random>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
@@ -27,6 +32,65 @@ class RecordedSteps {
   [[nodiscard]] virtual std::vector<Vec2> truth(std::int64_t step) const = 0;
   /// Agent `agent`'s measurement batch of world step `step` (world_step = -1 if it has none).
   [[nodiscard]] virtual estimators::MeasurementBatch batch(AgentId agent, std::int64_t step) const = 0;
+};
+
+/// Thrown by a long computation whose WorkControl flag was set (Ctrl-C).
+class Cancelled : public std::runtime_error {
+ public:
+  Cancelled() : std::runtime_error("interrupted") {}
+};
+
+/// Progress and cancellation of a run's long computations — building the world, creating the agents, the
+/// simulation — which take minutes at 10^5 agents (a dense world: hours). Both members may be empty.
+struct WorkControl {
+  /// Polled in every long loop (each item, i.e. at least every few milliseconds); once it reads true the
+  /// computation throws Cancelled (run_simulation instead returns the steps done, marked interrupted).
+  /// Not owned: e.g. the flag a SIGINT handler sets.
+  const std::atomic<bool>* cancel = nullptr;
+  /// Called on the computing thread for a phase that has lasted a second, then at most four times a
+  /// second: what it does ("world: neighbour graph, 31204 neighbours per agent so far") and the fraction
+  /// done, in [0, 1].
+  std::function<void(const std::string& phase, double fraction)> on_progress;
+
+  [[nodiscard]] bool cancelled() const {
+    return cancel != nullptr && cancel->load(std::memory_order_relaxed);
+  }
+  void throw_if_cancelled() const {
+    if (cancelled()) throw Cancelled();
+  }
+};
+
+/// One phase of a WorkControl'led computation: call tick() for every item of its loop.
+class WorkPhase {
+ public:
+  WorkPhase(const WorkControl& control, std::string name)
+      : control_(control), name_(std::move(name)), started_(std::chrono::steady_clock::now()) {}
+  /// Throws Cancelled if the flag is set; reports done / total when due (a clock read: cheap enough for
+  /// items of a microsecond).
+  void tick(std::size_t done, std::size_t total) {
+    control_.throw_if_cancelled();
+    report(done, total);
+  }
+  /// Reports done / total when due, without looking at the flag.
+  void report(std::size_t done, std::size_t total) {
+    if (!control_.on_progress) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - started_ < std::chrono::seconds(1) || now - last_ < std::chrono::milliseconds(250)) return;
+    last_ = now;
+    control_.on_progress(name_, total == 0 ? 1.0 : static_cast<double>(done) / static_cast<double>(total));
+  }
+  void rename(std::string name) { name_ = std::move(name); }
+  /// A new phase in the same object: reported once it has lasted a second.
+  void restart(std::string name) {
+    name_ = std::move(name);
+    started_ = std::chrono::steady_clock::now();
+  }
+
+ private:
+  const WorkControl& control_;
+  std::string name_;
+  std::chrono::steady_clock::time_point started_;
+  std::chrono::steady_clock::time_point last_{};
 };
 
 struct World {
@@ -67,7 +131,11 @@ struct World {
 /// (World::placement_attempts − 1), taken without re-running the localizability check — a dense
 /// 2n × 2n factorization that made up about half of an agent's start-up CPU at N = 500. The cheap
 /// connectivity check still runs; a draw that fails it throws config::ScenarioError.
-World build_world(const config::Scenario& scenario, std::uint64_t trial = 0, int accepted_draw = -1);
+///
+/// `control`: progress of the long phases (draws, neighbour graph, connectivity check) and the
+/// cancellation flag, polled per agent; a set flag throws Cancelled. The world does not depend on it.
+World build_world(const config::Scenario& scenario, std::uint64_t trial = 0, int accepted_draw = -1,
+                  const WorkControl& control = {});
 
 /// Attaches recorded steps to `world` (World::recorded) and takes its truth of step 0. Throws
 /// std::invalid_argument if the recording's agent count differs or it holds no step.

@@ -1,0 +1,63 @@
+#include "console.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+
+namespace swarmloc::orchestrator {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+std::atomic<bool> g_interrupted_again{false};
+// Flags only; never DDS from a handler.
+void on_signal(int /*signal*/) {
+  if (g_interrupted.exchange(true)) g_interrupted_again.store(true);
+}
+
+}  // namespace
+
+std::atomic<bool>& interrupted() { return g_interrupted; }
+std::atomic<bool>& interrupted_again() { return g_interrupted_again; }
+
+void install_interrupt_handlers() {
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  std::signal(SIGHUP, on_signal);
+  std::signal(SIGPIPE, SIG_IGN);
+}
+
+std::string hold_text(double seconds) {
+  if (!std::isfinite(seconds)) return "until Ctrl-C";
+  char text[64];
+  std::snprintf(text, sizeof text, "for %g s", seconds);
+  return text;
+}
+
+Progress::Progress(bool enabled) : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0) {}
+
+void Progress::update(const std::string& line, bool force) {
+  if (!enabled_) return;
+  const auto now = Clock::now();
+  if (!force && now - last_ < std::chrono::milliseconds(tty_ ? 250 : 5000)) return;
+  last_ = now;
+  std::fprintf(stderr, tty_ ? "\r%-100s" : "%s\n", line.c_str());
+  std::fflush(stderr);
+}
+
+void Progress::finish() {
+  if (enabled_ && tty_) std::fprintf(stderr, "\n");
+}
+
+std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& errors, int reporting,
+                          int agents, double elapsed_s) {
+  char line[200];
+  std::snprintf(line, sizeof line,
+                "[%5.1fs] step %4lld/%d  rmse %8.4f m  max %8.4f m  agents reporting %d/%d", elapsed_s,
+                static_cast<long long>(step + 1), steps, errors.rmse_m, errors.max_error_m, reporting,
+                agents);
+  return line;
+}
+
+}  // namespace swarmloc::orchestrator

@@ -1,0 +1,46 @@
+#pragma once
+// What the orchestrator's commands share on the console: the interrupt flag set by SIGINT, SIGTERM and
+// SIGHUP, and the one progress line.
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+#include "swarmloc/sim/metrics.hpp"
+
+namespace swarmloc::orchestrator {
+
+using Clock = std::chrono::steady_clock;
+
+/// Set by SIGINT, SIGTERM and SIGHUP once install_interrupt_handlers() ran; never cleared.
+std::atomic<bool>& interrupted();
+/// Set by a second such signal: it cancels the saving of a run the first one stopped.
+std::atomic<bool>& interrupted_again();
+/// SIGINT, SIGTERM and SIGHUP (terminal or ssh closed) set interrupted(); SIGPIPE is ignored, so a
+/// closed stdout (`swarmloc run … | head -1`) fails writes instead of killing the run.
+void install_interrupt_handlers();
+
+inline double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+/// "for 10 s" / "until Ctrl-C" (--view-hold).
+std::string hold_text(double seconds);
+
+/// One progress line on stderr, rewritten in place on a terminal.
+class Progress {
+ public:
+  explicit Progress(bool enabled);
+  void update(const std::string& line, bool force = false);
+  void finish();
+
+ private:
+  bool enabled_;
+  bool tty_;
+  Clock::time_point last_ = Clock::now() - std::chrono::hours(1);
+};
+
+std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& errors, int reporting,
+                          int agents, double elapsed_s);
+
+}  // namespace swarmloc::orchestrator

@@ -1,0 +1,31 @@
+#include "preflight.hpp"
+
+#include <stdexcept>
+#include <string>
+
+#include "swarmloc/sim/centralized_runner.hpp"
+#include "swarmloc/sim/simulator.hpp"
+#include "swarmloc/sim/world.hpp"
+
+namespace swarmloc::orchestrator {
+
+void check_hostile_ids(const std::vector<AgentId>& hostile_agents, const config::Scenario& scenario) {
+  for (AgentId id : hostile_agents) {
+    if (id < 0 || id >= scenario.world.agents) {
+      throw config::ScenarioError("--hostile: agent " + std::to_string(id) + " is outside [0, world.agents)");
+    }
+  }
+}
+
+sim::World check_runnable(const config::Scenario& scenario, const sim::WorkControl& control) {
+  auto world = sim::build_world(scenario, 0, -1, control);
+  try {
+    (void)sim::make_agent_estimator(scenario, world, 0);
+  } catch (const std::invalid_argument& error) {
+    throw config::ScenarioError("algorithm.name: '" + scenario.algorithm.name +
+                                "' is not runnable by swarmloc run/sim yet (" + error.what() + ")");
+  }
+  return world;
+}
+
+}  // namespace swarmloc::orchestrator
