@@ -60,4 +60,22 @@ std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& e
   return line;
 }
 
+sim::WorkControl interruptible_work(Progress& progress, Clock::time_point started) {
+  sim::WorkControl control;
+  control.cancel = &interrupted();
+  control.on_progress = [&progress, started](const std::string& phase, double fraction) {
+    char line[240];
+    std::snprintf(line, sizeof line, "[%5.1fs] %s: %.0f %%", seconds_since(started), phase.c_str(),
+                  100.0 * fraction);
+    progress.update(line);
+  };
+  return control;
+}
+
+void discard_if_empty(const std::filesystem::path& run_dir, bool existed) {
+  std::error_code ignored;
+  if (!run_dir.empty() && !existed && std::filesystem::is_empty(run_dir, ignored))
+    std::filesystem::remove(run_dir, ignored);
+}
+
 }  // namespace swarmloc::orchestrator

@@ -36,13 +36,6 @@ sim::World with_recording(sim::World world, const RunOptions& options) {
   return world;
 }
 
-/// A run directory this command created and left empty (bad input, Ctrl-C) is removed again.
-void discard_if_empty(const std::filesystem::path& run_dir, bool existed) {
-  std::error_code ignored;
-  if (!run_dir.empty() && !existed && std::filesystem::is_empty(run_dir, ignored))
-    std::filesystem::remove(run_dir, ignored);
-}
-
 /// 12 hex digits from the OS's entropy: a run id no other run on the domain shares.
 std::string fresh_run_id() {
   std::random_device entropy;
@@ -648,14 +641,7 @@ int run_orchestrator(config::Scenario scenario, const RunOptions& options) {
   install_interrupt_handlers();
   Progress progress(options.progress);
   const auto started = Clock::now();
-  sim::WorkControl control;
-  control.cancel = &interrupted();
-  control.on_progress = [&](const std::string& phase, double fraction) {
-    char line[240];
-    std::snprintf(line, sizeof line, "[%5.1fs] %s: %.0f %%", seconds_since(started), phase.c_str(),
-                  100.0 * fraction);
-    progress.update(line);
-  };
+  const sim::WorkControl control = interruptible_work(progress, started);
   std::filesystem::path run_dir;
   bool run_dir_existed = false;
   sim::World world;

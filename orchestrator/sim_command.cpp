@@ -60,12 +60,6 @@ class SlowPhaseNotice {
   std::thread thread_;
 };
 
-/// A run that ends before anything was written leaves no empty directory behind (unless it was there).
-void discard_if_empty(const std::filesystem::path& run_dir, bool existed) {
-  std::error_code ignored;
-  if (!existed && std::filesystem::is_empty(run_dir, ignored)) std::filesystem::remove(run_dir, ignored);
-}
-
 }  // namespace
 
 int run_sim_command(const SimCommandOptions& options) {
@@ -104,14 +98,7 @@ int run_sim_command(config::Scenario scenario, const SimCommandOptions& options)
   }
   Progress progress(options.progress);
   const auto started = Clock::now();
-  sim::WorkControl control;
-  control.cancel = &interrupted();
-  control.on_progress = [&](const std::string& phase, double fraction) {
-    char line[240];
-    std::snprintf(line, sizeof line, "[%5.1fs] %s: %.0f %%", seconds_since(started), phase.c_str(),
-                  100.0 * fraction);
-    progress.update(line);
-  };
+  const sim::WorkControl control = interruptible_work(progress, started);
   std::error_code ignored;
   const bool run_dir_existed = std::filesystem::exists(run_dir, ignored);
   const char* cancelled_when = "before the first step; nothing written";
