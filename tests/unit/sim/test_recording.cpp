@@ -231,7 +231,7 @@ estimators::MeasurementBatch full_batch(AgentId agent, std::int64_t step, int ag
   return b;
 }
 
-config::Scenario tiny_scenario() {
+config::Scenario recorded_scenario() {
   config::Scenario s;
   s.seed = 3;
   s.world.agents = 4;
@@ -243,7 +243,7 @@ config::Scenario tiny_scenario() {
 
 /// A 4-agent recording of `steps` full batches; returns its path.
 std::filesystem::path write_tiny_recording(const std::filesystem::path& dir, int steps) {
-  const auto s = tiny_scenario();
+  const auto s = recorded_scenario();
   auto world = build_world(s);
   world.initial_heading = {0.1, -0.2, 0.3, -0.0};
   const auto path = dir / "tiny.slrec";
@@ -269,8 +269,8 @@ TEST(Recording, EveryBatchFieldRoundTripsBitExactly) {
   EXPECT_EQ(recording->agents(), 4);
   ASSERT_EQ(recording->steps(), 3);
   EXPECT_TRUE(recording->has_pose_measurements());
-  EXPECT_EQ(recording->scenario_yaml(), config::to_yaml(tiny_scenario()));
-  auto world = build_world(tiny_scenario());
+  EXPECT_EQ(recording->scenario_yaml(), config::to_yaml(recorded_scenario()));
+  auto world = build_world(recorded_scenario());
   world.initial_heading = {0.1, -0.2, 0.3, -0.0};
   EXPECT_EQ(recording->world().difference(world), "");
   world.initial_guess[2].x() += 1e-15;
@@ -290,7 +290,7 @@ TEST(Recording, EveryBatchFieldRoundTripsBitExactly) {
 
 TEST(Recording, WriterRejectsStepsOutOfOrderAndWrongAgentCounts) {
   const auto dir = temp_dir("writer");
-  const auto s = tiny_scenario();
+  const auto s = recorded_scenario();
   const auto world = build_world(s);
   RecordingWriter writer(dir / "w.slrec", s, world);
   const std::vector<Vec2> truth(4, Vec2::Zero());
@@ -718,7 +718,7 @@ TEST(Recording, OldVersionsWithoutChecksumsStillReadBitExactly) {
     const auto old = without_checksums(current, version);
     const auto recording = parse_recording(old, "old.slrec");
     EXPECT_EQ(recording->version(), version);
-    EXPECT_EQ(recording->scenario_yaml(), config::to_yaml(tiny_scenario()));
+    EXPECT_EQ(recording->scenario_yaml(), config::to_yaml(recorded_scenario()));
     ASSERT_EQ(recording->steps(), 3);
     for (std::int64_t step = 0; step < 3; ++step) {
       for (AgentId i = 0; i < 4; ++i) expect_same(recording->batch(i, step), full_batch(i, step, 4));
@@ -744,7 +744,7 @@ TEST(Recording, AVersionThreeRecordingReplaysLikeItsVersionFourOriginal) {
 }
 
 TEST(Recording, WriteFailuresAndUnreadablePathsAreReported) {
-  const auto s = tiny_scenario();
+  const auto s = recorded_scenario();
   const auto world = build_world(s);
   // A full disk: /dev/full takes the buffered writes and refuses the flush.
   if (std::filesystem::exists("/dev/full")) {

@@ -22,7 +22,7 @@ config::Scenario scenario() {
   return s;
 }
 
-std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
+std::uint64_t bit_pattern(double v) { return std::bit_cast<std::uint64_t>(v); }
 
 TEST(WorkControl, ASetFlagStopsWorldBuildingAndMonteCarlo) {
   std::atomic<bool> cancel{true};
@@ -54,8 +54,8 @@ TEST(WorkControl, AnInterruptedSimulationKeepsTheStepsDoneBitForBit) {
     EXPECT_TRUE(cut.interrupted);
     ASSERT_EQ(cut.metrics.size(), 12u) << threads << " threads";
     for (std::size_t k = 0; k < cut.metrics.size(); ++k) {
-      EXPECT_EQ(bits(cut.metrics[k].errors.rmse_m), bits(full.metrics[k].errors.rmse_m)) << "step " << k;
-      EXPECT_EQ(bits(cut.metrics[k].errors.nees), bits(full.metrics[k].errors.nees)) << "step " << k;
+      EXPECT_EQ(bit_pattern(cut.metrics[k].errors.rmse_m), bit_pattern(full.metrics[k].errors.rmse_m)) << "step " << k;
+      EXPECT_EQ(bit_pattern(cut.metrics[k].errors.nees), bit_pattern(full.metrics[k].errors.nees)) << "step " << k;
     }
     EXPECT_EQ(cut.agent_summaries.size(), 40u);
     EXPECT_FALSE(cut.links.empty());
@@ -68,7 +68,7 @@ TEST(WorkControl, APrebuiltWorldRunsLikeABuiltOne) {
   const auto given = run_simulation(s, build_world(s), {});
   ASSERT_EQ(built.metrics.size(), given.metrics.size());
   for (std::size_t k = 0; k < built.metrics.size(); ++k)
-    EXPECT_EQ(bits(built.metrics[k].errors.rmse_m), bits(given.metrics[k].errors.rmse_m));
+    EXPECT_EQ(bit_pattern(built.metrics[k].errors.rmse_m), bit_pattern(given.metrics[k].errors.rmse_m));
   EXPECT_EQ(built.links.size(), given.links.size());
 }
 
