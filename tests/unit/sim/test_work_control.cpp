@@ -54,8 +54,10 @@ TEST(WorkControl, AnInterruptedSimulationKeepsTheStepsDoneBitForBit) {
     EXPECT_TRUE(cut.interrupted);
     ASSERT_EQ(cut.metrics.size(), 12u) << threads << " threads";
     for (std::size_t k = 0; k < cut.metrics.size(); ++k) {
-      EXPECT_EQ(bit_pattern(cut.metrics[k].errors.rmse_m), bit_pattern(full.metrics[k].errors.rmse_m)) << "step " << k;
-      EXPECT_EQ(bit_pattern(cut.metrics[k].errors.nees), bit_pattern(full.metrics[k].errors.nees)) << "step " << k;
+      EXPECT_EQ(bit_pattern(cut.metrics[k].errors.rmse_m), bit_pattern(full.metrics[k].errors.rmse_m))
+          << "step " << k;
+      EXPECT_EQ(bit_pattern(cut.metrics[k].errors.nees), bit_pattern(full.metrics[k].errors.nees))
+          << "step " << k;
     }
     EXPECT_EQ(cut.agent_summaries.size(), 40u);
     EXPECT_FALSE(cut.links.empty());
