@@ -30,7 +30,7 @@ namespace {
 
 std::atomic<bool> g_stop_requested{false};
 
-// Only sets a flag: never call DDS from a signal handler (STYLE.md, Cyclone section).
+// Only sets a flag: never call DDS from a signal handler (docs/style.md, Cyclone section).
 void on_signal(int /*signal*/) { g_stop_requested.store(true); }
 
 double process_cpu_s() {

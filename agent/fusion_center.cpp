@@ -156,7 +156,7 @@ class FusionProcess {
   void store(const dds::FusionBatch& in, Clock::time_point now) {
     const std::int64_t step = in.batch.world_step;
     if (step < next_step_) {
-      ++late_batches_;  // ALGORITHMS.md §2.7: a measurement older than the current step is discarded
+      ++late_batches_;  // docs/algorithms.md §2.7: a measurement older than the current step is discarded
       return;
     }
     auto [it, inserted] = pending_.try_emplace(step);

@@ -1,5 +1,5 @@
 #pragma once
-// The fusion-centre process (DESIGN.md §1; ALGORITHMS.md §2.7): for a centralized algorithm (ekf,
+// The fusion-centre process (docs/design.md §1; docs/algorithms.md §2.7): for a centralized algorithm (ekf,
 // lbekf, lbekf_vr, lbekf_i) one process holds the whole network state. Each world step it collects
 // every agent's measurement batch, steps the filter and publishes every agent's estimate. Same binary
 // as the agents: `swarmloc agent --role fusion --scenario FILE`.

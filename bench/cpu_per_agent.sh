@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Per-agent CPU as N grows at equal mean degree (issue 2 point 9, DESIGN.md §4).
+# Per-agent CPU as N grows at equal mean degree (issue 2 point 9, docs/design.md §4).
 # The area grows with sqrt(N), anchors stay at 8/30 of the agents, and the radius is tuned per N (with
 # 1-step in-process runs) so that the mean degree hits TARGET_DEGREE (default 9) despite edge effects.
 # Usage: bench/cpu_per_agent.sh [N ...]   (default: 20 100). Prints one table row per N.

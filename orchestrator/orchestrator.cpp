@@ -310,7 +310,7 @@ class Orchestrator {
       }
     }
     if (interrupted().load()) return false;
-    // Neighbour discovery is scoped and fast (~0.1–0.4 s, reference/discovery.md); give it a moment.
+    // Neighbour discovery is scoped and fast (~0.1–0.4 s, docs/reference/discovery.md); give it a moment.
     const auto grace_until = Clock::now() + std::chrono::milliseconds(1000);
     while (Clock::now() < grace_until) collect(transport, 0.05);
     sim::ControlMessage start;
@@ -550,7 +550,7 @@ class Orchestrator {
         record_.estimates.pop_back();
       score_step(last_step, last_scored_at_s_);
       if (centralized_) {
-        // E-A2's total MSE (ALGORITHMS.md §2.8): every agent, beacons included, at the final step.
+        // E-A2's total MSE (docs/algorithms.md §2.8): every agent, beacons included, at the final step.
         std::vector<std::optional<estimators::Estimate>> scored(latest_.size());
         for (std::size_t i = 0; i < latest_.size(); ++i) {
           const bool current = liveness_.current(static_cast<AgentId>(i), last_scored_at_s_);

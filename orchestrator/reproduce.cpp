@@ -226,7 +226,7 @@ int reproduce_ea3(const ReproduceOptions& options) {
 // ---------------- 001 Tables I and II ----------------
 config::Scenario kalman_table_scenario(const std::string& algorithm, int agents, int anchors,
                                        double noise_std_m, std::uint64_t seed) {
-  config::Scenario s;  // ALGORITHMS.md §3.6 [B-6] defaults
+  config::Scenario s;  // docs/algorithms.md §3.6 [B-6] defaults
   s.seed = seed;
   s.name = "001-" + algorithm;
   s.algorithm.name = algorithm;
@@ -424,7 +424,7 @@ int reproduce_jacobi(const ReproduceOptions& options) {
     auto noise_free = config;
     noise_free.measurement_std_m = 1e-6;
     const auto transient = sim::experiments::run_jacobi_experiment(noise_free);
-    md << "\n## " << (gnm ? "G(n, m) reading" : "Random geometric graph (ALGORITHMS.md §4.6 default)")
+    md << "\n## " << (gnm ? "G(n, m) reading" : "Random geometric graph (docs/algorithms.md §4.6 default)")
        << "\n\n"
        << config.num_nodes << " nodes, exactly " << config.num_edges << " edges ("
        << (gnm ? "pairs drawn uniformly"
@@ -614,7 +614,8 @@ int reproduce_multipath(const ReproduceOptions& options) {
         "`algorithm.bp_messages=exact`) divide each node's own contribution out of the belief it receives. "
         "'centralized' is weighted least squares on all five links' paths at once (not in 003), which exact "
         "GaBP's means converge to. Every row but the last two draws a path's length by the image method "
-        "(ALGORITHMS.md §5.4), so the angle errors also make eq. (1) wrong; the last two read 003's Sec. 4 "
+        "(docs/algorithms.md §5.4), so the angle errors also make eq. (1) wrong; the last two read 003's "
+        "Sec. 4 "
         "as "
         "drawing each length from eq. (1) itself at the measured angles, g(θ̃_ij, θ̃_ji)ᵀ(s_i − s_j) plus the "
         "range noise — the model its Thm. 2 (unbiased means) takes as exact — so the angle errors enter only "
@@ -717,7 +718,8 @@ int reproduce_dgbb_table1(const ReproduceOptions& options) {
                                                : std::string("diverged (NaN/Inf)"))
        << " | " << fmt("%.1f", row.mean_trust_region_fires) << " |\n";
   }
-  md << "\nThe two local BB rows without a trust region read eq. (15) two ways. The first, ALGORITHMS.md "
+  md << "\nThe two local BB rows without a trust region read eq. (15) two ways. The first, "
+        "docs/algorithms.md "
         "[E-6], takes ΔD_i = D_i(p^(τ)) − D_i(p^(τ−1)), the change of node i's gradient with its neighbours' "
         "moves in it. The sixth row takes the equation as printed, ∇_i f(p_i^(τ)) − ∇_i f(p_i^(τ−1)): both "
         "gradients at the neighbours' newest positions, so ΔD_i is what node i's own move changed (node i "
@@ -759,7 +761,8 @@ int reproduce_dgbb_figures(const ReproduceOptions& options) {
         "table for Figs. 5–7 (see the end); "
      << runs << " runs per cell, seed " << options.seed << ", " << convergence.threads << " threads ("
      << fmt("%.0f", convergence_s) << " s for Figs. 4–5, " << fmt("%.0f", wall_s - convergence_s)
-     << " s for Figs. 6–7). Local BB is eq. (15) as printed (ALGORITHMS.md [E-6]'s reading diverges on this "
+     << " s for Figs. 6–7). Local BB is eq. (15) as printed (docs/algorithms.md [E-6]'s reading diverges on "
+        "this "
         "lattice, Table I). 004 gives these figures as curves without numbers; its claims are quoted above "
         "each table.\n\n"
      << "## Fig. 4 — Φ against τ, n = 100, σ_I = " << convergence.traced_initial_std << "\n\n"
@@ -895,7 +898,8 @@ int reproduce_dgbb_table2(const ReproduceOptions& options) {
   md << "# 004 Table II — Φ of SDP and SDP + DG-BB on random geometric graphs\n\n"
      << "n = " << config.nodes << " nodes uniform on [0, 1]², R = " << config.radius
      << ", n_a anchors at random, ranges d̄ = |d + ε|, ε ~ N(0, (ν_d d)²) (eq. (16)); graphs resampled until "
-        "connected with ≥ 3 ranges per unknown node. SDP: full relaxation (ALGORITHMS.md §6.5 item 4, SDPA). "
+        "connected with ≥ 3 ranges per unknown node. SDP: full relaxation (docs/algorithms.md §6.5 item 4, "
+        "SDPA). "
         "DG: DG-BB agents from the SDP output, T = 20, η_abstol = 1e−15, τ_max = 1e5. Φ = (1/n) Σ ‖p_i − "
         "p̂_i‖ "
         "over all n nodes (anchors 0, [E-9]). "
@@ -1006,7 +1010,7 @@ int reproduce_tracking(const ReproduceOptions& options) {
   md << "# 002 Figs. 1, 3 — distributed tracking of moving targets (DLE, range and bearing)\n\n"
      << "The paper shows curves only: errors grow with time as the targets move away, and node 1's errors "
         "are "
-     << "the lowest. Settings (ALGORITHMS.md §4.6 defaults where the source is silent): "
+     << "the lowest. Settings (docs/algorithms.md §4.6 defaults where the source is silent): "
      << config.num_sensors << " sensors, node 1 (index 0) at the origin and the others uniform in "
      << config.side_m << " m × " << config.side_m << " m, communication disk " << config.radius_m
      << " m (redrawn until connected); " << config.num_targets
@@ -1075,7 +1079,7 @@ int reproduce_joint_field(const ReproduceOptions& options) {
      << "The paper shows curves only: location and field RMSE both fall with a continuous observation model, "
      << "and the field RMSE does not vanish when sensors sit on the cell boundaries of a model defined by "
         "the "
-     << "cells around the sensor. Settings the source leaves open are ALGORITHMS.md §4.6's defaults and "
+     << "cells around the sensor. Settings the source leaves open are docs/algorithms.md §4.6's defaults and "
      << "ours: " << config.num_nodes << " sensors, exactly " << config.num_edges
      << " edges (random geometric graph), a " << config.cells_per_side << " × " << config.cells_per_side
      << " grid over " << config.side_m << " m × " << config.side_m

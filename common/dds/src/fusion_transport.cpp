@@ -1,4 +1,4 @@
-// FusionTransport over Cyclone DDS (DESIGN.md §1, ALGORITHMS.md §2.7).
+// FusionTransport over Cyclone DDS (docs/design.md §1, docs/algorithms.md §2.7).
 //
 //   fusion centre  subscriber "m0" … "m<N−1>" : one measurement reader for every agent's batches
 //                  subscriber "ctl"           : control reader

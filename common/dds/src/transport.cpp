@@ -1,4 +1,4 @@
-// AgentTransport / OrchestratorTransport over Cyclone DDS (DESIGN.md §3–§4).
+// AgentTransport / OrchestratorTransport over Cyclone DDS (docs/design.md §3–§4).
 //
 // Routing by partition (one topic per family):
 //   agent i   publisher "a<i>"        : state, information, consensus, belief writers

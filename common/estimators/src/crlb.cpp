@@ -49,7 +49,7 @@ MatX range_network_fisher(const RangeNetwork& network, double snapshots,
   for (const auto o : offset) dim += (o >= 0 ? 2 : 0);
   MatX J = MatX::Zero(dim, dim);
 
-  // ALGORITHMS.md §1.3, range: ±u uᵀ/s² into blocks (i,i), (j,j), (i,j), (j,i).
+  // docs/algorithms.md §1.3, range: ±u uᵀ/s² into blocks (i,i), (j,j), (i,j), (j,i).
   for (const auto& obs : network.ranges) {
     check_id(obs.a, n, "range");
     check_id(obs.b, n, "range");

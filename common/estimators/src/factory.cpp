@@ -26,8 +26,8 @@ struct Registration {
 };
 
 constexpr std::array kRegistry{
-    Registration{"ieif", &build<Ieif>},                     // ALGORITHMS.md §3.2
-    Registration{"iekf", &build<Iekf>},                     // ALGORITHMS.md §3.5
+    Registration{"ieif", &build<Ieif>},                     // docs/algorithms.md §3.2
+    Registration{"iekf", &build<Iekf>},                     // docs/algorithms.md §3.5
     Registration{"pose_ekf", &build<PoseEkf>},              // pose states (x, y, θ), pose_filters.hpp
     Registration{"pose_ieif", &build<PoseIeif>},            // its information form
     Registration{"dead_reckoning", &build<DeadReckoning>},  // odometry only (baseline)

@@ -44,7 +44,7 @@ StepOutput Iekf::step(const StepInput& input) {
     out.outbox = published();
     return out;
   }
-  // ALGORITHMS.md §3.5: x̂_{k|k−1} = x̂_{k−1|k−1}, P_{k|k−1} = P_{k−1|k−1} + Q.
+  // docs/algorithms.md §3.5: x̂_{k|k−1} = x̂_{k−1|k−1}, P_{k|k−1} = P_{k−1|k−1} + Q.
   const ProcessStep process = process_step(input, params_);
   const Vec2 x_pred = x_ + process.shift;
   const Mat2 P_pred = core::symmetrized(P_ + process.Q);
@@ -64,7 +64,7 @@ StepOutput Iekf::step(const StepInput& input) {
     KalmanUpdate update = kalman_update(x_pred, P_pred, rows);  // 001 eqs. (30)–(31)
     if (params_.update_iterations > 1 && positive_definite(P_pred)) {
       // The iterated update in information form: the same Gauss–Newton passes as the IEIF's, from the
-      // prior Ψ = P_{k|k−1}⁻¹ (the two forms are algebraically equal, ALGORITHMS.md §3.5).
+      // prior Ψ = P_{k|k−1}⁻¹ (the two forms are algebraically equal, docs/algorithms.md §3.5).
       const Mat2 Psi_pred = core::symmetrized(Mat2(P_pred.inverse()));
       const InformationUpdate iterated =
           iterated_information_update(x_pred, Psi_pred, selection.links, rows,

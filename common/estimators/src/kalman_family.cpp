@@ -194,7 +194,7 @@ InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, c
 InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows,
                                      const Vec2& linearized_at) {
   InformationUpdate out;
-  // 001 eq. (49), ALGORITHMS.md §3.2: Φ = Σ u uᵀ/r̃, ι = Σ u z′/r̃, z′ = ν + uᵀ x̂_i, i.e. ι = b + Φ x̂_i,
+  // 001 eq. (49), docs/algorithms.md §3.2: Φ = Σ u uᵀ/r̃, ι = Σ u z′/r̃, z′ = ν + uᵀ x̂_i, i.e. ι = b + Φ x̂_i,
   // with x̂_i the point the rows are linearized at.
   const RangeRowsInformation info = row_information(linearized_at, rows);
   out.Phi = info.Phi;

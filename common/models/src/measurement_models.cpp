@@ -9,7 +9,7 @@ std::optional<ScalarEvaluation> range(const Vec2& x_i, const Vec2& x_j) {
   const Vec2 delta = x_i - x_j;
   const double rho = delta.norm();
   if (!(rho >= kMinDistanceM)) return std::nullopt;
-  const Row2 u = (delta / rho).transpose();  // ALGORITHMS.md §1.1: u_ijᵀ
+  const Row2 u = (delta / rho).transpose();  // docs/algorithms.md §1.1: u_ijᵀ
   return ScalarEvaluation{rho, u, -u};
 }
 

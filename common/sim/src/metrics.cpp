@@ -150,7 +150,7 @@ RangeCrlb relative_crlb(const World& world, double relative_std_m) {
   return crlb;
 }
 
-/// The paths' bound (ALGORITHMS.md §5.4): eq. (1)'s linear model with the noise-free angles, each
+/// The paths' bound (docs/algorithms.md §5.4): eq. (1)'s linear model with the noise-free angles, each
 /// neighbour pair's reflections one shared draw of variance σ² (world.cpp add_paths), anchors known. It
 /// takes the angles as exact, so angle errors (noise.doa_error_deg) are not in it.
 RangeCrlb multipath_crlb(const World& world, const config::Scenario& s) {

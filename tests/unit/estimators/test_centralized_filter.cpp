@@ -1,4 +1,4 @@
-// Centralized EKF / LB-EKF / LB-EKF-I (000 eqs. (10)–(12), Alg. 2; ALGORITHMS.md §2.1–§2.4) and the
+// Centralized EKF / LB-EKF / LB-EKF-I (000 eqs. (10)–(12), Alg. 2; docs/algorithms.md §2.1–§2.4) and the
 // posterior CRB recursion (§1.3).
 #include <gtest/gtest.h>
 
@@ -151,7 +151,7 @@ TEST(CentralizedFilter, EkfIsInvariantToRelabeling) {
   EXPECT_MATRIX_NEAR(a->covariance_dense(), b->covariance_dense(), 1e-10);
 }
 
-// ALGORITHMS.md §2.4: both banded filters reduce to the EKF at L = n − 1.
+// docs/algorithms.md §2.4: both banded filters reduce to the EKF at L = n − 1.
 TEST(CentralizedFilter, BandedFiltersWithFullBandwidthEqualTheEkf) {
   const int agents = 10;
   const Scenario s = make_scenario(agents, 8, 31);

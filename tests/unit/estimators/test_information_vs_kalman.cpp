@@ -51,7 +51,7 @@ TEST(InformationForm, EqualsKalmanFormForALinearMeasurement) {
 TEST(InformationForm, IeifAndIekfAgreeWhenP0EqualsInversePsi0) {
   for (const int iterations : {1, 10}) {
     SCOPED_TRACE(iterations);
-    // ALGORITHMS.md §3.5: algebraically equivalent when P_0 = Ψ_0⁻¹. Ψ_0 = 0.04 I  <=>  σ_0 = 5 m.
+    // docs/algorithms.md §3.5: algebraically equivalent when P_0 = Ψ_0⁻¹. Ψ_0 = 0.04 I  <=>  σ_0 = 5 m.
     KalmanFamilyParams params;
     params.update_iterations = iterations;
     params.initial_information = 0.04;

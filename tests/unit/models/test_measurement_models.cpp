@@ -22,7 +22,7 @@ Linearized from_scalar(const ScalarEvaluation& e) {
 }
 Linearized from_vector(const VectorEvaluation& e) { return Linearized{e.value, e.d_xi, e.d_xj}; }
 
-/// Compares analytic Jacobians with central finite differences (STYLE.md: one line per model).
+/// Compares analytic Jacobians with central finite differences (docs/style.md: one line per model).
 /// `angular` wraps value differences to (−π, π].
 template <typename Model>
 void expect_jacobians_match(Model model, const Vec2& x_i, const Vec2& x_j, bool angular = false,

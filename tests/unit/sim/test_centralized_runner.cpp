@@ -1,5 +1,5 @@
 // The in-process fusion centre (centralized_runner.hpp): measurement assembly, the runner and E-A2's
-// LB-EKF + VR vs EKF comparison (ALGORITHMS.md §2.8).
+// LB-EKF + VR vs EKF comparison (docs/algorithms.md §2.8).
 #include <gtest/gtest.h>
 
 #include <string>

@@ -570,7 +570,7 @@ TEST(CooperativeSimulation, AngleAwarePathVarianceMakesMultipathBpConsistentAndM
   EXPECT_LT(with_doa.mse_mean, 0.5 * range_only.mse_mean);
 }
 
-// The paths' bound (eq. (1) with exact angles, ALGORITHMS.md §5.4) against BP without angle errors: 200
+// The paths' bound (eq. (1) with exact angles, docs/algorithms.md §5.4) against BP without angle errors: 200
 // trials put BP's mean squared error 3 % above it. (Its beliefs are overconfident there, NEES 9.4: they
 // count shared evidence twice, [D-4].)
 TEST(CooperativeSimulation, WithExactAnglesMultipathBpReachesThePathsCrlb) {

@@ -16,7 +16,7 @@ void check_bandwidth(int n, int bandwidth) {
   }
 }
 
-// Inverse of an SPD window; throws if it is not PD (ALGORITHMS.md §2.3 property 5).
+// Inverse of an SPD window; throws if it is not PD (docs/algorithms.md §2.3 property 5).
 MatX window_inverse(const MatX& window, int start) {
   Eigen::LLT<MatX> llt(window);
   if (llt.info() != Eigen::Success) {
@@ -51,7 +51,7 @@ void cholesky_rank1_update(Eigen::Ref<MatX> g, Eigen::Ref<VecX> x) {
 
 }  // namespace
 
-// 000 Alg. 1 with the inclusive windows (ALGORITHMS.md §2.3), 0-based.
+// 000 Alg. 1 with the inclusive windows (docs/algorithms.md §2.3), 0-based.
 BandMatrix band_inverse_windows(const BandMatrix& a, int bandwidth) {
   const int n = a.size();
   check_bandwidth(n, bandwidth);

@@ -121,7 +121,7 @@ VecX BandCholesky::solve(const VecX& b) const {
 }
 
 // Takahashi: Σ G = G⁻ᵀ gives, for i >= j, Σ_ij = (δ_ij / G_jj − Σ_{k=j+1}^{j+L} Σ_ik G_kj) / G_jj.
-// Sweeping j downwards only touches entries inside the band (ALGORITHMS.md §2.6 (iii)).
+// Sweeping j downwards only touches entries inside the band (docs/algorithms.md §2.6 (iii)).
 BandMatrix BandCholesky::selected_inverse() const {
   const int n = factor_.size();
   const int bw = factor_.bandwidth();

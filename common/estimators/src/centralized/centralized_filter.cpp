@@ -11,9 +11,9 @@
 namespace swarmloc::estimators::centralized {
 namespace {
 
-constexpr double kMinRange = 1e-9;  // ALGORITHMS.md §1.1 guard
+constexpr double kMinRange = 1e-9;  // docs/algorithms.md §1.1 guard
 
-// ALGORITHMS.md §2.1: S_k and b_k without building H. `add_block(bi, bj, B)` means S[bi,bj] += B
+// docs/algorithms.md §2.1: S_k and b_k without building H. `add_block(bi, bj, B)` means S[bi,bj] += B
 // (and S[bj,bi] += Bᵀ when bi != bj); block indices are internal (relabeled) agent indices.
 // `keep_edge(li, lj, S[li,lj])` may reject a range edge before any of its terms are added.
 template <typename AddBlock, typename KeepEdge>
@@ -191,7 +191,7 @@ Mat2 band_block(const BandMatrix& band, int i) {
   return block;
 }
 
-// ---- LB-EKF, 000 Alg. 2 (banded covariance; ALGORITHMS.md §2.4) ----
+// ---- LB-EKF, 000 Alg. 2 (banded covariance; docs/algorithms.md §2.4) ----
 class LbEkf final : public CentralizedFilter {
  public:
   LbEkf(const VecX& mean, const std::vector<Mat2>& cov, const CentralizedFilterParams& params)
@@ -227,7 +227,7 @@ class LbEkf final : public CentralizedFilter {
   BandMatrix m_;
 };
 
-// ---- LB-EKF-I, ALGORITHMS.md §2.4 [A-4] (banded information) ----
+// ---- LB-EKF-I, docs/algorithms.md §2.4 [A-4] (banded information) ----
 class LbEkfI final : public CentralizedFilter {
  public:
   LbEkfI(const VecX& mean, const std::vector<Mat2>& cov, const CentralizedFilterParams& params)

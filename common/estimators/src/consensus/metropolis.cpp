@@ -10,7 +10,7 @@ double metropolis_edge_weight(int degree_i, int degree_j, MetropolisRule rule) {
   if (degree_i < 1 || degree_j < 1)
     throw std::invalid_argument("metropolis: degrees of an edge must be >= 1");
   const int max_degree = std::max(degree_i, degree_j);
-  // ALGORITHMS.md §1.2 with the [E-2] "+1"; the printed rule is 1/max.
+  // docs/algorithms.md §1.2 with the [E-2] "+1"; the printed rule is 1/max.
   return rule == MetropolisRule::kPlusOne ? 1.0 / (1.0 + max_degree) : 1.0 / max_degree;
 }
 

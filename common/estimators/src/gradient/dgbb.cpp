@@ -10,7 +10,7 @@
 namespace swarmloc::estimators::gradient {
 namespace {
 
-constexpr double kMinCurvature = 1e-300;  // ALGORITHMS.md §6.2 [E-4]
+constexpr double kMinCurvature = 1e-300;  // docs/algorithms.md §6.2 [E-4]
 
 bool bb_step_valid(double rho, double psi, double alpha) {
   return psi > kMinCurvature && std::isfinite(alpha) && alpha > 0.0 && std::isfinite(rho);
@@ -139,7 +139,7 @@ void DgBb::apply_update(const Vec2& D, double alpha) {
 }
 
 void DgBb::consensus_round() {
-  // 004 eqs. (10)–(11) with Metropolis weights (ALGORITHMS.md §1.2); newest value per neighbour (§6.4).
+  // 004 eqs. (10)–(11) with Metropolis weights (docs/algorithms.md §1.2); newest value per neighbour (§6.4).
   const int own_degree = range_count_;
   double rho = rho_;
   double psi = psi_;
@@ -215,7 +215,7 @@ StepOutput DgBb::step(const StepInput& input) {
     round_ = 0;
   }
 
-  if (phase_ == Phase::kWarmup) {  // ALGORITHMS.md §6.2 step 1
+  if (phase_ == Phase::kWarmup) {  // docs/algorithms.md §6.2 step 1
     direction(D);
     apply_update(D, params_.warmup_step);
     out.diagnostics.updated = true;

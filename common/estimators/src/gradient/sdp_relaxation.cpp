@@ -79,7 +79,7 @@ std::vector<SdpEdge> relaxation_edges(const RangeProblem& problem, const std::ve
   return edges;
 }
 
-// Residual of one edge constraint (ALGORITHMS.md §6.5 item 4) at (X, Y):
+// Residual of one edge constraint (docs/algorithms.md §6.5 item 4) at (X, Y):
 //   sensor–sensor: Y_uu + Y_vv − 2Y_uv − d̄²;   anchor–sensor: ‖a‖² − 2aᵀx_u + Y_uu − d̄².
 double edge_residual(const SdpEdge& e, const Eigen::Matrix2Xd& X, const Eigen::MatrixXd& Y) {
   const double d2 = e.range * e.range;

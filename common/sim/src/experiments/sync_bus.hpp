@@ -1,7 +1,7 @@
 #pragma once
-// In-process synchronous message bus for the reproduction experiments (ALGORITHMS.md §1.5): every agent has a
-// mailbox with the newest message per neighbour and family; a round delivers what every agent published in
-// the previous round. Internal to the experiments.
+// In-process synchronous message bus for the reproduction experiments (docs/algorithms.md §1.5): every agent
+// has a mailbox with the newest message per neighbour and family; a round delivers what every agent published
+// in the previous round. Internal to the experiments.
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>

@@ -1,5 +1,5 @@
 #pragma once
-// The validated scenario (DESIGN.md §6). config/ is the only place that knows the YAML format; every
+// The validated scenario (docs/design.md §6). config/ is the only place that knows the YAML format; every
 // other layer consumes these structs. Defaults live here, in-class, and are documented in
 // docs/scenario.md key by key.
 #include <cstdint>
@@ -37,7 +37,7 @@ enum class RunMode { kFreeRun, kLockstep };
 enum class SimClock { kRounds, kAgents };
 enum class InitialGuess { kNoisyTruth, kUniform };
 /// local_bb's ΔD_i in 004 eq. (15): the change of D_i(p) between updates, neighbours' moves included
-/// (ALGORITHMS.md [E-6]), or the change node i's own move made at the neighbours' newest positions (the
+/// (docs/algorithms.md [E-6]), or the change node i's own move made at the neighbours' newest positions (the
 /// equation as printed).
 enum class LocalBbDifference { kGradientChange, kOwnMove };
 /// multipath_bp: each path's variance is σ² alone (003), or σ² plus what its angle-of-arrival errors do to
@@ -71,7 +71,7 @@ struct Scenario {
     double initial_information = 1e-6;
     double initial_std_m = 8.66;
     bool inflate_stale = true;
-    // Distributed gradient family (dgbb, local_bb, fixed_step, step_length; ALGORITHMS.md §6).
+    // Distributed gradient family (dgbb, local_bb, fixed_step, step_length; docs/algorithms.md §6).
     int consensus_rounds = 20;       ///< T: consensus rounds per DG-BB update
     double fixed_step = 0.1;         ///< α of fixed_step
     double step_length = 10.0;       ///< k of step_length (α = k/(√τ‖D_i‖))
@@ -109,7 +109,7 @@ struct Scenario {
     /// Range algorithms, ≤ 1000 unknown agents: also redraw until the range Fisher information at the
     /// truth is nonsingular (every agent localizable; a non-rigid world has no meaningful error).
     bool require_localizable = true;
-    // Reflecting walls for multipath (003, ALGORITHMS.md §5.4): straight lines outside the area,
+    // Reflecting walls for multipath (003, docs/algorithms.md §5.4): straight lines outside the area,
     // at angles first + k·step (k = 0 … wall_count−1), wall_margin_m beyond its circumscribed circle.
     int wall_count = 2;
     double wall_first_angle_deg = 0.0;
@@ -188,7 +188,7 @@ struct Scenario {
     QosSettings control{Reliability::kReliable, 4, Durability::kTransientLocal, 0.0, 0.0};
   } qos;
 
-  /// Scheduled faults (DESIGN.md §5), each a short list in a string (docs/scenario.md, "faults").
+  /// Scheduled faults (docs/design.md §5), each a short list in a string (docs/scenario.md, "faults").
   struct Faults {
     std::string kill;   ///< "AGENT@STEP[-RESTART], …": kill -9 at STEP, restart (fresh state) at RESTART
     std::string pause;  ///< "AGENT@STEP-RESUME, …": SIGSTOP at STEP, SIGCONT at RESUME
@@ -198,7 +198,7 @@ struct Scenario {
   struct Dds {
     int domain_id = 0;
     std::string interface = "lo";     ///< network interface for Cyclone
-    bool neighbour_discovery = true;  ///< unicast, per-agent Peers lists (DESIGN.md §4)
+    bool neighbour_discovery = true;  ///< unicast, per-agent Peers lists (docs/design.md §4)
     std::string peer_address = "127.0.0.1";
     std::string security_dir;  ///< DDS Security PKI (deploy/security/make-pki.sh); empty: no security
     /// Prefix of every partition name, so no sample of one run reaches another run's processes on the

@@ -1,5 +1,5 @@
 #pragma once
-// Per-agent clock model (DESIGN.md §2): t_i = offset_i + (1 + drift_i)·t_mono. Pure arithmetic; the
+// Per-agent clock model (docs/design.md §2): t_i = offset_i + (1 + drift_i)·t_mono. Pure arithmetic; the
 // runtime feeds it monotonic time.
 #include <cstdint>
 

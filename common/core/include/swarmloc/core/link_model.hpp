@@ -1,5 +1,5 @@
 #pragma once
-// Receiver-side loss injection (DESIGN.md §5). The decision depends only on
+// Receiver-side loss injection (docs/design.md §5). The decision depends only on
 // (seed, sender, receiver, topic family, seq), so the simulator and DDS drop the same samples.
 //
 // Two loss processes per (sender, receiver, family) link:

@@ -1,5 +1,5 @@
 #pragma once
-// Cramér–Rao lower bound of a static range network (ALGORITHMS.md §1.3). Anchors with exactly known
+// Cramér–Rao lower bound of a static range network (docs/algorithms.md §1.3). Anchors with exactly known
 // positions are removed from θ; every other agent contributes a 2-D block.
 #include <limits>
 #include <vector>

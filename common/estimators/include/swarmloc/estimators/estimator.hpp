@@ -57,7 +57,7 @@ class Estimator {
   [[nodiscard]] virtual Estimate estimate() const = 0;
 };
 
-/// Algorithm parameters shared by the distributed Kalman family (ALGORITHMS.md §3).
+/// Algorithm parameters shared by the distributed Kalman family (docs/algorithms.md §3).
 struct KalmanFamilyParams {
   double process_noise_std_m = 0.01;       ///< Q = std²·I per step ([B-6])
   double initial_information = 1e-6;       ///< IEIF Ψ_0 = ε·I (m⁻²)

@@ -1,5 +1,5 @@
 #pragma once
-// Shared kernels of the distributed Kalman family (IEIF and IEKF, ALGORITHMS.md §3). Pure functions,
+// Shared kernels of the distributed Kalman family (IEIF and IEKF, docs/algorithms.md §3). Pure functions,
 // exposed so that tests can check each equation on its own.
 #include <Eigen/LU>
 #include <optional>
@@ -14,7 +14,7 @@ namespace swarmloc::estimators {
 /// survives transport; far above KalmanFamilyParams::max_neighbour_variance_m2, so neighbours skip it.
 inline constexpr double kUndefinedVarianceM2 = 1e12;
 
-/// One range z^(i,j) paired with neighbour j's predicted state (ALGORITHMS.md §3.2 inputs).
+/// One range z^(i,j) paired with neighbour j's predicted state (docs/algorithms.md §3.2 inputs).
 struct RangeLink {
   AgentId peer = 0;
   Vec2 neighbour_mean_m = Vec2::Zero();      ///< x̂_{k|k−1}^(j)
@@ -39,7 +39,7 @@ std::int64_t staleness_steps(std::int64_t local_step, std::int64_t sender_step);
 /// params.inflate_stale. Returns no links if the batch or inbox is missing.
 LinkSelection collect_range_links(const StepInput& input, AgentId self, const KalmanFamilyParams& params);
 
-/// The measurement rows of one step, linearized at x̂_{k|k−1}^(i) (ALGORITHMS.md §3.2):
+/// The measurement rows of one step, linearized at x̂_{k|k−1}^(i) (docs/algorithms.md §3.2):
 /// row m is J_i(m, :) = u_ijᵀ, innovation ν_m = z − d̂_ij, variance r̃_m = σ_r² + u_ijᵀ P_j u_ij.
 /// Rows are independent (R̃ diagonal). An optional linear absolute fix adds H = I₂ with covariance R.
 struct Linearization {
@@ -64,10 +64,10 @@ Linearization linearize_ranges(const Vec2& x_i, const std::vector<RangeLink>& li
 /// a wrong early estimate in). The absolute fix is not gated. Returns the number of rows dropped.
 int gate_ranges(Linearization& rows, const Mat2& P_pred, double chi2_gate);
 
-/// 001 eq. (48) with F = I in the singular-safe form Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ (ALGORITHMS.md §3.2).
+/// 001 eq. (48) with F = I in the singular-safe form Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ (docs/algorithms.md §3.2).
 Mat2 predict_information(const Mat2& Psi, const Mat2& Q);
 
-/// Result of the information-form estimation step (001 eq. (49), ALGORITHMS.md §3.2).
+/// Result of the information-form estimation step (001 eq. (49), docs/algorithms.md §3.2).
 struct InformationUpdate {
   Mat2 Phi = Mat2::Zero();   ///< Φ = J_iᵀ R̃⁻¹ J_i (+ R_fix⁻¹)
   Vec2 iota = Vec2::Zero();  ///< ι = J_iᵀ R̃⁻¹ z′ (+ R_fix⁻¹ z_fix), z′ = ν + J_i x̂_i ([B-3])
@@ -99,7 +99,7 @@ struct KalmanUpdate {
   Mat2 covariance = Mat2::Zero();
 };
 
-/// Kalman-form update (001 eqs. (30)–(32), ALGORITHMS.md §3.5) with the Joseph form
+/// Kalman-form update (001 eqs. (30)–(32), docs/algorithms.md §3.5) with the Joseph form
 /// P = (I − K H) P (I − K H)ᵀ + K R Kᵀ, S = H P Hᵀ + R (M×M).
 KalmanUpdate kalman_update(const Vec2& x_pred, const Mat2& P_pred, const Linearization& rows);
 

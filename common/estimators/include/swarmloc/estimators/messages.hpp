@@ -27,7 +27,7 @@ struct MotionInput {
   Mat2 process_cov = Mat2::Zero();
 };
 
-/// Angle of the peer seen from this agent in the global frame (ALGORITHMS.md §1.1).
+/// Angle of the peer seen from this agent in the global frame (docs/algorithms.md §1.1).
 struct BearingMeasurement {
   AgentId peer = 0;
   double bearing_rad = 0.0;
@@ -41,7 +41,7 @@ struct RelativeMeasurement {
   Mat2 covariance = Mat2::Identity();
 };
 
-/// One single-bounce (or LOS) path between this agent and a peer (003 eq. (1), ALGORITHMS.md §5.1):
+/// One single-bounce (or LOS) path between this agent and a peer (003 eq. (1), docs/algorithms.md §5.1):
 /// its length and the angles of arrival at both ends, matched across the pair by path_index.
 struct MultipathMeasurement {
   AgentId peer = 0;
@@ -104,7 +104,7 @@ struct MeasurementBatch {
   std::vector<AgentId> neighbours;
 };
 
-// ---- Inter-agent messages (one struct per family of DESIGN.md §3) ----
+// ---- Inter-agent messages (one struct per family of docs/design.md §3) ----
 /// STATE + COV of the sender's own position.
 struct StateMessage {
   Vec2 mean_m = Vec2::Zero();

@@ -1,5 +1,5 @@
 #pragma once
-// Planar measurement models with analytic Jacobians (ALGORITHMS.md §1.1). Pure functions: no I/O,
+// Planar measurement models with analytic Jacobians (docs/algorithms.md §1.1). Pure functions: no I/O,
 // clocks or state. Notation: Δ = x_i − x_j, ρ = ‖Δ‖, u_ij = Δ/ρ (unit vector from j to i).
 #include <Eigen/Core>
 #include <optional>

@@ -1,5 +1,5 @@
 #pragma once
-// Single-bounce (NLOS) and LOS path model of 003 (ALGORITHMS.md §5.1): d = g(θ_ij, θ_ji)ᵀ(s_i − s_j)
+// Single-bounce (NLOS) and LOS path model of 003 (docs/algorithms.md §5.1): d = g(θ_ij, θ_ji)ᵀ(s_i − s_j)
 // (eq. (1)), and path simulation by the image method (§5.4). Pure functions, no state.
 #include <optional>
 

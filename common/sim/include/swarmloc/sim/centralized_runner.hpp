@@ -1,7 +1,7 @@
 #pragma once
-// The centralized algorithms (ekf, lbekf, lbekf_vr, lbekf_i; ALGORITHMS.md §2) as a fusion centre: one
+// The centralized algorithms (ekf, lbekf, lbekf_vr, lbekf_i; docs/algorithms.md §2) as a fusion centre: one
 // filter holds the whole network state, consumes every agent's measurement batch of a world step and
-// yields every agent's estimate (ALGORITHMS.md §2.7). The in-process runner below and the DDS
+// yields every agent's estimate (docs/algorithms.md §2.7). The in-process runner below and the DDS
 // fusion-centre process (agent/fusion_center.cpp) share these functions, so both build the same filter
 // from the same world and turn the same batches into the same measurements.
 #include <memory>
@@ -41,7 +41,7 @@ estimators::centralized::CentralizedMeasurements centralized_measurements(
 estimators::Estimate fusion_estimate(const estimators::centralized::CentralizedFilter& filter, AgentId agent);
 
 /// Σ over every agent with an estimate (anchors included) of ‖truth − mean‖²: the total MSE of one
-/// run at one step (000 Fig. 6, ALGORITHMS.md §2.8).
+/// run at one step (000 Fig. 6, docs/algorithms.md §2.8).
 double total_squared_error(const std::vector<Vec2>& truth,
                            const std::vector<std::optional<estimators::Estimate>>& estimates);
 

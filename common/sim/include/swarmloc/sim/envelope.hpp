@@ -10,7 +10,7 @@
 
 namespace swarmloc::sim {
 
-/// The common header of DESIGN.md §3.
+/// The common header of docs/design.md §3.
 struct Header {
   AgentId agent_id = 0;
   std::uint32_t seq = 0;

@@ -1,5 +1,5 @@
 #pragma once
-// Scoring estimates against truth (ALGORITHMS.md §1.4) and the CRLB reference (§1.3).
+// Scoring estimates against truth (docs/algorithms.md §1.4) and the CRLB reference (§1.3).
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -47,8 +47,9 @@ RangeCrlb range_crlb(const World& world, double range_std_m);
 /// The bound that matches the scenario's measurements (at the initial truth): ranges (additive or
 /// proportional noise), relative positions (each link one shared draw: the BLUE covariance σ²·L⁻¹ per
 /// axis), a static target's readings (the centralized estimate from every sensor's readings; the same
-/// bound for each sensor), reflected paths (eq. (1) with the noise-free angles taken as exact, ALGORITHMS.md
-/// §5.4: angle errors are not in it), or NaN for a moving target (no bound implemented). Anchors are known.
+/// bound for each sensor), reflected paths (eq. (1) with the noise-free angles taken as exact,
+/// docs/algorithms.md §5.4: angle errors are not in it), or NaN for a moving target (no bound implemented).
+/// Anchors are known.
 RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario);
 
 }  // namespace swarmloc::sim

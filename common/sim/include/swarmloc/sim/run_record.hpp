@@ -1,5 +1,5 @@
 #pragma once
-// Everything a run produces, and the writer of the run directory (DESIGN.md §6): scenario.yaml,
+// Everything a run produces, and the writer of the run directory (docs/design.md §6): scenario.yaml,
 // summary.json, metrics.csv, estimates.csv, links.csv, plots/. Shared by `swarmloc run` (DDS) and
 // `swarmloc sim` (in-process) so both directories look the same.
 #include <filesystem>

@@ -177,7 +177,7 @@ estimators::consensus::FieldSensor field_sensor(const config::Scenario& scenario
 VecX draw_gaussian_field(const estimators::consensus::FieldGrid& grid, double std_dev, double correlation_m,
                          std::mt19937_64& rng);
 
-/// The walls of scenario.world (wall_count lines outside the area, ALGORITHMS.md §5.4).
+/// The walls of scenario.world (wall_count lines outside the area, docs/algorithms.md §5.4).
 std::vector<models::Wall> make_walls(const config::Scenario& scenario);
 
 /// Agent `agent`'s noisy measurements for world step `step`, of the kinds its algorithm consumes:
@@ -187,7 +187,7 @@ std::vector<models::Wall> make_walls(const config::Scenario& scenario);
 /// - relative positions s_ij = x_j − x_i + ε, one draw per link shared by both ends (i gets s_ij, j gets
 ///   −s_ij, [C-7]);
 /// - one reflected path per wall with both ends on its side: a length draw shared by both ends and an
-///   independent angle-of-arrival error at each end (ALGORITHMS.md §5.4);
+///   independent angle-of-arrival error at each end (docs/algorithms.md §5.4);
 /// - a reading of the target (target 0) if the sensor is within world.target_sensing_radius_m of it:
 ///   its position + N(0, target_std² I) (kind 0), or range + N(0, target_std²) and bearing +
 ///   N(0, target_bearing_std²) from the sensor (kind 1);

@@ -1,6 +1,6 @@
 #pragma once
-// Cooperative Gaussian belief propagation with multipath range + DOA (003 Algorithm 1, ALGORITHMS.md §5),
-// and the pairwise (non-cooperative) baseline of §5.4.
+// Cooperative Gaussian belief propagation with multipath range + DOA (003 Algorithm 1, docs/algorithms.md
+// §5), and the pairwise (non-cooperative) baseline of §5.4.
 #include <map>
 #include <optional>
 #include <string_view>

@@ -1,6 +1,6 @@
 #pragma once
 // Z = BandInv_L(A): the L-banded matrix whose inverse agrees with A on the band |i − j| <= L
-// (the maximum-determinant completion). 000 Alg. 1; ALGORITHMS.md §2.3.
+// (the maximum-determinant completion). 000 Alg. 1; docs/algorithms.md §2.3.
 #include "swarmloc/estimators/centralized/band_matrix.hpp"
 
 namespace swarmloc::estimators::centralized {

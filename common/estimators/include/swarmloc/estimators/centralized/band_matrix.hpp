@@ -1,6 +1,6 @@
 #pragma once
-// Symmetric band matrices and the banded kernels of the centralized family (000, ALGORITHMS.md §2.3–§2.6).
-// Storage is LAPACK "SB" lower: entry (i, j) with 0 <= i - j <= L lives at storage(i - j, j).
+// Symmetric band matrices and the banded kernels of the centralized family (000, docs/algorithms.md
+// §2.3–§2.6). Storage is LAPACK "SB" lower: entry (i, j) with 0 <= i - j <= L lives at storage(i - j, j).
 #include "swarmloc/core/types.hpp"
 
 namespace swarmloc::estimators::centralized {
@@ -62,7 +62,8 @@ class BandCholesky {
 
   /// Solves A x = b in O(nL).
   [[nodiscard]] VecX solve(const VecX& b) const;
-  /// The band of A⁻¹ (same bandwidth as A) by the Takahashi recurrences, O(nL²) (ALGORITHMS.md §2.4 ).
+  /// The band of A⁻¹ (same bandwidth as A) by the Takahashi recurrences, O(nL²) (docs/algorithms.md §2.4
+  ///
   [[nodiscard]] BandMatrix selected_inverse() const;
   /// Lower factor G in band storage.
   [[nodiscard]] const BandMatrix& factor() const { return factor_; }

@@ -1,6 +1,6 @@
 #pragma once
 // Centralized fusion-centre filters of 000: EKF (eqs. (10)–(12)), LB-EKF (Alg. 2, banded covariance)
-// and LB-EKF-I (banded information, ALGORITHMS.md §2.4 ). Not per-agent estimators: one object
+// and LB-EKF-I (banded information, docs/algorithms.md §2.4 ). Not per-agent estimators: one object
 // holds the whole network state. No transport, clock, RNG, I/O or logging inside.
 #include <cstdint>
 #include <memory>
@@ -20,7 +20,7 @@ struct RangeEdgeMeasurement {
   double range_m = 0.0;
 };
 
-/// Everything the fusion centre receives for step k (ALGORITHMS.md §2.7). Missing data: leave it out.
+/// Everything the fusion centre receives for step k (docs/algorithms.md §2.7). Missing data: leave it out.
 struct CentralizedMeasurements {
   std::vector<std::pair<int, Vec2>> beacon_fixes;  ///< (agent, y_b)
   double beacon_var = 2.0;                         ///< σ_q, a variance (m²) per coordinate
@@ -38,7 +38,7 @@ struct CentralizedFilterParams {
   std::vector<int> labels;  ///< π(agent) used internally (000 Alg. 3); empty = identity
 };
 
-/// S_k = H_kᵀR_k⁻¹H_k and b_k = H_kᵀR_k⁻¹(y − h(x̂)) in the relabeled order (ALGORITHMS.md §2.1, [A-1]).
+/// S_k = H_kᵀR_k⁻¹H_k and b_k = H_kᵀR_k⁻¹(y − h(x̂)) in the relabeled order (docs/algorithms.md §2.1, [A-1]).
 struct MeasurementInformation {
   MatX information;  ///< S_k, dense n×n
   VecX vector;       ///< b_k

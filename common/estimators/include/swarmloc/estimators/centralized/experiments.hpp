@@ -1,5 +1,5 @@
 #pragma once
-// The experiments of 000 Sec. 5 (ALGORITHMS.md §2.8) as library functions: no I/O, the caller prints.
+// The experiments of 000 Sec. 5 (docs/algorithms.md §2.8) as library functions: no I/O, the caller prints.
 // Randomness comes from caller-provided engines or seeds (filters themselves never draw).
 #include <cstdint>
 #include <random>
@@ -14,7 +14,7 @@ namespace swarmloc::estimators::centralized {
 
 // ---- E-A1 (Sec. 5.1, Fig. 2) ----
 /// Random symmetric n×n matrix of bandwidth `bandwidth_of_a`: in-band off-diagonals U(−1, 1), diagonal
-/// 15, then divided by the largest absolute entry (ALGORITHMS.md §2.8).
+/// 15, then divided by the largest absolute entry (docs/algorithms.md §2.8).
 MatX make_ea1_matrix(int n, int bandwidth_of_a, std::mt19937_64& rng);
 /// ‖A⁻¹ − BandInv_L(A)‖_F for one fresh matrix.
 double banded_inversion_error(int n, int bandwidth_of_a, int bandwidth, std::mt19937_64& rng,

@@ -1,5 +1,5 @@
 #pragma once
-// Posterior Cramér–Rao bound recursion for the centralized problem (ALGORITHMS.md §1.3, "Dynamic bound
+// Posterior Cramér–Rao bound recursion for the centralized problem (docs/algorithms.md §1.3, "Dynamic bound
 // for A"): J_0 = Σ_0⁻¹ + I(x(0)), J_k = (J_{k−1}⁻¹ + σ_p I)⁻¹ + I(x(k)), with I(x) = Σ_m H_mᵀR_m⁻¹H_m
 // evaluated at the true positions. Dense, O(n³) per step.
 #include <vector>

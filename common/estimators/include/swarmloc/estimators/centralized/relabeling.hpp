@@ -1,5 +1,5 @@
 #pragma once
-// Vertex relabeling and graph bandwidth (000 Alg. 3, Lemma 1, Theorem 1; ALGORITHMS.md §2.5).
+// Vertex relabeling and graph bandwidth (000 Alg. 3, Lemma 1, Theorem 1; docs/algorithms.md §2.5).
 // A labeling is a vector `labels` with labels[agent] = π(agent) ∈ {0, …, N−1}.
 #include <utility>
 #include <vector>
@@ -26,7 +26,7 @@ constexpr int measurement_bandwidth(int graph_bandwidth, int dimension = 2) {
   return dimension * (graph_bandwidth + 1) - 1;
 }
 
-/// Edges (i < j) with ‖x_i − x_j‖ <= radius (ALGORITHMS.md §1.2 disk graph). O(N²).
+/// Edges (i < j) with ‖x_i − x_j‖ <= radius (docs/algorithms.md §1.2 disk graph). O(N²).
 std::vector<Edge> disk_graph_edges(const std::vector<Vec2>& positions, double radius);
 bool is_connected(int num_agents, const std::vector<Edge>& edges);
 /// Infinitesimal rigidity in the plane at the given positions: rank(rigidity matrix) = 2N − 3.

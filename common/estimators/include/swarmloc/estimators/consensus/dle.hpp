@@ -1,6 +1,6 @@
 #pragma once
 // Distributed linear estimator of a target by information consensus (002 Algorithm 1, eqs. (6)–(7),
-// ALGORITHMS.md §4.2, §4.5).
+// docs/algorithms.md §4.2, §4.5).
 #include <cstdint>
 #include <string_view>
 
@@ -31,7 +31,7 @@ void validate(const DleParams& params);
 /// neighbours heard from; neighbour degrees from their STATE messages); the κ of neighbours whose
 /// INFO message is missing are dropped and the rest renormalized (§4.5).
 ///
-/// Tracking in a free run (ALGORITHMS.md §4.5): every prior carries the world step it is predicted to
+/// Tracking in a free run (docs/algorithms.md §4.5): every prior carries the world step it is predicted to
 /// (InformationMessage::world_step), and a step first brings its own prior and each neighbour's to one
 /// world step — its batch's, or without a batch its own prior's: forward by the prediction, back by
 /// ω' = (Fᵏ)ᵀω, Ω' = (Fᵏ)ᵀΩFᵏ (the process noise is not taken out, so the result is never more certain than

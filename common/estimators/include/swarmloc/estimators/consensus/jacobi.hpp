@@ -1,5 +1,5 @@
 #pragma once
-// Distributed Jacobi localization from relative measurements (002 eq. (9), ALGORITHMS.md §4.3, §4.5).
+// Distributed Jacobi localization from relative measurements (002 eq. (9), docs/algorithms.md §4.3, §4.5).
 #include <cstdint>
 #include <map>
 #include <string_view>

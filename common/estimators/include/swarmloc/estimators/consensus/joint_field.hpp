@@ -1,7 +1,7 @@
 #pragma once
-// Joint localization and field estimation (002 eq. (10), ALGORITHMS.md §4.4, Fig. 5): each sensor localizes
-// itself by distributed Jacobi (§4.3) while it estimates a static scalar field on a grid by the DLE (§4.2),
-// using the observation model evaluated at its current position estimate.
+// Joint localization and field estimation (002 eq. (10), docs/algorithms.md §4.4, Fig. 5): each sensor
+// localizes itself by distributed Jacobi (§4.3) while it estimates a static scalar field on a grid by the DLE
+// (§4.2), using the observation model evaluated at its current position estimate.
 #include <cstdint>
 #include <optional>
 #include <string_view>
@@ -28,7 +28,8 @@ struct FieldGrid {
 };
 
 enum class FieldSensing {
-  /// h_k(x) = max(0, 1 − ‖x − c_k‖ / r_s): continuous in the sensor position x (ALGORITHMS.md §4.6 default).
+  /// h_k(x) = max(0, 1 − ‖x − c_k‖ / r_s): continuous in the sensor position x (docs/algorithms.md §4.6
+  /// default).
   kContinuous,
   /// h = e_cell(x): the sensor reads the cell that contains it. The model depends only on which cell the
   /// sensor is in, so it jumps at cell boundaries (002 Fig. 5, rightmost plot). (Tents around the containing
@@ -59,7 +60,7 @@ struct JointFieldParams {
   /// Absolute position of the reference node: 002 localizes in node 1's frame, the field lives in the
   /// world frame, so sensor i is at reference + x̂_i.
   Vec2 reference_position_m = Vec2::Zero();
-  double delta = 1e-3;  ///< δ of eq. (10) (unstated in 002; ALGORITHMS.md §4.4 default)
+  double delta = 1e-3;  ///< δ of eq. (10) (unstated in 002; docs/algorithms.md §4.4 default)
   /// Field readings of the sensor's first `warmup_steps` steps are left out (not in 002, whose value is 0).
   /// Eq. (10) never revises a reading's model row Ĥ = h(x̂), so readings taken while x̂ is still in its
   /// transient bias ŷ for the rest of the run, and how much depends on the timing of early steps.

@@ -1,5 +1,5 @@
 #pragma once
-// Metropolis consensus weights (ALGORITHMS.md §1.2, [E-2]). Each node needs only its own degree and its
+// Metropolis consensus weights (docs/algorithms.md §1.2, [E-2]). Each node needs only its own degree and its
 // neighbours' degrees.
 #include <map>
 #include <span>

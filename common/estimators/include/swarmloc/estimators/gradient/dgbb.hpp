@@ -1,6 +1,6 @@
 #pragma once
-// Distributed gradient localization with a consensus Barzilai–Borwein step (004, ALGORITHMS.md §6) and its
-// baselines: local BB (T = 0), fixed step, specified step length; centralized BB as a plain function.
+// Distributed gradient localization with a consensus Barzilai–Borwein step (004, docs/algorithms.md §6) and
+// its baselines: local BB (T = 0), fixed step, specified step length; centralized BB as a plain function.
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -152,7 +152,7 @@ class DgBb final : public Estimator {
   int trust_region_count_ = 0;
 };
 
-// ---- Centralized reference (004 eqs. (3)–(5), ALGORITHMS.md §6.5 item 5) ----
+// ---- Centralized reference (004 eqs. (3)–(5), docs/algorithms.md §6.5 item 5) ----
 struct RangeEdge {
   int i = 0;
   int j = 0;
@@ -164,7 +164,7 @@ struct RangeProblem {
   std::vector<RangeEdge> edges;
 };
 
-/// D(p) for every node (zero rows for anchors), ALGORITHMS.md §6.1 [E-1].
+/// D(p) for every node (zero rows for anchors), docs/algorithms.md §6.1 [E-1].
 std::vector<Vec2> direction(const RangeProblem& problem, const std::vector<Vec2>& p, double grad_scale = 1.0);
 /// Objective f(p) = ½ Σ g_ij² (004 eq. (1)).
 double objective(const RangeProblem& problem, const std::vector<Vec2>& p);

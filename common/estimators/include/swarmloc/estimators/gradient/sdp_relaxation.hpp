@@ -1,5 +1,5 @@
 #pragma once
-// Full SDP relaxation of range localization (Biswas–Ye form; 004 Sec. V-C, ALGORITHMS.md §6.5 item 4),
+// Full SDP relaxation of range localization (Biswas–Ye form; 004 Sec. V-C, docs/algorithms.md §6.5 item 4),
 // solved with SDPA. Centralized, one shot: the initial guess of the SDP+DG refinement (Tables II–III).
 // Plain C++/Eigen in and out: no I/O, logging, RNG or clock; SDPA is seen only by the .cpp.
 #include <Eigen/Core>

@@ -1,5 +1,5 @@
 #pragma once
-// Reproduction experiments of 004 Figs. 4–7 (ALGORITHMS.md §6.6 Example 2) on the anchored lattices of
+// Reproduction experiments of 004 Figs. 4–7 (docs/algorithms.md §6.6 Example 2) on the anchored lattices of
 // Table I: Φ against τ (Fig. 4), the share of convergent runs against σ_I (Fig. 5), τ_end against T for
 // several network sizes (Fig. 6) and against n with T = 20 (Fig. 7). No I/O; each run's lattice comes
 // from (seed, size, σ_I, run), so every method and every T of a cell sees the same draws, and the results

@@ -1,5 +1,5 @@
 #pragma once
-// Reproduction experiment of 004 Example 2 / Table I (ALGORITHMS.md §6.6): DG-BB and its baselines on an
+// Reproduction experiment of 004 Example 2 / Table I (docs/algorithms.md §6.6): DG-BB and its baselines on an
 // anchored lattice, run as DgBb estimators over an in-process synchronous bus. No I/O.
 #include <cstdint>
 #include <random>
@@ -40,10 +40,10 @@ struct GradientRun {
 
 /// One run of `params` (its rule selects DG-BB or a baseline) on `lattice` as DgBb agents.
 /// `start_ticks` (empty = all 0, the synchronous start): node i is not stepped and publishes nothing before
-/// round start_ticks[i] (one tick = one communication round, ALGORITHMS.md §6.4 [E-7]); it then publishes
-/// its initial STATE, receives its ranges and runs on its own. DgBb's start rule makes an early node wait
-/// until every range neighbour has been heard from. Throws std::invalid_argument on a wrong size or a
-/// negative tick.
+/// round start_ticks[i] (one tick = one communication round, docs/algorithms.md §6.4 [E-7]); it then
+/// publishes its initial STATE, receives its ranges and runs on its own. DgBb's start rule makes an early
+/// node wait until every range neighbour has been heard from. Throws std::invalid_argument on a wrong size or
+/// a negative tick.
 GradientRun run_gradient_agents(const LatticeProblem& lattice, const estimators::gradient::DgBbParams& params,
                                 bool record_trace = false, const std::vector<std::int64_t>& start_ticks = {});
 

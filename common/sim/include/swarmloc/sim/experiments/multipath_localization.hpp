@@ -1,5 +1,5 @@
 #pragma once
-// Reproduction experiment of 003 Sec. 4 (ALGORITHMS.md §5.4): 5 nodes, single anchor S_0 at the origin,
+// Reproduction experiment of 003 Sec. 4 (docs/algorithms.md §5.4): 5 nodes, single anchor S_0 at the origin,
 // NLOS paths only, cooperative multipath BP vs pairwise localization. No I/O; randomness from the seed.
 #include <cstdint>
 #include <vector>
@@ -22,7 +22,7 @@ struct MultipathExperimentConfig {
   /// Not in 003: exact GaBP, cavity messages instead of full beliefs ([D-4] ablation,
   /// MultipathBpParams::exact_messages).
   bool exact_messages = false;
-  /// How a path's measured length is drawn. false (ALGORITHMS.md §5.4): the image method's length plus
+  /// How a path's measured length is drawn. false (docs/algorithms.md §5.4): the image method's length plus
   /// N(0, range_std²), so the angle errors make eq. (1) wrong by what they move g. true (another reading of
   /// 003 Sec. 4, whose theory takes eq. (1) as exact): the length eq. (1) predicts at the measured angles,
   /// g(θ̃_ij, θ̃_ji)ᵀ(s_i − s_j), plus N(0, range_std²); the angle errors then enter only through G.

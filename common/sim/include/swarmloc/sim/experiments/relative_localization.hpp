@@ -1,5 +1,5 @@
 #pragma once
-// Reproduction experiments of 002 (ALGORITHMS.md §4.6): distributed Jacobi localization from relative
+// Reproduction experiments of 002 (docs/algorithms.md §4.6): distributed Jacobi localization from relative
 // measurements against the centralized BLUE and its CRB, and the static-target DLE. Library functions
 // returning numbers (no I/O); all randomness from the seeds in the configs.
 #include <cstdint>
@@ -12,7 +12,7 @@ namespace swarmloc::sim::experiments {
 /// How the 002 localization graph is drawn ([C-5]: the source says only "randomly generated graphs with 300
 /// nodes and 1288 edges").
 enum class RelativeGraphModel {
-  kGeometric,  ///< ALGORITHMS.md §4.6 default: uniform points, the radius giving exactly num_edges edges
+  kGeometric,  ///< docs/algorithms.md §4.6 default: uniform points, the radius giving exactly num_edges edges
   kGnm,        ///< Erdős–Rényi G(n, m): num_edges pairs drawn uniformly, whatever their distance
 };
 

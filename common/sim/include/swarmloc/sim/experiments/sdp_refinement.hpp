@@ -1,7 +1,7 @@
 #pragma once
-// Reproduction experiment of 004 Example 3 / Tables II–III (ALGORITHMS.md §6.6): random geometric graphs,
-// the SDP relaxation as initial guess, DG-BB refinement as DgBb agents over the in-process bus, with a
-// synchronous or an asynchronous (random start tick per node, §6.4) start. No I/O.
+// Reproduction experiment of 004 Example 3 / Tables II–III (docs/algorithms.md §6.6): random geometric
+// graphs, the SDP relaxation as initial guess, DG-BB refinement as DgBb agents over the in-process bus, with
+// a synchronous or an asynchronous (random start tick per node, §6.4) start. No I/O.
 #include <cstdint>
 #include <random>
 #include <string>
