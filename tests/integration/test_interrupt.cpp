@@ -25,15 +25,11 @@ namespace {
 using swarmloc::testing::count_processes_matching;
 using swarmloc::testing::fresh_directory;
 using swarmloc::testing::read_json;
+using swarmloc::testing::read_text;
 using Clock = std::chrono::steady_clock;
 
 const std::string kBinary = SWARMLOC_BINARY;
 const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
-
-std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 /// Starts `swarmloc run` with stdout and stderr to `log`; returns its pid.
 pid_t start_run(const std::filesystem::path& dir, const std::filesystem::path& log) {

@@ -28,6 +28,7 @@ namespace {
 
 using swarmloc::testing::fresh_directory;
 using swarmloc::testing::read_json;
+using swarmloc::testing::read_text;
 using swarmloc::testing::run_command;
 using Clock = std::chrono::steady_clock;
 
@@ -35,11 +36,6 @@ const std::string kBinary = SWARMLOC_BINARY;
 const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
 
 double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
-
-std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 /// A dense 10^5-agent world needs over 12 GB: if the code under test does not stop, it must fail on a
 /// 4 GiB address-space limit rather than take the (shared) machine's memory.

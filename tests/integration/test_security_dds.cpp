@@ -20,6 +20,7 @@ namespace {
 using swarmloc::testing::count_processes_matching;
 using swarmloc::testing::fresh_directory;
 using swarmloc::testing::read_json;
+using swarmloc::testing::read_text;
 using swarmloc::testing::run_command;
 
 const std::string kBinary = SWARMLOC_BINARY;
@@ -36,11 +37,6 @@ std::string world_flags(int domain, const char* mode = "lockstep") {
          " --set world.anchors=3 --set world.area_m=20 --set run.rate_hz=20 --set run.steps=100"
          " --set run.mode=" +
          mode + " --set dds.domain_id=" + std::to_string(domain);
-}
-
-std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 /// The largest X of the agent's "matched X/Y neighbours" lines; -1 if it logged none.

@@ -41,6 +41,11 @@ inline nlohmann::json read_json(const std::filesystem::path& path) {
   return nlohmann::json::parse(in);
 }
 
+inline std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
 /// A fresh, empty directory under the build tree's temp area.
 inline std::filesystem::path fresh_directory(const std::string& name) {
   const auto dir =
