@@ -22,6 +22,7 @@
 namespace {
 
 using swarmloc::testing::count_processes_matching;
+using swarmloc::testing::free_port;
 using swarmloc::testing::fresh_directory;
 using swarmloc::testing::read_json;
 using swarmloc::testing::run_command;
@@ -37,23 +38,6 @@ std::optional<std::string> find_chromium() {
     if (access(candidate, X_OK) == 0) return std::string(candidate);
   }
   return std::nullopt;
-}
-
-/// A port nobody listens on right now (bound to 0, read back, released).
-int free_port() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(0x7f000001U);  // 127.0.0.1
-  address.sin_port = 0;
-  socklen_t length = sizeof address;
-  if (bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
-      getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) != 0) {
-    close(fd);
-    return 0;
-  }
-  close(fd);
-  return ntohs(address.sin_port);
 }
 
 /// A background `swarmloc` process; SIGKILLed if the test ends while it runs.

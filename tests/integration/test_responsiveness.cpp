@@ -26,6 +26,7 @@
 
 namespace {
 
+using swarmloc::testing::free_port;
 using swarmloc::testing::fresh_directory;
 using swarmloc::testing::read_json;
 using swarmloc::testing::read_text;
@@ -172,23 +173,6 @@ TEST(LargeInputs, AnUnwritableOutIsReportedBeforeAnyWork) {
   EXPECT_NE(result.output.find(out.string()), std::string::npos) << result.output;
   EXPECT_LT(took_s, 10.0) << "the world was built before the run directory was checked";
   std::printf("[ bad-out ] exit 2 after %.2f s\n", took_s);
-}
-
-/// A port nobody listens on right now (bound to 0, read back, released).
-int free_port() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(0x7f000001U);  // 127.0.0.1
-  address.sin_port = 0;
-  socklen_t length = sizeof address;
-  if (bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
-      getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) != 0) {
-    close(fd);
-    return 0;
-  }
-  close(fd);
-  return ntohs(address.sin_port);
 }
 
 /// A connected TCP socket that sends nothing (a browser's speculative preconnect, or a stalled client).
