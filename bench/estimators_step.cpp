@@ -1,5 +1,5 @@
-// One IEIF / IEKF step with 8 neighbours, one multipath BP step with 8 neighbours (003's beliefs and exact
-// GaBP), and one CRLB build at N = 30 and N = 300.
+// One IEIF / IEKF / dml step with 8 neighbours, one multipath BP step with 8 neighbours (003's beliefs and
+// exact GaBP), and one CRLB build at N = 30 and N = 300.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -8,6 +8,7 @@
 #include "kalman_reference.hpp"
 #include "swarmloc/estimators/bp/multipath_bp.hpp"
 #include "swarmloc/estimators/crlb.hpp"
+#include "swarmloc/estimators/dml.hpp"
 #include "swarmloc/estimators/ieif.hpp"
 #include "swarmloc/estimators/iekf.hpp"
 #include "swarmloc/models/multipath.hpp"
@@ -31,7 +32,7 @@ Neighbourhood eight_neighbours() {
     const double angle = 0.785 * j;
     const Vec2 x_j = self + 5.0 * Vec2(std::cos(angle), std::sin(angle));
     n.inbox.states.push_back(est::Received<est::StateMessage>{
-        j, 0, est::StateMessage{x_j, 0.01 * Mat2::Identity(), j <= 3, true, 8}});
+        j, 0, est::StateMessage{x_j, 0.01 * Mat2::Identity(), j <= 3, true, 8, {}}});
     n.batch.ranges.push_back(est::RangeMeasurement{j, 5.02, 0.1});
   }
   return n;
@@ -51,6 +52,7 @@ void filter_step_8_neighbours(benchmark::State& state) {
 }
 BENCHMARK_TEMPLATE(filter_step_8_neighbours, est::Ieif);
 BENCHMARK_TEMPLATE(filter_step_8_neighbours, est::Iekf);
+BENCHMARK_TEMPLATE(filter_step_8_neighbours, est::Dml);
 
 /// The IEIF step with algorithm.update_iterations = Arg (1: 001's single linearization).
 void ieif_step_8_neighbours_update_iterations(benchmark::State& state) {

@@ -152,7 +152,9 @@ struct RunResult {
   bool ok = false;
   std::string error;
   double final_rmse_m = kNaN;
-  double crlb_rmse_m = kNaN;  ///< accumulated CRLB at the last step (NaN: no bound, e.g. multipath)
+  double crlb_rmse_m = kNaN;  ///< static all-draws CRLB at the last step (summary.json "crlb", older readers)
+  double bound_rmse_m = kNaN;  ///< the run's bound at the last step (summary.json "bound"; NaN: none)
+  std::string bound_kind;      ///< crlb_static_accumulated, pcrb or none (docs/algorithms.md §1.3.1)
   std::int64_t converge_step = -1;
   double converge_s = kNaN;
   bool still_falling = false;
@@ -178,6 +180,9 @@ void measure(RunResult& result, const nlohmann::json& summary, const std::vector
   }
   result.crlb_rmse_m = json_number(
       summary.value("crlb", nlohmann::json::object()).value("accumulated_rmse_m", nlohmann::json()));
+  const auto bound = summary.value("bound", nlohmann::json::object());
+  result.bound_rmse_m = json_number(bound.value("rmse_m", nlohmann::json()));
+  result.bound_kind = bound.value("kind", std::string());
   result.converge_step = converge_step(steps);
   result.still_falling = still_falling(steps);
   result.converge_s = result.converge_step >= 0 ? static_cast<double>(result.converge_step) / rate_hz : kNaN;
@@ -320,7 +325,7 @@ void run_dds_cell(const CampaignSpec& spec, RunResult& result, const std::string
 struct CellStats {
   int runs = 0;  ///< successful seeds
   int failed = 0;
-  double rmse_mean = kNaN, rmse_std = kNaN, crlb_mean = kNaN, converge_s_mean = kNaN;
+  double rmse_mean = kNaN, rmse_std = kNaN, bound_mean = kNaN, converge_s_mean = kNaN;
   double delivered_fraction = kNaN;
   double ratio = kNaN;  ///< rmse_mean / the reference (first swept value) cell's rmse_mean
   /// Median over seeds of (this seed's RMSE / the same seed's reference RMSE): one badly placed world
@@ -366,7 +371,7 @@ std::map<CellKey, CellStats> aggregate(const std::vector<RunResult>& runs) {
   std::map<CellKey, CellStats> cells;
   for (const auto& [key, members] : grouped) {
     CellStats stats;
-    std::vector<double> rmse, crlb, converge, seed_ratios;
+    std::vector<double> rmse, bound, converge, seed_ratios;
     std::uint64_t sent = 0, delivered = 0;
     for (const auto* run : members) {
       if (!run->ok) {
@@ -377,7 +382,7 @@ std::map<CellKey, CellStats> aggregate(const std::vector<RunResult>& runs) {
       rmse.push_back(run->final_rmse_m);
       const auto ref = reference.find({run->mode, run->algorithm, run->variant, run->seed});
       if (ref != reference.end()) seed_ratios.push_back(run->final_rmse_m / ref->second);
-      if (std::isfinite(run->crlb_rmse_m)) crlb.push_back(run->crlb_rmse_m);
+      if (std::isfinite(run->bound_rmse_m)) bound.push_back(run->bound_rmse_m);
       if (std::isfinite(run->converge_s)) converge.push_back(run->converge_s);
       if (run->still_falling) stats.still_falling_seeds.push_back(run->seed);
       sent += run->sent;
@@ -386,7 +391,7 @@ std::map<CellKey, CellStats> aggregate(const std::vector<RunResult>& runs) {
     stats.rmse_mean = mean_of(rmse);
     stats.rmse_std = std_of(rmse);
     stats.seed_ratio_median = median_of(seed_ratios);
-    stats.crlb_mean = mean_of(crlb);
+    stats.bound_mean = mean_of(bound);
     stats.converge_s_mean = mean_of(converge);
     stats.delivered_fraction = sent > 0 ? static_cast<double>(delivered) / static_cast<double>(sent) : kNaN;
     cells[key] = stats;
@@ -466,8 +471,9 @@ std::string campaign_markdown(const CampaignSpec& spec, const std::vector<ModeRu
              fmt("%.3g", c.rmse_mean) + " ± " + fmt("%.2g", c.rmse_std) + ")" +
              (c.failed > 0 ? " " + std::to_string(c.failed) + " failed" : "");
     });
-    md << "Final RMSE / accumulated CRLB (n/a: no bound for this measurement model):\n\n";
-    table(md, spec, mode, cells, [](const CellStats& c) { return fmt("%.2f", c.rmse_mean / c.crlb_mean); });
+    md << "Final RMSE / the run's bound (summary.json `bound`: the accumulated CRLB or posterior CRB of the "
+          "algorithm's data; n/a: no bound):\n\n";
+    table(md, spec, mode, cells, [](const CellStats& c) { return fmt("%.2f", c.rmse_mean / c.bound_mean); });
     md << "Time to converge (s):\n\n";
     table(md, spec, mode, cells, [](const CellStats& c) { return fmt("%.1f", c.converge_s_mean); });
     md << "Delivered fraction of inter-agent samples:\n\n";
@@ -524,7 +530,7 @@ void write_csv(const std::filesystem::path& path, const CampaignSpec& spec,
   out << "mode,algorithm,variant,swept_key,swept_value,seed,ok,final_rmse_m,crlb_rmse_m,rmse_over_crlb,"
          "ratio_to_reference,converge_step,converge_s,still_falling,sent,delivered,dropped_injected,"
          "delivered_fraction,"
-         "wall_s,"
+         "wall_s,bound_kind,bound_rmse_m,rmse_over_bound,"
          "run_dir,error\n"
       << std::setprecision(9);
   auto number = [](double v) {
@@ -543,7 +549,8 @@ void write_csv(const std::filesystem::path& path, const CampaignSpec& spec,
         << ',' << number(run.converge_s) << ',' << (run.still_falling ? 1 : 0) << ',' << run.sent << ','
         << run.delivered << ',' << run.dropped_injected << ','
         << number(run.sent > 0 ? static_cast<double>(run.delivered) / static_cast<double>(run.sent) : kNaN)
-        << ',' << number(run.wall_s) << ',' << run.run_dir.string() << ',' << error << '\n';
+        << ',' << number(run.wall_s) << ',' << run.bound_kind << ',' << number(run.bound_rmse_m) << ','
+        << number(run.final_rmse_m / run.bound_rmse_m) << ',' << run.run_dir.string() << ',' << error << '\n';
   }
   sim::write_text_file(path, out.str());
 }

@@ -67,6 +67,8 @@ nlohmann::json snapshot_json(const ViewSnapshot& s) {
           {"max_error_m", metric(s.max_error_m)},
           {"nees", metric(s.nees)},
           {"crlb_rmse_m", metric(s.crlb_rmse_m)},
+          {"bound_rmse_m", metric(s.bound_rmse_m)},
+          {"bound_kind", s.bound_kind},
           {"scored", s.scored},
           {"done", s.done}};
 }
@@ -111,6 +113,7 @@ void set_metrics(ViewSnapshot& snapshot, const sim::StepMetrics& metrics) {
   snapshot.max_error_m = metrics.errors.max_error_m;
   snapshot.nees = metrics.errors.nees;
   snapshot.crlb_rmse_m = metrics.crlb_rmse_m;
+  snapshot.bound_rmse_m = metrics.bound_rmse_m;
   snapshot.scored = metrics.errors.scored;
   snapshot.has_metrics = true;
 }
@@ -121,6 +124,7 @@ void play_back(LiveView& view, const config::Scenario& scenario, const sim::RunR
   auto world = sim::build_world(scenario);
   ViewSnapshot base = view_snapshot(scenario, world);
   base.mode = "sim";
+  base.bound_kind = std::string(sim::to_string(record.bound.kind));
   for (const auto& [key, counters] : record.links) add_link_counters(base, key.first, key.second, counters);
   std::map<std::int64_t, std::vector<const sim::EstimateRow*>> rows;
   for (const auto& row : record.estimates) rows[row.step].push_back(&row);

@@ -5,12 +5,13 @@
 //   GET /            the page; it polls /state.json about five times a second and redraws
 //   GET /state.json  {step, steps, time_s, phase, done, agents: [{id, anchor, truth, estimate,
 //                    covariance}], target, links: [{a, b, delivered_fraction, delivered, sent}], rmse_m,
-//                    mean_error_m, max_error_m, crlb_rmse_m, nees, scored, …}
+//                    mean_error_m, max_error_m, crlb_rmse_m, bound_rmse_m, bound_kind, nees, scored, …}
 //                    (target: [x, y] of the true target when the agents estimate it, dle; else null)
 // The run loop calls publish() once per world step: it swaps a shared pointer under a mutex and
 // returns, so the run never waits for the viewer; JSON is made on the server thread per request.
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -55,6 +56,9 @@ struct ViewSnapshot {
   std::vector<ViewLink> links;
   double rmse_m = 0.0, mean_error_m = 0.0, max_error_m = 0.0, nees = 0.0;
   double crlb_rmse_m = 0.0;  ///< accumulated CRLB after step + 1 snapshots
+  /// The run's bound at this step and its kind (sim::RunRecord::bound, docs/algorithms.md §1.3.1).
+  double bound_rmse_m = std::numeric_limits<double>::quiet_NaN();
+  std::string bound_kind;
   int scored = 0;            ///< non-anchor agents with an estimate
   bool has_metrics = false;  ///< false before the first scored step
   bool done = false;         ///< final: the figures equal summary.json's final.*

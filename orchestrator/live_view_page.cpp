@@ -41,6 +41,7 @@ const char* live_view_page() {
       <tr><td>mean error</td><td class="v"><span id="mean">—</span> m</td></tr>
       <tr><td>max error</td><td class="v"><span id="max">—</span> m</td></tr>
       <tr><td>CRLB (accumulated)</td><td class="v"><span id="crlb">—</span> m</td></tr>
+      <tr><td>bound (<span id="boundkind">—</span>)</td><td class="v"><span id="bound">—</span> m</td></tr>
       <tr><td>NEES (2 = consistent)</td><td class="v" id="nees">—</td></tr>
       <tr><td>agents / anchors</td><td class="v" id="count">—</td></tr>
       <tr><td>scored agents</td><td class="v" id="scored">—</td></tr>
@@ -187,6 +188,8 @@ function draw(s) {
   $("mean").textContent = fmt(s.mean_error_m, 4);
   $("max").textContent = fmt(s.max_error_m, 4);
   $("crlb").textContent = fmt(s.crlb_rmse_m, 4);
+  $("bound").textContent = fmt(s.bound_rmse_m, 4);
+  $("boundkind").textContent = s.bound_kind || "—";
   $("nees").textContent = fmt(s.nees, 2);
   $("count").textContent = drawn + " / " + anchors;
   $("scored").textContent = String(s.scored);

@@ -89,7 +89,7 @@ class Orchestrator {
     record_.agents = n;
     record_.anchors = world_.anchor_count();
     record_.mean_degree = world_.mean_degree();
-    record_.crlb = sim::scenario_crlb(world_, scenario_);
+    sim::compute_run_bounds(record_, world_);
 
     if (options_.view_port >= 0) start_view();
     if (options_.record) {
@@ -187,6 +187,7 @@ class Orchestrator {
     if (!view_) return;
     ViewSnapshot snapshot = view_snapshot(scenario_, world_);
     snapshot.mode = "dds";
+    snapshot.bound_kind = std::string(sim::to_string(record_.bound.kind));
     snapshot.phase = phase;
     snapshot.done = done;
     for (std::size_t i = 0; i < reports_.size(); ++i) {
@@ -342,6 +343,7 @@ class Orchestrator {
       if (recording_) recording_->append_step(step, world_.truth, batches);
       transport.publish_batches(
           sim::Header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns}, batches);
+      transport.publish_ros2_world(step, stamp_ns, world_.truth, batches);  // dds.ros2 only (docs/ros2.md)
       if (lockstep_) {
         wait_for_step(transport, step);
       } else {
@@ -532,7 +534,7 @@ class Orchestrator {
     metrics.step = step;
     metrics.time_s = sim::reported_time_s(scenario_, step);
     metrics.errors = sim::score(world_, scored);
-    metrics.crlb_rmse_m = record_.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
+    sim::set_step_bounds(record_, metrics);
     record_.metrics.push_back(metrics);
     for (std::size_t i = 0; i < scored.size(); ++i) {
       if (scored[i])

@@ -1,6 +1,7 @@
 // `swarmloc sim`: the in-process runner behind the same run directory and result table as `run`.
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -143,6 +144,20 @@ int run_sim_command(config::Scenario scenario, const SimCommandOptions& options)
                                      {"final_rmse_std_m", spread},
                                      {"final_mse_mean_m2", result.steps.back().mse_mean},
                                      {"final_nees_mean", result.steps.back().nees_mean}};
+      // Trials with an agent whose self-check flags it at the final step (docs/algorithms.md §1.6).
+      const auto& flagged = result.final_flagged_per_trial;
+      const auto trials_flagged = std::count_if(flagged.begin(), flagged.end(), [](int f) { return f > 0; });
+      record.extra["monte_carlo"]["trials_flagged"] = trials_flagged;
+      // MC RMSE = sqrt of the mean final squared error: the quantity the bound bounds.
+      const double mc_rmse = std::sqrt(result.steps.back().mse_mean);
+      const double mc_bound = result.steps.back().bound_rmse_m;
+      auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+      record.extra["monte_carlo"]["mc_rmse_m"] = mc_rmse;
+      record.extra["monte_carlo"]["bound_kind"] = std::string(sim::to_string(record.bound.kind));
+      record.extra["monte_carlo"]["bound_rmse_m"] = finite_or_null(mc_bound);
+      record.extra["monte_carlo"]["bound_all_data_rmse_m"] =
+          finite_or_null(result.steps.back().bound_all_data_rmse_m);
+      record.extra["monte_carlo"]["ratio"] = finite_or_null(mc_rmse / mc_bound);
       {
         const SlowPhaseNotice notice(options.progress, "writing the run directory");
         // summary.json is the run directory's last file: the Monte Carlo tables go first.
@@ -154,6 +169,11 @@ int run_sim_command(config::Scenario scenario, const SimCommandOptions& options)
           "  Monte Carlo: %d trials on %d threads in %.2f s; final RMSE %.4f ± %.4f m (mean ± std over "
           "trials)\n",
           result.trials, result.threads, result.wall_s, mean, spread);
+      std::printf(
+          "  Monte Carlo RMSE (sqrt of the mean final squared error) %.4f m; bound (%s) %.4f m; ratio %.2f\n",
+          mc_rmse, std::string(sim::to_string(record.bound.kind)).c_str(), mc_bound, mc_rmse / mc_bound);
+      std::printf("  Monte Carlo: %lld of %d trials end with agents flagged by their self-check\n",
+                  static_cast<long long>(trials_flagged), result.trials);
       std::printf("  run directory: %s\n", run_dir.string().c_str());
       return 0;
     }

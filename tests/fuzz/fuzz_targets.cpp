@@ -737,6 +737,7 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
     report.estimate.mean_m = Vec2(rng.uniform(-50, 50), rng.uniform(-50, 50));
     report.estimate.covariance = random_psd(rng, 1.0);
     report.estimate.valid = rng.chance(0.9);
+    report.estimate.inconsistent = rng.chance(0.1);
     report.steps_run = static_cast<std::uint32_t>(rng.below(300));
     report.links.resize(rng.below(6));
     for (auto& link : report.links) link.sender = static_cast<AgentId>(rng.below(30));
@@ -789,6 +790,7 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
           const auto saved_field = s.field;
           random_bytes(s, rng);
           s.valid = rng.chance(0.5);
+          s.inconsistent = rng.chance(0.5);  // a bool holds 0 or 1: the reader's deserializer ensures it
           s.links = saved_links;
           s.rejected_by_reason = saved_reasons;
           s.field = saved_field;
@@ -814,7 +816,8 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
       continue;
     }
     ++result.accepted;
-    bool same = decoded.report.links.size() == s.links._length;
+    bool same = decoded.report.links.size() == s.links._length &&
+                decoded.report.estimate.inconsistent == s.inconsistent;
     for (std::size_t k = 0; same && k < s.rejected_by_reason._length; ++k)
       same = decoded.report.rejected_by_reason[k] == s.rejected_by_reason._buffer[k];
     same = same && decoded.report.estimate.field.size() == static_cast<Eigen::Index>(s.field._length);

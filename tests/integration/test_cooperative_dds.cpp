@@ -138,6 +138,8 @@ TEST_P(LockstepOverDds, FinalErrorsEqualTheSimulatorsToOneInABillion) {
 INSTANTIATE_TEST_SUITE_P(
     EveryRuntimeAlgorithm, LockstepOverDds,
     ::testing::Values(Case{"default", 37, " --set run.steps=60 --set network.loss=0.2"},
+                      Case{"default", 79,
+                           " --set run.steps=60 --set network.loss=0.2 --set algorithm.name=dml", "dml"},
                       Case{"jacobi", 38, " --set run.steps=60 --set network.loss=0.2"},
                       Case{"dgbb", 39, " --set run.steps=150"},
                       Case{"multipath_bp", 40, " --set run.steps=30 --set network.loss=0.2"},

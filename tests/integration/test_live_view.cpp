@@ -174,6 +174,10 @@ TEST(LiveView, HeadlessChromiumDrawsEveryAgentAndShowsTheSummaryFigures) {
       << "page shows " << shown_rmse << ", summary " << rmse;
   EXPECT_NEAR(std::stod(shown_crlb), crlb, 0.5e-4 + 1e-12)
       << "page shows " << shown_crlb << ", summary " << crlb;
+  // The run's bound and its kind (docs/algorithms.md §1.3.1), as summary.json's `bound`.
+  EXPECT_EQ(element_text(dom, "boundkind"), summary["bound"]["kind"].get<std::string>());
+  EXPECT_NEAR(std::stod(element_text(dom, "bound")), summary["bound"]["rmse_m"].get<double>(),
+              0.5e-4 + 1e-12);
   EXPECT_EQ(count_of(map_of(dom), "<ellipse class=\"ellipse\""), kAgents - 3)
       << "one 95 % ellipse per estimate";
   EXPECT_EQ(static_cast<std::size_t>(count_of(map_of(dom), "class=\"link\"")),
@@ -205,6 +209,8 @@ TEST(LiveView, SimPlaybackEndsOnTheSummaryFiguresAndTheHoldExpires) {
   EXPECT_DOUBLE_EQ((*final_state)["rmse_m"].get<double>(), summary["final"]["rmse_m"].get<double>());
   EXPECT_DOUBLE_EQ((*final_state)["crlb_rmse_m"].get<double>(),
                    summary["final"]["crlb_rmse_m"].get<double>());
+  EXPECT_DOUBLE_EQ((*final_state)["bound_rmse_m"].get<double>(), summary["bound"]["rmse_m"].get<double>());
+  EXPECT_EQ((*final_state)["bound_kind"], summary["bound"]["kind"]);
   // The 1 s hold expires by itself: the server goes away.
   const auto deadline = Clock::now() + std::chrono::seconds(5);
   while (get_state(port) && Clock::now() < deadline)

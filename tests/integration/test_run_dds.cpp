@@ -105,15 +105,22 @@ TEST(RunOverDds, ConvergesWithSkewedDriftingClocks) {
 std::map<int, double> final_errors(const std::filesystem::path& run_dir) {
   std::ifstream csv(run_dir / "estimates.csv");
   std::string line;
-  std::getline(csv, line);  // header
+  std::getline(csv, line);  // header: the error_m column by name (later columns may follow it)
+  std::size_t error_column = 0;
+  {
+    std::stringstream names(line);
+    for (std::string name; std::getline(names, name, ',') && name != "error_m";) ++error_column;
+  }
   std::map<long, std::map<int, double>> by_step;
   while (std::getline(csv, line)) {
     std::stringstream fields(line);
-    std::string step, agent, field, last;
+    std::string step, agent, field, error;
     std::getline(fields, step, ',');
     std::getline(fields, agent, ',');
-    while (std::getline(fields, field, ',')) last = field;
-    by_step[std::stol(step)][std::stoi(agent)] = std::stod(last);
+    for (std::size_t column = 2; std::getline(fields, field, ','); ++column) {
+      if (column == error_column) error = field;
+    }
+    by_step[std::stol(step)][std::stoi(agent)] = std::stod(error);
   }
   return by_step.empty() ? std::map<int, double>{} : by_step.rbegin()->second;
 }

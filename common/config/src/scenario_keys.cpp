@@ -382,6 +382,7 @@ std::vector<KeySpec> build_key_specs() {
   keys.push_back(SWARMLOC_KEY(dds.peer_address));
   keys.push_back(SWARMLOC_KEY(dds.security_dir));
   keys.push_back(SWARMLOC_KEY(dds.run_id));
+  keys.push_back(SWARMLOC_KEY(dds.ros2));
   return keys;
 }
 
@@ -497,9 +498,9 @@ std::string suggestion_for(std::string_view path) {
 const std::vector<std::string>& known_algorithms() {
   // Every algorithm `run` and `sim` can execute.
   static const std::vector<std::string> names{
-      "ieif",       "iekf",        "ekf",         "lbekf",        "lbekf_vr",      "lbekf_i",
-      "jacobi",     "dle",         "joint_field", "multipath_bp", "dgbb",          "local_bb",
-      "fixed_step", "step_length", "pose_ekf",    "pose_ieif",    "dead_reckoning"};
+      "ieif",       "iekf",        "ekf",         "lbekf",        "lbekf_vr",       "lbekf_i",
+      "jacobi",     "dle",         "joint_field", "multipath_bp", "dgbb",           "local_bb",
+      "fixed_step", "step_length", "pose_ekf",    "pose_ieif",    "dead_reckoning", "dml"};
   return names;
 }
 

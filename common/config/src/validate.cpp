@@ -180,6 +180,10 @@ void validate(const Scenario& scenario) {
   require_within(world.target_vy_mps, -1000.0, 1000.0, "world.target_vy_mps");
   require_within(world.target_accel_psd, 0.0, 1e6, "world.target_accel_psd");
   require_non_negative(world.target_sensing_radius_m, "world.target_sensing_radius_m");
+  if (algorithm.name == "dml" && world.motion != Motion::kStatic) {
+    fail("world.motion",
+         "must be static for dml (it pools every range draw of the run; docs/algorithms.md §9)");
+  }
   if (algorithm.name == "dle" && world.motion != Motion::kStatic) {
     fail("world.motion", "must be static for dle (its sensors use their known, fixed positions)");
   }

@@ -163,6 +163,15 @@ WireState::WireState(const sim::Header& header, const estimators::StateMessage& 
   put_sym2(message.covariance, sample.covariance);
   sample.flags = codec::state_flags(message);
   sample.degree = message.degree;
+  if (message.edge_ranges.size() > codec::kMaxEdgeRanges) {
+    throw DdsError("publish_state: " + std::to_string(message.edge_ranges.size()) +
+                   " edge ranges (IDL bound 16)");
+  }
+  edge_ranges.reserve(message.edge_ranges.size());
+  for (const auto& edge : message.edge_ranges) {
+    edge_ranges.push_back(swarmloc_msg_EdgeRange{edge.peer, edge.information, edge.mean_range_m});
+  }
+  point_at(sample.edge_ranges, edge_ranges);
 }
 
 WireInformation::WireInformation(const sim::Header& header, const estimators::InformationMessage& message) {
@@ -323,6 +332,7 @@ WireEstimate::WireEstimate(const sim::EstimateReport& report)
   put_vec2(report.estimate.mean_m, sample.mean_m);
   put_sym2(report.estimate.covariance, sample.covariance);
   sample.valid = report.estimate.valid;
+  sample.inconsistent = report.estimate.inconsistent;
   sample.steps_run = report.steps_run;
   sample.samples_published = report.samples_published;
   sample.samples_published_in_steps = report.samples_published_in_steps;
@@ -372,7 +382,17 @@ Inbound<estimators::StateMessage> decode(const swarmloc_msg_State& wire) {
   inbound.message.covariance = get_sym2(wire.covariance);
   inbound.message.degree = wire.degree;
   const bool flags_ok = codec::apply_state_flags(wire.flags, inbound.message);
-  inbound.well_formed = flags_ok && wire.agent_id == wire.header.agent_id;
+  const auto edge_ranges = view(wire.edge_ranges);
+  inbound.well_formed = flags_ok && wire.agent_id == wire.header.agent_id && edge_ranges &&
+                        edge_ranges->size() <= codec::kMaxEdgeRanges;
+  if (!inbound.well_formed) return inbound;
+  for (const auto& edge : *edge_ranges) {
+    if (!std::isfinite(edge.information) || !(edge.information >= 0.0) || !std::isfinite(edge.mean_range_m)) {
+      inbound.well_formed = false;
+      return inbound;
+    }
+    inbound.message.edge_ranges.push_back({edge.peer, edge.information, edge.mean_range_m});
+  }
   return inbound;
 }
 
@@ -513,6 +533,7 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
   report.estimate.mean_m = get_vec2(wire.mean_m);
   report.estimate.covariance = get_sym2(wire.covariance);
   report.estimate.valid = wire.valid;
+  report.estimate.inconsistent = wire.inconsistent;
   report.steps_run = wire.steps_run;
   report.samples_published = wire.samples_published;
   report.samples_published_in_steps = wire.samples_published_in_steps;

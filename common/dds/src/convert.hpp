@@ -17,6 +17,7 @@ struct WireState {
   WireState(const sim::Header& header, const estimators::StateMessage& message);
   WireState(const WireState&) = delete;
   WireState& operator=(const WireState&) = delete;
+  std::vector<swarmloc_msg_EdgeRange> edge_ranges;
   swarmloc_msg_State sample{};
 };
 

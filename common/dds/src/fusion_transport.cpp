@@ -11,6 +11,7 @@
 #include "endpoints.hpp"
 #include "entities.hpp"
 #include "qos.hpp"
+#include "ros2_bridge.hpp"
 #include "swarmloc/dds/transport.hpp"
 
 namespace swarmloc::dds {
@@ -39,6 +40,12 @@ struct FusionTransport::Impl {
     control_reader = create_reader(control, t_control, qos.control, kTopicControl);
     const dds_entity_t estimates = create_publisher(pp, {partition_names.estimates()});
     estimate_writer = create_writer(estimates, t_estimate, qos.estimate, kTopicEstimate);
+    if (scenario.dds.ros2) {  // the fusion centre estimates every agent: it publishes every agent's pose
+      for (AgentId agent = 0; agent < agent_count; ++agent) {
+        ros2_pose_writers.push_back(ros2::create_writer(
+            pp, geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc, ros2::pose_topic(agent)));
+      }
+    }
 
     waitset = check(dds_create_waitset(pp), "dds_create_waitset");
     attach_reader(waitset, measurement_reader);
@@ -51,6 +58,7 @@ struct FusionTransport::Impl {
   Entity participant;  // owns every entity below
   dds_entity_t measurement_reader = 0, control_reader = 0;
   dds_entity_t estimate_writer = 0;
+  std::vector<dds_entity_t> ros2_pose_writers;  ///< dds.ros2 only: agent i's at [i]
   dds_entity_t waitset = 0;
   std::uint64_t dropped_malformed = 0;
 };
@@ -63,6 +71,12 @@ FusionTransport::~FusionTransport() = default;
 void FusionTransport::publish_estimate(const sim::EstimateReport& report) {
   const WireEstimate wire(report);
   write(impl_->estimate_writer, &wire.sample, kTopicEstimate);
+  const AgentId agent = report.header.agent_id;
+  if (agent >= 0 && static_cast<std::size_t>(agent) < impl_->ros2_pose_writers.size() &&
+      ros2::publishes_pose(report)) {
+    const ros2::WirePose pose(report);
+    write(impl_->ros2_pose_writers[static_cast<std::size_t>(agent)], &pose.sample, "ROS 2 pose");
+  }
 }
 
 FusionInbound FusionTransport::wait_and_take(double timeout_s) {

@@ -10,6 +10,8 @@
 //             sample per block and step (endpoints.hpp, measurement_block_size)
 //             publisher "ctl"         : control writer (transient-local per scenario.qos.control)
 //             subscriber "est"        : estimate reader
+// With dds.ros2 (docs/ros2.md) the agent also writes rt/swarmloc/agent_<i>/pose and the orchestrator
+// rt/swarmloc/truth and rt/swarmloc/ranges, in the default partition (ros2_bridge.hpp).
 // Waits: one waitset per participant with a DDS_ANY_STATE read condition per reader (triggered while
 // the reader holds any sample), waited with the caller's timeout; then every reader is drained with
 // loaned dds_take calls. Single-threaded use per transport object, except for the agent's four
@@ -31,6 +33,8 @@
 #include "endpoints.hpp"
 #include "entities.hpp"
 #include "qos.hpp"
+#include "ros2_bridge.hpp"
+#include "swarmloc/sim/centralized_runner.hpp"
 
 namespace swarmloc::dds {
 
@@ -99,6 +103,11 @@ struct AgentTransport::Impl {
     belief_writer = create_writer(own, t_belief, qos.belief, kTopicBelief);
     const dds_entity_t estimates = create_publisher(pp, {partition_names.estimates()});
     estimate_writer = create_writer(estimates, t_estimate, qos.estimate, kTopicEstimate);
+    // A centralized algorithm's agents only sense: the fusion centre publishes their poses.
+    if (scenario.dds.ros2 && !sim::is_centralized(scenario.algorithm.name)) {
+      ros2_pose_writer = ros2::create_writer(pp, geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc,
+                                             ros2::pose_topic(self));
+    }
 
     std::vector<std::string> neighbour_partitions;
     for (const AgentId neighbour : neighbours) {
@@ -176,6 +185,7 @@ struct AgentTransport::Impl {
   Entity participant;          // owns every entity below
   dds_entity_t state_writer = 0, information_writer = 0, consensus_writer = 0, belief_writer = 0;
   dds_entity_t estimate_writer = 0;
+  dds_entity_t ros2_pose_writer = 0;  ///< dds.ros2 only (docs/ros2.md)
   dds_entity_t state_reader = 0, information_reader = 0, consensus_reader = 0, belief_reader = 0;
   dds_entity_t measurement_reader = 0, control_reader = 0;
   dds_entity_t waitset = 0;
@@ -215,6 +225,10 @@ void AgentTransport::publish_belief(const sim::Header& header, const estimators:
 void AgentTransport::publish_estimate(const sim::EstimateReport& report) {
   const WireEstimate wire(report);
   write(impl_->estimate_writer, &wire.sample, kTopicEstimate);
+  if (impl_->ros2_pose_writer != 0 && ros2::publishes_pose(report)) {
+    const ros2::WirePose pose(report);
+    write(impl_->ros2_pose_writer, &pose.sample, "ROS 2 pose");
+  }
 }
 
 void AgentTransport::reset_latency() {
@@ -339,6 +353,11 @@ struct OrchestratorTransport::Impl {
     control_writer = create_writer(control, t_control, qos.control, kTopicControl);
     const dds_entity_t estimates = create_subscriber(pp, {partition_names.estimates()});
     estimate_reader = create_reader(estimates, t_estimate, qos.estimate, kTopicEstimate);
+    if (scenario.dds.ros2) {
+      ros2_truth_writer = ros2::create_writer(pp, geometry_msgs_msg_dds__PoseArray__desc, ros2::kTruthTopic);
+      ros2_ranges_writer =
+          ros2::create_writer(pp, swarmloc_msgs_msg_dds__RangeArray__desc, ros2::kRangesTopic);
+    }
 
     waitset = check(dds_create_waitset(pp), "dds_create_waitset");
     attach_reader(waitset, estimate_reader);
@@ -351,6 +370,7 @@ struct OrchestratorTransport::Impl {
   std::vector<dds_entity_t> measurement_writers;  ///< one per block of agents
   dds_entity_t control_writer = 0;
   dds_entity_t estimate_reader = 0;
+  dds_entity_t ros2_truth_writer = 0, ros2_ranges_writer = 0;  ///< dds.ros2 only (docs/ros2.md)
   dds_entity_t waitset = 0;
   std::uint64_t rejected = 0;
 };
@@ -387,6 +407,16 @@ void OrchestratorTransport::publish_batches(const sim::Header& header,
     }
     write(impl_->measurement_writers[writer], &block.sample(), kTopicMeasurements);
   }
+}
+
+void OrchestratorTransport::publish_ros2_world(std::int64_t step, std::int64_t world_stamp_ns,
+                                               const std::vector<Vec2>& truth,
+                                               const std::vector<estimators::MeasurementBatch>& batches) {
+  if (impl_->ros2_truth_writer == 0) return;
+  const ros2::WirePoseArray poses(world_stamp_ns, truth);
+  write(impl_->ros2_truth_writer, &poses.sample, "ROS 2 truth");
+  const ros2::WireRangeArray ranges(step, world_stamp_ns, batches);
+  write(impl_->ros2_ranges_writer, &ranges.sample, "ROS 2 ranges");
 }
 
 void OrchestratorTransport::publish_control(const sim::ControlMessage& message) {

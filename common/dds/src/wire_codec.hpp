@@ -23,6 +23,7 @@ inline constexpr std::size_t kMaxRejectReasons = 16;
 inline constexpr std::size_t kMaxFieldValues = 64;
 /// Belief.contributions' bound: exact GaBP's messages, one per neighbour.
 inline constexpr std::size_t kMaxBeliefContributions = 1024;
+inline constexpr std::size_t kMaxEdgeRanges = 16;
 
 inline constexpr std::uint8_t kStateFlagAnchor = 1;  // STATE_FLAG_ANCHOR
 inline constexpr std::uint8_t kStateFlagActive = 2;  // STATE_FLAG_ACTIVE

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "swarmloc/estimators/dml.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/estimators/ieif.hpp"
 #include "swarmloc/estimators/iekf.hpp"
@@ -28,6 +29,7 @@ struct Registration {
 constexpr std::array kRegistry{
     Registration{"ieif", &build<Ieif>},                     // docs/algorithms.md §3.2
     Registration{"iekf", &build<Iekf>},                     // docs/algorithms.md §3.5
+    Registration{"dml", &build<Dml>},                       // docs/algorithms.md §9
     Registration{"pose_ekf", &build<PoseEkf>},              // pose states (x, y, θ), pose_filters.hpp
     Registration{"pose_ieif", &build<PoseIeif>},            // its information form
     Registration{"dead_reckoning", &build<DeadReckoning>},  // odometry only (baseline)

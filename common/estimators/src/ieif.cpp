@@ -51,6 +51,9 @@ StepOutput Ieif::step(const StepInput& input) {
   // Estimation, 001 eq. (49), over N_k(i) (§3.4 rules (1)–(3)).
   const LinkSelection selection = collect_range_links(input, setup_.id, params_);
   Linearization rows = linearize_ranges(x_pred, selection.links);
+  // Self-check (docs/algorithms.md §1.6) on every range, gated or not; only once there is an estimate.
+  if (positive_definite(Psi_pred)) add_range_innovations(self_check_, rows, Mat2(Psi_pred.inverse()));
+  self_check_.end_step();
   // The gate needs a prior: P_{k|k−1} = Ψ_{k|k−1}⁻¹ once Ψ is PD (until then every range passes).
   if (params_.range_gate_chi2 > 0.0 && positive_definite(Psi_pred)) {
     out.diagnostics.ranges_gated = gate_ranges(rows, Mat2(Psi_pred.inverse()), params_.range_gate_chi2);
@@ -90,6 +93,7 @@ Estimate Ieif::estimate() const {
     estimate.covariance = kUndefinedVarianceM2 * Mat2::Identity();
     estimate.valid = false;
   }
+  estimate.inconsistent = self_check_.inconsistent();
   return estimate;
 }
 

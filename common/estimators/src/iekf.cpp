@@ -51,6 +51,8 @@ StepOutput Iekf::step(const StepInput& input) {
 
   const LinkSelection selection = collect_range_links(input, setup_.id, params_);
   Linearization rows = linearize_ranges(x_pred, selection.links);
+  add_range_innovations(self_check_, rows, P_pred);  // self-check, docs/algorithms.md §1.6
+  self_check_.end_step();
   out.diagnostics.ranges_gated = gate_ranges(rows, P_pred, params_.range_gate_chi2);
   if (input.measurements != nullptr) rows.fix = input.measurements->fix;
   out.diagnostics.neighbours_used = static_cast<int>(rows.jacobian.rows());
@@ -90,6 +92,7 @@ Estimate Iekf::estimate() const {
   estimate.mean_m = x_;
   estimate.covariance = setup_.anchor ? Mat2::Zero() : P_;
   estimate.valid = setup_.anchor || core::is_symmetric_psd(P_);
+  estimate.inconsistent = self_check_.inconsistent();
   return estimate;
 }
 

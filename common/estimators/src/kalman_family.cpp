@@ -128,6 +128,14 @@ int gate_ranges(Linearization& rows, const Mat2& P_pred, double chi2_gate) {
   return static_cast<int>(count - kept);
 }
 
+void add_range_innovations(RangeResidualCheck& check, const Linearization& rows, const Mat2& P_pred) {
+  if (!P_pred.allFinite() || !core::is_symmetric_psd(P_pred)) return;
+  for (Eigen::Index m = 0; m < rows.jacobian.rows(); ++m) {
+    const models::Row2 u = rows.jacobian.row(m);
+    check.add(rows.innovation(m), rows.variance(m) + (u * P_pred * u.transpose()).value());
+  }
+}
+
 Mat2 predict_information(const Mat2& Psi, const Mat2& Q) {
   // 001 eq. (48): Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ — valid for singular Ψ.
   const Mat2 L = (Mat2::Identity() + Psi * Q).inverse();

@@ -119,6 +119,11 @@ Predicted predict_covariance(const Pose& x, const Mat3& P, const MeasurementBatc
   return out;
 }
 
+/// The heading part of a pose estimate (x, y, θ) with covariance P (Estimate::heading).
+HeadingEstimate pose_heading_estimate(const Pose& x, const Mat3& P) {
+  return HeadingEstimate{x.z(), P(2, 2), Vec2(P(0, 2), P(1, 2))};
+}
+
 }  // namespace
 
 // ---- Kernels ----
@@ -369,6 +374,7 @@ Estimate PoseEkf::estimate() const {
   estimate.mean_m = x_.head<2>();
   estimate.covariance = P_.topLeftCorner<2, 2>();
   estimate.valid = true;
+  estimate.heading = pose_heading_estimate(x_, P_);
   return estimate;
 }
 
@@ -449,7 +455,9 @@ Estimate PoseIeif::estimate() const {
   estimate.mean_m = x_.head<2>();
   const Eigen::LLT<Mat3> llt(Psi_);
   estimate.valid = Psi_.allFinite() && llt.info() == Eigen::Success;
-  estimate.covariance = covariance().topLeftCorner<2, 2>();
+  const Mat3 covariance_now = covariance();
+  estimate.covariance = covariance_now.topLeftCorner<2, 2>();
+  estimate.heading = pose_heading_estimate(x_, covariance_now);
   return estimate;
 }
 
@@ -480,6 +488,7 @@ Estimate DeadReckoning::estimate() const {
   estimate.mean_m = x_.head<2>();
   estimate.covariance = P_.topLeftCorner<2, 2>();
   estimate.valid = true;
+  estimate.heading = pose_heading_estimate(x_, P_);
   return estimate;
 }
 
@@ -608,6 +617,7 @@ Estimate CentralizedPoseEkf::estimate(AgentId id) const {
   estimate.mean_m = x_.segment<2>(3 * *i);
   estimate.covariance = core::symmetrized(P_.block<2, 2>(3 * *i, 3 * *i));
   estimate.valid = true;
+  estimate.heading = pose_heading_estimate(x_.segment<3>(3 * *i), P_.block<3, 3>(3 * *i, 3 * *i));
   return estimate;
 }
 

@@ -103,7 +103,7 @@ class AgentClockSimulation {
     record.agents = world_.size();
     record.anchors = world_.anchor_count();
     record.mean_degree = world_.mean_degree();
-    record.crlb = scenario_crlb(world_, scenario_);
+    compute_run_bounds(record, world_);
     record.processes = 1;
     record.extra["sim_clock"] = "agents";
     record.extra["network_delay_ms"] = scenario_.network.delay_ms;
@@ -231,7 +231,7 @@ class AgentClockSimulation {
     metrics.step = score_step.step;
     metrics.time_s = world_time(score_step.step);
     metrics.errors = score(world_, estimates);
-    metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(score_step.step + 1));
+    set_step_bounds(record, metrics);
     record.metrics.push_back(metrics);
     if (options_.record_estimates) {
       for (std::size_t k = 0; k < n; ++k) {

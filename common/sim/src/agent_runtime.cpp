@@ -58,6 +58,8 @@ constexpr std::size_t kMaxVectorLength = 64;
 constexpr double kAbsurdScalar = 1e30;
 /// Belief.contributions' IDL bound (exact GaBP: one per neighbour).
 constexpr std::size_t kMaxBeliefContributions = 1024;
+/// State.edge_ranges' IDL bound (dml sends a few per sample).
+constexpr std::size_t kMaxEdgeRanges = 16;
 
 }  // namespace
 
@@ -68,6 +70,15 @@ std::optional<RejectReason> AgentRuntime::check_content(const estimators::StateM
     return RejectReason::kAbsurdMagnitude;
   }
   if (!core::is_symmetric_psd(m.covariance, 1e-9)) return RejectReason::kNotSymmetricPsd;
+  if (m.edge_ranges.size() > kMaxEdgeRanges) return RejectReason::kAbsurdMagnitude;
+  for (const auto& edge : m.edge_ranges) {
+    if (!std::isfinite(edge.information) || !std::isfinite(edge.mean_range_m))
+      return RejectReason::kNonFinite;
+    if (edge.information < 0.0 || edge.information > kAbsurdScalar || edge.mean_range_m < 0.0 ||
+        edge.mean_range_m > 2.0 * params_.absurd_position_bound_m) {
+      return RejectReason::kAbsurdMagnitude;
+    }
+  }
   return std::nullopt;
 }
 

@@ -110,6 +110,7 @@ estimators::Estimate fusion_estimate(const centralized::CentralizedFilter& filte
   estimate.mean_m = filter.agent_mean(agent);
   estimate.covariance = filter.covariance_block(agent);
   estimate.valid = estimate.mean_m.allFinite() && estimate.covariance.allFinite();
+  estimate.inconsistent = filter.inconsistent(agent);
   return estimate;
 }
 
@@ -136,7 +137,7 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
   record.agents = n;
   record.anchors = world.anchor_count();
   record.mean_degree = world.mean_degree();
-  record.crlb = scenario_crlb(world, scenario);
+  compute_run_bounds(record, world);
   record.processes = 1;
 
   std::vector<std::optional<estimators::Estimate>> estimates(static_cast<std::size_t>(n));
@@ -159,7 +160,7 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
     metrics.step = step;
     metrics.time_s = reported_time_s(scenario, step);
     metrics.errors = score(world, estimates);
-    metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
+    set_step_bounds(record, metrics);
     record.metrics.push_back(metrics);
     total_mse.push_back(total_squared_error(world.truth, estimates));
     if (options.record_estimates) {

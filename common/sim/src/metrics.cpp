@@ -35,6 +35,7 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
     sum += norm;
     stats.max_error_m = std::max(stats.max_error_m, norm);
     ++stats.scored;
+    if (estimates[i]->inconsistent) ++stats.flagged;
     const Mat2& cov = estimates[i]->covariance;
     if (estimates[i]->valid && cov.allFinite() && cov.determinant() > 0.0) {
       nees_sum += error.dot(cov.ldlt().solve(error));
@@ -72,6 +73,26 @@ ErrorStats score(const World& world, const std::vector<std::optional<estimators:
 double RangeCrlb::accumulated_rmse_m(double snapshots) const {
   if (!fresh_draws_per_step) return single_snapshot_rmse_m;
   return snapshots > 0.0 ? single_snapshot_rmse_m / std::sqrt(snapshots) : single_snapshot_rmse_m;
+}
+
+Mat2 target_information(const World& world, const config::Scenario& s, const Vec2& target) {
+  Mat2 information = Mat2::Zero();
+  const double range_variance = s.noise.target_std_m * s.noise.target_std_m;
+  const double bearing_variance = s.noise.target_bearing_std_rad * s.noise.target_bearing_std_rad;
+  for (const Vec2& sensor : world.truth) {
+    if (s.world.target_sensing_radius_m > 0.0 && (target - sensor).norm() > s.world.target_sensing_radius_m)
+      continue;
+    if (s.world.target_sensing == config::TargetSensing::kLinear) {
+      information += Mat2::Identity() / range_variance;
+      continue;
+    }
+    const auto r = models::range(sensor, target);
+    const auto b = models::bearing(sensor, target);
+    if (!r || !b) continue;  // the sensor sits on the target: no reading (world.cpp)
+    information +=
+        r->d_xj.transpose() * r->d_xj / range_variance + b->d_xj.transpose() * b->d_xj / bearing_variance;
+  }
+  return information;
 }
 
 RangeCrlb range_crlb(const World& world, double range_std_m) {
@@ -205,32 +226,16 @@ RangeCrlb multipath_crlb(const World& world, const config::Scenario& s) {
   return crlb;
 }
 
-/// The static target's bound: J_1 = Σ H_iᵀ V_i⁻¹ H_i over the sensors that read it, at the true target
-/// (the centralized estimate's information from one step of readings). Every sensor estimates the same
-/// target, so the per-sensor bound is the network's.
+/// The static target's bound: J_1 = target_information at the true target (the centralized estimate's
+/// information from one step of readings). Every sensor estimates the same target, so the per-sensor bound
+/// is the network's.
 RangeCrlb target_crlb(const World& world, const config::Scenario& s) {
   RangeCrlb crlb;
   if (s.world.target_motion != config::TargetMotion::kStatic) {
     crlb.single_snapshot_rmse_m = std::numeric_limits<double>::quiet_NaN();
     return crlb;
   }
-  const Vec2 target = world.target.head<2>();
-  Mat2 information = Mat2::Zero();
-  const double range_variance = s.noise.target_std_m * s.noise.target_std_m;
-  const double bearing_variance = s.noise.target_bearing_std_rad * s.noise.target_bearing_std_rad;
-  for (const Vec2& sensor : world.truth) {
-    if (s.world.target_sensing_radius_m > 0.0 && (target - sensor).norm() > s.world.target_sensing_radius_m)
-      continue;
-    if (s.world.target_sensing == config::TargetSensing::kLinear) {
-      information += Mat2::Identity() / range_variance;
-      continue;
-    }
-    const auto r = models::range(sensor, target);
-    const auto b = models::bearing(sensor, target);
-    if (!r || !b) continue;  // the sensor sits on the target: no reading (world.cpp)
-    information +=
-        r->d_xj.transpose() * r->d_xj / range_variance + b->d_xj.transpose() * b->d_xj / bearing_variance;
-  }
+  const Mat2 information = target_information(world, s, world.target.head<2>());
   const Eigen::LDLT<Mat2> ldlt(information);
   if (ldlt.info() != Eigen::Success || !(information.determinant() > 0.0)) {
     crlb.localizable = false;

@@ -91,15 +91,37 @@ std::string preamble(const std::string& output) {
          gnuplot_quote(output) + "\n";
 }
 
+/// Which bound a plot draws (docs/algorithms.md §1.3.1), e.g. "posterior CRB (own draws)" (no '_': the
+/// enhanced terminal would take it for a subscript).
+std::string bound_label(const RunRecord& record) {
+  const RunBound& bound = record.bound;
+  std::string draws(to_string(bound.draws));
+  std::replace(draws.begin(), draws.end(), '_', ' ');
+  const std::string kind = bound.kind == BoundKind::kPcrb ? "posterior CRB" : "CRLB, accumulated";
+  return kind + " (" + draws + ")";
+}
+
 std::string error_script(const RunRecord& record) {
+  // metrics.csv: the bound columns come after `lost` (run_record.cpp), one further on in a field world.
+  const int bound_column = measurement_kinds(record.scenario.algorithm.name).field ? 12 : 11;
+  const bool has_bound = record.bound.kind != BoundKind::kNone;
   std::ostringstream gp;
   gp << preamble("error.png") << "set key top right box opaque\nset logscale y\n"
      << "set xlabel 'world step'\nset ylabel 'position error [m] (log scale)'\n"
-     << "set title \"" << header_title(record) << "\\nlocalization error vs the Cramér–Rao bound\"\n"
+     << "set title \"" << header_title(record) << "\\nlocalization error vs "
+     << (has_bound ? "the " + bound_label(record) : "no bound (" + record.bound.reason + ")") << "\"\n"
      << "plot '../metrics.csv' using 1:3 skip 1 with lines lw 2 lc rgb '#1f77b4' title 'RMSE', "
         "'' using 1:4 skip 1 with lines lc rgb '#2ca02c' title 'mean error', "
-        "'' using 1:5 skip 1 with lines lc rgb '#ff7f0e' title 'max error', "
-        "'' using 1:6 skip 1 with lines dt 2 lw 2 lc rgb 'black' title 'CRLB RMSE (accumulated)'\n";
+        "'' using 1:5 skip 1 with lines lc rgb '#ff7f0e' title 'max error'";
+  if (has_bound) {
+    gp << ", '' using 1:" << bound_column << " skip 1 with lines dt 2 lw 2 lc rgb 'black' title '"
+       << bound_label(record) << "'";
+    if (record.bound.draws != RangeDraws::kAllDraws) {
+      gp << ", '' using 1:" << bound_column + 1
+         << " skip 1 with lines dt 3 lw 1 lc rgb 'gray40' title 'the same bound with all the data'";
+    }
+  }
+  gp << "\n";
   return gp.str();
 }
 
@@ -160,7 +182,7 @@ std::string positions_script(const RunRecord& record, bool have_links, bool have
 }
 
 std::string histogram_script(const RunRecord& record, int agents, int most, double mean_m, double rmse_m,
-                             double crlb_m) {
+                             double bound_m) {
   std::ostringstream gp;
   gp << std::setprecision(4);
   gp << preamble("error_histogram.png")
@@ -175,10 +197,10 @@ std::string histogram_script(const RunRecord& record, int agents, int most, doub
        << ", graph 1 nohead dt 2 lw 2 lc rgb 'black' front\n";
     extra += ", NaN with lines dt 2 lw 2 lc rgb 'black' title 'RMSE'";
   }
-  if (std::isfinite(crlb_m) && crlb_m > 0.0) {
-    gp << "set arrow 2 from " << crlb_m << ", graph 0 to " << crlb_m
+  if (std::isfinite(bound_m) && bound_m > 0.0) {
+    gp << "set arrow 2 from " << bound_m << ", graph 0 to " << bound_m
        << ", graph 1 nohead dt 3 lw 2 lc rgb '#d62728' front\n";
-    extra += ", NaN with lines dt 3 lw 2 lc rgb '#d62728' title 'CRLB RMSE (accumulated)'";
+    extra += ", NaN with lines dt 3 lw 2 lc rgb '#d62728' title '" + bound_label(record) + "'";
   }
   gp << "plot 'error_histogram.csv' using 3:4:($2-$1) skip 1 with boxes lc rgb '#1f77b4' title 'agents per "
         "bin'"
@@ -387,7 +409,7 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
       const auto* last = record.final_metrics();
       scripts["error_histogram.gp"] = histogram_script(
           record, static_cast<int>(errors.size()), *std::max_element(counts.begin(), counts.end()), sum / n,
-          std::sqrt(sum_sq / n), last ? last->crlb_rmse_m : kNaN);
+          std::sqrt(sum_sq / n), last ? last->bound_rmse_m : kNaN);
     }
   }
 

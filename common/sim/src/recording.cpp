@@ -151,6 +151,9 @@ void encode(Encoder& out, const estimators::MeasurementBatch& b) {
 
 void encode(Encoder& out, const estimators::StateMessage& m) {
   out.vec2(m.mean_m), out.mat2(m.covariance), out.boolean(m.anchor), out.boolean(m.active), out.u16(m.degree);
+  out.count(m.edge_ranges.size());  // version 5
+  for (const auto& edge : m.edge_ranges)
+    out.i32(edge.peer), out.f64(edge.information), out.f64(edge.mean_range_m);
 }
 void encode(Encoder& out, const estimators::InformationMessage& m) {
   out.i32(m.target);
@@ -776,9 +779,16 @@ ReceivedSample decode_sample(Decoder& in, int agents, std::uint16_t version) {
   s.header.sender_stamp_ns = in.i64(), s.header.world_stamp_ns = in.i64();
   const auto family_at = in.offset();
   switch (in.u8()) {
-    case 0:
-      decode_into(in, s.message.emplace<estimators::StateMessage>());
+    case 0: {
+      auto& state = s.message.emplace<estimators::StateMessage>();
+      decode_into(in, state);
+      if (version >= 5) {  // older logs predate dml's edge summaries
+        state.edge_ranges.resize(in.count(4 + 2 * 8, "edge ranges"));
+        for (auto& edge : state.edge_ranges)
+          edge.peer = in.i32(), edge.information = in.f64(), edge.mean_range_m = in.f64();
+      }
       break;
+    }
     case 1: {
       auto& information = s.message.emplace<estimators::InformationMessage>();
       decode_into(in, information);

@@ -12,6 +12,7 @@
 #include <ctime>
 #include <iomanip>
 #include <numeric>
+#include <set>
 #include <sstream>
 
 #include "swarmloc/sim/plots.hpp"
@@ -43,6 +44,19 @@ std::string path_component(const std::string& name) {
   return safe.empty() ? std::string("run") : safe;
 }
 
+/// The agents whose estimate at the final scored step carries the self-check's flag (docs/algorithms.md
+/// §1.6). The rows are in step order: only the tail is read.
+std::set<AgentId> flagged_at_final_step(const RunRecord& record) {
+  std::set<AgentId> flagged;
+  const StepMetrics* last = record.final_metrics();
+  if (last == nullptr) return flagged;
+  const auto& rows = record.estimates;
+  for (auto row = rows.rbegin(); row != rows.rend() && row->step >= last->step; ++row) {
+    if (row->step == last->step && row->estimate.inconsistent) flagged.insert(row->agent);
+  }
+  return flagged;
+}
+
 }  // namespace
 
 LinkTotals link_totals(const RunRecord& record) {
@@ -56,6 +70,34 @@ LinkTotals link_totals(const RunRecord& record) {
     totals.delivered_in_steps += link.delivered_in_steps;
   }
   return totals;
+}
+
+void compute_run_bounds(RunRecord& record, const World& world) {
+  record.crlb = scenario_crlb(world, record.scenario);
+  record.bound = run_bound(world, record.scenario, record.crlb);
+}
+
+void set_step_bounds(const RunRecord& record, StepMetrics& metrics) {
+  metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(metrics.step + 1));
+  metrics.bound_rmse_m = record.bound.rmse_at(metrics.step);
+  metrics.bound_all_data_rmse_m = record.bound.all_data_rmse_at(metrics.step);
+}
+
+nlohmann::json bound_json(const RunRecord& record) {
+  const RunBound& bound = record.bound;
+  const StepMetrics* last = record.final_metrics();
+  const double rmse = last != nullptr ? last->bound_rmse_m : std::numeric_limits<double>::quiet_NaN();
+  nlohmann::json block = {{"kind", std::string(to_string(bound.kind))}};
+  if (bound.kind == BoundKind::kNone) {
+    block["reason"] = bound.reason;
+    return block;
+  }
+  block["data"] = std::string(to_string(bound.draws));
+  block["anchors"] = std::string(to_string(bound.anchors));
+  block["rmse_m"] = number_or_null(rmse);
+  block["all_data_rmse_m"] = last != nullptr ? number_or_null(last->bound_all_data_rmse_m) : nlohmann::json();
+  block["ratio"] = last != nullptr ? number_or_null(last->errors.rmse_m / rmse) : nlohmann::json();
+  return block;
 }
 
 WholeRunError whole_run_error(const RunRecord& record) {
@@ -92,6 +134,7 @@ nlohmann::json summary_json(const RunRecord& record) {
     final_json["scored_agents"] = last->errors.scored;
     final_json["missing_agents"] = last->errors.missing;
     final_json["lost_agents"] = last->lost;
+    final_json["flagged_agents"] = last->errors.flagged;  // self-check verdicts, docs/algorithms.md §1.6
     final_json["crlb_rmse_m"] = number_or_null(last->crlb_rmse_m);
     if (measurement_kinds(record.scenario.algorithm.name).field) {
       final_json["field_rmse"] = number_or_null(last->errors.field_rmse);
@@ -106,6 +149,7 @@ nlohmann::json summary_json(const RunRecord& record) {
   summary["crlb"] = {{"single_snapshot_rmse_m", number_or_null(record.crlb.single_snapshot_rmse_m)},
                      {"accumulated_rmse_m", last ? number_or_null(last->crlb_rmse_m) : json()},
                      {"localizable", record.crlb.localizable}};
+  summary["bound"] = bound_json(record);
   const auto totals = link_totals(record);
   summary["links"] = {{"sent", totals.sent},
                       {"arrived", totals.arrived},
@@ -162,16 +206,16 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
     std::ostringstream out;
     // A field world adds the field's error (joint_field); every other run keeps the nine columns.
     const bool field = measurement_kinds(record.scenario.algorithm.name).field;
-    // `lost` (dead or stalled agents, among the missing) comes last, so older readers keep their columns.
+    // New columns go last (`lost`, then the run's bound), so older readers keep their columns.
     out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing"
-        << (field ? ",field_rmse,lost\n" : ",lost\n");
+        << (field ? ",field_rmse,lost" : ",lost") << ",bound_rmse_m,bound_all_data_rmse_m\n";
     out << std::setprecision(9);
     for (const auto& m : record.metrics) {
       out << m.step << ',' << m.time_s << ',' << m.errors.rmse_m << ',' << m.errors.mean_error_m << ','
           << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored
           << ',' << m.errors.missing;
       if (field) out << ',' << m.errors.field_rmse;
-      out << ',' << m.lost << '\n';
+      out << ',' << m.lost << ',' << m.bound_rmse_m << ',' << m.bound_all_data_rmse_m << '\n';
     }
     write_text_file(directory / "metrics.csv", out.str());
   }
@@ -179,7 +223,8 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
     // Large runs hold millions of rows: written in chunks, not built whole in memory.
     OutputFile file(directory / "estimates.csv");
     std::ostringstream out;
-    out << "step,agent,x_m,y_m,cov_xx,cov_xy,cov_yy,valid,truth_x_m,truth_y_m,error_m\n";
+    // `inconsistent` (the self-check's verdict) comes last, so older readers keep their columns.
+    out << "step,agent,x_m,y_m,cov_xx,cov_xy,cov_yy,valid,truth_x_m,truth_y_m,error_m,inconsistent\n";
     out << std::setprecision(9);
     std::size_t rows = 0;
     for (const auto& row : record.estimates) {
@@ -187,7 +232,7 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
       out << row.step << ',' << row.agent << ',' << e.mean_m.x() << ',' << e.mean_m.y() << ','
           << e.covariance(0, 0) << ',' << e.covariance(0, 1) << ',' << e.covariance(1, 1) << ','
           << (e.valid ? 1 : 0) << ',' << row.truth.x() << ',' << row.truth.y() << ','
-          << (e.mean_m - row.truth).norm() << '\n';
+          << (e.mean_m - row.truth).norm() << ',' << (e.inconsistent ? 1 : 0) << '\n';
       if (++rows % 4096 == 0) {
         file.write(out.view());
         out.str({});
@@ -211,14 +256,16 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
     std::ostringstream out;
     out << "agent,anchor,steps_run,samples_published,cpu_s,exit_code,samples_published_in_steps,fate,fate_"
            "step,"
-           "fate_reason\n";
+           "fate_reason,flagged_final\n";
+    const std::set<AgentId> flagged = flagged_at_final_step(record);
     for (const auto& a : record.agent_summaries) {
       std::string reason = a.fate_reason;
       std::replace(reason.begin(), reason.end(), ',', ';');
       out << a.agent << ',' << (a.anchor ? 1 : 0) << ',' << a.steps_run << ',' << a.samples_published << ','
           << a.cpu_s << ',' << (a.exit_code ? std::to_string(*a.exit_code) : "") << ','
           << a.samples_published_in_steps << ',' << a.fate << ','
-          << (a.fate_step >= 0 ? std::to_string(a.fate_step) : "") << ',' << reason << '\n';
+          << (a.fate_step >= 0 ? std::to_string(a.fate_step) : "") << ',' << reason << ','
+          << (flagged.contains(a.agent) ? 1 : 0) << '\n';
     }
     write_text_file(directory / "agents.csv", out.str());
   }
@@ -279,6 +326,34 @@ void prepare_run_directory(const std::filesystem::path& directory, bool force) {
   }
 }
 
+namespace {
+
+/// The result table's bound: which one, its value, the RMSE / bound ratio, and the all-data bound.
+void bound_rows(std::ostringstream& out, const RunRecord& record, const StepMetrics& last) {
+  char line[256];
+  const RunBound& bound = record.bound;
+  if (bound.kind == BoundKind::kNone) {
+    std::snprintf(line, sizeof line, "  %-34s %12s  (%s)\n", "bound", "none", bound.reason.c_str());
+    out << line;
+    return;
+  }
+  const std::string label =
+      std::string(bound.kind == BoundKind::kPcrb ? "posterior CRB" : "CRLB, accumulated") + " (" +
+      std::string(to_string(bound.draws)) + ")";
+  std::snprintf(line, sizeof line, "  %-34s %12.4f m\n", label.c_str(), last.bound_rmse_m);
+  out << line;
+  std::snprintf(line, sizeof line, "  %-34s %12.2f  (%s)\n", "final RMSE / bound",
+                last.errors.rmse_m / last.bound_rmse_m, std::string(to_string(bound.kind)).c_str());
+  out << line;
+  if (bound.draws != RangeDraws::kAllDraws) {
+    std::snprintf(line, sizeof line, "  %-34s %12.4f m\n", "bound with all the data",
+                  last.bound_all_data_rmse_m);
+    out << line;
+  }
+}
+
+}  // namespace
+
 std::string result_table(const RunRecord& record) {
   std::ostringstream out;
   const StepMetrics* last = record.final_metrics();
@@ -296,13 +371,12 @@ std::string result_table(const RunRecord& record) {
     row("final mean error", last->errors.mean_error_m, "m");
     row("final max error", last->errors.max_error_m, "m");
     row("final NEES (2 = consistent)", last->errors.nees, "");
+    std::snprintf(line, sizeof line, "  %-34s %12d\n", "agents flagged by self-check", last->errors.flagged);
+    out << line;
     row("RMSE over the whole run", whole_run_error(record).rmse_m, "m");
     if (measurement_kinds(record.scenario.algorithm.name).field)
       row("final field RMSE (per cell)", last->errors.field_rmse, "");
-    if (std::isfinite(record.crlb.single_snapshot_rmse_m)) {
-      row("CRLB, single snapshot", record.crlb.single_snapshot_rmse_m, "m");
-      row("CRLB, accumulated over the run", last->crlb_rmse_m, "m");
-    }
+    bound_rows(out, record, *last);
     // replay --mrclam: the baselines scored on the same steps (RMSE over the whole run).
     const auto baselines = record.extra.find("baselines");
     if (baselines != record.extra.end()) {

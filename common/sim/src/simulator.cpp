@@ -194,7 +194,7 @@ RunRecord run_simulation(const config::Scenario& scenario, World world, const Si
   record.agents = n;
   record.anchors = world.anchor_count();
   record.mean_degree = world.mean_degree();
-  record.crlb = scenario_crlb(world, scenario);
+  compute_run_bounds(record, world);
   record.processes = 1;
 
   const double period_s = 1.0 / scenario.run.rate_hz;
@@ -315,7 +315,7 @@ RunRecord run_simulation(const config::Scenario& scenario, World world, const Si
       metrics.step = step;
       metrics.time_s = reported_time_s(scenario, step);
       metrics.errors = score(world, estimates);
-      metrics.crlb_rmse_m = record.crlb.accumulated_rmse_m(static_cast<double>(step + 1));
+      set_step_bounds(record, metrics);
       record.metrics.push_back(metrics);
       if (options.record_estimates) {
         for (AgentId i = 0; i < n; ++i) {
@@ -349,7 +349,10 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
   const auto steps = static_cast<std::size_t>(scenario.run.steps);
   // Per trial, per step: (mse, rmse, nees). Trials are independent, so threads share nothing but an index.
   std::vector<std::vector<std::array<double, 3>>> per_trial(static_cast<std::size_t>(trials));
+  // Per trial, per step: the squared bound and all-data bound (NaN when the run has none).
+  std::vector<std::vector<std::array<double, 2>>> per_trial_bound(static_cast<std::size_t>(trials));
   std::vector<double> final_rmse(static_cast<std::size_t>(trials), 0.0);
+  std::vector<int> final_flagged(static_cast<std::size_t>(trials), 0);
   std::atomic<int> next{0};
   std::atomic<int> done{0};
   std::mutex progress_mutex;
@@ -370,9 +373,13 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
       if (on_record) on_record(t, record);
       auto& rows = per_trial[static_cast<std::size_t>(t)];
       rows.reserve(steps);
-      for (const auto& m : record.metrics)
+      for (const auto& m : record.metrics) {
         rows.push_back({m.errors.rmse_m * m.errors.rmse_m, m.errors.rmse_m, m.errors.nees});
+        per_trial_bound[static_cast<std::size_t>(t)].push_back(
+            {m.bound_rmse_m * m.bound_rmse_m, m.bound_all_data_rmse_m * m.bound_all_data_rmse_m});
+      }
       final_rmse[static_cast<std::size_t>(t)] = record.final_metrics()->errors.rmse_m;
+      final_flagged[static_cast<std::size_t>(t)] = record.final_metrics()->errors.flagged;
       if (t == 0) result.first_trial = std::move(record);
       const int finished = ++done;
       if (on_trial) {
@@ -391,6 +398,11 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
     MonteCarloStep row;
     row.step = static_cast<std::int64_t>(k);
     row.crlb_rmse_m = k < reference.size() ? reference[k].crlb_rmse_m : 0.0;
+    std::array<double, 2> bound_sum{};
+    for (const auto& trial_rows : per_trial_bound)
+      bound_sum[0] += trial_rows[k][0], bound_sum[1] += trial_rows[k][1];
+    row.bound_rmse_m = std::sqrt(bound_sum[0] / static_cast<double>(trials));
+    row.bound_all_data_rmse_m = std::sqrt(bound_sum[1] / static_cast<double>(trials));
     std::array<double, 3> sum{}, sum_sq{};
     for (const auto& trial_rows : per_trial) {
       for (std::size_t q = 0; q < 3; ++q) {
@@ -408,6 +420,7 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
     result.steps.push_back(row);
   }
   result.final_rmse_per_trial = std::move(final_rmse);
+  result.final_flagged_per_trial = std::move(final_flagged);
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return result;
 }
@@ -415,17 +428,21 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
 void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result) {
   create_output_directories(directory);
   std::ostringstream out;
-  out << "step,mse_mean_m2,mse_std_m2,rmse_mean_m,rmse_std_m,nees_mean,nees_std,crlb_rmse_m\n"
+  out << "step,mse_mean_m2,mse_std_m2,rmse_mean_m,rmse_std_m,nees_mean,nees_std,crlb_rmse_m,bound_rmse_m,"
+         "bound_all_data_rmse_m\n"
       << std::setprecision(9);
   for (const auto& r : result.steps) {
     out << r.step << ',' << r.mse_mean << ',' << r.mse_std << ',' << r.rmse_mean << ',' << r.rmse_std << ','
-        << r.nees_mean << ',' << r.nees_std << ',' << r.crlb_rmse_m << '\n';
+        << r.nees_mean << ',' << r.nees_std << ',' << r.crlb_rmse_m << ',' << r.bound_rmse_m << ','
+        << r.bound_all_data_rmse_m << '\n';
   }
   write_text_file(directory / "montecarlo.csv", out.str());
   std::ostringstream trials;
-  trials << "trial,final_rmse_m\n" << std::setprecision(9);
-  for (std::size_t t = 0; t < result.final_rmse_per_trial.size(); ++t)
-    trials << t << ',' << result.final_rmse_per_trial[t] << '\n';
+  trials << "trial,final_rmse_m,flagged_agents\n" << std::setprecision(9);
+  for (std::size_t t = 0; t < result.final_rmse_per_trial.size(); ++t) {
+    trials << t << ',' << result.final_rmse_per_trial[t] << ','
+           << (t < result.final_flagged_per_trial.size() ? result.final_flagged_per_trial[t] : 0) << '\n';
+  }
   write_text_file(directory / "trials.csv", trials.str());
 }
 

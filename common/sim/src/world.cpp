@@ -209,6 +209,7 @@ estimators::AgentSetup World::setup_of(AgentId id) const {
   const auto i = static_cast<std::size_t>(id);
   estimators::AgentSetup setup{id, is_anchor.at(i), is_anchor.at(i) ? truth.at(i) : initial_guess.at(i)};
   if (i < initial_heading.size()) setup.initial_heading_rad = initial_heading[i];
+  setup.initial_guess_std_m = initial_guess_std_m;
   return setup;
 }
 
@@ -263,6 +264,11 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw, con
   const auto n = static_cast<std::size_t>(s.world.agents);
   const MeasurementKinds kinds = measurement_kinds(s.algorithm.name);
   world.initial_guess.resize(n);
+  // How far off a start may be, which an agent may know (a deployment plan's tolerance): the guess's std,
+  // or that of a uniform draw over the area.
+  world.initial_guess_std_m = s.world.initial_guess == config::InitialGuess::kUniform
+                                  ? s.world.area_m / std::sqrt(12.0)
+                                  : s.world.initial_guess_std_m;
   auto rng = core::make_engine(trial_seed(s.seed, trial), core::Stream::kInitialGuess);
   std::normal_distribution<double> gauss(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(0.0, s.world.area_m);

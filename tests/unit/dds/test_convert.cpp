@@ -27,6 +27,26 @@ TEST(Convert, StateRoundTripsExactly) {
   }
 }
 
+TEST(Convert, StateEdgeRangesRoundTripAndAbsurdOnesAreRefused) {
+  const auto header = test::make_header(4, 17);
+  auto message = test::make_state(0.0);
+  message.edge_ranges = {{3, 1e4, 12.25}, {-1, 0.0, 0.5}};
+  const auto back = codec::round_trip(header, message);
+  ASSERT_TRUE(back.well_formed);
+  ASSERT_EQ(back.message.edge_ranges.size(), 2U);
+  EXPECT_EQ(back.message.edge_ranges[0].peer, 3);
+  EXPECT_EQ(back.message.edge_ranges[0].information, 1e4);
+  EXPECT_EQ(back.message.edge_ranges[0].mean_range_m, 12.25);
+  EXPECT_EQ(back.message.edge_ranges[1].peer, -1);
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), -1.0}) {
+    auto hostile = message;
+    hostile.edge_ranges[1].information = bad;
+    EXPECT_FALSE(codec::round_trip(header, hostile).well_formed) << bad;
+  }
+  message.edge_ranges.resize(17);
+  EXPECT_THROW((void)codec::round_trip(header, message), DdsError);
+}
+
 TEST(Convert, Sym2IsTheUpperTriangleXxXyYy) {
   const auto packed = codec::pack_sym2(test::sym2(1.0, 2.0, 3.0));
   EXPECT_EQ(packed, (std::array<double, 3>{1.0, 2.0, 3.0}));
@@ -201,6 +221,19 @@ TEST(Convert, ControlRoundTripsExactly) {
   EXPECT_EQ(back.message.command, message.command);
   EXPECT_EQ(back.message.scenario_hash, message.scenario_hash);
   EXPECT_EQ(back.message.start_world_ns, message.start_world_ns);
+}
+
+TEST(Convert, EstimateCarriesTheSelfCheckVerdict) {
+  for (const bool inconsistent : {false, true}) {
+    sim::EstimateReport report;
+    report.header = test::make_header(2, 5);
+    report.estimate.valid = true;
+    report.estimate.inconsistent = inconsistent;
+    const auto back = codec::round_trip(report);
+    ASSERT_TRUE(back.well_formed);
+    EXPECT_EQ(back.report.estimate.inconsistent, inconsistent);
+    EXPECT_TRUE(back.report.estimate.valid);
+  }
 }
 
 }  // namespace

@@ -397,6 +397,38 @@ TEST(PoseFilters, IeifEqualsEkfOnASequenceOfSteps) {
   }
 }
 
+// The estimate carries the heading and its covariance row (the ROS 2 pose's orientation and yaw
+// covariance, docs/ros2.md); position-only estimators leave it empty.
+TEST(PoseFilters, EstimateCarriesTheHeadingAndItsCovarianceRow) {
+  WorldConfig c = landmark_rich(7);
+  c.steps = 20;
+  const World world = simulate(c);
+  const KalmanFamilyParams params = params_for(c);
+  PoseEkf ekf(world.setups[0], params);
+  PoseIeif ieif(world.setups[0], params);
+  DeadReckoning dead_reckoning(world.setups[0], params);
+  const Inbox inbox;
+  for (int k = 0; k < c.steps; ++k) {
+    const StepInput input{k, &world.batches[static_cast<std::size_t>(k)][0], &inbox};
+    ekf.step(input);
+    ieif.step(input);
+    dead_reckoning.step(input);
+  }
+  auto expect_heading = [](const Estimate& estimate, const Pose& pose, const Mat3& covariance) {
+    ASSERT_TRUE(estimate.heading.has_value());
+    EXPECT_EQ(estimate.heading->heading_rad, pose.z());
+    EXPECT_EQ(estimate.heading->variance_rad2, covariance(2, 2));
+    EXPECT_EQ(estimate.heading->position_cov_m_rad.x(), covariance(0, 2));
+    EXPECT_EQ(estimate.heading->position_cov_m_rad.y(), covariance(1, 2));
+    EXPECT_NE(covariance(0, 2), 0.0);  // the steps correlated heading and position
+  };
+  expect_heading(ekf.estimate(), ekf.pose(), ekf.covariance());
+  expect_heading(ieif.estimate(), ieif.pose(), ieif.covariance());
+  expect_heading(dead_reckoning.estimate(), dead_reckoning.pose(), dead_reckoning.covariance());
+  const auto position_only = make_estimator("ieif", world.setups[0], params);
+  EXPECT_FALSE(position_only->estimate().heading.has_value());
+}
+
 // ---- Kernels ----
 
 TEST(PoseFilters, ComposedOdometryEqualsSegmentBySegmentPrediction) {

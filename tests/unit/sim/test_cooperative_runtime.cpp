@@ -233,7 +233,12 @@ TEST(CooperativeWorld, TheFieldErrorIsTheRootMeanSquareOverAgentsAndCells) {
   const World world = build_world(scenario);
   std::vector<std::optional<estimators::Estimate>> estimates(3);
   for (std::size_t i = 0; i < 3; ++i) {
-    estimates[i] = estimators::Estimate{world.truth[i], Mat2::Identity(), true, world.field};
+    estimators::Estimate estimate;
+    estimate.mean_m = world.truth[i];
+    estimate.covariance = Mat2::Identity();
+    estimate.valid = true;
+    estimate.field = world.field;
+    estimates[i] = estimate;
   }
   estimates[1]->field.array() += 0.3;   // 0.09 per cell
   estimates[2]->field(0) += 5.0;        // 25 / 25 cells = 1 per cell

@@ -86,15 +86,22 @@ void reseal(std::vector<std::uint8_t>& bytes) {
   }
 }
 
+/// In a sample record's payload: the family byte, and where a state sample's edge summaries (version 5)
+/// start (receiver, steps, two stamps, well_formed, header; then family, mean, covariance, flags, degree).
+constexpr std::size_t kSampleFamilyAt = 4 + 8 + 8 + 8 + 1 + 32;
+constexpr std::size_t kStateEdgeRangesAt = kSampleFamilyAt + 1 + 16 + 32 + 1 + 1 + 2;
+
 /// The same content in the unchecksummed layout of versions 1 to 3: the 8-byte header, the header
-/// record's payload, then per record its tag and payload.
+/// record's payload, then per record its tag and payload (a state sample without its edge summaries).
 std::vector<std::uint8_t> without_checksums(const std::vector<std::uint8_t>& bytes, std::uint8_t version) {
   std::vector<std::uint8_t> old(bytes.begin(), bytes.begin() + 8);
   old[6] = version;
   for (const auto& r : records_of(bytes)) {
     if (r.tag != 'H') old.push_back(r.tag);
+    const bool state = r.tag == 'R' && bytes[r.payload_at + kSampleFamilyAt] == 0;
+    const std::size_t length = state ? kStateEdgeRangesAt : r.length;
     old.insert(old.end(), bytes.begin() + static_cast<std::ptrdiff_t>(r.payload_at),
-               bytes.begin() + static_cast<std::ptrdiff_t>(r.payload_at + r.length));
+               bytes.begin() + static_cast<std::ptrdiff_t>(r.payload_at + length));
   }
   return old;
 }
@@ -417,6 +424,7 @@ std::vector<ReceivedSample> every_family() {
   state.mean_m = Vec2(1.5, -0.0);
   state.covariance << 0.5, 0.1, 0.2, std::numeric_limits<double>::quiet_NaN();
   state.anchor = true, state.active = false, state.degree = 65535;
+  state.edge_ranges = {{-4, 1e4, 12.25}, {7, 5e-310, std::numeric_limits<double>::infinity()}};
   estimators::InformationMessage information;
   information.target = -3;
   information.info_vec = VecX::LinSpaced(3, -1.0, 1.0);
@@ -454,6 +462,12 @@ void expect_same(const ReceivedSample& a, const ReceivedSample& b) {
       EXPECT_EQ(x.anchor, y.anchor);
       EXPECT_EQ(x.active, y.active);
       EXPECT_EQ(x.degree, y.degree);
+      ASSERT_EQ(x.edge_ranges.size(), y.edge_ranges.size());
+      for (std::size_t k = 0; k < x.edge_ranges.size(); ++k) {
+        EXPECT_EQ(x.edge_ranges[k].peer, y.edge_ranges[k].peer);
+        EXPECT_EQ(x.edge_ranges[k].information, y.edge_ranges[k].information);
+        EXPECT_EQ(x.edge_ranges[k].mean_range_m, y.edge_ranges[k].mean_range_m);
+      }
       break;
     }
     case SampleFamily::kInformation: {
@@ -572,15 +586,15 @@ TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep)
   auto expected = information;
   std::get<estimators::InformationMessage>(expected.message).world_step = -1;
   expect_same(log.samples[0], expected);
-  auto v5 = bytes;
-  v5[6] = 5;
-  reseal(v5);
+  auto next = bytes;
+  next[6] = kRecordingVersion + 1;
+  reseal(next);
   try {
-    (void)parse_sample_log(v5, "v5.slrec");
-    ADD_FAILURE() << "version 5 was read";
+    (void)parse_sample_log(next, "next.slrec");
+    ADD_FAILURE() << "a version from the future was read";
   } catch (const RecordingError& e) {
     EXPECT_NE(
-        std::string(e.what()).find("format version 5 is not supported (this build reads versions 1 to 4)"),
+        std::string(e.what()).find("format version 6 is not supported (this build reads versions 1 to 5)"),
         std::string::npos)
         << e.what();
   }
@@ -625,7 +639,9 @@ TEST(SampleLog, AVersionThreeLogReadsEveryFamilyAndItsUnfinishedFormToo) {
   EXPECT_TRUE(log.complete);
   EXPECT_EQ(log.scenario_hash, 0xABCDEFu);
   ASSERT_EQ(log.samples.size(), samples.size());
-  for (std::size_t k = 0; k < samples.size(); ++k) expect_same(log.samples[k], samples[k]);
+  auto expected = samples;
+  std::get<estimators::StateMessage>(expected[0].message).edge_ranges.clear();  // new in version 5
+  for (std::size_t k = 0; k < samples.size(); ++k) expect_same(log.samples[k], expected[k]);
   const std::vector<std::uint8_t> cut(v3.begin(), v3.end() - 9 - 20);
   EXPECT_THROW((void)parse_sample_log(cut, "v3-cut.slrec"), RecordingError);
   EXPECT_EQ(parse_sample_log(cut, "v3-cut.slrec", true).samples.size(), 3u);

@@ -140,6 +140,11 @@ class Ekf final : public CentralizedFilter {
       for (int a = 0; a < num_agents(); ++a)
         p.block<2, 2>(index(a), index(a)) = initial_cov_[static_cast<std::size_t>(a)];
     }
+    check_innovations(meas, [&](int li, int lj, const Vec2& u) {
+      const Mat2 difference = p.block<2, 2>(2 * li, 2 * li) + p.block<2, 2>(2 * lj, 2 * lj) -
+                              p.block<2, 2>(2 * li, 2 * lj) - p.block<2, 2>(2 * lj, 2 * li);
+      return u.dot(difference * u);
+    });
     MatX y = spd_inverse(p);
     int bandwidth = 0;
     const VecX b = assemble(
@@ -208,6 +213,9 @@ class LbEkf final : public CentralizedFilter {
     } else {
       p = initial_band(initial_cov_, labels_, bandwidth_);  // P_0 = Σ_0
     }
+    check_innovations(meas, [&](int li, int lj, const Vec2& u) {  // own blocks only (the band's edge)
+      return u.dot((band_block(p, 2 * li) + band_block(p, 2 * lj)) * u);
+    });
     BandMatrix y = band_inverse(p, bandwidth_, method_);  // line 3: P̆_k⁻¹ = BandInv_L(P_k)
     BandSink sink{&y};
     const VecX b = assemble(meas, x_, labels_, sink, kKeepAllEdges);  // line 4: Y_k = P̆⁻¹ + band(S_k)
@@ -244,6 +252,9 @@ class LbEkfI final : public CentralizedFilter {
     } else {
       p = initial_band(initial_cov_, labels_, bandwidth_);
     }
+    check_innovations(meas, [&](int li, int lj, const Vec2& u) {
+      return u.dot((band_block(p, 2 * li) + band_block(p, 2 * lj)) * u);
+    });
     y_ = band_inverse(p, bandwidth_, method_);  // P̆_k⁻¹
     BandSink sink{&y_};
     // Keep Y_k PD: the band of S_k is not PSD when an edge's cross block straddles the band edge, so
@@ -309,6 +320,30 @@ CentralizedFilter::CentralizedFilter(const VecX& initial_mean, const std::vector
   x_.resize(initial_mean.size());
   for (int a = 0; a < num_agents(); ++a) x_.segment<2>(index(a)) = initial_mean.segment<2>(2 * a);
   pending_velocity_ = VecX::Zero(initial_mean.size());
+  self_checks_.resize(initial_cov.size());
+}
+
+bool CentralizedFilter::inconsistent(int agent) const {
+  if (agent < 0 || agent >= num_agents()) return false;
+  return self_checks_[static_cast<std::size_t>(agent)].inconsistent();
+}
+
+void CentralizedFilter::check_innovations(
+    const CentralizedMeasurements& measurements,
+    const std::function<double(int li, int lj, const Vec2& u)>& projected_variance) {
+  const int n = num_agents();
+  for (const auto& edge : measurements.ranges) {
+    if (edge.i < 0 || edge.i >= n || edge.j < 0 || edge.j >= n || edge.i == edge.j) continue;
+    const int li = labels_[static_cast<std::size_t>(edge.i)];
+    const int lj = labels_[static_cast<std::size_t>(edge.j)];
+    const Vec2 delta = x_.segment<2>(2 * li) - x_.segment<2>(2 * lj);
+    const double rho = delta.norm();
+    if (rho < kMinRange) continue;  // no direction (§1.1)
+    const double variance = measurements.range_var + projected_variance(li, lj, Vec2(delta / rho));
+    self_checks_[static_cast<std::size_t>(edge.i)].add(edge.range_m - rho, variance);
+    self_checks_[static_cast<std::size_t>(edge.j)].add(edge.range_m - rho, variance);
+  }
+  for (auto& check : self_checks_) check.end_step();
 }
 
 VecX CentralizedFilter::mean() const {

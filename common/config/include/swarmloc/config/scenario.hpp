@@ -205,6 +205,10 @@ struct Scenario {
     /// same domain. Empty: `swarmloc run` draws a fresh one and writes it to the run directory's
     /// scenario.yaml, which agents started elsewhere read (docs/robustness.md, "Run isolation").
     std::string run_id;
+    /// Also speak ROS 2 (docs/ros2.md): agents publish their estimate as
+    /// geometry_msgs/PoseWithCovarianceStamped, the orchestrator the truth and the ranges, on `rt/swarmloc/…`
+    /// topics in the default partition.
+    bool ros2 = false;
   } dds;
 };
 

@@ -111,6 +111,8 @@ class AgentTransport {
   void publish_information(const sim::Header& header, const estimators::InformationMessage& message);
   void publish_consensus(const sim::Header& header, const estimators::ConsensusMessage& message);
   void publish_belief(const sim::Header& header, const estimators::BeliefMessage& message);
+  /// Also, with scenario.dds.ros2, a valid estimate of a step run as a ROS 2 pose on
+  /// rt/swarmloc/agent_<id>/pose (docs/ros2.md).
   void publish_estimate(const sim::EstimateReport& report);
 
   /// Blocks up to timeout_s or until a control sample (lockstep: also a measurement batch) arrives, then
@@ -156,6 +158,11 @@ class OrchestratorTransport {
   /// One world step: batches[i] is agent i's (size = agent count); one sample per block of agents.
   void publish_batches(const sim::Header& header, const std::vector<estimators::MeasurementBatch>& batches);
   void publish_control(const sim::ControlMessage& message);
+  /// With scenario.dds.ros2 (docs/ros2.md): the world step's truth (truth[i] = agent i) as
+  /// geometry_msgs/PoseArray on rt/swarmloc/truth and its ranges (batches[i] = agent i's) as
+  /// swarmloc_msgs/RangeArray on rt/swarmloc/ranges, both stamped with the world time. Otherwise nothing.
+  void publish_ros2_world(std::int64_t step, std::int64_t world_stamp_ns, const std::vector<Vec2>& truth,
+                          const std::vector<estimators::MeasurementBatch>& batches);
 
   /// Blocks up to timeout_s, then takes every estimate report available (well-formed ones only;
   /// malformed reports are counted in rejected_reports()).
@@ -195,6 +202,7 @@ class FusionTransport {
   FusionTransport(const FusionTransport&) = delete;
   FusionTransport& operator=(const FusionTransport&) = delete;
 
+  /// Also, with scenario.dds.ros2, as the agent's ROS 2 pose (as AgentTransport::publish_estimate).
   void publish_estimate(const sim::EstimateReport& report);
 
   /// Blocks up to timeout_s (or until data arrives), then takes everything available. Malformed

@@ -3,6 +3,7 @@
 // no DDS, clock, RNG, I/O or logging inside. Two runtimes drive it: the DDS agent process
 // (agent/) and the in-process simulator (common/sim).
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -38,6 +39,8 @@ struct AgentSetup {
   bool anchor = false;
   Vec2 initial_guess_m = Vec2::Zero();  ///< for anchors: the known position
   double initial_heading_rad = 0.0;     ///< pose-state algorithms: the heading they start from
+  /// How far off initial_guess_m may be (std per axis); +inf: nothing is known about it.
+  double initial_guess_std_m = std::numeric_limits<double>::infinity();
 };
 
 class Estimator {

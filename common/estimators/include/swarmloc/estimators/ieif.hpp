@@ -38,6 +38,7 @@ class Ieif final : public Estimator {
   Vec2 x_;
   Mat2 Psi_;
   int degree_ = 0;
+  RangeResidualCheck self_check_;  // docs/algorithms.md §1.6, on the innovations at x̂_{k|k−1}
 };
 
 }  // namespace swarmloc::estimators

@@ -31,6 +31,7 @@ class Iekf final : public Estimator {
   Vec2 x_;
   Mat2 P_;
   int degree_ = 0;
+  RangeResidualCheck self_check_;  // docs/algorithms.md §1.6, on the innovations at x̂_{k|k−1}
 };
 
 }  // namespace swarmloc::estimators

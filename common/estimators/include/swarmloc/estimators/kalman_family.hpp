@@ -7,6 +7,7 @@
 
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/estimators/messages.hpp"
+#include "swarmloc/estimators/self_check.hpp"
 
 namespace swarmloc::estimators {
 
@@ -63,6 +64,12 @@ Linearization linearize_ranges(const Vec2& x_i, const std::vector<RangeLink>& li
 /// the rows are outside the gate (then the prediction, not the ranges, is what is off — gating would lock
 /// a wrong early estimate in). The absolute fix is not gated. Returns the number of rows dropped.
 int gate_ranges(Linearization& rows, const Mat2& P_pred, double chi2_gate);
+
+/// Feeds the self-check (docs/algorithms.md §1.6) with a step's range rows linearized at the prediction
+/// (before any gating: a range the gate drops still tells whether the estimate fits the data): ν_m over
+/// s_m = r̃_m + J_i(m, :) P_pred J_i(m, :)ᵀ, the gate's innovation variance. Adds nothing while P_pred is not
+/// finite and PSD (no estimate yet to test). The caller closes the step (RangeResidualCheck::end_step).
+void add_range_innovations(RangeResidualCheck& check, const Linearization& rows, const Mat2& P_pred);
 
 /// 001 eq. (48) with F = I in the singular-safe form Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ (docs/algorithms.md §3.2).
 Mat2 predict_information(const Mat2& Psi, const Mat2& Q);

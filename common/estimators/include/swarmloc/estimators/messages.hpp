@@ -105,6 +105,14 @@ struct MeasurementBatch {
 };
 
 // ---- Inter-agent messages (one struct per family of docs/design.md §3) ----
+/// The sender's own range draws to one neighbour, summarized (dml, docs/algorithms.md §9.1): their
+/// information Σ 1/σ² and information-weighted mean. The neighbour adds them to its own draws of the edge.
+struct EdgeRangeSummary {
+  AgentId peer = 0;
+  double information = 0.0;  ///< m⁻²
+  double mean_range_m = 0.0;
+};
+
 /// STATE + COV of the sender's own position.
 struct StateMessage {
   Vec2 mean_m = Vec2::Zero();
@@ -112,6 +120,7 @@ struct StateMessage {
   bool anchor = false;
   bool active = true;
   std::uint16_t degree = 0;
+  std::vector<EdgeRangeSummary> edge_ranges;  ///< dml only: a few edges per message, in rotation
 };
 
 /// INFO-VEC + INFO-MAT (DLE priors).
@@ -177,12 +186,26 @@ struct Outbox {
   std::optional<BeliefMessage> belief;
 };
 
+/// The heading θ of a pose-state estimate, with the θ row of its (x, y, θ) covariance.
+struct HeadingEstimate {
+  double heading_rad = 0.0;
+  double variance_rad2 = 0.0;
+  Vec2 position_cov_m_rad = Vec2::Zero();  ///< (cov(x, θ), cov(y, θ))
+};
+
 /// Position estimate of the agent itself (or of the target it estimates, dle).
 struct Estimate {
   Vec2 mean_m = Vec2::Zero();
   Mat2 covariance = Mat2::Identity() * 1e12;
   bool valid = false;
   VecX field;  ///< joint_field: the field estimate ŷ, one value per cell (empty otherwise)
+  /// The estimator's self-check (docs/algorithms.md §1.6) finds its solution inconsistent with its data:
+  /// likely a wrong (folded, flipped) solution, whatever the covariance says. Always false for estimators
+  /// without a self-check.
+  bool inconsistent = false;
+  /// Pose-state algorithms (pose_ekf, pose_ieif, dead_reckoning): the heading and its covariance with the
+  /// position. Empty for position-only algorithms. Not on swarmloc's wire; the ROS 2 pose uses it.
+  std::optional<HeadingEstimate> heading;
 };
 
 }  // namespace swarmloc::estimators

@@ -17,6 +17,7 @@ struct ErrorStats {
   double nees = 0.0;  ///< mean of eᵀP⁻¹e over agents with a valid covariance (2 if consistent)
   int scored = 0;     ///< non-anchor agents with an estimate
   int missing = 0;    ///< non-anchor agents without any estimate yet
+  int flagged = 0;    ///< scored agents whose self-check finds them inconsistent (docs/algorithms.md §1.6)
   /// joint_field: sqrt of the mean over agents with a field estimate of ‖ŷ_i − y‖² / cells (NaN otherwise).
   double field_rmse = std::numeric_limits<double>::quiet_NaN();
   int field_scored = 0;
@@ -43,6 +44,10 @@ struct RangeCrlb {
   [[nodiscard]] double accumulated_rmse_m(double snapshots) const;
 };
 RangeCrlb range_crlb(const World& world, double range_std_m);
+
+/// The Fisher information about the target's position at `target` from one step of every sensor's reading
+/// (sensors within world.target_sensing_radius_m; linear or range–bearing readings, as world.cpp draws them).
+Mat2 target_information(const World& world, const config::Scenario& scenario, const Vec2& target);
 
 /// The bound that matches the scenario's measurements (at the initial truth): ranges (additive or
 /// proportional noise), relative positions (each link one shared draw: the BLUE covariance σ²·L⁻¹ per

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/sim/bound.hpp"
 #include "swarmloc/sim/envelope.hpp"
 #include "swarmloc/sim/metrics.hpp"
 #include "swarmloc/sim/output_file.hpp"
@@ -22,8 +23,12 @@ struct StepMetrics {
   std::int64_t step = 0;
   double time_s = 0.0;
   ErrorStats errors;
-  double crlb_rmse_m = 0.0;  ///< accumulated over step+1 snapshots
-  int lost = 0;              ///< agents dead or stalled (unscheduled) at this step: among `missing`
+  /// The static all-draws CRLB at the initial truth, accumulated over step+1 snapshots (kept for older
+  /// readers; the run's bound is bound_rmse_m).
+  double crlb_rmse_m = 0.0;
+  double bound_rmse_m = std::numeric_limits<double>::quiet_NaN();           ///< RunRecord::bound at this step
+  double bound_all_data_rmse_m = std::numeric_limits<double>::quiet_NaN();  ///< the same with every draw
+  int lost = 0;  ///< agents dead or stalled (unscheduled) at this step: among `missing`
 };
 
 struct EstimateRow {
@@ -54,7 +59,8 @@ struct RunRecord {
   int agents = 0;
   int anchors = 0;
   double mean_degree = 0.0;
-  RangeCrlb crlb;
+  RangeCrlb crlb;  ///< the static all-draws CRLB (summary.json "crlb", kept for older readers)
+  RunBound bound;  ///< the bound of the algorithm's data (summary.json "bound", docs/algorithms.md §1.3.1)
   std::vector<StepMetrics> metrics;
   std::vector<EstimateRow> estimates;
   std::map<std::pair<AgentId, AgentId>, LinkCounters> links;  ///< (sender, receiver)
@@ -76,6 +82,14 @@ struct LinkTotals {
   std::uint64_t delivered_in_steps = 0;
 };
 LinkTotals link_totals(const RunRecord& record);
+
+/// Sets record.crlb (scenario_crlb) and record.bound (run_bound) from `world` at world step 0.
+void compute_run_bounds(RunRecord& record, const World& world);
+/// Fills metrics.crlb_rmse_m, bound_rmse_m and bound_all_data_rmse_m for metrics.step.
+void set_step_bounds(const RunRecord& record, StepMetrics& metrics);
+/// summary.json's "bound" block: kind, data, anchors, rmse_m, all_data_rmse_m, ratio (final RMSE / bound),
+/// reason (docs/algorithms.md §1.3.1).
+nlohmann::json bound_json(const RunRecord& record);
 
 /// RMSE over the whole run: sqrt of the mean over scored steps of the per-step mean squared error (the
 /// figure that matters on a trajectory, where the final step is one sample among thousands).

@@ -71,10 +71,15 @@ struct MonteCarloStep {
   double rmse_mean = 0.0, rmse_std = 0.0;  ///< per-trial network RMSE (m)
   double nees_mean = 0.0, nees_std = 0.0;
   double crlb_rmse_m = 0.0;
+  /// sqrt of the mean over trials of the run's bound² (a PCRB differs per trial: each has its trajectory).
+  double bound_rmse_m = std::numeric_limits<double>::quiet_NaN();
+  double bound_all_data_rmse_m = std::numeric_limits<double>::quiet_NaN();
 };
 struct MonteCarloResult {
   std::vector<MonteCarloStep> steps;
   std::vector<double> final_rmse_per_trial;
+  /// Agents the self-check flags at the final step (docs/algorithms.md §1.6).
+  std::vector<int> final_flagged_per_trial;
   RunRecord first_trial;  ///< trial 0 in full (estimates, links) for the run directory
   int trials = 0;
   int threads = 0;

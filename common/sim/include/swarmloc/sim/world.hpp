@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <random>
 #include <stdexcept>
@@ -98,6 +99,7 @@ struct World {
   std::vector<bool> is_anchor;
   std::vector<std::vector<AgentId>> neighbours;  ///< communication graph at step 0 (sorted)
   std::vector<Vec2> initial_guess;               ///< prior each agent starts from (anchors: truth)
+  double initial_guess_std_m = std::numeric_limits<double>::infinity();  ///< per axis; +inf: unknown
   std::vector<core::ClockModel> clocks;
   std::vector<models::Wall> walls;  ///< reflecting walls (multipath measurements only)
   int placement_attempts = 1;       ///< draws needed to satisfy world.require_connected

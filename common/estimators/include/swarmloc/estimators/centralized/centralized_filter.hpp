@@ -3,6 +3,7 @@
 // and LB-EKF-I (banded information, docs/algorithms.md §2.4 ). Not per-agent estimators: one object
 // holds the whole network state. No transport, clock, RNG, I/O or logging inside.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string_view>
 #include <utility>
@@ -10,6 +11,7 @@
 
 #include "swarmloc/core/types.hpp"
 #include "swarmloc/estimators/centralized/band_inversion.hpp"
+#include "swarmloc/estimators/self_check.hpp"
 
 namespace swarmloc::estimators::centralized {
 
@@ -70,6 +72,10 @@ class CentralizedFilter {
   /// LB-EKF: the banded M̆_k; LB-EKF-I: Y_k⁻¹). O(n²) memory: for tests and small networks.
   [[nodiscard]] virtual MatX covariance_dense() const = 0;
 
+  /// The self-check's verdict for `agent` (original label, docs/algorithms.md §1.6): the innovations of the
+  /// range edges it is an endpoint of, over the last steps, do not fit the filter's covariance.
+  [[nodiscard]] bool inconsistent(int agent) const;
+
   [[nodiscard]] int num_agents() const { return static_cast<int>(labels_.size()); }
   [[nodiscard]] std::int64_t steps_done() const { return steps_done_; }
   [[nodiscard]] const std::vector<int>& labels() const { return labels_; }
@@ -91,6 +97,13 @@ class CentralizedFilter {
   /// k >= 1: x̂⁻ = x̂⁺ + v(k−1). Returns true if this is a prediction step (k >= 1).
   bool predict_mean();
   void store_velocity(const CentralizedMeasurements& measurements);
+  /// Call with the predicted mean in x_, before the update: adds every range edge's innovation
+  /// ν = y_ij − ‖x̂_i − x̂_j‖ over s = σ_r² + projected_variance(li, lj, u) to both endpoints' self-checks and
+  /// closes their step. projected_variance gives uᵀ(P_ii + P_jj − P_ij − P_ji)u of the predicted covariance
+  /// for internal indices li, lj and the unit vector u from x̂_j to x̂_i (a filter without the cross blocks
+  /// leaves them out).
+  void check_innovations(const CentralizedMeasurements& measurements,
+                         const std::function<double(int li, int lj, const Vec2& u)>& projected_variance);
 
   std::vector<int> labels_;
   std::vector<Mat2> initial_cov_;  ///< Σ_0 blocks, original labels
@@ -100,6 +113,7 @@ class CentralizedFilter {
   std::int64_t steps_done_ = 0;
   int last_measurement_bandwidth_ = 0;
   int last_truncated_entries_ = 0;
+  std::vector<RangeResidualCheck> self_checks_;  ///< one per agent, original labels
 };
 
 /// Builds a filter. `initial_mean` 2N (original labels), `initial_cov` N blocks of Σ_0.

@@ -1,0 +1,48 @@
+#pragma once
+// ROS 2 samples (idl/ros2.idl) from swarmloc types, and the writers that publish them (docs/ros2.md).
+// Like convert.hpp's Wire* types, each holds its IDL sample plus the buffers the sample points into,
+// and must outlive the dds_write call.
+#include <dds/dds.h>
+
+#include <vector>
+
+#include "ros2.h"
+#include "ros2_layout.hpp"
+#include "swarmloc/config/scenario.hpp"
+
+namespace swarmloc::dds::ros2 {
+
+/// geometry_msgs/PoseWithCovarianceStamped of one estimate report, stamped with the reporter's clock
+/// (header.sender_stamp_ns).
+struct WirePose {
+  explicit WirePose(const sim::EstimateReport& report);
+  WirePose(const WirePose&) = delete;
+  WirePose& operator=(const WirePose&) = delete;
+  geometry_msgs_msg_dds__PoseWithCovarianceStamped_ sample{};
+};
+
+/// geometry_msgs/PoseArray of the true positions (poses[i] = agent i, identity orientation).
+struct WirePoseArray {
+  WirePoseArray(std::int64_t world_stamp_ns, const std::vector<Vec2>& truth);
+  WirePoseArray(const WirePoseArray&) = delete;
+  WirePoseArray& operator=(const WirePoseArray&) = delete;
+  std::vector<geometry_msgs_msg_dds__Pose_> poses;
+  geometry_msgs_msg_dds__PoseArray_ sample{};
+};
+
+/// swarmloc_msgs/RangeArray of one world step: every agent's ranges (batches[i] = agent i's).
+struct WireRangeArray {
+  WireRangeArray(std::int64_t step, std::int64_t world_stamp_ns,
+                 const std::vector<estimators::MeasurementBatch>& batches);
+  WireRangeArray(const WireRangeArray&) = delete;
+  WireRangeArray& operator=(const WireRangeArray&) = delete;
+  std::vector<swarmloc_msgs_msg_dds__Range_> ranges;
+  swarmloc_msgs_msg_dds__RangeArray_ sample{};
+};
+
+/// A writer on ROS 2 topic `topic` (DDS name, "rt/…") of type `descriptor`, in the default partition
+/// (where ROS 2 reads) with ROS 2's default QoS: reliable, keep-last 10, volatile.
+dds_entity_t create_writer(dds_entity_t participant, const dds_topic_descriptor_t& descriptor,
+                           const std::string& topic);
+
+}  // namespace swarmloc::dds::ros2

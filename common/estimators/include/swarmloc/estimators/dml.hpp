@@ -1,0 +1,85 @@
+#pragma once
+// Distributed maximum likelihood at one agent (docs/algorithms.md §9): sufficient statistics of every
+// range draw, a nonlinear block-Jacobi solve toward the network's ML position, Gaussian belief
+// propagation for its covariance, a multilateration start from anchors outward and a residual self-check.
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include "swarmloc/estimators/estimator.hpp"
+
+namespace swarmloc::estimators {
+
+/// One agent of `dml`. Each step it (1) adds the step's ranges to per-neighbour sums and takes the
+/// neighbours' summaries of their own draws of the same edges, (2) once localized, solves its own
+/// position with the neighbours' published means held fixed (the fixed point of all agents doing this is
+/// a stationary point of the whole network's likelihood, whatever the message timing), (3) updates its
+/// information matrix from rank-one belief-propagation messages with the cavity taken out, and (4) tests
+/// its residuals. Before it is localized it waits for three localized neighbours with a spread geometry
+/// and multilaterates; the starting guess is used only if that never happens.
+class Dml final : public Estimator {
+ public:
+  Dml(const AgentSetup& setup, const KalmanFamilyParams& params);
+
+  [[nodiscard]] std::string_view name() const override { return "dml"; }
+  [[nodiscard]] Outbox initial_outbox() const override;
+  StepOutput step(const StepInput& input) override;
+  [[nodiscard]] Estimate estimate() const override;
+
+  /// Steps without a multilateration after which an agent starts from its initial guess instead.
+  static constexpr std::int64_t kInitializationPatienceSteps = 50;
+  /// Edge summaries carried per state message (each edge's turn comes every degree / this steps).
+  static constexpr std::size_t kSummariesPerMessage = 2;
+
+ private:
+  struct Edge {
+    double own_information = 0.0;     // Σ 1/σ² of this agent's draws
+    double own_weighted_range = 0.0;  // Σ r/σ²
+    double peer_information = 0.0;    // the neighbour's summary of its draws of the edge
+    double peer_mean_range_m = 0.0;
+    bool has_state = false;
+    StateMessage state;          // the neighbour's newest state
+    double message_scale = 0.0;  // m_{j→i} = s·aaᵀ, the BP message last added to the belief
+    [[nodiscard]] double information() const { return own_information + peer_information; }
+    [[nodiscard]] double mean_range_m() const;
+    [[nodiscard]] bool usable() const;
+  };
+  struct Reference {  // a localized neighbour as a multilateration or solve term
+    Vec2 position_m;
+    double mean_range_m;
+    double information;
+  };
+
+  void absorb_measurements(const MeasurementBatch& batch);
+  void absorb_states(const Inbox& inbox);
+  [[nodiscard]] std::vector<Reference> references() const;
+  [[nodiscard]] double local_cost(const Vec2& x, const std::vector<Reference>& refs) const;
+  [[nodiscard]] Vec2 solve_position(Vec2 x, const std::vector<Reference>& refs) const;
+  [[nodiscard]] std::optional<Vec2> multilaterate(const std::vector<Reference>& refs) const;
+  struct GuessedStart {
+    Vec2 position_m;
+    bool ambiguous;  // the ranges left a mirror pair or a circle, and the guess could not tell
+  };
+  [[nodiscard]] std::optional<GuessedStart> start_from_guess(const std::vector<Reference>& refs) const;
+  void update_information();
+  [[nodiscard]] double residual_statistic(int& degrees_of_freedom) const;
+  [[nodiscard]] bool exact_anchor() const;
+  [[nodiscard]] StateMessage state_message() const;
+  [[nodiscard]] Outbox published();
+
+  AgentSetup setup_;
+  std::map<AgentId, Edge> edges_;
+  Vec2 x_;
+  Mat2 information_ = Mat2::Zero();
+  Mat2 fix_information_ = Mat2::Zero();  // Σ C⁻¹ of the fixes (anchors with noisy fixes)
+  Vec2 fix_information_vector_ = Vec2::Zero();
+  bool localized_ = false;
+  bool inconsistent_ = false;
+  bool ambiguous_start_ = false;  // flagged for good: range-only data cannot confirm such a start
+  std::int64_t steps_ = 0;
+  std::size_t summary_cursor_ = 0;
+};
+
+}  // namespace swarmloc::estimators

@@ -1,0 +1,322 @@
+#include "swarmloc/estimators/dml.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "swarmloc/core/gaussian.hpp"
+#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/self_check.hpp"
+
+namespace swarmloc::estimators {
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kSelfCheckFalseAlarm = 1e-6;    // per agent and step: a healthy network never flags
+constexpr double kMirrorSeparationSigmas = 6.0;  // a mirror pair the guess tells apart: 3σ on each side
+constexpr double kMultilaterationSpreadFraction = 0.1;  // its std, as a fraction of the shortest range
+constexpr int kSolveIterations = 5;
+constexpr double kShortestDistanceM = 1e-9;  // below it a range has no direction to linearize along
+constexpr double kCavityTolerance = 1e-9;
+
+/// a^T P a for the variance of position `covariance` along unit vector `a`, after the rank-one message
+/// s·aaᵀ is taken out of its information (Sherman–Morrison): q / (1 − s q), +inf if nothing is left.
+double cavity_variance(const Mat2& covariance, const Vec2& a, double message_scale) {
+  const double q = a.dot(covariance * a);
+  if (!std::isfinite(q)) return kInfinity;
+  const double remaining = 1.0 - message_scale * q;
+  return remaining > kCavityTolerance ? q / remaining : kInfinity;
+}
+
+/// The scale s of the rank-one range message s·aaᵀ: the range's information after the far end's
+/// variance along the edge is added to the range's own variance.
+double message_scale(double range_information, double far_end_variance) {
+  if (!std::isfinite(far_end_variance)) return 0.0;
+  return 1.0 / (1.0 / range_information + far_end_variance);
+}
+
+bool exactly_known(const StateMessage& state) { return state.anchor && state.covariance.isZero(); }
+
+}  // namespace
+
+double Dml::Edge::mean_range_m() const {
+  const double total = information();
+  return total > 0.0 ? (own_weighted_range + peer_information * peer_mean_range_m) / total : 0.0;
+}
+
+bool Dml::Edge::usable() const {
+  return has_state && state.active && information() > 0.0 && state.mean_m.allFinite();
+}
+
+Dml::Dml(const AgentSetup& setup, const KalmanFamilyParams& /*params*/)
+    : setup_(setup), x_(setup.initial_guess_m), localized_(setup.anchor) {
+  if (!setup.initial_guess_m.allFinite()) throw std::invalid_argument("dml: initial guess is not finite");
+}
+
+bool Dml::exact_anchor() const { return setup_.anchor && fix_information_.isZero(); }
+
+void Dml::absorb_measurements(const MeasurementBatch& batch) {
+  for (const auto& range : batch.ranges) {
+    if (range.peer == setup_.id || !(range.std_m > 0.0) || !std::isfinite(range.range_m)) continue;
+    const double information = 1.0 / (range.std_m * range.std_m);
+    Edge& edge = edges_[range.peer];
+    edge.own_information += information;
+    edge.own_weighted_range += information * range.range_m;
+  }
+  if (batch.fix && positive_definite(batch.fix->covariance) && batch.fix->position_m.allFinite()) {
+    const Mat2 fix_information = batch.fix->covariance.inverse();
+    fix_information_ += fix_information;
+    fix_information_vector_ += fix_information * batch.fix->position_m;
+  }
+}
+
+void Dml::absorb_states(const Inbox& inbox) {
+  for (const auto& received : inbox.states) {
+    if (received.sender == setup_.id) continue;
+    Edge& edge = edges_[received.sender];
+    edge.has_state = true;
+    edge.state = received.message;
+    for (const auto& summary : received.message.edge_ranges) {
+      if (summary.peer != setup_.id || !(summary.information > 0.0) || !std::isfinite(summary.mean_range_m))
+        continue;
+      edge.peer_information = summary.information;
+      edge.peer_mean_range_m = summary.mean_range_m;
+    }
+  }
+}
+
+std::vector<Dml::Reference> Dml::references() const {
+  std::vector<Reference> refs;
+  for (const auto& [id, edge] : edges_) {
+    if (edge.usable()) refs.push_back({edge.state.mean_m, edge.mean_range_m(), edge.information()});
+  }
+  return refs;
+}
+
+double Dml::local_cost(const Vec2& x, const std::vector<Reference>& refs) const {
+  double cost = x.dot(fix_information_ * x) - 2.0 * fix_information_vector_.dot(x);
+  for (const auto& ref : refs) {
+    const double residual = ref.mean_range_m - (x - ref.position_m).norm();
+    cost += ref.information * residual * residual;
+  }
+  return cost;
+}
+
+Vec2 Dml::solve_position(Vec2 x, const std::vector<Reference>& refs) const {
+  for (int iteration = 0; iteration < kSolveIterations; ++iteration) {
+    Mat2 hessian = fix_information_;
+    Vec2 gradient = fix_information_vector_ - fix_information_ * x;
+    for (const auto& ref : refs) {
+      const Vec2 offset = x - ref.position_m;
+      const double distance = offset.norm();
+      if (distance < kShortestDistanceM) continue;
+      const Vec2 a = offset / distance;
+      hessian += ref.information * a * a.transpose();
+      gradient += ref.information * (ref.mean_range_m - distance) * a;
+    }
+    if (!positive_definite(hessian)) break;
+    const Vec2 step = hessian.ldlt().solve(gradient);
+    // Backtrack so a step never raises the local cost (the Gauss–Newton step can overshoot far from x).
+    const double cost = local_cost(x, refs);
+    double fraction = 1.0;
+    while (fraction > 1.0 / 64.0 && local_cost(x + fraction * step, refs) > cost) fraction *= 0.5;
+    if (local_cost(x + fraction * step, refs) > cost) break;
+    x += fraction * step;
+    if ((fraction * step).norm() < 1e-12) break;
+  }
+  return x;
+}
+
+std::optional<Vec2> Dml::multilaterate(const std::vector<Reference>& refs) const {
+  if (refs.size() < 3) return std::nullopt;
+  // Linear least squares on the differences of squared ranges to the first reference (row k:
+  // 2(p_k − p_0)ᵀx = r_0² − r_k² + |p_k|² − |p_0|²), then refined on the ranges themselves.
+  Mat2 normal = Mat2::Zero();
+  Vec2 rhs = Vec2::Zero();
+  Mat2 noise = Mat2::Zero();  // Σ row rowᵀ var(value): the linear solution's spread is N⁻¹ (this) N⁻¹
+  const Reference& base = refs.front();
+  const double base_variance = 4.0 * base.mean_range_m * base.mean_range_m / base.information;
+  for (std::size_t k = 1; k < refs.size(); ++k) {
+    const Vec2 row = 2.0 * (refs[k].position_m - base.position_m);
+    const double value = base.mean_range_m * base.mean_range_m - refs[k].mean_range_m * refs[k].mean_range_m +
+                         refs[k].position_m.squaredNorm() - base.position_m.squaredNorm();
+    normal += row * row.transpose();
+    rhs += value * row;
+    noise += row * row.transpose() *
+             (base_variance + 4.0 * refs[k].mean_range_m * refs[k].mean_range_m / refs[k].information);
+  }
+  if (!positive_definite(normal)) return std::nullopt;
+  const Mat2 inverse = normal.inverse();
+  // Nearly collinear references (a mirror solution) or ranges too noisy for their geometry leave the
+  // linear solution too uncertain to say which basin the position is in: wait for more neighbours.
+  const double spread_m2 = Eigen::SelfAdjointEigenSolver<Mat2>(inverse * noise * inverse).eigenvalues()(1);
+  double shortest_range_m = kInfinity;
+  for (const auto& ref : refs) shortest_range_m = std::min(shortest_range_m, ref.mean_range_m);
+  if (!(std::sqrt(spread_m2) < kMultilaterationSpreadFraction * shortest_range_m)) return std::nullopt;
+  return solve_position(inverse * rhs, refs);
+}
+
+std::optional<Dml::GuessedStart> Dml::start_from_guess(const std::vector<Reference>& refs) const {
+  if (refs.empty() || steps_ <= kInitializationPatienceSteps) return std::nullopt;
+  const bool out_of_patience = steps_ > 3 * kInitializationPatienceSteps;
+  const Reference& first = refs.front();
+  if (refs.size() == 1 || (refs[1].position_m - first.position_m).norm() < kShortestDistanceM) {
+    if (!out_of_patience) return std::nullopt;  // a whole circle: the guess can only pick a point of it
+    const Vec2 toward = x_ - first.position_m;
+    const Vec2 direction =
+        toward.norm() > kShortestDistanceM ? Vec2(toward.normalized()) : Vec2(Vec2::UnitX());
+    return GuessedStart{solve_position(first.position_m + first.mean_range_m * direction, refs), true};
+  }
+  // Two references leave a mirror pair: the guess picks the one nearer to it if the pair is far apart
+  // for the guess's uncertainty (or once waiting for a third reference has not helped).
+  const Reference& second = refs[1];
+  const Vec2 baseline = second.position_m - first.position_m;
+  const double separation = baseline.norm();
+  const double along = (first.mean_range_m * first.mean_range_m - second.mean_range_m * second.mean_range_m +
+                        separation * separation) /
+                       (2.0 * separation);
+  const double across = std::sqrt(std::max(0.0, first.mean_range_m * first.mean_range_m - along * along));
+  const Vec2 e = baseline / separation;
+  const Vec2 foot = first.position_m + along * e;
+  const Vec2 left = foot + across * Vec2(-e.y(), e.x());
+  const Vec2 right = foot - across * Vec2(-e.y(), e.x());
+  const bool distinguishable = 2.0 * across > kMirrorSeparationSigmas * setup_.initial_guess_std_m;
+  if (!distinguishable && !out_of_patience) return std::nullopt;
+  return GuessedStart{solve_position((left - x_).norm() <= (right - x_).norm() ? left : right, refs),
+                      !distinguishable};
+}
+
+void Dml::update_information() {
+  const bool have_belief = positive_definite(information_);
+  const Mat2 covariance = have_belief ? Mat2(information_.inverse()) : Mat2(kInfinity * Mat2::Identity());
+  Mat2 information = fix_information_;
+  for (auto& [id, edge] : edges_) {
+    const Vec2 offset = x_ - edge.state.mean_m;
+    if (!edge.usable() || offset.norm() < kShortestDistanceM) {
+      edge.message_scale = 0.0;
+      continue;
+    }
+    const Vec2 a = offset.normalized();
+    // What this agent told the neighbour (its belief without the neighbour's message), then the
+    // neighbour's belief without that: the cavity, so no range is counted twice around the edge.
+    const double sent_scale = message_scale(
+        edge.information(), have_belief ? cavity_variance(covariance, a, edge.message_scale) : kInfinity);
+    const double far_variance =
+        exactly_known(edge.state) ? 0.0 : cavity_variance(edge.state.covariance, a, sent_scale);
+    edge.message_scale = message_scale(edge.information(), far_variance);
+    information += edge.message_scale * a * a.transpose();
+  }
+  information_ = information;
+}
+
+double Dml::residual_statistic(int& degrees_of_freedom) const {
+  degrees_of_freedom = 0;
+  if (!positive_definite(information_)) return 0.0;
+  const Mat2 covariance = information_.inverse();
+  double statistic = 0.0;
+  for (const auto& [id, edge] : edges_) {
+    const Vec2 offset = x_ - edge.state.mean_m;
+    if (!edge.usable() || offset.norm() < kShortestDistanceM) continue;
+    const Vec2 a = offset.normalized();
+    const double far_variance = exactly_known(edge.state) ? 0.0 : a.dot(edge.state.covariance * a);
+    if (!std::isfinite(far_variance)) continue;
+    const double variance = 1.0 / edge.information() + a.dot(covariance * a) + far_variance;
+    const double residual = edge.mean_range_m() - offset.norm();
+    statistic += residual * residual / variance;
+    ++degrees_of_freedom;
+  }
+  return statistic;
+}
+
+StepOutput Dml::step(const StepInput& input) {
+  StepOutput out;
+  ++steps_;
+  if (input.measurements != nullptr) absorb_measurements(*input.measurements);
+  if (input.inbox != nullptr) absorb_states(*input.inbox);
+  if (exact_anchor()) {
+    x_ = setup_.initial_guess_m;
+    out.outbox = published();
+    return out;
+  }
+  const auto refs = references();
+  if (!localized_) {
+    if (const auto start = multilaterate(refs)) {
+      x_ = *start;
+      localized_ = true;
+    } else if (const auto guessed = start_from_guess(refs)) {
+      x_ = guessed->position_m;
+      ambiguous_start_ = guessed->ambiguous;
+      localized_ = true;  // the self-check watches a start the ranges alone could not fix
+    }
+  }
+  if (localized_) {
+    x_ = solve_position(x_, refs);
+    update_information();
+    int dof = 0;
+    const double statistic = residual_statistic(dof);
+    inconsistent_ = dof > 0 && statistic > chi_square_upper_quantile(dof, kSelfCheckFalseAlarm);
+    if (inconsistent_) {
+      // Likely a wrong basin: restart from a multilateration if that explains the data better.
+      if (const auto restart = multilaterate(refs);
+          restart && local_cost(*restart, refs) < local_cost(x_, refs)) {
+        x_ = *restart;
+      }
+    }
+    out.diagnostics.updated = true;
+  }
+  out.diagnostics.neighbours_used = static_cast<int>(refs.size());
+  out.outbox = published();
+  return out;
+}
+
+StateMessage Dml::state_message() const {
+  StateMessage state;
+  state.mean_m = x_;
+  state.anchor = setup_.anchor;
+  state.active = localized_;
+  if (exact_anchor()) {
+    state.covariance = Mat2::Zero();
+  } else if (localized_ && positive_definite(information_)) {
+    state.covariance = core::symmetrized(information_.inverse());
+  } else {
+    state.covariance = kUndefinedVarianceM2 * Mat2::Identity();
+  }
+  state.degree = static_cast<std::uint16_t>(std::min<std::size_t>(edges_.size(), UINT16_MAX));
+  return state;
+}
+
+Outbox Dml::initial_outbox() const {
+  Outbox outbox;
+  outbox.state = state_message();
+  return outbox;
+}
+
+Outbox Dml::published() {
+  StateMessage state = state_message();
+  std::vector<AgentId> measured;
+  for (const auto& [id, edge] : edges_) {
+    if (edge.own_information > 0.0) measured.push_back(id);
+  }
+  for (std::size_t k = 0; k < std::min(kSummariesPerMessage, measured.size()); ++k) {
+    const AgentId peer = measured[(summary_cursor_ + k) % measured.size()];
+    const Edge& edge = edges_.at(peer);
+    state.edge_ranges.push_back({peer, edge.own_information, edge.own_weighted_range / edge.own_information});
+  }
+  summary_cursor_ += kSummariesPerMessage;
+  Outbox outbox;
+  outbox.state = std::move(state);
+  return outbox;
+}
+
+Estimate Dml::estimate() const {
+  Estimate estimate;
+  estimate.mean_m = x_;
+  const StateMessage state = state_message();
+  estimate.covariance = state.covariance;
+  estimate.valid = exact_anchor() || (localized_ && positive_definite(information_));
+  estimate.inconsistent = inconsistent_ || ambiguous_start_;
+  return estimate;
+}
+
+}  // namespace swarmloc::estimators

@@ -1,0 +1,234 @@
+// dml (docs/algorithms.md §9) against a batch maximum-likelihood solve of the same draws: the fixed point,
+// its covariance on a tree (where belief propagation is exact), the start from any guess and the
+// self-checks.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include "swarmloc/estimators/dml.hpp"
+
+namespace swarmloc::estimators {
+namespace {
+
+constexpr double kRangeStdM = 0.1;
+
+struct DmlNetwork {
+  std::vector<Vec2> truth;
+  std::vector<bool> anchor;
+  std::vector<std::pair<int, int>> edges;  // each measured at both ends, every data step
+};
+
+/// Every draw of every step, by (measuring agent, peer): what the batch solve uses.
+struct DrawLog {
+  std::vector<std::tuple<int, int, double>> draws;
+};
+
+/// Drives one Dml per agent in synchronous rounds: data steps feed fresh ranges, quiet steps only
+/// exchange states so the summaries and the solve settle on the same data.
+class DmlRounds {
+ public:
+  DmlRounds(const DmlNetwork& net, const std::vector<Vec2>& guesses, double guess_std_m) : net_(net) {
+    for (std::size_t i = 0; i < net.truth.size(); ++i) {
+      AgentSetup setup;
+      setup.id = static_cast<AgentId>(i);
+      setup.anchor = net.anchor[i];
+      setup.initial_guess_m = net.anchor[i] ? net.truth[i] : guesses[i];
+      setup.initial_guess_std_m = guess_std_m;
+      agents_.push_back(std::make_unique<Dml>(setup, KalmanFamilyParams{}));
+      outboxes_.push_back(agents_.back()->initial_outbox());
+    }
+  }
+
+  void run(int data_steps, int quiet_steps, std::mt19937_64& rng, DrawLog& log, double bias_m = 0.0) {
+    for (int k = 0; k < data_steps + quiet_steps; ++k) step(k < data_steps, rng, log, bias_m);
+  }
+
+  [[nodiscard]] Estimate estimate(int i) const { return agents_[static_cast<std::size_t>(i)]->estimate(); }
+
+ private:
+  void step(bool with_data, std::mt19937_64& rng, DrawLog& log, double bias_m) {
+    std::normal_distribution<double> noise(0.0, kRangeStdM);
+    std::vector<Outbox> next(agents_.size());
+    for (std::size_t i = 0; i < agents_.size(); ++i) {
+      MeasurementBatch batch;
+      Inbox inbox;
+      for (const auto& [a, b] : net_.edges) {
+        if (a != static_cast<int>(i) && b != static_cast<int>(i)) continue;
+        const int peer = a == static_cast<int>(i) ? b : a;
+        const auto p = static_cast<std::size_t>(peer);
+        if (with_data) {
+          // The bias, if any, sits on agent 0's ranges to its first edge's peer (a broken sensor).
+          const double bias = (i == 0 && peer == net_.edges.front().second) ? bias_m : 0.0;
+          const double range = (net_.truth[i] - net_.truth[p]).norm() + noise(rng) + bias;
+          batch.ranges.push_back({peer, range, kRangeStdM});
+          log.draws.emplace_back(static_cast<int>(i), peer, range);
+        }
+        inbox.states.push_back({peer, 0, *outboxes_[p].state});
+      }
+      batch.world_step = with_data ? 0 : -1;
+      StepInput input;
+      input.measurements = with_data ? &batch : nullptr;
+      input.inbox = &inbox;
+      next[i] = agents_[i]->step(input).outbox;
+    }
+    outboxes_ = std::move(next);
+  }
+
+  const DmlNetwork& net_;
+  std::vector<std::unique_ptr<Dml>> agents_;
+  std::vector<Outbox> outboxes_;
+};
+
+/// Gauss–Newton on Σ (r − ‖x_i − x_j‖)²/σ² over every draw, anchors fixed, from the truth. Returns the
+/// solution and the Fisher information at it (unknowns' coordinates in agent order).
+std::pair<std::vector<Vec2>, MatX> batch_ml(const DmlNetwork& net, const DrawLog& log) {
+  std::vector<int> slot(net.truth.size(), -1);
+  int unknowns = 0;
+  for (std::size_t i = 0; i < net.truth.size(); ++i)
+    if (!net.anchor[i]) slot[i] = unknowns++;
+  std::vector<Vec2> x = net.truth;
+  MatX fisher;
+  for (int iteration = 0; iteration < 50; ++iteration) {
+    fisher = MatX::Zero(2 * unknowns, 2 * unknowns);
+    VecX gradient = VecX::Zero(2 * unknowns);
+    for (const auto& [i, j, range] : log.draws) {
+      const Vec2 offset = x[static_cast<std::size_t>(i)] - x[static_cast<std::size_t>(j)];
+      const Vec2 a = offset.normalized();
+      const double weight = 1.0 / (kRangeStdM * kRangeStdM);
+      const double residual = range - offset.norm();
+      for (const auto& [node, sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
+        const int s = slot[static_cast<std::size_t>(node)];
+        if (s < 0) continue;
+        gradient.segment<2>(2 * s) += weight * residual * sign * a;
+        for (const auto& [other, other_sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
+          const int t = slot[static_cast<std::size_t>(other)];
+          if (t >= 0) fisher.block<2, 2>(2 * s, 2 * t) += weight * sign * other_sign * a * a.transpose();
+        }
+      }
+    }
+    const VecX step = fisher.ldlt().solve(gradient);
+    for (std::size_t i = 0; i < x.size(); ++i)
+      if (slot[i] >= 0) x[i] += step.segment<2>(2 * slot[i]);
+  }
+  return {x, fisher};
+}
+
+DmlNetwork loopy_network() {
+  DmlNetwork net;
+  net.truth = {{0, 0}, {20, 0}, {0, 20}, {20, 20}, {6, 8}, {14, 9}, {9, 15}};
+  net.anchor = {true, true, true, true, false, false, false};
+  for (int i = 0; i < 7; ++i)
+    for (int j = i + 1; j < 7; ++j)
+      if ((!net.anchor[static_cast<std::size_t>(i)] || !net.anchor[static_cast<std::size_t>(j)]) &&
+          (net.truth[static_cast<std::size_t>(i)] - net.truth[static_cast<std::size_t>(j)]).norm() < 23.0)
+        net.edges.emplace_back(i, j);
+  return net;
+}
+
+std::vector<Vec2> guesses_near_truth(const DmlNetwork& net) {
+  std::vector<Vec2> guesses = net.truth;
+  for (auto& g : guesses) g += Vec2(0.7, -0.4);
+  return guesses;
+}
+
+TEST(Dml, ReachesTheBatchMaximumLikelihoodOfEveryDraw) {
+  const DmlNetwork net = loopy_network();
+  std::mt19937_64 rng(11);
+  DrawLog log;
+  DmlRounds rounds(net, guesses_near_truth(net), 0.5);
+  rounds.run(40, 80, rng, log);
+  const auto [ml, fisher] = batch_ml(net, log);
+  for (int i = 4; i < 7; ++i) {
+    const auto estimate = rounds.estimate(i);
+    ASSERT_TRUE(estimate.valid) << i;
+    EXPECT_LT((estimate.mean_m - ml[static_cast<std::size_t>(i)]).norm(), 1e-6) << "agent " << i;
+    EXPECT_GT((ml[static_cast<std::size_t>(i)] - net.truth[static_cast<std::size_t>(i)]).norm(), 1e-4);
+    // Symmetric PD, and on this loopy graph within 30 % of the exact marginal variance.
+    const Mat2& p = estimate.covariance;
+    EXPECT_EQ(p(0, 1), p(1, 0));
+    EXPECT_GT(p.determinant(), 0.0);
+    const MatX exact = fisher.inverse();
+    const double exact_trace = exact.block<2, 2>(2 * (i - 4), 2 * (i - 4)).trace();
+    EXPECT_NEAR(p.trace() / exact_trace, 1.0, 0.3) << "agent " << i;
+    EXPECT_FALSE(estimate.inconsistent) << i;
+  }
+}
+
+TEST(Dml, StartsFromAnyGuessIntoTheSameSolution) {
+  const DmlNetwork net = loopy_network();
+  std::vector<Vec2> far_off = net.truth;
+  for (auto& g : far_off) g = Vec2(-300.0, 450.0);  // nowhere near, and all the same
+  std::mt19937_64 rng(12);
+  DrawLog log;
+  DmlRounds rounds(net, far_off, std::numeric_limits<double>::infinity());
+  rounds.run(40, 80, rng, log);
+  const auto ml = batch_ml(net, log).first;
+  for (int i = 4; i < 7; ++i) {
+    EXPECT_LT((rounds.estimate(i).mean_m - ml[static_cast<std::size_t>(i)]).norm(), 1e-6) << "agent " << i;
+    EXPECT_FALSE(rounds.estimate(i).inconsistent) << i;
+  }
+}
+
+TEST(Dml, CovarianceIsTheExactMarginalOnATree) {
+  // Unknowns 3 and 4 share one edge; each also ranges to two anchors: a tree between the unknowns.
+  DmlNetwork net;
+  net.truth = {{0, 0}, {20, 0}, {30, 15}, {8, 9}, {20, 12}, {12, 24}};
+  net.anchor = {true, true, true, false, false, true};
+  net.edges = {{0, 3}, {5, 3}, {3, 4}, {1, 4}, {2, 4}};
+  std::mt19937_64 rng(13);
+  DrawLog log;
+  DmlRounds rounds(net, guesses_near_truth(net), 0.5);
+  rounds.run(30, 60, rng, log);
+  const auto [ml, fisher] = batch_ml(net, log);
+  const MatX exact = fisher.inverse();
+  for (int i = 3; i < 5; ++i) {
+    const Mat2 expected = exact.block<2, 2>(2 * (i - 3), 2 * (i - 3));
+    const Mat2 got = rounds.estimate(i).covariance;
+    EXPECT_LT((got - expected).norm(), 1e-9 * expected.norm()) << "agent " << i << "\n"
+                                                               << got << "\n"
+                                                               << expected;
+  }
+}
+
+TEST(Dml, FlagsAnAgentItsRangesCannotPlaceUnambiguously) {
+  // Agent 2 hears only two anchors: a mirror pair. An uninformed guess cannot pick; a good one can.
+  DmlNetwork net;
+  net.truth = {{0, 0}, {20, 0}, {9, 7}};
+  net.anchor = {true, true, false};
+  net.edges = {{0, 2}, {1, 2}};
+  const int steps = 3 * static_cast<int>(Dml::kInitializationPatienceSteps) + 5;
+  std::mt19937_64 rng(14);
+  DrawLog log;
+  DmlRounds uninformed(net, {net.truth[0], net.truth[1], Vec2(10.0, 1.0)},
+                       std::numeric_limits<double>::infinity());
+  uninformed.run(steps, 0, rng, log);
+  EXPECT_TRUE(uninformed.estimate(2).valid);
+  EXPECT_TRUE(uninformed.estimate(2).inconsistent);
+
+  DmlRounds informed(net, {net.truth[0], net.truth[1], Vec2(9.4, 6.5)}, 0.5);
+  informed.run(Dml::kInitializationPatienceSteps + 5, 0, rng, log);
+  EXPECT_FALSE(informed.estimate(2).inconsistent);
+  EXPECT_LT((informed.estimate(2).mean_m - net.truth[2]).norm(), 0.1);
+}
+
+TEST(Dml, SelfCheckFlagsRangesItsSolutionCannotExplain) {
+  DmlNetwork net;
+  net.truth = {{8, 7}, {0, 0}, {20, 0}, {0, 20}, {20, 20}};
+  net.anchor = {false, true, true, true, true};
+  net.edges = {{0, 1}, {0, 2}, {0, 3}, {0, 4}};
+  std::mt19937_64 rng(15);
+  DrawLog log;
+  DmlRounds honest(net, guesses_near_truth(net), 0.5);
+  honest.run(50, 5, rng, log);
+  EXPECT_FALSE(honest.estimate(0).inconsistent);
+  DmlRounds biased(net, guesses_near_truth(net), 0.5);
+  biased.run(50, 5, rng, log, 1.0);  // one sensor reads 1 m long, 10σ
+  EXPECT_TRUE(biased.estimate(0).inconsistent);
+}
+
+}  // namespace
+}  // namespace swarmloc::estimators
