@@ -1,7 +1,7 @@
 # Warnings and sanitizers travel as INTERFACE targets linked PRIVATE, so they never leak to consumers.
 add_library(swarmloc_warnings INTERFACE)
 target_compile_options(swarmloc_warnings INTERFACE
-  -Wall -Wextra -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wdouble-promotion -Werror)
+  -Wall -Wextra -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wdouble-promotion $<$<BOOL:${SWARMLOC_WERROR}>:-Werror>)
 
 add_library(swarmloc_sanitizers INTERFACE)
 if(SWARMLOC_SANITIZERS)

@@ -247,16 +247,38 @@ estimators::StateMessage random_state(Rng& rng) {
   state.mean_m = Vec2(rng.uniform(-50.0, 50.0), rng.uniform(-50.0, 50.0));
   state.covariance = state.anchor ? Mat2::Zero() : random_psd(rng, 2.0);
   state.degree = static_cast<std::uint16_t>(rng.below(20));
+  for (std::uint64_t k = rng.below(4); k > 0; --k) {  // dml's edge summaries
+    state.edge_ranges.push_back(
+        {static_cast<AgentId>(rng.below(8)), rng.uniform(0.0, 1e4), rng.uniform(0.0, 30.0)});
+  }
   return state;
 }
 
+/// The decoder's rule for a State's edge summaries: finite, information >= 0, at most the IDL bound.
+bool edge_ranges_acceptable(const swarmloc_msg_State& s) {
+  if (s.edge_ranges._length > dds::codec::kMaxEdgeRanges) return false;
+  for (std::uint32_t k = 0; k < s.edge_ranges._length; ++k) {
+    const auto& edge = s.edge_ranges._buffer[k];
+    if (!std::isfinite(edge.information) || !(edge.information >= 0.0) || !std::isfinite(edge.mean_range_m)) {
+      return false;
+    }
+  }
+  return true;
+}
+
 void mutate(swarmloc_msg_State& s, Rng& rng) {
-  switch (rng.below(8)) {
+  switch (rng.below(9)) {
     case 0:
       s.agent_id = hostile_int<std::int32_t>(rng);
       break;
     case 1:
       mutate_header(s.header, rng);
+      break;
+    case 7:
+      if (s.edge_ranges._length > 0) {
+        auto& edge = s.edge_ranges._buffer[rng.below(s.edge_ranges._length)];
+        (rng.chance(0.5) ? edge.information : edge.mean_range_m) = hostile_double(rng);
+      }
       break;
     case 2:
       s.mean_m[rng.below(2)] = hostile_double(rng);
@@ -273,8 +295,11 @@ void mutate(swarmloc_msg_State& s, Rng& rng) {
     case 6:
       s.covariance[1] = rng.uniform(-10.0, 10.0);  // plausible numbers, not PSD
       break;
-    default:
-      random_bytes(s, rng);  // no pointers or bools in State
+    default: {
+      const auto edge_ranges = s.edge_ranges;  // the one pointer in State: keep it valid
+      random_bytes(s, rng);
+      s.edge_ranges = edge_ranges;
+    }
   }
 }
 
@@ -299,7 +324,7 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
     const auto decoded = dds::decode(sample);
     const bool expect_well_formed =
         (sample.flags & ~(dds::codec::kStateFlagAnchor | dds::codec::kStateFlagActive)) == 0 &&
-        sample.agent_id == sample.header.agent_id;
+        sample.agent_id == sample.header.agent_id && edge_ranges_acceptable(sample);
     record.check(decoded.well_formed == expect_well_formed, i, "state: well_formed differs from the rule");
     if (decoded.well_formed) {
       record.check(same_bits(decoded.message.mean_m.x(), sample.mean_m[0]) &&
