@@ -184,6 +184,14 @@ void validate(const Scenario& scenario) {
     fail("world.motion",
          "must be static for dml (it pools every range draw of the run; docs/algorithms.md §9)");
   }
+  if (algorithm.name == "dml" && scenario.noise.anchor_fix_std_m > 0.0) {
+    fail("noise.anchor_fix_std_m",
+         "must be 0 for dml (it needs exactly known anchors; docs/algorithms.md §9.7)");
+  }
+  if (algorithm.name == "dml" && scenario.noise.shared_range_draws) {
+    fail("noise.shared_range_draws",
+         "must be false for dml (it counts each end's draws as independent; docs/algorithms.md §9.7)");
+  }
   if (algorithm.name == "dle" && world.motion != Motion::kStatic) {
     fail("world.motion", "must be static for dle (its sensors use their known, fixed positions)");
   }

@@ -61,6 +61,10 @@ void Dml::absorb_measurements(const MeasurementBatch& batch) {
     if (range.peer == setup_.id || !(range.std_m > 0.0) || !std::isfinite(range.range_m)) continue;
     const double information = 1.0 / (range.std_m * range.std_m);
     Edge& edge = edges_[range.peer];
+    // A reading identical to the last one to the same peer, bit for bit, is the same draw again (a sensor
+    // that repeats its value, noise.draw: once): it adds no information.
+    if (edge.own_information > 0.0 && range.range_m == edge.last_range_m) continue;
+    edge.last_range_m = range.range_m;
     edge.own_information += information;
     edge.own_weighted_range += information * range.range_m;
   }

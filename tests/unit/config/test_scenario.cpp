@@ -512,6 +512,22 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
       {[](Scenario& s) { s.run.rate_hz = 1000.5; }, "run.rate_hz: 1000.5 is outside (0, 1000]"},
       {[](Scenario& s) { s.run.startup_timeout_s = 0.0; }, "run.startup_timeout_s: 0 must be > 0"},
       {[](Scenario& s) { s.run.settle_s = -1.0; }, "run.settle_s: -1 must be >= 0"},
+      {[](Scenario& s) {
+         s.algorithm.name = "dml";
+         s.world.motion = Motion::kRandomWalk;
+       },
+       "world.motion: must be static for dml (it pools every range draw of the run; docs/algorithms.md §9)"},
+      {[](Scenario& s) {
+         s.algorithm.name = "dml";
+         s.noise.anchor_fix_std_m = 0.5;
+       },
+       "noise.anchor_fix_std_m: must be 0 for dml (it needs exactly known anchors; docs/algorithms.md §9.7)"},
+      {[](Scenario& s) {
+         s.algorithm.name = "dml";
+         s.noise.shared_range_draws = true;
+       },
+       "noise.shared_range_draws: must be false for dml (it counts each end's draws as independent; "
+       "docs/algorithms.md §9.7)"},
       {[](Scenario& s) { s.run.agent_nice = -1; }, "run.agent_nice: -1 is outside [0, 19]"},
       {[](Scenario& s) { s.run.agent_nice = 20; }, "run.agent_nice: 20 is outside [0, 19]"},
       {[](Scenario& s) { s.run.agent_steps_per_world_step = 0; },

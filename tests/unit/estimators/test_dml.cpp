@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <memory>
 #include <random>
 #include <utility>
@@ -49,6 +50,9 @@ class DmlRounds {
 
   [[nodiscard]] Estimate estimate(int i) const { return agents_[static_cast<std::size_t>(i)]->estimate(); }
 
+  /// Every data step repeats the first step's draws (a sensor that returns one value, noise.draw: once).
+  void repeat_first_draws() { repeat_ = true; }
+
  private:
   void step(bool with_data, std::mt19937_64& rng, DrawLog& log, double bias_m) {
     std::normal_distribution<double> noise(0.0, kRangeStdM);
@@ -63,7 +67,11 @@ class DmlRounds {
         if (with_data) {
           // The bias, if any, sits on agent 0's ranges to its first edge's peer (a broken sensor).
           const double bias = (i == 0 && peer == net_.edges.front().second) ? bias_m : 0.0;
-          const double range = (net_.truth[i] - net_.truth[p]).norm() + noise(rng) + bias;
+          const auto key = std::pair{static_cast<int>(i), peer};
+          const double range = repeat_ && first_draws_.contains(key)
+                                   ? first_draws_.at(key)
+                                   : (net_.truth[i] - net_.truth[p]).norm() + noise(rng) + bias;
+          first_draws_.emplace(key, range);
           batch.ranges.push_back({peer, range, kRangeStdM});
           log.draws.emplace_back(static_cast<int>(i), peer, range);
         }
@@ -79,6 +87,8 @@ class DmlRounds {
   }
 
   const DmlNetwork& net_;
+  bool repeat_ = false;
+  std::map<std::pair<int, int>, double> first_draws_;
   std::vector<std::unique_ptr<Dml>> agents_;
   std::vector<Outbox> outboxes_;
 };
@@ -228,6 +238,25 @@ TEST(Dml, SelfCheckFlagsRangesItsSolutionCannotExplain) {
   DmlRounds biased(net, guesses_near_truth(net), 0.5);
   biased.run(50, 5, rng, log, 1.0);  // one sensor reads 1 m long, 10σ
   EXPECT_TRUE(biased.estimate(0).inconsistent);
+}
+
+TEST(Dml, ARepeatedReadingCountsOnce) {
+  const DmlNetwork net = loopy_network();
+  std::mt19937_64 rng(16);
+  DrawLog once_log;
+  DmlRounds once(net, guesses_near_truth(net), 0.5);
+  once.run(1, 80, rng, once_log);
+  DrawLog repeated_log;
+  DmlRounds repeated(net, guesses_near_truth(net), 0.5);
+  repeated.repeat_first_draws();
+  std::mt19937_64 same_rng(16);
+  repeated.run(40, 40, same_rng, repeated_log);
+  for (int i = 4; i < 7; ++i) {
+    EXPECT_LT((repeated.estimate(i).covariance - once.estimate(i).covariance).norm(),
+              1e-9 * once.estimate(i).covariance.norm())
+        << "agent " << i;
+    EXPECT_LT((repeated.estimate(i).mean_m - once.estimate(i).mean_m).norm(), 1e-9) << "agent " << i;
+  }
 }
 
 }  // namespace

@@ -37,7 +37,8 @@ class Dml final : public Estimator {
   struct Edge {
     double own_information = 0.0;     // Σ 1/σ² of this agent's draws
     double own_weighted_range = 0.0;  // Σ r/σ²
-    double peer_information = 0.0;    // the neighbour's summary of its draws of the edge
+    double last_range_m = 0.0;
+    double peer_information = 0.0;  // the neighbour's summary of its draws of the edge
     double peer_mean_range_m = 0.0;
     bool has_state = false;
     StateMessage state;          // the neighbour's newest state
