@@ -116,11 +116,11 @@ TEST(SdpRelaxation, AnchorsKeepTheirPositionsAndAnchorOnlyEdgesAreSkipped) {
 
 TEST(SdpRelaxation, SolverPrintsNothing) {
   const Instance instance = make_instance(6, 2.0, 0.05, 9);
-  testing::internal::CaptureStdout();
-  testing::internal::CaptureStderr();
+  ::testing::internal::CaptureStdout();
+  ::testing::internal::CaptureStderr();
   const SdpRelaxationResult r = solve_sdp_relaxation(instance.problem);
-  const std::string out = testing::internal::GetCapturedStdout();
-  const std::string err = testing::internal::GetCapturedStderr();
+  const std::string out = ::testing::internal::GetCapturedStdout();
+  const std::string err = ::testing::internal::GetCapturedStderr();
   EXPECT_TRUE(r.usable());
   EXPECT_EQ(out, "");
   EXPECT_EQ(err, "");
