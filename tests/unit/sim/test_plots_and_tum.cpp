@@ -32,16 +32,16 @@ config::Scenario tiny_scenario() {
 }
 
 /// A fresh, empty temporary directory removed at the end of the test.
-class TempDir {
+class PlotsTempDir {
  public:
-  explicit TempDir(const std::string& name)
+  explicit PlotsTempDir(const std::string& name)
       : path_(fs::temp_directory_path() / (name + "-" + std::to_string(::getpid()))) {
     fs::remove_all(path_);
     fs::create_directories(path_);
   }
-  ~TempDir() { fs::remove_all(path_); }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
+  ~PlotsTempDir() { fs::remove_all(path_); }
+  PlotsTempDir(const PlotsTempDir&) = delete;
+  PlotsTempDir& operator=(const PlotsTempDir&) = delete;
   [[nodiscard]] const fs::path& path() const { return path_; }
 
  private:
@@ -138,7 +138,7 @@ TEST(RunDirectory, WritesTumTrajectoriesAndPlotData) {
   const auto scenario = tiny_scenario();
   const auto record = run_simulation(scenario);
   ASSERT_FALSE(record.estimates.empty());
-  const TempDir dir("swarmloc-plots-tum");
+  const PlotsTempDir dir("swarmloc-plots-tum");
   write_run_directory(dir.path(), record);
 
   // TUM: one estimate and one truth file per agent; the estimate's last pose is the run's final estimate.
@@ -213,7 +213,7 @@ TEST(RunDirectory, WritesTumTrajectoriesAndPlotData) {
 TEST(TumExport, WritesNothingWithoutEstimates) {
   RunRecord record;
   record.scenario = tiny_scenario();
-  const TempDir dir("swarmloc-tum-empty");
+  const PlotsTempDir dir("swarmloc-tum-empty");
   EXPECT_EQ(write_tum_trajectories(dir.path(), record), 0);
   EXPECT_FALSE(fs::exists(dir.path() / "trajectories"));
 }
