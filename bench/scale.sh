@@ -83,7 +83,7 @@ echo "scale benchmark: ${sizes[*]} agents, $steps steps at $rate Hz; output $out
   echo "agent_nice: $agent_nice"
 } > "$out/machine.txt"
 
-# --- ddsperf loopback reference (ping/pong, see docs/reference/ddsperf.md) ----------------------------
+# --- ddsperf loopback reference (ping/pong, see docs/measurements/ddsperf.md) ----------------------------
 ddsperf_ref() {  # tag seconds mode-args... ; writes $out/ddsperf-<tag>.txt
   local tag=$1 seconds=$2; shift 2
   local dom=229
@@ -102,7 +102,7 @@ if [ "${DDSPERF:-1}" != 0 ]; then
   else
     # The agents publish at the world rate, so their wake-ups come after ~1/rate of idle; ddsperf at the
     # same rate is the like-for-like reference (on this VM waking from 100 ms idle costs ~4x more than
-    # from 10 ms: one way p50 ~300 us at 10 Hz against ~60 us at 100 Hz, docs/reference/ddsperf.md).
+    # from 10 ms: one way p50 ~300 us at 10 Hz against ~60 us at 100 Hz, docs/measurements/ddsperf.md).
     echo "ddsperf reference: back-to-back, 100 Hz (12 s each) and ${rate} Hz (32 s) ping size 64" >&2
     ddsperf_ref b2b 12 size 64
     ddsperf_ref 100hz 12 100Hz size 64

@@ -311,7 +311,7 @@ class Orchestrator {
       }
     }
     if (interrupted().load()) return false;
-    // Neighbour discovery is scoped and fast (~0.1–0.4 s, docs/reference/discovery.md); give it a moment.
+    // Neighbour discovery is scoped and fast (~0.1–0.4 s, docs/measurements/discovery.md); give it a moment.
     const auto grace_until = Clock::now() + std::chrono::milliseconds(1000);
     while (Clock::now() < grace_until) collect(transport, 0.05);
     sim::ControlMessage start;

@@ -1,4 +1,4 @@
-// Cyclone XML per participant (docs/design.md §4, docs/reference/discovery.md).
+// Cyclone XML per participant (docs/design.md §4, docs/measurements/discovery.md).
 //
 // Port layout (Cyclone: discovery port = Base + 250 * domain_id + 10 + 2 * ParticipantIndex, data = +1;
 // ParticipantIndex is limited to 0..120 by the 0.10.2 parser):
@@ -190,7 +190,7 @@ std::string cyclone_config(const config::Scenario& scenario, const Topology& top
   if ((dds.neighbour_discovery && orchestrator) || lockstep) {
     xml << "<Internal>";
     if (dds.neighbour_discovery && orchestrator) {
-      // Every agent sends its discovery traffic to this one socket (docs/reference/discovery.md, "hub
+      // Every agent sends its discovery traffic to this one socket (docs/measurements/discovery.md, "hub
       // fixes").
       xml << "<SocketReceiveBufferSize min=\"4MB\"/>";
     }

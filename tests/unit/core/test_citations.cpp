@@ -104,10 +104,12 @@ TEST(Citations, EveryCitedDocumentAndSectionExistsInTheRepository) {
 
 TEST(Citations, NoSourceCitesTheSpecificationOutsideTheRepository) {
   for (const auto& file : cited_sources()) {
-    if (file.filename() == "test_citations.cpp") continue;  // names the patterns it looks for
     const std::string text = read_text(file);
-    for (const std::string outside :
-         {"ALGORITHMS.md", "DESIGN.md", "STYLE.md", "shared/docs/", "shared/reference/"}) {
+    // Spelled in pieces so that this file does not cite them itself.
+    const std::string md = ".md";
+    const std::string shared = "shared/";
+    for (const std::string& outside :
+         {"ALGORITHMS" + md, "DESIGN" + md, "STYLE" + md, shared + "docs/", shared + "reference/"}) {
       EXPECT_EQ(text.find(outside), std::string::npos) << file << " cites " << outside;
     }
   }

@@ -29,7 +29,7 @@ struct Topology {
 
 /// The Cyclone XML for this participant: loopback/interface, multicast off and a Peers list of the
 /// neighbours + orchestrator when scenario.dds.neighbour_discovery is on (agent i's discovery port is
-/// 7410 + 2i; index i % 100 with Ports/Base shifted per block of 100 — docs/reference/discovery.md).
+/// 7410 + 2i; index i % 100 with Ports/Base shifted per block of 100 — docs/measurements/discovery.md).
 /// The orchestrator takes slot N; for a centralized algorithm the fusion centre takes slot N + 1, lists
 /// only the orchestrator as its peer, and the orchestrator lists it too.
 std::string cyclone_config(const config::Scenario& scenario, const Topology& topology);
