@@ -52,77 +52,57 @@ static void ros2_reader_print_header(const std_msgs_msg_dds__Header_* header) {
          header->frame_id != NULL && header->frame_id[0] != '\0' ? header->frame_id : "-");
 }
 
-static void ros2_reader_take_poses(dds_entity_t reader, int agent) {
-  void* samples[ROS2_READER_BATCH] = {NULL};
-  dds_sample_info_t infos[ROS2_READER_BATCH];
-  int32_t count;
-  while ((count = dds_take(reader, samples, infos, ROS2_READER_BATCH, ROS2_READER_BATCH)) > 0) {
-    for (int32_t i = 0; i < count; i++) {
-      if (!infos[i].valid_data) continue;
-      const geometry_msgs_msg_dds__PoseWithCovarianceStamped_* pose = samples[i];
-      const geometry_msgs_msg_dds__Pose_* p = &pose->pose.pose;
-      printf("pose %d", agent);
-      ros2_reader_print_header(&pose->header);
-      printf(" %.17g %.17g %.17g %.17g %.17g %.17g %.17g", p->position.x, p->position.y, p->position.z,
-             p->orientation.x, p->orientation.y, p->orientation.z, p->orientation.w);
-      for (int k = 0; k < 36; k++) printf(" %.17g", pose->pose.covariance[k]);
-      printf("\n");
-    }
-    dds_return_loan(reader, samples, count);
-  }
+static void ros2_reader_print_pose(const void* sample, int agent) {
+  const geometry_msgs_msg_dds__PoseWithCovarianceStamped_* pose = sample;
+  const geometry_msgs_msg_dds__Pose_* p = &pose->pose.pose;
+  printf("pose %d", agent);
+  ros2_reader_print_header(&pose->header);
+  printf(" %.17g %.17g %.17g %.17g %.17g %.17g %.17g", p->position.x, p->position.y, p->position.z,
+         p->orientation.x, p->orientation.y, p->orientation.z, p->orientation.w);
+  for (int k = 0; k < 36; k++) printf(" %.17g", pose->pose.covariance[k]);
+  printf("\n");
 }
 
-static void ros2_reader_take_truth(dds_entity_t reader) {
-  void* samples[ROS2_READER_BATCH] = {NULL};
-  dds_sample_info_t infos[ROS2_READER_BATCH];
-  int32_t count;
-  while ((count = dds_take(reader, samples, infos, ROS2_READER_BATCH, ROS2_READER_BATCH)) > 0) {
-    for (int32_t i = 0; i < count; i++) {
-      if (!infos[i].valid_data) continue;
-      const geometry_msgs_msg_dds__PoseArray_* array = samples[i];
-      printf("truth");
-      ros2_reader_print_header(&array->header);
-      printf(" %u", array->poses._length);
-      for (uint32_t k = 0; k < array->poses._length; k++) {
-        const geometry_msgs_msg_dds__Pose_* p = &array->poses._buffer[k];
-        printf(" %.17g %.17g %.17g %.17g", p->position.x, p->position.y, p->position.z, p->orientation.w);
-      }
-      printf("\n");
-    }
-    dds_return_loan(reader, samples, count);
+static void ros2_reader_print_truth(const void* sample, int agent) {
+  (void)agent;
+  const geometry_msgs_msg_dds__PoseArray_* array = sample;
+  printf("truth");
+  ros2_reader_print_header(&array->header);
+  printf(" %u", array->poses._length);
+  for (uint32_t k = 0; k < array->poses._length; k++) {
+    const geometry_msgs_msg_dds__Pose_* p = &array->poses._buffer[k];
+    printf(" %.17g %.17g %.17g %.17g", p->position.x, p->position.y, p->position.z, p->orientation.w);
   }
+  printf("\n");
 }
 
-static void ros2_reader_take_ranges(dds_entity_t reader) {
-  void* samples[ROS2_READER_BATCH] = {NULL};
-  dds_sample_info_t infos[ROS2_READER_BATCH];
-  int32_t count;
-  while ((count = dds_take(reader, samples, infos, ROS2_READER_BATCH, ROS2_READER_BATCH)) > 0) {
-    for (int32_t i = 0; i < count; i++) {
-      if (!infos[i].valid_data) continue;
-      const swarmloc_msgs_msg_dds__RangeArray_* array = samples[i];
-      printf("ranges %lld", (long long)array->step);
-      ros2_reader_print_header(&array->header);
-      printf(" %u", array->ranges._length);
-      for (uint32_t k = 0; k < array->ranges._length; k++) {
-        const swarmloc_msgs_msg_dds__Range_* r = &array->ranges._buffer[k];
-        printf(" %d %d %.17g %.17g", r->agent, r->peer, r->range_m, r->std_m);
-      }
-      printf("\n");
-    }
-    dds_return_loan(reader, samples, count);
+static void ros2_reader_print_ranges(const void* sample, int agent) {
+  (void)agent;
+  const swarmloc_msgs_msg_dds__RangeArray_* array = sample;
+  printf("ranges %lld", (long long)array->step);
+  ros2_reader_print_header(&array->header);
+  printf(" %u", array->ranges._length);
+  for (uint32_t k = 0; k < array->ranges._length; k++) {
+    const swarmloc_msgs_msg_dds__Range_* r = &array->ranges._buffer[k];
+    printf(" %d %d %.17g %.17g", r->agent, r->peer, r->range_m, r->std_m);
   }
+  printf("\n");
 }
 
-static void ros2_reader_take_publications(dds_entity_t reader) {
+static void ros2_reader_print_publication(const void* sample, int agent) {
+  (void)agent;
+  const dds_builtintopic_endpoint_t* endpoint = sample;
+  printf("publication %s %s\n", endpoint->topic_name, endpoint->type_name);
+}
+
+/// Takes every sample waiting on `reader` and prints each valid one with `print`.
+static void ros2_reader_take(dds_entity_t reader, void (*print)(const void*, int), int agent) {
   void* samples[ROS2_READER_BATCH] = {NULL};
   dds_sample_info_t infos[ROS2_READER_BATCH];
   int32_t count;
   while ((count = dds_take(reader, samples, infos, ROS2_READER_BATCH, ROS2_READER_BATCH)) > 0) {
     for (int32_t i = 0; i < count; i++) {
-      if (!infos[i].valid_data) continue;
-      const dds_builtintopic_endpoint_t* endpoint = samples[i];
-      printf("publication %s %s\n", endpoint->topic_name, endpoint->type_name);
+      if (infos[i].valid_data) print(samples[i], agent);
     }
     dds_return_loan(reader, samples, count);
   }
@@ -176,10 +156,11 @@ int main(int argc, char** argv) {
   int ended = 0;
   while (!ended && dds_time() < deadline) {
     dds_waitset_wait(waitset, NULL, 0, DDS_MSECS(100));
-    for (int agent = 0; agent < agents; agent++) ros2_reader_take_poses(pose_readers[agent], agent);
-    ros2_reader_take_truth(truth_reader);
-    ros2_reader_take_ranges(ranges_reader);
-    ros2_reader_take_publications(publications);
+    for (int agent = 0; agent < agents; agent++)
+      ros2_reader_take(pose_readers[agent], ros2_reader_print_pose, agent);
+    ros2_reader_take(truth_reader, ros2_reader_print_truth, 0);
+    ros2_reader_take(ranges_reader, ros2_reader_print_ranges, 0);
+    ros2_reader_take(publications, ros2_reader_print_publication, 0);
     fflush(stdout);
     /* The run is over once the truth writer came and went and no pose writer is left. */
     int live = ros2_reader_matched(truth_reader, &truth_ever);
