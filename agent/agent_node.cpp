@@ -17,13 +17,13 @@
 #include <type_traits>
 
 #include "swarmloc/dds/transport.hpp"
-#include "swarmloc/sim/agent_runtime.hpp"
+#include "swarmloc/rundir/recording.hpp"
+#include "swarmloc/runtime/agent_runtime.hpp"
+#include "swarmloc/runtime/hostile.hpp"
+#include "swarmloc/runtime/run_health.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/hostile.hpp"
-#include "swarmloc/sim/recording.hpp"
-#include "swarmloc/sim/run_health.hpp"
 #include "swarmloc/sim/simulator.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::agent {
 namespace {

@@ -15,7 +15,7 @@
 
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::agent {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <random>
 
-#include "swarmloc/sim/experiments/gradient_localization.hpp"
+#include "swarmloc/research/gradient_localization.hpp"
 
 namespace {
 

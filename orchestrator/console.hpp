@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <string>
 
-#include "swarmloc/sim/metrics.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/world/metrics.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
 

@@ -22,8 +22,8 @@
 
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/estimators/messages.hpp"
-#include "swarmloc/sim/run_record.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/rundir/run_record.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
 

@@ -14,11 +14,9 @@
 #include <string>
 
 #include "agent_node.hpp"
-#include "campaign.hpp"
 #include "fusion_center.hpp"
 #include "orchestrator.hpp"
 #include "replay.hpp"
-#include "reproduce.hpp"
 #include "swarmloc/config/scenario.hpp"
 
 namespace {
@@ -113,7 +111,8 @@ int main(int argc, char** argv) {
       "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n"
       "  swarmloc campaign scenarios/campaigns/loss.yaml --mode sim   # loss sweep, every algorithm\n"
       "  swarmloc sim scenarios/default.yaml --record --out runs/a     # record every measurement\n"
-      "  swarmloc replay runs/a/recording.slrec --set algorithm.name=iekf  # another algorithm\n",
+      "  swarmloc replay runs/a/recording.slrec --set algorithm.name=iekf  # another algorithm\n\n"
+      "Paper reproductions and parameter campaigns: swarmloc-research (docs/reproduction.md).\n",
       "swarmloc"};
   app.require_subcommand(1);
   app.footer("Exit codes: 0 ok, 2 bad input (scenario or flags), 1 runtime failure or interrupted.");
@@ -237,46 +236,6 @@ int main(int argc, char** argv) {
   add_force_flag(replay, force);
   replay->footer(keys_help());
 
-  auto* reproduce = app.add_subcommand(
-      "reproduce", "Run a paper experiment; writes a Markdown table beside the paper's numbers.");
-  swarmloc::orchestrator::ReproduceOptions reproduce_options;
-  std::string reproduce_out = "runs/reproduce";
-  reproduce
-      ->add_option(
-          "experiment", reproduce_options.experiment,
-          "ea1 | ea2 | ea3 | ieif-table1 | ieif-table2 | jacobi-002 | joint-field-002 | tracking-002 | "
-          "multipath-003 | "
-          "dgbb-004-table1 | "
-          "dgbb-004-table2 | dgbb-004-table3")
-      ->required()
-      ->check(CLI::IsMember(swarmloc::orchestrator::known_experiments()));
-  reproduce->add_option("--out", reproduce_out, "Output directory (default runs/reproduce)");
-  reproduce
-      ->add_option("--trials", reproduce_options.trials, "Monte Carlo trials (default: the paper's count)")
-      ->check(kPositiveInteger);
-  reproduce->add_option("--threads", reproduce_options.threads, "Worker threads (default: every core)")
-      ->check(CLI::NonNegativeNumber);
-  reproduce->add_option("--seed", reproduce_options.seed, "Seed");
-
-  auto* campaign = app.add_subcommand(
-      "campaign",
-      "Sweep one scenario key (e.g. network.loss) over algorithms, variants and seeds, in the simulator "
-      "and/or over DDS; writes campaign.md, campaign.csv and campaign.png (docs/robustness.md).");
-  swarmloc::orchestrator::CampaignOptions campaign_options;
-  campaign
-      ->add_option("spec", campaign_options.spec_path,
-                   "Campaign spec YAML (e.g. scenarios/campaigns/loss.yaml)")
-      ->required();
-  campaign->add_option("--out", campaign_options.out_dir,
-                       "Campaign directory (default: runs/campaign-<name>-<stamp>)");
-  campaign->add_option("--mode", campaign_options.mode, "sim | dds | both (default: the spec's mode)")
-      ->check(CLI::IsMember({"sim", "dds", "both"}));
-  campaign
-      ->add_option("--seeds", campaign_options.seeds, "Run seeds 1..K in every mode (default: the spec's)")
-      ->check(CLI::Range(1, 1000));
-  bool campaign_quiet = false;
-  campaign->add_flag("-q,--quiet", campaign_quiet, "No line per finished run");
-
   // A file size limit (ulimit -f) must fail a write with EFBIG, named like a full disk, not kill us.
   std::signal(SIGXFSZ, SIG_IGN);
   if (reject_unknown_command(app, argc, argv)) return 2;
@@ -350,15 +309,6 @@ int main(int argc, char** argv) {
     replay_options.force = force;
     replay_options.agent_binary = self_executable(argv[0]);
     return swarmloc::orchestrator::run_replay(replay_options);
-  }
-  if (campaign->parsed()) {
-    campaign_options.progress = !campaign_quiet;
-    campaign_options.agent_binary = self_executable(argv[0]);
-    return swarmloc::orchestrator::run_campaign(campaign_options);
-  }
-  if (reproduce->parsed()) {
-    reproduce_options.out_dir = reproduce_out;
-    return swarmloc::orchestrator::run_reproduce(reproduce_options);
   }
   return 2;
 }

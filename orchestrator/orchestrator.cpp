@@ -21,12 +21,12 @@
 #include "live_view.hpp"
 #include "preflight.hpp"
 #include "swarmloc/dds/transport.hpp"
+#include "swarmloc/rundir/recording.hpp"
+#include "swarmloc/runtime/liveness.hpp"
+#include "swarmloc/runtime/run_health.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/liveness.hpp"
-#include "swarmloc/sim/recording.hpp"
-#include "swarmloc/sim/run_health.hpp"
 #include "swarmloc/sim/simulator.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
 namespace {

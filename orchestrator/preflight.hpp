@@ -4,7 +4,7 @@
 
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/core/types.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
 

@@ -8,10 +8,10 @@
 #include <memory>
 
 #include "orchestrator.hpp"
+#include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/mrclam.hpp"
-#include "swarmloc/sim/recording.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/world/mrclam.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
 namespace {

@@ -15,10 +15,10 @@
 #include "live_view.hpp"
 #include "orchestrator.hpp"
 #include "preflight.hpp"
+#include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/recording.hpp"
 #include "swarmloc/sim/simulator.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
 

@@ -2,7 +2,7 @@
 # make-base.sh [IMAGE_NAME] [MIRROR]
 #
 # Builds the Debian bookworm base image the Containerfile starts from, without any container
-# registry: debootstrap a minbase rootfs and `podman import` it (feasibility.md section 2).
+# registry: debootstrap a minbase rootfs and `podman import` it (docs/measurements/feasibility.md §2).
 #   IMAGE_NAME  default localhost/swarmloc-base:bookworm (the Containerfile's default BASE_IMAGE)
 #   MIRROR      default: the URIs: line of /etc/apt/sources.list.d/debian.sources, else deb.debian.org
 # Needs root, debootstrap and podman (buildah users: `buildah import` is not a command; use

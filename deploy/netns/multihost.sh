@@ -2,7 +2,7 @@
 # multihost.sh SWARMLOC_BINARY OUT_DIR [LOSS_PERCENT] [-- EXTRA swarmloc --set ARGS...]
 #
 # Runs swarmloc across several "machines" on one Linux host: network namespaces joined by a bridge
-# (deploy/README.md, "Running across machines"; reference: feasibility.md section 1).
+# (deploy/README.md, "Running across machines"; reference: docs/measurements/feasibility.md §1).
 #
 #   <prefix>sw   switch namespace: bridge br0 with ports v0..v3, optional nftables loss rule
 #   <prefix>h0   10.77.0.10  orchestrator (`swarmloc run --no-launch`)

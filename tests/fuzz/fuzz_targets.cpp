@@ -37,7 +37,7 @@
 #include "swarmloc/core/gaussian.hpp"
 #include "swarmloc/core/random.hpp"
 #include "swarmloc/estimators/estimator.hpp"
-#include "swarmloc/sim/agent_runtime.hpp"
+#include "swarmloc/runtime/agent_runtime.hpp"
 
 namespace swarmloc::fuzz {
 namespace {

@@ -1,4 +1,4 @@
-// `swarmloc campaign`: a small seeded simulator campaign end to end (table, CSV, plot script, run
+// `swarmloc-research campaign`: a small seeded simulator campaign end to end (table, CSV, plot script, run
 // directories, the loss figures themselves) and spec validation (exit 2 naming the key).
 #include <gtest/gtest.h>
 
@@ -19,7 +19,7 @@ namespace {
 using swarmloc::testing::fresh_directory;
 using swarmloc::testing::run_command;
 
-const std::string kBinary = SWARMLOC_BINARY;
+const std::string kBinary = SWARMLOC_RESEARCH_BINARY;
 const std::string kScenarios = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios";
 
 void write_file(const std::filesystem::path& path, const std::string& text) { std::ofstream(path) << text; }

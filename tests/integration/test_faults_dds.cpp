@@ -71,9 +71,9 @@ TEST(FaultsOverDds, KilledAgentsLeaveTheOthersUnharmedAndRestartedOnesRecoverWit
   // 6 of 30 agents (20 %) are killed with SIGKILL at step 60 and restarted at 100; agent 7 is paused.
   // The no-fault reference is the same run before the fault, not a second run: free-run runs of one
   // seed differ by up to 2x over a window (process timing decides which batches and neighbour states
-  // each step sees; four clean runs gave 0.032-0.061 m over steps 62-99), so a 1.5x bound against
-  // another run would test the scheduler. The pre-fault level is the stricter reference: the error
-  // still falls after step 60 in a clean run (steps 62-99 / 50-59: 0.75-0.91 in those four runs).
+  // each step sees), so a 1.5x bound against another run would test the scheduler. The pre-fault level
+  // is the stricter reference: the error still falls after step 60 in a clean run
+  // (docs/measurements/free-run-spread.md §1.3).
   const auto dir = run_dds("faults-kill",
                            " --set faults.kill=1@60-100,2@60-100,3@60-100,4@60-100,5@60-100,6@60-100"
                            " --set faults.pause=7@60-80",
@@ -88,8 +88,8 @@ TEST(FaultsOverDds, KilledAgentsLeaveTheOthersUnharmedAndRestartedOnesRecoverWit
   };
   const double before = window_mean(faulty, 50, 60);
   const double during = window_mean(faulty, 62, 100);
-  // Free-run levels before the fault ranged 0.03-0.19 m over this session's runs (CI once saw 0.19 m):
-  // this bound catches a broken estimator (metres), not that spread; the ratios below carry the test.
+  // Free-run levels before the fault spread several-fold between runs (docs/measurements/free-run-spread.md
+  // §1.3): this bound catches a broken estimator (metres), not that spread; the ratios below carry the test.
   EXPECT_LT(before, 0.5) << "the run had not diverged before the fault";
   EXPECT_LT(during, 1.5 * before) << "the living, steps 62-99, vs steps 50-59 of the same run";
   // Per agent, not one step's count: a free-run estimate can miss a single step's scoring (CI once saw

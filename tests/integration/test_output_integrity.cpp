@@ -42,9 +42,9 @@ std::string read_text(const fs::path& path) {
 /// Runs swarmloc with `args` (no shell: every argument reaches it as written) in `cwd`, optionally under
 /// a file size limit; stdout and stderr go to a log beside `cwd`.
 Outcome swarmloc(const std::vector<std::string>& args, const fs::path& cwd,
-                 std::optional<rlim_t> file_size_limit = std::nullopt) {
+                 std::optional<rlim_t> file_size_limit = std::nullopt, const std::string& binary = kBinary) {
   const auto log = cwd.parent_path() / (cwd.filename().string() + ".log");
-  std::vector<std::string> argv{kBinary};
+  std::vector<std::string> argv{binary};
   argv.insert(argv.end(), args.begin(), args.end());
   const pid_t pid = ::fork();
   if (pid == 0) {
@@ -232,7 +232,9 @@ TEST(Cli, BadNumbersAreBadInputNamingTheFlag) {
       {"run", kScenario, "--view-hold", "-inf"}, {"reproduce", "ea1", "--trials", "-3"},
       {"reproduce", "ea1", "--trials", "0"},     {"sim", kScenario, "--trials", "0"}};
   for (const auto& args : bad) {
-    const auto outcome = swarmloc(args, cwd);
+    // The paper reproductions live in swarmloc-research, with the same flag rules.
+    const std::string binary = args[0] == "reproduce" ? SWARMLOC_RESEARCH_BINARY : kBinary;
+    const auto outcome = swarmloc(args, cwd, std::nullopt, binary);
     EXPECT_EQ(outcome.exit_code, 2) << args[2] << " " << args[3] << "\n" << outcome.output;
     EXPECT_NE(outcome.output.find(args[2]), std::string::npos) << outcome.output;
   }

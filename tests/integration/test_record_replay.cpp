@@ -8,7 +8,7 @@
 #include <filesystem>
 
 #include "process_helpers.hpp"
-#include "swarmloc/sim/recording.hpp"
+#include "swarmloc/rundir/recording.hpp"
 
 namespace {
 

@@ -21,7 +21,7 @@
 #include <string>
 
 #include "swarmloc/dds/transport.hpp"
-#include "swarmloc/sim/centralized_runner.hpp"
+#include "swarmloc/runtime/placement.hpp"
 
 namespace swarmloc::dds {
 

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "swarmloc/sim/envelope.hpp"
+#include "swarmloc/runtime/envelope.hpp"
 
 namespace swarmloc::dds::ros2 {
 

@@ -34,7 +34,7 @@
 #include "entities.hpp"
 #include "qos.hpp"
 #include "ros2_bridge.hpp"
-#include "swarmloc/sim/centralized_runner.hpp"
+#include "swarmloc/runtime/placement.hpp"
 
 namespace swarmloc::dds {
 

@@ -9,8 +9,8 @@
 #include <variant>
 
 #include "swarmloc/core/random.hpp"
+#include "swarmloc/runtime/hostile.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/hostile.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::sim {

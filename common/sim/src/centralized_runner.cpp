@@ -15,8 +15,6 @@ namespace centralized = estimators::centralized;
 
 constexpr double kMinVariance = 1e-6;  // m²: exactly known anchors / noiseless ranges stay finite
 
-constexpr std::array<std::string_view, 4> kCentralizedAlgorithms{"ekf", "lbekf", "lbekf_vr", "lbekf_i"};
-
 /// The prior an agent starts from in the fusion centre and in the sensor-only placeholder.
 class SensorOnly final : public estimators::Estimator {
  public:
@@ -45,11 +43,6 @@ std::vector<centralized::Edge> graph_edges(const World& world) {
 }
 
 }  // namespace
-
-bool is_centralized(const std::string& algorithm) {
-  return std::find(kCentralizedAlgorithms.begin(), kCentralizedAlgorithms.end(), algorithm) !=
-         kCentralizedAlgorithms.end();
-}
 
 std::unique_ptr<centralized::CentralizedFilter> make_fusion_filter(const config::Scenario& scenario,
                                                                    const World& world) {

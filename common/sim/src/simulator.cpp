@@ -13,9 +13,9 @@
 #include <thread>
 
 #include "swarmloc/estimators/consensus/cooperative.hpp"
-#include "swarmloc/sim/agent_runtime.hpp"
+#include "swarmloc/runtime/agent_runtime.hpp"
+#include "swarmloc/runtime/hostile.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/hostile.hpp"
 
 namespace swarmloc::sim {
 

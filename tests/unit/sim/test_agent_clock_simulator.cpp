@@ -175,10 +175,10 @@ namespace {
 
 // Why scenarios/default.yaml iterates the IEIF update. In a free run an agent that steps after its
 // neighbours in the first period ranges to their first estimates; one linearization from the diffuse start
-// can throw such an estimate tens of metres (here agent 3 by 41 m, agent 0 by 20 m) with a small covariance,
-// and the cluster around it stays confidently wrong for hundreds of steps. Trial 12 of the default scenario
-// at 20 Hz, agent clocks: final RMSE 0.277 m with one linearization (synchronous rounds: 0.022 m); with the
-// iterated update 0.027 m. Over 150 trials the worst final RMSE falls from 0.277 to 0.053 m.
+// can throw such an estimate tens of metres with a small covariance, and the cluster around it stays
+// confidently wrong for hundreds of steps. Trial 12 of the default scenario at 20 Hz is such a case; the
+// iterated update brings it back to the synchronous rounds' level (docs/measurements/free-run-spread.md
+// §2.2).
 TEST(AgentClockSimulator, TheIteratedIeifUpdateKeepsAFreeRunFromLockingInAWildFirstEstimate) {
   const auto final_rmse = [](const std::string& iterations) {
     SimOptions options;

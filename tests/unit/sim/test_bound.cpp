@@ -12,11 +12,11 @@
 
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/estimators/estimator.hpp"
-#include "swarmloc/sim/bound.hpp"
+#include "swarmloc/rundir/run_record.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/run_record.hpp"
 #include "swarmloc/sim/simulator.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/world/bound.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::sim {
 namespace {

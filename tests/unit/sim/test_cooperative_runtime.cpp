@@ -11,10 +11,10 @@
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/estimators/consensus/cooperative.hpp"
 #include "swarmloc/models/multipath.hpp"
-#include "swarmloc/sim/agent_runtime.hpp"
-#include "swarmloc/sim/metrics.hpp"
+#include "swarmloc/runtime/agent_runtime.hpp"
 #include "swarmloc/sim/simulator.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/world/metrics.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::sim {
 namespace {
@@ -500,11 +500,9 @@ TEST(CooperativeSimulation, DleTracksAMovingTargetFromRangeAndBearing) {
 
 // In a free run (agent clocks; 100 ppm of drift so that no two agents tick at the same instant) a sensor's
 // neighbours' priors are about world steps one ahead or behind its own; the DLE brings each to its reading's
-// world step before mixing. Seed 1, mean RMSE over the last 50 steps: rounds 0.1038 m, free run 0.0952 m
-// (final 0.0751 m); mixing the priors as they come instead: 0.1167 m (final 0.1101 m). A sensor that steps
-// after a neighbour in the same period mixes that neighbour's update of this world step, so a reading travels
-// further per period than in synchronous rounds (seeds 2 and 3: 0.0732 against 0.0865 and 0.1162 against
-// 0.1317; unaligned 0.0998 and 0.1210).
+// world step before mixing, which beats both mixing them as they come and synchronous rounds: a sensor that
+// steps after a neighbour in the same period mixes that neighbour's update of this world step, so a reading
+// travels further per period than in rounds (seeds 1-3: docs/measurements/free-run-spread.md §2.1).
 TEST(CooperativeSimulation, FreeRunTrackingDleMixesNeighbourPriorsBroughtToOneWorldStep) {
   const auto late_mean_rmse = [](const RunRecord& record) {
     double sum = 0.0;

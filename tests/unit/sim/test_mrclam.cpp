@@ -10,8 +10,8 @@
 #include <string>
 
 #include "dataset_paths.hpp"
-#include "swarmloc/sim/mrclam.hpp"
 #include "swarmloc/sim/simulator.hpp"
+#include "swarmloc/world/mrclam.hpp"
 
 namespace swarmloc::sim {
 namespace {

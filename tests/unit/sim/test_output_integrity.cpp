@@ -17,10 +17,10 @@
 #include <string>
 #include <vector>
 
-#include "swarmloc/sim/external_program.hpp"
-#include "swarmloc/sim/output_file.hpp"
-#include "swarmloc/sim/plots.hpp"
-#include "swarmloc/sim/run_record.hpp"
+#include "swarmloc/rundir/external_program.hpp"
+#include "swarmloc/rundir/output_file.hpp"
+#include "swarmloc/rundir/plots.hpp"
+#include "swarmloc/rundir/run_record.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::sim {

@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "swarmloc/sim/plots.hpp"
+#include "swarmloc/rundir/plots.hpp"
+#include "swarmloc/rundir/tum_export.hpp"
 #include "swarmloc/sim/simulator.hpp"
-#include "swarmloc/sim/tum_export.hpp"
 
 namespace swarmloc::sim {
 namespace {

@@ -13,8 +13,8 @@
 #include <limits>
 #include <random>
 
+#include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/recording.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::sim {

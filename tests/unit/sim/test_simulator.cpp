@@ -5,8 +5,8 @@
 #include <cmath>
 #include <thread>
 
-#include "swarmloc/sim/metrics.hpp"
 #include "swarmloc/sim/simulator.hpp"
+#include "swarmloc/world/metrics.hpp"
 
 namespace swarmloc::sim {
 namespace {

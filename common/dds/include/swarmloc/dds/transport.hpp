@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
-#include "swarmloc/sim/envelope.hpp"
+#include "swarmloc/runtime/envelope.hpp"
 
 namespace swarmloc::dds {
 

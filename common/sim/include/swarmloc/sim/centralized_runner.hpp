@@ -10,13 +10,11 @@
 #include <vector>
 
 #include "swarmloc/estimators/centralized/centralized_filter.hpp"
+#include "swarmloc/runtime/placement.hpp"
 #include "swarmloc/sim/simulator.hpp"
-#include "swarmloc/sim/world.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::sim {
-
-/// True for the algorithms that run in a fusion centre instead of in every agent.
-bool is_centralized(const std::string& algorithm);
 
 /// The bandwidth L of the LB-EKF variants (000 Sec. 5.2: L = 20 for 30 agents in 2-D).
 inline constexpr int kCentralizedBandwidth = 20;

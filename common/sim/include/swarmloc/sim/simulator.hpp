@@ -4,9 +4,9 @@
 // applies the same receiver-side loss model.
 #include <functional>
 
-#include "swarmloc/sim/agent_runtime.hpp"
-#include "swarmloc/sim/recording.hpp"
-#include "swarmloc/sim/run_record.hpp"
+#include "swarmloc/rundir/recording.hpp"
+#include "swarmloc/rundir/run_record.hpp"
+#include "swarmloc/runtime/agent_runtime.hpp"
 
 namespace swarmloc::sim {
 

@@ -1,0 +1,54 @@
+# The layer rule (docs/architecture.md): each folder may include the swarmloc headers of the libraries
+# listed for it and no others. Run at configure time and as the `layers` test:
+#   cmake -DSWARMLOC_SOURCE_DIR=<repo> -P cmake/CheckLayers.cmake
+# A violation names the file, the header and the folder's allowed libraries, and fails.
+cmake_policy(SET CMP0057 NEW)
+if(NOT SWARMLOC_SOURCE_DIR)
+  set(SWARMLOC_SOURCE_DIR ${CMAKE_CURRENT_LIST_DIR}/..)
+endif()
+
+set(layer_core core)
+set(layer_models core models)
+set(layer_estimators core models estimators)
+set(layer_config core config)
+set(layer_runtime core models estimators runtime)
+set(layer_world core models estimators config world)
+set(layer_rundir core models estimators config runtime world rundir)
+set(layer_sim core models estimators config runtime world rundir sim)
+# The transport knows the sample envelope and the scenario's DDS keys, never the world or a simulator.
+set(layer_dds core models estimators config runtime dds)
+# An agent process knows what a real agent knows: its manifest, its estimator and the transport.
+set(layer_agent core models estimators config runtime dds)
+# Until agents start from a manifest they still build the world themselves.
+list(APPEND layer_agent world rundir sim)
+set(layer_orchestrator core models estimators config runtime world rundir sim dds)
+
+set(layer_folders
+    core common/core models common/models estimators common/estimators config common/config runtime
+    common/runtime world common/world rundir common/rundir sim common/sim dds common/dds agent agent
+    orchestrator orchestrator)
+
+set(violations "")
+list(LENGTH layer_folders pair_count)
+math(EXPR last "${pair_count} - 1")
+foreach(index RANGE 0 ${last} 2)
+  list(GET layer_folders ${index} layer)
+  math(EXPR folder_index "${index} + 1")
+  list(GET layer_folders ${folder_index} folder)
+  file(GLOB_RECURSE sources ${SWARMLOC_SOURCE_DIR}/${folder}/*.cpp ${SWARMLOC_SOURCE_DIR}/${folder}/*.hpp)
+  foreach(source ${sources})
+    file(STRINGS ${source} includes REGEX "^#include \"swarmloc/[a-z0-9_]+/")
+    foreach(line ${includes})
+      string(REGEX REPLACE "^#include \"swarmloc/([a-z0-9_]+)/.*" "\\1" library "${line}")
+      if(NOT library IN_LIST layer_${layer})
+        file(RELATIVE_PATH relative ${SWARMLOC_SOURCE_DIR} ${source})
+        string(REPLACE ";" " " allowed "${layer_${layer}}")
+        string(APPEND violations "  ${relative}: includes swarmloc/${library}/ (${folder} may use: ${allowed})\n")
+      endif()
+    endforeach()
+  endforeach()
+endforeach()
+
+if(violations)
+  message(FATAL_ERROR "Layer rule broken (docs/architecture.md):\n${violations}")
+endif()

@@ -1,0 +1,128 @@
+#pragma once
+// Everything a run produces, and the writer of the run directory (docs/design.md §6): scenario.yaml,
+// summary.json, metrics.csv, estimates.csv, links.csv, plots/. Shared by `swarmloc run` (DDS) and
+// `swarmloc sim` (in-process) so both directories look the same.
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/rundir/output_file.hpp"
+#include "swarmloc/runtime/envelope.hpp"
+#include "swarmloc/world/bound.hpp"
+#include "swarmloc/world/metrics.hpp"
+#include "swarmloc/world/world.hpp"
+
+namespace swarmloc::sim {
+
+struct StepMetrics {
+  std::int64_t step = 0;
+  double time_s = 0.0;
+  ErrorStats errors;
+  /// The static all-draws CRLB at the initial truth, accumulated over step+1 snapshots (kept for older
+  /// readers; the run's bound is bound_rmse_m).
+  double crlb_rmse_m = 0.0;
+  double bound_rmse_m = std::numeric_limits<double>::quiet_NaN();           ///< RunRecord::bound at this step
+  double bound_all_data_rmse_m = std::numeric_limits<double>::quiet_NaN();  ///< the same with every draw
+  int lost = 0;  ///< agents dead or stalled (unscheduled) at this step: among `missing`
+};
+
+struct EstimateRow {
+  std::int64_t step = 0;
+  AgentId agent = 0;
+  estimators::Estimate estimate;
+  Vec2 truth = Vec2::Zero();
+};
+
+struct AgentSummary {
+  AgentId agent = 0;
+  bool anchor = false;
+  std::uint32_t steps_run = 0;
+  std::uint32_t samples_published = 0;
+  std::uint32_t samples_published_in_steps = 0;  ///< not counting start-up announcements
+  double cpu_s = 0.0;
+  std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason{};
+  std::optional<int> exit_code;  ///< DDS runs: the process's exit status
+  /// DDS runs: "ok", or "died" / "stalled" (its last unscheduled loss, docs/robustness.md "Liveness").
+  std::string fate = "ok";
+  std::int64_t fate_step = -1;  ///< the world step the loss was found at
+  std::string fate_reason;      ///< e.g. "process ended: killed by signal 9 (Killed)"
+};
+
+struct RunRecord {
+  config::Scenario scenario;
+  std::string mode;  ///< "sim", "dds-free-run" or "dds-lockstep"
+  int agents = 0;
+  int anchors = 0;
+  double mean_degree = 0.0;
+  RangeCrlb crlb;  ///< the static all-draws CRLB (summary.json "crlb", kept for older readers)
+  RunBound bound;  ///< the bound of the algorithm's data (summary.json "bound", docs/algorithms.md §1.3.1)
+  std::vector<StepMetrics> metrics;
+  std::vector<EstimateRow> estimates;
+  std::map<std::pair<AgentId, AgentId>, LinkCounters> links;  ///< (sender, receiver)
+  std::vector<AgentSummary> agent_summaries;
+  int processes = 0;
+  double wall_s = 0.0;
+  /// DDS runs: wall time from START to STOP, over which agents report their CPU (0: steps / rate).
+  double world_phase_s = 0.0;
+  bool interrupted = false;
+  nlohmann::json extra = nlohmann::json::object();  ///< runtime-specific fields
+
+  [[nodiscard]] const StepMetrics* final_metrics() const {
+    return metrics.empty() ? nullptr : &metrics.back();
+  }
+};
+
+struct LinkTotals {
+  std::uint64_t sent = 0, arrived = 0, delivered = 0, dropped_injected = 0, rejected = 0;
+  std::uint64_t delivered_in_steps = 0;
+};
+LinkTotals link_totals(const RunRecord& record);
+
+/// Sets record.crlb (scenario_crlb) and record.bound (run_bound) from `world` at world step 0.
+void compute_run_bounds(RunRecord& record, const World& world);
+/// Fills metrics.crlb_rmse_m, bound_rmse_m and bound_all_data_rmse_m for metrics.step.
+void set_step_bounds(const RunRecord& record, StepMetrics& metrics);
+/// summary.json's "bound" block: kind, data, anchors, rmse_m, all_data_rmse_m, ratio (final RMSE / bound),
+/// reason (docs/algorithms.md §1.3.1).
+nlohmann::json bound_json(const RunRecord& record);
+
+/// RMSE over the whole run: sqrt of the mean over scored steps of the per-step mean squared error (the
+/// figure that matters on a trajectory, where the final step is one sample among thousands).
+struct WholeRunError {
+  double rmse_m = std::numeric_limits<double>::quiet_NaN();
+  std::size_t scored_steps = 0;
+};
+WholeRunError whole_run_error(const RunRecord& record);
+
+nlohmann::json summary_json(const RunRecord& record);
+
+/// Writes the run directory; creates it if needed. Plots are made with gnuplot when it is installed
+/// (a plots/*.gp script is always written so they can be made later). Every write is checked and
+/// summary.json comes last, written atomically: its presence marks a complete directory. A failed write
+/// throws OutputError naming the file and the OS error.
+/// `control.cancel` (Ctrl-C) is polled between files and per agent: once set, writing stops with
+/// Cancelled and no summary.json, so the directory reads as incomplete.
+void write_run_directory(const std::filesystem::path& directory, const RunRecord& record,
+                         const WorkControl& control = {});
+
+/// create_directories, throwing OutputError (the directory and the OS error) on failure.
+void create_output_directories(const std::filesystem::path& directory);
+
+/// The human-readable result table printed at the end of a run.
+std::string result_table(const RunRecord& record);
+
+/// Makes `directory` ready for a run before any work starts, or throws config::ScenarioError (exit 2)
+/// naming the path and the cause: it must be creatable and writable, and empty, unless `force` is set
+/// and it holds an earlier swarmloc run, which is then cleared.
+void prepare_run_directory(const std::filesystem::path& directory, bool force);
+
+/// A fresh run directory name: runs/<scenario name>-<UTC yyyymmdd-hhmmss>-seed<seed>, always directly
+/// under runs/ (a name validate() would refuse is made path-safe first).
+std::filesystem::path default_run_directory(const config::Scenario& scenario);
+
+}  // namespace swarmloc::sim

@@ -1,0 +1,484 @@
+#include "swarmloc/rundir/plots.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "swarmloc/rundir/external_program.hpp"
+#include "swarmloc/rundir/output_file.hpp"
+
+namespace swarmloc::sim {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// Whether `directory` can take a write the size of a plot: 0 if so, else the OS error (ENOSPC, EDQUOT,
+/// EROFS, EFBIG). Tells a full disk from a gnuplot script error when a PNG is missing.
+int room_for_a_plot(const std::filesystem::path& directory) {
+  const auto probe = directory / (".swarmloc-room-probe-" + std::to_string(::getpid()));
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return errno;
+  const std::string block(64 * 1024, '\0');
+  int error = 0;
+  for (std::size_t done = 0; done < block.size() && error == 0;) {
+    const ssize_t wrote = ::write(fd, block.data() + done, block.size() - done);
+    if (wrote < 0 && errno != EINTR) error = errno;
+    if (wrote > 0) done += static_cast<std::size_t>(wrote);
+  }
+  if (error == 0 && ::fsync(fd) != 0) error = errno;
+  if (::close(fd) != 0 && error == 0) error = errno;
+  ::unlink(probe.c_str());
+  return error;
+}
+
+/// A PNG is whole when it ends with its IEND chunk (a full disk leaves a truncated one); anything else
+/// must be non-empty.
+bool complete_output(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec || size == 0) return false;
+  if (path.extension() != ".png") return true;
+  static constexpr unsigned char kIend[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};
+  if (size < sizeof kIend) return false;
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) return false;
+  unsigned char tail[sizeof kIend] = {};
+  const bool read = std::fseek(file, -static_cast<long>(sizeof kIend), SEEK_END) == 0 &&
+                    std::fread(tail, 1, sizeof tail, file) == sizeof tail;
+  std::fclose(file);
+  return read && std::memcmp(tail, kIend, sizeof kIend) == 0;
+}
+
+/// Each agent's newest row at the last recorded step (or its newest row overall if it missed that step).
+std::map<AgentId, const EstimateRow*> final_rows(const RunRecord& record) {
+  std::map<AgentId, const EstimateRow*> rows;
+  for (const auto& row : record.estimates) {
+    auto& slot = rows[row.agent];
+    if (slot == nullptr || row.step >= slot->step) slot = &row;
+  }
+  return rows;
+}
+
+bool is_anchor(const RunRecord& record, AgentId agent) {
+  const auto index = static_cast<std::size_t>(agent);
+  return agent >= 0 && index < record.agent_summaries.size() && record.agent_summaries[index].anchor;
+}
+
+std::string header_title(const RunRecord& record) {
+  std::ostringstream out;
+  out << "swarmloc " << record.scenario.algorithm.name << " (" << record.mode << "), " << record.agents
+      << " agents, " << record.anchors << " anchors, seed " << record.scenario.seed;
+  return out.str();
+}
+
+std::string preamble(const std::string& output) {
+  return "set datafile separator ','\nset terminal pngcairo size 900,640 enhanced font ',11'\nset grid\n"
+         "set output " +
+         gnuplot_quote(output) + "\n";
+}
+
+/// Which bound a plot draws (docs/algorithms.md §1.3.1), e.g. "posterior CRB (own draws)" (no '_': the
+/// enhanced terminal would take it for a subscript).
+std::string bound_label(const RunRecord& record) {
+  const RunBound& bound = record.bound;
+  std::string draws(to_string(bound.draws));
+  std::replace(draws.begin(), draws.end(), '_', ' ');
+  const std::string kind = bound.kind == BoundKind::kPcrb ? "posterior CRB" : "CRLB, accumulated";
+  return kind + " (" + draws + ")";
+}
+
+std::string error_script(const RunRecord& record) {
+  // metrics.csv: the bound columns come after `lost` (run_record.cpp), one further on in a field world.
+  const int bound_column = measurement_kinds(record.scenario.algorithm.name).field ? 12 : 11;
+  const bool has_bound = record.bound.kind != BoundKind::kNone;
+  std::ostringstream gp;
+  gp << preamble("error.png") << "set key top right box opaque\nset logscale y\n"
+     << "set xlabel 'world step'\nset ylabel 'position error [m] (log scale)'\n"
+     << "set title \"" << header_title(record) << "\\nlocalization error vs "
+     << (has_bound ? "the " + bound_label(record) : "no bound (" + record.bound.reason + ")") << "\"\n"
+     << "plot '../metrics.csv' using 1:3 skip 1 with lines lw 2 lc rgb '#1f77b4' title 'RMSE', "
+        "'' using 1:4 skip 1 with lines lc rgb '#2ca02c' title 'mean error', "
+        "'' using 1:5 skip 1 with lines lc rgb '#ff7f0e' title 'max error'";
+  if (has_bound) {
+    gp << ", '' using 1:" << bound_column << " skip 1 with lines dt 2 lw 2 lc rgb 'black' title '"
+       << bound_label(record) << "'";
+    if (record.bound.draws != RangeDraws::kAllDraws) {
+      gp << ", '' using 1:" << bound_column + 1
+         << " skip 1 with lines dt 3 lw 1 lc rgb 'gray40' title 'the same bound with all the data'";
+    }
+  }
+  gp << "\n";
+  return gp.str();
+}
+
+std::string nees_script(const RunRecord& record) {
+  std::ostringstream gp;
+  gp << preamble("nees.png") << "set key top right box opaque\nset logscale y\n"
+     << "set xlabel 'world step'\nset ylabel 'mean NEES (log scale)'\n"
+     << "set title \"" << header_title(record)
+     << "\\nmean NEES over the scored agents (2 = consistent), 95 % chi-square band\"\n"
+     << "plot 'nees_band.csv' using 1:3:4 with filledcurves fs transparent solid 0.25 noborder "
+        "lc rgb '#2ca02c' title '95 % band [χ²_{2n}(0.025), χ²_{2n}(0.975)]/n', "
+        "2 with lines dt 2 lw 2 lc rgb 'black' title 'expected (2)', "
+        "'' using 1:2 with lines lw 2 lc rgb '#1f77b4' title 'NEES'\n";
+  return gp.str();
+}
+
+/// An agent that died or stalled (DDS runs): its last estimate is not a living agent's, so it is drawn
+/// apart and its links grey.
+bool is_lost(const RunRecord& record, AgentId agent) {
+  const auto index = static_cast<std::size_t>(agent);
+  return agent >= 0 && index < record.agent_summaries.size() && record.agent_summaries[index].fate != "ok";
+}
+
+std::string positions_script(const RunRecord& record, bool have_links, bool have_lost_links,
+                             bool have_ellipses, double magnification) {
+  std::ostringstream gp;
+  gp << preamble("positions.png") << "set size ratio -1\nset key outside bottom center horizontal box\n"
+     << "set xlabel 'x [m]'\nset ylabel 'y [m]'\n"
+     << "set title \"" << header_title(record) << "\\nfinal positions with 95 % covariance ellipses\"\n"
+     << "set palette defined (0 '#d62728', 0.5 '#ff7f0e', 1 '#2ca02c')\nset cbrange [0:1]\n"
+     << "set cblabel 'link delivered fraction (delivered / sent)'\n";
+  gp << "plot ";
+  if (have_links) {
+    gp << "'link_segments.csv' using 1:2:($3-$1):($4-$2):5 with vectors nohead lw 1 lc palette "
+          "title 'link (colour: delivered fraction)', ";
+  }
+  if (have_lost_links) {
+    gp << "'lost_link_segments.csv' using 1:2:($3-$1):($4-$2) with vectors nohead lw 1 dt 2 lc rgb '#7f7f7f' "
+          "title 'link of a lost agent', ";
+  }
+  if (have_ellipses) {
+    gp << "'ellipses.csv' using 3:4 with lines lw 1.5 lc rgb '#9467bd' title '95 % ellipse";
+    if (magnification != 1.0) gp << " (drawn ×" << magnification << ")";
+    gp << "', ";
+  }
+  gp << "'final_positions.csv' using ($2==0?$3:1/0):4 skip 1 with points pt 6 ps 1.6 lw 1.5 lc rgb 'black' "
+        "title 'truth', "
+        "'' using ($2==0&&$8==0?$5:1/0):6 skip 1 with points pt 7 ps 0.7 lc rgb '#1f77b4' title 'estimate', "
+        "'' using ($2==1?$3:1/0):4 skip 1 with points pt 5 ps 1.6 lc rgb '#d62728' title 'anchor'";
+  bool lost = false;
+  for (const auto& agent : record.agent_summaries) lost = lost || agent.fate != "ok";
+  if (lost) {
+    gp << ", '' using ($8==1?$3:1/0):4 skip 1 with points pt 2 ps 2.2 lw 2 lc rgb '#d62728' "
+          "title 'lost agent (died or stalled; not scored)'";
+  }
+  gp << "\n";
+  return gp.str();
+}
+
+std::string histogram_script(const RunRecord& record, int agents, int most, double mean_m, double rmse_m,
+                             double bound_m) {
+  std::ostringstream gp;
+  gp << std::setprecision(4);
+  gp << preamble("error_histogram.png")
+     << "set key top right box opaque\nset style fill solid 0.6 border -1\n"
+     << "set xlabel 'final position error [m]'\nset ylabel 'agents'\nset xrange [0:*]\n"
+     << "set yrange [0:" << most + 1 + most / 3 << "]\nset ytics " << std::max(1, (most + 1) / 8) << "\n"
+     << "set title \"" << header_title(record) << "\\nfinal error of " << agents
+     << " non-anchor agents: mean " << mean_m << " m, RMSE " << rmse_m << " m\"\n";
+  std::string extra;
+  if (std::isfinite(rmse_m)) {
+    gp << "set arrow 1 from " << rmse_m << ", graph 0 to " << rmse_m
+       << ", graph 1 nohead dt 2 lw 2 lc rgb 'black' front\n";
+    extra += ", NaN with lines dt 2 lw 2 lc rgb 'black' title 'RMSE'";
+  }
+  if (std::isfinite(bound_m) && bound_m > 0.0) {
+    gp << "set arrow 2 from " << bound_m << ", graph 0 to " << bound_m
+       << ", graph 1 nohead dt 3 lw 2 lc rgb '#d62728' front\n";
+    extra += ", NaN with lines dt 3 lw 2 lc rgb '#d62728' title '" + bound_label(record) + "'";
+  }
+  gp << "plot 'error_histogram.csv' using 3:4:($2-$1) skip 1 with boxes lc rgb '#1f77b4' title 'agents per "
+        "bin'"
+     << extra << '\n';
+  return gp.str();
+}
+
+}  // namespace
+
+double normal_quantile(double p) {
+  if (!(p > 0.0 && p < 1.0)) return kNaN;
+  static constexpr double a[] = {-3.969683028665376e+01, 2.209460984245205e+02,  -2.759285104469687e+02,
+                                 1.383577518672690e+02,  -3.066479806614716e+01, 2.506628277459239e+00};
+  static constexpr double b[] = {-5.447609879822406e+01, 1.615858368580409e+02, -1.556989798598866e+02,
+                                 6.680131188771972e+01, -1.328068155288572e+01};
+  static constexpr double c[] = {-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e+00,
+                                 -2.549732539343734e+00, 4.374664141464968e+00,  2.938163982698783e+00};
+  static constexpr double d[] = {7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e+00,
+                                 3.754408661907416e+00};
+  constexpr double p_low = 0.02425;
+  if (p < p_low) {
+    const double q = std::sqrt(-2.0 * std::log(p));
+    return (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) /
+           ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1.0);
+  }
+  if (p > 1.0 - p_low) return -normal_quantile(1.0 - p);
+  const double q = p - 0.5;
+  const double r = q * q;
+  return (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q /
+         (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1.0);
+}
+
+double chi_square_quantile(double p, double dof) {
+  if (!(dof > 0.0)) return kNaN;
+  const double h = 2.0 / (9.0 * dof);
+  const double cube_root = 1.0 - h + normal_quantile(p) * std::sqrt(h);
+  return dof * std::max(0.0, cube_root * cube_root * cube_root);
+}
+
+NeesBand nees_band(int agents, double coverage) {
+  if (agents <= 0) return {kNaN, kNaN};
+  const double n = static_cast<double>(agents);
+  const double tail = 0.5 * (1.0 - coverage);
+  return {chi_square_quantile(tail, 2.0 * n) / n, chi_square_quantile(1.0 - tail, 2.0 * n) / n};
+}
+
+std::vector<Vec2> covariance_ellipse(const Vec2& mean, const Mat2& covariance, double chi_square,
+                                     int points) {
+  std::vector<Vec2> curve;
+  if (!mean.allFinite() || !covariance.allFinite() || points < 3 || !(chi_square > 0.0)) return curve;
+  const Mat2 symmetric = 0.5 * (covariance + covariance.transpose());
+  const Eigen::SelfAdjointEigenSolver<Mat2> solver(symmetric);
+  if (solver.info() != Eigen::Success || !(solver.eigenvalues().minCoeff() > 0.0)) return curve;
+  const Mat2 transform =
+      solver.eigenvectors() * solver.eigenvalues().cwiseSqrt().asDiagonal() * std::sqrt(chi_square);
+  curve.reserve(static_cast<std::size_t>(points) + 1);
+  for (int k = 0; k <= points; ++k) {
+    const double t = 2.0 * std::numbers::pi * static_cast<double>(k % points) / static_cast<double>(points);
+    curve.push_back(mean + transform * Vec2(std::cos(t), std::sin(t)));
+  }
+  return curve;
+}
+
+bool write_plots(const std::filesystem::path& directory, const RunRecord& record) {
+  const auto plots = directory / "plots";
+  create_output_directories(plots);
+  std::map<std::string, std::string> scripts;  // file name -> script
+  // A run without any scored step has nothing to plot over time (gnuplot would fail on empty data).
+  if (!record.metrics.empty()) scripts["error.gp"] = error_script(record);
+
+  // NEES with its per-step band (the number of scored agents can change from step to step).
+  {
+    std::ostringstream out;
+    out << "# step,nees,band_lower,band_upper,scored_agents\n" << std::setprecision(9);
+    for (const auto& m : record.metrics) {
+      const auto band = nees_band(m.errors.scored);
+      out << m.step << ',' << m.errors.nees << ',' << band.lower << ',' << band.upper << ','
+          << m.errors.scored << '\n';
+    }
+    write_text_file(plots / "nees_band.csv", out.str());
+  }
+  if (!record.metrics.empty()) scripts["nees.gp"] = nees_script(record);
+
+  const auto finals = final_rows(record);
+  if (!finals.empty()) {
+    // Final positions, ellipses, links.
+    std::ostringstream positions;
+    std::ostringstream ellipses;
+    positions << "agent,anchor,truth_x,truth_y,est_x,est_y,error_m,lost\n" << std::setprecision(9);
+    bool have_ellipses = false;
+    std::vector<double> errors;
+    std::vector<std::pair<Vec2, std::vector<Vec2>>> curves;  // estimate, ellipse
+    std::vector<double> semi_major;
+    double extent = 0.0;
+    Vec2 low = finals.begin()->second->truth, high = low;
+    for (const auto& [agent, row] : finals) {
+      const bool anchor = is_anchor(record, agent);
+      const auto& e = row->estimate;
+      positions << agent << ',' << (anchor ? 1 : 0) << ',' << row->truth.x() << ',' << row->truth.y() << ','
+                << e.mean_m.x() << ',' << e.mean_m.y() << ',' << (e.mean_m - row->truth).norm() << ','
+                << (is_lost(record, agent) ? 1 : 0) << '\n';
+      low = low.cwiseMin(row->truth);
+      high = high.cwiseMax(row->truth);
+      if (anchor) continue;
+      if (e.mean_m.allFinite()) errors.push_back((e.mean_m - row->truth).norm());
+      if (!e.valid) continue;
+      auto curve = covariance_ellipse(e.mean_m, e.covariance);
+      if (curve.empty()) continue;
+      double axis = 0.0;
+      for (const auto& p : curve) axis = std::max(axis, (p - e.mean_m).norm());
+      semi_major.push_back(axis);
+      curves.emplace_back(e.mean_m, std::move(curve));
+    }
+    extent = (high - low).maxCoeff();
+    // Ellipses far smaller than the map are invisible: draw them magnified by a round factor (1, 2, 5 × 10^k)
+    // so the median semi-major axis is at least 1.5 % of the map, and say so in the legend.
+    double magnification = 1.0;
+    if (!semi_major.empty() && extent > 0.0) {
+      std::nth_element(semi_major.begin(),
+                       semi_major.begin() + static_cast<std::ptrdiff_t>(semi_major.size() / 2),
+                       semi_major.end());
+      const double median = semi_major[semi_major.size() / 2];
+      const double wanted = 0.015 * extent;
+      if (median > 0.0 && median < wanted) {
+        const double decade = std::pow(10.0, std::floor(std::log10(wanted / median)));
+        for (double step : {1.0, 2.0, 5.0, 10.0}) {
+          magnification = step * decade;
+          if (magnification * median >= wanted) break;
+        }
+      }
+    }
+    ellipses << "# 95 % covariance ellipses (chi-square 2 dof = " << kChiSquare2Dof95
+             << "), one block per non-anchor agent: x,y (true size), x_drawn,y_drawn (magnified x"
+             << magnification << " about the estimate)\n"
+             << std::setprecision(9);
+    for (const auto& [mean, curve] : curves) {
+      ellipses << '\n';
+      for (const auto& p : curve) {
+        const Vec2 drawn = mean + magnification * (p - mean);
+        ellipses << p.x() << ',' << p.y() << ',' << drawn.x() << ',' << drawn.y() << '\n';
+      }
+      have_ellipses = true;
+    }
+    write_text_file(plots / "final_positions.csv", positions.str());
+    write_text_file(plots / "ellipses.csv", ellipses.str());
+    // Links, undirected: both directions' counters pooled, drawn between the true positions.
+    std::map<std::pair<AgentId, AgentId>, std::pair<std::uint64_t, std::uint64_t>> pooled;  // delivered, sent
+    for (const auto& [key, link] : record.links) {
+      const auto edge = std::minmax(key.first, key.second);
+      auto& [delivered, sent] = pooled[{edge.first, edge.second}];
+      delivered += link.delivered;
+      sent += link.sent();
+    }
+    std::ostringstream segments;
+    std::ostringstream lost_segments;
+    segments << "# x1,y1,x2,y2,delivered_fraction,delivered,sent (agents a,b)\n" << std::setprecision(9);
+    lost_segments << "# x1,y1,x2,y2 (links of a lost agent: its counters stopped when it was lost)\n"
+                  << std::setprecision(9);
+    bool have_links = false;
+    bool have_lost_links = false;
+    for (const auto& [edge, counts] : pooled) {
+      const auto a = finals.find(edge.first);
+      const auto b = finals.find(edge.second);
+      if (a == finals.end() || b == finals.end() || counts.second == 0) continue;
+      if (is_lost(record, edge.first) || is_lost(record, edge.second)) {
+        lost_segments << a->second->truth.x() << ',' << a->second->truth.y() << ',' << b->second->truth.x()
+                      << ',' << b->second->truth.y() << '\n';
+        have_lost_links = true;
+        continue;
+      }
+      const double fraction =
+          std::min(1.0, static_cast<double>(counts.first) / static_cast<double>(counts.second));
+      segments << a->second->truth.x() << ',' << a->second->truth.y() << ',' << b->second->truth.x() << ','
+               << b->second->truth.y() << ',' << fraction << ',' << counts.first << ',' << counts.second
+               << '\n';
+      have_links = true;
+    }
+    write_text_file(plots / "link_segments.csv", segments.str());
+    write_text_file(plots / "lost_link_segments.csv", lost_segments.str());
+    scripts["positions.gp"] =
+        positions_script(record, have_links, have_lost_links, have_ellipses, magnification);
+
+    // Histogram of the non-anchor agents' final errors.
+    if (!errors.empty()) {
+      const double largest = *std::max_element(errors.begin(), errors.end());
+      const int bins =
+          std::clamp(static_cast<int>(std::ceil(std::sqrt(static_cast<double>(errors.size())))), 5, 25);
+      const double top = largest > 0.0 ? largest * 1.0001 : 1e-3;
+      const double width = top / static_cast<double>(bins);
+      std::vector<int> counts(static_cast<std::size_t>(bins), 0);
+      double sum = 0.0, sum_sq = 0.0;
+      for (double err : errors) {
+        const auto bin = std::min(static_cast<std::size_t>(err / width), counts.size() - 1);
+        ++counts[bin];
+        sum += err;
+        sum_sq += err * err;
+      }
+      std::ostringstream histogram;
+      histogram << "bin_lo_m,bin_hi_m,bin_center_m,agents\n" << std::setprecision(9);
+      for (std::size_t k = 0; k < counts.size(); ++k) {
+        const double lo = width * static_cast<double>(k);
+        histogram << lo << ',' << lo + width << ',' << lo + 0.5 * width << ',' << counts[k] << '\n';
+      }
+      write_text_file(plots / "error_histogram.csv", histogram.str());
+      const double n = static_cast<double>(errors.size());
+      const auto* last = record.final_metrics();
+      scripts["error_histogram.gp"] = histogram_script(
+          record, static_cast<int>(errors.size()), *std::max_element(counts.begin(), counts.end()), sum / n,
+          std::sqrt(sum_sq / n), last ? last->bound_rmse_m : kNaN);
+    }
+  }
+
+  std::ostringstream all;
+  all << "# Makes every plot of this run: cd into plots/ and run `gnuplot plots.gp`.\n";
+  for (const auto& [name, script] : scripts) {
+    write_text_file(plots / name, script);
+    all << "reset\nload " << gnuplot_quote(name) << "\n";
+  }
+  write_text_file(plots / "plots.gp", all.str());
+  bool ok = true;
+  for (const auto& [name, script] : scripts) {
+    const auto png = std::filesystem::path(name).replace_extension(".png").string();
+    const auto result = run_gnuplot(plots, name, {png});
+    if (result == GnuplotResult::kNotInstalled) {
+      static std::atomic<bool> noted{false};
+      if (!noted.exchange(true)) {
+        std::fprintf(stderr,
+                     "note: gnuplot is not installed; the plots/*.gp scripts are written, run "
+                     "`gnuplot plots.gp` in plots/ to make the PNGs\n");
+      }
+      return false;
+    }
+    ok = ok && result == GnuplotResult::kDone;
+  }
+  return ok;
+}
+
+std::string gnuplot_quote(std::string_view text) {
+  std::string quoted = "'";
+  for (const char c : text) {
+    quoted += c;
+    if (c == '\'') quoted += '\'';
+  }
+  return quoted + "'";
+}
+
+GnuplotResult run_gnuplot(const std::filesystem::path& directory, const std::string& script,
+                          const std::vector<std::string>& outputs) {
+  const auto gnuplot = find_program("gnuplot");
+  if (!gnuplot) return GnuplotResult::kNotInstalled;
+  // A PNG left over from an earlier attempt must not pass for this one.
+  for (const auto& output : outputs) {
+    std::error_code ignored;
+    std::filesystem::remove(directory / output, ignored);
+  }
+  ProgramOptions options;
+  options.working_directory = directory;
+  options.stdin_path = options.stdout_path = options.stderr_path = "/dev/null";
+  const auto status = run_program({gnuplot->string(), script}, options);
+  for (const auto& output : outputs) {
+    const auto path = directory / output;
+    if (complete_output(path)) continue;
+    // Probed before the partial PNG is removed, which would free the room it lacked.
+    const int error = room_for_a_plot(directory);
+    std::error_code ignored;
+    std::filesystem::remove(path, ignored);  // no truncated PNG passes for a plot later
+    if (error != 0) throw OutputError(path, "write", error);
+    if (status.succeeded()) throw OutputError(path, "write (gnuplot left it incomplete)", EIO);
+    std::fprintf(stderr, "warning: gnuplot %s on %s; %s not made\n", status.describe().c_str(),
+                 (directory / script).c_str(), path.c_str());
+    return GnuplotResult::kFailed;
+  }
+  if (!status.succeeded()) {
+    std::fprintf(stderr, "warning: gnuplot %s on %s\n", status.describe().c_str(),
+                 (directory / script).c_str());
+    return GnuplotResult::kFailed;
+  }
+  return GnuplotResult::kDone;
+}
+
+}  // namespace swarmloc::sim

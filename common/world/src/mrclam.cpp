@@ -1,0 +1,312 @@
+#include "swarmloc/world/mrclam.hpp"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+#include <string>
+
+#include "swarmloc/estimators/pose_filters.hpp"
+#include "swarmloc/models/measurement_models.hpp"
+
+namespace swarmloc::sim {
+namespace {
+
+using config::ScenarioError;
+
+/// The whole text of NAME.dat or NAME.dat.gz in `directory` (zlib reads both).
+std::string read_data_file(const std::filesystem::path& directory, const std::string& name) {
+  std::filesystem::path path = directory / (name + ".dat");
+  if (!std::filesystem::exists(path)) path += ".gz";
+  if (!std::filesystem::exists(path)) {
+    throw ScenarioError("world.data_dir: '" + directory.string() + "' has no " + name + ".dat or " + name +
+                        ".dat.gz (is it a UTIAS MRCLAM dataset directory?)");
+  }
+  gzFile file = gzopen(path.c_str(), "rb");
+  if (file == nullptr) throw ScenarioError("world.data_dir: cannot open '" + path.string() + "'");
+  std::string text;
+  char buffer[1 << 16];
+  int got = 0;
+  while ((got = gzread(file, buffer, sizeof buffer)) > 0) text.append(buffer, static_cast<std::size_t>(got));
+  const bool failed = got < 0;
+  gzclose(file);
+  if (failed) throw ScenarioError("world.data_dir: '" + path.string() + "' is not readable gzip or text");
+  return text;
+}
+
+/// Rows of `columns` finite numbers; '#' lines and blank lines skipped.
+std::vector<std::vector<double>> parse_rows(const std::string& text, std::size_t columns,
+                                            const std::string& name) {
+  std::vector<std::vector<double>> rows;
+  std::istringstream in(text);
+  std::string line;
+  int line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::istringstream fields(line);
+    std::vector<double> row(columns);
+    for (auto& value : row) {
+      if (!(fields >> value) || !std::isfinite(value)) {
+        throw ScenarioError("world.data_dir: " + name + " line " + std::to_string(line_number) +
+                            ": expected " + std::to_string(columns) + " finite numbers");
+      }
+    }
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+void require_increasing_times(const std::vector<double>& times, const std::string& name) {
+  for (std::size_t k = 1; k < times.size(); ++k) {
+    if (times[k] < times[k - 1]) {
+      throw ScenarioError("world.data_dir: " + name + " row " + std::to_string(k + 1) +
+                          ": time goes backwards");
+    }
+  }
+}
+
+}  // namespace
+
+MrclamDataset load_mrclam(const std::filesystem::path& directory) {
+  MrclamDataset data;
+  std::map<int, int> subject_of_barcode;
+  for (const auto& row : parse_rows(read_data_file(directory, "Barcodes"), 2, "Barcodes")) {
+    subject_of_barcode[static_cast<int>(row[1])] = static_cast<int>(row[0]);
+  }
+  for (const auto& row :
+       parse_rows(read_data_file(directory, "Landmark_Groundtruth"), 5, "Landmark_Groundtruth")) {
+    data.landmarks[static_cast<int>(row[0])] = {Vec2(row[1], row[2]), Vec2(row[3], row[4])};
+  }
+  data.robots.resize(kMrclamRobots);
+  double latest_first = -1e300;
+  double earliest_last = 1e300;
+  for (int r = 0; r < kMrclamRobots; ++r) {
+    auto& robot = data.robots[static_cast<std::size_t>(r)];
+    const std::string prefix = "Robot" + std::to_string(r + 1) + "_";
+    std::vector<double> times;
+    for (const auto& row :
+         parse_rows(read_data_file(directory, prefix + "Groundtruth"), 4, prefix + "Groundtruth")) {
+      robot.groundtruth.push_back({row[0], Vec2(row[1], row[2]), row[3]});
+      times.push_back(row[0]);
+    }
+    require_increasing_times(times, prefix + "Groundtruth");
+    times.clear();
+    for (const auto& row :
+         parse_rows(read_data_file(directory, prefix + "Odometry"), 3, prefix + "Odometry")) {
+      robot.odometry.push_back({row[0], row[1], row[2]});
+      times.push_back(row[0]);
+    }
+    require_increasing_times(times, prefix + "Odometry");
+    times.clear();
+    for (const auto& row :
+         parse_rows(read_data_file(directory, prefix + "Measurement"), 4, prefix + "Measurement")) {
+      const auto subject = subject_of_barcode.find(static_cast<int>(row[1]));
+      if (subject == subject_of_barcode.end() || subject->second == r + 1) {
+        ++data.unknown_barcodes;
+        continue;
+      }
+      if (subject->second > kMrclamRobots && !data.landmarks.contains(subject->second)) {
+        ++data.unknown_barcodes;
+        continue;
+      }
+      robot.measurements.push_back({row[0], subject->second, row[2], row[3]});
+      times.push_back(row[0]);
+    }
+    require_increasing_times(times, prefix + "Measurement");
+    if (robot.groundtruth.size() < 2 || robot.odometry.empty()) {
+      throw ScenarioError("world.data_dir: " + prefix + "Groundtruth/Odometry hold too few rows");
+    }
+    latest_first = std::max(latest_first, robot.groundtruth.front().time_s);
+    earliest_last = std::min(earliest_last, robot.odometry.back().time_s);
+  }
+  if (!(earliest_last > latest_first)) {
+    throw ScenarioError("world.data_dir: the robots' groundtruth and odometry share no time window");
+  }
+  data.start_time_s = latest_first;
+  data.end_time_s = earliest_last;
+  return data;
+}
+
+MrclamSteps::MrclamSteps(std::shared_ptr<const MrclamDataset> data, const config::Scenario& scenario)
+    : data_(std::move(data)),
+      step_s_(scenario.world.data_step_s),
+      steps_(static_cast<std::int64_t>(std::floor((data_->end_time_s - data_->start_time_s) / step_s_)) + 1),
+      range_std_m_(scenario.noise.range_std_m),
+      bearing_std_rad_(scenario.noise.bearing_std_rad),
+      odometry_v_std_(scenario.noise.odometry_v_std),
+      odometry_omega_std_(scenario.noise.odometry_omega_std) {}
+
+MrclamDataset::TimedPose MrclamSteps::pose_at(AgentId agent, std::int64_t step) const {
+  const auto& track = data_->robots.at(static_cast<std::size_t>(agent)).groundtruth;
+  const double t = data_->start_time_s + time_of(step);
+  const auto after =
+      std::lower_bound(track.begin(), track.end(), t,
+                       [](const MrclamDataset::TimedPose& pose, double time) { return pose.time_s < time; });
+  if (after == track.begin()) return {t, track.front().position_m, track.front().heading_rad};
+  if (after == track.end()) {
+    // Past this robot's groundtruth (Dataset 6: robot 1's ends at 772 s of 900 s): unknown truth,
+    // which scoring counts as missing rather than guess.
+    if (t > track.back().time_s + 1e-9) {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      return {t, Vec2(nan, nan), nan};
+    }
+    return {t, track.back().position_m, track.back().heading_rad};
+  }
+  const auto before = std::prev(after);
+  const double span = after->time_s - before->time_s;
+  const double w = span > 0.0 ? (t - before->time_s) / span : 0.0;
+  const double turn = models::wrap_angle(after->heading_rad - before->heading_rad);
+  return {t, (1.0 - w) * before->position_m + w * after->position_m,
+          models::wrap_angle(before->heading_rad + w * turn)};
+}
+
+std::vector<Vec2> MrclamSteps::truth(std::int64_t step) const {
+  std::vector<Vec2> positions;
+  for (AgentId i = 0; i < kMrclamRobots; ++i) positions.push_back(pose_at(i, step).position_m);
+  return positions;
+}
+
+estimators::MeasurementBatch MrclamSteps::batch(AgentId agent, std::int64_t step) const {
+  estimators::MeasurementBatch batch;
+  if (step < 0 || step >= steps_ || agent < 0 || agent >= kMrclamRobots) return batch;
+  batch.world_step = step;
+  batch.world_time_s = time_of(step);
+  for (AgentId j = 0; j < kMrclamRobots; ++j) {
+    if (j != agent) batch.neighbours.push_back(j);
+  }
+  if (step == 0) return batch;  // the prior is the groundtruth pose at t_0
+  const auto& robot = data_->robots[static_cast<std::size_t>(agent)];
+  const double from = data_->start_time_s + time_of(step - 1);
+  const double to = data_->start_time_s + time_of(step);
+
+  // Odometry: each row's command holds from its time until the next row's (the first row's from t_0).
+  estimators::OdometryInput odometry;
+  odometry.v_std = odometry_v_std_;
+  odometry.omega_std = odometry_omega_std_;
+  const auto& rows = robot.odometry;
+  auto row =
+      std::upper_bound(rows.begin(), rows.end(), from,
+                       [](double time, const MrclamDataset::OdometryRow& r) { return time < r.time_s; });
+  if (row != rows.begin()) --row;  // the command in force at `from`
+  for (; row != rows.end() && row->time_s < to; ++row) {
+    const double begin = std::max(from, row->time_s);
+    const double end = std::next(row) == rows.end() ? to : std::min(to, std::next(row)->time_s);
+    if (end > begin) odometry.segments.push_back({row->v_mps, row->omega_radps, end - begin});
+  }
+  batch.odometry = std::move(odometry);
+
+  const auto& measurements = robot.measurements;
+  auto m =
+      std::upper_bound(measurements.begin(), measurements.end(), from,
+                       [](double time, const MrclamDataset::MeasurementRow& r) { return time < r.time_s; });
+  for (; m != measurements.end() && m->time_s <= to; ++m) {
+    estimators::RangeBearingMeasurement measurement;
+    measurement.range_m = m->range_m;
+    measurement.bearing_rad = m->bearing_rad;
+    measurement.range_std_m = range_std_m_;
+    measurement.bearing_std_rad = bearing_std_rad_;
+    if (m->subject <= kMrclamRobots) {
+      measurement.peer = m->subject - 1;
+    } else {
+      const auto& landmark = data_->landmarks.at(m->subject);
+      measurement.landmark = true;
+      measurement.peer = m->subject;
+      measurement.landmark_m = landmark.position_m;
+      measurement.landmark_cov = landmark.std_m.cwiseProduct(landmark.std_m).asDiagonal();
+    }
+    batch.range_bearings.push_back(measurement);
+  }
+  return batch;
+}
+
+World build_mrclam_world(const config::Scenario& scenario) {
+  if (scenario.world.agents != kMrclamRobots) {
+    throw ScenarioError("world.agents: UTIAS MRCLAM has " + std::to_string(kMrclamRobots) + " robots");
+  }
+  auto data = std::make_shared<const MrclamDataset>(load_mrclam(scenario.world.data_dir));
+  auto steps = std::make_shared<const MrclamSteps>(data, scenario);
+  if (scenario.run.steps > steps->steps()) {
+    throw ScenarioError("run.steps: " + std::to_string(scenario.run.steps) + " is more than the dataset's " +
+                        std::to_string(steps->steps()) +
+                        " steps of world.data_step_s = " + std::to_string(scenario.world.data_step_s) + " s");
+  }
+  World world;
+  world.recorded = steps;
+  world.is_anchor.assign(kMrclamRobots, false);
+  world.neighbours.resize(kMrclamRobots);
+  for (AgentId i = 0; i < kMrclamRobots; ++i) {
+    const auto start = steps->pose_at(i, 0);
+    world.truth.push_back(start.position_m);
+    world.initial_guess.push_back(start.position_m);
+    world.initial_heading.push_back(start.heading_rad);
+    for (AgentId j = 0; j < kMrclamRobots; ++j) {
+      if (j != i) world.neighbours[static_cast<std::size_t>(i)].push_back(j);
+    }
+    world.clocks.push_back(
+        core::draw_clock(scenario.seed, i, scenario.clock.offset_max_s, scenario.clock.drift_ppm));
+  }
+  return world;
+}
+
+MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world) {
+  estimators::KalmanFamilyParams params;
+  params.process_noise_std_m = scenario.algorithm.process_noise_std_m;
+  params.initial_std_m = scenario.algorithm.initial_std_m;
+  params.initial_heading_std_rad = scenario.algorithm.initial_heading_std_rad;
+  params.range_bearing_gate_chi2 = scenario.algorithm.range_bearing_gate_chi2;
+  std::vector<estimators::AgentSetup> setups;
+  std::vector<std::unique_ptr<estimators::DeadReckoning>> dead_reckoning;
+  for (AgentId i = 0; i < world.size(); ++i) {
+    setups.push_back(world.setup_of(i));
+    dead_reckoning.push_back(std::make_unique<estimators::DeadReckoning>(setups.back(), params));
+  }
+  estimators::CentralizedPoseEkf centralized(setups, params);
+  struct Accumulator {
+    double squared_sum = 0.0;
+    double last_mse = 0.0;
+    void add(double mse) {
+      squared_sum += mse;
+      last_mse = mse;
+    }
+  } dr, ekf;
+  const std::int64_t steps = scenario.run.steps;
+  std::int64_t scored_steps = 0;
+  for (std::int64_t step = 0; step < steps; ++step) {
+    std::vector<estimators::MeasurementBatch> batches;
+    std::vector<const estimators::MeasurementBatch*> pointers;
+    for (AgentId i = 0; i < world.size(); ++i) batches.push_back(world.recorded->batch(i, step));
+    for (const auto& batch : batches) pointers.push_back(&batch);
+    centralized.step(pointers);
+    const auto truth = world.recorded->truth(step);
+    double dr_sum = 0.0;
+    double ekf_sum = 0.0;
+    int scored = 0;
+    for (AgentId i = 0; i < world.size(); ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      estimators::StepInput input;
+      input.local_step = step;
+      input.measurements = &batches[k];
+      (void)dead_reckoning[k]->step(input);
+      if (!truth[k].allFinite()) continue;  // no groundtruth: not scored (as in metrics' score())
+      ++scored;
+      dr_sum += (dead_reckoning[k]->estimate().mean_m - truth[k]).squaredNorm();
+      ekf_sum += (centralized.estimate(i).mean_m - truth[k]).squaredNorm();
+    }
+    if (scored == 0) continue;
+    dr.add(dr_sum / scored);
+    ekf.add(ekf_sum / scored);
+    ++scored_steps;
+  }
+  const double n = static_cast<double>(std::max<std::int64_t>(1, scored_steps));
+  MrclamBaselines baselines;
+  baselines.dead_reckoning = {std::sqrt(dr.squared_sum / n), std::sqrt(dr.last_mse)};
+  baselines.centralized_ekf = {std::sqrt(ekf.squared_sum / n), std::sqrt(ekf.last_mse)};
+  return baselines;
+}
+
+}  // namespace swarmloc::sim
