@@ -17,13 +17,12 @@
 #include <type_traits>
 
 #include "swarmloc/dds/transport.hpp"
-#include "swarmloc/rundir/recording.hpp"
+#include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/runtime/agent_runtime.hpp"
 #include "swarmloc/runtime/hostile.hpp"
+#include "swarmloc/runtime/placement.hpp"
 #include "swarmloc/runtime/run_health.hpp"
-#include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/simulator.hpp"
-#include "swarmloc/world/world.hpp"
+#include "swarmloc/runtime/sample_log.hpp"
 
 namespace swarmloc::agent {
 namespace {
@@ -43,7 +42,7 @@ double process_cpu_s() {
 }
 
 std::shared_ptr<spdlog::logger> make_logger(const AgentOptions& options) {
-  const std::string name = "agent" + std::to_string(options.id);
+  const std::string name = options.id >= 0 ? "agent" + std::to_string(options.id) : std::string("agent");
   std::shared_ptr<spdlog::logger> logger;
   if (options.log_path.empty()) {
     logger = spdlog::stderr_color_mt(name);
@@ -57,27 +56,26 @@ std::shared_ptr<spdlog::logger> make_logger(const AgentOptions& options) {
 
 class AgentProcess {
  public:
-  AgentProcess(const config::Scenario& scenario, const sim::World& world, const AgentOptions& options,
-               std::shared_ptr<spdlog::logger> logger)
+  AgentProcess(const config::Scenario& scenario, const sim::AgentManifest& manifest,
+               const AgentOptions& options, std::shared_ptr<spdlog::logger> logger)
       : scenario_(scenario),
         options_(options),
+        id_(manifest.id),
         logger_(std::move(logger)),
-        clock_(world.clocks.at(static_cast<std::size_t>(options.id))),
-        runtime_(sim::make_agent_estimator(scenario, world, options.id), world.setup_of(options.id),
-                 world.neighbours.at(static_cast<std::size_t>(options.id)),
-                 sim::make_runtime_params(scenario, world, 0, options.incarnation)),
-        transport_(scenario, dds::Topology{options.id, world.size(),
-                                           world.neighbours.at(static_cast<std::size_t>(options.id))}),
-        neighbour_count_(static_cast<int>(world.neighbours.at(static_cast<std::size_t>(options.id)).size())),
+        clock_(manifest.clock),
+        runtime_(sim::make_agent_estimator(scenario, manifest), manifest.setup, manifest.neighbours,
+                 sim::make_runtime_params(manifest, options.incarnation)),
+        transport_(scenario, dds::Topology{manifest.id, manifest.agent_count, manifest.neighbours}),
+        neighbour_count_(static_cast<int>(manifest.neighbours.size())),
         sensor_only_(sim::is_centralized(scenario.algorithm.name)),
         lockstep_(scenario.run.mode == config::RunMode::kLockstep && !sensor_only_),
         started_(std::chrono::steady_clock::now()),
         results_hash_(config::results_hash(scenario)),
         health_(1.0 / (scenario.run.rate_hz * scenario.run.agent_steps_per_world_step)) {
-    for (const AgentId neighbour : world.neighbours.at(static_cast<std::size_t>(options.id)))
-      if (neighbour != options.id) last_heard_[neighbour] = std::nullopt;
+    for (const AgentId neighbour : manifest.neighbours)
+      if (neighbour != manifest.id) last_heard_[neighbour] = std::nullopt;
     if (!options.record_path.empty()) {
-      sample_log_ = std::make_unique<sim::SampleLogWriter>(options.record_path, world.size(),
+      sample_log_ = std::make_unique<sim::SampleLogWriter>(options.record_path, manifest.agent_count,
                                                            config::scenario_hash(scenario));
     }
   }
@@ -100,7 +98,7 @@ class AgentProcess {
     // (golden-ratio spread over ids). In phase, all agents published at once and every sample queued
     // behind the whole network's burst (inter-agent latency p50 2.5 ms at N = 20, docs/scale.md).
     const double golden = 0.6180339887498949;
-    const double phase_fraction = std::fmod(static_cast<double>(options_.id) * golden, 1.0);
+    const double phase_fraction = std::fmod(static_cast<double>(id_) * golden, 1.0);
     const auto phase = std::chrono::duration<double>(phase_fraction * period.count());
     auto next_tick = std::chrono::steady_clock::now() +
                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
@@ -217,7 +215,7 @@ class AgentProcess {
   /// Feeds inbound samples to the runtime; STOP, or a refusal of our scenario, ends the run.
   Verdict handle(const dds::AgentInbound& inbound) {
     for (const auto& control : inbound.control) {
-      if (control.target != kOrchestratorId && control.target != options_.id) continue;
+      if (control.target != kOrchestratorId && control.target != id_) continue;
       // A refusal names the hash it refuses: a corrected agent restarted under the same id ignores the
       // refusal its predecessor got (control samples are transient-local).
       const bool refused =
@@ -307,7 +305,7 @@ class AgentProcess {
   void record(const dds::AgentInbound& inbound) {
     auto append = [&](const auto& samples) {
       for (const auto& sample : samples) {
-        sample_log_->append(sim::ReceivedSample{options_.id, runtime_.steps_run(), sample.source_timestamp_ns,
+        sample_log_->append(sim::ReceivedSample{id_, runtime_.steps_run(), sample.source_timestamp_ns,
                                                 sample.taken_ns, sample.well_formed, sample.header,
                                                 sim::SampleMessage(sample.message)});
       }
@@ -414,6 +412,7 @@ class AgentProcess {
 
   const config::Scenario& scenario_;
   const AgentOptions& options_;
+  AgentId id_ = 0;
   std::shared_ptr<spdlog::logger> logger_;
   core::ClockModel clock_;
   sim::AgentRuntime runtime_;
@@ -439,41 +438,66 @@ class AgentProcess {
 
 }  // namespace
 
-int run_agent(const AgentOptions& options) {
+sim::AgentManifest load_manifest_file(const config::Scenario& /*scenario*/, const AgentOptions& options) {
+  if (options.manifest_path.empty()) {
+    throw sim::ManifestError(
+        "--manifest is required: `swarmloc run` writes <run>/manifests/agent_<id>.json for every agent (an "
+        "agent started elsewhere without one: `swarmloc agent --scenario ... --id ...`)");
+  }
+  return sim::load_manifest(options.manifest_path);
+}
+
+namespace {
+
+/// The scenario and the manifest must describe the same run, and --id (if given) the manifest's agent.
+void check_manifest(config::Scenario& scenario, const sim::AgentManifest& manifest,
+                    const AgentOptions& options) {
+  if (options.id >= 0 && options.id != manifest.id) {
+    throw sim::ManifestError("--id " + std::to_string(options.id) + " but the manifest is agent " +
+                             std::to_string(manifest.id) + "'s");
+  }
+  if (config::results_hash(scenario) != manifest.results_hash) {
+    throw sim::ManifestError(
+        "the manifest was written for another scenario (results hash differs): start the agent with the run "
+        "directory's scenario.yaml and no --set that changes the world, the algorithm, the network, the "
+        "clocks or the run");
+  }
+  if (scenario.dds.run_id.empty()) scenario.dds.run_id = manifest.run_id;  // the manifest names the run
+  if (scenario.dds.run_id != manifest.run_id) {
+    throw sim::ManifestError("dds.run_id " + scenario.dds.run_id + " but the manifest belongs to run " +
+                             manifest.run_id);
+  }
+  if (!scenario.dds.security_dir.empty()) dds::security_files(scenario.dds.security_dir, manifest.id);
+}
+
+/// The scenario and manifest, checked; nullopt (logged) on bad input.
+std::optional<std::pair<config::Scenario, sim::AgentManifest>> load_inputs(
+    const AgentOptions& options, const ManifestSource& manifest_source, spdlog::logger& logger) {
+  try {
+    config::Scenario scenario = config::load_scenario(options.scenario_path, options.overrides);
+    sim::AgentManifest manifest = manifest_source(scenario, options);
+    check_manifest(scenario, manifest, options);
+    return std::make_pair(std::move(scenario), std::move(manifest));
+  } catch (const config::ScenarioError& error) {
+    logger.error("{}", error.what());
+  } catch (const sim::ManifestError& error) {
+    logger.error("{}", error.what());
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+int run_agent(const AgentOptions& options, const ManifestSource& manifest_source) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   std::signal(SIGHUP, on_signal);
   std::signal(SIGPIPE, SIG_IGN);
   auto logger = make_logger(options);
-  config::Scenario scenario;
-  sim::World world;
+  const auto inputs = load_inputs(options, manifest_source, *logger);
+  if (!inputs) return 2;
   try {
-    scenario = config::load_scenario(options.scenario_path, options.overrides);
-    world = sim::build_world(scenario, 0, options.world_draw);
-  } catch (const config::ScenarioError& error) {
-    logger->error("{}", error.what());
-    return 2;
-  }
-  if (scenario.dds.run_id.empty()) {
-    logger->error(
-        "dds.run_id is empty: start agents with the run directory's scenario.yaml (`swarmloc run` writes "
-        "the run id there) or pass --set dds.run_id=<the id the orchestrator printed>");
-    return 2;
-  }
-  if (options.id < 0 || options.id >= world.size()) {
-    logger->error("--id: {} is outside [0, {})", options.id, world.size());
-    return 2;
-  }
-  if (!scenario.dds.security_dir.empty()) {
-    try {
-      dds::security_files(scenario.dds.security_dir, options.id);  // bad input, not a runtime failure
-    } catch (const config::ScenarioError& error) {
-      logger->error("{}", error.what());
-      return 2;
-    }
-  }
-  try {
-    AgentProcess process(scenario, world, options, logger);
+    AgentProcess process(inputs->first, inputs->second, options, logger);
     return process.run();
   } catch (const std::exception& error) {
     logger->error("runtime failure: {}", error.what());

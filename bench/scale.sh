@@ -127,7 +127,7 @@ def ours():  # pid -> (cmdline, rss_kib, cpu ticks) for processes of this binary
         if not p.isdigit(): continue
         try:
             exe = os.readlink(f"/proc/{p}/exe")
-            if exe != binpath: continue
+            if exe not in (binpath, os.path.join(os.path.dirname(binpath), "swarmloc-agent")): continue  # agents: the lean binary
             cmd = open(f"/proc/{p}/cmdline", "rb").read().replace(b"\0", b" ").decode()
             ppid = int(open(f"/proc/{p}/stat").read().split(") ")[1].split()[1])
             if int(p) != opid and ppid != opid: continue  # the orchestrator and the agents it launched
@@ -145,7 +145,7 @@ samples = []
 while os.path.exists(f"/proc/{opid}"):
     now = time.time(); m = cpu_total(); o = ours()
     for p, (cmd, rss, t) in o.items():
-        if " agent " in cmd:
+        if " agent " in cmd or " --manifest " in cmd:
             rss_max[p] = max(rss_max.get(p, 0), rss)
         ticks_last[p] = t
     samples.append((now - t0, m - m0, sum(ticks_last.values()), len(o)))

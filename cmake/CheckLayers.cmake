@@ -11,16 +11,14 @@ set(layer_core core)
 set(layer_models core models)
 set(layer_estimators core models estimators)
 set(layer_config core config)
-set(layer_runtime core models estimators runtime)
-set(layer_world core models estimators config world)
+set(layer_runtime core models estimators config runtime)
+set(layer_world core models estimators config runtime world)
 set(layer_rundir core models estimators config runtime world rundir)
 set(layer_sim core models estimators config runtime world rundir sim)
 # The transport knows the sample envelope and the scenario's DDS keys, never the world or a simulator.
 set(layer_dds core models estimators config runtime dds)
 # An agent process knows what a real agent knows: its manifest, its estimator and the transport.
 set(layer_agent core models estimators config runtime dds)
-# Until agents start from a manifest they still build the world themselves.
-list(APPEND layer_agent world rundir sim)
 set(layer_orchestrator core models estimators config runtime world rundir sim dds)
 
 set(layer_folders

@@ -16,7 +16,10 @@ function(swarmloc_library)
   file(GLOB_RECURSE sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${ARG_NAME}/src/*.cpp)
   add_library(swarmloc_${ARG_NAME} STATIC ${sources})
   add_library(swarmloc::${ARG_NAME} ALIAS swarmloc_${ARG_NAME})
-  target_include_directories(swarmloc_${ARG_NAME} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/${ARG_NAME}/include
-                                                  PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/${ARG_NAME}/src)
+  target_include_directories(swarmloc_${ARG_NAME}
+                             PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/${ARG_NAME}/include>
+                                    $<INSTALL_INTERFACE:include>
+                             PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/${ARG_NAME}/src)
+  set_target_properties(swarmloc_${ARG_NAME} PROPERTIES EXPORT_NAME ${ARG_NAME})
   target_link_libraries(swarmloc_${ARG_NAME} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS} swarmloc_warnings swarmloc_sanitizers)
 endfunction()

@@ -20,21 +20,6 @@ ProcessLauncher::~ProcessLauncher() { stop_all(0.5); }
 
 namespace {
 
-/// The environment a child gets: ours, plus OPENBLAS_NUM_THREADS=1 unless it is set. The binary links
-/// OpenBLAS (pthreads build, through SDPA's LAPACK) and its load-time thread pool spins on sched_yield
-/// for ~0.1 s in every new process: 0.17 s of CPU per agent start-up against 0.04 s with one thread
-/// (docs/scale.md). Agents never call BLAS. Built in the parent: after fork() only exec is safe.
-std::vector<std::string> child_environment() {
-  std::vector<std::string> environment;
-  bool blas_threads_set = false;
-  for (char** entry = environ; *entry != nullptr; ++entry) {
-    environment.emplace_back(*entry);
-    if (environment.back().starts_with("OPENBLAS_NUM_THREADS=")) blas_threads_set = true;
-  }
-  if (!blas_threads_set) environment.emplace_back("OPENBLAS_NUM_THREADS=1");
-  return environment;
-}
-
 std::vector<char*> c_strings(const std::vector<std::string>& strings) {
   std::vector<char*> pointers;
   pointers.reserve(strings.size() + 1);
@@ -47,9 +32,7 @@ std::vector<char*> c_strings(const std::vector<std::string>& strings) {
 
 int ProcessLauncher::launch(const std::vector<std::string>& argv, const std::string& output_path,
                             int nice_increment) {
-  const std::vector<char*> args = c_strings(argv);
-  const std::vector<std::string> environment = child_environment();
-  const std::vector<char*> envp = c_strings(environment);
+  const std::vector<char*> args = c_strings(argv);  // built in the parent: after fork() only exec is safe
   const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
@@ -69,7 +52,7 @@ int ProcessLauncher::launch(const std::vector<std::string>& argv, const std::str
     }
     const int null_fd = open("/dev/null", O_RDONLY);
     if (null_fd >= 0) dup2(null_fd, STDIN_FILENO);
-    execve(args[0], args.data(), envp.data());
+    execv(args[0], args.data());
     _exit(127);
   }
   children_.push_back(Child{pid, true, std::nullopt});

@@ -11,8 +11,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "agent_command.hpp"
 #include "agent_node.hpp"
 #include "fusion_center.hpp"
 #include "orchestrator.hpp"
@@ -99,145 +102,231 @@ bool reject_unknown_command(const CLI::App& app, int argc, char** argv) {
   return true;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{
-      "swarmloc: cooperative localization of sensor networks and robot teams.\n"
-      "Each agent is its own OS process talking over Cyclone DDS; the orchestrator owns the ground truth,\n"
-      "feeds every agent its noisy measurements, and scores the estimates against truth and the CRLB.\n\n"
-      "  swarmloc run scenarios/default.yaml            # N agent processes over DDS on loopback\n"
-      "  swarmloc sim scenarios/default.yaml            # the same estimators in one process\n"
-      "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n"
-      "  swarmloc campaign scenarios/campaigns/loss.yaml --mode sim   # loss sweep, every algorithm\n"
-      "  swarmloc sim scenarios/default.yaml --record --out runs/a     # record every measurement\n"
-      "  swarmloc replay runs/a/recording.slrec --set algorithm.name=iekf  # another algorithm\n\n"
-      "Paper reproductions and parameter campaigns: swarmloc-research (docs/reproduction.md).\n",
-      "swarmloc"};
-  app.require_subcommand(1);
-  app.footer("Exit codes: 0 ok, 2 bad input (scenario or flags), 1 runtime failure or interrupted.");
-
+/// Flags that several commands offer, bound to the same variables (only one command is parsed).
+struct SharedFlags {
   std::string scenario_path;
   std::vector<std::string> overrides;
   std::string out_dir;
   bool quiet = false;
+  bool record = false;
+  bool force = false;
+  std::string security_dir;
+};
 
-  auto* run = app.add_subcommand(
-      "run", "Run a scenario with one OS process per agent over DDS (orchestrator + agents).");
+const char* const kRecordHelp =
+    "Write recording.slrec (truth and every measurement batch) and recording/ (the inter-agent samples "
+    "each agent received) into the run directory; replay with `swarmloc replay` (docs/record-replay.md)";
+const char* const kSecurityHelp =
+    "DDS Security with the PKI in DIR (deploy/security/make-pki.sh); same as --set dds.security_dir=DIR";
+
+/// `swarmloc run`.
+struct RunCommand {
+  CLI::App* command = nullptr;
   std::vector<int> hostile;
   bool no_launch = false;
-  run->add_option("scenario", scenario_path, "Scenario YAML file (e.g. scenarios/default.yaml)")->required();
-  run->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
-  run->add_option("--set", overrides, "Override a scenario key: --set network.loss=0.2 (repeatable)");
-  run->add_option("--hostile", hostile,
-                  "Start this agent id as a hostile agent publishing NaN / non-PSD / absurd states");
-  run->add_flag("--no-launch", no_launch,
-                "Do not start agents; wait for agents started elsewhere (containers, hosts)");
-  run->add_flag("-q,--quiet", quiet, "No progress line");
-  bool record = false;
-  const std::string record_help =
-      "Write recording.slrec (truth and every measurement batch) and recording/ (the inter-agent samples "
-      "each agent received) into the run directory; replay with `swarmloc replay` (docs/record-replay.md)";
-  run->add_flag("--record", record, record_help);
-  std::string security_dir;
-  const std::string security_help =
-      "DDS Security with the PKI in DIR (deploy/security/make-pki.sh); same as --set dds.security_dir=DIR";
-  run->add_option("--security", security_dir, security_help);
-  int run_view_port = -1;
-  double run_view_hold = 10.0;
-  add_view_options(run, run_view_port, run_view_hold);
-  bool force = false;
-  add_force_flag(run, force);
-  run->footer(keys_help());
+  int view_port = -1;
+  double view_hold = 10.0;
+};
 
-  auto* sim = app.add_subcommand("sim",
-                                 "Run a scenario in-process (same estimators, seeded bus; synchronous "
-                                 "rounds, or per-agent clocks with run.sim_clock=agents).");
-  sim->add_option("scenario", scenario_path, "Scenario YAML file")->required();
-  sim->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
-  sim->add_option("--set", overrides, "Override a scenario key (repeatable)");
-  sim->add_flag("-q,--quiet", quiet, "No progress line");
-  sim->add_flag("--record", record, record_help);
+void add_run_command(CLI::App& app, SharedFlags& shared, RunCommand& run) {
+  auto* command = app.add_subcommand(
+      "run", "Run a scenario with one OS process per agent over DDS (orchestrator + agents).");
+  run.command = command;
+  command->add_option("scenario", shared.scenario_path, "Scenario YAML file (e.g. scenarios/default.yaml)")
+      ->required();
+  command->add_option("--out", shared.out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
+  command->add_option("--set", shared.overrides,
+                      "Override a scenario key: --set network.loss=0.2 (repeatable)");
+  command->add_option("--hostile", run.hostile,
+                      "Start this agent id as a hostile agent publishing NaN / non-PSD / absurd states");
+  command->add_flag("--no-launch", run.no_launch,
+                    "Do not start agents; wait for agents started elsewhere (containers, hosts)");
+  command->add_flag("-q,--quiet", shared.quiet, "No progress line");
+  command->add_flag("--record", shared.record, kRecordHelp);
+  command->add_option("--security", shared.security_dir, kSecurityHelp);
+  add_view_options(command, run.view_port, run.view_hold);
+  add_force_flag(command, shared.force);
+  command->footer(keys_help());
+}
+
+int execute_run(const RunCommand& run, const SharedFlags& shared, const char* argv0) {
+  swarmloc::orchestrator::RunOptions options;
+  options.scenario_path = shared.scenario_path;
+  options.overrides = shared.overrides;
+  options.out_dir = shared.out_dir;
+  options.agent_binary = self_executable(argv0);
+  options.launch_agents = !run.no_launch;
+  options.hostile_agents.assign(run.hostile.begin(), run.hostile.end());
+  options.progress = !shared.quiet;
+  options.view_port = run.view_port;
+  options.view_hold_s = run.view_hold;
+  options.record = shared.record;
+  options.force = shared.force;
+  return swarmloc::orchestrator::run_orchestrator(options);
+}
+
+/// `swarmloc sim`.
+struct SimCommand {
+  CLI::App* command = nullptr;
   int trials = 1;
   int threads = 0;
-  sim->add_option("--trials", trials,
-                  "Monte Carlo trials (fixed configuration; noise, initial guesses and loss per trial)")
-      ->check(kPositiveInteger);
-  sim->add_option("--threads", threads,
-                  "Worker threads: trials with --trials (default: every core), else the agents of one round "
-                  "(default: every core from 1000 agents on, else 1; results do not depend on it)")
-      ->check(CLI::NonNegativeNumber);
-  std::vector<int> sim_hostile;
-  sim->add_option("--hostile", sim_hostile,
-                  "This agent publishes NaN / non-PSD / absurd samples, as in `run --hostile`");
-  int sim_view_port = -1;
-  double sim_view_hold = 10.0;
-  add_view_options(sim, sim_view_port, sim_view_hold);
-  add_force_flag(sim, force);
-  sim->footer(keys_help());
+  std::vector<int> hostile;
+  int view_port = -1;
+  double view_hold = 10.0;
+};
 
-  auto* agent =
+void add_sim_command(CLI::App& app, SharedFlags& shared, SimCommand& sim) {
+  auto* command = app.add_subcommand("sim",
+                                     "Run a scenario in-process (same estimators, seeded bus; synchronous "
+                                     "rounds, or per-agent clocks with run.sim_clock=agents).");
+  sim.command = command;
+  command->add_option("scenario", shared.scenario_path, "Scenario YAML file")->required();
+  command->add_option("--out", shared.out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
+  command->add_option("--set", shared.overrides, "Override a scenario key (repeatable)");
+  command->add_flag("-q,--quiet", shared.quiet, "No progress line");
+  command->add_flag("--record", shared.record, kRecordHelp);
+  command
+      ->add_option("--trials", sim.trials,
+                   "Monte Carlo trials (fixed configuration; noise, initial guesses and loss per trial)")
+      ->check(kPositiveInteger);
+  command
+      ->add_option("--threads", sim.threads,
+                   "Worker threads: trials with --trials (default: every core), else the agents of one round "
+                   "(default: every core from 1000 agents on, else 1; results do not depend on it)")
+      ->check(CLI::NonNegativeNumber);
+  command->add_option("--hostile", sim.hostile,
+                      "This agent publishes NaN / non-PSD / absurd samples, as in `run --hostile`");
+  add_view_options(command, sim.view_port, sim.view_hold);
+  add_force_flag(command, shared.force);
+  command->footer(keys_help());
+}
+
+int execute_sim(const SimCommand& sim, const SharedFlags& shared) {
+  swarmloc::orchestrator::SimCommandOptions options;
+  options.scenario_path = shared.scenario_path;
+  options.overrides = shared.overrides;
+  options.out_dir = shared.out_dir;
+  options.progress = !shared.quiet;
+  options.trials = sim.trials;
+  options.threads = sim.threads;
+  options.view_port = sim.view_port;
+  options.view_hold_s = sim.view_hold;
+  options.hostile_agents.assign(sim.hostile.begin(), sim.hostile.end());
+  options.record = shared.record;
+  options.force = shared.force;
+  return swarmloc::orchestrator::run_sim_command(options);
+}
+
+/// `swarmloc agent`: one agent process, or the fusion centre of a centralized algorithm.
+struct AgentCommand {
+  CLI::App* command = nullptr;
+  swarmloc::agent::AgentOptions options;
+  std::string role = "agent";
+  CLI::Option* id = nullptr;
+};
+
+void add_agent_command(CLI::App& app, SharedFlags& shared, AgentCommand& agent) {
+  auto* command =
       app.add_subcommand("agent", "Run one agent process (what `run` starts N times; also for containers).");
-  swarmloc::agent::AgentOptions agent_options;
-  agent
-      ->add_option("--scenario", agent_options.scenario_path,
-                   "Scenario YAML (the run directory's scenario.yaml)")
+  agent.command = command;
+  auto& options = agent.options;
+  command
+      ->add_option("--scenario", options.scenario_path, "Scenario YAML (the run directory's scenario.yaml)")
       ->required();
-  std::string agent_role = "agent";
-  agent
-      ->add_option("--role", agent_role,
+  command
+      ->add_option("--role", agent.role,
                    "agent: one agent (needs --id); fusion: the fusion centre of a centralized algorithm "
                    "(ekf, lbekf, lbekf_vr, lbekf_i)")
       ->check(CLI::IsMember({"agent", "fusion"}));
-  auto* agent_id = agent->add_option("--id", agent_options.id, "Agent id in [0, world.agents) (role agent)");
-  agent->add_option("--set", agent_options.overrides, "Override a scenario key (repeatable)");
-  agent->add_option("--log", agent_options.log_path, "Log file (default: stderr)");
-  agent
-      ->add_option("--incarnation", agent_options.incarnation,
+  agent.id = command->add_option("--id", options.id, "Agent id in [0, world.agents) (role agent)");
+  command->add_option(
+      "--manifest", options.manifest_path,
+      "This agent's manifest (set by `swarmloc run`: <run>/manifests/agent_<id>.json); without "
+      "it the agent builds the world to learn its own");
+  command->add_option("--set", options.overrides, "Override a scenario key (repeatable)");
+  command->add_option("--log", options.log_path, "Log file (default: stderr)");
+  command
+      ->add_option("--incarnation", options.incarnation,
                    "Restart count of this agent (set by the orchestrator for faults.kill restarts)")
       ->check(CLI::Range(0, 255));
-  agent
-      ->add_option("--world-draw", agent_options.world_draw,
+  command
+      ->add_option("--world-draw", options.world_draw,
                    "Set by `swarmloc run`: the world draw the orchestrator accepted, so the agent does not "
                    "repeat the localizability check (a wrong value gives the agent another world)")
       ->check(CLI::Range(0, 999));
-  agent->add_option("--security", security_dir, security_help);
-  agent->add_flag("--hostile", agent_options.hostile,
-                  "Publish NaN / non-PSD / absurd states (robustness tests)");
-  agent->add_option("--record", agent_options.record_path,
-                    "Log every inter-agent sample received to FILE (set by `run --record`; "
-                    "docs/record-replay.md)");
+  command->add_option("--security", shared.security_dir, kSecurityHelp);
+  command->add_flag("--hostile", options.hostile, "Publish NaN / non-PSD / absurd states (robustness tests)");
+  command->add_option("--record", options.record_path,
+                      "Log every inter-agent sample received to FILE (set by `run --record`; "
+                      "docs/record-replay.md)");
+}
 
-  auto* replay = app.add_subcommand(
+int execute_agent(const AgentCommand& agent) {
+  const auto& options = agent.options;
+  if (agent.role == "fusion") {
+    if (agent.id->count() > 0 || options.hostile) {
+      std::fprintf(stderr, "error: --role fusion takes no --id or --hostile\n");
+      return 2;
+    }
+    return swarmloc::agent::run_fusion_center(
+        swarmloc::agent::FusionOptions{options.scenario_path, options.overrides, options.log_path});
+  }
+  if (agent.id->count() == 0 && options.manifest_path.empty()) {
+    std::fprintf(stderr, "error: --id or --manifest is required for --role agent\n");
+    return 2;
+  }
+  return swarmloc::orchestrator::run_agent_command(options);
+}
+
+/// `swarmloc replay`.
+struct ReplayCommand {
+  CLI::App* command = nullptr;
+  swarmloc::orchestrator::ReplayOptions options;
+};
+
+void add_replay_command(CLI::App& app, SharedFlags& shared, ReplayCommand& replay) {
+  auto* command = app.add_subcommand(
       "replay",
       "Feed a recording's measurements (recording.slrec from `run --record` / `sim --record`) to fresh "
       "agents, in the simulator or with --dds over DDS; --set algorithm.name=... compares algorithms on "
       "identical input.");
-  swarmloc::orchestrator::ReplayOptions replay_options;
-  replay->add_option("recording", replay_options.recording_path,
-                     "Recording file (a run directory's recording.slrec)");
-  replay->add_flag("--dds", replay_options.dds, "Replay over DDS agent processes (default: the simulator)");
-  replay->add_option(
-      "--mrclam", replay_options.mrclam_dir,
+  replay.command = command;
+  auto& options = replay.options;
+  command->add_option("recording", options.recording_path,
+                      "Recording file (a run directory's recording.slrec)");
+  command->add_flag("--dds", options.dds, "Replay over DDS agent processes (default: the simulator)");
+  command->add_option(
+      "--mrclam", options.mrclam_dir,
       "UTIAS MRCLAM dataset directory (e.g. ../shared/data/utias-mrclam/MRCLAM_Dataset6): five "
       "robots as five DDS agents, scored with dead-reckoning and centralized-EKF baselines "
       "(docs/real-data.md)");
-  replay->add_option("--speedup", replay_options.speedup,
-                     "--mrclam: dataset seconds per wall-clock second (default 10)");
-  replay->add_flag("--sim", replay_options.in_process,
-                   "--mrclam: run in the in-process simulator, not over DDS");
-  replay->add_option("--out", out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
-  replay->add_option("--set", overrides,
-                     "Override a key of the recorded scenario (repeatable; not seed or world.*, which would "
-                     "change the recorded world)");
-  replay->add_flag("--record", record,
-                   "Record the replay as well (e.g. the inter-agent samples of another algorithm)");
-  replay->add_flag("-q,--quiet", quiet, "No progress line");
-  add_force_flag(replay, force);
-  replay->footer(keys_help());
+  command->add_option("--speedup", options.speedup,
+                      "--mrclam: dataset seconds per wall-clock second (default 10)");
+  command->add_flag("--sim", options.in_process, "--mrclam: run in the in-process simulator, not over DDS");
+  command->add_option("--out", shared.out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
+  command->add_option("--set", shared.overrides,
+                      "Override a key of the recorded scenario (repeatable; not seed or world.*, which would "
+                      "change the recorded world)");
+  command->add_flag("--record", shared.record,
+                    "Record the replay as well (e.g. the inter-agent samples of another algorithm)");
+  command->add_flag("-q,--quiet", shared.quiet, "No progress line");
+  add_force_flag(command, shared.force);
+  command->footer(keys_help());
+}
 
-  // A file size limit (ulimit -f) must fail a write with EFBIG, named like a full disk, not kill us.
-  std::signal(SIGXFSZ, SIG_IGN);
+int execute_replay(ReplayCommand& replay, const SharedFlags& shared, const char* argv0) {
+  auto& options = replay.options;
+  options.overrides = shared.overrides;
+  options.out_dir = shared.out_dir;
+  options.progress = !shared.quiet;
+  options.record = shared.record;
+  options.force = shared.force;
+  options.agent_binary = self_executable(argv0);
+  return swarmloc::orchestrator::run_replay(options);
+}
+
+/// Parses the command line; returns the exit code when it is the end (help, errors), else nothing.
+std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv) {
   if (reject_unknown_command(app, argc, argv)) return 2;
   try {
     app.parse(argc, argv);
@@ -249,66 +338,49 @@ int main(int argc, char** argv) {
     app.exit(e);
     return 2;
   }
+  return std::nullopt;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "swarmloc: cooperative localization of sensor networks and robot teams.\n"
+      "Each agent is its own OS process talking over Cyclone DDS; the orchestrator owns the ground truth,\n"
+      "feeds every agent its noisy measurements, and scores the estimates against truth and the CRLB.\n\n"
+      "  swarmloc run scenarios/default.yaml            # N agent processes over DDS on loopback\n"
+      "  swarmloc sim scenarios/default.yaml            # the same estimators in one process\n"
+      "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n"
+      "  swarmloc sim scenarios/default.yaml --record --out runs/a     # record every measurement\n"
+      "  swarmloc replay runs/a/recording.slrec --set algorithm.name=iekf  # another algorithm\n\n"
+      "Paper reproductions and parameter campaigns: swarmloc-research (docs/reproduction.md).\n",
+      "swarmloc"};
+  app.require_subcommand(1);
+  app.footer("Exit codes: 0 ok, 2 bad input (scenario or flags), 1 runtime failure or interrupted.");
+
+  SharedFlags shared;
+  RunCommand run;
+  SimCommand sim;
+  AgentCommand agent;
+  ReplayCommand replay;
+  add_run_command(app, shared, run);
+  add_sim_command(app, shared, sim);
+  add_agent_command(app, shared, agent);
+  add_replay_command(app, shared, replay);
+
+  // A file size limit (ulimit -f) must fail a write with EFBIG, named like a full disk, not kill us.
+  std::signal(SIGXFSZ, SIG_IGN);
+  if (const auto exit_code = parse_command_line(app, argc, argv)) return *exit_code;
 
   spdlog::set_pattern("%H:%M:%S.%e %^%l%$ %v");
-  if (!security_dir.empty()) {
+  if (!shared.security_dir.empty()) {
     // After the --set overrides, so the flag wins.
-    overrides.push_back("dds.security_dir=" + security_dir);
-    agent_options.overrides.push_back("dds.security_dir=" + security_dir);
+    shared.overrides.push_back("dds.security_dir=" + shared.security_dir);
+    agent.options.overrides.push_back("dds.security_dir=" + shared.security_dir);
   }
-  if (run->parsed()) {
-    swarmloc::orchestrator::RunOptions options;
-    options.scenario_path = scenario_path;
-    options.overrides = overrides;
-    options.out_dir = out_dir;
-    options.agent_binary = self_executable(argv[0]);
-    options.launch_agents = !no_launch;
-    options.hostile_agents.assign(hostile.begin(), hostile.end());
-    options.progress = !quiet;
-    options.view_port = run_view_port;
-    options.view_hold_s = run_view_hold;
-    options.record = record;
-    options.force = force;
-    return swarmloc::orchestrator::run_orchestrator(options);
-  }
-  if (sim->parsed()) {
-    swarmloc::orchestrator::SimCommandOptions options;
-    options.scenario_path = scenario_path;
-    options.overrides = overrides;
-    options.out_dir = out_dir;
-    options.progress = !quiet;
-    options.trials = trials;
-    options.threads = threads;
-    options.view_port = sim_view_port;
-    options.view_hold_s = sim_view_hold;
-    options.hostile_agents.assign(sim_hostile.begin(), sim_hostile.end());
-    options.record = record;
-    options.force = force;
-    return swarmloc::orchestrator::run_sim_command(options);
-  }
-  if (agent->parsed()) {
-    if (agent_role == "fusion") {
-      if (agent_id->count() > 0 || agent_options.hostile) {
-        std::fprintf(stderr, "error: --role fusion takes no --id or --hostile\n");
-        return 2;
-      }
-      return swarmloc::agent::run_fusion_center(swarmloc::agent::FusionOptions{
-          agent_options.scenario_path, agent_options.overrides, agent_options.log_path});
-    }
-    if (agent_id->count() == 0) {
-      std::fprintf(stderr, "error: --id is required for --role agent\n");
-      return 2;
-    }
-    return swarmloc::agent::run_agent(agent_options);
-  }
-  if (replay->parsed()) {
-    replay_options.overrides = overrides;
-    replay_options.out_dir = out_dir;
-    replay_options.progress = !quiet;
-    replay_options.record = record;
-    replay_options.force = force;
-    replay_options.agent_binary = self_executable(argv[0]);
-    return swarmloc::orchestrator::run_replay(replay_options);
-  }
+  if (run.command->parsed()) return execute_run(run, shared, argv[0]);
+  if (sim.command->parsed()) return execute_sim(sim, shared);
+  if (agent.command->parsed()) return execute_agent(agent);
+  if (replay.command->parsed()) return execute_replay(replay, shared, argv[0]);
   return 2;
 }

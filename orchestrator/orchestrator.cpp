@@ -99,6 +99,7 @@ class Orchestrator {
     dds::require_ports_free(scenario_, options_.launch_agents);
     spdlog::info("run id {} (dds.run_id: every partition name starts with it)", scenario_.dds.run_id);
     dds::OrchestratorTransport transport(scenario_, n);
+    write_manifests();
     if (options_.launch_agents) {
       const auto launch_start = std::chrono::steady_clock::now();
       launch_agents();
@@ -214,6 +215,22 @@ class Orchestrator {
     }
   }
 
+  /// <run>/manifests/agent_<id>.json: what each agent may know, computed once from our world. Written for
+  /// agents started elsewhere too (containers that mount the run directory).
+  void write_manifests() const {
+    const auto manifests = sim::make_agent_manifests(scenario_, world_);
+    for (const auto& manifest : manifests)
+      sim::write_manifest(sim::manifest_path(run_dir_, manifest.id), manifest);
+  }
+
+  /// The lean agent executable beside ours (swarmloc-agent: no world, no simulator, no BLAS), else
+  /// `<agent_binary> agent`, which runs the same code.
+  std::vector<std::string> agent_command() const {
+    const auto lean = std::filesystem::path(options_.agent_binary).parent_path() / "swarmloc-agent";
+    if (std::filesystem::exists(lean)) return {lean.string()};
+    return {options_.agent_binary, "agent"};
+  }
+
   /// Starts agent `id`'s process (incarnation > 0: a restart after faults.kill, with its own log).
   void launch_agent(AgentId id, int incarnation) {
     const auto scenario_file = (run_dir_ / "scenario.yaml").string();
@@ -224,12 +241,10 @@ class Orchestrator {
       std::snprintf(name, sizeof name, "agent_%03d.restart%d.log", id, incarnation);
     }
     const auto log = (run_dir_ / "logs" / name).string();
-    std::vector<std::string> argv{options_.agent_binary, "agent", "--scenario", scenario_file, "--id",
-                                  std::to_string(id),    "--log", log};
-    // The agent rebuilds the world from the scenario; telling it which draw was accepted spares it the
-    // localizability check (~20 ms of CPU per agent at N = 500, all of them starting at once).
-    if (scenario_.world.source == config::WorldSource::kGenerated)
-      argv.insert(argv.end(), {"--world-draw", std::to_string(world_.placement_attempts - 1)});
+    // The agent learns what it may know from its manifest; it never builds the world.
+    std::vector<std::string> argv = agent_command();
+    argv.insert(argv.end(), {"--scenario", scenario_file, "--id", std::to_string(id), "--manifest",
+                             sim::manifest_path(run_dir_, id).string(), "--log", log});
     if (incarnation > 0) argv.insert(argv.end(), {"--incarnation", std::to_string(incarnation)});
     if (options_.record) {
       std::string file = name;  // agent_003.log -> recording/agent_003.slrec

@@ -6,6 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   clang-format git                         # the clang_format test (scripts/check-format)
+  clang-tidy                               # scripts/tidy (function size, complexity; .clang-tidy)
   cyclonedds-dev cyclonedds-tools          # Cyclone DDS 0.10.2 C API, idlc, ddsperf
   libddsc0debian openssl                   # DDS Security plugins (libdds_security_*.so); PKI script
   libeigen3-dev libspdlog-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev

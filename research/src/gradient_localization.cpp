@@ -59,11 +59,8 @@ double global_error(const LatticeProblem& lattice, const std::vector<const gradi
   return sum / static_cast<double>(agents.size());
 }
 
-}  // namespace
-
-GradientRun run_gradient_agents(const LatticeProblem& lattice, const gradient::DgBbParams& params,
-                                bool record_trace, const std::vector<std::int64_t>& start_ticks) {
-  const auto n = lattice.truth.size();
+/// The last start tick; throws unless start_ticks is empty or one tick >= 0 per node.
+std::int64_t last_start_tick(const std::vector<std::int64_t>& start_ticks, std::size_t n) {
   if (!start_ticks.empty() && start_ticks.size() != n)
     throw std::invalid_argument("run_gradient_agents: start_ticks must have one entry per node");
   std::int64_t last_start = 0;
@@ -71,6 +68,35 @@ GradientRun run_gradient_agents(const LatticeProblem& lattice, const gradient::D
     if (tick < 0) throw std::invalid_argument("run_gradient_agents: start ticks must be >= 0");
     last_start = std::max(last_start, tick);
   }
+  return last_start;
+}
+
+/// The statistics of a finished run: updates, source rounds, final error and safeguard counts.
+void finish_gradient_run(GradientRun& run, const LatticeProblem& lattice, const gradient::DgBbParams& params,
+                         const std::vector<const gradient::DgBb*>& nodes) {
+  int unknowns = 0;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (lattice.problem.anchor[i]) continue;
+    run.mean_node_updates += static_cast<double>(nodes[i]->updates());
+    ++unknowns;
+  }
+  if (unknowns > 0) run.mean_node_updates /= unknowns;
+  const bool consensus = params.rule == gradient::StepRule::kConsensusBb && params.consensus_rounds > 0;
+  run.source_rounds = consensus ? run.tau_end * params.consensus_rounds : run.tau_end;
+  run.final_error = global_error(lattice, nodes);
+  run.converged = run.final_error < 1e-3;
+  for (const auto* node : nodes) {
+    run.safeguard_fires += node->safeguard_count();
+    run.trust_region_fires += node->trust_region_count();
+  }
+}
+
+}  // namespace
+
+GradientRun run_gradient_agents(const LatticeProblem& lattice, const gradient::DgBbParams& params,
+                                bool record_trace, const std::vector<std::int64_t>& start_ticks) {
+  const auto n = lattice.truth.size();
+  const std::int64_t last_start = last_start_tick(start_ticks, n);
   auto start_of = [&](std::size_t i) { return start_ticks.empty() ? std::int64_t{0} : start_ticks[i]; };
   detail::Adjacency adjacency(n);
   std::vector<estimators::MeasurementBatch> batches(n);
@@ -128,21 +154,7 @@ GradientRun run_gradient_agents(const LatticeProblem& lattice, const gradient::D
     if (!any_active) break;
   }
   run.tau_end = tau_now();
-  int unknowns = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (lattice.problem.anchor[i]) continue;
-    run.mean_node_updates += static_cast<double>(nodes[i]->updates());
-    ++unknowns;
-  }
-  if (unknowns > 0) run.mean_node_updates /= unknowns;
-  const bool consensus = params.rule == gradient::StepRule::kConsensusBb && params.consensus_rounds > 0;
-  run.source_rounds = consensus ? run.tau_end * params.consensus_rounds : run.tau_end;
-  run.final_error = global_error(lattice, nodes);
-  run.converged = run.final_error < 1e-3;
-  for (const auto* node : nodes) {
-    run.safeguard_fires += node->safeguard_count();
-    run.trust_region_fires += node->trust_region_count();
-  }
+  finish_gradient_run(run, lattice, params, nodes);
   return run;
 }
 

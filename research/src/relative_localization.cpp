@@ -137,6 +137,132 @@ std::vector<Vec2> cell_boundary_points(int n, double side_m, int cells, std::mt1
   return points;
 }
 
+/// Per-step sums over the runs of the Jacobi experiment.
+struct JacobiSums {
+  std::vector<double> se, blue_se, crb;
+};
+
+/// BLUE normal matrix L̃ = (Laplacian ⊗ I₂)/σ² without node 0 (002 eq. (8)).
+MatX blue_normal_matrix(const Graph& g, int m, double var) {
+  MatX L = MatX::Zero(2 * m, 2 * m);
+  for (const Edge& e : g.edges) {
+    const int a = e.i - 1;
+    const int b = e.j - 1;
+    if (a >= 0) L.block<2, 2>(2 * a, 2 * a) += Mat2::Identity() / var;
+    if (b >= 0) L.block<2, 2>(2 * b, 2 * b) += Mat2::Identity() / var;
+    if (a >= 0 && b >= 0) {
+      L.block<2, 2>(2 * a, 2 * b) -= Mat2::Identity() / var;
+      L.block<2, 2>(2 * b, 2 * a) -= Mat2::Identity() / var;
+    }
+  }
+  return L;
+}
+
+/// One step's relative measurements of every edge (002 eq. (3)) into the batches; adds each edge's sample
+/// of x_j − x_i to edge_sum.
+void measure_edges(const JacobiExperimentConfig& c, const Graph& g, const std::vector<Vec2>& truth,
+                   std::mt19937_64& rng, std::vector<estimators::MeasurementBatch>& batches,
+                   std::vector<Vec2>& edge_sum) {
+  const double var = c.measurement_std_m * c.measurement_std_m;
+  for (std::size_t k = 0; k < g.edges.size(); ++k) {
+    const Edge& e = g.edges[k];
+    const auto i = static_cast<std::size_t>(e.i);
+    const auto j = static_cast<std::size_t>(e.j);
+    const Vec2 s_ij = truth[j] - truth[i] + normal2(rng, c.measurement_std_m);  // 002 eq. (3)
+    const Vec2 s_ji =
+        c.shared_measurements ? Vec2(-s_ij) : Vec2(truth[i] - truth[j] + normal2(rng, c.measurement_std_m));
+    const Mat2 cov = var * Mat2::Identity();
+    batches[i].relative.push_back(estimators::RelativeMeasurement{e.j, s_ij, cov});
+    batches[j].relative.push_back(estimators::RelativeMeasurement{e.i, s_ji, cov});
+    edge_sum[k] += c.shared_measurements ? s_ij : Vec2(0.5 * (s_ij - s_ji));
+  }
+}
+
+/// Adds to `se` the squared error of each of nodes 1…n−1 under the BLUE on the samples so far:
+/// L̃ x = Σ_edges ±s̄/σ².
+void add_blue_squared_error(const Graph& g, const Eigen::LLT<MatX>& llt, const std::vector<Vec2>& edge_sum,
+                            double edge_count, double var, const std::vector<Vec2>& truth, double& se) {
+  const auto m = static_cast<int>(truth.size()) - 1;
+  VecX rhs = VecX::Zero(2 * m);
+  for (std::size_t k = 0; k < g.edges.size(); ++k) {
+    const Vec2 mean = edge_sum[k] / edge_count;
+    const int a = g.edges[k].i - 1;
+    const int b = g.edges[k].j - 1;
+    if (a >= 0) rhs.segment<2>(2 * a) -= mean / var;
+    if (b >= 0) rhs.segment<2>(2 * b) += mean / var;
+  }
+  const VecX blue = llt.solve(rhs);
+  for (int i = 1; i <= m; ++i) {
+    se += (blue.segment<2>(2 * (i - 1)) - truth[static_cast<std::size_t>(i)]).squaredNorm();
+  }
+}
+
+/// One run: a graph, priors, and c.steps steps of Jacobi against the BLUE and the CRB.
+void run_jacobi_once(const JacobiExperimentConfig& c, std::mt19937_64& rng, JacobiExperimentResult& result,
+                     JacobiSums& sums) {
+  const int n = c.num_nodes;
+  const int m = n - 1;  // unknowns: nodes 1…n−1
+  const double var = c.measurement_std_m * c.measurement_std_m;
+  const Graph g = c.graph_model == RelativeGraphModel::kGnm
+                      ? draw_gnm_graph(c, rng, result.graphs_rejected)
+                      : draw_graph_with_edges(c, rng, result.graphs_rejected);
+  result.mean_radius_m += g.radius_m / c.runs;
+  double length_sum = 0.0;
+  for (const Edge& e : g.edges)
+    length_sum +=
+        (g.positions[static_cast<std::size_t>(e.i)] - g.positions[static_cast<std::size_t>(e.j)]).norm();
+  result.mean_edge_length_m += length_sum / static_cast<double>(g.edges.size()) / c.runs;
+  std::vector<Vec2> truth(g.positions.size());
+  for (std::size_t i = 0; i < truth.size(); ++i)
+    truth[i] = g.positions[i] - g.positions[0];  // node 0's frame
+  std::vector<std::unique_ptr<estimators::Estimator>> agents;
+  std::vector<const estimators::consensus::JacobiLocalization*> jacobi;
+  for (int i = 0; i < n; ++i) {
+    estimators::AgentSetup setup;
+    setup.id = i;
+    setup.anchor = i == 0;
+    setup.initial_guess_m =
+        i == 0 ? Vec2::Zero() : Vec2(truth[static_cast<std::size_t>(i)] + normal2(rng, c.prior_std_m));
+    auto agent = std::make_unique<estimators::consensus::JacobiLocalization>(setup);
+    jacobi.push_back(agent.get());
+    agents.push_back(std::move(agent));
+  }
+  auto accumulate_error = [&](std::size_t t) {
+    for (int i = 1; i < n; ++i) {
+      sums.se[t] +=
+          (jacobi[static_cast<std::size_t>(i)]->mean() - truth[static_cast<std::size_t>(i)]).squaredNorm();
+    }
+  };
+  accumulate_error(0);
+  // One factorization of the BLUE normal matrix per run.
+  const Eigen::LLT<MatX> llt(blue_normal_matrix(g, m, var));
+  const double trace_inverse = llt.solve(MatX::Identity(2 * m, 2 * m)).trace();
+  const double samples_per_step = c.shared_measurements ? 1.0 : 2.0;
+  std::vector<Vec2> edge_sum(g.edges.size(), Vec2::Zero());  // Σ of samples of x_j − x_i
+  double edge_count = 0.0;
+
+  detail::SyncBus bus(g.adjacency);
+  bus.publish_initial(agents);
+  std::vector<estimators::MeasurementBatch> batches(static_cast<std::size_t>(n));
+  std::vector<const estimators::MeasurementBatch*> batch_ptrs(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) batch_ptrs[static_cast<std::size_t>(i)] = &batches[static_cast<std::size_t>(i)];
+  for (std::size_t t = 0; t < static_cast<std::size_t>(c.steps); ++t) {
+    for (auto& batch : batches) {
+      batch.relative.clear();
+      batch.world_step = static_cast<std::int64_t>(t);
+    }
+    measure_edges(c, g, truth, rng, batches, edge_sum);
+    edge_count += 1.0;
+    bus.round(agents, static_cast<std::int64_t>(t), batch_ptrs);
+    // Further exchanges before the next measurement: each sweeps eq. (9) again on the same means.
+    for (int sweep = 1; sweep < c.sweeps_per_step; ++sweep)
+      bus.round(agents, static_cast<std::int64_t>(t), {});
+    accumulate_error(t + 1);
+    add_blue_squared_error(g, llt, edge_sum, edge_count, var, truth, sums.blue_se[t + 1]);
+    sums.crb[t + 1] += trace_inverse / (samples_per_step * edge_count);
+  }
+}
+
 }  // namespace
 
 JacobiExperimentResult run_jacobi_experiment(const JacobiExperimentConfig& c) {
@@ -144,117 +270,18 @@ JacobiExperimentResult run_jacobi_experiment(const JacobiExperimentConfig& c) {
     throw std::invalid_argument("jacobi_experiment: bad sizes");
   std::mt19937_64 rng(c.seed);
   const auto steps = static_cast<std::size_t>(c.steps);
-  std::vector<double> se(steps + 1, 0.0);
-  std::vector<double> blue_se(steps + 1, 0.0);
-  std::vector<double> crb(steps + 1, 0.0);
+  JacobiSums sums{std::vector<double>(steps + 1, 0.0), std::vector<double>(steps + 1, 0.0),
+                  std::vector<double>(steps + 1, 0.0)};
   JacobiExperimentResult result;
-  const int n = c.num_nodes;
-  const int m = n - 1;  // unknowns: nodes 1…n−1
-  const double var = c.measurement_std_m * c.measurement_std_m;
-  for (int run = 0; run < c.runs; ++run) {
-    const Graph g = c.graph_model == RelativeGraphModel::kGnm
-                        ? draw_gnm_graph(c, rng, result.graphs_rejected)
-                        : draw_graph_with_edges(c, rng, result.graphs_rejected);
-    result.mean_radius_m += g.radius_m / c.runs;
-    double length_sum = 0.0;
-    for (const Edge& e : g.edges)
-      length_sum +=
-          (g.positions[static_cast<std::size_t>(e.i)] - g.positions[static_cast<std::size_t>(e.j)]).norm();
-    result.mean_edge_length_m += length_sum / static_cast<double>(g.edges.size()) / c.runs;
-    std::vector<Vec2> truth(g.positions.size());
-    for (std::size_t i = 0; i < truth.size(); ++i)
-      truth[i] = g.positions[i] - g.positions[0];  // node 0's frame
-    std::vector<std::unique_ptr<estimators::Estimator>> agents;
-    std::vector<const estimators::consensus::JacobiLocalization*> jacobi;
-    for (int i = 0; i < n; ++i) {
-      estimators::AgentSetup setup;
-      setup.id = i;
-      setup.anchor = i == 0;
-      setup.initial_guess_m =
-          i == 0 ? Vec2::Zero() : Vec2(truth[static_cast<std::size_t>(i)] + normal2(rng, c.prior_std_m));
-      auto agent = std::make_unique<estimators::consensus::JacobiLocalization>(setup);
-      jacobi.push_back(agent.get());
-      agents.push_back(std::move(agent));
-    }
-    auto accumulate_error = [&](std::size_t t) {
-      for (int i = 1; i < n; ++i) {
-        se[t] +=
-            (jacobi[static_cast<std::size_t>(i)]->mean() - truth[static_cast<std::size_t>(i)]).squaredNorm();
-      }
-    };
-    accumulate_error(0);
-    // BLUE normal matrix L̃ = (Laplacian ⊗ I₂)/σ² without node 0 (002 eq. (8)); one factorization per run.
-    MatX L = MatX::Zero(2 * m, 2 * m);
-    for (const Edge& e : g.edges) {
-      const int a = e.i - 1;
-      const int b = e.j - 1;
-      if (a >= 0) L.block<2, 2>(2 * a, 2 * a) += Mat2::Identity() / var;
-      if (b >= 0) L.block<2, 2>(2 * b, 2 * b) += Mat2::Identity() / var;
-      if (a >= 0 && b >= 0) {
-        L.block<2, 2>(2 * a, 2 * b) -= Mat2::Identity() / var;
-        L.block<2, 2>(2 * b, 2 * a) -= Mat2::Identity() / var;
-      }
-    }
-    const Eigen::LLT<MatX> llt(L);
-    const double trace_inverse = llt.solve(MatX::Identity(2 * m, 2 * m)).trace();
-    const double samples_per_step = c.shared_measurements ? 1.0 : 2.0;
-    std::vector<Vec2> edge_sum(g.edges.size(), Vec2::Zero());  // Σ of samples of x_j − x_i
-    double edge_count = 0.0;
-
-    detail::SyncBus bus(g.adjacency);
-    bus.publish_initial(agents);
-    std::vector<estimators::MeasurementBatch> batches(static_cast<std::size_t>(n));
-    std::vector<const estimators::MeasurementBatch*> batch_ptrs(static_cast<std::size_t>(n));
-    for (int i = 0; i < n; ++i)
-      batch_ptrs[static_cast<std::size_t>(i)] = &batches[static_cast<std::size_t>(i)];
-    for (std::size_t t = 0; t < steps; ++t) {
-      for (auto& batch : batches) {
-        batch.relative.clear();
-        batch.world_step = static_cast<std::int64_t>(t);
-      }
-      for (std::size_t k = 0; k < g.edges.size(); ++k) {
-        const Edge& e = g.edges[k];
-        const auto i = static_cast<std::size_t>(e.i);
-        const auto j = static_cast<std::size_t>(e.j);
-        const Vec2 s_ij = truth[j] - truth[i] + normal2(rng, c.measurement_std_m);  // 002 eq. (3)
-        const Vec2 s_ji = c.shared_measurements
-                              ? Vec2(-s_ij)
-                              : Vec2(truth[i] - truth[j] + normal2(rng, c.measurement_std_m));
-        const Mat2 cov = var * Mat2::Identity();
-        batches[i].relative.push_back(estimators::RelativeMeasurement{e.j, s_ij, cov});
-        batches[j].relative.push_back(estimators::RelativeMeasurement{e.i, s_ji, cov});
-        edge_sum[k] += c.shared_measurements ? s_ij : Vec2(0.5 * (s_ij - s_ji));
-      }
-      edge_count += 1.0;
-      bus.round(agents, static_cast<std::int64_t>(t), batch_ptrs);
-      // Further exchanges before the next measurement: each sweeps eq. (9) again on the same means.
-      for (int sweep = 1; sweep < c.sweeps_per_step; ++sweep)
-        bus.round(agents, static_cast<std::int64_t>(t), {});
-      accumulate_error(t + 1);
-      // BLUE on the samples 0…t: L̃ x = Σ_edges ±s̄/σ².
-      VecX rhs = VecX::Zero(2 * m);
-      for (std::size_t k = 0; k < g.edges.size(); ++k) {
-        const Vec2 mean = edge_sum[k] / edge_count;
-        const int a = g.edges[k].i - 1;
-        const int b = g.edges[k].j - 1;
-        if (a >= 0) rhs.segment<2>(2 * a) -= mean / var;
-        if (b >= 0) rhs.segment<2>(2 * b) += mean / var;
-      }
-      const VecX blue = llt.solve(rhs);
-      for (int i = 1; i < n; ++i) {
-        blue_se[t + 1] += (blue.segment<2>(2 * (i - 1)) - truth[static_cast<std::size_t>(i)]).squaredNorm();
-      }
-      crb[t + 1] += trace_inverse / (samples_per_step * edge_count);
-    }
-  }
-  const double denom = static_cast<double>(c.runs) * m;
+  for (int run = 0; run < c.runs; ++run) run_jacobi_once(c, rng, result, sums);
+  const double denom = static_cast<double>(c.runs) * (c.num_nodes - 1);
   result.rmse.resize(steps + 1);
   result.blue_rmse.resize(steps + 1);
   result.crb_rmse.resize(steps + 1);
   for (std::size_t t = 0; t <= steps; ++t) {
-    result.rmse[t] = std::sqrt(se[t] / denom);
-    result.blue_rmse[t] = t == 0 ? kNaN : std::sqrt(blue_se[t] / denom);
-    result.crb_rmse[t] = t == 0 ? kNaN : std::sqrt(crb[t] / denom);
+    result.rmse[t] = std::sqrt(sums.se[t] / denom);
+    result.blue_rmse[t] = t == 0 ? kNaN : std::sqrt(sums.blue_se[t] / denom);
+    result.crb_rmse[t] = t == 0 ? kNaN : std::sqrt(sums.crb[t] / denom);
   }
   return result;
 }

@@ -1,6 +1,6 @@
-// The local launcher's child environment: agents run with one OpenBLAS thread unless the user chose
-// otherwise (the pthreads OpenBLAS the binary links spins ~0.1 s of CPU per process start otherwise),
-// and at the requested nice increment.
+// The local launcher: children run at the requested nice increment; the agent executable it starts is
+// lean (no SDPA/MUMPS/BLAS: the pthreads OpenBLAS spun ~0.1 s of CPU per process start when agents linked
+// it) and refuses a bad manifest with exit code 2.
 #include <gtest/gtest.h>
 #include <stdlib.h>
 #include <sys/resource.h>
@@ -35,23 +35,34 @@ std::string child_output(const std::string& name, const std::string& script, int
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-std::string child_blas_threads(const std::string& name) {
-  return child_output(name, "printf %s \"${OPENBLAS_NUM_THREADS-unset}\"");
+/// The shared objects `binary` loads, as ldd lists them.
+std::string shared_objects(const std::string& binary) {
+  const auto result = swarmloc::testing::run_command("ldd " + binary);
+  EXPECT_EQ(result.exit_code, 0) << result.output;
+  return result.output;
 }
 
-TEST(Launcher, ChildrenGetOneOpenBlasThreadUnlessTheUserSetIt) {
-  const char* saved = std::getenv("OPENBLAS_NUM_THREADS");
-  const std::optional<std::string> previous = saved ? std::optional<std::string>(saved) : std::nullopt;
+TEST(AgentBinary, LinksNoSdpaMumpsBlasLapackOrFortran) {
+  const std::string libraries = shared_objects(SWARMLOC_AGENT_BINARY);
+  ASSERT_NE(libraries.find("libddsc"), std::string::npos) << libraries;  // it is the DDS agent
+  for (const char* heavy : {"sdpa", "mumps", "blas", "lapack", "gfortran"})
+    EXPECT_EQ(libraries.find(heavy), std::string::npos)
+        << SWARMLOC_AGENT_BINARY << " links " << heavy << ":\n"
+        << libraries;
+}
 
-  unsetenv("OPENBLAS_NUM_THREADS");
-  EXPECT_EQ(child_blas_threads("launcher-blas-default"), "1");
-  setenv("OPENBLAS_NUM_THREADS", "3", 1);
-  EXPECT_EQ(child_blas_threads("launcher-blas-user"), "3");
-
-  if (previous)
-    setenv("OPENBLAS_NUM_THREADS", previous->c_str(), 1);
-  else
-    unsetenv("OPENBLAS_NUM_THREADS");
+TEST(AgentBinary, RefusesABadManifestWithExitCodeTwoAndSaysWhy) {
+  const auto dir = swarmloc::testing::fresh_directory("agent-bad-manifest");
+  std::ofstream(dir / "manifest.json") << R"({"format": "swarmloc-agent-manifest", "version": 1, "id": 9})";
+  const std::string scenario = SWARMLOC_SOURCE_DIR "/scenarios/default.yaml";
+  const auto result =
+      swarmloc::testing::run_command(std::string(SWARMLOC_AGENT_BINARY) + " --scenario " + scenario +
+                                     " --manifest " + (dir / "manifest.json").string());
+  EXPECT_EQ(result.exit_code, 2) << result.output;
+  EXPECT_NE(result.output.find("invalid agent manifest"), std::string::npos) << result.output;
+  const auto missing =
+      swarmloc::testing::run_command(std::string(SWARMLOC_AGENT_BINARY) + " --scenario " + scenario);
+  EXPECT_EQ(missing.exit_code, 2) << missing.output;  // --manifest is required
 }
 
 /// The nice value a child launched with `increment` reports (coreutils `nice` prints it).

@@ -1,4 +1,4 @@
-// Small seeded versions of the paper reproductions that live in `swarmloc reproduce` (the full runs
+// Small seeded versions of the paper reproductions that live in `swarmloc-research reproduce` (the full runs
 // and their results are in docs/reproduction.md).
 #include <gtest/gtest.h>
 

@@ -12,6 +12,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "swarmloc/config/algorithms.hpp"
+
 namespace swarmloc::config::detail {
 namespace {
 
@@ -495,15 +497,6 @@ std::string suggestion_for(std::string_view path) {
   return {};
 }
 
-const std::vector<std::string>& known_algorithms() {
-  // Every algorithm `run` and `sim` can execute.
-  static const std::vector<std::string> names{
-      "ieif",       "iekf",        "ekf",         "lbekf",        "lbekf_vr",       "lbekf_i",
-      "jacobi",     "dle",         "joint_field", "multipath_bp", "dgbb",           "local_bb",
-      "fixed_step", "step_length", "pose_ekf",    "pose_ieif",    "dead_reckoning", "dml"};
-  return names;
-}
-
 std::string format_number(double value) {
   if (std::isnan(value)) return "nan";
   if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
@@ -539,8 +532,13 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
 namespace swarmloc::config {
 
 const std::vector<std::string>& exchange_only_algorithms() {
-  static const std::vector<std::string> names{"jacobi", "dle",      "joint_field", "multipath_bp",
-                                              "dgbb",   "local_bb", "fixed_step",  "step_length"};
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> out;
+    for (const auto& spec : algorithm_registry()) {
+      if (spec.exchange_only) out.emplace_back(spec.name);
+    }
+    return out;
+  }();
   return names;
 }
 

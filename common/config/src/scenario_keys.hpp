@@ -37,9 +37,6 @@ std::vector<std::string> children_of(std::string_view section);
 /// " (did you mean world.agents?)" for a misspelt `path`, or "" when nothing is close.
 std::string suggestion_for(std::string_view path);
 
-/// The algorithm names swarmloc knows (config must not depend on estimators, so the list lives here).
-const std::vector<std::string>& known_algorithms();
-
 /// How a node reads in an error message: "'abc'", "a map", "a list", "an empty value".
 std::string describe(const YAML::Node& node);
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "scenario_keys.hpp"
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario.hpp"
 
 namespace swarmloc::config {
@@ -113,12 +114,7 @@ void validate(const Scenario& scenario) {
   validate_name(scenario.name);
 
   const auto& algorithm = scenario.algorithm;
-  const auto& known = detail::known_algorithms();
-  if (std::find(known.begin(), known.end(), algorithm.name) == known.end()) {
-    std::string list;
-    for (const auto& name : known) list += (list.empty() ? "" : ", ") + name;
-    fail("algorithm.name", "'" + algorithm.name + "' is not a known algorithm (known: " + list + ")");
-  }
+  const AlgorithmSpec& spec = algorithm_spec(algorithm.name);
   require_non_negative(algorithm.process_noise_std_m, "algorithm.process_noise_std_m");
   require_positive(algorithm.initial_information, "algorithm.initial_information");
   require_positive(algorithm.initial_std_m, "algorithm.initial_std_m");
@@ -141,8 +137,7 @@ void validate(const Scenario& scenario) {
     fail("world.anchors",
          std::to_string(world.anchors) + " is more than world.agents (" + std::to_string(world.agents) + ")");
   }
-  const bool pose_algorithm =
-      algorithm.name == "pose_ekf" || algorithm.name == "pose_ieif" || algorithm.name == "dead_reckoning";
+  const bool pose_algorithm = spec.family == AlgorithmFamily::kPose;
   require_within(world.data_step_s, 0.001, 10.0, "world.data_step_s");
   if (world.source == WorldSource::kMrclam) {
     if (world.data_dir.empty())
@@ -180,32 +175,10 @@ void validate(const Scenario& scenario) {
   require_within(world.target_vy_mps, -1000.0, 1000.0, "world.target_vy_mps");
   require_within(world.target_accel_psd, 0.0, 1e6, "world.target_accel_psd");
   require_non_negative(world.target_sensing_radius_m, "world.target_sensing_radius_m");
-  if (algorithm.name == "dml" && world.motion != Motion::kStatic) {
-    fail("world.motion",
-         "must be static for dml (it pools every range draw of the run; docs/algorithms.md §9)");
-  }
-  if (algorithm.name == "dml" && scenario.noise.anchor_fix_std_m > 0.0) {
-    fail("noise.anchor_fix_std_m",
-         "must be 0 for dml (it needs exactly known anchors; docs/algorithms.md §9.7)");
-  }
-  if (algorithm.name == "dml" && scenario.noise.shared_range_draws) {
-    fail("noise.shared_range_draws",
-         "must be false for dml (it counts each end's draws as independent; docs/algorithms.md §9.7)");
-  }
-  if (algorithm.name == "dle" && world.motion != Motion::kStatic) {
-    fail("world.motion", "must be static for dle (its sensors use their known, fixed positions)");
-  }
   require_within(world.field_cells_per_side, 1, 8, "world.field_cells_per_side");
   require_non_negative(world.field_std, "world.field_std");
   require_positive(world.field_correlation_m, "world.field_correlation_m");
   require_positive(world.field_sensing_radius_m, "world.field_sensing_radius_m");
-  if (algorithm.name == "joint_field" && world.motion != Motion::kStatic) {
-    fail("world.motion", "must be static for joint_field (Jacobi localizes static sensors)");
-  }
-  if (algorithm.name == "multipath_bp" && world.wall_count < 1) {
-    fail("world.wall_count",
-         "multipath_bp needs at least one reflecting wall (it uses reflected paths only)");
-  }
 
   require_non_negative(scenario.noise.range_std_m, "noise.range_std_m");
   require_non_negative(scenario.noise.anchor_fix_std_m, "noise.anchor_fix_std_m");
@@ -215,23 +188,11 @@ void validate(const Scenario& scenario) {
   require_within(scenario.noise.bearing_std_rad, 1e-6, 3.2, "noise.bearing_std_rad");
   require_within(scenario.noise.odometry_v_std, 0.0, 100.0, "noise.odometry_v_std");
   require_within(scenario.noise.odometry_omega_std, 0.0, 100.0, "noise.odometry_omega_std");
-  if (algorithm.name == "multipath_bp" && !(scenario.noise.range_std_m > 0.0)) {
-    fail("noise.range_std_m", "must be > 0 for multipath_bp (its path-length variance is range_std_m²)");
-  }
   require_non_negative(scenario.noise.target_std_m, "noise.target_std_m");
   require_within(scenario.noise.target_bearing_std_rad, 1e-6, 3.2, "noise.target_bearing_std_rad");
-  if (algorithm.name == "dle" && !(scenario.noise.target_std_m > 0.0)) {
-    fail("noise.target_std_m", "must be > 0 for dle (its reading information is 1/target_std_m²)");
-  }
   require_non_negative(scenario.noise.field_std, "noise.field_std");
-  if (algorithm.name == "joint_field" && !(scenario.noise.field_std > 0.0)) {
-    fail("noise.field_std", "must be > 0 for joint_field (its reading information is 1/field_std²)");
-  }
-  if ((algorithm.name == "jacobi" || algorithm.name == "joint_field") &&
-      !(scenario.noise.relative_std_m > 0.0)) {
-    fail("noise.relative_std_m",
-         "must be > 0 for " + algorithm.name + " (its measurement information is 1/relative_std_m²)");
-  }
+  // The algorithm's own rules (algorithms.cpp), once every world and noise key is in range.
+  if (spec.validate != nullptr) spec.validate(scenario);
 
   require_within(scenario.network.loss, 0.0, 1.0, "network.loss");
   validate_burst(scenario.network);
@@ -257,9 +218,8 @@ void validate(const Scenario& scenario) {
   if (run.agent_steps_per_world_step > 1) {
     // The Kalman family and the pose filters predict on a step without a batch (process noise per step);
     // the centralized ones have no agent steps.
-    const auto& exchange_only = exchange_only_algorithms();
-    if (std::find(exchange_only.begin(), exchange_only.end(), scenario.algorithm.name) ==
-        exchange_only.end()) {
+    if (!spec.exchange_only) {
+      const auto& exchange_only = exchange_only_algorithms();
       std::string list;
       for (const auto& name : exchange_only) list += (list.empty() ? "" : ", ") + name;
       fail("run.agent_steps_per_world_step",

@@ -1,55 +1,110 @@
-// Algorithm registry behind make_estimator (estimator.hpp). To add an algorithm, add one row.
-#include <array>
+// The builders of the algorithm registry (registry.hpp) and make_estimator, their Kalman-block view. To
+// add an algorithm, add one builder here beside its config/algorithms.cpp entry.
 #include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "swarmloc/estimators/consensus/jacobi.hpp"
 #include "swarmloc/estimators/dml.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/estimators/ieif.hpp"
 #include "swarmloc/estimators/iekf.hpp"
 #include "swarmloc/estimators/pose_filters.hpp"
+#include "swarmloc/estimators/registry.hpp"
 
 namespace swarmloc::estimators {
 namespace {
 
-using Builder = std::unique_ptr<Estimator> (*)(const AgentSetup&, const KalmanFamilyParams&);
+using centralized::CentralizedKind;
+using gradient::StepRule;
 
 template <typename Algorithm>
-std::unique_ptr<Estimator> build(const AgentSetup& setup, const KalmanFamilyParams& params) {
-  return std::make_unique<Algorithm>(setup, params);
+std::unique_ptr<Estimator> kalman(const AgentSetup& setup, const EstimatorParams& params) {
+  return std::make_unique<Algorithm>(setup, params.kalman);
 }
 
-struct Registration {
-  const char* name;
-  Builder builder;
-};
+std::unique_ptr<Estimator> jacobi(const AgentSetup& setup, const EstimatorParams& /*params*/) {
+  return std::make_unique<consensus::JacobiLocalization>(setup);
+}
 
-constexpr std::array kRegistry{
-    Registration{"ieif", &build<Ieif>},                     // docs/algorithms.md §3.2
-    Registration{"iekf", &build<Iekf>},                     // docs/algorithms.md §3.5
-    Registration{"dml", &build<Dml>},                       // docs/algorithms.md §9
-    Registration{"pose_ekf", &build<PoseEkf>},              // pose states (x, y, θ), pose_filters.hpp
-    Registration{"pose_ieif", &build<PoseIeif>},            // its information form
-    Registration{"dead_reckoning", &build<DeadReckoning>},  // odometry only (baseline)
-};
+std::unique_ptr<Estimator> dle(const AgentSetup& setup, const EstimatorParams& params) {
+  return std::make_unique<consensus::Dle>(setup, params.cooperative.dle);
+}
+
+std::unique_ptr<Estimator> joint_field(const AgentSetup& setup, const EstimatorParams& params) {
+  return std::make_unique<consensus::JointLocalizationField>(setup, params.cooperative.joint_field);
+}
+
+std::unique_ptr<Estimator> multipath_bp(const AgentSetup& setup, const EstimatorParams& params) {
+  return std::make_unique<bp::MultipathBp>(setup, params.cooperative.bp);
+}
+
+/// The gradient family: one class, the step rule fixed by the algorithm (its `rule` is overridden).
+template <StepRule rule>
+std::unique_ptr<Estimator> gradient_descent(const AgentSetup& setup, const EstimatorParams& params) {
+  gradient::DgBbParams gradient = params.cooperative.gradient;
+  gradient.rule = rule;
+  return std::make_unique<gradient::DgBb>(setup, gradient);
+}
+
+using enum ParamBlock;
+
+const std::vector<EstimatorBuilder>& builders() {
+  static const std::vector<EstimatorBuilder> table{
+      {"ieif", kKalman, &kalman<Ieif>, {}, false},           // docs/algorithms.md §3.2
+      {"iekf", kKalman, &kalman<Iekf>, {}, false},           // docs/algorithms.md §3.5
+      {"dml", kKalman, &kalman<Dml>, {}, false},             // docs/algorithms.md §9
+      {"pose_ekf", kKalman, &kalman<PoseEkf>, {}, false},    // pose states (x, y, θ), pose_filters.hpp
+      {"pose_ieif", kKalman, &kalman<PoseIeif>, {}, false},  // its information form
+      {"dead_reckoning", kKalman, &kalman<DeadReckoning>, {}, false},  // odometry only (baseline)
+      {"jacobi", kCooperative, &jacobi, {}, false},                    // 002 eq. (9)
+      {"dle", kCooperative, &dle, {}, false},                          // 002 Alg. 1
+      {"joint_field", kCooperative, &joint_field, {}, false},          // 002 eq. (10)
+      {"multipath_bp", kCooperative, &multipath_bp, {}, false},        // 003 Alg. 1
+      {"dgbb", kCooperative, &gradient_descent<StepRule::kConsensusBb>, {}, false},  // 004 Alg. 1
+      {"local_bb", kCooperative, &gradient_descent<StepRule::kLocalBb>, {}, false},  // 004 Sec. V-B baselines
+      {"fixed_step", kCooperative, &gradient_descent<StepRule::kFixed>, {}, false},
+      {"step_length", kCooperative, &gradient_descent<StepRule::kStepLength>, {}, false},
+      {"ekf", kFusion, nullptr, CentralizedKind::kEkf, false},  // 000
+      {"lbekf", kFusion, nullptr, CentralizedKind::kLbEkf, false},
+      {"lbekf_vr", kFusion, nullptr, CentralizedKind::kLbEkf, true},
+      {"lbekf_i", kFusion, nullptr, CentralizedKind::kLbEkfI, true},
+  };
+  return table;
+}
 
 }  // namespace
 
+const std::vector<EstimatorBuilder>& estimator_builders() { return builders(); }
+
+const EstimatorBuilder* find_estimator_builder(std::string_view name) {
+  for (const auto& builder : builders()) {
+    if (builder.name == name) return &builder;
+  }
+  return nullptr;
+}
+
+std::vector<std::string> builder_names(ParamBlock block) {
+  std::vector<std::string> names;
+  for (const auto& builder : builders()) {
+    if (builder.params == block) names.emplace_back(builder.name);
+  }
+  return names;
+}
+
 const std::vector<std::string>& known_algorithms() {
-  static const std::vector<std::string> names = [] {
-    std::vector<std::string> out;
-    for (const auto& entry : kRegistry) out.emplace_back(entry.name);
-    return out;
-  }();
+  static const std::vector<std::string> names = builder_names(kKalman);
   return names;
 }
 
 std::unique_ptr<Estimator> make_estimator(const std::string& algorithm, const AgentSetup& setup,
                                           const KalmanFamilyParams& params) {
-  for (const auto& entry : kRegistry) {
-    if (algorithm == entry.name) return entry.builder(setup, params);
+  const EstimatorBuilder* builder = find_estimator_builder(algorithm);
+  if (builder != nullptr && builder->params == kKalman) {
+    EstimatorParams all;
+    all.kalman = params;
+    return builder->agent(setup, all);
   }
   std::string known;
   for (const auto& name : known_algorithms()) known += (known.empty() ? "" : ", ") + name;

@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "swarmloc/estimators/centralized/relabeling.hpp"
+#include "swarmloc/estimators/registry.hpp"
 
 namespace swarmloc::sim {
 namespace {
@@ -14,23 +15,6 @@ namespace {
 namespace centralized = estimators::centralized;
 
 constexpr double kMinVariance = 1e-6;  // m²: exactly known anchors / noiseless ranges stay finite
-
-/// The prior an agent starts from in the fusion centre and in the sensor-only placeholder.
-class SensorOnly final : public estimators::Estimator {
- public:
-  SensorOnly(const estimators::AgentSetup& setup, double initial_std_m) {
-    estimate_.mean_m = setup.initial_guess_m;
-    estimate_.covariance = Mat2::Identity() * initial_std_m * initial_std_m;
-    estimate_.valid = false;
-  }
-  [[nodiscard]] std::string_view name() const override { return "sensor_only"; }
-  [[nodiscard]] estimators::Outbox initial_outbox() const override { return {}; }
-  estimators::StepOutput step(const estimators::StepInput& /*input*/) override { return {}; }
-  [[nodiscard]] estimators::Estimate estimate() const override { return estimate_; }
-
- private:
-  estimators::Estimate estimate_;
-};
 
 std::vector<centralized::Edge> graph_edges(const World& world) {
   std::vector<centralized::Edge> edges;
@@ -47,7 +31,8 @@ std::vector<centralized::Edge> graph_edges(const World& world) {
 std::unique_ptr<centralized::CentralizedFilter> make_fusion_filter(const config::Scenario& scenario,
                                                                    const World& world) {
   const std::string& algorithm = scenario.algorithm.name;
-  if (!is_centralized(algorithm)) {
+  const estimators::EstimatorBuilder* builder = estimators::find_estimator_builder(algorithm);
+  if (!is_centralized(algorithm) || builder == nullptr || !builder->fusion) {
     throw std::invalid_argument("make_fusion_filter: algorithm '" + algorithm + "' is not centralized");
   }
   const int n = world.size();
@@ -60,19 +45,10 @@ std::unique_ptr<centralized::CentralizedFilter> make_fusion_filter(const config:
   centralized::CentralizedFilterParams params;
   params.process_var = scenario.algorithm.process_noise_std_m * scenario.algorithm.process_noise_std_m;
   params.bandwidth = kCentralizedBandwidth;
-  centralized::CentralizedKind kind = centralized::CentralizedKind::kLbEkf;
-  if (algorithm == "ekf") {
-    kind = centralized::CentralizedKind::kEkf;
-  } else if (algorithm == "lbekf_i") {
-    kind = centralized::CentralizedKind::kLbEkfI;
-  }
-  if (algorithm == "lbekf_vr" || algorithm == "lbekf_i") {
-    // 000 Alg. 3 with: relabel once, from the best positions available at start-up.
-    params.labels = centralized::lexicographic_labels(world.initial_guess);
-  } else {
-    params.labels = centralized::identity_labels(n);
-  }
-  return centralized::make_centralized_filter(kind, initial_mean, initial_cov, params);
+  // 000 Alg. 3 with: the relabelling variants relabel once, from the best positions at start-up.
+  params.labels = builder->relabel ? centralized::lexicographic_labels(world.initial_guess)
+                                   : centralized::identity_labels(n);
+  return centralized::make_centralized_filter(*builder->fusion, initial_mean, initial_cov, params);
 }
 
 centralized::CentralizedMeasurements centralized_measurements(
@@ -180,11 +156,6 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
       {"truncated_steps", truncated_steps}};
   record.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return record;
-}
-
-std::unique_ptr<estimators::Estimator> make_sensor_only_estimator(const estimators::AgentSetup& setup,
-                                                                  double initial_std_m) {
-  return std::make_unique<SensorOnly>(setup, initial_std_m);
 }
 
 }  // namespace swarmloc::sim

@@ -12,7 +12,7 @@
 #include <sstream>
 #include <thread>
 
-#include "swarmloc/estimators/consensus/cooperative.hpp"
+#include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/runtime/agent_runtime.hpp"
 #include "swarmloc/runtime/hostile.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
@@ -21,58 +21,31 @@ namespace swarmloc::sim {
 
 std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& s, const World& world,
                                                             AgentId id) {
-  // Centralized algorithms run in the fusion centre; their agents are sensors only.
-  if (is_centralized(s.algorithm.name))
-    return make_sensor_only_estimator(world.setup_of(id), s.algorithm.initial_std_m);
-  const auto& cooperative = estimators::cooperative_algorithms();
-  if (std::find(cooperative.begin(), cooperative.end(), s.algorithm.name) != cooperative.end()) {
-    estimators::CooperativeParams params;
-    params.bp.sigma2 = s.noise.range_std_m * s.noise.range_std_m;  // [D-6]: the algorithm knows the noise
-    params.bp.exact_messages = s.algorithm.bp_messages == config::BpMessages::kExact;
-    if (s.algorithm.path_variance == config::PathVariance::kWithDoa) {
-      const double doa_max_rad = s.noise.doa_error_deg * std::numbers::pi / 180.0;
-      params.bp.doa_variance_rad2 = doa_max_rad * doa_max_rad / 3.0;  // uniform on ±doa_max (world.cpp)
-    }
-    if (s.algorithm.name == "dle") {
-      const TargetModel model = target_model(s);
-      auto& dle = params.dle;
-      dle.target = 0;
-      dle.target_dim = model.dim;
-      dle.F = model.F;
-      dle.W = model.W;
-      dle.initial_information = s.algorithm.initial_information;
-      // Range–bearing readings are linearized at the area's centre until the first estimate exists.
-      dle.initial_mean = VecX::Zero(model.dim);
-      dle.initial_mean.head<2>() = Vec2::Constant(0.5 * s.world.area_m);
-    }
-    if (s.algorithm.name == "joint_field") {
-      // Anchors give Jacobi the world frame, which the field lives in: the reference is the origin.
-      params.joint_field.sensor = field_sensor(s);
-      params.joint_field.warmup_steps = s.algorithm.field_warmup_steps;
-    }
-    auto& gradient = params.gradient;
-    gradient.consensus_rounds = s.algorithm.consensus_rounds;
-    gradient.fixed_step = s.algorithm.fixed_step;
-    gradient.step_length = s.algorithm.step_length;
-    gradient.abs_tol = s.algorithm.abs_tol;
-    gradient.max_step =
-        s.algorithm.max_step > 0.0 ? s.algorithm.max_step : std::numeric_limits<double>::infinity();
-    gradient.max_move_fraction = s.algorithm.max_move_fraction;
-    gradient.own_move_curvature = s.algorithm.local_bb_difference == config::LocalBbDifference::kOwnMove;
-    // A run lasts run.steps rounds; the node itself never stops early for lack of updates.
-    gradient.max_updates = std::numeric_limits<std::int64_t>::max() / 4;
-    return estimators::make_cooperative_estimator(s.algorithm.name, world.setup_of(id), params);
+  // The estimator depends on the agent's setup only (the DDS agent builds it from its manifest).
+  AgentManifest manifest;
+  manifest.id = id;
+  manifest.agent_count = world.size();
+  manifest.setup = world.setup_of(id);
+  return make_agent_estimator(s, manifest);
+}
+
+std::vector<AgentManifest> make_agent_manifests(const config::Scenario& s, const World& world,
+                                                std::uint64_t trial) {
+  const AgentRuntimeParams runtime = make_runtime_params(s, world, trial);  // partition groups once
+  const std::uint64_t results_hash = config::results_hash(s);
+  std::vector<AgentManifest> manifests(static_cast<std::size_t>(world.size()));
+  for (AgentId i = 0; i < world.size(); ++i) {
+    AgentManifest& m = manifests[static_cast<std::size_t>(i)];
+    m.id = i;
+    m.agent_count = world.size();
+    m.setup = world.setup_of(i);
+    m.neighbours = world.neighbours.at(static_cast<std::size_t>(i));
+    m.clock = world.clocks.at(static_cast<std::size_t>(i));
+    m.runtime = runtime;
+    m.results_hash = results_hash;
+    m.run_id = s.dds.run_id;
   }
-  estimators::KalmanFamilyParams params;
-  params.process_noise_std_m = s.algorithm.process_noise_std_m;
-  params.initial_information = s.algorithm.initial_information;
-  params.initial_std_m = s.algorithm.initial_std_m;
-  params.inflate_stale = s.algorithm.inflate_stale;
-  params.range_gate_chi2 = s.algorithm.range_gate_chi2;
-  params.update_iterations = s.algorithm.update_iterations;
-  params.initial_heading_std_rad = s.algorithm.initial_heading_std_rad;
-  params.range_bearing_gate_chi2 = s.algorithm.range_bearing_gate_chi2;
-  return estimators::make_estimator(s.algorithm.name, world.setup_of(id), params);
+  return manifests;
 }
 
 AgentRuntimeParams make_runtime_params(const config::Scenario& s, const World& world, std::uint64_t trial,

@@ -18,37 +18,14 @@ constexpr double kMaxPcrbWork = 5e9;
 /// A noisy_truth start with initial_guess_std_m = 0 is exact; this keeps J_0 finite.
 constexpr double kMinPriorVariance = 1e-12;
 
-using enum RangeDraws;
-using enum AnchorData;
+using enum config::RangeDraws;
+using enum config::AnchorData;
 
-// The one table of which data every algorithm receives (docs/algorithms.md §1.3.1). What it says is read
-// off each algorithm's code: ieif/iekf anchors run no filter and publish their known position, each agent
-// updates with its own ranges only (§3.1); the fusion centre takes one range per edge and every anchor's
-// fix (centralized_runner.cpp centralized_measurements); the gradient family's anchors are known and each
-// agent uses its own ranges (newest per neighbour).
-const std::vector<BoundData> kBoundData{
-    {"ieif", BoundModel::kRanges, kOwnDraws, kKnown, {}},
-    {"iekf", BoundModel::kRanges, kOwnDraws, kKnown, {}},
-    {"ekf", BoundModel::kRanges, kOnePerEdge, kFixes, {}},
-    {"lbekf", BoundModel::kRanges, kOnePerEdge, kFixes, {}},
-    {"lbekf_vr", BoundModel::kRanges, kOnePerEdge, kFixes, {}},
-    {"lbekf_i", BoundModel::kRanges, kOnePerEdge, kFixes, {}},
-    {"dml", BoundModel::kRanges, kAllDraws, kFixes, {}},
-    {"dgbb", BoundModel::kRanges, kOwnDraws, kKnown, {}},
-    {"local_bb", BoundModel::kRanges, kOwnDraws, kKnown, {}},
-    {"fixed_step", BoundModel::kRanges, kOwnDraws, kKnown, {}},
-    {"step_length", BoundModel::kRanges, kOwnDraws, kKnown, {}},
-    // One relative draw per link, shared by both ends; path lengths likewise; every sensor's target reading.
-    {"jacobi", BoundModel::kScenario, kAllDraws, kKnown, {}},
-    {"joint_field", BoundModel::kScenario, kAllDraws, kKnown, {}},
-    {"multipath_bp", BoundModel::kScenario, kAllDraws, kKnown, {}},
-    {"dle", BoundModel::kScenario, kAllDraws, kKnown, {}},
-    {"pose_ekf", BoundModel::kNone, kAllDraws, kKnown,
-     "pose-state filter (range-bearing and odometry model): no bound implemented"},
-    {"pose_ieif", BoundModel::kNone, kAllDraws, kKnown,
-     "pose-state filter (range-bearing and odometry model): no bound implemented"},
-    {"dead_reckoning", BoundModel::kNone, kAllDraws, kKnown, "odometry only: no bound implemented"},
-};
+/// The row of one registry entry: the table of which data every algorithm receives is the registry's
+/// (config/algorithms.cpp, docs/algorithms.md §1.3.1).
+BoundData row_of(const config::AlgorithmSpec& spec) {
+  return BoundData{spec.name, spec.bound.model, spec.bound.draws, spec.bound.anchors, spec.bound.none_reason};
+}
 
 bool anchors_in_state(const config::Scenario& s, AnchorData anchors) {
   return anchors == kFixes && s.noise.anchor_fix_std_m > 0.0;
@@ -214,12 +191,17 @@ RunBound moving_target_bound(RunBound bound, const World& world, const config::S
 
 }  // namespace
 
-const std::vector<BoundData>& bound_data_table() { return kBoundData; }
+const std::vector<BoundData>& bound_data_table() {
+  static const std::vector<BoundData> table = [] {
+    std::vector<BoundData> rows;
+    for (const auto& spec : config::algorithm_registry()) rows.push_back(row_of(spec));
+    return rows;
+  }();
+  return table;
+}
 
 BoundData bound_data(const std::string& algorithm) {
-  for (const auto& row : kBoundData) {
-    if (row.algorithm == algorithm) return row;
-  }
+  if (const config::AlgorithmSpec* spec = config::find_algorithm(algorithm)) return row_of(*spec);
   return BoundData{{}, BoundModel::kNone, kAllDraws, kKnown, "no bound data declared for this algorithm"};
 }
 

@@ -313,32 +313,6 @@ void attach_recorded(World& world, std::shared_ptr<const RecordedSteps> recorded
   world.recorded = std::move(recorded);
 }
 
-TargetModel target_model(const Scenario& s) {
-  TargetModel model;
-  if (s.world.target_motion == config::TargetMotion::kStatic) return model;
-  const double tau = 1.0 / s.run.rate_hz;
-  model.dim = 4;
-  model.F = MatX::Identity(4, 4);
-  model.F.topRightCorner<2, 2>() = tau * Mat2::Identity();
-  model.W = MatX(4, 4);
-  model.W << tau * tau * tau / 3.0 * Mat2::Identity(), tau * tau / 2.0 * Mat2::Identity(),
-      tau * tau / 2.0 * Mat2::Identity(), tau * Mat2::Identity();
-  model.W *= s.world.target_accel_psd;
-  return model;
-}
-
-estimators::consensus::FieldSensor field_sensor(const Scenario& s) {
-  estimators::consensus::FieldSensor sensor;
-  sensor.grid.columns = s.world.field_cells_per_side;
-  sensor.grid.rows = s.world.field_cells_per_side;
-  sensor.grid.cell_m = s.world.area_m / s.world.field_cells_per_side;
-  sensor.sensing = s.world.field_sensing == config::FieldSensing::kContinuous
-                       ? estimators::consensus::FieldSensing::kContinuous
-                       : estimators::consensus::FieldSensing::kCellBased;
-  sensor.radius_m = s.world.field_sensing_radius_m;
-  return sensor;
-}
-
 VecX draw_gaussian_field(const estimators::consensus::FieldGrid& grid, double std_dev, double correlation_m,
                          std::mt19937_64& rng) {
   const int d = grid.cells();
@@ -393,24 +367,9 @@ void advance_truth(World& world, const Scenario& s, std::int64_t step) {
 }
 
 MeasurementKinds measurement_kinds(const std::string& algorithm) {
-  MeasurementKinds kinds;
-  if (algorithm == "jacobi") {
-    kinds.relative = true;
-  } else if (algorithm == "dle") {
-    kinds.targets = true;
-  } else if (algorithm == "joint_field") {
-    kinds.relative = true;
-    kinds.field = true;
-  } else if (algorithm == "multipath_bp") {
-    kinds.paths = true;
-  } else if (algorithm == "dgbb" || algorithm == "local_bb" || algorithm == "fixed_step" ||
-             algorithm == "step_length") {
-    kinds.ranges = true;  // anchors know their position from the start (AgentSetup)
-  } else {
-    kinds.ranges = true;
-    kinds.anchor_fixes = true;
-  }
-  return kinds;
+  // An unknown name (never a validated scenario's) gets the range family's data.
+  const config::AlgorithmSpec* spec = config::find_algorithm(algorithm);
+  return spec != nullptr ? spec->kinds : MeasurementKinds{.ranges = true, .anchor_fixes = true};
 }
 
 std::vector<models::Wall> make_walls(const Scenario& s) {

@@ -21,18 +21,13 @@
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/rundir/output_file.hpp"
 #include "swarmloc/runtime/envelope.hpp"
+#include "swarmloc/runtime/sample_log.hpp"
+#include "swarmloc/runtime/slrec_codec.hpp"
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::sim {
 
-/// Format version written by this build (both file kinds). Version 2 added an information sample's world
-/// step, version 3 a belief sample's contributions (exact GaBP), version 4 checksummed records (a CRC-32
-/// of the file header, and of each record's header and payload), version 5 a state sample's edge range
-/// summaries (dml). Readers accept versions 1 to 5 (a version 1 sample's world step reads as −1, an older
-/// belief has no contributions, an older state no edge summaries, files before 4 have no checksums to check).
-inline constexpr std::uint16_t kRecordingVersion = 5;
-inline constexpr std::uint16_t kOldestReadableRecordingVersion = 1;
-inline constexpr std::uint16_t kFirstChecksummedRecordingVersion = 4;
+// kRecordingVersion and the framing: runtime/slrec_codec.hpp.
 /// Names in a run directory.
 inline constexpr const char* kRecordingFile = "recording.slrec";
 inline constexpr const char* kSampleLogDirectory = "recording";
@@ -127,49 +122,7 @@ std::shared_ptr<const Recording> parse_recording(std::vector<std::uint8_t> bytes
 
 // ---- Inter-agent samples ----
 
-using SampleMessage = std::variant<estimators::StateMessage, estimators::InformationMessage,
-                                   estimators::ConsensusMessage, estimators::BeliefMessage>;
-/// The family of a SampleMessage (its variant index).
-enum class SampleFamily : std::uint8_t { kState = 0, kInformation = 1, kConsensus = 2, kBelief = 3 };
-const char* to_string(SampleFamily family);
-
-/// One inter-agent sample as an agent received it (before loss injection and validation).
-struct ReceivedSample {
-  AgentId receiver = 0;
-  std::int64_t receiver_steps = 0;  ///< steps the receiver had run when it took the sample
-  /// DDS: the writer's source timestamp and the receiver's dds_time() at take (real-time clock, ns).
-  /// Simulator: virtual time of the publication and of the delivery (ns since the run's start).
-  std::int64_t source_timestamp_ns = 0;
-  std::int64_t take_ns = 0;
-  bool well_formed = true;  ///< false: the wire sample was malformed (the message is what decoded)
-  Header header;            ///< sender (agent_id), seq, the sender's step, its stamps
-  SampleMessage message;
-
-  [[nodiscard]] SampleFamily family() const { return static_cast<SampleFamily>(message.index()); }
-};
-
-/// Appends received samples to a sample log (DDS: recording/agent_<id>.slrec per agent process; the
-/// simulator: recording/samples.slrec for every receiver).
-class SampleLogWriter {
- public:
-  /// Throws OutputError if `path` cannot be created.
-  SampleLogWriter(const std::filesystem::path& path, int agent_count, std::uint64_t scenario_hash);
-  ~SampleLogWriter();
-  SampleLogWriter(const SampleLogWriter&) = delete;
-  SampleLogWriter& operator=(const SampleLogWriter&) = delete;
-
-  /// Throws OutputError if the write fails.
-  void append(const ReceivedSample& sample);
-  /// Writes the end marker and flushes; idempotent. Throws OutputError if a write failed.
-  void close();
-  [[nodiscard]] std::uint64_t count() const { return count_; }
-
- private:
-  std::filesystem::path path_;
-  OutputFile out_;
-  std::uint64_t count_ = 0;
-  bool closed_ = false;
-};
+// SampleMessage, ReceivedSample, SampleLogWriter: runtime/sample_log.hpp.
 
 struct SampleLog {
   std::uint16_t version = 0;

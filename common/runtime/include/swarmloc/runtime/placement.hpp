@@ -1,13 +1,16 @@
 #pragma once
 // Where an algorithm runs: in every agent, or in one fusion centre that the agents feed with their
-// measurement batches (docs/algorithms.md §2.7). The transport, the agent process and the simulator ask
-// this instead of testing algorithm names themselves.
+// measurement batches (docs/algorithms.md §2.7). The answer is the algorithm's registry entry
+// (config/algorithms.hpp); the transport, the agent process and the simulator ask this instead of testing
+// algorithm names themselves.
 #include <string_view>
+
+#include "swarmloc/config/algorithms.hpp"
 
 namespace swarmloc::sim {
 
-/// True for the algorithms that run in a fusion centre instead of in every agent (ekf, lbekf, lbekf_vr,
-/// lbekf_i).
-bool is_centralized(std::string_view algorithm);
+/// True for the algorithms whose registry entry places them in the fusion centre (ekf, lbekf, lbekf_vr,
+/// lbekf_i); false for the others and for unknown names.
+inline bool is_centralized(std::string_view algorithm) { return config::runs_in_fusion_centre(algorithm); }
 
 }  // namespace swarmloc::sim

@@ -49,10 +49,6 @@ double total_squared_error(const std::vector<Vec2>& truth,
 /// (per step).
 RunRecord run_centralized_simulation(const config::Scenario& scenario, const SimOptions& options = {});
 
-/// What an agent runs when the algorithm is centralized: nothing. It publishes no inter-agent
-/// samples and reports its prior (initial guess, initial_std_m² · I) as an invalid estimate; its
-/// batches go to the fusion centre.
-std::unique_ptr<estimators::Estimator> make_sensor_only_estimator(const estimators::AgentSetup& setup,
-                                                                  double initial_std_m);
+// make_sensor_only_estimator: runtime/agent_factory.hpp.
 
 }  // namespace swarmloc::sim

@@ -7,6 +7,7 @@
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/rundir/run_record.hpp"
 #include "swarmloc/runtime/agent_runtime.hpp"
+#include "swarmloc/runtime/manifest.hpp"
 
 namespace swarmloc::sim {
 
@@ -99,11 +100,15 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
 /// Writes montecarlo.csv (per-step mean and spread) and trials.csv into `directory`.
 void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result);
 
-/// Builds the estimator for agent `id` of `world` from the scenario's algorithm settings. For a
-/// centralized algorithm (is_centralized, centralized_runner.hpp) the agent is a sensor only: a
-/// placeholder that publishes nothing and reports its prior.
+/// Builds the estimator for agent `id` of `world` from the scenario's algorithm settings: the runtime's
+/// make_agent_estimator (agent_factory.hpp) on the agent's setup, which is what the DDS agent calls on its
+/// manifest. For a centralized algorithm the agent is a sensor only.
 std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& scenario,
                                                             const World& world, AgentId id);
+/// What each agent of `world` may know (runtime/manifest.hpp), in id order: the orchestrator writes these
+/// to the run directory; runtime params as make_runtime_params(scenario, world, trial).
+std::vector<AgentManifest> make_agent_manifests(const config::Scenario& scenario, const World& world,
+                                                std::uint64_t trial = 0);
 /// Runtime parameters (seed, loss, partition, plausibility bounds) for the scenario. `incarnation`
 /// counts restarts of the agent (faults.kill): each starts a new range of sample numbers.
 AgentRuntimeParams make_runtime_params(const config::Scenario& scenario, const World& world,

@@ -9,6 +9,7 @@
 #include <string_view>
 #include <vector>
 
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/estimators/crlb.hpp"
 #include "swarmloc/world/metrics.hpp"
@@ -16,25 +17,13 @@
 
 namespace swarmloc::sim {
 
-/// Which range draws an algorithm's estimates are built from.
-enum class RangeDraws {
-  kAllDraws,    ///< both ends' draws of every edge (shared draws: the edge's one draw)
-  kOnePerEdge,  ///< one draw per edge (a fusion centre taking one endpoint's range)
-  kOwnDraws,    ///< each non-anchor agent's own draws (anchors run no filter, their draws go unused)
-};
-/// What the algorithm knows about the anchors.
-enum class AnchorData {
-  kKnown,  ///< exactly known positions (AgentSetup): anchors are not in θ
-  kFixes,  ///< anchors are in θ and send a fix per step (noise.anchor_fix_std_m; exact when it is 0)
-};
-/// Which bound applies to an algorithm's measurements.
-enum class BoundModel {
-  kRanges,    ///< range draws and anchor data as declared: bound.cpp computes it
-  kScenario,  ///< relative positions, paths or a target: scenario_crlb's bound (static truth only)
-  kNone,      ///< no bound implemented for the measurement model
-};
+/// Which range draws, what anchor data and which bound model: declared per algorithm in the registry
+/// (config/algorithms.hpp).
+using RangeDraws = config::RangeDraws;
+using AnchorData = config::AnchorData;
+using BoundModel = config::BoundModel;
 
-/// The declared data of one algorithm: the single table in bound.cpp holds one row per algorithm.
+/// The declared data of one algorithm: its registry entry's BoundSpec, named.
 struct BoundData {
   std::string_view algorithm;
   BoundModel model = BoundModel::kNone;

@@ -13,11 +13,13 @@
 #include <string>
 #include <vector>
 
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/core/clock.hpp"
 #include "swarmloc/estimators/consensus/joint_field.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/models/multipath.hpp"
+#include "swarmloc/runtime/agent_factory.hpp"
 
 namespace swarmloc::sim {
 
@@ -148,31 +150,11 @@ void attach_recorded(World& world, std::shared_ptr<const RecordedSteps> recorded
 /// target, a function of the scenario seed, moves as generated.
 void advance_truth(World& world, const config::Scenario& scenario, std::int64_t step);
 
-/// What the world measures for an algorithm: ranges (+ anchor fixes) for the Kalman and gradient
-/// families, relative positions for jacobi (002 eq. (3)), reflected paths for multipath_bp (003 eq. (1)),
-/// target readings for dle (002 eqs. (2), (4)), relative positions and field readings for joint_field
-/// (002 eqs. (3), (10)).
-struct MeasurementKinds {
-  bool ranges = false;
-  bool anchor_fixes = false;
-  bool relative = false;
-  bool paths = false;
-  bool targets = false;
-  bool field = false;
-};
+/// What the world measures for an algorithm: its registry entry's kinds (config/algorithms.hpp).
+using MeasurementKinds = config::MeasurementKinds;
 MeasurementKinds measurement_kinds(const std::string& algorithm);
 
-/// The target's model at the world period 1 / run.rate_hz (002 eq. (1)): state dimension 2 (static, F and
-/// W empty) or 4 (double integrator: F = [I τI; 0 I], W = q [τ³/3 I, τ²/2 I; τ²/2 I, τ I]).
-struct TargetModel {
-  int dim = 2;
-  MatX F;
-  MatX W;
-};
-TargetModel target_model(const config::Scenario& scenario);
-
-/// The field's grid over the area (world.field_cells_per_side² cells) and the sensing model of its readings.
-estimators::consensus::FieldSensor field_sensor(const config::Scenario& scenario);
+// target_model and field_sensor: runtime/agent_factory.hpp (an agent needs them too).
 
 /// y = σ L ξ with L Lᵀ = C, C_kl = exp(−‖c_k − c_l‖² / (2ℓ²)) over the cell centres (a discrete Gaussian
 /// random field; ξ standard normal from `rng`).

@@ -1,6 +1,6 @@
 #pragma once
-// Factory for the cooperative (consensus / BP / gradient) estimators of 002, 003 and 004, to be wired into
-// make_estimator (estimator.hpp) by the owner of factory.cpp.
+// Factory for the cooperative (consensus / BP / gradient) estimators of 002, 003 and 004: the
+// CooperativeParams view of the registry's builders (registry.hpp).
 #include <memory>
 #include <string>
 #include <vector>

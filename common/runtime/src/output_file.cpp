@@ -1,4 +1,4 @@
-#include "swarmloc/rundir/output_file.hpp"
+#include "swarmloc/runtime/output_file.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>

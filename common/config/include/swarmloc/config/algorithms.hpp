@@ -1,0 +1,104 @@
+#pragma once
+// The algorithm registry: one entry per algorithm that `run` and `sim` execute, saying what it is (name,
+// family), where it runs (every agent, or one fusion centre), which data the world generates for it, what
+// data its bound is computed from (docs/algorithms.md §1.3.1) and which scenario keys it additionally
+// requires. Every layer that asks about an algorithm asks this table; none tests a name itself. The
+// builders live one layer up, in estimators (estimators/registry.hpp): config cannot see estimator types,
+// and a test (tests/unit/sim/test_algorithm_registry.cpp) keeps the two tables entry for entry equal.
+//
+// Adding an algorithm: its estimator class, one entry here, one builder in estimators/src/factory.cpp,
+// and its tests.
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace swarmloc::config {
+
+struct Scenario;
+
+/// The family, which fixes the parameter block an algorithm reads and how its agent step behaves.
+enum class AlgorithmFamily {
+  kKalman,       ///< distributed Kalman filters over ranges (ieif, iekf; docs/algorithms.md §3)
+  kDml,          ///< distributed maximum likelihood over every pooled range draw (§9)
+  kCentralized,  ///< one filter over the whole network in the fusion centre (ekf, lbekf…; §2.7)
+  kPose,         ///< pose-state filters over range-bearing and odometry data (MRCLAM)
+  kConsensus,    ///< consensus localization / tracking (jacobi, dle, joint_field; 002)
+  kBp,           ///< belief propagation over reflected paths (multipath_bp; 003)
+  kGradient,     ///< distributed gradient descent over ranges (dgbb and its baselines; 004)
+};
+
+/// Where an algorithm's estimator runs.
+enum class AlgorithmPlacement {
+  kAgent,         ///< in every agent
+  kFusionCentre,  ///< in one fusion centre fed with the agents' measurement batches; agents are sensors
+};
+
+/// What the world measures for an algorithm: ranges (+ anchor fixes) for the Kalman and gradient
+/// families, relative positions for jacobi (002 eq. (3)), reflected paths for multipath_bp (003 eq. (1)),
+/// target readings for dle (002 eqs. (2), (4)), relative positions and field readings for joint_field
+/// (002 eqs. (3), (10)).
+struct MeasurementKinds {
+  bool ranges = false;
+  bool anchor_fixes = false;
+  bool relative = false;
+  bool paths = false;
+  bool targets = false;
+  bool field = false;
+};
+
+/// Which range draws an algorithm's estimates are built from.
+enum class RangeDraws {
+  kAllDraws,    ///< both ends' draws of every edge (shared draws: the edge's one draw)
+  kOnePerEdge,  ///< one draw per edge (a fusion centre taking one endpoint's range)
+  kOwnDraws,    ///< each non-anchor agent's own draws (anchors run no filter, their draws go unused)
+};
+/// What the algorithm knows about the anchors.
+enum class AnchorData {
+  kKnown,  ///< exactly known positions (AgentSetup): anchors are not in θ
+  kFixes,  ///< anchors are in θ and send a fix per step (noise.anchor_fix_std_m; exact when it is 0)
+};
+/// Which bound applies to an algorithm's measurements.
+enum class BoundModel {
+  kRanges,    ///< range draws and anchor data as declared: world/bound.cpp computes it
+  kScenario,  ///< relative positions, paths or a target: scenario_crlb's bound (static truth only)
+  kNone,      ///< no bound implemented for the measurement model
+};
+
+/// The data an algorithm's bound is computed from (docs/algorithms.md §1.3.1), read off its code.
+struct BoundSpec {
+  BoundModel model = BoundModel::kNone;
+  RangeDraws draws = RangeDraws::kAllDraws;
+  AnchorData anchors = AnchorData::kKnown;
+  std::string_view none_reason;  ///< model kNone: why
+};
+
+/// One algorithm.
+struct AlgorithmSpec {
+  std::string_view name;
+  AlgorithmFamily family = AlgorithmFamily::kKalman;
+  AlgorithmPlacement placement = AlgorithmPlacement::kAgent;
+  MeasurementKinds kinds;
+  BoundSpec bound;
+  /// Its agent step without a measurement is an exchange only (no prediction), so it may take
+  /// run.agent_steps_per_world_step > 1.
+  bool exchange_only = false;
+  /// The algorithm's own scenario rules (beyond every key's range); throws ScenarioError. May be null.
+  void (*validate)(const Scenario&) = nullptr;
+};
+
+/// Every entry, in the order `known algorithms` lists them.
+const std::vector<AlgorithmSpec>& algorithm_registry();
+
+/// The entry of `name`, or nullptr.
+const AlgorithmSpec* find_algorithm(std::string_view name);
+
+/// The entry of `name`; throws ScenarioError ("algorithm.name: 'x' is not a known algorithm (known: …)").
+const AlgorithmSpec& algorithm_spec(std::string_view name);
+
+/// True if `name` is an entry placed in the fusion centre.
+bool runs_in_fusion_centre(std::string_view name);
+
+/// "ieif, iekf, …": the registry's names for messages.
+std::string known_algorithm_list();
+
+}  // namespace swarmloc::config

@@ -1,0 +1,148 @@
+// The algorithm registry (algorithms.hpp): one entry per algorithm, and each family's own scenario rules.
+#include "swarmloc/config/algorithms.hpp"
+
+#include <string>
+
+#include "swarmloc/config/scenario.hpp"
+
+namespace swarmloc::config {
+namespace {
+
+using enum AlgorithmFamily;
+using enum RangeDraws;
+using enum AnchorData;
+
+[[noreturn]] void fail(std::string_view path, const std::string& message) {
+  throw ScenarioError(std::string(path) + ": " + message);
+}
+
+void validate_dml(const Scenario& s) {
+  if (s.world.motion != Motion::kStatic) {
+    fail("world.motion",
+         "must be static for dml (it pools every range draw of the run; docs/algorithms.md §9)");
+  }
+  if (s.noise.anchor_fix_std_m > 0.0) {
+    fail("noise.anchor_fix_std_m",
+         "must be 0 for dml (it needs exactly known anchors; docs/algorithms.md §9.7)");
+  }
+  if (s.noise.shared_range_draws) {
+    fail("noise.shared_range_draws",
+         "must be false for dml (it counts each end's draws as independent; docs/algorithms.md §9.7)");
+  }
+}
+
+void require_relative_information(const Scenario& s, std::string_view name) {
+  if (!(s.noise.relative_std_m > 0.0)) {
+    fail("noise.relative_std_m",
+         "must be > 0 for " + std::string(name) + " (its measurement information is 1/relative_std_m²)");
+  }
+}
+
+void validate_jacobi(const Scenario& s) { require_relative_information(s, "jacobi"); }
+
+void validate_dle(const Scenario& s) {
+  if (s.world.motion != Motion::kStatic) {
+    fail("world.motion", "must be static for dle (its sensors use their known, fixed positions)");
+  }
+  if (!(s.noise.target_std_m > 0.0)) {
+    fail("noise.target_std_m", "must be > 0 for dle (its reading information is 1/target_std_m²)");
+  }
+}
+
+void validate_joint_field(const Scenario& s) {
+  if (s.world.motion != Motion::kStatic) {
+    fail("world.motion", "must be static for joint_field (Jacobi localizes static sensors)");
+  }
+  if (!(s.noise.field_std > 0.0)) {
+    fail("noise.field_std", "must be > 0 for joint_field (its reading information is 1/field_std²)");
+  }
+  require_relative_information(s, "joint_field");
+}
+
+void validate_multipath_bp(const Scenario& s) {
+  if (s.world.wall_count < 1) {
+    fail("world.wall_count",
+         "multipath_bp needs at least one reflecting wall (it uses reflected paths only)");
+  }
+  if (!(s.noise.range_std_m > 0.0)) {
+    fail("noise.range_std_m", "must be > 0 for multipath_bp (its path-length variance is range_std_m²)");
+  }
+}
+
+// Measurement kinds.
+constexpr MeasurementKinds kRangesAndFixes{.ranges = true, .anchor_fixes = true};
+constexpr MeasurementKinds kRangesOnly{.ranges = true};  // anchors know their position (AgentSetup)
+constexpr MeasurementKinds kRelative{.relative = true};
+constexpr MeasurementKinds kTargets{.targets = true};
+constexpr MeasurementKinds kRelativeAndField{.relative = true, .field = true};
+constexpr MeasurementKinds kPaths{.paths = true};
+
+// Bound data, read off each algorithm's code: ieif/iekf anchors run no filter and publish their known
+// position, each agent updates with its own ranges only (§3.1); the fusion centre takes one range per
+// edge and every anchor's fix (sim/centralized_runner.cpp centralized_measurements); dml pools both ends'
+// draws; the gradient family's anchors are known and each agent uses its own ranges (newest per
+// neighbour); relative positions and path lengths are one draw per link shared by both ends.
+constexpr BoundSpec kOwnRanges{BoundModel::kRanges, kOwnDraws, kKnown, {}};
+constexpr BoundSpec kFusionRanges{BoundModel::kRanges, kOnePerEdge, kFixes, {}};
+constexpr BoundSpec kPooledRanges{BoundModel::kRanges, kAllDraws, kFixes, {}};
+constexpr BoundSpec kScenarioBound{BoundModel::kScenario, kAllDraws, kKnown, {}};
+constexpr BoundSpec kPoseNone{BoundModel::kNone, kAllDraws, kKnown,
+                              "pose-state filter (range-bearing and odometry model): no bound implemented"};
+constexpr BoundSpec kOdometryNone{BoundModel::kNone, kAllDraws, kKnown,
+                                  "odometry only: no bound implemented"};
+
+constexpr AlgorithmPlacement kAgent = AlgorithmPlacement::kAgent;
+constexpr AlgorithmPlacement kCentre = AlgorithmPlacement::kFusionCentre;
+
+}  // namespace
+
+const std::vector<AlgorithmSpec>& algorithm_registry() {
+  // name, family, placement, kinds, bound, exchange_only, validate
+  static const std::vector<AlgorithmSpec> registry{
+      {"ieif", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr},  // docs/algorithms.md §3.2
+      {"iekf", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr},  // §3.5
+      {"ekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr},
+      {"lbekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr},
+      {"lbekf_vr", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr},
+      {"lbekf_i", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr},
+      {"jacobi", kConsensus, kAgent, kRelative, kScenarioBound, true, &validate_jacobi},  // 002 eq. (9)
+      {"dle", kConsensus, kAgent, kTargets, kScenarioBound, true, &validate_dle},         // 002 Alg. 1
+      {"joint_field", kConsensus, kAgent, kRelativeAndField, kScenarioBound, true, &validate_joint_field},
+      {"multipath_bp", kBp, kAgent, kPaths, kScenarioBound, true, &validate_multipath_bp},  // 003 Alg. 1
+      {"dgbb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr},                  // 004 Alg. 1
+      {"local_bb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr},
+      {"fixed_step", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr},
+      {"step_length", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr},
+      {"pose_ekf", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr},
+      {"pose_ieif", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr},
+      {"dead_reckoning", kPose, kAgent, kRangesAndFixes, kOdometryNone, false, nullptr},
+      {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml},  // §9
+  };
+  return registry;
+}
+
+const AlgorithmSpec* find_algorithm(std::string_view name) {
+  for (const auto& spec : algorithm_registry()) {
+    if (spec.name == name) return &spec;
+  }
+  return nullptr;
+}
+
+std::string known_algorithm_list() {
+  std::string list;
+  for (const auto& spec : algorithm_registry()) list += (list.empty() ? "" : ", ") + std::string(spec.name);
+  return list;
+}
+
+const AlgorithmSpec& algorithm_spec(std::string_view name) {
+  if (const AlgorithmSpec* spec = find_algorithm(name)) return *spec;
+  fail("algorithm.name",
+       "'" + std::string(name) + "' is not a known algorithm (known: " + known_algorithm_list() + ")");
+}
+
+bool runs_in_fusion_centre(std::string_view name) {
+  const AlgorithmSpec* spec = find_algorithm(name);
+  return spec != nullptr && spec->placement == AlgorithmPlacement::kFusionCentre;
+}
+
+}  // namespace swarmloc::config

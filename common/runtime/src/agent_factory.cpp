@@ -1,0 +1,130 @@
+#include "swarmloc/runtime/agent_factory.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <numbers>
+
+#include "swarmloc/estimators/consensus/cooperative.hpp"
+#include "swarmloc/runtime/placement.hpp"
+
+namespace swarmloc::sim {
+namespace {
+
+/// The prior an agent starts from in the fusion centre and in the sensor-only placeholder.
+class SensorOnly final : public estimators::Estimator {
+ public:
+  SensorOnly(const estimators::AgentSetup& setup, double initial_std_m) {
+    estimate_.mean_m = setup.initial_guess_m;
+    estimate_.covariance = Mat2::Identity() * initial_std_m * initial_std_m;
+    estimate_.valid = false;
+  }
+  [[nodiscard]] std::string_view name() const override { return "sensor_only"; }
+  [[nodiscard]] estimators::Outbox initial_outbox() const override { return {}; }
+  estimators::StepOutput step(const estimators::StepInput& /*input*/) override { return {}; }
+  [[nodiscard]] estimators::Estimate estimate() const override { return estimate_; }
+
+ private:
+  estimators::Estimate estimate_;
+};
+
+/// The cooperative family's parameters from the scenario (the algorithm knows the noise, [D-6]).
+estimators::CooperativeParams cooperative_params(const config::Scenario& s) {
+  estimators::CooperativeParams params;
+  params.bp.sigma2 = s.noise.range_std_m * s.noise.range_std_m;  // [D-6]: the algorithm knows the noise
+  params.bp.exact_messages = s.algorithm.bp_messages == config::BpMessages::kExact;
+  if (s.algorithm.path_variance == config::PathVariance::kWithDoa) {
+    const double doa_max_rad = s.noise.doa_error_deg * std::numbers::pi / 180.0;
+    params.bp.doa_variance_rad2 = doa_max_rad * doa_max_rad / 3.0;  // uniform on ±doa_max (world.cpp)
+  }
+  if (s.algorithm.name == "dle") {
+    const TargetModel model = target_model(s);
+    auto& dle = params.dle;
+    dle.target = 0;
+    dle.target_dim = model.dim;
+    dle.F = model.F;
+    dle.W = model.W;
+    dle.initial_information = s.algorithm.initial_information;
+    // Range–bearing readings are linearized at the area's centre until the first estimate exists.
+    dle.initial_mean = VecX::Zero(model.dim);
+    dle.initial_mean.head<2>() = Vec2::Constant(0.5 * s.world.area_m);
+  }
+  if (s.algorithm.name == "joint_field") {
+    // Anchors give Jacobi the world frame, which the field lives in: the reference is the origin.
+    params.joint_field.sensor = field_sensor(s);
+    params.joint_field.warmup_steps = s.algorithm.field_warmup_steps;
+  }
+  auto& gradient = params.gradient;
+  gradient.consensus_rounds = s.algorithm.consensus_rounds;
+  gradient.fixed_step = s.algorithm.fixed_step;
+  gradient.step_length = s.algorithm.step_length;
+  gradient.abs_tol = s.algorithm.abs_tol;
+  gradient.max_step =
+      s.algorithm.max_step > 0.0 ? s.algorithm.max_step : std::numeric_limits<double>::infinity();
+  gradient.max_move_fraction = s.algorithm.max_move_fraction;
+  gradient.own_move_curvature = s.algorithm.local_bb_difference == config::LocalBbDifference::kOwnMove;
+  // A run lasts run.steps rounds; the node itself never stops early for lack of updates.
+  gradient.max_updates = std::numeric_limits<std::int64_t>::max() / 4;
+  return params;
+}
+
+}  // namespace
+
+std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& s,
+                                                            const AgentManifest& manifest) {
+  // Centralized algorithms run in the fusion centre; their agents are sensors only.
+  if (is_centralized(s.algorithm.name))
+    return make_sensor_only_estimator(manifest.setup, s.algorithm.initial_std_m);
+  const auto& cooperative = estimators::cooperative_algorithms();
+  if (std::find(cooperative.begin(), cooperative.end(), s.algorithm.name) != cooperative.end()) {
+    return estimators::make_cooperative_estimator(s.algorithm.name, manifest.setup, cooperative_params(s));
+  }
+  estimators::KalmanFamilyParams params;
+  params.process_noise_std_m = s.algorithm.process_noise_std_m;
+  params.initial_information = s.algorithm.initial_information;
+  params.initial_std_m = s.algorithm.initial_std_m;
+  params.inflate_stale = s.algorithm.inflate_stale;
+  params.range_gate_chi2 = s.algorithm.range_gate_chi2;
+  params.update_iterations = s.algorithm.update_iterations;
+  params.initial_heading_std_rad = s.algorithm.initial_heading_std_rad;
+  params.range_bearing_gate_chi2 = s.algorithm.range_bearing_gate_chi2;
+  return estimators::make_estimator(s.algorithm.name, manifest.setup, params);
+}
+
+TargetModel target_model(const config::Scenario& s) {
+  TargetModel model;
+  if (s.world.target_motion == config::TargetMotion::kStatic) return model;
+  const double tau = 1.0 / s.run.rate_hz;
+  model.dim = 4;
+  model.F = MatX::Identity(4, 4);
+  model.F.topRightCorner<2, 2>() = tau * Mat2::Identity();
+  model.W = MatX(4, 4);
+  model.W << tau * tau * tau / 3.0 * Mat2::Identity(), tau * tau / 2.0 * Mat2::Identity(),
+      tau * tau / 2.0 * Mat2::Identity(), tau * Mat2::Identity();
+  model.W *= s.world.target_accel_psd;
+  return model;
+}
+
+estimators::consensus::FieldSensor field_sensor(const config::Scenario& s) {
+  estimators::consensus::FieldSensor sensor;
+  sensor.grid.columns = s.world.field_cells_per_side;
+  sensor.grid.rows = s.world.field_cells_per_side;
+  sensor.grid.cell_m = s.world.area_m / s.world.field_cells_per_side;
+  sensor.sensing = s.world.field_sensing == config::FieldSensing::kContinuous
+                       ? estimators::consensus::FieldSensing::kContinuous
+                       : estimators::consensus::FieldSensing::kCellBased;
+  sensor.radius_m = s.world.field_sensing_radius_m;
+  return sensor;
+}
+
+std::unique_ptr<estimators::Estimator> make_sensor_only_estimator(const estimators::AgentSetup& setup,
+                                                                  double initial_std_m) {
+  return std::make_unique<SensorOnly>(setup, initial_std_m);
+}
+
+AgentRuntimeParams make_runtime_params(const AgentManifest& manifest, int incarnation) {
+  AgentRuntimeParams params = manifest.runtime;
+  params.first_seq = static_cast<std::uint32_t>(incarnation) << 24;
+  return params;
+}
+
+}  // namespace swarmloc::sim

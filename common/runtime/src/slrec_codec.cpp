@@ -1,0 +1,97 @@
+// The .slrec framing (slrec_codec.hpp).
+#include "swarmloc/runtime/slrec_codec.hpp"
+
+#include <zlib.h>
+
+#include <system_error>
+
+namespace swarmloc::sim::slrec {
+
+/// zlib's CRC-32 (the IEEE polynomial; it detects every error burst of up to 32 bits).
+std::uint32_t crc32_of(const void* data, std::size_t size) {
+  return static_cast<std::uint32_t>(
+      crc32_z(crc32_z(0L, Z_NULL, 0), static_cast<const Bytef*>(data), static_cast<z_size_t>(size)));
+}
+
+std::string tag_name(std::uint8_t tag) {
+  switch (tag) {
+    case kTagHead:
+      return "header record";
+    case kTagStep:
+      return "step record";
+    case kTagSample:
+      return "sample record";
+    case kTagEnd:
+      return "end marker";
+    default:
+      return "record of unknown tag " + std::to_string(tag);
+  }
+}
+
+/// Magic, kind, version and (version 4) the CRC-32 of those 8 bytes.
+std::string file_header(std::uint8_t kind) {
+  Encoder out;
+  for (char c : kMagic) out.u8(static_cast<std::uint8_t>(c));
+  out.u8(kind);
+  out.u16(kRecordingVersion);
+  out.u32(crc32_of(out.bytes().data(), out.bytes().size()));
+  return out.bytes();
+}
+
+/// One version 4 record: u8 tag, u32 payload length, u32 CRC-32 of those 5 bytes, the payload, u32 CRC-32
+/// of the payload. The header's own checksum lets a reader tell a record cut by a kill (a shorter file)
+/// from a damaged length.
+void write_record(OutputFile& out, std::uint8_t tag, const std::string& payload) {
+  if (payload.size() > std::numeric_limits<std::uint32_t>::max()) {
+    throw std::length_error("recording: a " + tag_name(tag) + " of " + std::to_string(payload.size()) +
+                            " bytes exceeds 4 GiB");
+  }
+  Encoder head;
+  head.u8(tag);
+  head.u32(static_cast<std::uint32_t>(payload.size()));
+  head.u32(crc32_of(head.bytes().data(), head.bytes().size()));
+  Encoder trailer;
+  trailer.u32(crc32_of(payload.data(), payload.size()));
+  out.write(head.bytes());
+  out.write(payload);
+  out.write(trailer.bytes());
+}
+
+void encode(Encoder& out, const estimators::StateMessage& m) {
+  out.vec2(m.mean_m), out.mat2(m.covariance), out.boolean(m.anchor), out.boolean(m.active), out.u16(m.degree);
+  out.count(m.edge_ranges.size());  // version 5
+  for (const auto& edge : m.edge_ranges)
+    out.i32(edge.peer), out.f64(edge.information), out.f64(edge.mean_range_m);
+}
+void encode(Encoder& out, const estimators::InformationMessage& m) {
+  out.i32(m.target);
+  out.count(static_cast<std::size_t>(m.info_vec.size()));
+  for (Eigen::Index k = 0; k < m.info_vec.size(); ++k) out.f64(m.info_vec(k));
+  out.count(static_cast<std::size_t>(m.info_mat.rows()));
+  out.count(static_cast<std::size_t>(m.info_mat.cols()));
+  for (Eigen::Index r = 0; r < m.info_mat.rows(); ++r)
+    for (Eigen::Index c = 0; c < m.info_mat.cols(); ++c) out.f64(m.info_mat(r, c));
+  out.i64(m.world_step);
+}
+void encode(Encoder& out, const estimators::ConsensusMessage& m) {
+  out.i64(m.tau), out.i32(m.round);
+  out.count(m.values.size());
+  for (double v : m.values) out.f64(v);
+}
+void encode(Encoder& out, const estimators::BeliefMessage& m) {
+  out.i64(m.iteration), out.vec2(m.mean_m), out.mat2(m.information), out.boolean(m.infinite_information);
+  out.count(m.contributions.size());
+  for (const auto& c : m.contributions) out.i32(c.from), out.mat2(c.information), out.vec2(c.info_vec);
+}
+
+/// `path` after creating its parent directories (OutputError naming the directory if that fails).
+const std::filesystem::path& with_parent_directories(const std::filesystem::path& path) {
+  if (path.has_parent_path()) {
+    std::error_code error;
+    std::filesystem::create_directories(path.parent_path(), error);
+    if (error) throw OutputError(path.parent_path(), "create the directory", error.value());
+  }
+  return path;
+}
+
+}  // namespace swarmloc::sim::slrec
