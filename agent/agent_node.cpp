@@ -81,11 +81,7 @@ class AgentProcess {
   }
 
   int run() {
-    const double period_local_s = 1.0 / scenario_.run.rate_hz;
-    // The timer runs on the agent's own clock: a local period lasts period/(1+drift) in real time. It
-    // steps run.agent_steps_per_world_step times per world period (one exchange each).
-    const auto period = std::chrono::duration<double>(
-        clock_.mono_duration(period_local_s / scenario_.run.agent_steps_per_world_step));
+    const TickPeriod period = tick_period();
     // Lockstep publishes its initial sample exactly once, when every neighbour can receive it, so that
     // sample numbers (and with them the seeded loss decisions) match the simulator's.
     if (!lockstep_) publish(runtime_.initial_publication(local_stamp_ns()));
@@ -94,123 +90,178 @@ class AgentProcess {
                   sensor_only_ ? " (sensor only: the fusion centre estimates)" : "",
                   lockstep_ ? " (lockstep: steps on each world step's batch)" : "");
 
+    LoopTimers timers;
+    timers.next_tick = std::chrono::steady_clock::now() +
+                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(period.tick);
+    timers.last_hello = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+    timers.last_announcement = std::chrono::steady_clock::now();
+    timers.last_batch_seen = std::chrono::steady_clock::now();
+    while (!g_stop_requested.load()) {
+      const auto now = std::chrono::steady_clock::now();
+      // Lockstep wakes on data (the next batch); free run also on its own clock's tick.
+      const double wait_s =
+          lockstep_ ? 0.1
+                    : std::clamp(std::chrono::duration<double>(timers.next_tick - now).count(), 0.0, 0.1);
+      auto inbound = transport_.wait_and_take(wait_s);
+      const Verdict verdict = handle(inbound);
+      if (verdict == Verdict::kRefused) return 2;
+      if (verdict == Verdict::kStop) break;
+      if (!inbound.batches.empty()) timers.last_batch_seen = std::chrono::steady_clock::now();
+
+      const auto after = std::chrono::steady_clock::now();
+      log_matched(timers);
+      if (!started_run_) {
+        if (!await_start(after, period, timers)) return 1;
+        continue;
+      }
+      step_when_due(after, period, timers);
+      if (orchestrator_gone(after, period, timers)) break;
+    }
+    finish();
+    return 0;
+  }
+
+ private:
+  enum class Verdict { kContinue, kStop, kRefused };
+  using SteadyTime = std::chrono::steady_clock::time_point;
+
+  /// The step timer's period on the agent's own clock, and this agent's phase within it.
+  struct TickPeriod {
+    double local_s = 0.0;                  ///< one world period, local seconds (1 / run.rate_hz)
+    std::chrono::duration<double> tick{};  ///< between two steps, in real (monotonic) time
+    std::chrono::duration<double> phase{};
+  };
+
+  /// The run loop's timers.
+  struct LoopTimers {
+    SteadyTime next_tick;          ///< free run: when the next step is due
+    SteadyTime last_hello;         ///< hellos (before START; sensor only: throughout) every 0.5 s
+    SteadyTime last_announcement;  ///< free run before START: the initial state's last announcement
+    SteadyTime last_batch_seen;    ///< the orchestrator-silence timer
+    int last_matched = -1;         ///< neighbours matched when last logged
+  };
+
+  TickPeriod tick_period() const {
+    TickPeriod period;
+    period.local_s = 1.0 / scenario_.run.rate_hz;
+    // The timer runs on the agent's own clock: a local period lasts period/(1+drift) in real time. It
+    // steps run.agent_steps_per_world_step times per world period (one exchange each).
+    period.tick = std::chrono::duration<double>(
+        clock_.mono_duration(period.local_s / scenario_.run.agent_steps_per_world_step));
     // Agents are not synchronized: each starts ticking at its own phase within the first period
     // (golden-ratio spread over ids). In phase, all agents published at once and every sample queued
     // behind the whole network's burst (inter-agent latency p50 2.5 ms at N = 20, docs/scale.md).
     const double golden = 0.6180339887498949;
     const double phase_fraction = std::fmod(static_cast<double>(id_) * golden, 1.0);
-    const auto phase = std::chrono::duration<double>(phase_fraction * period.count());
-    auto next_tick = std::chrono::steady_clock::now() +
-                     std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
-    auto last_hello = std::chrono::steady_clock::now() - std::chrono::seconds(10);
-    auto last_announcement = std::chrono::steady_clock::now();
-    auto last_batch_seen = std::chrono::steady_clock::now();
-    int last_matched = -1;
-    while (!g_stop_requested.load()) {
-      const auto now = std::chrono::steady_clock::now();
-      // Lockstep wakes on data (the next batch); free run also on its own clock's tick.
-      const double wait_s =
-          lockstep_ ? 0.1 : std::clamp(std::chrono::duration<double>(next_tick - now).count(), 0.0, 0.1);
-      auto inbound = transport_.wait_and_take(wait_s);
-      const Verdict verdict = handle(inbound);
-      if (verdict == Verdict::kRefused) return 2;
-      if (verdict == Verdict::kStop) break;
-      if (!inbound.batches.empty()) last_batch_seen = std::chrono::steady_clock::now();
+    period.phase = std::chrono::duration<double>(phase_fraction * period.tick.count());
+    return period;
+  }
 
-      const auto after = std::chrono::steady_clock::now();
-      // Logged from launch on: with DDS Security a participant that fails authentication never matches.
-      const int matched = transport_.matched_neighbours();
-      if (matched != last_matched) {
-        logger_->info("matched {}/{} neighbours", matched, neighbour_count_);
-        last_matched = matched;
+  void log_matched(LoopTimers& timers) {
+    // Logged from launch on: with DDS Security a participant that fails authentication never matches.
+    const int matched = transport_.matched_neighbours();
+    if (matched != timers.last_matched) {
+      logger_->info("matched {}/{} neighbours", matched, neighbour_count_);
+      timers.last_matched = matched;
+    }
+  }
+
+  /// Before START: gets the initial state to the neighbours and says hello. False when START did not
+  /// come within the start-up timeout (logged).
+  bool await_start(SteadyTime after, const TickPeriod& period, LoopTimers& timers) {
+    if (lockstep_ && !initial_published_ && transport_.neighbours_matched_both_ways()) {
+      publish(runtime_.initial_publication(local_stamp_ns()));
+      if (!transport_.wait_for_acks(kAckTimeoutS)) {
+        logger_->warn("initial sample not acknowledged within {} s", kAckTimeoutS);
       }
-      if (!started_run_) {
-        if (lockstep_ && !initial_published_ && transport_.neighbours_matched_both_ways()) {
-          publish(runtime_.initial_publication(local_stamp_ns()));
-          if (!transport_.wait_for_acks(kAckTimeoutS)) {
-            logger_->warn("initial sample not acknowledged within {} s", kAckTimeoutS);
-          }
-          initial_published_ = true;
-        }
-        // Until START: announce the initial state whenever another neighbour's reader has matched
-        // (best-effort samples written before that are lost to it), and once a second as a backstop.
-        // At 5 Hz to every neighbour the announcements alone kept 2 cores busy at N = 500 and START
-        // took over a minute (docs/scale.md, "Less chatter before START").
-        if (!lockstep_) {
-          const int readers = transport_.matched_neighbour_readers();
-          if (readers > announced_to_ || after - last_announcement > std::chrono::seconds(1)) {
-            announced_to_ = std::max(announced_to_, readers);
-            last_announcement = after;
-            publish(runtime_.initial_publication(local_stamp_ns()));
-          }
-        }
-        // Say hello so the orchestrator can count us (lockstep: once the initial sample is with every
-        // neighbour), but only once START and our measurements can reach us (control and measurement
-        // readers matched): with N >= 150 an agent matched the orchestrator's one reader long before its
-        // writers, said hello, and the orchestrator sent START to agents not yet listening. Repeated
-        // every 0.5 s: a hello written before the orchestrator's reader matched ours is lost.
-        if (after - last_hello > std::chrono::milliseconds(500) && (!lockstep_ || initial_published_) &&
-            transport_.orchestrator_matched()) {
-          last_hello = after;
-          transport_.publish_estimate(report());
-        }
-        if (std::chrono::duration<double>(after - started_).count() >
-            scenario_.run.startup_timeout_s + 30.0) {
-          logger_->error("no START from the orchestrator within {:.0f} s; exiting",
-                         scenario_.run.startup_timeout_s + 30.0);
-          return 1;
-        }
-        next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period + phase);
-        last_batch_seen = after;  // the orchestrator-silence timer starts at START, not at launch
-        continue;
-      }
-      if (sensor_only_) {
-        // Centralized algorithm: the fusion centre estimates and reports every agent. Keep saying hello
-        // (steps_run = 0, so these never replace the fusion centre's reports) and run no estimator.
-        if (after - last_hello > std::chrono::milliseconds(500)) {
-          last_hello = after;
-          transport_.publish_estimate(report());
-        }
-        next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
-      } else if (lockstep_) {
-        // One step per world-step batch, on the neighbours' samples of earlier steps only.
-        if (runtime_.has_pending_batch()) {
-          release_held(runtime_.steps_run());
-          health_.on_tick(0.0, 0);  // lockstep steps on data, not on a schedule: nothing to be late for
-          tick();
-        }
-      } else if (after >= next_tick) {
-        const double lateness_s = std::chrono::duration<double>(after - next_tick).count();
-        next_tick += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
-        std::uint32_t missed = 0;
-        if (next_tick < after) {  // overran: do not burst to catch up
-          missed = static_cast<std::uint32_t>(std::floor(lateness_s / period.count()));
-          next_tick = after;
-        }
-        health_.on_tick(lateness_s, missed);
-        tick();
-      }
-      // The orchestrator normally says STOP; if it vanished (crash, kill -9), do not linger.
-      const double silent_s = std::chrono::duration<double>(after - last_batch_seen).count();
-      // Lockstep waits for the slowest agent every step: allow it the start-up timeout.
-      const double silence_limit_s =
-          lockstep_ ? scenario_.run.startup_timeout_s : std::max(5.0, 50.0 * period_local_s);
-      if (silent_s > silence_limit_s) {
-        logger_->warn("no measurements for {:.1f} s: orchestrator gone, exiting", silent_s);
-        break;
+      initial_published_ = true;
+    }
+    // Until START: announce the initial state whenever another neighbour's reader has matched
+    // (best-effort samples written before that are lost to it), and once a second as a backstop.
+    // At 5 Hz to every neighbour the announcements alone kept 2 cores busy at N = 500 and START
+    // took over a minute (docs/scale.md, "Less chatter before START").
+    if (!lockstep_) {
+      const int readers = transport_.matched_neighbour_readers();
+      if (readers > announced_to_ || after - timers.last_announcement > std::chrono::seconds(1)) {
+        announced_to_ = std::max(announced_to_, readers);
+        timers.last_announcement = after;
+        publish(runtime_.initial_publication(local_stamp_ns()));
       }
     }
+    // Say hello so the orchestrator can count us (lockstep: once the initial sample is with every
+    // neighbour), but only once START and our measurements can reach us (control and measurement
+    // readers matched): with N >= 150 an agent matched the orchestrator's one reader long before its
+    // writers, said hello, and the orchestrator sent START to agents not yet listening. Repeated
+    // every 0.5 s: a hello written before the orchestrator's reader matched ours is lost.
+    if (after - timers.last_hello > std::chrono::milliseconds(500) && (!lockstep_ || initial_published_) &&
+        transport_.orchestrator_matched()) {
+      timers.last_hello = after;
+      transport_.publish_estimate(report());
+    }
+    if (std::chrono::duration<double>(after - started_).count() > scenario_.run.startup_timeout_s + 30.0) {
+      logger_->error("no START from the orchestrator within {:.0f} s; exiting",
+                     scenario_.run.startup_timeout_s + 30.0);
+      return false;
+    }
+    timers.next_tick =
+        after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period.tick + period.phase);
+    timers.last_batch_seen = after;  // the orchestrator-silence timer starts at START, not at launch
+    return true;
+  }
+
+  /// After START: steps when due (free run: on our clock's tick; lockstep: on each world step's batch).
+  void step_when_due(SteadyTime after, const TickPeriod& period, LoopTimers& timers) {
+    if (sensor_only_) {
+      // Centralized algorithm: the fusion centre estimates and reports every agent. Keep saying hello
+      // (steps_run = 0, so these never replace the fusion centre's reports) and run no estimator.
+      if (after - timers.last_hello > std::chrono::milliseconds(500)) {
+        timers.last_hello = after;
+        transport_.publish_estimate(report());
+      }
+      timers.next_tick = after + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period.tick);
+    } else if (lockstep_) {
+      // One step per world-step batch, on the neighbours' samples of earlier steps only.
+      if (runtime_.has_pending_batch()) {
+        release_held(runtime_.steps_run());
+        health_.on_tick(0.0, 0);  // lockstep steps on data, not on a schedule: nothing to be late for
+        tick();
+      }
+    } else if (after >= timers.next_tick) {
+      const double lateness_s = std::chrono::duration<double>(after - timers.next_tick).count();
+      timers.next_tick += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period.tick);
+      std::uint32_t missed = 0;
+      if (timers.next_tick < after) {  // overran: do not burst to catch up
+        missed = static_cast<std::uint32_t>(std::floor(lateness_s / period.tick.count()));
+        timers.next_tick = after;
+      }
+      health_.on_tick(lateness_s, missed);
+      tick();
+    }
+  }
+
+  /// The orchestrator normally says STOP; if it vanished (crash, kill -9), do not linger. True (logged)
+  /// when it has been silent too long.
+  bool orchestrator_gone(SteadyTime after, const TickPeriod& period, const LoopTimers& timers) const {
+    const double silent_s = std::chrono::duration<double>(after - timers.last_batch_seen).count();
+    // Lockstep waits for the slowest agent every step: allow it the start-up timeout.
+    const double silence_limit_s =
+        lockstep_ ? scenario_.run.startup_timeout_s : std::max(5.0, 50.0 * period.local_s);
+    if (silent_s > silence_limit_s) {
+      logger_->warn("no measurements for {:.1f} s: orchestrator gone, exiting", silent_s);
+      return true;
+    }
+    return false;
+  }
+
+  /// The last report, the diagnostics, and the sample log closed.
+  void finish() {
     transport_.publish_estimate(report());
     log_diagnostics();
     if (sample_log_) {
       sample_log_->close();
       logger_->info("recorded {} inter-agent samples to {}", sample_log_->count(), options_.record_path);
     }
-    return 0;
   }
-
- private:
-  enum class Verdict { kContinue, kStop, kRefused };
 
   /// Feeds inbound samples to the runtime; STOP, or a refusal of our scenario, ends the run.
   Verdict handle(const dds::AgentInbound& inbound) {

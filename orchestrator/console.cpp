@@ -55,7 +55,7 @@ std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& e
   char line[200];
   std::snprintf(line, sizeof line,
                 "[%5.1fs] step %4lld/%d  rmse %8.4f m  max %8.4f m  agents reporting %d/%d", elapsed_s,
-                static_cast<long long>(step + 1), steps, errors.rmse_m, errors.max_error_m, reporting,
+                static_cast<long long>(step) + 1, steps, errors.rmse_m, errors.max_error_m, reporting,
                 agents);
   return line;
 }

@@ -12,14 +12,13 @@
 #include <fstream>
 #include <memory>
 #include <optional>
-#include <random>
 #include <set>
 #include <thread>
 
 #include "console.hpp"
 #include "launcher.hpp"
 #include "live_view.hpp"
-#include "preflight.hpp"
+#include "run_setup.hpp"
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/runtime/liveness.hpp"
@@ -34,15 +33,6 @@ namespace {
 sim::World with_recording(sim::World world, const RunOptions& options) {
   sim::attach_recorded(world, options.recorded);
   return world;
-}
-
-/// 12 hex digits from the OS's entropy: a run id no other run on the domain shares.
-std::string fresh_run_id() {
-  std::random_device entropy;
-  const std::uint64_t value = (static_cast<std::uint64_t>(entropy()) << 32) ^ entropy();
-  char text[24];
-  std::snprintf(text, sizeof text, "r%012llx", static_cast<unsigned long long>(value & 0xffffffffffffULL));
-  return text;
 }
 
 /// How old an estimate may be and still count as current, and when silence is a stall (free run: a few
@@ -82,15 +72,7 @@ class Orchestrator {
   int run() {
     const auto started = origin_;
     const int n = world_.size();
-    latest_.assign(static_cast<std::size_t>(n), std::nullopt);
-    reports_.assign(static_cast<std::size_t>(n), std::nullopt);
-    record_.scenario = scenario_;
-    record_.mode = lockstep_ ? "dds-lockstep" : "dds-free-run";
-    record_.agents = n;
-    record_.anchors = world_.anchor_count();
-    record_.mean_degree = world_.mean_degree();
-    sim::compute_run_bounds(record_, world_);
-
+    start_record(n);
     if (options_.view_port >= 0) start_view();
     if (options_.record) {
       recording_ = std::make_unique<sim::RecordingWriter>(run_dir_ / sim::kRecordingFile, scenario_, world_);
@@ -117,6 +99,31 @@ class Orchestrator {
     if (ready) failed = !drive(transport, started);
     // The world's own rate: below run.rate_hz when the orchestrator cannot keep up (docs/scale.md).
     if (ready) record_.extra["world_steps_s"] = seconds_since(world_phase_start);
+    settle_and_stop(transport, ready, failed, world_phase_start);
+    finish_scoring();
+    launcher_.stop_all(5.0);
+    const sim::RunHealth health = complete_record(transport, started, ready);
+    sim::write_run_directory(run_dir_, record_);
+    return report_result(health, failed);
+  }
+
+ private:
+  /// What the run record knows before the run: the scenario, the mode and the world's shape.
+  void start_record(int n) {
+    latest_.assign(static_cast<std::size_t>(n), std::nullopt);
+    reports_.assign(static_cast<std::size_t>(n), std::nullopt);
+    record_.scenario = scenario_;
+    record_.mode = lockstep_ ? "dds-lockstep" : "dds-free-run";
+    record_.agents = n;
+    record_.anchors = world_.anchor_count();
+    record_.mean_degree = world_.mean_degree();
+    sim::compute_run_bounds(record_, world_);
+  }
+
+  /// After the world steps (or a failed start): the settle time (none after a failure), STOP, the last
+  /// reports.
+  void settle_and_stop(dds::OrchestratorTransport& transport, bool ready, bool failed,
+                       Clock::time_point world_phase_start) {
     // Let the last estimates arrive, then stop everyone.
     publish_view("settling");
     const auto settle_until =
@@ -131,8 +138,11 @@ class Orchestrator {
     transport.publish_control(stop);
     if (ready) record_.world_phase_s = seconds_since(world_phase_start);
     collect(transport, 0.3);
-    finish_scoring();
-    launcher_.stop_all(5.0);
+  }
+
+  /// The run record's closing figures (processes, exit codes, liveness, health, recording); the health.
+  sim::RunHealth complete_record(const dds::OrchestratorTransport& transport, Clock::time_point started,
+                                 bool ready) {
     record_.processes = launcher_.size() + 1;
     record_.interrupted = interrupted().load();
     record_.wall_s = seconds_since(started);
@@ -147,7 +157,7 @@ class Orchestrator {
     record_.extra["liveness"] = liveness_.to_json();
     if (fusion_exit_) record_.extra["liveness"]["fusion_center_ended"] = *fusion_exit_;
     if (!refused_.empty()) record_.extra["refused_agents"] = refused_json();
-    const sim::RunHealth health = assess_health(ready);
+    sim::RunHealth health = assess_health(ready);
     record_.extra["health"] = sim::to_json(health);
     if (lockstep_) record_.extra["lockstep_timeouts"] = lockstep_timeouts_;
     record_.extra["run_directory"] = run_dir_.string();
@@ -159,7 +169,11 @@ class Orchestrator {
           {"sample_logs", std::string(sim::kSampleLogDirectory) + "/agent_<id>.slrec"}};
     }
     for (const auto& [key, value] : options_.summary_extra.items()) record_.extra[key] = value;
-    sim::write_run_directory(run_dir_, record_);
+    return health;
+  }
+
+  /// Once summary.json is written: the result table, the health, the live view's final state. The exit code.
+  int report_result(const sim::RunHealth& health, bool failed) {
     publish_view(record_.interrupted || failed ? "stopped" : "done", true);  // done: summary.json is written
     progress_.finish();
     std::printf("%s", sim::result_table(record_).c_str());
@@ -175,8 +189,6 @@ class Orchestrator {
     }
     return code;
   }
-
- private:
   void start_view() {
     view_ = std::make_unique<LiveView>(options_.view_port);
     spdlog::info("live view: {}", view_->url());
@@ -642,17 +654,6 @@ class Orchestrator {
 
 }  // namespace
 
-int run_orchestrator(const RunOptions& options) {
-  config::Scenario scenario;
-  try {
-    scenario = config::load_scenario(options.scenario_path, options.overrides);
-  } catch (const config::ScenarioError& error) {
-    std::fprintf(stderr, "error: %s\n", error.what());
-    return 2;
-  }
-  return run_orchestrator(std::move(scenario), options);
-}
-
 int run_orchestrator(config::Scenario scenario, const RunOptions& options) {
   // First: Ctrl-C must work while a large world is built (docs/robustness.md, "Large inputs").
   install_interrupt_handlers();
@@ -663,28 +664,7 @@ int run_orchestrator(config::Scenario scenario, const RunOptions& options) {
   bool run_dir_existed = false;
   sim::World world;
   try {
-    check_hostile_ids(options.hostile_agents, scenario);
-    dds::require_ports_fit(scenario);
-    if (!scenario.dds.security_dir.empty()) {
-      // Agents read the run directory's scenario.yaml, possibly from another working directory.
-      scenario.dds.security_dir = std::filesystem::absolute(scenario.dds.security_dir).lexically_normal();
-      dds::security_files(scenario.dds.security_dir, kOrchestratorId);
-      if (options.launch_agents) {
-        for (AgentId id = 0; id < scenario.world.agents; ++id)
-          dds::security_files(scenario.dds.security_dir, id);
-        if (sim::is_centralized(scenario.algorithm.name)) {
-          dds::security_files(scenario.dds.security_dir, dds::kFusionCenterId);
-        }
-      }
-    }
-    // An unusable --out is bad input, found before any work (docs/robustness.md, "Outputs").
-    run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
-    std::error_code ignored;
-    run_dir_existed = std::filesystem::exists(run_dir, ignored);
-    sim::prepare_run_directory(run_dir, options.force);
-    // Placement and algorithm errors are bad input, found before anything starts; the world built for
-    // the check is the run's.
-    world = check_runnable(scenario, control);
+    world = prepare_run(scenario, options, control, run_dir, run_dir_existed);
     progress.finish();
   } catch (const sim::Cancelled&) {
     progress.finish();

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstddef>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -61,22 +62,20 @@ class SlowPhaseNotice {
   std::thread thread_;
 };
 
-}  // namespace
+/// What the phases of `swarmloc sim` share.
+struct SimCommand {
+  const config::Scenario& scenario;
+  const SimCommandOptions& options;
+  const std::filesystem::path& run_dir;
+  Progress& progress;
+  Clock::time_point started;
+  const sim::WorkControl& control;
+  const char*& cancelled_when;  ///< what an interrupt (sim::Cancelled) leaves behind, for its message
+};
 
-int run_sim_command(const SimCommandOptions& options) {
-  config::Scenario scenario;
-  try {
-    scenario = config::load_scenario(options.scenario_path, options.overrides);
-  } catch (const config::ScenarioError& error) {
-    std::fprintf(stderr, "error: %s\n", error.what());
-    return 2;
-  }
-  return run_sim_command(std::move(scenario), options);
-}
-
-int run_sim_command(config::Scenario scenario, const SimCommandOptions& options) {
-  // Ctrl-C (SIGINT, SIGTERM, SIGHUP) in every phase: building a 10^5-agent world alone takes minutes.
-  install_interrupt_handlers();
+/// Option combinations `sim` refuses: 2 (told on stderr), else 0. (--view with --trials is checked
+/// later, once the run directory is named.)
+int check_options(const config::Scenario& scenario, const SimCommandOptions& options) {
   try {
     check_hostile_ids(options.hostile_agents, scenario);
   } catch (const config::ScenarioError& error) {
@@ -92,6 +91,212 @@ int run_sim_command(config::Scenario scenario, const SimCommandOptions& options)
                  "error: --record and replay are single runs; they cannot be combined with --trials\n");
     return 2;
   }
+  return 0;
+}
+
+/// --view: the live view, showing the world while the in-process run computes.
+std::unique_ptr<LiveView> start_view(const config::Scenario& scenario, const sim::World& world,
+                                     const SimCommandOptions& options) {
+  auto view = std::make_unique<LiveView>(options.view_port);
+  auto waiting = view_snapshot(scenario, world);
+  waiting.mode = "sim";
+  waiting.phase = "simulating";
+  view->publish(std::move(waiting));
+  spdlog::info("live view: {} (the in-process run is played back at run.rate_hz once it is done)",
+               view->url());
+  return view;
+}
+
+/// The Monte Carlo figures beyond the per-step tables.
+struct MonteCarloFigures {
+  double mean = 0.0;    ///< final RMSE, mean over trials
+  double spread = 0.0;  ///< final RMSE, standard deviation over trials
+  double mc_rmse = 0.0;
+  double mc_bound = 0.0;
+  std::ptrdiff_t trials_flagged = 0;
+};
+
+/// Adds summary.json's "monte_carlo" block to the first trial's record and returns its figures.
+MonteCarloFigures summarize_monte_carlo(sim::MonteCarloResult& result, const std::filesystem::path& run_dir) {
+  MonteCarloFigures figures;
+  double& mean = figures.mean;
+  double sq = 0.0;
+  for (double r : result.final_rmse_per_trial) mean += r, sq += r * r;
+  mean /= result.trials;
+  figures.spread = std::sqrt(std::max(0.0, sq / result.trials - mean * mean));
+  auto& record = result.first_trial;
+  record.wall_s = result.wall_s;
+  record.extra["run_directory"] = run_dir.string();
+  record.extra["monte_carlo"] = {{"trials", result.trials},
+                                 {"threads", result.threads},
+                                 {"wall_s", result.wall_s},
+                                 {"final_rmse_mean_m", mean},
+                                 {"final_rmse_std_m", figures.spread},
+                                 {"final_mse_mean_m2", result.steps.back().mse_mean},
+                                 {"final_nees_mean", result.steps.back().nees_mean}};
+  // Trials with an agent whose self-check flags it at the final step (docs/algorithms.md §1.6).
+  const auto& flagged = result.final_flagged_per_trial;
+  figures.trials_flagged = std::count_if(flagged.begin(), flagged.end(), [](int f) { return f > 0; });
+  record.extra["monte_carlo"]["trials_flagged"] = figures.trials_flagged;
+  // MC RMSE = sqrt of the mean final squared error: the quantity the bound bounds.
+  figures.mc_rmse = std::sqrt(result.steps.back().mse_mean);
+  figures.mc_bound = result.steps.back().bound_rmse_m;
+  auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+  record.extra["monte_carlo"]["mc_rmse_m"] = figures.mc_rmse;
+  record.extra["monte_carlo"]["bound_kind"] = std::string(sim::to_string(record.bound.kind));
+  record.extra["monte_carlo"]["bound_rmse_m"] = finite_or_null(figures.mc_bound);
+  record.extra["monte_carlo"]["bound_all_data_rmse_m"] =
+      finite_or_null(result.steps.back().bound_all_data_rmse_m);
+  record.extra["monte_carlo"]["ratio"] = finite_or_null(figures.mc_rmse / figures.mc_bound);
+  return figures;
+}
+
+void print_monte_carlo(const sim::MonteCarloResult& result, const MonteCarloFigures& figures,
+                       const std::filesystem::path& run_dir) {
+  const auto& record = result.first_trial;
+  std::printf("%s", sim::result_table(record).c_str());
+  std::printf(
+      "  Monte Carlo: %d trials on %d threads in %.2f s; final RMSE %.4f ± %.4f m (mean ± std over "
+      "trials)\n",
+      result.trials, result.threads, result.wall_s, figures.mean, figures.spread);
+  std::printf(
+      "  Monte Carlo RMSE (sqrt of the mean final squared error) %.4f m; bound (%s) %.4f m; ratio %.2f\n",
+      figures.mc_rmse, std::string(sim::to_string(record.bound.kind)).c_str(), figures.mc_bound,
+      figures.mc_rmse / figures.mc_bound);
+  std::printf("  Monte Carlo: %lld of %d trials end with agents flagged by their self-check\n",
+              static_cast<long long>(figures.trials_flagged), result.trials);
+  std::printf("  run directory: %s\n", run_dir.string().c_str());
+}
+
+/// --trials > 1: Monte Carlo over every core; writes the run directory and prints the summary.
+int run_trials(const SimCommand& command) {
+  const auto& options = command.options;
+  auto& progress = command.progress;
+  const auto started = command.started;
+  auto result = sim::run_monte_carlo(
+      command.scenario, options.trials, options.threads,
+      [&](int done, int total) {
+        progress.update("[" + std::to_string(static_cast<int>(seconds_since(started))) + "s] trials " +
+                            std::to_string(done) + "/" + std::to_string(total),
+                        done == total);
+      },
+      {}, &interrupted());
+  progress.finish();
+  const MonteCarloFigures figures = summarize_monte_carlo(result, command.run_dir);
+  {
+    const SlowPhaseNotice notice(options.progress, "writing the run directory");
+    // summary.json is the run directory's last file: the Monte Carlo tables go first.
+    sim::write_monte_carlo(command.run_dir, result);
+    sim::write_run_directory(command.run_dir, result.first_trial, command.control);
+  }
+  print_monte_carlo(result, figures, command.run_dir);
+  return 0;
+}
+
+/// One in-process run's options: threads, --hostile, replay, Ctrl-C, progress and --record (into
+/// `recorder`, which must outlive the run).
+sim::SimOptions single_run_options(const SimCommand& command,
+                                   std::unique_ptr<sim::DirectoryRecorder>& recorder) {
+  const auto& options = command.options;
+  sim::SimOptions sim_options;
+  // Results are identical for any count; unasked, large worlds use every core (auto_round_threads).
+  sim_options.round_threads = options.threads;
+  sim_options.hostile_agents = options.hostile_agents;
+  sim_options.recorded = options.recorded;
+  sim_options.control = command.control;
+  if (options.record) {
+    recorder = std::make_unique<sim::DirectoryRecorder>(command.run_dir);
+    sim_options.recorder = recorder.get();
+  }
+  sim_options.on_step = [&progress = command.progress, &scenario = command.scenario,
+                         started = command.started](std::int64_t step, const sim::ErrorStats& errors) {
+    progress.update(progress_line(step, scenario.run.steps, errors, scenario.world.agents,
+                                  scenario.world.agents, seconds_since(started)),
+                    step + 1 == scenario.run.steps);
+    // The agent-clock and centralized runners poll no flag: they stop here, after a step, and write
+    // nothing (the round runner returns the steps done instead).
+    if (interrupted().load()) throw sim::Cancelled();
+  };
+  return sim_options;
+}
+
+/// The single run's result table, its interruption, and --view's playback. The exit code.
+int report_single_run(const SimCommand& command, const sim::RunRecord& record, LiveView* view) {
+  const auto& scenario = command.scenario;
+  std::printf("%s", sim::result_table(record).c_str());
+  std::printf("  run directory: %s\n", command.run_dir.string().c_str());
+  if (interrupted().load() && !record.interrupted) {
+    std::fprintf(stderr, "interrupted while the run directory was written: it was completed first\n");
+  }
+  if (record.interrupted) {
+    std::fprintf(stderr,
+                 "interrupted after %zu of %d steps; the run directory holds them (interrupted: true)\n",
+                 record.metrics.size(), scenario.run.steps);
+    return 1;
+  }
+  if (view) {
+    std::printf(
+        "  live view: %s (playing back %zu steps at %g Hz, then serving the final state %s; Ctrl-C ends)\n",
+        view->url().c_str(), record.metrics.size(), scenario.run.rate_hz,
+        hold_text(command.options.view_hold_s).c_str());
+    std::fflush(stdout);
+    play_back(*view, scenario, record, interrupted());
+    view->hold(command.options.view_hold_s, interrupted());
+  }
+  return 0;
+}
+
+/// One in-process run on `world`: simulates, writes the run directory, reports.
+int run_single(const SimCommand& command, sim::World& world, LiveView* view) {
+  const auto& scenario = command.scenario;
+  const auto& options = command.options;
+  std::unique_ptr<sim::DirectoryRecorder> recorder;
+  const sim::SimOptions sim_options = single_run_options(command, recorder);
+  if (scenario.run.sim_clock == config::SimClock::kAgents || sim::is_centralized(scenario.algorithm.name))
+    command.cancelled_when =
+        "during the simulation (run.sim_clock: agents and centralized runs keep no partial run)";
+  auto record = sim::run_simulation(scenario, std::move(world), sim_options);
+  command.progress.finish();
+  record.extra["run_directory"] = command.run_dir.string();
+  if (recorder) {
+    recorder->close();
+    record.extra["recording"] = {
+        {"file", sim::kRecordingFile},
+        {"steps", recorder->steps()},
+        {"sample_log", std::string(sim::kSampleLogDirectory) + "/" + sim::kSimSampleLogFile},
+        {"samples", recorder->samples()}};
+  }
+  for (const auto& [key, value] : options.summary_extra.items()) record.extra[key] = value;
+  {
+    const SlowPhaseNotice notice(options.progress, "writing the run directory");
+    command.cancelled_when = "while the run directory was written: it is incomplete (no summary.json)";
+    // After a Ctrl-C that stopped the simulation, the steps done are saved; a second one cancels that.
+    sim::WorkControl writing = command.control;
+    if (record.interrupted) writing.cancel = &interrupted_again();
+    sim::write_run_directory(command.run_dir, record, writing);
+  }
+  return report_single_run(command, record, view);
+}
+
+}  // namespace
+
+int run_sim_command(const SimCommandOptions& options) {
+  config::Scenario scenario;
+  try {
+    scenario = config::load_scenario(options.scenario_path, options.overrides);
+  } catch (const config::ScenarioError& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 2;
+  }
+  return run_sim_command(std::move(scenario), options);
+}
+
+// By value as run_orchestrator(config::Scenario, ...), whose public signature it mirrors (orchestrator.hpp).
+// NOLINTNEXTLINE(performance-unnecessary-value-param)
+int run_sim_command(config::Scenario scenario, const SimCommandOptions& options) {
+  // Ctrl-C (SIGINT, SIGTERM, SIGHUP) in every phase: building a 10^5-agent world alone takes minutes.
+  install_interrupt_handlers();
+  if (const int code = check_options(scenario, options); code != 0) return code;
   const auto run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
   if (options.view_port >= 0 && options.trials > 1) {
     std::fprintf(stderr, "error: --view shows one run; it cannot be combined with --trials\n");
@@ -103,143 +308,20 @@ int run_sim_command(config::Scenario scenario, const SimCommandOptions& options)
   std::error_code ignored;
   const bool run_dir_existed = std::filesystem::exists(run_dir, ignored);
   const char* cancelled_when = "before the first step; nothing written";
+  const SimCommand command{scenario, options, run_dir, progress, started, control, cancelled_when};
   try {
     sim::prepare_run_directory(run_dir, options.force);
     // The world is built once (the check's world is the run's), after the run directory is known to be
     // writable: a bad --out is reported at once, not after minutes of work.
     sim::World world = check_runnable(scenario, control);
     std::unique_ptr<LiveView> view;
-    if (options.view_port >= 0) {
-      view = std::make_unique<LiveView>(options.view_port);
-      auto waiting = view_snapshot(scenario, world);
-      waiting.mode = "sim";
-      waiting.phase = "simulating";
-      view->publish(std::move(waiting));
-      spdlog::info("live view: {} (the in-process run is played back at run.rate_hz once it is done)",
-                   view->url());
-    }
+    if (options.view_port >= 0) view = start_view(scenario, world, options);
     if (options.trials > 1) {
       world = {};  // each trial builds its own
       cancelled_when = "during the trials; nothing written (an unfinished Monte Carlo run writes nothing)";
-      auto result = sim::run_monte_carlo(
-          scenario, options.trials, options.threads,
-          [&](int done, int total) {
-            progress.update("[" + std::to_string(static_cast<int>(seconds_since(started))) + "s] trials " +
-                                std::to_string(done) + "/" + std::to_string(total),
-                            done == total);
-          },
-          {}, &interrupted());
-      progress.finish();
-      double mean = 0.0, sq = 0.0;
-      for (double r : result.final_rmse_per_trial) mean += r, sq += r * r;
-      mean /= result.trials;
-      const double spread = std::sqrt(std::max(0.0, sq / result.trials - mean * mean));
-      auto& record = result.first_trial;
-      record.wall_s = result.wall_s;
-      record.extra["run_directory"] = run_dir.string();
-      record.extra["monte_carlo"] = {{"trials", result.trials},
-                                     {"threads", result.threads},
-                                     {"wall_s", result.wall_s},
-                                     {"final_rmse_mean_m", mean},
-                                     {"final_rmse_std_m", spread},
-                                     {"final_mse_mean_m2", result.steps.back().mse_mean},
-                                     {"final_nees_mean", result.steps.back().nees_mean}};
-      // Trials with an agent whose self-check flags it at the final step (docs/algorithms.md §1.6).
-      const auto& flagged = result.final_flagged_per_trial;
-      const auto trials_flagged = std::count_if(flagged.begin(), flagged.end(), [](int f) { return f > 0; });
-      record.extra["monte_carlo"]["trials_flagged"] = trials_flagged;
-      // MC RMSE = sqrt of the mean final squared error: the quantity the bound bounds.
-      const double mc_rmse = std::sqrt(result.steps.back().mse_mean);
-      const double mc_bound = result.steps.back().bound_rmse_m;
-      auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
-      record.extra["monte_carlo"]["mc_rmse_m"] = mc_rmse;
-      record.extra["monte_carlo"]["bound_kind"] = std::string(sim::to_string(record.bound.kind));
-      record.extra["monte_carlo"]["bound_rmse_m"] = finite_or_null(mc_bound);
-      record.extra["monte_carlo"]["bound_all_data_rmse_m"] =
-          finite_or_null(result.steps.back().bound_all_data_rmse_m);
-      record.extra["monte_carlo"]["ratio"] = finite_or_null(mc_rmse / mc_bound);
-      {
-        const SlowPhaseNotice notice(options.progress, "writing the run directory");
-        // summary.json is the run directory's last file: the Monte Carlo tables go first.
-        sim::write_monte_carlo(run_dir, result);
-        sim::write_run_directory(run_dir, record, control);
-      }
-      std::printf("%s", sim::result_table(record).c_str());
-      std::printf(
-          "  Monte Carlo: %d trials on %d threads in %.2f s; final RMSE %.4f ± %.4f m (mean ± std over "
-          "trials)\n",
-          result.trials, result.threads, result.wall_s, mean, spread);
-      std::printf(
-          "  Monte Carlo RMSE (sqrt of the mean final squared error) %.4f m; bound (%s) %.4f m; ratio %.2f\n",
-          mc_rmse, std::string(sim::to_string(record.bound.kind)).c_str(), mc_bound, mc_rmse / mc_bound);
-      std::printf("  Monte Carlo: %lld of %d trials end with agents flagged by their self-check\n",
-                  static_cast<long long>(trials_flagged), result.trials);
-      std::printf("  run directory: %s\n", run_dir.string().c_str());
-      return 0;
+      return run_trials(command);
     }
-    sim::SimOptions sim_options;
-    // Results are identical for any count; unasked, large worlds use every core (auto_round_threads).
-    sim_options.round_threads = options.threads;
-    sim_options.hostile_agents = options.hostile_agents;
-    sim_options.recorded = options.recorded;
-    sim_options.control = control;
-    std::unique_ptr<sim::DirectoryRecorder> recorder;
-    if (options.record) {
-      recorder = std::make_unique<sim::DirectoryRecorder>(run_dir);
-      sim_options.recorder = recorder.get();
-    }
-    sim_options.on_step = [&](std::int64_t step, const sim::ErrorStats& errors) {
-      progress.update(progress_line(step, scenario.run.steps, errors, scenario.world.agents,
-                                    scenario.world.agents, seconds_since(started)),
-                      step + 1 == scenario.run.steps);
-      // The agent-clock and centralized runners poll no flag: they stop here, after a step, and write
-      // nothing (the round runner returns the steps done instead).
-      if (interrupted().load()) throw sim::Cancelled();
-    };
-    if (scenario.run.sim_clock == config::SimClock::kAgents || sim::is_centralized(scenario.algorithm.name))
-      cancelled_when =
-          "during the simulation (run.sim_clock: agents and centralized runs keep no partial run)";
-    auto record = sim::run_simulation(scenario, std::move(world), sim_options);
-    progress.finish();
-    record.extra["run_directory"] = run_dir.string();
-    if (recorder) {
-      recorder->close();
-      record.extra["recording"] = {
-          {"file", sim::kRecordingFile},
-          {"steps", recorder->steps()},
-          {"sample_log", std::string(sim::kSampleLogDirectory) + "/" + sim::kSimSampleLogFile},
-          {"samples", recorder->samples()}};
-    }
-    for (const auto& [key, value] : options.summary_extra.items()) record.extra[key] = value;
-    {
-      const SlowPhaseNotice notice(options.progress, "writing the run directory");
-      cancelled_when = "while the run directory was written: it is incomplete (no summary.json)";
-      // After a Ctrl-C that stopped the simulation, the steps done are saved; a second one cancels that.
-      sim::WorkControl writing = control;
-      if (record.interrupted) writing.cancel = &interrupted_again();
-      sim::write_run_directory(run_dir, record, writing);
-    }
-    std::printf("%s", sim::result_table(record).c_str());
-    std::printf("  run directory: %s\n", run_dir.string().c_str());
-    if (interrupted().load() && !record.interrupted) {
-      std::fprintf(stderr, "interrupted while the run directory was written: it was completed first\n");
-    }
-    if (record.interrupted) {
-      std::fprintf(stderr,
-                   "interrupted after %zu of %d steps; the run directory holds them (interrupted: true)\n",
-                   record.metrics.size(), scenario.run.steps);
-      return 1;
-    }
-    if (view) {
-      std::printf(
-          "  live view: %s (playing back %zu steps at %g Hz, then serving the final state %s; Ctrl-C ends)\n",
-          view->url().c_str(), record.metrics.size(), scenario.run.rate_hz,
-          hold_text(options.view_hold_s).c_str());
-      std::fflush(stdout);
-      play_back(*view, scenario, record, interrupted());
-      view->hold(options.view_hold_s, interrupted());
-    }
-    return 0;
+    return run_single(command, world, view.get());
   } catch (const sim::Cancelled&) {
     progress.finish();
     discard_if_empty(run_dir, run_dir_existed);

@@ -12,29 +12,29 @@ using enum AlgorithmFamily;
 using enum RangeDraws;
 using enum AnchorData;
 
-[[noreturn]] void fail(std::string_view path, const std::string& message) {
+[[noreturn]] void reject_key(std::string_view path, const std::string& message) {
   throw ScenarioError(std::string(path) + ": " + message);
 }
 
 void validate_dml(const Scenario& s) {
   if (s.world.motion != Motion::kStatic) {
-    fail("world.motion",
-         "must be static for dml (it pools every range draw of the run; docs/algorithms.md §9)");
+    reject_key("world.motion",
+               "must be static for dml (it pools every range draw of the run; docs/algorithms.md §9)");
   }
   if (s.noise.anchor_fix_std_m > 0.0) {
-    fail("noise.anchor_fix_std_m",
-         "must be 0 for dml (it needs exactly known anchors; docs/algorithms.md §9.7)");
+    reject_key("noise.anchor_fix_std_m",
+               "must be 0 for dml (it needs exactly known anchors; docs/algorithms.md §9.7)");
   }
   if (s.noise.shared_range_draws) {
-    fail("noise.shared_range_draws",
-         "must be false for dml (it counts each end's draws as independent; docs/algorithms.md §9.7)");
+    reject_key("noise.shared_range_draws",
+               "must be false for dml (it counts each end's draws as independent; docs/algorithms.md §9.7)");
   }
 }
 
 void require_relative_information(const Scenario& s, std::string_view name) {
   if (!(s.noise.relative_std_m > 0.0)) {
-    fail("noise.relative_std_m",
-         "must be > 0 for " + std::string(name) + " (its measurement information is 1/relative_std_m²)");
+    reject_key("noise.relative_std_m", "must be > 0 for " + std::string(name) +
+                                           " (its measurement information is 1/relative_std_m²)");
   }
 }
 
@@ -42,30 +42,31 @@ void validate_jacobi(const Scenario& s) { require_relative_information(s, "jacob
 
 void validate_dle(const Scenario& s) {
   if (s.world.motion != Motion::kStatic) {
-    fail("world.motion", "must be static for dle (its sensors use their known, fixed positions)");
+    reject_key("world.motion", "must be static for dle (its sensors use their known, fixed positions)");
   }
   if (!(s.noise.target_std_m > 0.0)) {
-    fail("noise.target_std_m", "must be > 0 for dle (its reading information is 1/target_std_m²)");
+    reject_key("noise.target_std_m", "must be > 0 for dle (its reading information is 1/target_std_m²)");
   }
 }
 
 void validate_joint_field(const Scenario& s) {
   if (s.world.motion != Motion::kStatic) {
-    fail("world.motion", "must be static for joint_field (Jacobi localizes static sensors)");
+    reject_key("world.motion", "must be static for joint_field (Jacobi localizes static sensors)");
   }
   if (!(s.noise.field_std > 0.0)) {
-    fail("noise.field_std", "must be > 0 for joint_field (its reading information is 1/field_std²)");
+    reject_key("noise.field_std", "must be > 0 for joint_field (its reading information is 1/field_std²)");
   }
   require_relative_information(s, "joint_field");
 }
 
 void validate_multipath_bp(const Scenario& s) {
   if (s.world.wall_count < 1) {
-    fail("world.wall_count",
-         "multipath_bp needs at least one reflecting wall (it uses reflected paths only)");
+    reject_key("world.wall_count",
+               "multipath_bp needs at least one reflecting wall (it uses reflected paths only)");
   }
   if (!(s.noise.range_std_m > 0.0)) {
-    fail("noise.range_std_m", "must be > 0 for multipath_bp (its path-length variance is range_std_m²)");
+    reject_key("noise.range_std_m",
+               "must be > 0 for multipath_bp (its path-length variance is range_std_m²)");
   }
 }
 
@@ -136,8 +137,8 @@ std::string known_algorithm_list() {
 
 const AlgorithmSpec& algorithm_spec(std::string_view name) {
   if (const AlgorithmSpec* spec = find_algorithm(name)) return *spec;
-  fail("algorithm.name",
-       "'" + std::string(name) + "' is not a known algorithm (known: " + known_algorithm_list() + ")");
+  reject_key("algorithm.name",
+             "'" + std::string(name) + "' is not a known algorithm (known: " + known_algorithm_list() + ")");
 }
 
 bool runs_in_fusion_centre(std::string_view name) {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <concepts>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 #include <system_error>
 #include <type_traits>
@@ -284,10 +285,12 @@ void add_qos_keys(std::vector<KeySpec>& keys, const std::string& family, Family 
   add_qos_keys(              \
       keys, #family, [](auto& scenario) -> auto& { return scenario.qos.family; })
 
-std::vector<KeySpec> build_key_specs() {
-  std::vector<KeySpec> keys{
-      SWARMLOC_KEY(seed),
-      SWARMLOC_KEY(name),
+void append(std::vector<KeySpec>& keys, std::vector<KeySpec> more) {
+  keys.insert(keys.end(), std::make_move_iterator(more.begin()), std::make_move_iterator(more.end()));
+}
+
+std::vector<KeySpec> algorithm_keys() {
+  return {
       SWARMLOC_KEY(algorithm.name),
       SWARMLOC_KEY(algorithm.process_noise_std_m),
       SWARMLOC_KEY(algorithm.initial_information),
@@ -307,6 +310,11 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(algorithm.local_bb_difference),
       SWARMLOC_KEY(algorithm.path_variance),
       SWARMLOC_KEY(algorithm.bp_messages),
+  };
+}
+
+std::vector<KeySpec> world_keys() {
+  return {
       SWARMLOC_KEY(world.agents),
       SWARMLOC_KEY(world.anchors),
       SWARMLOC_KEY(world.area_m),
@@ -339,6 +347,11 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(world.source),
       SWARMLOC_KEY(world.data_dir),
       SWARMLOC_KEY(world.data_step_s),
+  };
+}
+
+std::vector<KeySpec> noise_keys() {
+  return {
       SWARMLOC_KEY(noise.range_std_m),
       SWARMLOC_KEY(noise.anchor_fix_std_m),
       SWARMLOC_KEY(noise.range_model),
@@ -353,21 +366,22 @@ std::vector<KeySpec> build_key_specs() {
       SWARMLOC_KEY(noise.odometry_v_std),
       SWARMLOC_KEY(noise.odometry_omega_std),
       SWARMLOC_KEY(noise.draw),
-      SWARMLOC_KEY(network.loss),
-      SWARMLOC_KEY(network.burst.mean_length),
-      SWARMLOC_KEY(network.delay_ms),
-      SWARMLOC_KEY(network.jitter_ms),
-      SWARMLOC_KEY(clock.drift_ppm),
-      SWARMLOC_KEY(clock.offset_max_s),
-      SWARMLOC_KEY(run.steps),
-      SWARMLOC_KEY(run.rate_hz),
-      SWARMLOC_KEY(run.mode),
-      SWARMLOC_KEY(run.startup_timeout_s),
-      SWARMLOC_KEY(run.settle_s),
-      SWARMLOC_KEY(run.agent_nice),
-      SWARMLOC_KEY(run.sim_clock),
-      SWARMLOC_KEY(run.agent_steps_per_world_step),
   };
+}
+
+std::vector<KeySpec> network_clock_and_run_keys() {
+  return {
+      SWARMLOC_KEY(network.loss),     SWARMLOC_KEY(network.burst.mean_length),
+      SWARMLOC_KEY(network.delay_ms), SWARMLOC_KEY(network.jitter_ms),
+      SWARMLOC_KEY(clock.drift_ppm),  SWARMLOC_KEY(clock.offset_max_s),
+      SWARMLOC_KEY(run.steps),        SWARMLOC_KEY(run.rate_hz),
+      SWARMLOC_KEY(run.mode),         SWARMLOC_KEY(run.startup_timeout_s),
+      SWARMLOC_KEY(run.settle_s),     SWARMLOC_KEY(run.agent_nice),
+      SWARMLOC_KEY(run.sim_clock),    SWARMLOC_KEY(run.agent_steps_per_world_step),
+  };
+}
+
+void add_all_qos_keys(std::vector<KeySpec>& keys) {
   SWARMLOC_QOS(measurements);
   SWARMLOC_QOS(state);
   SWARMLOC_QOS(information);
@@ -375,6 +389,9 @@ std::vector<KeySpec> build_key_specs() {
   SWARMLOC_QOS(belief);
   SWARMLOC_QOS(estimate);
   SWARMLOC_QOS(control);
+}
+
+void add_fault_and_dds_keys(std::vector<KeySpec>& keys) {
   keys.push_back(SWARMLOC_KEY(faults.kill));
   keys.push_back(SWARMLOC_KEY(faults.pause));
   keys.push_back(SWARMLOC_KEY(faults.partition));
@@ -385,6 +402,20 @@ std::vector<KeySpec> build_key_specs() {
   keys.push_back(SWARMLOC_KEY(dds.security_dir));
   keys.push_back(SWARMLOC_KEY(dds.run_id));
   keys.push_back(SWARMLOC_KEY(dds.ros2));
+}
+
+/// Every key in document order (to_yaml and known_keys follow it): the top-level keys, then each section.
+std::vector<KeySpec> build_key_specs() {
+  std::vector<KeySpec> keys{
+      SWARMLOC_KEY(seed),
+      SWARMLOC_KEY(name),
+  };
+  append(keys, algorithm_keys());
+  append(keys, world_keys());
+  append(keys, noise_keys());
+  append(keys, network_clock_and_run_keys());
+  add_all_qos_keys(keys);
+  add_fault_and_dds_keys(keys);
   return keys;
 }
 

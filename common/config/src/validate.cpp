@@ -102,19 +102,15 @@ void validate_burst(const Scenario::Network& network) {
   }
 }
 
-}  // namespace
-
-void validate(const Scenario& scenario) {
-  // Enums set by casting an out-of-range integer (only possible from code, never from YAML).
+/// Enums set by casting an out-of-range integer (only possible from code, never from YAML).
+void validate_enums(const Scenario& scenario) {
   for (const auto& key : detail::key_specs()) {
     const std::string value = key.write(scenario);
     if (value.starts_with("invalid_")) fail(key.path, "invalid enum value " + value.substr(8));
   }
+}
 
-  validate_name(scenario.name);
-
-  const auto& algorithm = scenario.algorithm;
-  const AlgorithmSpec& spec = algorithm_spec(algorithm.name);
+void validate_algorithm(const Scenario::Algorithm& algorithm) {
   require_non_negative(algorithm.process_noise_std_m, "algorithm.process_noise_std_m");
   require_positive(algorithm.initial_information, "algorithm.initial_information");
   require_positive(algorithm.initial_std_m, "algorithm.initial_std_m");
@@ -129,14 +125,22 @@ void validate(const Scenario& scenario) {
   require_positive(algorithm.initial_heading_std_rad, "algorithm.initial_heading_std_rad");
   require_non_negative(algorithm.range_bearing_gate_chi2, "algorithm.range_bearing_gate_chi2");
   require_within(algorithm.field_warmup_steps, 0, 1000000, "algorithm.field_warmup_steps");
+}
 
-  const auto& world = scenario.world;
+void validate_agent_counts(const Scenario::World& world) {
   require_within(world.agents, 1, 100000, "world.agents");
   require_at_least(world.anchors, 0, "world.anchors");
   if (world.anchors > world.agents) {
     fail("world.anchors",
          std::to_string(world.anchors) + " is more than world.agents (" + std::to_string(world.agents) + ")");
   }
+}
+
+/// The pose algorithms need the UTIAS MRCLAM recordings (odometry and range-bearing), and the recordings
+/// fix the team: 5 robots, none of them an anchor.
+void validate_data_source(const Scenario& scenario, const AlgorithmSpec& spec) {
+  const auto& world = scenario.world;
+  const auto& algorithm = scenario.algorithm;
   const bool pose_algorithm = spec.family == AlgorithmFamily::kPose;
   require_within(world.data_step_s, 0.001, 10.0, "world.data_step_s");
   if (world.source == WorldSource::kMrclam) {
@@ -157,6 +161,9 @@ void validate(const Scenario& scenario) {
     fail("algorithm.name",
          "'" + algorithm.name + "' needs odometry and range-bearing data: set world.source: mrclam");
   }
+}
+
+void validate_layout(const Scenario::World& world) {
   require_positive(world.area_m, "world.area_m");
   require_positive(world.comm_radius_m, "world.comm_radius_m");
   if (world.placement == Placement::kFile && world.positions_file.empty()) {
@@ -168,6 +175,9 @@ void validate(const Scenario& scenario) {
   require_finite(world.wall_first_angle_deg, "world.wall_first_angle_deg");
   require_finite(world.wall_angle_step_deg, "world.wall_angle_step_deg");
   require_non_negative(world.wall_margin_m, "world.wall_margin_m");
+}
+
+void validate_target_and_field(const Scenario::World& world) {
   require_finite(world.target_x_m, "world.target_x_m");
   require_finite(world.target_y_m, "world.target_y_m");
   // 1 km/s is far beyond any target this runtime tracks; more is a unit mistake.
@@ -179,32 +189,67 @@ void validate(const Scenario& scenario) {
   require_non_negative(world.field_std, "world.field_std");
   require_positive(world.field_correlation_m, "world.field_correlation_m");
   require_positive(world.field_sensing_radius_m, "world.field_sensing_radius_m");
+}
 
-  require_non_negative(scenario.noise.range_std_m, "noise.range_std_m");
-  require_non_negative(scenario.noise.anchor_fix_std_m, "noise.anchor_fix_std_m");
-  require_within(scenario.noise.range_factor, 0.0, 10.0, "noise.range_factor");
-  require_non_negative(scenario.noise.relative_std_m, "noise.relative_std_m");
-  require_within(scenario.noise.doa_error_deg, 0.0, 90.0, "noise.doa_error_deg");
-  require_within(scenario.noise.bearing_std_rad, 1e-6, 3.2, "noise.bearing_std_rad");
-  require_within(scenario.noise.odometry_v_std, 0.0, 100.0, "noise.odometry_v_std");
-  require_within(scenario.noise.odometry_omega_std, 0.0, 100.0, "noise.odometry_omega_std");
-  require_non_negative(scenario.noise.target_std_m, "noise.target_std_m");
-  require_within(scenario.noise.target_bearing_std_rad, 1e-6, 3.2, "noise.target_bearing_std_rad");
-  require_non_negative(scenario.noise.field_std, "noise.field_std");
-  // The algorithm's own rules (algorithms.cpp), once every world and noise key is in range.
-  if (spec.validate != nullptr) spec.validate(scenario);
+void validate_world(const Scenario& scenario, const AlgorithmSpec& spec) {
+  validate_agent_counts(scenario.world);
+  validate_data_source(scenario, spec);
+  validate_layout(scenario.world);
+  validate_target_and_field(scenario.world);
+}
 
-  require_within(scenario.network.loss, 0.0, 1.0, "network.loss");
-  validate_burst(scenario.network);
+void validate_noise(const Scenario::Noise& noise) {
+  require_non_negative(noise.range_std_m, "noise.range_std_m");
+  require_non_negative(noise.anchor_fix_std_m, "noise.anchor_fix_std_m");
+  require_within(noise.range_factor, 0.0, 10.0, "noise.range_factor");
+  require_non_negative(noise.relative_std_m, "noise.relative_std_m");
+  require_within(noise.doa_error_deg, 0.0, 90.0, "noise.doa_error_deg");
+  require_within(noise.bearing_std_rad, 1e-6, 3.2, "noise.bearing_std_rad");
+  require_within(noise.odometry_v_std, 0.0, 100.0, "noise.odometry_v_std");
+  require_within(noise.odometry_omega_std, 0.0, 100.0, "noise.odometry_omega_std");
+  require_non_negative(noise.target_std_m, "noise.target_std_m");
+  require_within(noise.target_bearing_std_rad, 1e-6, 3.2, "noise.target_bearing_std_rad");
+  require_non_negative(noise.field_std, "noise.field_std");
+}
+
+void validate_network(const Scenario::Network& network) {
+  require_within(network.loss, 0.0, 1.0, "network.loss");
+  validate_burst(network);
   // 10 s is far beyond any network this runtime targets; anything larger is a unit mistake (s vs ms).
   constexpr double kMaxDelayMs = 10000.0;
-  require_within(scenario.network.delay_ms, 0.0, kMaxDelayMs, "network.delay_ms");
-  require_within(scenario.network.jitter_ms, 0.0, kMaxDelayMs, "network.jitter_ms");
+  require_within(network.delay_ms, 0.0, kMaxDelayMs, "network.delay_ms");
+  require_within(network.jitter_ms, 0.0, kMaxDelayMs, "network.jitter_ms");
+}
 
+void validate_clock(const Scenario::Clock& clock) {
   // drift_ppm is the magnitude of a ± bound drawn per agent; 1e5 ppm = 10 %.
-  require_within(scenario.clock.drift_ppm, 0.0, 1e5, "clock.drift_ppm");
-  require_non_negative(scenario.clock.offset_max_s, "clock.offset_max_s");
+  require_within(clock.drift_ppm, 0.0, 1e5, "clock.drift_ppm");
+  require_non_negative(clock.offset_max_s, "clock.offset_max_s");
+}
 
+/// Rules for run.agent_steps_per_world_step above 1 (several agent steps per world step).
+void validate_extra_agent_steps(const Scenario& scenario, const AlgorithmSpec& spec) {
+  const auto& run = scenario.run;
+  // The Kalman family and the pose filters predict on a step without a batch (process noise per step);
+  // the centralized ones have no agent steps.
+  if (!spec.exchange_only) {
+    const auto& exchange_only = exchange_only_algorithms();
+    std::string list;
+    for (const auto& name : exchange_only) list += (list.empty() ? "" : ", ") + name;
+    fail("run.agent_steps_per_world_step",
+         "above 1 needs an algorithm whose step without a measurement is an exchange only (" + list + "); '" +
+             scenario.algorithm.name + "' would predict on every extra step");
+  }
+  if (run.mode == RunMode::kLockstep) {
+    fail("run.agent_steps_per_world_step",
+         "above 1 is not supported with run.mode = lockstep (use free_run)");
+  }
+  if (run.rate_hz * run.agent_steps_per_world_step > 10000.0) {
+    fail("run.agent_steps_per_world_step", "run.rate_hz × this is above 10 kHz of agent steps");
+  }
+}
+
+void validate_run(const Scenario& scenario, const AlgorithmSpec& spec) {
   const auto& run = scenario.run;
   require_at_least(run.steps, 1, "run.steps");
   require_finite(run.rate_hz, "run.rate_hz");
@@ -215,32 +260,15 @@ void validate(const Scenario& scenario) {
   require_non_negative(run.settle_s, "run.settle_s");
   require_within(run.agent_nice, 0, 19, "run.agent_nice");
   require_within(run.agent_steps_per_world_step, 1, 1000, "run.agent_steps_per_world_step");
-  if (run.agent_steps_per_world_step > 1) {
-    // The Kalman family and the pose filters predict on a step without a batch (process noise per step);
-    // the centralized ones have no agent steps.
-    if (!spec.exchange_only) {
-      const auto& exchange_only = exchange_only_algorithms();
-      std::string list;
-      for (const auto& name : exchange_only) list += (list.empty() ? "" : ", ") + name;
-      fail("run.agent_steps_per_world_step",
-           "above 1 needs an algorithm whose step without a measurement is an exchange only (" + list +
-               "); '" + scenario.algorithm.name + "' would predict on every extra step");
-    }
-    if (run.mode == RunMode::kLockstep) {
-      fail("run.agent_steps_per_world_step",
-           "above 1 is not supported with run.mode = lockstep (use free_run)");
-    }
-    if (run.rate_hz * run.agent_steps_per_world_step > 10000.0) {
-      fail("run.agent_steps_per_world_step", "run.rate_hz × this is above 10 kHz of agent steps");
-    }
-  }
+  if (run.agent_steps_per_world_step > 1) validate_extra_agent_steps(scenario, spec);
   // Only the simulator's agents clock models latency: a delay under rounds would silently do nothing.
   if (run.sim_clock == SimClock::kRounds) {
     if (scenario.network.delay_ms != 0.0) fail("network.delay_ms", "needs run.sim_clock = agents");
     if (scenario.network.jitter_ms != 0.0) fail("network.jitter_ms", "needs run.sim_clock = agents");
   }
+}
 
-  const auto& qos = scenario.qos;
+void validate_all_qos(const Scenario::Qos& qos) {
   validate_qos(qos.measurements, "measurements");
   validate_qos(qos.state, "state");
   validate_qos(qos.information, "information");
@@ -248,42 +276,69 @@ void validate(const Scenario& scenario) {
   validate_qos(qos.belief, "belief");
   validate_qos(qos.estimate, "estimate");
   validate_qos(qos.control, "control");
+}
 
-  require_within(scenario.dds.domain_id, 0, 230, "dds.domain_id");
-  if (!scenario.dds.run_id.empty() && !valid_run_id(scenario.dds.run_id)) {
-    throw ScenarioError("dds.run_id: '" + scenario.dds.run_id +
-                        "' must be 1 to 32 characters of [A-Za-z0-9_-]");
+void validate_dds(const Scenario::Dds& dds) {
+  require_within(dds.domain_id, 0, 230, "dds.domain_id");
+  if (!dds.run_id.empty() && !valid_run_id(dds.run_id)) {
+    throw ScenarioError("dds.run_id: '" + dds.run_id + "' must be 1 to 32 characters of [A-Za-z0-9_-]");
   }
+}
 
-  const auto check_faults = [&](const std::vector<AgentFault>& faults, const std::string& key) {
-    for (const auto& fault : faults) {
-      if (fault.agent < 0 || fault.agent >= world.agents) {
-        fail(key, "agent " + std::to_string(fault.agent) + " is outside [0, world.agents)");
-      }
-      if (fault.from_step >= run.steps) {
-        fail(key, "step " + std::to_string(fault.from_step) + " is not before run.steps (" +
-                      std::to_string(run.steps) + ")");
-      }
+/// Every fault names an existing agent and starts before the run ends.
+void check_fault_range(const std::vector<AgentFault>& faults, const std::string& key,
+                       const Scenario& scenario) {
+  for (const auto& fault : faults) {
+    if (fault.agent < 0 || fault.agent >= scenario.world.agents) {
+      fail(key, "agent " + std::to_string(fault.agent) + " is outside [0, world.agents)");
     }
-  };
+    if (fault.from_step >= scenario.run.steps) {
+      fail(key, "step " + std::to_string(fault.from_step) + " is not before run.steps (" +
+                    std::to_string(scenario.run.steps) + ")");
+    }
+  }
+}
+
+void validate_lockstep_faults(const std::vector<AgentFault>& kills, const std::vector<AgentFault>& pauses) {
+  // The lockstep barrier waits for every living agent each step: a paused agent or a restarted one
+  // (fresh step counter, joining mid-run) would be timed out and then run without its neighbours'
+  // samples. Refuse rather than score that.
+  if (!pauses.empty()) fail("faults.pause", "is not supported with run.mode = lockstep (use free_run)");
+  for (const auto& kill : kills) {
+    if (kill.to_step >= 0) {
+      fail("faults.kill",
+           "restarts (agent@from-to) are not supported with run.mode = lockstep; kill without "
+           "a restart (agent@step) or use free_run");
+    }
+  }
+}
+
+void validate_faults(const Scenario& scenario) {
   const auto kills = parse_agent_faults(scenario.faults.kill, "faults.kill", false);
   const auto pauses = parse_agent_faults(scenario.faults.pause, "faults.pause", true);
-  check_faults(kills, "faults.kill");
-  check_faults(pauses, "faults.pause");
-  if (run.mode == RunMode::kLockstep) {
-    // The lockstep barrier waits for every living agent each step: a paused agent or a restarted one
-    // (fresh step counter, joining mid-run) would be timed out and then run without its neighbours'
-    // samples. Refuse rather than score that.
-    if (!pauses.empty()) fail("faults.pause", "is not supported with run.mode = lockstep (use free_run)");
-    for (const auto& kill : kills) {
-      if (kill.to_step >= 0) {
-        fail("faults.kill",
-             "restarts (agent@from-to) are not supported with run.mode = lockstep; kill without "
-             "a restart (agent@step) or use free_run");
-      }
-    }
-  }
+  check_fault_range(kills, "faults.kill", scenario);
+  check_fault_range(pauses, "faults.pause", scenario);
+  if (scenario.run.mode == RunMode::kLockstep) validate_lockstep_faults(kills, pauses);
   (void)parse_partition(scenario.faults.partition);
+}
+
+}  // namespace
+
+void validate(const Scenario& scenario) {
+  validate_enums(scenario);
+  validate_name(scenario.name);
+  const AlgorithmSpec& spec = algorithm_spec(scenario.algorithm.name);
+  validate_algorithm(scenario.algorithm);
+  validate_world(scenario, spec);
+  validate_noise(scenario.noise);
+  // The algorithm's own rules (algorithms.cpp), once every world and noise key is in range.
+  if (spec.validate != nullptr) spec.validate(scenario);
+  validate_network(scenario.network);
+  validate_clock(scenario.clock);
+  validate_run(scenario, spec);
+  validate_all_qos(scenario.qos);
+  validate_dds(scenario.dds);
+  validate_faults(scenario);
 }
 
 namespace {

@@ -264,155 +264,190 @@ std::vector<Vec2> covariance_ellipse(const Vec2& mean, const Mat2& covariance, d
   return curve;
 }
 
-bool write_plots(const std::filesystem::path& directory, const RunRecord& record) {
-  const auto plots = directory / "plots";
-  create_output_directories(plots);
-  std::map<std::string, std::string> scripts;  // file name -> script
-  // A run without any scored step has nothing to plot over time (gnuplot would fail on empty data).
-  if (!record.metrics.empty()) scripts["error.gp"] = error_script(record);
+namespace {
 
-  // NEES with its per-step band (the number of scored agents can change from step to step).
-  {
-    std::ostringstream out;
-    out << "# step,nees,band_lower,band_upper,scored_agents\n" << std::setprecision(9);
-    for (const auto& m : record.metrics) {
-      const auto band = nees_band(m.errors.scored);
-      out << m.step << ',' << m.errors.nees << ',' << band.lower << ',' << band.upper << ','
-          << m.errors.scored << '\n';
-    }
-    write_text_file(plots / "nees_band.csv", out.str());
+using FinalRows = std::map<AgentId, const EstimateRow*>;
+using ScriptMap = std::map<std::string, std::string>;  // file name -> script
+
+/// NEES with its per-step band (the number of scored agents can change from step to step).
+void write_nees_band(const std::filesystem::path& plots, const RunRecord& record) {
+  std::ostringstream out;
+  out << "# step,nees,band_lower,band_upper,scored_agents\n" << std::setprecision(9);
+  for (const auto& m : record.metrics) {
+    const auto band = nees_band(m.errors.scored);
+    out << m.step << ',' << m.errors.nees << ',' << band.lower << ',' << band.upper << ',' << m.errors.scored
+        << '\n';
   }
-  if (!record.metrics.empty()) scripts["nees.gp"] = nees_script(record);
+  write_text_file(plots / "nees_band.csv", out.str());
+}
 
-  const auto finals = final_rows(record);
-  if (!finals.empty()) {
-    // Final positions, ellipses, links.
-    std::ostringstream positions;
-    std::ostringstream ellipses;
-    positions << "agent,anchor,truth_x,truth_y,est_x,est_y,error_m,lost\n" << std::setprecision(9);
-    bool have_ellipses = false;
-    std::vector<double> errors;
-    std::vector<std::pair<Vec2, std::vector<Vec2>>> curves;  // estimate, ellipse
-    std::vector<double> semi_major;
-    double extent = 0.0;
-    Vec2 low = finals.begin()->second->truth, high = low;
-    for (const auto& [agent, row] : finals) {
-      const bool anchor = is_anchor(record, agent);
-      const auto& e = row->estimate;
-      positions << agent << ',' << (anchor ? 1 : 0) << ',' << row->truth.x() << ',' << row->truth.y() << ','
-                << e.mean_m.x() << ',' << e.mean_m.y() << ',' << (e.mean_m - row->truth).norm() << ','
-                << (is_lost(record, agent) ? 1 : 0) << '\n';
-      low = low.cwiseMin(row->truth);
-      high = high.cwiseMax(row->truth);
-      if (anchor) continue;
-      if (e.mean_m.allFinite()) errors.push_back((e.mean_m - row->truth).norm());
-      if (!e.valid) continue;
-      auto curve = covariance_ellipse(e.mean_m, e.covariance);
-      if (curve.empty()) continue;
-      double axis = 0.0;
-      for (const auto& p : curve) axis = std::max(axis, (p - e.mean_m).norm());
-      semi_major.push_back(axis);
-      curves.emplace_back(e.mean_m, std::move(curve));
-    }
-    extent = (high - low).maxCoeff();
-    // Ellipses far smaller than the map are invisible: draw them magnified by a round factor (1, 2, 5 × 10^k)
-    // so the median semi-major axis is at least 1.5 % of the map, and say so in the legend.
-    double magnification = 1.0;
-    if (!semi_major.empty() && extent > 0.0) {
-      std::nth_element(semi_major.begin(),
-                       semi_major.begin() + static_cast<std::ptrdiff_t>(semi_major.size() / 2),
-                       semi_major.end());
-      const double median = semi_major[semi_major.size() / 2];
-      const double wanted = 0.015 * extent;
-      if (median > 0.0 && median < wanted) {
-        const double decade = std::pow(10.0, std::floor(std::log10(wanted / median)));
-        for (double step : {1.0, 2.0, 5.0, 10.0}) {
-          magnification = step * decade;
-          if (magnification * median >= wanted) break;
-        }
-      }
-    }
-    ellipses << "# 95 % covariance ellipses (chi-square 2 dof = " << kChiSquare2Dof95
-             << "), one block per non-anchor agent: x,y (true size), x_drawn,y_drawn (magnified x"
-             << magnification << " about the estimate)\n"
-             << std::setprecision(9);
-    for (const auto& [mean, curve] : curves) {
-      ellipses << '\n';
-      for (const auto& p : curve) {
-        const Vec2 drawn = mean + magnification * (p - mean);
-        ellipses << p.x() << ',' << p.y() << ',' << drawn.x() << ',' << drawn.y() << '\n';
-      }
-      have_ellipses = true;
-    }
-    write_text_file(plots / "final_positions.csv", positions.str());
-    write_text_file(plots / "ellipses.csv", ellipses.str());
-    // Links, undirected: both directions' counters pooled, drawn between the true positions.
-    std::map<std::pair<AgentId, AgentId>, std::pair<std::uint64_t, std::uint64_t>> pooled;  // delivered, sent
-    for (const auto& [key, link] : record.links) {
-      const auto edge = std::minmax(key.first, key.second);
-      auto& [delivered, sent] = pooled[{edge.first, edge.second}];
-      delivered += link.delivered;
-      sent += link.sent();
-    }
-    std::ostringstream segments;
-    std::ostringstream lost_segments;
-    segments << "# x1,y1,x2,y2,delivered_fraction,delivered,sent (agents a,b)\n" << std::setprecision(9);
-    lost_segments << "# x1,y1,x2,y2 (links of a lost agent: its counters stopped when it was lost)\n"
-                  << std::setprecision(9);
-    bool have_links = false;
-    bool have_lost_links = false;
-    for (const auto& [edge, counts] : pooled) {
-      const auto a = finals.find(edge.first);
-      const auto b = finals.find(edge.second);
-      if (a == finals.end() || b == finals.end() || counts.second == 0) continue;
-      if (is_lost(record, edge.first) || is_lost(record, edge.second)) {
-        lost_segments << a->second->truth.x() << ',' << a->second->truth.y() << ',' << b->second->truth.x()
-                      << ',' << b->second->truth.y() << '\n';
-        have_lost_links = true;
-        continue;
-      }
-      const double fraction =
-          std::min(1.0, static_cast<double>(counts.first) / static_cast<double>(counts.second));
-      segments << a->second->truth.x() << ',' << a->second->truth.y() << ',' << b->second->truth.x() << ','
-               << b->second->truth.y() << ',' << fraction << ',' << counts.first << ',' << counts.second
-               << '\n';
-      have_links = true;
-    }
-    write_text_file(plots / "link_segments.csv", segments.str());
-    write_text_file(plots / "lost_link_segments.csv", lost_segments.str());
-    scripts["positions.gp"] =
-        positions_script(record, have_links, have_lost_links, have_ellipses, magnification);
+/// The final positions' table and what the other plots draw from it.
+struct FinalPositions {
+  std::string csv;                                         ///< final_positions.csv
+  std::vector<double> errors;                              ///< non-anchor agents' final errors
+  std::vector<std::pair<Vec2, std::vector<Vec2>>> curves;  ///< estimate, ellipse
+  std::vector<double> semi_major;                          ///< per curve
+  double extent = 0.0;                                     ///< of the true positions
+};
 
-    // Histogram of the non-anchor agents' final errors.
-    if (!errors.empty()) {
-      const double largest = *std::max_element(errors.begin(), errors.end());
-      const int bins =
-          std::clamp(static_cast<int>(std::ceil(std::sqrt(static_cast<double>(errors.size())))), 5, 25);
-      const double top = largest > 0.0 ? largest * 1.0001 : 1e-3;
-      const double width = top / static_cast<double>(bins);
-      std::vector<int> counts(static_cast<std::size_t>(bins), 0);
-      double sum = 0.0, sum_sq = 0.0;
-      for (double err : errors) {
-        const auto bin = std::min(static_cast<std::size_t>(err / width), counts.size() - 1);
-        ++counts[bin];
-        sum += err;
-        sum_sq += err * err;
+FinalPositions collect_final_positions(const RunRecord& record, const FinalRows& finals) {
+  FinalPositions out;
+  std::ostringstream positions;
+  positions << "agent,anchor,truth_x,truth_y,est_x,est_y,error_m,lost\n" << std::setprecision(9);
+  Vec2 low = finals.begin()->second->truth, high = low;
+  for (const auto& [agent, row] : finals) {
+    const bool anchor = is_anchor(record, agent);
+    const auto& e = row->estimate;
+    positions << agent << ',' << (anchor ? 1 : 0) << ',' << row->truth.x() << ',' << row->truth.y() << ','
+              << e.mean_m.x() << ',' << e.mean_m.y() << ',' << (e.mean_m - row->truth).norm() << ','
+              << (is_lost(record, agent) ? 1 : 0) << '\n';
+    low = low.cwiseMin(row->truth);
+    high = high.cwiseMax(row->truth);
+    if (anchor) continue;
+    if (e.mean_m.allFinite()) out.errors.push_back((e.mean_m - row->truth).norm());
+    if (!e.valid) continue;
+    auto curve = covariance_ellipse(e.mean_m, e.covariance);
+    if (curve.empty()) continue;
+    double axis = 0.0;
+    for (const auto& p : curve) axis = std::max(axis, (p - e.mean_m).norm());
+    out.semi_major.push_back(axis);
+    out.curves.emplace_back(e.mean_m, std::move(curve));
+  }
+  out.extent = (high - low).maxCoeff();
+  out.csv = positions.str();
+  return out;
+}
+
+/// Ellipses far smaller than the map are invisible: draw them magnified by a round factor (1, 2, 5 × 10^k)
+/// so the median semi-major axis is at least 1.5 % of the map, and say so in the legend.
+double ellipse_magnification(std::vector<double> semi_major, double extent) {
+  double magnification = 1.0;
+  if (!semi_major.empty() && extent > 0.0) {
+    std::nth_element(semi_major.begin(),
+                     semi_major.begin() + static_cast<std::ptrdiff_t>(semi_major.size() / 2),
+                     semi_major.end());
+    const double median = semi_major[semi_major.size() / 2];
+    const double wanted = 0.015 * extent;
+    if (median > 0.0 && median < wanted) {
+      const double decade = std::pow(10.0, std::floor(std::log10(wanted / median)));
+      for (double step : {1.0, 2.0, 5.0, 10.0}) {
+        magnification = step * decade;
+        if (magnification * median >= wanted) break;
       }
-      std::ostringstream histogram;
-      histogram << "bin_lo_m,bin_hi_m,bin_center_m,agents\n" << std::setprecision(9);
-      for (std::size_t k = 0; k < counts.size(); ++k) {
-        const double lo = width * static_cast<double>(k);
-        histogram << lo << ',' << lo + width << ',' << lo + 0.5 * width << ',' << counts[k] << '\n';
-      }
-      write_text_file(plots / "error_histogram.csv", histogram.str());
-      const double n = static_cast<double>(errors.size());
-      const auto* last = record.final_metrics();
-      scripts["error_histogram.gp"] = histogram_script(
-          record, static_cast<int>(errors.size()), *std::max_element(counts.begin(), counts.end()), sum / n,
-          std::sqrt(sum_sq / n), last ? last->bound_rmse_m : kNaN);
     }
   }
+  return magnification;
+}
 
+/// ellipses.csv's text; `have_ellipses` tells whether it holds any curve.
+std::string ellipses_csv(const std::vector<std::pair<Vec2, std::vector<Vec2>>>& curves, double magnification,
+                         bool& have_ellipses) {
+  std::ostringstream ellipses;
+  ellipses << "# 95 % covariance ellipses (chi-square 2 dof = " << kChiSquare2Dof95
+           << "), one block per non-anchor agent: x,y (true size), x_drawn,y_drawn (magnified x"
+           << magnification << " about the estimate)\n"
+           << std::setprecision(9);
+  for (const auto& [mean, curve] : curves) {
+    ellipses << '\n';
+    for (const auto& p : curve) {
+      const Vec2 drawn = mean + magnification * (p - mean);
+      ellipses << p.x() << ',' << p.y() << ',' << drawn.x() << ',' << drawn.y() << '\n';
+    }
+    have_ellipses = true;
+  }
+  return ellipses.str();
+}
+
+struct LinkPlot {
+  bool have_links = false;
+  bool have_lost_links = false;
+};
+
+/// Links, undirected: both directions' counters pooled, drawn between the true positions.
+LinkPlot write_link_segments(const std::filesystem::path& plots, const RunRecord& record,
+                             const FinalRows& finals) {
+  std::map<std::pair<AgentId, AgentId>, std::pair<std::uint64_t, std::uint64_t>> pooled;  // delivered, sent
+  for (const auto& [key, link] : record.links) {
+    const auto edge = std::minmax(key.first, key.second);
+    auto& [delivered, sent] = pooled[{edge.first, edge.second}];
+    delivered += link.delivered;
+    sent += link.sent();
+  }
+  std::ostringstream segments;
+  std::ostringstream lost_segments;
+  segments << "# x1,y1,x2,y2,delivered_fraction,delivered,sent (agents a,b)\n" << std::setprecision(9);
+  lost_segments << "# x1,y1,x2,y2 (links of a lost agent: its counters stopped when it was lost)\n"
+                << std::setprecision(9);
+  LinkPlot drawn;
+  for (const auto& [edge, counts] : pooled) {
+    const auto a = finals.find(edge.first);
+    const auto b = finals.find(edge.second);
+    if (a == finals.end() || b == finals.end() || counts.second == 0) continue;
+    if (is_lost(record, edge.first) || is_lost(record, edge.second)) {
+      lost_segments << a->second->truth.x() << ',' << a->second->truth.y() << ',' << b->second->truth.x()
+                    << ',' << b->second->truth.y() << '\n';
+      drawn.have_lost_links = true;
+      continue;
+    }
+    const double fraction =
+        std::min(1.0, static_cast<double>(counts.first) / static_cast<double>(counts.second));
+    segments << a->second->truth.x() << ',' << a->second->truth.y() << ',' << b->second->truth.x() << ','
+             << b->second->truth.y() << ',' << fraction << ',' << counts.first << ',' << counts.second
+             << '\n';
+    drawn.have_links = true;
+  }
+  write_text_file(plots / "link_segments.csv", segments.str());
+  write_text_file(plots / "lost_link_segments.csv", lost_segments.str());
+  return drawn;
+}
+
+/// Histogram of the non-anchor agents' final errors: its table, and its script into `scripts`.
+void add_error_histogram(const std::filesystem::path& plots, const RunRecord& record,
+                         const std::vector<double>& errors, ScriptMap& scripts) {
+  const double largest = *std::max_element(errors.begin(), errors.end());
+  const int bins =
+      std::clamp(static_cast<int>(std::ceil(std::sqrt(static_cast<double>(errors.size())))), 5, 25);
+  const double top = largest > 0.0 ? largest * 1.0001 : 1e-3;
+  const double width = top / static_cast<double>(bins);
+  std::vector<int> counts(static_cast<std::size_t>(bins), 0);
+  double sum = 0.0, sum_sq = 0.0;
+  for (double err : errors) {
+    const auto bin = std::min(static_cast<std::size_t>(err / width), counts.size() - 1);
+    ++counts[bin];
+    sum += err;
+    sum_sq += err * err;
+  }
+  std::ostringstream histogram;
+  histogram << "bin_lo_m,bin_hi_m,bin_center_m,agents\n" << std::setprecision(9);
+  for (std::size_t k = 0; k < counts.size(); ++k) {
+    const double lo = width * static_cast<double>(k);
+    histogram << lo << ',' << lo + width << ',' << lo + 0.5 * width << ',' << counts[k] << '\n';
+  }
+  write_text_file(plots / "error_histogram.csv", histogram.str());
+  const double n = static_cast<double>(errors.size());
+  const auto* last = record.final_metrics();
+  scripts["error_histogram.gp"] = histogram_script(record, static_cast<int>(errors.size()),
+                                                   *std::max_element(counts.begin(), counts.end()), sum / n,
+                                                   std::sqrt(sum_sq / n), last ? last->bound_rmse_m : kNaN);
+}
+
+/// Final positions, ellipses, links and the error histogram: their tables, and their scripts into `scripts`.
+void add_final_position_plots(const std::filesystem::path& plots, const RunRecord& record,
+                              const FinalRows& finals, ScriptMap& scripts) {
+  const FinalPositions positions = collect_final_positions(record, finals);
+  const double magnification = ellipse_magnification(positions.semi_major, positions.extent);
+  bool have_ellipses = false;
+  const std::string ellipses = ellipses_csv(positions.curves, magnification, have_ellipses);
+  write_text_file(plots / "final_positions.csv", positions.csv);
+  write_text_file(plots / "ellipses.csv", ellipses);
+  const LinkPlot links = write_link_segments(plots, record, finals);
+  scripts["positions.gp"] =
+      positions_script(record, links.have_links, links.have_lost_links, have_ellipses, magnification);
+  if (!positions.errors.empty()) add_error_histogram(plots, record, positions.errors, scripts);
+}
+
+/// Each script, and plots.gp that loads them all.
+void write_scripts(const std::filesystem::path& plots, const ScriptMap& scripts) {
   std::ostringstream all;
   all << "# Makes every plot of this run: cd into plots/ and run `gnuplot plots.gp`.\n";
   for (const auto& [name, script] : scripts) {
@@ -420,6 +455,10 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
     all << "reset\nload " << gnuplot_quote(name) << "\n";
   }
   write_text_file(plots / "plots.gp", all.str());
+}
+
+/// Runs gnuplot on each script; false if any PNG is not made (or gnuplot is not installed).
+bool render_scripts(const std::filesystem::path& plots, const ScriptMap& scripts) {
   bool ok = true;
   for (const auto& [name, script] : scripts) {
     const auto png = std::filesystem::path(name).replace_extension(".png").string();
@@ -436,6 +475,22 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
     ok = ok && result == GnuplotResult::kDone;
   }
   return ok;
+}
+
+}  // namespace
+
+bool write_plots(const std::filesystem::path& directory, const RunRecord& record) {
+  const auto plots = directory / "plots";
+  create_output_directories(plots);
+  ScriptMap scripts;
+  // A run without any scored step has nothing to plot over time (gnuplot would fail on empty data).
+  if (!record.metrics.empty()) scripts["error.gp"] = error_script(record);
+  write_nees_band(plots, record);
+  if (!record.metrics.empty()) scripts["nees.gp"] = nees_script(record);
+  const auto finals = final_rows(record);
+  if (!finals.empty()) add_final_position_plots(plots, record, finals, scripts);
+  write_scripts(plots, scripts);
+  return render_scripts(plots, scripts);
 }
 
 std::string gnuplot_quote(std::string_view text) {

@@ -240,6 +240,93 @@ std::shared_ptr<const Recording> load_recording(const std::filesystem::path& pat
   return parse_recording(read_file(path), path.string());
 }
 
+namespace {
+
+/// The header record's agent count, checked against the limit and the bytes left.
+int decode_agent_count(Decoder& in) {
+  const auto agents_at = in.offset();
+  const int agents = in.i32();
+  if (agents < 1 || agents > kMaxAgents) {
+    in.fail("agent count " + std::to_string(agents) + " outside [1, " + std::to_string(kMaxAgents) + "]",
+            agents_at);
+  }
+  const auto n = static_cast<std::size_t>(agents);
+  constexpr std::size_t kAgentBytes = 1 + 16 + 4;
+  if (n > in.left() / kAgentBytes)
+    in.fail("agent count " + std::to_string(n) + " exceeds the bytes left", agents_at);
+  return agents;
+}
+
+/// The header record's per-agent setup (anchor flag, initial guess, neighbours) and initial headings.
+void decode_recorded_world(Decoder& in, int agents, RecordedWorld& world) {
+  const auto n = static_cast<std::size_t>(agents);
+  world.is_anchor.resize(n);
+  world.initial_guess.resize(n);
+  world.neighbours.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    world.is_anchor[i] = in.boolean();
+    world.initial_guess[i] = in.vec2();
+    world.neighbours[i].resize(in.count(4, "neighbours"));
+    for (auto& j : world.neighbours[i]) {
+      const auto at = in.offset();
+      j = in.agent(agents, "neighbour");
+      if (static_cast<std::size_t>(j) == i)
+        in.fail("agent " + std::to_string(i) + " is its own neighbour", at);
+    }
+  }
+  const auto headings_at = in.offset();
+  world.initial_heading.resize(in.count(8, "initial headings"));
+  if (!world.initial_heading.empty() && world.initial_heading.size() != n) {
+    in.fail(std::to_string(world.initial_heading.size()) + " initial headings for " + std::to_string(n) +
+                " agents",
+            headings_at);
+  }
+  for (auto& heading : world.initial_heading) heading = in.f64();
+}
+
+/// The end marker's body: its step count must match the steps read, and nothing may follow it.
+void decode_end_marker(Decoder& in, std::size_t steps_read, bool checksummed, const Decoder::Record& record) {
+  const auto count_at = in.offset();
+  const std::uint64_t steps = in.u64();
+  if (steps != steps_read) {
+    in.fail(
+        "end marker counts " + std::to_string(steps) + " steps, the file holds " + std::to_string(steps_read),
+        count_at);
+  }
+  if (checksummed) in.end_record(record);
+  if (!in.at_end()) in.fail(std::to_string(in.bytes_left_in_file()) + " bytes after the end marker");
+}
+
+/// A step record's body after its tag: the step number, the truth, and every agent's batch, which is
+/// validated here and only indexed (decoded again on demand). True if a batch carries pose measurements.
+bool decode_step(Decoder& in, int agents, std::size_t tag_at, std::vector<std::vector<Vec2>>& truth_per_step,
+                 std::vector<std::size_t>& batch_offsets) {
+  const auto n = static_cast<std::size_t>(agents);
+  // The smallest step after its tag: the step number, the truth, N empty batches.
+  const std::size_t step_min_bytes = 8 + n * (16 + 8 + 8 + 6 * 4 + 3);
+  if (in.left() < step_min_bytes)
+    in.fail("truncated: step " + std::to_string(truth_per_step.size()) + " is incomplete", tag_at);
+  const auto step_at = in.offset();
+  const std::int64_t step = in.i64();
+  if (step != static_cast<std::int64_t>(truth_per_step.size())) {
+    in.fail("step " + std::to_string(step) + " where step " + std::to_string(truth_per_step.size()) +
+                " was expected",
+            step_at);
+  }
+  std::vector<Vec2> truth(n);
+  for (auto& p : truth) p = in.vec2();
+  truth_per_step.push_back(std::move(truth));
+  bool has_pose_measurements = false;
+  for (std::size_t i = 0; i < n; ++i) {
+    batch_offsets.push_back(in.offset());
+    const auto batch = decode_batch(in, agents);  // validates; decoded again on demand
+    if (batch.odometry || !batch.range_bearings.empty()) has_pose_measurements = true;
+  }
+  return has_pose_measurements;
+}
+
+}  // namespace
+
 std::shared_ptr<const Recording> parse_recording(std::vector<std::uint8_t> bytes, const std::string& source) {
   auto recording = std::make_shared<Recording>();
   Recording& r = *recording;
@@ -255,79 +342,22 @@ std::shared_ptr<const Recording> parse_recording(std::vector<std::uint8_t> bytes
       in.fail("expected the header record ('H'), found the " + tag_name(head.tag), head.at);
   }
   r.scenario_yaml_ = in.text(kMaxScenarioBytes, "scenario");
-  const auto agents_at = in.offset();
-  r.agents_ = in.i32();
-  if (r.agents_ < 1 || r.agents_ > kMaxAgents) {
-    in.fail("agent count " + std::to_string(r.agents_) + " outside [1, " + std::to_string(kMaxAgents) + "]",
-            agents_at);
-  }
-  const auto n = static_cast<std::size_t>(r.agents_);
-  constexpr std::size_t kAgentBytes = 1 + 16 + 4;
-  if (n > in.left() / kAgentBytes)
-    in.fail("agent count " + std::to_string(n) + " exceeds the bytes left", agents_at);
-  auto& world = r.world_;
-  world.is_anchor.resize(n);
-  world.initial_guess.resize(n);
-  world.neighbours.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    world.is_anchor[i] = in.boolean();
-    world.initial_guess[i] = in.vec2();
-    world.neighbours[i].resize(in.count(4, "neighbours"));
-    for (auto& j : world.neighbours[i]) {
-      const auto at = in.offset();
-      j = in.agent(r.agents_, "neighbour");
-      if (static_cast<std::size_t>(j) == i)
-        in.fail("agent " + std::to_string(i) + " is its own neighbour", at);
-    }
-  }
-  const auto headings_at = in.offset();
-  world.initial_heading.resize(in.count(8, "initial headings"));
-  if (!world.initial_heading.empty() && world.initial_heading.size() != n) {
-    in.fail(std::to_string(world.initial_heading.size()) + " initial headings for " + std::to_string(n) +
-                " agents",
-            headings_at);
-  }
-  for (auto& heading : world.initial_heading) heading = in.f64();
+  r.agents_ = decode_agent_count(in);
+  decode_recorded_world(in, r.agents_, r.world_);
   if (checksummed) in.end_record(head);
 
-  // The smallest step after its tag: the step number, the truth, N empty batches.
-  const std::size_t step_min_bytes = 8 + n * (16 + 8 + 8 + 6 * 4 + 3);
   for (;;) {
     const auto tag_at = in.offset();
     Decoder::Record record;
     if (checksummed) record = in.begin_record();
     const std::uint8_t tag = checksummed ? record.tag : in.u8();
     if (tag == kTagEnd) {
-      const auto count_at = in.offset();
-      const std::uint64_t steps = in.u64();
-      if (steps != r.truth_.size()) {
-        in.fail("end marker counts " + std::to_string(steps) + " steps, the file holds " +
-                    std::to_string(r.truth_.size()),
-                count_at);
-      }
-      if (checksummed) in.end_record(record);
-      if (!in.at_end()) in.fail(std::to_string(in.bytes_left_in_file()) + " bytes after the end marker");
+      decode_end_marker(in, r.truth_.size(), checksummed, record);
       break;
     }
     if (tag != kTagStep)
       in.fail("expected a step ('T') or the end marker ('E'), found byte " + std::to_string(tag), tag_at);
-    if (in.left() < step_min_bytes)
-      in.fail("truncated: step " + std::to_string(r.truth_.size()) + " is incomplete", tag_at);
-    const auto step_at = in.offset();
-    const std::int64_t step = in.i64();
-    if (step != static_cast<std::int64_t>(r.truth_.size())) {
-      in.fail(
-          "step " + std::to_string(step) + " where step " + std::to_string(r.truth_.size()) + " was expected",
-          step_at);
-    }
-    std::vector<Vec2> truth(n);
-    for (auto& p : truth) p = in.vec2();
-    r.truth_.push_back(std::move(truth));
-    for (std::size_t i = 0; i < n; ++i) {
-      r.batch_offsets_.push_back(in.offset());
-      const auto batch = decode_batch(in, r.agents_);  // validates; decoded again on demand
-      if (batch.odometry || !batch.range_bearings.empty()) r.has_pose_measurements_ = true;
-    }
+    if (decode_step(in, r.agents_, tag_at, r.truth_, r.batch_offsets_)) r.has_pose_measurements_ = true;
     if (checksummed) in.end_record(record);
   }
   return recording;

@@ -73,6 +73,7 @@ std::vector<std::uint8_t> partition_groups(const World& world) {
                    sorted.end());
   const double median = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
   std::vector<std::uint8_t> group;
+  group.reserve(xs.size());
   for (const double x : xs) group.push_back(x < median ? 0 : 1);
   return group;
 }
@@ -141,173 +142,311 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
   return run_simulation(scenario, build_world(scenario, options.trial, -1, options.control), options);
 }
 
-RunRecord run_simulation(const config::Scenario& scenario, World world, const SimOptions& options) {
-  if (scenario.run.sim_clock == config::SimClock::kAgents)
-    return run_agent_clock_simulation(scenario, options);
-  if (is_centralized(scenario.algorithm.name)) return run_centralized_simulation(scenario, options);
-  const auto started = std::chrono::steady_clock::now();
-  const WorkControl& control = options.control;
-  attach_recorded(world, options.recorded);
-  const int n = world.size();
-  std::vector<AgentRuntime> agents;
-  agents.reserve(static_cast<std::size_t>(n));
-  {
-    WorkPhase phase(control, "agents: creating " + std::to_string(n) + " agents");
-    for (AgentId i = 0; i < n; ++i) {
-      phase.tick(static_cast<std::size_t>(i), static_cast<std::size_t>(n));
-      agents.emplace_back(make_agent_estimator(scenario, world, i), world.setup_of(i),
-                          world.neighbours[static_cast<std::size_t>(i)],
-                          make_runtime_params(scenario, world, options.trial));
-    }
-  }
+namespace {
 
-  RunRecord record;
-  record.scenario = scenario;
+/// Whether one of `faults` holds `agent` down at `step`.
+bool within(const std::vector<config::AgentFault>& faults, AgentId agent, std::int64_t step) {
+  return std::any_of(faults.begin(), faults.end(), [&](const config::AgentFault& f) {
+    return f.agent == agent && step >= f.from_step && (f.to_step < 0 || step < f.to_step);
+  });
+}
+
+/// One lockstep run over a built world: every agent's runtime, what each published last round, the
+/// faults, and the per-step scoring into a RunRecord.
+class LockstepSimulation {
+ public:
+  LockstepSimulation(const config::Scenario& scenario, World& world, const SimOptions& options)
+      : scenario_(scenario),
+        world_(world),
+        options_(options),
+        control_(options.control),
+        n_(world.size()),
+        period_s_(1.0 / scenario.run.rate_hz),
+        step_phase_(options.control, "") {}
+
+  /// The agents, the record's header, the first publications, the faults and the links.
+  void set_up(RunRecord& record);
+  /// The world steps, until run.steps or Ctrl-C.
+  void run_steps(RunRecord& record);
+  [[nodiscard]] const std::vector<AgentRuntime>& agents() const { return agents_; }
+
+ private:
+  [[nodiscard]] std::int64_t stamp_ns(std::int64_t step) const {
+    return static_cast<std::int64_t>(static_cast<double>(step) * period_s_ * 1e9);
+  }
+  void create_agents();
+  void index_incoming();
+  void run_step(std::int64_t step, RunRecord& record);
+  void restart_killed(std::int64_t step);
+  void deliver_previous_round(std::int64_t step, std::int64_t delivered_ns);
+  void step_agent_with_batch(AgentId i, std::int64_t step);
+  void run_extra_rounds(std::int64_t step);
+  void score_step(std::int64_t step, RunRecord& record);
+
+  const config::Scenario& scenario_;
+  World& world_;
+  const SimOptions& options_;
+  const WorkControl& control_;
+  const int n_;
+  const double period_s_;
+  std::vector<AgentRuntime> agents_;
+  std::vector<AgentRuntime::Publication> published_;
+  std::vector<config::AgentFault> kills_;
+  std::vector<config::AgentFault> pauses_;
+  std::vector<int> incarnation_;
+  std::vector<std::optional<estimators::Estimate>> estimates_;
+  std::vector<estimators::MeasurementBatch> batches_;
+  // incoming[r]: the agents whose samples reach r, ascending (the order a serial sender loop delivers in).
+  std::vector<std::vector<AgentId>> incoming_;
+  int threads_ = 1;
+  // A step of a large world takes seconds (a dense one: minutes), so the rounds report their progress and
+  // stop at the next agent on Ctrl-C; the step cut short is not scored.
+  WorkPhase step_phase_;
+};
+
+void LockstepSimulation::create_agents() {
+  agents_.reserve(static_cast<std::size_t>(n_));
+  WorkPhase phase(control_, "agents: creating " + std::to_string(n_) + " agents");
+  for (AgentId i = 0; i < n_; ++i) {
+    phase.tick(static_cast<std::size_t>(i), static_cast<std::size_t>(n_));
+    agents_.emplace_back(make_agent_estimator(scenario_, world_, i), world_.setup_of(i),
+                         world_.neighbours[static_cast<std::size_t>(i)],
+                         make_runtime_params(scenario_, world_, options_.trial));
+  }
+}
+
+void LockstepSimulation::index_incoming() {
+  incoming_.resize(static_cast<std::size_t>(n_));
+  WorkPhase phase(control_, "agents: links");
+  for (AgentId sender = 0; sender < n_; ++sender) {
+    phase.tick(static_cast<std::size_t>(sender), static_cast<std::size_t>(n_));
+    for (AgentId receiver : world_.neighbours[static_cast<std::size_t>(sender)])
+      incoming_[static_cast<std::size_t>(receiver)].push_back(sender);
+  }
+}
+
+void LockstepSimulation::set_up(RunRecord& record) {
+  create_agents();
+  record.scenario = scenario_;
   record.mode = "sim";
-  record.agents = n;
-  record.anchors = world.anchor_count();
-  record.mean_degree = world.mean_degree();
-  compute_run_bounds(record, world);
+  record.agents = n_;
+  record.anchors = world_.anchor_count();
+  record.mean_degree = world_.mean_degree();
+  compute_run_bounds(record, world_);
   record.processes = 1;
 
-  const double period_s = 1.0 / scenario.run.rate_hz;
-  auto stamp_ns = [&](std::int64_t step) {
-    return static_cast<std::int64_t>(static_cast<double>(step) * period_s * 1e9);
-  };
-  std::vector<AgentRuntime::Publication> published(static_cast<std::size_t>(n));
-  for (AgentId i = 0; i < n; ++i)
-    published[static_cast<std::size_t>(i)] = agents[static_cast<std::size_t>(i)].initial_publication(0);
+  published_.resize(static_cast<std::size_t>(n_));
+  for (AgentId i = 0; i < n_; ++i)
+    published_[static_cast<std::size_t>(i)] = agents_[static_cast<std::size_t>(i)].initial_publication(0);
 
   // faults.kill / faults.pause: a dead agent neither receives, steps nor publishes and is rebuilt with
   // fresh state at its restart; a paused one keeps receiving (its reader cache) but does not step.
-  const auto kills = config::parse_agent_faults(scenario.faults.kill, "faults.kill", false);
-  const auto pauses = config::parse_agent_faults(scenario.faults.pause, "faults.pause", true);
-  auto within = [](const std::vector<config::AgentFault>& faults, AgentId agent, std::int64_t step) {
-    return std::any_of(faults.begin(), faults.end(), [&](const config::AgentFault& f) {
-      return f.agent == agent && step >= f.from_step && (f.to_step < 0 || step < f.to_step);
-    });
-  };
-  std::vector<int> incarnation(static_cast<std::size_t>(n), 0);
+  kills_ = config::parse_agent_faults(scenario_.faults.kill, "faults.kill", false);
+  pauses_ = config::parse_agent_faults(scenario_.faults.pause, "faults.pause", true);
+  incarnation_.assign(static_cast<std::size_t>(n_), 0);
 
-  std::vector<std::optional<estimators::Estimate>> estimates(static_cast<std::size_t>(n));
-  std::vector<estimators::MeasurementBatch> batches(static_cast<std::size_t>(n));
-  // incoming[r]: the agents whose samples reach r, ascending (the order a serial sender loop delivers in).
-  std::vector<std::vector<AgentId>> incoming(static_cast<std::size_t>(n));
-  {
-    WorkPhase phase(control, "agents: links");
-    for (AgentId sender = 0; sender < n; ++sender) {
-      phase.tick(static_cast<std::size_t>(sender), static_cast<std::size_t>(n));
-      for (AgentId receiver : world.neighbours[static_cast<std::size_t>(sender)])
-        incoming[static_cast<std::size_t>(receiver)].push_back(sender);
-    }
-  }
-  int threads = options.round_threads == 0 ? auto_round_threads(n) : options.round_threads;
-  if (options.recorder != nullptr || world.recorded) threads = 1;  // ordered side effects
-  control.throw_if_cancelled();
-  if (options.recorder) options.recorder->begin(scenario, world);
-  // A step of a large world takes seconds (a dense one: minutes), so the rounds report their progress and
-  // stop at the next agent on Ctrl-C; the step cut short is not scored.
-  WorkPhase step_phase(control, "");
-  for (std::int64_t step = 0; step < scenario.run.steps; ++step) {
-    if (control.cancelled()) {
+  estimates_.resize(static_cast<std::size_t>(n_));
+  batches_.resize(static_cast<std::size_t>(n_));
+  index_incoming();
+  threads_ = options_.round_threads == 0 ? auto_round_threads(n_) : options_.round_threads;
+  if (options_.recorder != nullptr || world_.recorded) threads_ = 1;  // ordered side effects
+  control_.throw_if_cancelled();
+  if (options_.recorder) options_.recorder->begin(scenario_, world_);
+}
+
+void LockstepSimulation::run_steps(RunRecord& record) {
+  for (std::int64_t step = 0; step < scenario_.run.steps; ++step) {
+    if (control_.cancelled()) {
       record.interrupted = true;
       break;
     }
-    step_phase.restart("step " + std::to_string(step + 1) + "/" + std::to_string(scenario.run.steps));
+    step_phase_.restart("step " + std::to_string(step + 1) + "/" + std::to_string(scenario_.run.steps));
     try {
-      if (step > 0) advance_truth(world, scenario, step);
-      for (const auto& fault : kills) {
-        if (fault.to_step != step) continue;
-        const auto k = static_cast<std::size_t>(fault.agent);
-        agents[k] = AgentRuntime(make_agent_estimator(scenario, world, fault.agent),
-                                 world.setup_of(fault.agent), world.neighbours[k],
-                                 make_runtime_params(scenario, world, options.trial, ++incarnation[k]));
-      }
-      // Deliver round k−1's samples over the lossy bus, then the world-step-k batches. Each receiver takes
-      // its senders in ascending id order, so its mailbox and loss draws do not depend on the threads.
-      auto deliver_previous_round = [&](std::int64_t delivered_ns) {
-        for_each_agent(n, threads, control, step_phase, [&](AgentId receiver) {
-          if (within(kills, receiver, step)) return;
-          auto& agent = agents[static_cast<std::size_t>(receiver)];
-          for (AgentId sender : incoming[static_cast<std::size_t>(receiver)]) {
-            const auto& publication = published[static_cast<std::size_t>(sender)];
-            AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
-              if (options.recorder) {
-                // Published in the previous round, delivered in this one (virtual world time).
-                options.recorder->sample(ReceivedSample{receiver, agent.steps_run(),
-                                                        publication.header.sender_stamp_ns, delivered_ns,
-                                                        true, header, SampleMessage(message)});
-              }
-              agent.on_sample(header, message);
-            });
-          }
-        });
-      };
-      deliver_previous_round(stamp_ns(step));
-      for_each_agent(n, threads, control, step_phase, [&](AgentId i) {
-        batches[static_cast<std::size_t>(i)] = generate_batch(world, scenario, i, step);
-      });
-      if (options.recorder) options.recorder->world_step(step, world.truth, batches);
-      for_each_agent(n, threads, control, step_phase, [&](AgentId i) {
-        const auto k = static_cast<std::size_t>(i);
-        Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns(step),
-                      stamp_ns(step)};
-        agents[k].on_batch(header, std::move(batches[k]));
-        if (within(kills, i, step) || within(pauses, i, step)) {
-          published[k] = AgentRuntime::Publication{};  // publishes nothing this round
-          estimates[k].reset();                        // not scored while down
-          return;
-        }
-        const bool restarted_now = std::any_of(kills.begin(), kills.end(), [&](const config::AgentFault& f) {
-          return f.agent == i && f.to_step == step;
-        });
-        if (restarted_now) {
-          // A restarted process announces its prior first; its neighbours use it from the next round.
-          published[k] = agents[k].initial_publication(stamp_ns(step));
-          estimates[k].reset();
-          return;
-        }
-        published[k] = agents[k].step(stamp_ns(step));
-        make_hostile_if_listed(options.hostile_agents, i, published[k].outbox, published[k].header.step);
-        estimates[k] = agents[k].estimate();
-      });
-      // run.agent_steps_per_world_step: further exchanges within the period, without a batch.
-      for (int round = 1; round < scenario.run.agent_steps_per_world_step; ++round) {
-        const std::int64_t round_ns = stamp_ns(step) + (stamp_ns(step + 1) - stamp_ns(step)) * round /
-                                                           scenario.run.agent_steps_per_world_step;
-        deliver_previous_round(round_ns);
-        for_each_agent(n, threads, control, step_phase, [&](AgentId i) {
-          const auto k = static_cast<std::size_t>(i);
-          if (within(kills, i, step) || within(pauses, i, step)) return;
-          published[k] = agents[k].step(round_ns);
-          make_hostile_if_listed(options.hostile_agents, i, published[k].outbox, published[k].header.step);
-          estimates[k] = agents[k].estimate();
-        });
-      }
-      StepMetrics metrics;
-      metrics.step = step;
-      metrics.time_s = reported_time_s(scenario, step);
-      metrics.errors = score(world, estimates);
-      set_step_bounds(record, metrics);
-      record.metrics.push_back(metrics);
-      if (options.record_estimates) {
-        for (AgentId i = 0; i < n; ++i) {
-          if (!estimates[static_cast<std::size_t>(i)]) continue;  // down (faults)
-          record.estimates.push_back(
-              {step, i, *estimates[static_cast<std::size_t>(i)], world.scored_truth(i)});
-        }
-      }
-      if (options.on_step) options.on_step(step, metrics.errors);
+      run_step(step, record);
     } catch (const Cancelled&) {
       record.interrupted = true;
       break;
     }
   }
+}
 
-  record_agents(record, world, agents);
+void LockstepSimulation::run_step(std::int64_t step, RunRecord& record) {
+  if (step > 0) advance_truth(world_, scenario_, step);
+  restart_killed(step);
+  // Deliver round k−1's samples over the lossy bus, then the world-step-k batches. Each receiver takes
+  // its senders in ascending id order, so its mailbox and loss draws do not depend on the threads.
+  deliver_previous_round(step, stamp_ns(step));
+  for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) {
+    batches_[static_cast<std::size_t>(i)] = generate_batch(world_, scenario_, i, step);
+  });
+  if (options_.recorder) options_.recorder->world_step(step, world_.truth, batches_);
+  for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) { step_agent_with_batch(i, step); });
+  run_extra_rounds(step);
+  score_step(step, record);
+}
+
+void LockstepSimulation::restart_killed(std::int64_t step) {
+  for (const auto& fault : kills_) {
+    if (fault.to_step != step) continue;
+    const auto k = static_cast<std::size_t>(fault.agent);
+    agents_[k] = AgentRuntime(make_agent_estimator(scenario_, world_, fault.agent),
+                              world_.setup_of(fault.agent), world_.neighbours[k],
+                              make_runtime_params(scenario_, world_, options_.trial, ++incarnation_[k]));
+  }
+}
+
+void LockstepSimulation::deliver_previous_round(std::int64_t step, std::int64_t delivered_ns) {
+  for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId receiver) {
+    if (within(kills_, receiver, step)) return;
+    auto& agent = agents_[static_cast<std::size_t>(receiver)];
+    for (AgentId sender : incoming_[static_cast<std::size_t>(receiver)]) {
+      const auto& publication = published_[static_cast<std::size_t>(sender)];
+      AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
+        if (options_.recorder) {
+          // Published in the previous round, delivered in this one (virtual world time).
+          options_.recorder->sample(ReceivedSample{receiver, agent.steps_run(),
+                                                   publication.header.sender_stamp_ns, delivered_ns, true,
+                                                   header, SampleMessage(message)});
+        }
+        agent.on_sample(header, message);
+      });
+    }
+  });
+}
+
+/// Agent i takes its world-step batch, then steps and publishes (unless down or restarted just now).
+void LockstepSimulation::step_agent_with_batch(AgentId i, std::int64_t step) {
+  const auto k = static_cast<std::size_t>(i);
+  Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns(step), stamp_ns(step)};
+  agents_[k].on_batch(header, std::move(batches_[k]));
+  if (within(kills_, i, step) || within(pauses_, i, step)) {
+    published_[k] = AgentRuntime::Publication{};  // publishes nothing this round
+    estimates_[k].reset();                        // not scored while down
+    return;
+  }
+  const bool restarted_now = std::any_of(kills_.begin(), kills_.end(), [&](const config::AgentFault& f) {
+    return f.agent == i && f.to_step == step;
+  });
+  if (restarted_now) {
+    // A restarted process announces its prior first; its neighbours use it from the next round.
+    published_[k] = agents_[k].initial_publication(stamp_ns(step));
+    estimates_[k].reset();
+    return;
+  }
+  published_[k] = agents_[k].step(stamp_ns(step));
+  make_hostile_if_listed(options_.hostile_agents, i, published_[k].outbox, published_[k].header.step);
+  estimates_[k] = agents_[k].estimate();
+}
+
+/// run.agent_steps_per_world_step: further exchanges within the period, without a batch.
+void LockstepSimulation::run_extra_rounds(std::int64_t step) {
+  for (int round = 1; round < scenario_.run.agent_steps_per_world_step; ++round) {
+    const std::int64_t round_ns = stamp_ns(step) + (stamp_ns(step + 1) - stamp_ns(step)) * round /
+                                                       scenario_.run.agent_steps_per_world_step;
+    deliver_previous_round(step, round_ns);
+    for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) {
+      const auto k = static_cast<std::size_t>(i);
+      if (within(kills_, i, step) || within(pauses_, i, step)) return;
+      published_[k] = agents_[k].step(round_ns);
+      make_hostile_if_listed(options_.hostile_agents, i, published_[k].outbox, published_[k].header.step);
+      estimates_[k] = agents_[k].estimate();
+    });
+  }
+}
+
+void LockstepSimulation::score_step(std::int64_t step, RunRecord& record) {
+  StepMetrics metrics;
+  metrics.step = step;
+  metrics.time_s = reported_time_s(scenario_, step);
+  metrics.errors = score(world_, estimates_);
+  set_step_bounds(record, metrics);
+  record.metrics.push_back(metrics);
+  if (options_.record_estimates) {
+    for (AgentId i = 0; i < n_; ++i) {
+      if (!estimates_[static_cast<std::size_t>(i)]) continue;  // down (faults)
+      record.estimates.push_back({step, i, *estimates_[static_cast<std::size_t>(i)], world_.scored_truth(i)});
+    }
+  }
+  if (options_.on_step) options_.on_step(step, metrics.errors);
+}
+
+}  // namespace
+
+RunRecord run_simulation(const config::Scenario& scenario, World world, const SimOptions& options) {
+  if (scenario.run.sim_clock == config::SimClock::kAgents)
+    return run_agent_clock_simulation(scenario, options);
+  if (is_centralized(scenario.algorithm.name)) return run_centralized_simulation(scenario, options);
+  const auto started = std::chrono::steady_clock::now();
+  attach_recorded(world, options.recorded);
+  LockstepSimulation simulation(scenario, world, options);
+  RunRecord record;
+  simulation.set_up(record);
+  simulation.run_steps(record);
+  record_agents(record, world, simulation.agents());
   record.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return record;
 }
+
+namespace {
+
+/// Per trial, per step: (mse, rmse, nees), the squared bounds, and the final figures. Trials are
+/// independent, so threads share nothing but an index.
+struct TrialSeries {
+  explicit TrialSeries(int trials)
+      : per_trial(static_cast<std::size_t>(trials)),
+        per_trial_bound(static_cast<std::size_t>(trials)),
+        final_rmse(static_cast<std::size_t>(trials), 0.0),
+        final_flagged(static_cast<std::size_t>(trials), 0) {}
+  // Per trial, per step: (mse, rmse, nees).
+  std::vector<std::vector<std::array<double, 3>>> per_trial;
+  // Per trial, per step: the squared bound and all-data bound (NaN when the run has none).
+  std::vector<std::vector<std::array<double, 2>>> per_trial_bound;
+  std::vector<double> final_rmse;
+  std::vector<int> final_flagged;
+
+  /// Trial t's rows, from its record.
+  void add(int t, const RunRecord& record, std::size_t steps) {
+    auto& rows = per_trial[static_cast<std::size_t>(t)];
+    rows.reserve(steps);
+    for (const auto& m : record.metrics) {
+      rows.push_back({m.errors.rmse_m * m.errors.rmse_m, m.errors.rmse_m, m.errors.nees});
+      per_trial_bound[static_cast<std::size_t>(t)].push_back(
+          {m.bound_rmse_m * m.bound_rmse_m, m.bound_all_data_rmse_m * m.bound_all_data_rmse_m});
+    }
+    final_rmse[static_cast<std::size_t>(t)] = record.final_metrics()->errors.rmse_m;
+    final_flagged[static_cast<std::size_t>(t)] = record.final_metrics()->errors.flagged;
+  }
+};
+
+/// Step k's mean and spread over the trials; the CRLB is the first trial's.
+MonteCarloStep aggregate_step(std::size_t k, int trials, const TrialSeries& series,
+                              const std::vector<StepMetrics>& reference) {
+  MonteCarloStep row;
+  row.step = static_cast<std::int64_t>(k);
+  row.crlb_rmse_m = k < reference.size() ? reference[k].crlb_rmse_m : 0.0;
+  std::array<double, 2> bound_sum{};
+  for (const auto& trial_rows : series.per_trial_bound)
+    bound_sum[0] += trial_rows[k][0], bound_sum[1] += trial_rows[k][1];
+  row.bound_rmse_m = std::sqrt(bound_sum[0] / static_cast<double>(trials));
+  row.bound_all_data_rmse_m = std::sqrt(bound_sum[1] / static_cast<double>(trials));
+  std::array<double, 3> sum{}, sum_sq{};
+  for (const auto& trial_rows : series.per_trial) {
+    for (std::size_t q = 0; q < 3; ++q) {
+      sum[q] += trial_rows[k][q];
+      sum_sq[q] += trial_rows[k][q] * trial_rows[k][q];
+    }
+  }
+  const double n = static_cast<double>(trials);
+  auto spread = [&](std::size_t q) {
+    return std::sqrt(std::max(0.0, sum_sq[q] / n - (sum[q] / n) * (sum[q] / n)));
+  };
+  row.mse_mean = sum[0] / n, row.mse_std = spread(0);
+  row.rmse_mean = sum[1] / n, row.rmse_std = spread(1);
+  row.nees_mean = sum[2] / n, row.nees_std = spread(2);
+  return row;
+}
+
+}  // namespace
 
 MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, int threads,
                                  const std::function<void(int, int)>& on_trial,
@@ -320,12 +459,7 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
   result.threads =
       threads > 0 ? threads : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
   const auto steps = static_cast<std::size_t>(scenario.run.steps);
-  // Per trial, per step: (mse, rmse, nees). Trials are independent, so threads share nothing but an index.
-  std::vector<std::vector<std::array<double, 3>>> per_trial(static_cast<std::size_t>(trials));
-  // Per trial, per step: the squared bound and all-data bound (NaN when the run has none).
-  std::vector<std::vector<std::array<double, 2>>> per_trial_bound(static_cast<std::size_t>(trials));
-  std::vector<double> final_rmse(static_cast<std::size_t>(trials), 0.0);
-  std::vector<int> final_flagged(static_cast<std::size_t>(trials), 0);
+  TrialSeries series(trials);
   std::atomic<int> next{0};
   std::atomic<int> done{0};
   std::mutex progress_mutex;
@@ -344,15 +478,7 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
       }
       if (record.interrupted) return;
       if (on_record) on_record(t, record);
-      auto& rows = per_trial[static_cast<std::size_t>(t)];
-      rows.reserve(steps);
-      for (const auto& m : record.metrics) {
-        rows.push_back({m.errors.rmse_m * m.errors.rmse_m, m.errors.rmse_m, m.errors.nees});
-        per_trial_bound[static_cast<std::size_t>(t)].push_back(
-            {m.bound_rmse_m * m.bound_rmse_m, m.bound_all_data_rmse_m * m.bound_all_data_rmse_m});
-      }
-      final_rmse[static_cast<std::size_t>(t)] = record.final_metrics()->errors.rmse_m;
-      final_flagged[static_cast<std::size_t>(t)] = record.final_metrics()->errors.flagged;
+      series.add(t, record, steps);
       if (t == 0) result.first_trial = std::move(record);
       const int finished = ++done;
       if (on_trial) {
@@ -362,38 +488,15 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
     }
   };
   std::vector<std::thread> pool;
+  pool.reserve(static_cast<std::size_t>(result.threads));
   for (int k = 0; k < result.threads; ++k) pool.emplace_back(worker);
   for (auto& thread : pool) thread.join();
   control.throw_if_cancelled();
 
-  const auto& reference = result.first_trial.metrics;
-  for (std::size_t k = 0; k < steps; ++k) {
-    MonteCarloStep row;
-    row.step = static_cast<std::int64_t>(k);
-    row.crlb_rmse_m = k < reference.size() ? reference[k].crlb_rmse_m : 0.0;
-    std::array<double, 2> bound_sum{};
-    for (const auto& trial_rows : per_trial_bound)
-      bound_sum[0] += trial_rows[k][0], bound_sum[1] += trial_rows[k][1];
-    row.bound_rmse_m = std::sqrt(bound_sum[0] / static_cast<double>(trials));
-    row.bound_all_data_rmse_m = std::sqrt(bound_sum[1] / static_cast<double>(trials));
-    std::array<double, 3> sum{}, sum_sq{};
-    for (const auto& trial_rows : per_trial) {
-      for (std::size_t q = 0; q < 3; ++q) {
-        sum[q] += trial_rows[k][q];
-        sum_sq[q] += trial_rows[k][q] * trial_rows[k][q];
-      }
-    }
-    const double n = static_cast<double>(trials);
-    auto spread = [&](std::size_t q) {
-      return std::sqrt(std::max(0.0, sum_sq[q] / n - (sum[q] / n) * (sum[q] / n)));
-    };
-    row.mse_mean = sum[0] / n, row.mse_std = spread(0);
-    row.rmse_mean = sum[1] / n, row.rmse_std = spread(1);
-    row.nees_mean = sum[2] / n, row.nees_std = spread(2);
-    result.steps.push_back(row);
-  }
-  result.final_rmse_per_trial = std::move(final_rmse);
-  result.final_flagged_per_trial = std::move(final_flagged);
+  for (std::size_t k = 0; k < steps; ++k)
+    result.steps.push_back(aggregate_step(k, trials, series, result.first_trial.metrics));
+  result.final_rmse_per_trial = std::move(series.final_rmse);
+  result.final_flagged_per_trial = std::move(series.final_flagged);
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return result;
 }

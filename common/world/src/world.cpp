@@ -217,15 +217,13 @@ std::uint64_t trial_seed(std::uint64_t seed, std::uint64_t trial) {
   return trial == 0 ? seed : core::hash_keys(seed, 0x7472696171ULL, trial);
 }
 
-World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw, const WorkControl& control) {
-  control.throw_if_cancelled();
-  if (s.world.source == config::WorldSource::kMrclam) return build_mrclam_world(s);
-  World world;
-  world.trial = trial;
-  constexpr int kMaxAttempts = 1000;
-  if (accepted_draw >= kMaxAttempts)
-    throw config::ScenarioError("accepted world draw " + std::to_string(accepted_draw) +
-                                " is >= " + std::to_string(kMaxAttempts));
+namespace {
+
+constexpr int kMaxAttempts = 1000;  // placement draws
+
+/// Draws placements (positions, anchors, links) until one is connected and localizable, or replays
+/// `accepted_draw` (≥ 0) as recorded; throws ScenarioError when no draw is acceptable.
+void draw_placement(World& world, const Scenario& s, int accepted_draw, const WorkControl& control) {
   const bool random_placement = s.world.placement == config::Placement::kUniform;
   // Up to kMaxAttempts draws (each a localizability check of up to 0.3 s): progress counts them.
   WorkPhase draws(control, "world: placement draws");
@@ -261,8 +259,12 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw, con
                     "set world.require_connected: false");
     }
   }
+}
+
+/// Every agent's initial guess (the trial's draws) and the std an agent may assume for it.
+void draw_initial_guesses(World& world, const Scenario& s, std::uint64_t trial,
+                          const MeasurementKinds& kinds) {
   const auto n = static_cast<std::size_t>(s.world.agents);
-  const MeasurementKinds kinds = measurement_kinds(s.algorithm.name);
   world.initial_guess.resize(n);
   // How far off a start may be, which an agent may know (a deployment plan's tolerance): the guess's std,
   // or that of a uniform draw over the area.
@@ -281,6 +283,11 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw, con
     // Anchors know their position; so does every sensor of a target-estimating world (002 Sec. II).
     if (world.is_anchor[i] || kinds.targets) world.initial_guess[i] = world.truth[i];
   }
+}
+
+/// What the algorithm measures besides its peers (a field, a target, walls), and every agent's clock.
+void add_environment(World& world, const Scenario& s, const MeasurementKinds& kinds) {
+  const auto n = static_cast<std::size_t>(s.world.agents);
   if (kinds.field) {
     auto field_rng = core::make_engine(s.seed, core::Stream::kPlacement, -2);  // the world's, not the trial's
     world.field =
@@ -297,6 +304,22 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw, con
     world.clocks.push_back(
         core::draw_clock(s.seed, static_cast<AgentId>(i), s.clock.offset_max_s, s.clock.drift_ppm));
   }
+}
+
+}  // namespace
+
+World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw, const WorkControl& control) {
+  control.throw_if_cancelled();
+  if (s.world.source == config::WorldSource::kMrclam) return build_mrclam_world(s);
+  World world;
+  world.trial = trial;
+  if (accepted_draw >= kMaxAttempts)
+    throw config::ScenarioError("accepted world draw " + std::to_string(accepted_draw) +
+                                " is >= " + std::to_string(kMaxAttempts));
+  draw_placement(world, s, accepted_draw, control);
+  const MeasurementKinds kinds = measurement_kinds(s.algorithm.name);
+  draw_initial_guesses(world, s, trial, kinds);
+  add_environment(world, s, kinds);
   control.throw_if_cancelled();
   return world;
 }

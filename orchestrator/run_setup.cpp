@@ -1,0 +1,68 @@
+#include "run_setup.hpp"
+
+#include <cstdint>
+#include <cstdio>
+#include <random>
+#include <system_error>
+#include <utility>
+
+#include "preflight.hpp"
+#include "swarmloc/dds/transport.hpp"
+#include "swarmloc/rundir/recording.hpp"
+#include "swarmloc/sim/centralized_runner.hpp"
+
+namespace swarmloc::orchestrator {
+namespace {
+
+/// dds.security_dir made absolute, and every participant's files (ours; launched agents' and fusion
+/// centre's) checked to exist.
+void check_security(config::Scenario& scenario, const RunOptions& options) {
+  if (scenario.dds.security_dir.empty()) return;
+  // Agents read the run directory's scenario.yaml, possibly from another working directory.
+  scenario.dds.security_dir = std::filesystem::absolute(scenario.dds.security_dir).lexically_normal();
+  dds::security_files(scenario.dds.security_dir, kOrchestratorId);
+  if (options.launch_agents) {
+    for (AgentId id = 0; id < scenario.world.agents; ++id) dds::security_files(scenario.dds.security_dir, id);
+    if (sim::is_centralized(scenario.algorithm.name)) {
+      dds::security_files(scenario.dds.security_dir, dds::kFusionCenterId);
+    }
+  }
+}
+
+}  // namespace
+
+int run_orchestrator(const RunOptions& options) {
+  config::Scenario scenario;
+  try {
+    scenario = config::load_scenario(options.scenario_path, options.overrides);
+  } catch (const config::ScenarioError& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 2;
+  }
+  return run_orchestrator(std::move(scenario), options);
+}
+
+std::string fresh_run_id() {
+  std::random_device entropy;
+  const std::uint64_t value = (static_cast<std::uint64_t>(entropy()) << 32) ^ entropy();
+  char text[24];
+  std::snprintf(text, sizeof text, "r%012llx", static_cast<unsigned long long>(value & 0xffffffffffffULL));
+  return text;
+}
+
+sim::World prepare_run(config::Scenario& scenario, const RunOptions& options, const sim::WorkControl& control,
+                       std::filesystem::path& run_dir, bool& run_dir_existed) {
+  check_hostile_ids(options.hostile_agents, scenario);
+  dds::require_ports_fit(scenario);
+  check_security(scenario, options);
+  // An unusable --out is bad input, found before any work (docs/robustness.md, "Outputs").
+  run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
+  std::error_code ignored;
+  run_dir_existed = std::filesystem::exists(run_dir, ignored);
+  sim::prepare_run_directory(run_dir, options.force);
+  // Placement and algorithm errors are bad input, found before anything starts; the world built for
+  // the check is the run's.
+  return check_runnable(scenario, control);
+}
+
+}  // namespace swarmloc::orchestrator

@@ -1,0 +1,23 @@
+#pragma once
+// `swarmloc run` before the orchestrator starts: the scenario loaded, bad input found and the run
+// directory prepared, before any work (run_orchestrator(const RunOptions&) is defined beside these).
+#include <filesystem>
+#include <string>
+
+#include "orchestrator.hpp"
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/world/world.hpp"
+
+namespace swarmloc::orchestrator {
+
+/// 12 hex digits from the OS's entropy: a run id no other run on the domain shares.
+std::string fresh_run_id();
+
+/// Checks the scenario and options (--hostile ids, DDS ports, security files), prepares the run
+/// directory (set in `run_dir`; `run_dir_existed`: whether it existed before) and builds the run's world.
+/// Throws config::ScenarioError on bad input, sim::Cancelled on Ctrl-C; `run_dir` and `run_dir_existed`
+/// are set as far as it got, for the caller to discard an empty directory.
+sim::World prepare_run(config::Scenario& scenario, const RunOptions& options, const sim::WorkControl& control,
+                       std::filesystem::path& run_dir, bool& run_dir_existed);
+
+}  // namespace swarmloc::orchestrator
