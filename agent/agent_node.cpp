@@ -3,7 +3,6 @@
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
-#include <sys/resource.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -21,6 +20,7 @@
 #include "swarmloc/runtime/agent_runtime.hpp"
 #include "swarmloc/runtime/hostile.hpp"
 #include "swarmloc/runtime/placement.hpp"
+#include "swarmloc/runtime/process_cpu.hpp"
 #include "swarmloc/runtime/run_health.hpp"
 #include "swarmloc/runtime/sample_log.hpp"
 
@@ -32,14 +32,7 @@ std::atomic<bool> g_stop_requested{false};
 // Only sets a flag: never call DDS from a signal handler (docs/style.md, Cyclone section).
 void on_signal(int /*signal*/) { g_stop_requested.store(true); }
 
-double process_cpu_s() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  auto seconds = [](const timeval& t) {
-    return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) * 1e-6;
-  };
-  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
-}
+using sim::process_cpu_s;
 
 std::shared_ptr<spdlog::logger> make_logger(const AgentOptions& options) {
   const std::string name = options.id >= 0 ? "agent" + std::to_string(options.id) : std::string("agent");

@@ -3,7 +3,6 @@
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <atomic>
@@ -14,6 +13,7 @@
 #include <optional>
 
 #include "swarmloc/dds/transport.hpp"
+#include "swarmloc/runtime/process_cpu.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/world/world.hpp"
 
@@ -27,14 +27,7 @@ std::atomic<bool> g_stop_requested{false};
 // Only sets a flag: never call DDS from a signal handler.
 void on_signal(int /*signal*/) { g_stop_requested.store(true); }
 
-double process_cpu_s() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  auto seconds = [](const timeval& t) {
-    return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) * 1e-6;
-  };
-  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
-}
+using sim::process_cpu_s;
 
 std::shared_ptr<spdlog::logger> make_logger(const FusionOptions& options) {
   const std::string name = "fusion";

@@ -17,6 +17,7 @@
 
 #include "agent_command.hpp"
 #include "agent_node.hpp"
+#include "cli_support.hpp"
 #include "fusion_center.hpp"
 #include "orchestrator.hpp"
 #include "replay.hpp"
@@ -24,12 +25,7 @@
 
 namespace {
 
-std::string self_executable(const char* argv0) {
-  std::array<char, 4096> buffer{};
-  const ssize_t length = readlink("/proc/self/exe", buffer.data(), buffer.size() - 1);
-  if (length > 0) return std::string(buffer.data(), static_cast<std::size_t>(length));
-  return std::filesystem::absolute(argv0).string();
-}
+using swarmloc::orchestrator::kPositiveInteger;
 
 std::string keys_help() {
   std::string text = "Keys accepted by --set (see docs/scenario.md):\n";
@@ -64,17 +60,6 @@ void add_view_options(CLI::App* command, int& port, double& hold_s) {
           },
           "SECONDS >= 0 or inf"));
 }
-
-/// CLI::PositiveNumber's message prints the double range 0 to 1.8e308; this one says what is wanted.
-const CLI::Validator kPositiveInteger(
-    [](const std::string& text) -> std::string {
-      char* end = nullptr;
-      errno = 0;
-      const long value = std::strtol(text.c_str(), &end, 10);
-      if (end != text.c_str() && *end == '\0' && errno == 0 && value >= 1 && value <= INT_MAX) return {};
-      return "'" + text + "' must be a positive integer";
-    },
-    "INT >= 1");
 
 /// --force on run, sim and replay.
 void add_force_flag(CLI::App* command, bool& force) {
@@ -154,7 +139,7 @@ int execute_run(const RunCommand& run, const SharedFlags& shared, const char* ar
   options.scenario_path = shared.scenario_path;
   options.overrides = shared.overrides;
   options.out_dir = shared.out_dir;
-  options.agent_binary = self_executable(argv0);
+  options.agent_binary = swarmloc::orchestrator::self_executable(argv0).string();
   options.launch_agents = !run.no_launch;
   options.hostile_agents.assign(run.hostile.begin(), run.hostile.end());
   options.progress = !shared.quiet;
@@ -297,9 +282,8 @@ void add_replay_command(CLI::App& app, SharedFlags& shared, ReplayCommand& repla
   command->add_flag("--dds", options.dds, "Replay over DDS agent processes (default: the simulator)");
   command->add_option(
       "--mrclam", options.mrclam_dir,
-      "UTIAS MRCLAM dataset directory (e.g. ../shared/data/utias-mrclam/MRCLAM_Dataset6): five "
-      "robots as five DDS agents, scored with dead-reckoning and centralized-EKF baselines "
-      "(docs/real-data.md)");
+      "UTIAS MRCLAM dataset directory (e.g. MRCLAM_Dataset6): five robots as five DDS agents, scored "
+      "with dead-reckoning and centralized-EKF baselines (docs/real-data.md: where to get it)");
   command->add_option("--speedup", options.speedup,
                       "--mrclam: dataset seconds per wall-clock second (default 10)");
   command->add_flag("--sim", options.in_process, "--mrclam: run in the in-process simulator, not over DDS");
@@ -321,7 +305,7 @@ int execute_replay(ReplayCommand& replay, const SharedFlags& shared, const char*
   options.progress = !shared.quiet;
   options.record = shared.record;
   options.force = shared.force;
-  options.agent_binary = self_executable(argv0);
+  options.agent_binary = swarmloc::orchestrator::self_executable(argv0).string();
   return swarmloc::orchestrator::run_replay(options);
 }
 

@@ -1,5 +1,6 @@
 #include "preflight.hpp"
 
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -8,6 +9,16 @@
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
+
+std::optional<config::Scenario> load_scenario_or_report(const std::string& path,
+                                                        const std::vector<std::string>& overrides) {
+  try {
+    return config::load_scenario(path, overrides);
+  } catch (const config::ScenarioError& error) {
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return std::nullopt;
+  }
+}
 
 void check_hostile_ids(const std::vector<AgentId>& hostile_agents, const config::Scenario& scenario) {
   for (AgentId id : hostile_agents) {

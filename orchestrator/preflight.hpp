@@ -1,5 +1,7 @@
 #pragma once
 // Checks of a loaded scenario before anything starts; each throws config::ScenarioError (exit 2).
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
@@ -7,6 +9,11 @@
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
+
+/// The scenario file with its --set overrides; on bad input prints "error: ..." to stderr and returns
+/// nullopt (the caller exits 2).
+std::optional<config::Scenario> load_scenario_or_report(const std::string& path,
+                                                        const std::vector<std::string>& overrides);
 
 /// --hostile ids inside [0, world.agents).
 void check_hostile_ids(const std::vector<AgentId>& hostile_agents, const config::Scenario& scenario);

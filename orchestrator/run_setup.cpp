@@ -32,14 +32,8 @@ void check_security(config::Scenario& scenario, const RunOptions& options) {
 }  // namespace
 
 int run_orchestrator(const RunOptions& options) {
-  config::Scenario scenario;
-  try {
-    scenario = config::load_scenario(options.scenario_path, options.overrides);
-  } catch (const config::ScenarioError& error) {
-    std::fprintf(stderr, "error: %s\n", error.what());
-    return 2;
-  }
-  return run_orchestrator(std::move(scenario), options);
+  auto scenario = load_scenario_or_report(options.scenario_path, options.overrides);
+  return scenario ? run_orchestrator(std::move(*scenario), options) : 2;
 }
 
 std::string fresh_run_id() {

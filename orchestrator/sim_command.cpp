@@ -281,14 +281,8 @@ int run_single(const SimCommand& command, sim::World& world, LiveView* view) {
 }  // namespace
 
 int run_sim_command(const SimCommandOptions& options) {
-  config::Scenario scenario;
-  try {
-    scenario = config::load_scenario(options.scenario_path, options.overrides);
-  } catch (const config::ScenarioError& error) {
-    std::fprintf(stderr, "error: %s\n", error.what());
-    return 2;
-  }
-  return run_sim_command(std::move(scenario), options);
+  auto scenario = load_scenario_or_report(options.scenario_path, options.overrides);
+  return scenario ? run_sim_command(std::move(*scenario), options) : 2;
 }
 
 // By value as run_orchestrator(config::Scenario, ...), whose public signature it mirrors (orchestrator.hpp).

@@ -13,29 +13,15 @@
 #include <string>
 
 #include "campaign.hpp"
+#include "cli_support.hpp"
 #include "reproduce.hpp"
 
 namespace {
 
 /// The product CLI, `swarmloc`, installed beside this binary: campaigns run its `run` and its agents.
 std::string product_executable(const char* argv0) {
-  std::array<char, 4096> buffer{};
-  const ssize_t length = readlink("/proc/self/exe", buffer.data(), buffer.size() - 1);
-  const std::filesystem::path self =
-      length > 0 ? std::filesystem::path(std::string(buffer.data(), static_cast<std::size_t>(length)))
-                 : std::filesystem::absolute(argv0);
-  return (self.parent_path() / "swarmloc").string();
+  return (swarmloc::orchestrator::self_executable(argv0).parent_path() / "swarmloc").string();
 }
-
-const CLI::Validator kPositiveTrials(
-    [](const std::string& text) -> std::string {
-      char* end = nullptr;
-      errno = 0;
-      const long value = std::strtol(text.c_str(), &end, 10);
-      if (end != text.c_str() && *end == '\0' && errno == 0 && value >= 1 && value <= INT_MAX) return {};
-      return "'" + text + "' must be a positive integer";
-    },
-    "INT >= 1");
 
 }  // namespace
 
@@ -61,7 +47,7 @@ int main(int argc, char** argv) {
   reproduce->add_option("--out", reproduce_out, "Output directory (default runs/reproduce)");
   reproduce
       ->add_option("--trials", reproduce_options.trials, "Monte Carlo trials (default: the paper's count)")
-      ->check(kPositiveTrials);
+      ->check(swarmloc::orchestrator::kPositiveInteger);
   reproduce->add_option("--threads", reproduce_options.threads, "Worker threads (default: every core)")
       ->check(CLI::NonNegativeNumber);
   reproduce->add_option("--seed", reproduce_options.seed, "Seed");

@@ -1,7 +1,8 @@
 // `swarmloc replay --mrclam DIR` end to end: UTIAS MRCLAM Dataset 6 as five agent processes over DDS,
 // with both baselines and the TUM trajectories in the run directory. The full 900 s are a command in
 // docs/real-data.md; this test replays the first 150 s at 50× (about 3 s of run). Skipped, with a
-// message, when ../shared/data is absent (the data is never part of the project). Domain 45.
+// message, when the dataset is absent (it is never part of the project; tests/support/dataset_paths.hpp).
+// Domain 45.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,5 +1,6 @@
 // UTIAS MRCLAM as a recorded world: the loader on a small hand-made dataset (always runs), and the real
-// Dataset 6 in the simulator (skipped with a message when ../shared/data is absent).
+// Dataset 6 in the simulator (skipped with a message when the dataset is absent;
+// tests/support/dataset_paths.hpp).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
