@@ -15,11 +15,11 @@
 #include <thread>
 #include <type_traits>
 
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/runtime/agent_runtime.hpp"
 #include "swarmloc/runtime/hostile.hpp"
-#include "swarmloc/runtime/placement.hpp"
 #include "swarmloc/runtime/process_cpu.hpp"
 #include "swarmloc/runtime/run_health.hpp"
 #include "swarmloc/runtime/sample_log.hpp"
@@ -60,7 +60,7 @@ class AgentProcess {
                  sim::make_runtime_params(manifest, options.incarnation)),
         transport_(scenario, dds::Topology{manifest.id, manifest.agent_count, manifest.neighbours}),
         neighbour_count_(static_cast<int>(manifest.neighbours.size())),
-        sensor_only_(sim::is_centralized(scenario.algorithm.name)),
+        sensor_only_(config::runs_in_fusion_centre(scenario.algorithm.name)),
         lockstep_(scenario.run.mode == config::RunMode::kLockstep && !sensor_only_),
         started_(std::chrono::steady_clock::now()),
         results_hash_(config::results_hash(scenario)),

@@ -247,7 +247,7 @@ int run_fusion_center(const FusionOptions& options) {
     logger->error("{}", error.what());
     return 2;
   }
-  if (!sim::is_centralized(scenario.algorithm.name)) {
+  if (!config::runs_in_fusion_centre(scenario.algorithm.name)) {
     logger->error("algorithm.name: '{}' is not a centralized algorithm (ekf, lbekf, lbekf_vr, lbekf_i)",
                   scenario.algorithm.name);
     return 2;

@@ -57,7 +57,7 @@ class Orchestrator {
         options_(std::move(options)),
         run_dir_(std::move(run_dir)),
         world_(with_recording(std::move(world), options_)),
-        centralized_(sim::is_centralized(scenario_.algorithm.name)),
+        centralized_(config::runs_in_fusion_centre(scenario_.algorithm.name)),
         lockstep_(scenario_.run.mode == config::RunMode::kLockstep && !centralized_),
         lockstep_excluded_(static_cast<std::size_t>(scenario_.world.agents), false),
         kills_(config::parse_agent_faults(scenario_.faults.kill, "faults.kill", false)),

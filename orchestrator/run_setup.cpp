@@ -23,7 +23,7 @@ void check_security(config::Scenario& scenario, const RunOptions& options) {
   dds::security_files(scenario.dds.security_dir, kOrchestratorId);
   if (options.launch_agents) {
     for (AgentId id = 0; id < scenario.world.agents; ++id) dds::security_files(scenario.dds.security_dir, id);
-    if (sim::is_centralized(scenario.algorithm.name)) {
+    if (config::runs_in_fusion_centre(scenario.algorithm.name)) {
       dds::security_files(scenario.dds.security_dir, dds::kFusionCenterId);
     }
   }

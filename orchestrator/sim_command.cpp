@@ -252,7 +252,8 @@ int run_single(const SimCommand& command, sim::World& world, LiveView* view) {
   const auto& options = command.options;
   std::unique_ptr<sim::DirectoryRecorder> recorder;
   const sim::SimOptions sim_options = single_run_options(command, recorder);
-  if (scenario.run.sim_clock == config::SimClock::kAgents || sim::is_centralized(scenario.algorithm.name))
+  if (scenario.run.sim_clock == config::SimClock::kAgents ||
+      config::runs_in_fusion_centre(scenario.algorithm.name))
     command.cancelled_when =
         "during the simulation (run.sim_clock: agents and centralized runs keep no partial run)";
   auto record = sim::run_simulation(scenario, std::move(world), sim_options);

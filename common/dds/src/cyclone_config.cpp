@@ -20,8 +20,8 @@
 #include <sstream>
 #include <string>
 
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/dds/transport.hpp"
-#include "swarmloc/runtime/placement.hpp"
 
 namespace swarmloc::dds {
 
@@ -69,7 +69,8 @@ int discovery_port(int slot, int domain_id) {
 
 void require_ports_fit(const config::Scenario& scenario) {
   if (!scenario.dds.neighbour_discovery) return;
-  const int last_slot = scenario.world.agents + (sim::is_centralized(scenario.algorithm.name) ? 1 : 0);
+  const int last_slot =
+      scenario.world.agents + (config::runs_in_fusion_centre(scenario.algorithm.name) ? 1 : 0);
   const int highest = discovery_port(last_slot, scenario.dds.domain_id) + 1;  // its data port
   constexpr int kMaxPort = 65535;
   if (highest <= kMaxPort) return;
@@ -120,7 +121,7 @@ BusyPort first_busy_port(int first_slot, int last_slot, int domain_id) {
 void require_ports_free(const config::Scenario& scenario, bool local_agents) {
   if (!scenario.dds.neighbour_discovery) return;  // multicast discovery: Cyclone picks free ports itself
   const int agents = scenario.world.agents;
-  const int last_slot = agents + (sim::is_centralized(scenario.algorithm.name) ? 1 : 0);
+  const int last_slot = agents + (config::runs_in_fusion_centre(scenario.algorithm.name) ? 1 : 0);
   const int first_slot = local_agents ? 0 : agents;
   const BusyPort busy = first_busy_port(first_slot, last_slot, scenario.dds.domain_id);
   if (busy.port < 0) return;
@@ -165,7 +166,7 @@ std::string cyclone_config(const config::Scenario& scenario, const Topology& top
       for (int agent = 0; agent < agent_count; ++agent) {
         xml << "<Peer address=\"" << address << ':' << discovery_port(agent, dds.domain_id) << "\"/>";
       }
-      if (sim::is_centralized(scenario.algorithm.name)) {
+      if (config::runs_in_fusion_centre(scenario.algorithm.name)) {
         xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count + 1, dds.domain_id)
             << "\"/>";
       }

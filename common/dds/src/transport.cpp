@@ -34,7 +34,7 @@
 #include "entities.hpp"
 #include "qos.hpp"
 #include "ros2_bridge.hpp"
-#include "swarmloc/runtime/placement.hpp"
+#include "swarmloc/config/algorithms.hpp"
 
 namespace swarmloc::dds {
 
@@ -104,7 +104,7 @@ struct AgentTransport::Impl {
     const dds_entity_t estimates = create_publisher(pp, {partition_names.estimates()});
     estimate_writer = create_writer(estimates, t_estimate, qos.estimate, kTopicEstimate);
     // A centralized algorithm's agents only sense: the fusion centre publishes their poses.
-    if (scenario.dds.ros2 && !sim::is_centralized(scenario.algorithm.name)) {
+    if (scenario.dds.ros2 && !config::runs_in_fusion_centre(scenario.algorithm.name)) {
       ros2_pose_writer = ros2::create_writer(pp, geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc,
                                              ros2::pose_topic(self));
     }

@@ -19,7 +19,7 @@
 #include <string>
 
 #include "swarmloc/rundir/external_program.hpp"
-#include "swarmloc/rundir/output_file.hpp"
+#include "swarmloc/runtime/output_file.hpp"
 
 namespace swarmloc::sim {
 namespace {

@@ -6,7 +6,7 @@
 #include <sstream>
 #include <string>
 
-#include "swarmloc/rundir/output_file.hpp"
+#include "swarmloc/runtime/output_file.hpp"
 
 namespace swarmloc::sim {
 namespace {

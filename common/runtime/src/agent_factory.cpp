@@ -4,8 +4,8 @@
 #include <limits>
 #include <numbers>
 
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/estimators/consensus/cooperative.hpp"
-#include "swarmloc/runtime/placement.hpp"
 
 namespace swarmloc::sim {
 namespace {
@@ -72,7 +72,7 @@ estimators::CooperativeParams cooperative_params(const config::Scenario& s) {
 std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& s,
                                                             const AgentManifest& manifest) {
   // Centralized algorithms run in the fusion centre; their agents are sensors only.
-  if (is_centralized(s.algorithm.name))
+  if (config::runs_in_fusion_centre(s.algorithm.name))
     return make_sensor_only_estimator(manifest.setup, s.algorithm.initial_std_m);
   const auto& cooperative = estimators::cooperative_algorithms();
   if (std::find(cooperative.begin(), cooperative.end(), s.algorithm.name) != cooperative.end()) {

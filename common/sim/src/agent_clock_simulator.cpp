@@ -304,7 +304,8 @@ class AgentClockSimulation {
 }  // namespace
 
 void require_supported_sim_clock(const config::Scenario& scenario) {
-  if (scenario.run.sim_clock == config::SimClock::kAgents && is_centralized(scenario.algorithm.name)) {
+  if (scenario.run.sim_clock == config::SimClock::kAgents &&
+      config::runs_in_fusion_centre(scenario.algorithm.name)) {
     throw config::ScenarioError(
         "run.sim_clock: agents does not apply to algorithm.name = " + scenario.algorithm.name +
         " (a centralized filter runs in the fusion centre on whole world steps; "

@@ -32,7 +32,7 @@ std::unique_ptr<centralized::CentralizedFilter> make_fusion_filter(const config:
                                                                    const World& world) {
   const std::string& algorithm = scenario.algorithm.name;
   const estimators::EstimatorBuilder* builder = estimators::find_estimator_builder(algorithm);
-  if (!is_centralized(algorithm) || builder == nullptr || !builder->fusion) {
+  if (!config::runs_in_fusion_centre(algorithm) || builder == nullptr || !builder->fusion) {
     throw std::invalid_argument("make_fusion_filter: algorithm '" + algorithm + "' is not centralized");
   }
   const int n = world.size();

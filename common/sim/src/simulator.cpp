@@ -138,7 +138,8 @@ int auto_round_threads(int agents) {
 RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options) {
   if (scenario.run.sim_clock == config::SimClock::kAgents)
     return run_agent_clock_simulation(scenario, options);
-  if (is_centralized(scenario.algorithm.name)) return run_centralized_simulation(scenario, options);
+  if (config::runs_in_fusion_centre(scenario.algorithm.name))
+    return run_centralized_simulation(scenario, options);
   return run_simulation(scenario, build_world(scenario, options.trial, -1, options.control), options);
 }
 
@@ -375,7 +376,8 @@ void LockstepSimulation::score_step(std::int64_t step, RunRecord& record) {
 RunRecord run_simulation(const config::Scenario& scenario, World world, const SimOptions& options) {
   if (scenario.run.sim_clock == config::SimClock::kAgents)
     return run_agent_clock_simulation(scenario, options);
-  if (is_centralized(scenario.algorithm.name)) return run_centralized_simulation(scenario, options);
+  if (config::runs_in_fusion_centre(scenario.algorithm.name))
+    return run_centralized_simulation(scenario, options);
   const auto started = std::chrono::steady_clock::now();
   attach_recorded(world, options.recorded);
   LockstepSimulation simulation(scenario, world, options);

@@ -12,7 +12,6 @@
 
 #include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/estimators/registry.hpp"
-#include "swarmloc/runtime/placement.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/bound.hpp"
@@ -98,12 +97,13 @@ TEST(AlgorithmRegistry, ConfigAcceptsExactlyTheEntries) {
     names.emplace_back(spec.name);
     EXPECT_EQ(&config::algorithm_spec(spec.name), &spec);
     EXPECT_EQ(bound_data(std::string(spec.name)).algorithm, spec.name);
-    EXPECT_EQ(is_centralized(spec.name), spec.placement == AlgorithmPlacement::kFusionCentre) << spec.name;
+    EXPECT_EQ(config::runs_in_fusion_centre(spec.name), spec.placement == AlgorithmPlacement::kFusionCentre)
+        << spec.name;
   }
   EXPECT_EQ(bound_data_table().size(), names.size());
   EXPECT_EQ(config::known_algorithm_list().find("no_such"), std::string::npos);
   EXPECT_THROW((void)config::algorithm_spec("no_such"), config::ScenarioError);
-  EXPECT_FALSE(is_centralized("no_such"));
+  EXPECT_FALSE(config::runs_in_fusion_centre("no_such"));
   std::vector<std::string> exchange_only;
   for (const auto& spec : config::algorithm_registry())
     if (spec.exchange_only) exchange_only.emplace_back(spec.name);

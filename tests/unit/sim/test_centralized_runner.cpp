@@ -18,8 +18,10 @@ config::Scenario ea2(const std::vector<std::string>& overrides = {}) {
 }
 
 TEST(CentralizedRunner, KnowsTheCentralizedAlgorithms) {
-  for (const char* name : {"ekf", "lbekf", "lbekf_vr", "lbekf_i"}) EXPECT_TRUE(is_centralized(name)) << name;
-  for (const char* name : {"ieif", "iekf", "dle", "bp", ""}) EXPECT_FALSE(is_centralized(name)) << name;
+  for (const char* name : {"ekf", "lbekf", "lbekf_vr", "lbekf_i"})
+    EXPECT_TRUE(config::runs_in_fusion_centre(name)) << name;
+  for (const char* name : {"ieif", "iekf", "dle", "bp", ""})
+    EXPECT_FALSE(config::runs_in_fusion_centre(name)) << name;
 }
 
 TEST(CentralizedRunner, OneRangePerEdgeFromTheLowerEndpointUnlessItsBatchIsMissing) {

@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "swarmloc/rundir/external_program.hpp"
-#include "swarmloc/rundir/output_file.hpp"
 #include "swarmloc/rundir/plots.hpp"
 #include "swarmloc/rundir/run_record.hpp"
+#include "swarmloc/runtime/output_file.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::sim {

@@ -843,7 +843,7 @@ TEST_P(SimulatorReplay, ReplayOfARecordedRunGivesTheSameMetricsEveryStep) {
   // The sample log: every sample reached a neighbour of its sender.
   const auto log = load_sample_log(dir / kSampleLogDirectory / kSimSampleLogFile);
   EXPECT_EQ(log.samples.size(), recorder.samples());
-  if (is_centralized(s.algorithm.name)) {
+  if (config::runs_in_fusion_centre(s.algorithm.name)) {
     EXPECT_TRUE(log.samples.empty());  // sensors only: nothing between agents
     return;
   }

@@ -19,8 +19,8 @@
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
-#include "swarmloc/rundir/output_file.hpp"
 #include "swarmloc/runtime/envelope.hpp"
+#include "swarmloc/runtime/output_file.hpp"
 #include "swarmloc/runtime/sample_log.hpp"
 #include "swarmloc/runtime/slrec_codec.hpp"
 #include "swarmloc/world/world.hpp"

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
-#include "swarmloc/rundir/output_file.hpp"
 #include "swarmloc/runtime/envelope.hpp"
+#include "swarmloc/runtime/output_file.hpp"
 #include "swarmloc/world/bound.hpp"
 #include "swarmloc/world/metrics.hpp"
 #include "swarmloc/world/world.hpp"

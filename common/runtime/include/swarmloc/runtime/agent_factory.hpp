@@ -30,7 +30,7 @@ std::unique_ptr<estimators::Estimator> make_sensor_only_estimator(const estimato
                                                                   double initial_std_m);
 
 /// Builds the estimator of the agent `manifest` describes from the scenario's algorithm settings. For a
-/// centralized algorithm (is_centralized, placement.hpp) the agent is a sensor only.
+/// centralized algorithm (config::runs_in_fusion_centre, config/algorithms.hpp) the agent is a sensor only.
 std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& scenario,
                                                             const AgentManifest& manifest);
 

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/estimators/centralized/centralized_filter.hpp"
-#include "swarmloc/runtime/placement.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/world.hpp"
 
