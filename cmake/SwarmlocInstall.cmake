@@ -11,7 +11,7 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/scenarios/ DESTINATION ${CMAKE_INSTALL_D
 # The estimators take plain C++/Eigen in and out: the part of swarmloc worth embedding elsewhere.
 # swarmloc_warnings and swarmloc_sanitizers are linked privately; a static library's private links are
 # exported as link-only, so they travel in the export set (they add nothing at link time).
-install(TARGETS swarmloc_core swarmloc_models swarmloc_estimators swarmloc_warnings swarmloc_sanitizers
+install(TARGETS swarmloc_core swarmloc_models swarmloc_estimators swarmloc_warnings swarmloc_test_warnings swarmloc_sanitizers
         EXPORT swarmlocTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
 foreach(library core models estimators)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/common/${library}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})

@@ -1,7 +1,13 @@
 # Warnings and sanitizers travel as INTERFACE targets linked PRIVATE, so they never leak to consumers.
-add_library(swarmloc_warnings INTERFACE)
-target_compile_options(swarmloc_warnings INTERFACE
+# Tests and benchmarks take the base set; product code (libraries and apps) also -Wconversion
+# -Wsign-conversion. Tests compare sizes with literals and index with ints all over, where a cast per
+# assertion would hide what is asserted.
+add_library(swarmloc_test_warnings INTERFACE)
+target_compile_options(swarmloc_test_warnings INTERFACE
   -Wall -Wextra -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wdouble-promotion $<$<BOOL:${SWARMLOC_WERROR}>:-Werror>)
+add_library(swarmloc_warnings INTERFACE)
+target_link_libraries(swarmloc_warnings INTERFACE swarmloc_test_warnings)
+target_compile_options(swarmloc_warnings INTERFACE -Wconversion -Wsign-conversion)
 
 add_library(swarmloc_sanitizers INTERFACE)
 if(SWARMLOC_SANITIZERS)

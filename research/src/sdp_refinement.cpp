@@ -98,7 +98,8 @@ std::vector<std::int64_t> draw_start_ticks(std::size_t nodes, std::int64_t max_s
 
 std::uint64_t run_seed(std::uint64_t seed, int run) {
   // splitmix64 of (seed, run): independent streams per run.
-  std::uint64_t z = seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(run) + 0x632BE59BD9B4E5ULL;
+  std::uint64_t z = seed * std::uint64_t{0x9E3779B97F4A7C15} + static_cast<std::uint64_t>(run) +
+                    std::uint64_t{0x632BE59BD9B4E5};
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
   return z ^ (z >> 31);

@@ -117,7 +117,9 @@ int gate_ranges(Linearization& rows, const Mat2& P_pred, double chi2_gate) {
       rows.jacobian.row(kept) = rows.jacobian.row(m);
       rows.innovation(kept) = rows.innovation(m);
       rows.variance(kept) = rows.variance(m);
-      if (!rows.link_of_row.empty()) rows.link_of_row[kept] = rows.link_of_row[m];
+      if (!rows.link_of_row.empty()) {
+        rows.link_of_row[static_cast<std::size_t>(kept)] = rows.link_of_row[static_cast<std::size_t>(m)];
+      }
     }
     ++kept;
   }

@@ -182,7 +182,8 @@ class Decoder {
           offset_);
     }
     std::uint64_t v = 0;
-    for (int k = 0; k < width; ++k) v |= static_cast<std::uint64_t>(bytes_[offset_ + k]) << (8 * k);
+    for (int k = 0; k < width; ++k)
+      v |= static_cast<std::uint64_t>(bytes_[offset_ + static_cast<std::size_t>(k)]) << (8 * k);
     offset_ += static_cast<std::size_t>(width);
     return v;
   }

@@ -343,8 +343,8 @@ AgentRuntime::Publication AgentRuntime::publish(estimators::Outbox outbox, std::
   publication.outbox = std::move(outbox);
   publication.header = Header{setup_.id, next_seq_, step, sender_stamp_ns, world_stamp_ns};
   const auto& out = publication.outbox;
-  const auto samples = static_cast<std::uint32_t>((out.state ? 1 : 0) + (out.information ? 1 : 0) +
-                                                  out.consensus.size() + (out.belief ? 1 : 0));
+  const auto samples = static_cast<std::uint32_t>((out.state ? 1U : 0U) + (out.information ? 1U : 0U) +
+                                                  out.consensus.size() + (out.belief ? 1U : 0U));
   next_seq_ += samples;
   samples_published_ += samples;
   if (step >= 0) samples_published_in_steps_ += samples;
