@@ -1,5 +1,6 @@
 // Paper 000 (banded inversion, LB-EKF, vertex relabeling): experiments E-A1, E-A2 and E-A3.
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <sstream>
@@ -179,8 +180,7 @@ int reproduce_ea2(const ReproduceOptions& options) {
   const auto sums = run_ea2_trials(config, world, variants, trials, options);
   const double wall_s = seconds_since(started);
   const auto markdown = ea2_markdown(config, world, variants, sums, trials, wall_s, options);
-  // Before emit() creates the output directory: as the experiment always did (the CSV is written only
-  // into an existing directory).
+  std::filesystem::create_directories(options.out_dir);
   write_ea2_csv(options.out_dir / "ea2_total_mse.csv", variants, sums, static_cast<std::size_t>(config.steps),
                 trials);
   emit(options.out_dir, "ea2", markdown);

@@ -96,24 +96,15 @@ Ea2World make_ea2_world(const Ea2Config& config) {
                            std::to_string(config.max_attempts) + " attempts");
 }
 
-Ea2TrialResult run_ea2_trial(const Ea2Config& config, const Ea2World& world, Ea2Variant variant,
-                             std::uint64_t trial_seed) {
+namespace {
+
+Eigen::Index ea2_index(int a) { return 2 * static_cast<Eigen::Index>(a); }
+
+// The filter of `variant`; its labels are 000 Alg. 3's relabeling once at k = 0 ([A-5]) where the variant
+// relabels, else the generation order.
+CentralizedKind ea2_filter_params(const Ea2Config& config, const Ea2World& world, Ea2Variant variant,
+                                  const VecX& initial_mean, CentralizedFilterParams& params) {
   const int agents = config.num_agents;
-  const auto idx = [](int a) { return 2 * static_cast<Eigen::Index>(a); };
-  auto init_rng = core::make_engine(trial_seed, core::Stream::kInitialGuess);
-  auto motion_rng = core::make_engine(trial_seed, core::Stream::kMotion);
-  auto noise_rng = core::make_engine(trial_seed, core::Stream::kMeasurementNoise);
-  std::normal_distribution<double> standard(0.0, 1.0);
-
-  VecX truth(2 * agents);
-  for (int a = 0; a < agents; ++a) truth.segment<2>(idx(a)) = world.positions[static_cast<std::size_t>(a)];
-  VecX initial_mean = truth;
-  const double initial_std = std::sqrt(config.initial_var);
-  for (Eigen::Index i = 0; i < initial_mean.size(); ++i) initial_mean(i) += initial_std * standard(init_rng);
-  const std::vector<Mat2> initial_cov(static_cast<std::size_t>(agents),
-                                      Mat2::Identity() * config.initial_var);
-
-  CentralizedFilterParams params;
   params.process_var = config.process_var;
   params.inversion = config.inversion;
   CentralizedKind kind = CentralizedKind::kEkf;
@@ -138,17 +129,62 @@ Ea2TrialResult run_ea2_trial(const Ea2Config& config, const Ea2World& world, Ea2
       break;
   }
   if (kind != CentralizedKind::kEkf) params.bandwidth = config.bandwidth;
-  if (relabel) {  // 000 Alg. 3 once at k = 0 ([A-5])
+  if (relabel) {
     std::vector<Vec2> reference(static_cast<std::size_t>(agents));
     for (int a = 0; a < agents; ++a) {
       reference[static_cast<std::size_t>(a)] = config.relabel_from_truth
                                                    ? world.positions[static_cast<std::size_t>(a)]
-                                                   : Vec2(initial_mean.segment<2>(idx(a)));
+                                                   : Vec2(initial_mean.segment<2>(ea2_index(a)));
     }
     params.labels = lexicographic_labels(reference);
   } else {
     params.labels = identity_labels(agents);  // generation order
   }
+  return kind;
+}
+
+// eq. (5) at the true `positions`; the disk graph follows them (§1.2).
+CentralizedMeasurements ea2_measurements(const Ea2Config& config, const Ea2World& world,
+                                         const std::vector<Vec2>& positions, std::mt19937_64& noise_rng,
+                                         std::normal_distribution<double>& standard) {
+  const double beacon_std = std::sqrt(config.beacon_var);
+  const double range_std = std::sqrt(config.range_var);
+  CentralizedMeasurements meas;
+  meas.beacon_var = config.beacon_var;
+  meas.range_var = config.range_var;
+  for (int b : world.beacons) {
+    const Vec2 noise = beacon_std * Vec2(standard(noise_rng), standard(noise_rng));
+    meas.beacon_fixes.emplace_back(b, positions[static_cast<std::size_t>(b)] + noise);
+  }
+  for (const auto& [i, j] : disk_graph_edges(positions, config.sensing_radius_m)) {
+    const double range =
+        (positions[static_cast<std::size_t>(i)] - positions[static_cast<std::size_t>(j)]).norm();
+    meas.ranges.push_back({i, j, range + range_std * standard(noise_rng)});
+  }
+  return meas;
+}
+
+}  // namespace
+
+Ea2TrialResult run_ea2_trial(const Ea2Config& config, const Ea2World& world, Ea2Variant variant,
+                             std::uint64_t trial_seed) {
+  const int agents = config.num_agents;
+  auto init_rng = core::make_engine(trial_seed, core::Stream::kInitialGuess);
+  auto motion_rng = core::make_engine(trial_seed, core::Stream::kMotion);
+  auto noise_rng = core::make_engine(trial_seed, core::Stream::kMeasurementNoise);
+  std::normal_distribution<double> standard(0.0, 1.0);
+
+  VecX truth(2 * agents);
+  for (int a = 0; a < agents; ++a)
+    truth.segment<2>(ea2_index(a)) = world.positions[static_cast<std::size_t>(a)];
+  VecX initial_mean = truth;
+  const double initial_std = std::sqrt(config.initial_var);
+  for (Eigen::Index i = 0; i < initial_mean.size(); ++i) initial_mean(i) += initial_std * standard(init_rng);
+  const std::vector<Mat2> initial_cov(static_cast<std::size_t>(agents),
+                                      Mat2::Identity() * config.initial_var);
+
+  CentralizedFilterParams params;
+  const CentralizedKind kind = ea2_filter_params(config, world, variant, initial_mean, params);
   const auto filter = make_centralized_filter(kind, initial_mean, initial_cov, params);
   PosteriorCrb crb(initial_cov, config.process_var);
 
@@ -160,34 +196,22 @@ Ea2TrialResult run_ea2_trial(const Ea2Config& config, const Ea2World& world, Ea2
     result.crb_total.assign(static_cast<std::size_t>(config.steps), 0.0);
     result.crb_agent = MatX::Zero(config.steps, agents);
   }
-  const double beacon_std = std::sqrt(config.beacon_var);
-  const double range_std = std::sqrt(config.range_var);
   const double process_std = std::sqrt(config.process_var);
   std::vector<Vec2> positions = world.positions;
   for (int k = 0; k < config.steps; ++k) {
     if (k > 0) {  // eq. (4) with v = 0 ([A-6])
       for (Vec2& p : positions) p += process_std * Vec2(standard(motion_rng), standard(motion_rng));
-      for (int a = 0; a < agents; ++a) truth.segment<2>(idx(a)) = positions[static_cast<std::size_t>(a)];
+      for (int a = 0; a < agents; ++a)
+        truth.segment<2>(ea2_index(a)) = positions[static_cast<std::size_t>(a)];
     }
-    CentralizedMeasurements meas;  // eq. (5); the disk graph follows the true positions (§1.2)
-    meas.beacon_var = config.beacon_var;
-    meas.range_var = config.range_var;
-    for (int b : world.beacons) {
-      const Vec2 noise = beacon_std * Vec2(standard(noise_rng), standard(noise_rng));
-      meas.beacon_fixes.emplace_back(b, positions[static_cast<std::size_t>(b)] + noise);
-    }
-    for (const auto& [i, j] : disk_graph_edges(positions, config.sensing_radius_m)) {
-      const double range =
-          (positions[static_cast<std::size_t>(i)] - positions[static_cast<std::size_t>(j)]).norm();
-      meas.ranges.push_back({i, j, range + range_std * standard(noise_rng)});
-    }
+    const CentralizedMeasurements meas = ea2_measurements(config, world, positions, noise_rng, standard);
     filter->step(meas);
     result.max_measurement_bandwidth =
         std::max(result.max_measurement_bandwidth, filter->last_measurement_bandwidth());
     if (filter->last_truncated_entries() > 0) ++result.truncated_steps;
     const VecX error = filter->mean() - truth;
     for (int a = 0; a < agents; ++a) {
-      const double e2 = error.segment<2>(idx(a)).squaredNorm();
+      const double e2 = error.segment<2>(ea2_index(a)).squaredNorm();
       result.agent_mse(k, a) = e2;
       result.total_mse[static_cast<std::size_t>(k)] += e2;
     }

@@ -108,6 +108,104 @@ SdpStatus status_of(SDPA::PhaseType phase, double gap, const SdpRelaxationParams
   return SdpStatus::kFailed;
 }
 
+// SDPA's standard form (sdpa_call.h; SDPA 7 manual §2):
+//   (P) min Σ_k c_k x_k  s.t.  X = Σ_k F_k x_k − F_0 ⪰ 0
+//   (D) max F_0 • Y      s.t.  F_k • Y = c_k (k = 1…m),  Y ⪰ 0
+// The relaxation is posed as (D): its Y (getResultYMat) is block 1 = Z (n_u + 2 square, SDP) and block 2 =
+// the slacks (diagonal LP block, (a⁺, a⁻) per edge); F_0 = −1 on the slacks, so max F_0 • Y = −Σ slacks.
+// inputElement(k, block, i, j, v) with i ≤ j sets F_k(i, j) = F_k(j, i) = v (1-based): an off-diagonal
+// entry contributes 2·v·Y_ij to F_k • Y.
+void pose_relaxation(SDPA& sdpa, const std::vector<SdpEdge>& edges, int n_u,
+                     const SdpRelaxationParams& params) {
+  const int dim = n_u + 2;
+  const int num_edges = static_cast<int>(edges.size());
+  const int m = 3 + num_edges;
+  auto z = [](int unknown) { return unknown + 3; };  // 1-based row/column of x_u, Y_u· inside Z
+
+  sdpa.setDisplay(nullptr);  // SDPA prints its iterations to stdout by default
+  sdpa.setResultFile(nullptr);
+  sdpa.setParameterType(SDPA::PARAMETER_DEFAULT);
+  sdpa.setParameterMaxIteration(params.max_iterations);
+  sdpa.setParameterEpsilonStar(params.epsilon);
+  sdpa.setParameterEpsilonDash(params.epsilon);
+  sdpa.setNumThreads(1);
+  sdpa.inputConstraintNumber(m);
+  sdpa.inputBlockNumber(num_edges > 0 ? 2 : 1);
+  sdpa.inputBlockSize(1, dim);
+  sdpa.inputBlockType(1, SDPA::SDP);
+  if (num_edges > 0) {
+    sdpa.inputBlockSize(2, -2 * num_edges);  // negative size: an LP (diagonal) block
+    sdpa.inputBlockType(2, SDPA::LP);
+  }
+  sdpa.initializeUpperTriangleSpace();
+
+  // Z(1:2, 1:2) = I₂.
+  sdpa.inputCVec(1, 1.0);
+  sdpa.inputElement(1, 1, 1, 1, 1.0);
+  sdpa.inputCVec(2, 1.0);
+  sdpa.inputElement(2, 1, 2, 2, 1.0);
+  sdpa.inputCVec(3, 0.0);
+  sdpa.inputElement(3, 1, 1, 2, 0.5);  // 2 · 0.5 · Z_12 = 0
+  for (int k = 0; k < num_edges; ++k) {
+    const SdpEdge& e = edges[static_cast<std::size_t>(k)];
+    const int row = 4 + k;
+    const int u = z(e.u);
+    const double d2 = e.range * e.range;
+    if (e.v >= 0) {  // Y_uu + Y_vv − 2Y_uv − a⁺ + a⁻ = d̄²
+      const int v = z(e.v);
+      sdpa.inputCVec(row, d2);
+      sdpa.inputElement(row, 1, u, u, 1.0);
+      sdpa.inputElement(row, 1, v, v, 1.0);
+      sdpa.inputElement(row, 1, std::min(u, v), std::max(u, v), -1.0);
+    } else {  // −2aᵀx_u + Y_uu − b⁺ + b⁻ = d̄² − ‖a‖²
+      sdpa.inputCVec(row, d2 - e.anchor.squaredNorm());
+      if (e.anchor.x() != 0.0) sdpa.inputElement(row, 1, 1, u, -e.anchor.x());
+      if (e.anchor.y() != 0.0) sdpa.inputElement(row, 1, 2, u, -e.anchor.y());
+      sdpa.inputElement(row, 1, u, u, 1.0);
+    }
+    sdpa.inputElement(row, 2, 2 * k + 1, 2 * k + 1, -1.0);  // −a⁺
+    sdpa.inputElement(row, 2, 2 * k + 2, 2 * k + 2, 1.0);   // +a⁻
+  }
+  for (int s = 1; s <= 2 * num_edges; ++s) sdpa.inputElement(0, 2, s, s, -1.0);  // F_0: −Σ slacks
+}
+
+// Reads SDPA's solution into `result` (status, Gram block, residual check, total slack); returns X.
+Eigen::Matrix2Xd read_relaxation(SDPA& sdpa, const std::vector<SdpEdge>& edges, int n_u,
+                                 const SdpRelaxationParams& params, SdpRelaxationResult& result) {
+  const int dim = n_u + 2;
+  const int num_edges = static_cast<int>(edges.size());
+  char phase[64] = {};
+  sdpa.getPhaseString(phase);
+  result.solver_phase = phase;
+  result.iterations = sdpa.getIteration();
+  result.duality_gap = sdpa.getDualityGap();
+  result.sdpa_primal_objective = sdpa.getPrimalObj();
+  result.sdpa_dual_objective = sdpa.getDualObj();
+  result.status = status_of(sdpa.getPhaseValue(), result.duality_gap, params);
+
+  const double* Z = sdpa.getResultYMat(1);  // column-major dim × dim
+  Eigen::Matrix2Xd X(2, n_u);
+  for (int u = 0; u < n_u; ++u) {
+    X(0, u) = Z[0 + static_cast<std::ptrdiff_t>(dim) * (u + 2)];
+    X(1, u) = Z[1 + static_cast<std::ptrdiff_t>(dim) * (u + 2)];
+    for (int v = 0; v < n_u; ++v) result.gram(u, v) = Z[(u + 2) + static_cast<std::ptrdiff_t>(dim) * (v + 2)];
+  }
+  Eigen::VectorXd slacks = Eigen::VectorXd::Zero(2 * num_edges);
+  if (num_edges > 0) {
+    const double* lp = sdpa.getResultYMat(2);
+    for (int s = 0; s < 2 * num_edges; ++s) slacks(s) = lp[s];
+  }
+  // Residuals recomputed from the returned point: a check on the formulation and the solve.
+  double residual = std::max({std::abs(Z[0] - 1.0), std::abs(Z[1 + dim] - 1.0), std::abs(Z[dim])});
+  for (int k = 0; k < num_edges; ++k) {
+    const double r = edge_residual(edges[static_cast<std::size_t>(k)], X, result.gram);
+    residual = std::max(residual, std::abs(r - (slacks(2 * k) - slacks(2 * k + 1))));
+  }
+  result.max_residual = residual;
+  result.total_slack = slacks.sum();
+  return X;
+}
+
 }  // namespace
 
 void validate(const SdpRelaxationParams& params) {
@@ -178,103 +276,17 @@ SdpRelaxationResult solve_sdp_relaxation(const RangeProblem& problem, const SdpR
     return result;
   }
 
-  // SDPA's standard form (sdpa_call.h; SDPA 7 manual §2):
-  //   (P) min Σ_k c_k x_k  s.t.  X = Σ_k F_k x_k − F_0 ⪰ 0
-  //   (D) max F_0 • Y      s.t.  F_k • Y = c_k (k = 1…m),  Y ⪰ 0
-  // The relaxation is posed as (D): its Y (getResultYMat) is block 1 = Z (n_u + 2 square, SDP) and block 2 =
-  // the slacks (diagonal LP block, (a⁺, a⁻) per edge); F_0 = −1 on the slacks, so max F_0 • Y = −Σ slacks.
-  // inputElement(k, block, i, j, v) with i ≤ j sets F_k(i, j) = F_k(j, i) = v (1-based): an off-diagonal
-  // entry contributes 2·v·Y_ij to F_k • Y.
-  const int dim = n_u + 2;
-  const int num_edges = static_cast<int>(edges.size());
-  const int m = 3 + num_edges;
-  auto z = [](int unknown) { return unknown + 3; };  // 1-based row/column of x_u, Y_u· inside Z
-
   std::lock_guard<std::mutex> lock(sdpa_mutex());
   const DiscardStdCout quiet;
   SDPA sdpa;
-  sdpa.setDisplay(nullptr);  // SDPA prints its iterations to stdout by default
-  sdpa.setResultFile(nullptr);
-  sdpa.setParameterType(SDPA::PARAMETER_DEFAULT);
-  sdpa.setParameterMaxIteration(params.max_iterations);
-  sdpa.setParameterEpsilonStar(params.epsilon);
-  sdpa.setParameterEpsilonDash(params.epsilon);
-  sdpa.setNumThreads(1);
-  sdpa.inputConstraintNumber(m);
-  sdpa.inputBlockNumber(num_edges > 0 ? 2 : 1);
-  sdpa.inputBlockSize(1, dim);
-  sdpa.inputBlockType(1, SDPA::SDP);
-  if (num_edges > 0) {
-    sdpa.inputBlockSize(2, -2 * num_edges);  // negative size: an LP (diagonal) block
-    sdpa.inputBlockType(2, SDPA::LP);
-  }
-  sdpa.initializeUpperTriangleSpace();
-
-  // Z(1:2, 1:2) = I₂.
-  sdpa.inputCVec(1, 1.0);
-  sdpa.inputElement(1, 1, 1, 1, 1.0);
-  sdpa.inputCVec(2, 1.0);
-  sdpa.inputElement(2, 1, 2, 2, 1.0);
-  sdpa.inputCVec(3, 0.0);
-  sdpa.inputElement(3, 1, 1, 2, 0.5);  // 2 · 0.5 · Z_12 = 0
-  for (int k = 0; k < num_edges; ++k) {
-    const SdpEdge& e = edges[static_cast<std::size_t>(k)];
-    const int row = 4 + k;
-    const int u = z(e.u);
-    const double d2 = e.range * e.range;
-    if (e.v >= 0) {  // Y_uu + Y_vv − 2Y_uv − a⁺ + a⁻ = d̄²
-      const int v = z(e.v);
-      sdpa.inputCVec(row, d2);
-      sdpa.inputElement(row, 1, u, u, 1.0);
-      sdpa.inputElement(row, 1, v, v, 1.0);
-      sdpa.inputElement(row, 1, std::min(u, v), std::max(u, v), -1.0);
-    } else {  // −2aᵀx_u + Y_uu − b⁺ + b⁻ = d̄² − ‖a‖²
-      sdpa.inputCVec(row, d2 - e.anchor.squaredNorm());
-      if (e.anchor.x() != 0.0) sdpa.inputElement(row, 1, 1, u, -e.anchor.x());
-      if (e.anchor.y() != 0.0) sdpa.inputElement(row, 1, 2, u, -e.anchor.y());
-      sdpa.inputElement(row, 1, u, u, 1.0);
-    }
-    sdpa.inputElement(row, 2, 2 * k + 1, 2 * k + 1, -1.0);  // −a⁺
-    sdpa.inputElement(row, 2, 2 * k + 2, 2 * k + 2, 1.0);   // +a⁻
-  }
-  for (int s = 1; s <= 2 * num_edges; ++s) sdpa.inputElement(0, 2, s, s, -1.0);  // F_0: −Σ slacks
-
+  pose_relaxation(sdpa, edges, n_u, params);
   sdpa.initializeUpperTriangle();
   sdpa.initializeSolve();
   sdpa.solve();
-
-  char phase[64] = {};
-  sdpa.getPhaseString(phase);
-  result.solver_phase = phase;
-  result.iterations = sdpa.getIteration();
-  result.duality_gap = sdpa.getDualityGap();
-  result.sdpa_primal_objective = sdpa.getPrimalObj();
-  result.sdpa_dual_objective = sdpa.getDualObj();
-  result.status = status_of(sdpa.getPhaseValue(), result.duality_gap, params);
-
-  const double* Z = sdpa.getResultYMat(1);  // column-major dim × dim
-  Eigen::Matrix2Xd X(2, n_u);
-  for (int u = 0; u < n_u; ++u) {
-    X(0, u) = Z[0 + static_cast<std::ptrdiff_t>(dim) * (u + 2)];
-    X(1, u) = Z[1 + static_cast<std::ptrdiff_t>(dim) * (u + 2)];
-    for (int v = 0; v < n_u; ++v) result.gram(u, v) = Z[(u + 2) + static_cast<std::ptrdiff_t>(dim) * (v + 2)];
-  }
-  Eigen::VectorXd slacks = Eigen::VectorXd::Zero(2 * num_edges);
-  if (num_edges > 0) {
-    const double* lp = sdpa.getResultYMat(2);
-    for (int s = 0; s < 2 * num_edges; ++s) slacks(s) = lp[s];
-  }
-  // Residuals recomputed from the returned point: a check on the formulation and the solve.
-  double residual = std::max({std::abs(Z[0] - 1.0), std::abs(Z[1 + dim] - 1.0), std::abs(Z[dim])});
-  for (int k = 0; k < num_edges; ++k) {
-    const double r = edge_residual(edges[static_cast<std::size_t>(k)], X, result.gram);
-    residual = std::max(residual, std::abs(r - (slacks(2 * k) - slacks(2 * k + 1))));
-  }
+  const Eigen::Matrix2Xd X = read_relaxation(sdpa, edges, n_u, params, result);
   sdpa.terminate();
 
-  result.max_residual = residual;
-  result.total_slack = slacks.sum();
-  if (!X.allFinite() || !result.gram.allFinite() || !std::isfinite(residual)) {
+  if (!X.allFinite() || !result.gram.allFinite() || !std::isfinite(result.max_residual)) {
     result.status = SdpStatus::kFailed;
     return result;
   }

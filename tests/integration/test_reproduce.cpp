@@ -51,5 +51,24 @@ TEST(ReproduceCommands, PapersTwoToFourWriteTheirTables) {
   EXPECT_EQ(run_reproduce(unknown), 2);
 }
 
+// E-A2 writes its CSV (one row per step, 100 steps) also when the output directory does not exist yet.
+TEST(ReproduceCommands, Ea2WritesItsCsvIntoANewDirectory) {
+  const auto parent = std::filesystem::temp_directory_path() / "swarmloc-reproduce-ea2-test";
+  std::filesystem::remove_all(parent);
+  ReproduceOptions options;
+  options.experiment = "ea2";
+  options.out_dir = parent / "new";
+  options.trials = 1;
+  options.threads = 1;
+  EXPECT_EQ(run_reproduce(options), 0);
+  std::ifstream in(options.out_dir / "ea2_total_mse.csv");
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 101U);
+  EXPECT_EQ(lines[0], "step,EKF,LB-EKF+VR (L=20),LB-EKF without VR (L=20),LB-EKF-I+VR (L=20),posterior_crb");
+  EXPECT_EQ(lines[100].substr(0, 3), "99,");
+  std::filesystem::remove_all(parent);
+}
+
 }  // namespace
 }  // namespace swarmloc::orchestrator

@@ -518,12 +518,7 @@ std::optional<int> CentralizedPoseEkf::index_of(AgentId id) const {
   return static_cast<int>(it - ids_.begin());
 }
 
-void CentralizedPoseEkf::step(const std::vector<const MeasurementBatch*>& batches) {
-  if (batches.size() != ids_.size()) {
-    throw std::invalid_argument("centralized_pose_ekf: " + std::to_string(batches.size()) + " batches for " +
-                                std::to_string(ids_.size()) + " robots");
-  }
-  diagnostics_ = StepDiagnostics{};
+void CentralizedPoseEkf::predict(const std::vector<const MeasurementBatch*>& batches) {
   const int n = num_robots();
   // Prediction, robot by robot: the joint F and Q are block diagonal.
   for (int i = 0; i < n; ++i) {
@@ -546,8 +541,10 @@ void CentralizedPoseEkf::step(const std::vector<const MeasurementBatch*>& batche
     x_.segment<3>(3 * i) = prop.pose;
   }
   P_ = 0.5 * (P_ + P_.transpose());
+}
 
-  // Rows of every robot's pairs at the predicted joint state.
+RangeBearingRows CentralizedPoseEkf::joint_rows(const std::vector<const MeasurementBatch*>& batches) {
+  const int n = num_robots();
   RangeBearingRows rows;
   std::vector<Eigen::Matrix<double, 2, Eigen::Dynamic>> blocks;
   std::vector<Vec2> innovations;
@@ -599,6 +596,17 @@ void CentralizedPoseEkf::step(const std::vector<const MeasurementBatch*>& batche
     rows.H.middleRows(2 * m, 2) = blocks[static_cast<std::size_t>(m)];
     rows.innovation.segment<2>(2 * m) = innovations[static_cast<std::size_t>(m)];
   }
+  return rows;
+}
+
+void CentralizedPoseEkf::step(const std::vector<const MeasurementBatch*>& batches) {
+  if (batches.size() != ids_.size()) {
+    throw std::invalid_argument("centralized_pose_ekf: " + std::to_string(batches.size()) + " batches for " +
+                                std::to_string(ids_.size()) + " robots");
+  }
+  diagnostics_ = StepDiagnostics{};
+  predict(batches);
+  RangeBearingRows rows = joint_rows(batches);
   diagnostics_.ranges_gated = gate_range_bearings(rows, P_, params_.range_bearing_gate_chi2);
   diagnostics_.neighbours_used = rows.pairs();
   if (rows.pairs() > 0) {

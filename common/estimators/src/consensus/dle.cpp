@@ -85,19 +85,21 @@ bool Dle::shift_prior(VecX& omega, MatX& Omega, std::int64_t periods) const {
   return true;
 }
 
-StepOutput Dle::step(const StepInput& input) {
-  StepOutput out;
-  const Eigen::Index d = params_.target_dim;
-  const bool tracking = params_.F.size() != 0;
-  const std::int64_t batch_step = input.measurements != nullptr ? input.measurements->world_step : -1;
+namespace {
+
+// A prior further than this from the reference world step (a broken or hostile world step) is dropped: it
+// says nothing about now, and the prediction loop must stay bounded.
+constexpr std::int64_t kMaxGapPeriods = 1000;
+
+}  // namespace
+
+std::int64_t Dle::align_own_prior(std::int64_t batch_step) {
   // Tracking in a free run: priors are predicted to different world steps — this sensor's lags when
   // batches of world steps it never stepped on were carried into this one, and a neighbour's is one step
   // ahead or behind depending on when it stepped. Bring them all to one world step before mixing (a sum of
   // priors about different times puts the target between them): this batch's, else this sensor's prior's
-  // (before its first reading there is none, and priors are mixed as they come). A prior further than
-  // kMaxGapPeriods away (a broken or hostile world step) is dropped: it says nothing about now, and the
-  // prediction loop must stay bounded.
-  constexpr std::int64_t kMaxGapPeriods = 1000;
+  // (before its first reading there is none, and priors are mixed as they come).
+  const bool tracking = params_.F.size() != 0;
   const std::int64_t reference_step = batch_step >= 0 ? batch_step : prior_world_step_;
   if (tracking && prior_world_step_ >= 0 && reference_step >= 0 && reference_step != prior_world_step_) {
     const std::int64_t gap = std::clamp(reference_step - prior_world_step_, -kMaxGapPeriods, kMaxGapPeriods);
@@ -107,6 +109,70 @@ StepOutput Dle::step(const StepInput& input) {
     }
   }
   if (tracking && reference_step >= 0) prior_world_step_ = reference_step;
+  return reference_step;
+}
+
+bool Dle::add_observations(const MeasurementBatch& batch, VecX& omega_plus, MatX& Omega_plus) const {
+  const Eigen::Index d = params_.target_dim;
+  bool added = false;
+  for (const TargetObservation& z : batch.targets) {
+    if (z.target != params_.target || (z.kind != 0 && z.kind != 1) || !z.value.allFinite()) continue;
+    const Eigen::LLT<Mat2> V(z.covariance);
+    if (V.info() != Eigen::Success) continue;
+    MatX H = H_;
+    Vec2 value = z.value;
+    if (z.kind == 1) {      // range–bearing: linearize at ŷ_pred (§4.2)
+      if (d < 2) continue;  // no target position to range to
+      const Vec2 target = predicted_.head<2>();
+      const auto r = models::range(setup_.initial_guess_m, target);
+      const auto b = models::bearing(setup_.initial_guess_m, target);
+      if (!r || !b) continue;
+      H = MatX::Zero(2, d);
+      H.block<1, 2>(0, 0) = r->d_xj;
+      H.block<1, 2>(1, 0) = b->d_xj;
+      const Vec2 linear_part = H * predicted_;
+      value = Vec2(z.value(0) - r->value, models::bearing_residual(z.value(1), b->value)) + linear_part;
+    }
+    const MatX Vinv_H = V.solve(H);
+    omega_plus += Vinv_H.transpose() * value;  // H_iᵀV_i⁻¹z_i
+    Omega_plus += H.transpose() * Vinv_H;      // H_iᵀV_i⁻¹H_i
+    added = true;
+  }
+  return added;
+}
+
+void Dle::update(const VecX& omega_plus, MatX& Omega_plus, std::int64_t batch_step) {
+  const Eigen::Index d = params_.target_dim;
+  Omega_plus = 0.5 * (Omega_plus + Omega_plus.transpose());
+  const Eigen::LDLT<MatX> ldlt(Omega_plus);
+  const Eigen::SelfAdjointEigenSolver<MatX> eig(Omega_plus, Eigen::EigenvaluesOnly);
+  const bool invertible = eig.eigenvalues().minCoeff() > 1e-12 * std::max(1.0, eig.eigenvalues().maxCoeff());
+  if (invertible) {
+    y_ = ldlt.solve(omega_plus);
+    predicted_ = y_;
+    has_estimate_ = true;
+    if (d >= 2) position_covariance_ = ldlt.solve(MatX::Identity(d, 2)).topRows<2>();
+  }
+  if (params_.F.size() != 0 && invertible) {  // [C-2]: predict from the updated Ω⁺
+    const MatX P = ldlt.solve(MatX::Identity(d, d));
+    MatX P_pred = params_.F * P * params_.F.transpose() + params_.W;
+    P_pred = 0.5 * (P_pred + P_pred.transpose());
+    Omega_ = P_pred.ldlt().solve(MatX::Identity(d, d));
+    Omega_ = 0.5 * (Omega_ + Omega_.transpose());
+    predicted_ = params_.F * y_;
+    omega_ = Omega_ * predicted_;  // ω_{t+1} = Ω_{t+1} F ŷ_i(t+1)
+    prior_world_step_ = batch_step >= 0 ? batch_step + 1 : -1;
+  } else {  // a static target (no prediction), or Ω⁺ singular
+    omega_ = omega_plus;
+    Omega_ = Omega_plus;
+  }
+}
+
+StepOutput Dle::step(const StepInput& input) {
+  StepOutput out;
+  const bool tracking = params_.F.size() != 0;
+  const std::int64_t batch_step = input.measurements != nullptr ? input.measurements->world_step : -1;
+  const std::int64_t reference_step = align_own_prior(batch_step);
   detail::AlignPrior align;
   if (tracking && reference_step >= 0) {
     align = [this, reference_step](InformationMessage& prior) {
@@ -128,57 +194,9 @@ StepOutput Dle::step(const StepInput& input) {
     out.outbox = published();
     return out;
   }
-  if (input.measurements != nullptr) {
-    for (const TargetObservation& z : input.measurements->targets) {
-      if (z.target != params_.target || (z.kind != 0 && z.kind != 1) || !z.value.allFinite()) continue;
-      const Eigen::LLT<Mat2> V(z.covariance);
-      if (V.info() != Eigen::Success) continue;
-      MatX H = H_;
-      Vec2 value = z.value;
-      if (z.kind == 1) {      // range–bearing: linearize at ŷ_pred (§4.2)
-        if (d < 2) continue;  // no target position to range to
-        const Vec2 target = predicted_.head<2>();
-        const auto r = models::range(setup_.initial_guess_m, target);
-        const auto b = models::bearing(setup_.initial_guess_m, target);
-        if (!r || !b) continue;
-        H = MatX::Zero(2, d);
-        H.block<1, 2>(0, 0) = r->d_xj;
-        H.block<1, 2>(1, 0) = b->d_xj;
-        const Vec2 linear_part = H * predicted_;
-        value = Vec2(z.value(0) - r->value, models::bearing_residual(z.value(1), b->value)) + linear_part;
-      }
-      const MatX Vinv_H = V.solve(H);
-      omega_plus += Vinv_H.transpose() * value;  // H_iᵀV_i⁻¹z_i
-      Omega_plus += H.transpose() * Vinv_H;      // H_iᵀV_i⁻¹H_i
-      out.diagnostics.updated = true;
-    }
-  }
-  Omega_plus = 0.5 * (Omega_plus + Omega_plus.transpose());
-  const Eigen::LDLT<MatX> ldlt(Omega_plus);
-  const Eigen::SelfAdjointEigenSolver<MatX> eig(Omega_plus, Eigen::EigenvaluesOnly);
-  const bool invertible = eig.eigenvalues().minCoeff() > 1e-12 * std::max(1.0, eig.eigenvalues().maxCoeff());
-  if (invertible) {
-    y_ = ldlt.solve(omega_plus);
-    predicted_ = y_;
-    has_estimate_ = true;
-    if (d >= 2) position_covariance_ = ldlt.solve(MatX::Identity(d, 2)).topRows<2>();
-  }
-  if (params_.F.size() == 0) {  // static target: no prediction
-    omega_ = omega_plus;
-    Omega_ = Omega_plus;
-  } else if (invertible) {  // [C-2]: predict from the updated Ω⁺
-    const MatX P = ldlt.solve(MatX::Identity(d, d));
-    MatX P_pred = params_.F * P * params_.F.transpose() + params_.W;
-    P_pred = 0.5 * (P_pred + P_pred.transpose());
-    Omega_ = P_pred.ldlt().solve(MatX::Identity(d, d));
-    Omega_ = 0.5 * (Omega_ + Omega_.transpose());
-    predicted_ = params_.F * y_;
-    omega_ = Omega_ * predicted_;  // ω_{t+1} = Ω_{t+1} F ŷ_i(t+1)
-    prior_world_step_ = batch_step >= 0 ? batch_step + 1 : -1;
-  } else {
-    omega_ = omega_plus;
-    Omega_ = Omega_plus;
-  }
+  if (input.measurements != nullptr && add_observations(*input.measurements, omega_plus, Omega_plus))
+    out.diagnostics.updated = true;
+  update(omega_plus, Omega_plus, batch_step);
   out.outbox = published();
   return out;
 }

@@ -163,8 +163,7 @@ void DgBb::consensus_round() {
   psi_ = self_weight * psi + psi_sum;
 }
 
-StepOutput DgBb::step(const StepInput& input) {
-  StepOutput out;
+void DgBb::absorb(const StepInput& input) {
   if (input.measurements != nullptr) {
     for (const RangeMeasurement& m : input.measurements->ranges) {
       if (m.peer == setup_.id || !std::isfinite(m.range_m)) continue;
@@ -177,28 +176,102 @@ StepOutput DgBb::step(const StepInput& input) {
       n.range = m.range_m;
     }
   }
-  if (input.inbox != nullptr) {
-    const auto& states = input.inbox->states;
-    state_hints_.resize(states.size(), 0);
-    for (std::size_t k = 0; k < states.size(); ++k) {
-      const auto& received = states[k];
-      Peer& n = inbox_peer(state_hints_[k], received.sender);
-      if (!received.message.mean_m.allFinite()) continue;
-      n.position = received.message.mean_m;
-      n.degree = received.message.degree;
-      n.have_state = true;
-    }
-    const auto& consensus_values = input.inbox->consensus;
-    consensus_hints_.resize(consensus_values.size(), 0);
-    for (std::size_t k = 0; k < consensus_values.size(); ++k) {
-      const auto& received = consensus_values[k];
-      if (received.message.values.size() < 2) continue;
-      Peer& n = inbox_peer(consensus_hints_[k], received.sender);
-      n.rho = received.message.values[0];
-      n.psi = received.message.values[1];
-      n.have_consensus = true;
-    }
+  if (input.inbox == nullptr) return;
+  const auto& states = input.inbox->states;
+  state_hints_.resize(states.size(), 0);
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    const auto& received = states[k];
+    Peer& n = inbox_peer(state_hints_[k], received.sender);
+    if (!received.message.mean_m.allFinite()) continue;
+    n.position = received.message.mean_m;
+    n.degree = received.message.degree;
+    n.have_state = true;
   }
+  const auto& consensus_values = input.inbox->consensus;
+  consensus_hints_.resize(consensus_values.size(), 0);
+  for (std::size_t k = 0; k < consensus_values.size(); ++k) {
+    const auto& received = consensus_values[k];
+    if (received.message.values.size() < 2) continue;
+    Peer& n = inbox_peer(consensus_hints_[k], received.sender);
+    n.rho = received.message.values[0];
+    n.psi = received.message.values[1];
+    n.have_consensus = true;
+  }
+}
+
+double DgBb::local_step(const Vec2& D) {
+  double alpha = params_.fixed_step;
+  if (params_.rule == StepRule::kConsensusBb || params_.rule == StepRule::kLocalBb) {
+    const Vec2 dp = p_ - p_prev_;
+    Vec2 D_before_own_move = D_prev_;
+    // The neighbours where they are now (all of them are known once the node has started).
+    if (params_.rule == StepRule::kLocalBb && params_.own_move_curvature &&
+        !direction_at(p_prev_, D_before_own_move)) {
+      D_before_own_move = D_prev_;
+    }
+    const Vec2 dD = D - D_before_own_move;
+    const double rho = dp.squaredNorm();
+    const double psi = dp.dot(dD);
+    alpha = rho / psi;  // 004 eq. (15)
+    if (params_.curvature_safeguard && !bb_step_valid(rho, psi, alpha)) {
+      alpha = have_valid_alpha_ ? last_valid_alpha_ : params_.warmup_step;  // [E-4]
+      if (active_) ++safeguard_count_;
+    } else if (bb_step_valid(rho, psi, alpha)) {
+      last_valid_alpha_ = alpha;
+      have_valid_alpha_ = true;
+    }
+    alpha = capped_bb_step(alpha, D);
+  } else if (params_.rule == StepRule::kStepLength) {
+    const double tau = static_cast<double>(std::max<std::int64_t>(tau_, 1));
+    double k = params_.step_length;
+    if (params_.schedule == StepLengthSchedule::kOverTau) k /= tau;
+    if (params_.schedule == StepLengthSchedule::kOverSqrtTau) k /= std::sqrt(tau);
+    const double norm = D.norm();
+    alpha = norm > 0.0 ? k / norm : 0.0;
+  }
+  return alpha;
+}
+
+void DgBb::consensus_step(StepOutput& out) {
+  if (round_ == 0) {  // 004 eqs. (8)–(9)
+    Vec2 D;
+    if (!direction(D)) D = D_prev_;
+    D_cur_ = D;
+    const Vec2 dp = p_ - p_prev_;
+    rho_ = dp.squaredNorm();
+    psi_ = dp.dot(D_cur_ - D_prev_);
+    publish(out.outbox, true);
+    round_ = 1;
+    return;
+  }
+  consensus_round();
+  if (round_ < params_.consensus_rounds) {
+    publish(out.outbox, true);
+    ++round_;
+    return;
+  }
+  // Round T: α_i = ρ_i(T)/ψ_i(T) (004 eq. (12)) with the [E-4] safeguard, then eq. (14).
+  double alpha = rho_ / psi_;
+  if (!bb_step_valid(rho_, psi_, alpha)) {
+    if (params_.curvature_safeguard) {
+      alpha = have_valid_alpha_ ? last_valid_alpha_ : params_.warmup_step;
+      if (active_) ++safeguard_count_;
+    }
+  } else {
+    last_valid_alpha_ = alpha;
+    have_valid_alpha_ = true;
+  }
+  alpha = capped_bb_step(alpha, D_cur_);
+  if (active_) last_alpha_ = alpha;
+  apply_update(D_cur_, alpha);
+  out.diagnostics.updated = true;
+  round_ = 0;
+  publish(out.outbox, false);
+}
+
+StepOutput DgBb::step(const StepInput& input) {
+  StepOutput out;
+  absorb(input);
   out.diagnostics.neighbours_used = range_count_;
   if (tau_ >= params_.max_updates || range_count_ == 0) {
     publish(out.outbox, false);
@@ -224,78 +297,16 @@ StepOutput DgBb::step(const StepInput& input) {
     return out;
   }
 
-  const bool consensus = params_.rule == StepRule::kConsensusBb && params_.consensus_rounds > 0;
-  if (!consensus) {
-    // Baselines (and DG-BB with T = 0 = local BB): one STATE exchange per update (§6.5).
-    if (!direction(D)) D = Vec2::Zero();
-    double alpha = params_.fixed_step;
-    if (params_.rule == StepRule::kConsensusBb || params_.rule == StepRule::kLocalBb) {
-      const Vec2 dp = p_ - p_prev_;
-      Vec2 D_before_own_move = D_prev_;
-      // The neighbours where they are now (all of them are known once the node has started).
-      if (params_.rule == StepRule::kLocalBb && params_.own_move_curvature &&
-          !direction_at(p_prev_, D_before_own_move)) {
-        D_before_own_move = D_prev_;
-      }
-      const Vec2 dD = D - D_before_own_move;
-      const double rho = dp.squaredNorm();
-      const double psi = dp.dot(dD);
-      alpha = rho / psi;  // 004 eq. (15)
-      if (params_.curvature_safeguard && !bb_step_valid(rho, psi, alpha)) {
-        alpha = have_valid_alpha_ ? last_valid_alpha_ : params_.warmup_step;  // [E-4]
-        if (active_) ++safeguard_count_;
-      } else if (bb_step_valid(rho, psi, alpha)) {
-        last_valid_alpha_ = alpha;
-        have_valid_alpha_ = true;
-      }
-      alpha = capped_bb_step(alpha, D);
-    } else if (params_.rule == StepRule::kStepLength) {
-      const double tau = static_cast<double>(std::max<std::int64_t>(tau_, 1));
-      double k = params_.step_length;
-      if (params_.schedule == StepLengthSchedule::kOverTau) k /= tau;
-      if (params_.schedule == StepLengthSchedule::kOverSqrtTau) k /= std::sqrt(tau);
-      const double norm = D.norm();
-      alpha = norm > 0.0 ? k / norm : 0.0;
-    }
-    if (active_) last_alpha_ = alpha;
-    apply_update(D, alpha);
-    out.diagnostics.updated = true;
-    publish(out.outbox, false);
+  if (params_.rule == StepRule::kConsensusBb && params_.consensus_rounds > 0) {
+    consensus_step(out);
     return out;
   }
-
-  if (round_ == 0) {  // 004 eqs. (8)–(9)
-    if (!direction(D)) D = D_prev_;
-    D_cur_ = D;
-    const Vec2 dp = p_ - p_prev_;
-    rho_ = dp.squaredNorm();
-    psi_ = dp.dot(D_cur_ - D_prev_);
-    publish(out.outbox, true);
-    round_ = 1;
-    return out;
-  }
-  consensus_round();
-  if (round_ < params_.consensus_rounds) {
-    publish(out.outbox, true);
-    ++round_;
-    return out;
-  }
-  // Round T: α_i = ρ_i(T)/ψ_i(T) (004 eq. (12)) with the [E-4] safeguard, then eq. (14).
-  double alpha = rho_ / psi_;
-  if (!bb_step_valid(rho_, psi_, alpha)) {
-    if (params_.curvature_safeguard) {
-      alpha = have_valid_alpha_ ? last_valid_alpha_ : params_.warmup_step;
-      if (active_) ++safeguard_count_;
-    }
-  } else {
-    last_valid_alpha_ = alpha;
-    have_valid_alpha_ = true;
-  }
-  alpha = capped_bb_step(alpha, D_cur_);
+  // Baselines (and DG-BB with T = 0 = local BB): one STATE exchange per update (§6.5).
+  if (!direction(D)) D = Vec2::Zero();
+  const double alpha = local_step(D);
   if (active_) last_alpha_ = alpha;
-  apply_update(D_cur_, alpha);
+  apply_update(D, alpha);
   out.diagnostics.updated = true;
-  round_ = 0;
   publish(out.outbox, false);
   return out;
 }

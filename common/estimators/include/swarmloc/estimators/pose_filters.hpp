@@ -223,6 +223,10 @@ class CentralizedPoseEkf {
 
  private:
   [[nodiscard]] std::optional<int> index_of(AgentId id) const;
+  /// The prediction, robot by robot (the joint F and Q are block diagonal).
+  void predict(const std::vector<const MeasurementBatch*>& batches);
+  /// Rows of every robot's pairs at the predicted joint state (skipped pairs counted in diagnostics_).
+  RangeBearingRows joint_rows(const std::vector<const MeasurementBatch*>& batches);
 
   std::vector<AgentId> ids_;
   KalmanFamilyParams params_;

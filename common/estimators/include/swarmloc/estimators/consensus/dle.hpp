@@ -71,6 +71,13 @@ class Dle final : public Estimator {
   /// Moves a prior (ω, Ω) `periods` world steps ahead (> 0, prediction) or back (< 0); false if a
   /// prediction finds Ω singular (the prior is left as it was).
   bool shift_prior(VecX& omega, MatX& Omega, std::int64_t periods) const;
+  /// Tracking: predicts the own prior to the batch's world step (else keeps its own); returns that
+  /// reference step (−1: none).
+  std::int64_t align_own_prior(std::int64_t batch_step);
+  /// Adds this target's observations in `batch` to (ω⁺, Ω⁺); true if any was added.
+  bool add_observations(const MeasurementBatch& batch, VecX& omega_plus, MatX& Omega_plus) const;
+  /// The estimate from (ω⁺, Ω⁺) (symmetrized here) and the next prior.
+  void update(const VecX& omega_plus, MatX& Omega_plus, std::int64_t batch_step);
 
   AgentSetup setup_;
   DleParams params_;

@@ -103,6 +103,12 @@ class DgBb final : public Estimator {
   /// α capped by max_step and by the max_move_fraction trust region (counted in trust_region_count_).
   double capped_bb_step(double alpha, const Vec2& D);
   void consensus_round();
+  /// Takes in the step's ranges and each peer's newest STATE and CONS.
+  void absorb(const StepInput& input);
+  /// α at direction D under the rules without consensus rounds (fixed, step length, local BB).
+  double local_step(const Vec2& D);
+  /// One consensus round of DG-BB (004 eqs. (8)–(11)); at round T, eq. (12) and the update.
+  void consensus_step(StepOutput& out);
 
   AgentSetup setup_;
   DgBbParams params_;
