@@ -248,8 +248,9 @@ estimators::StateMessage random_state(Rng& rng) {
   state.covariance = state.anchor ? Mat2::Zero() : random_psd(rng, 2.0);
   state.degree = static_cast<std::uint16_t>(rng.below(20));
   for (std::uint64_t k = rng.below(4); k > 0; --k) {  // dml's edge summaries
-    state.edge_ranges.push_back(
-        {static_cast<AgentId>(rng.below(8)), rng.uniform(0.0, 1e4), rng.uniform(0.0, 30.0)});
+    state.edge_ranges.push_back({static_cast<AgentId>(rng.below(8)), rng.uniform(0.0, 1e4),
+                                 rng.uniform(0.0, 30.0),
+                                 Vec2(rng.uniform(-50.0, 50.0), rng.uniform(-50.0, 50.0))});
   }
   return state;
 }
@@ -259,7 +260,8 @@ bool edge_ranges_acceptable(const swarmloc_msg_State& s) {
   if (s.edge_ranges._length > dds::codec::kMaxEdgeRanges) return false;
   for (std::uint32_t k = 0; k < s.edge_ranges._length; ++k) {
     const auto& edge = s.edge_ranges._buffer[k];
-    if (!std::isfinite(edge.information) || !(edge.information >= 0.0) || !std::isfinite(edge.mean_range_m)) {
+    if (!std::isfinite(edge.information) || !(edge.information >= 0.0) || !std::isfinite(edge.mean_range_m) ||
+        !std::isfinite(edge.peer_mean_m[0]) || !std::isfinite(edge.peer_mean_m[1])) {
       return false;
     }
   }

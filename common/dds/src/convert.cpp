@@ -169,7 +169,9 @@ WireState::WireState(const sim::Header& header, const estimators::StateMessage& 
   }
   edge_ranges.reserve(message.edge_ranges.size());
   for (const auto& edge : message.edge_ranges) {
-    edge_ranges.push_back(swarmloc_msg_EdgeRange{edge.peer, edge.information, edge.mean_range_m});
+    swarmloc_msg_EdgeRange wire{edge.peer, edge.information, edge.mean_range_m, {}};
+    put_vec2(edge.peer_mean_m, wire.peer_mean_m);
+    edge_ranges.push_back(wire);
   }
   point_at(sample.edge_ranges, edge_ranges);
 }
@@ -387,11 +389,13 @@ Inbound<estimators::StateMessage> decode(const swarmloc_msg_State& wire) {
                         edge_ranges->size() <= codec::kMaxEdgeRanges;
   if (!inbound.well_formed) return inbound;
   for (const auto& edge : *edge_ranges) {
-    if (!std::isfinite(edge.information) || !(edge.information >= 0.0) || !std::isfinite(edge.mean_range_m)) {
+    const Vec2 peer_mean = get_vec2(edge.peer_mean_m);
+    if (!std::isfinite(edge.information) || !(edge.information >= 0.0) || !std::isfinite(edge.mean_range_m) ||
+        !peer_mean.allFinite()) {
       inbound.well_formed = false;
       return inbound;
     }
-    inbound.message.edge_ranges.push_back({edge.peer, edge.information, edge.mean_range_m});
+    inbound.message.edge_ranges.push_back({edge.peer, edge.information, edge.mean_range_m, peer_mean});
   }
   return inbound;
 }

@@ -50,7 +50,7 @@ bool Dml::Edge::usable() const {
 }
 
 Dml::Dml(const AgentSetup& setup, const KalmanFamilyParams& /*params*/)
-    : setup_(setup), x_(setup.initial_guess_m), localized_(setup.anchor) {
+    : setup_(setup), x_(setup.initial_guess_m), localized_(setup.anchor), two_hop_(setup.comm_radius_m) {
   if (!setup.initial_guess_m.allFinite()) throw std::invalid_argument("dml: initial guess is not finite");
 }
 
@@ -87,13 +87,15 @@ void Dml::absorb_states(const Inbox& inbox) {
       edge.peer_information = summary.information;
       edge.peer_mean_range_m = summary.mean_range_m;
     }
+    if (received.message.active)
+      two_hop_.absorb(setup_.id, received.message.mean_m, received.message.edge_ranges);
   }
 }
 
 std::vector<Dml::Reference> Dml::references() const {
   std::vector<Reference> refs;
   for (const auto& [id, edge] : edges_) {
-    if (edge.usable()) refs.push_back({edge.state.mean_m, edge.mean_range_m(), edge.information()});
+    if (edge.usable()) refs.push_back({id, edge.state.mean_m, edge.mean_range_m(), edge.information()});
   }
   return refs;
 }
@@ -170,7 +172,8 @@ std::optional<Dml::GuessedStart> Dml::start_from_guess(const std::vector<Referen
     const Vec2 toward = x_ - first.position_m;
     const Vec2 direction =
         toward.norm() > kShortestDistanceM ? Vec2(toward.normalized()) : Vec2(Vec2::UnitX());
-    return GuessedStart{solve_position(first.position_m + first.mean_range_m * direction, refs), true};
+    return GuessedStart{solve_position(first.position_m + first.mean_range_m * direction, refs), true,
+                        std::nullopt};
   }
   // Two references leave a mirror pair: the guess picks the one nearer to it if the pair is far apart
   // for the guess's uncertainty (or once waiting for a third reference has not helped).
@@ -185,10 +188,55 @@ std::optional<Dml::GuessedStart> Dml::start_from_guess(const std::vector<Referen
   const Vec2 foot = first.position_m + along * e;
   const Vec2 left = foot + across * Vec2(-e.y(), e.x());
   const Vec2 right = foot - across * Vec2(-e.y(), e.x());
+  const auto hinge = std::pair{first.id, second.id};
+  // The graph: a member that lands within the radius of an agent this one does not hear is impossible.
+  const double margin = two_hop_.margin_m();
+  const double left_inside = penetration(left);
+  const double right_inside = penetration(right);
+  if (left_inside > margin && right_inside <= 0.0)
+    return GuessedStart{solve_position(right, refs), false, hinge};
+  if (right_inside > margin && left_inside <= 0.0)
+    return GuessedStart{solve_position(left, refs), false, hinge};
   const bool distinguishable = 2.0 * across > kMirrorSeparationSigmas * setup_.initial_guess_std_m;
   if (!distinguishable && !out_of_patience) return std::nullopt;
   return GuessedStart{solve_position((left - x_).norm() <= (right - x_).norm() ? left : right, refs),
-                      !distinguishable};
+                      !distinguishable, hinge};
+}
+
+double Dml::penetration(const Vec2& x) const {
+  return two_hop_.penetration(x, [this](AgentId id) { return id == setup_.id || edges_.contains(id); });
+}
+
+std::optional<Vec2> Dml::mirror_of_current() const {
+  if (!hinge_) return std::nullopt;
+  const auto a = edges_.find(hinge_->first);
+  const auto b = edges_.find(hinge_->second);
+  if (a == edges_.end() || b == edges_.end() || !a->second.usable() || !b->second.usable())
+    return std::nullopt;
+  const Vec2 p = a->second.state.mean_m;
+  const Vec2 line = b->second.state.mean_m - p;
+  if (line.norm() < kShortestDistanceM) return std::nullopt;
+  const Vec2 e = line.normalized();
+  const Vec2 offset = x_ - p;
+  return Vec2(p + 2.0 * offset.dot(e) * e - offset);
+}
+
+void Dml::check_mirror() {
+  // A start from two references: the graph may tell the pair apart once more of it is known. It confirms
+  // the start (the mirror image is impossible), or moves the agent to the mirror image (this one is).
+  const auto mirror = mirror_of_current();
+  if (!mirror) return;
+  const double margin = two_hop_.margin_m();
+  const double here = penetration(x_);
+  const double there = penetration(*mirror);
+  if (there > margin && here <= 0.0) {
+    ambiguous_start_ = false;
+    hinge_.reset();
+  } else if (here > margin && there <= 0.0) {
+    x_ = solve_position(*mirror, references());
+    ambiguous_start_ = false;
+    hinge_.reset();
+  }
 }
 
 void Dml::update_information() {
@@ -251,15 +299,18 @@ StepOutput Dml::step(const StepInput& input) {
     } else if (const auto guessed = start_from_guess(refs)) {
       x_ = guessed->position_m;
       ambiguous_start_ = guessed->ambiguous;
+      hinge_ = guessed->hinge;
       localized_ = true;  // the self-check watches a start the ranges alone could not fix
     }
   }
   if (localized_) {
+    if (hinge_) check_mirror();
     x_ = solve_position(x_, refs);
     update_information();
     int dof = 0;
     const double statistic = residual_statistic(dof);
-    inconsistent_ = dof > 0 && statistic > chi_square_upper_quantile(dof, kSelfCheckFalseAlarm);
+    inconsistent_ = (dof > 0 && statistic > chi_square_upper_quantile(dof, kSelfCheckFalseAlarm)) ||
+                    penetration(x_) > two_hop_.margin_m();
     if (inconsistent_) {
       // Likely a wrong basin: restart from a multilateration if that explains the data better.
       if (const auto restart = multilaterate(refs);
@@ -305,7 +356,9 @@ Outbox Dml::published() {
   for (std::size_t k = 0; k < std::min(kSummariesPerMessage, measured.size()); ++k) {
     const AgentId peer = measured[(summary_cursor_ + k) % measured.size()];
     const Edge& edge = edges_.at(peer);
-    state.edge_ranges.push_back({peer, edge.own_information, edge.own_weighted_range / edge.own_information});
+    // The peer's mean rides along for the receivers' negative connectivity; this agent's own: not known.
+    state.edge_ranges.push_back({peer, edge.own_information, edge.own_weighted_range / edge.own_information,
+                                 edge.usable() ? edge.state.mean_m : state.mean_m});
   }
   summary_cursor_ += kSummariesPerMessage;
   Outbox outbox;

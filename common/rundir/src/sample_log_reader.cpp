@@ -27,9 +27,11 @@ ReceivedSample decode_sample(Decoder& in, int agents, std::uint16_t version) {
       auto& state = s.message.emplace<estimators::StateMessage>();
       decode_into(in, state);
       if (version >= 5) {  // older logs predate dml's edge summaries
-        state.edge_ranges.resize(in.count(4 + 2 * 8, "edge ranges"));
-        for (auto& edge : state.edge_ranges)
+        state.edge_ranges.resize(in.count(version >= 6 ? 4 + 4 * 8 : 4 + 2 * 8, "edge ranges"));
+        for (auto& edge : state.edge_ranges) {
           edge.peer = in.i32(), edge.information = in.f64(), edge.mean_range_m = in.f64();
+          if (version >= 6) edge.peer_mean_m = in.vec2();
+        }
       }
       break;
     }

@@ -122,6 +122,10 @@ estimators::AgentSetup read_setup(const Reader& r, AgentId id) {
   setup.initial_heading_rad = r.number("initial_heading_rad");
   setup.initial_guess_std_m = r.number("initial_guess_std_m", true);
   if (setup.initial_guess_std_m < 0.0) r.fail("initial_guess_std_m", "must be >= 0 (null: unknown)");
+  if (r.has("comm_radius_m")) {  // manifests written before it: unknown
+    setup.comm_radius_m = r.number("comm_radius_m", true);
+    if (!(setup.comm_radius_m > 0.0)) r.fail("comm_radius_m", "must be > 0 (null: unknown)");
+  }
   return setup;
 }
 
@@ -206,7 +210,8 @@ std::string to_json_text(const AgentManifest& m) {
   const json setup = {{"anchor", m.setup.anchor},
                       {"initial_guess_m", {m.setup.initial_guess_m.x(), m.setup.initial_guess_m.y()}},
                       {"initial_heading_rad", m.setup.initial_heading_rad},
-                      {"initial_guess_std_m", finite_or_null(m.setup.initial_guess_std_m)}};
+                      {"initial_guess_std_m", finite_or_null(m.setup.initial_guess_std_m)},
+                      {"comm_radius_m", finite_or_null(m.setup.comm_radius_m)}};
   const json manifest = {{"format", kFormat},
                          {"version", kManifestVersion},
                          {"id", m.id},

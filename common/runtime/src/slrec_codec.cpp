@@ -59,9 +59,9 @@ void write_record(OutputFile& out, std::uint8_t tag, const std::string& payload)
 
 void encode(Encoder& out, const estimators::StateMessage& m) {
   out.vec2(m.mean_m), out.mat2(m.covariance), out.boolean(m.anchor), out.boolean(m.active), out.u16(m.degree);
-  out.count(m.edge_ranges.size());  // version 5
-  for (const auto& edge : m.edge_ranges)
-    out.i32(edge.peer), out.f64(edge.information), out.f64(edge.mean_range_m);
+  out.count(m.edge_ranges.size());        // version 5
+  for (const auto& edge : m.edge_ranges)  // version 6: and the peer's mean
+    out.i32(edge.peer), out.f64(edge.information), out.f64(edge.mean_range_m), out.vec2(edge.peer_mean_m);
 }
 void encode(Encoder& out, const estimators::InformationMessage& m) {
   out.i32(m.target);

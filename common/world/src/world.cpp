@@ -59,7 +59,11 @@ std::vector<Vec2> place(const Scenario& s, int attempt) {
     case config::Placement::kGrid: {
       const int side = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
       const double spacing = s.world.area_m / std::max(1, side - 1);
-      for (int i = 0; i < n; ++i) positions.emplace_back((i % side) * spacing, (i / side) * spacing);
+      for (int i = 0; i < n; ++i) {
+        const int column = i % side;
+        const int row = i / side;  // integer division on purpose: the grid row index
+        positions.emplace_back(column * spacing, row * spacing);
+      }
       break;
     }
     case config::Placement::kFile: {
@@ -210,6 +214,7 @@ estimators::AgentSetup World::setup_of(AgentId id) const {
   estimators::AgentSetup setup{id, is_anchor.at(i), is_anchor.at(i) ? truth.at(i) : initial_guess.at(i)};
   if (i < initial_heading.size()) setup.initial_heading_rad = initial_heading[i];
   setup.initial_guess_std_m = initial_guess_std_m;
+  setup.comm_radius_m = comm_radius_m;
   return setup;
 }
 
@@ -317,6 +322,7 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw, con
     throw config::ScenarioError("accepted world draw " + std::to_string(accepted_draw) +
                                 " is >= " + std::to_string(kMaxAttempts));
   draw_placement(world, s, accepted_draw, control);
+  world.comm_radius_m = s.world.comm_radius_m;
   const MeasurementKinds kinds = measurement_kinds(s.algorithm.name);
   draw_initial_guesses(world, s, trial, kinds);
   add_environment(world, s, kinds);

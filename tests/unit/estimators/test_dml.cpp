@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <random>
@@ -32,13 +33,16 @@ struct DrawLog {
 /// exchange states so the summaries and the solve settle on the same data.
 class DmlRounds {
  public:
-  DmlRounds(const DmlNetwork& net, const std::vector<Vec2>& guesses, double guess_std_m) : net_(net) {
+  DmlRounds(const DmlNetwork& net, const std::vector<Vec2>& guesses, double guess_std_m,
+            double radius_m = std::numeric_limits<double>::infinity())
+      : net_(net) {
     for (std::size_t i = 0; i < net.truth.size(); ++i) {
       AgentSetup setup;
       setup.id = static_cast<AgentId>(i);
       setup.anchor = net.anchor[i];
       setup.initial_guess_m = net.anchor[i] ? net.truth[i] : guesses[i];
       setup.initial_guess_std_m = guess_std_m;
+      setup.comm_radius_m = radius_m;
       agents_.push_back(std::make_unique<Dml>(setup, KalmanFamilyParams{}));
       outboxes_.push_back(agents_.back()->initial_outbox());
     }
@@ -223,6 +227,74 @@ TEST(Dml, FlagsAnAgentItsRangesCannotPlaceUnambiguously) {
   informed.run(Dml::kInitializationPatienceSteps + 5, 0, rng, log);
   EXPECT_FALSE(informed.estimate(2).inconsistent);
   EXPECT_LT((informed.estimate(2).mean_m - net.truth[2]).norm(), 0.1);
+}
+
+TEST(Dml, NegativeConnectivityTellsAMirrorPairApart) {
+  // Agent 2 hears only anchors 0 and 1 (a mirror pair across their line) and starts on the wrong side
+  // with an uninformed guess. Anchor 3 is a neighbour of anchor 0 that agent 2 does not hear: within the
+  // radius of the mirror image, so only the true side is possible.
+  DmlNetwork net;
+  net.truth = {{0, 0}, {20, 0}, {10, 6}, {6, -7}};
+  net.anchor = {true, true, false, true};
+  net.edges = {{0, 2}, {1, 2}, {0, 3}};
+  constexpr double kRadiusM = 12.5;
+  const std::vector<Vec2> guesses = {net.truth[0], net.truth[1], Vec2(10.0, -5.0), net.truth[3]};
+  const int steps = static_cast<int>(Dml::kInitializationPatienceSteps) + 5;
+  std::mt19937_64 rng(17);
+  DrawLog log;
+  DmlRounds graph_known(net, guesses, std::numeric_limits<double>::infinity(), kRadiusM);
+  graph_known.run(steps, 0, rng, log);
+  ASSERT_TRUE(graph_known.estimate(2).valid);
+  EXPECT_LT((graph_known.estimate(2).mean_m - net.truth[2]).norm(), 0.1);
+  EXPECT_FALSE(graph_known.estimate(2).inconsistent);
+  // Without the radius the pair stays undecided until the guess has to pick (the mirror here), flagged.
+  DmlRounds graph_unknown(net, guesses, std::numeric_limits<double>::infinity());
+  graph_unknown.run(3 * steps, 0, rng, log);
+  EXPECT_GT((graph_unknown.estimate(2).mean_m - net.truth[2]).norm(), 10.0);
+  EXPECT_TRUE(graph_unknown.estimate(2).inconsistent);
+}
+
+TEST(Dml, SelfCheckFlagsASolutionTheGraphContradicts) {
+  // Agent 3 multilaterates from three anchors, but anchor 4 (relayed by anchor 0, not heard by agent 3)
+  // lies 13.2 m from it: with a declared radius of 15 m the graph says it is farther. Its ranges fit.
+  DmlNetwork net;
+  net.truth = {{0, 0}, {20, 0}, {0, 16}, {8, 7}, {6, -6}};
+  net.anchor = {true, true, true, false, true};
+  net.edges = {{0, 3}, {1, 3}, {2, 3}, {0, 4}};
+  std::mt19937_64 rng(18);
+  DrawLog log;
+  DmlRounds contradicted(net, guesses_near_truth(net), 0.5, 15.0);
+  contradicted.run(30, 5, rng, log);
+  EXPECT_LT((contradicted.estimate(3).mean_m - net.truth[3]).norm(), 0.1);
+  EXPECT_TRUE(contradicted.estimate(3).inconsistent);
+  DmlRounds consistent(net, guesses_near_truth(net), 0.5, 13.0);  // the graph is this radius's disk graph
+  consistent.run(30, 5, rng, log);
+  EXPECT_FALSE(consistent.estimate(3).inconsistent);
+}
+
+TEST(DmlTwoHop, KeepsRelayedPositionsThatFitTheSendersRangeAndDropsGarbledOnes) {
+  TwoHopPositions two_hop(10.0);
+  const Vec2 sender(0.0, 0.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<EdgeRangeSummary> relayed = {
+      {5, 100.0, 8.0, Vec2(0.0, 8.05)},   // kept: 8.05 m away, the sender's range says 8.0
+      {6, 100.0, 3.0, Vec2(0.0, 8.0)},    // garbled: the position is 5 m off the sender's own range
+      {7, 100.0, 12.0, Vec2(12.0, 0.0)},  // garbled: beyond the radius of its relayer
+      {8, 100.0, 4.0, Vec2(nan, 4.0)},    // not finite
+      {9, 100.0, 4.0, sender},            // the sender's own mean: it does not know agent 9's
+      {1, 100.0, 4.0, Vec2(4.0, 0.0)},    // about the receiver itself
+      {4, 0.0, 4.0, Vec2(4.0, 0.0)},      // no draws behind it
+  };
+  EXPECT_EQ(two_hop.absorb(1, sender, relayed), 1);
+  EXPECT_EQ(two_hop.size(), 1u);
+  const auto hears_nobody = [](AgentId) { return false; };
+  EXPECT_NEAR(two_hop.penetration(Vec2(0.0, 5.0), hears_nobody), 10.0 - 3.05, 1e-12);
+  EXPECT_EQ(two_hop.penetration(Vec2(0.0, 5.0), [](AgentId id) { return id == 5; }),
+            -std::numeric_limits<double>::infinity());
+  // An unknown radius keeps nothing: the graph says nothing about distances then.
+  TwoHopPositions unknown(std::numeric_limits<double>::infinity());
+  EXPECT_EQ(unknown.absorb(1, sender, relayed), 0);
+  EXPECT_FALSE(unknown.enabled());
 }
 
 TEST(Dml, SelfCheckFlagsRangesItsSolutionCannotExplain) {

@@ -424,7 +424,8 @@ std::vector<ReceivedSample> every_family() {
   state.mean_m = Vec2(1.5, -0.0);
   state.covariance << 0.5, 0.1, 0.2, std::numeric_limits<double>::quiet_NaN();
   state.anchor = true, state.active = false, state.degree = 65535;
-  state.edge_ranges = {{-4, 1e4, 12.25}, {7, 5e-310, std::numeric_limits<double>::infinity()}};
+  state.edge_ranges = {{-4, 1e4, 12.25, Vec2(-3.5, 1e-300)},
+                       {7, 5e-310, std::numeric_limits<double>::infinity(), Vec2(2.0, 0.25)}};
   estimators::InformationMessage information;
   information.target = -3;
   information.info_vec = VecX::LinSpaced(3, -1.0, 1.0);
@@ -467,6 +468,7 @@ void expect_same(const ReceivedSample& a, const ReceivedSample& b) {
         EXPECT_EQ(x.edge_ranges[k].peer, y.edge_ranges[k].peer);
         EXPECT_EQ(x.edge_ranges[k].information, y.edge_ranges[k].information);
         EXPECT_EQ(x.edge_ranges[k].mean_range_m, y.edge_ranges[k].mean_range_m);
+        EXPECT_EQ(x.edge_ranges[k].peer_mean_m, y.edge_ranges[k].peer_mean_m);
       }
       break;
     }
@@ -594,7 +596,7 @@ TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep)
     ADD_FAILURE() << "a version from the future was read";
   } catch (const RecordingError& e) {
     EXPECT_NE(
-        std::string(e.what()).find("format version 6 is not supported (this build reads versions 1 to 5)"),
+        std::string(e.what()).find("format version 7 is not supported (this build reads versions 1 to 6)"),
         std::string::npos)
         << e.what();
   }

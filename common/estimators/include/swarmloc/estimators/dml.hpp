@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "swarmloc/estimators/dml_connectivity.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 
 namespace swarmloc::estimators {
@@ -17,8 +18,10 @@ namespace swarmloc::estimators {
 /// position with the neighbours' published means held fixed (the fixed point of all agents doing this is
 /// a stationary point of the whole network's likelihood, whatever the message timing), (3) updates its
 /// information matrix from rank-one belief-propagation messages with the cavity taken out, and (4) tests
-/// its residuals. Before it is localized it waits for three localized neighbours with a spread geometry
-/// and multilaterates; the starting guess is used only if that never happens.
+/// its residuals and the graph (negative connectivity: it is farther than the radius from every agent it
+/// does not hear). Before it is localized it waits for three localized neighbours with a spread geometry
+/// and multilaterates; with two, the graph picks the mirror member when it can, and the starting guess is
+/// used only if neither decides.
 class Dml final : public Estimator {
  public:
   Dml(const AgentSetup& setup, const KalmanFamilyParams& params);
@@ -48,6 +51,7 @@ class Dml final : public Estimator {
     [[nodiscard]] bool usable() const;
   };
   struct Reference {  // a localized neighbour as a multilateration or solve term
+    AgentId id;
     Vec2 position_m;
     double mean_range_m;
     double information;
@@ -61,8 +65,13 @@ class Dml final : public Estimator {
   [[nodiscard]] std::optional<Vec2> multilaterate(const std::vector<Reference>& refs) const;
   struct GuessedStart {
     Vec2 position_m;
-    bool ambiguous;  // the ranges left a mirror pair or a circle, and the guess could not tell
+    bool ambiguous;  // the ranges left a mirror pair or a circle, and neither the guess nor the graph could
+                     // tell
+    std::optional<std::pair<AgentId, AgentId>> hinge;  // a mirror pair: the two references
   };
+  [[nodiscard]] double penetration(const Vec2& x) const;
+  [[nodiscard]] std::optional<Vec2> mirror_of_current() const;
+  void check_mirror();
   [[nodiscard]] std::optional<GuessedStart> start_from_guess(const std::vector<Reference>& refs) const;
   void update_information();
   [[nodiscard]] double residual_statistic(int& degrees_of_freedom) const;
@@ -78,7 +87,9 @@ class Dml final : public Estimator {
   Vec2 fix_information_vector_ = Vec2::Zero();
   bool localized_ = false;
   bool inconsistent_ = false;
-  bool ambiguous_start_ = false;  // flagged for good: range-only data cannot confirm such a start
+  bool ambiguous_start_ = false;  // flagged until the graph confirms it: range-only data cannot
+  std::optional<std::pair<AgentId, AgentId>> hinge_;  // the mirror line of a start from two references
+  TwoHopPositions two_hop_;
   std::int64_t steps_ = 0;
   std::size_t summary_cursor_ = 0;
 };

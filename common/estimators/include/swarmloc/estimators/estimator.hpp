@@ -41,6 +41,9 @@ struct AgentSetup {
   double initial_heading_rad = 0.0;     ///< pose-state algorithms: the heading they start from
   /// How far off initial_guess_m may be (std per axis); +inf: nothing is known about it.
   double initial_guess_std_m = std::numeric_limits<double>::infinity();
+  /// The communication radius: a link exists exactly between agents within it at step 0 (a disk graph), so
+  /// an agent that does not hear another is farther from it (dml, docs/algorithms.md §9.4); +inf: unknown.
+  double comm_radius_m = std::numeric_limits<double>::infinity();
 };
 
 class Estimator {

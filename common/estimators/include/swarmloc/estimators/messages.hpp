@@ -111,6 +111,9 @@ struct EdgeRangeSummary {
   AgentId peer = 0;
   double information = 0.0;  ///< m⁻²
   double mean_range_m = 0.0;
+  /// The peer's published mean as the sender last heard it (dml's negative connectivity, §9.4); the sender's
+  /// own mean when it has none (not localized yet, or not heard).
+  Vec2 peer_mean_m = Vec2::Zero();
 };
 
 /// STATE + COV of the sender's own position.

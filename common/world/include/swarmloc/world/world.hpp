@@ -102,6 +102,8 @@ struct World {
   std::vector<std::vector<AgentId>> neighbours;  ///< communication graph at step 0 (sorted)
   std::vector<Vec2> initial_guess;               ///< prior each agent starts from (anchors: truth)
   double initial_guess_std_m = std::numeric_limits<double>::infinity();  ///< per axis; +inf: unknown
+  /// The radius of the step-0 disk graph (`neighbours`); +inf: not one.
+  double comm_radius_m = std::numeric_limits<double>::infinity();
   std::vector<core::ClockModel> clocks;
   std::vector<models::Wall> walls;  ///< reflecting walls (multipath measurements only)
   int placement_attempts = 1;       ///< draws needed to satisfy world.require_connected

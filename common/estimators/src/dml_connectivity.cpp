@@ -1,0 +1,29 @@
+#include "swarmloc/estimators/dml_connectivity.hpp"
+
+#include <cmath>
+
+namespace swarmloc::estimators {
+
+TwoHopPositions::TwoHopPositions(double radius_m)
+    : radius_m_(radius_m), enabled_(std::isfinite(radius_m) && radius_m > 0.0) {}
+
+int TwoHopPositions::absorb(AgentId self, const Vec2& sender_mean_m,
+                            const std::vector<EdgeRangeSummary>& summaries) {
+  if (!enabled_ || !sender_mean_m.allFinite()) return 0;
+  int kept = 0;
+  for (const auto& summary : summaries) {
+    if (summary.peer == self || !summary.peer_mean_m.allFinite() || summary.peer_mean_m == sender_mean_m ||
+        !(summary.information > 0.0) || !std::isfinite(summary.mean_range_m)) {
+      continue;
+    }
+    // The same sender measured the edge and reports the peer's mean: the two must agree, and the peer is
+    // one of its neighbours, so within the radius of it.
+    const double distance = (summary.peer_mean_m - sender_mean_m).norm();
+    if (std::abs(distance - summary.mean_range_m) > margin_m() || distance > radius_m_ + margin_m()) continue;
+    positions_[summary.peer] = summary.peer_mean_m;
+    ++kept;
+  }
+  return kept;
+}
+
+}  // namespace swarmloc::estimators

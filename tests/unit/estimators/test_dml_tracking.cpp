@@ -1,0 +1,185 @@
+// dml_track (docs/algorithms.md §9.8) against the centralized Kalman filter of the same draws on collinear
+// chains, where the linearized range is exact along the line and belief propagation on a tree is exact:
+// the one-agent filter, the cavity on a chain, a late draw used once, and a symmetric PSD covariance.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "swarmloc/estimators/dml_tracking.hpp"
+
+namespace swarmloc::estimators {
+namespace dml_tracking_test {  // named: the unity build joins this file with test_dml.cpp
+
+constexpr double kRangeStdM = 0.5;
+constexpr double kGuessStdM = 2.0;
+constexpr double kProcessStdM = 0.1;
+
+/// One DmlTracking per agent, stepped in synchronous rounds: each round every agent takes the others'
+/// previous-round beliefs (minus `held`: senders whose newer samples are lost).
+class Rounds {
+ public:
+  Rounds(const std::vector<Vec2>& guesses, const std::vector<bool>& anchor) {
+    KalmanFamilyParams params;
+    params.process_noise_std_m = kProcessStdM;
+    for (std::size_t i = 0; i < guesses.size(); ++i) {
+      AgentSetup setup;
+      setup.id = static_cast<AgentId>(i);
+      setup.anchor = anchor[i];
+      setup.initial_guess_m = guesses[i];
+      setup.initial_guess_std_m = kGuessStdM;
+      agents_.push_back(std::make_unique<DmlTracking>(setup, params));
+      outboxes_.push_back(agents_.back()->initial_outbox());
+    }
+  }
+
+  /// One round. `ranges[i]`: agent i's draws (peer → range) on a world step, or none (an exchange).
+  void round(std::int64_t world_step, const std::map<int, std::map<int, double>>& ranges, bool with_batch) {
+    std::vector<Outbox> next(agents_.size());
+    for (std::size_t i = 0; i < agents_.size(); ++i) {
+      Inbox inbox;
+      for (std::size_t j = 0; j < agents_.size(); ++j) {
+        if (j == i || !outboxes_[j].belief) continue;
+        const auto held_it = held_.find(static_cast<int>(j));
+        const BeliefMessage& message = held_it != held_.end() ? held_it->second : *outboxes_[j].belief;
+        inbox.beliefs.push_back({static_cast<AgentId>(j), 0, message});
+      }
+      MeasurementBatch batch;
+      batch.world_step = world_step;
+      if (const auto it = ranges.find(static_cast<int>(i)); it != ranges.end()) {
+        for (const auto& [peer, range] : it->second) batch.ranges.push_back({peer, range, kRangeStdM});
+      }
+      StepInput input;
+      input.local_step = steps_;
+      input.measurements = with_batch ? &batch : nullptr;
+      input.inbox = &inbox;
+      next[i] = agents_[i]->step(input).outbox;
+    }
+    outboxes_ = std::move(next);
+    ++steps_;
+  }
+
+  /// From now on the others see agent `j`'s current belief only (its newer samples are lost).
+  void hold(int j) { held_[j] = *outboxes_[static_cast<std::size_t>(j)].belief; }
+
+  [[nodiscard]] Estimate estimate(int i) const { return agents_[static_cast<std::size_t>(i)]->estimate(); }
+
+ private:
+  std::vector<std::unique_ptr<DmlTracking>> agents_;
+  std::vector<Outbox> outboxes_;
+  std::map<int, BeliefMessage> held_;
+  std::int64_t steps_ = 0;
+};
+
+double variance(double std_m) { return std_m * std_m; }
+
+// An exactly known anchor at the origin and one moving agent on the x-axis, both ranging each step: the
+// agent's x is the scalar Kalman filter with both draws (information 2/σ² per step), its y only predicts.
+TEST(DmlTracking, OneAgentWithAnAnchorIsTheKalmanFilterOfBothDraws) {
+  Rounds rounds({Vec2(0.0, 0.0), Vec2(10.0, 0.0)}, {true, false});
+  double mean = 10.0;
+  double var_x = variance(kGuessStdM);
+  double var_y = variance(kGuessStdM);
+  const double ranges[][2] = {{9.6, 9.9}, {10.4, 10.1}, {9.8, 10.5}, {10.2, 10.0}, {9.7, 9.9}};
+  for (std::int64_t k = 0; k < 5; ++k) {
+    const std::map<int, std::map<int, double>> draws{{0, {{1, ranges[k][0]}}}, {1, {{0, ranges[k][1]}}}};
+    rounds.round(k, draws, true);
+    for (int extra = 0; extra < 2; ++extra) rounds.round(k, {}, false);  // the anchor's draw arrives
+    if (k > 0) {
+      var_x += variance(kProcessStdM);
+      var_y += variance(kProcessStdM);
+    }
+    const double datum = 0.5 * (ranges[k][0] + ranges[k][1]);
+    const double information = 1.0 / var_x + 2.0 / variance(kRangeStdM);
+    mean = (mean / var_x + 2.0 / variance(kRangeStdM) * datum) / information;
+    var_x = 1.0 / information;
+    const Estimate e = rounds.estimate(1);
+    ASSERT_TRUE(e.valid);
+    EXPECT_NEAR(e.mean_m.x(), mean, 1e-9) << "step " << k;
+    EXPECT_NEAR(e.mean_m.y(), 0.0, 1e-12);
+    EXPECT_NEAR(e.covariance(0, 0), var_x, 1e-9) << "step " << k;
+    EXPECT_NEAR(e.covariance(1, 1), var_y, 1e-9) << "step " << k;
+    EXPECT_NEAR(e.covariance(0, 1), 0.0, 1e-12);
+  }
+}
+
+// Anchor — agent 1 — agent 2 on the x-axis, one world step iterated: belief propagation on this tree
+// reaches the centralized posterior of (x1, x2). Without the cavity agent 2's information would come
+// back to it through agent 1.
+TEST(DmlTracking, ChainReachesTheCentralizedPosteriorWithTheCavity) {
+  Rounds rounds({Vec2(0.0, 0.0), Vec2(10.0, 0.0), Vec2(20.0, 0.0)}, {true, false, false});
+  const std::map<int, std::map<int, double>> draws{
+      {0, {{1, 10.3}}}, {1, {{0, 9.9}, {2, 9.6}}}, {2, {{1, 10.2}}}};
+  rounds.round(0, draws, true);
+  for (int extra = 0; extra < 40; ++extra) rounds.round(0, {}, false);
+  // Information form of (x1, x2): priors 1/σ0², the anchor edge on x1, the 1–2 edge on x2 − x1.
+  const double p0 = 1.0 / variance(kGuessStdM);
+  const double w = 2.0 / variance(kRangeStdM);
+  Eigen::Matrix2d information;
+  information << p0 + 2.0 * w, -w, -w, p0 + w;
+  const Eigen::Vector2d vector(p0 * 10.0 + w * 0.5 * (10.3 + 9.9) - w * 0.5 * (9.6 + 10.2),
+                               p0 * 20.0 + w * 0.5 * (9.6 + 10.2));
+  const Eigen::Vector2d mean = information.ldlt().solve(vector);
+  const Eigen::Matrix2d covariance = information.inverse();
+  for (int i : {1, 2}) {
+    const Estimate e = rounds.estimate(i);
+    EXPECT_NEAR(e.mean_m.x(), mean(i - 1), 1e-9) << "agent " << i;
+    EXPECT_NEAR(e.covariance(0, 0), covariance(i - 1, i - 1), 1e-9) << "agent " << i;
+    EXPECT_NEAR(e.covariance(1, 1), variance(kGuessStdM), 1e-9) << "agent " << i;
+  }
+}
+
+// One exchange per world step: the anchor's draw of step k reaches the agent at step k + 1 and enters
+// that step's factor once, widened by the motion of the step between. When the anchor's newer samples
+// are lost, the same old draw is not used again.
+TEST(DmlTracking, ALateDrawEntersOneFactorOnce) {
+  Rounds rounds({Vec2(0.0, 0.0), Vec2(10.0, 0.0)}, {true, false});
+  const double own = 1.0 / variance(kRangeStdM);
+  // Widened by one step of both ends' walks (the agent cannot tell a beacon from a mover by its belief).
+  const double late = 1.0 / (variance(kRangeStdM) + 2.0 * variance(kProcessStdM));
+  double var_x = variance(kGuessStdM);
+  const auto step = [&](std::int64_t k, double information) {
+    rounds.round(k, {{0, {{1, 10.0}}}, {1, {{0, 10.0}}}}, true);
+    if (k > 0) var_x += variance(kProcessStdM);
+    var_x = 1.0 / (1.0 / var_x + information);
+    EXPECT_NEAR(rounds.estimate(1).covariance(0, 0), var_x, 1e-9) << "step " << k;
+  };
+  // Step 0: the anchor's first sample is its start (no draw yet, its prior predicted by one step).
+  step(0, 1.0 / (1.0 / own + variance(kGuessStdM) + variance(kProcessStdM)));
+  step(1, own + late);
+  rounds.hold(0);  // the anchor's sample of step 1 (with its draw of step 1) is the last to arrive
+  step(2, own + late);
+  step(3, own);
+  step(4, own);
+}
+
+// Four agents in the plane (two anchors, a loop): every covariance stays symmetric and positive definite.
+TEST(DmlTracking, CovariancesStaySymmetricPositiveDefiniteOnALoop) {
+  const std::vector<Vec2> truth{Vec2(0.0, 0.0), Vec2(12.0, 0.0), Vec2(4.0, 8.0), Vec2(10.0, 9.0)};
+  Rounds rounds({truth[0], truth[1], Vec2(5.0, 7.0), Vec2(9.0, 10.5)}, {true, true, false, false});
+  const int pairs[][2] = {{0, 2}, {1, 2}, {1, 3}, {2, 3}, {0, 3}};
+  for (std::int64_t k = 0; k < 20; ++k) {
+    std::map<int, std::map<int, double>> draws;
+    for (const auto& pair : pairs) {
+      const double d =
+          (truth[static_cast<std::size_t>(pair[0])] - truth[static_cast<std::size_t>(pair[1])]).norm();
+      draws[pair[0]][pair[1]] = d + 0.3 * std::sin(1.7 * static_cast<double>(k + pair[1]));
+      draws[pair[1]][pair[0]] = d - 0.2 * std::cos(0.9 * static_cast<double>(k + pair[0]));
+    }
+    rounds.round(k, draws, true);
+    rounds.round(k, {}, false);
+    for (int i : {2, 3}) {
+      const Estimate e = rounds.estimate(i);
+      ASSERT_TRUE(e.valid);
+      EXPECT_EQ(e.covariance(0, 1), e.covariance(1, 0));
+      EXPECT_GT(e.covariance.determinant(), 0.0);
+      EXPECT_GT(e.covariance(0, 0), 0.0);
+      EXPECT_LT((e.mean_m - truth[static_cast<std::size_t>(i)]).norm(), 1.0) << "agent " << i;
+    }
+  }
+}
+
+}  // namespace dml_tracking_test
+}  // namespace swarmloc::estimators
