@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -13,7 +14,10 @@ namespace swarmloc::orchestrator {
 std::optional<config::Scenario> load_scenario_or_report(const std::string& path,
                                                         const std::vector<std::string>& overrides) {
   try {
-    return config::load_scenario(path, overrides);
+    std::vector<std::string> warnings;
+    auto scenario = config::load_scenario(path, overrides, &warnings);
+    for (const auto& warning : warnings) std::fprintf(stderr, "warning: %s\n", warning.c_str());
+    return scenario;
   } catch (const config::ScenarioError& error) {
     std::fprintf(stderr, "error: %s\n", error.what());
     return std::nullopt;

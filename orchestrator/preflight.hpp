@@ -11,7 +11,7 @@
 namespace swarmloc::orchestrator {
 
 /// The scenario file with its --set overrides; on bad input prints "error: ..." to stderr and returns
-/// nullopt (the caller exits 2).
+/// nullopt (the caller exits 2). Algorithm keys the algorithm does not read print "warning: ...".
 std::optional<config::Scenario> load_scenario_or_report(const std::string& path,
                                                         const std::vector<std::string>& overrides);
 

@@ -17,8 +17,8 @@ config::Scenario kalman_table_scenario(const std::string& algorithm, int agents,
   s.seed = seed;
   s.name = "001-" + algorithm;
   s.algorithm.name = algorithm;
-  s.algorithm.process_noise_std_m = 0.01;
-  s.algorithm.initial_std_m = 30.0 / std::sqrt(12.0);
+  s.algorithm.kalman.process_noise_std_m = 0.01;
+  s.algorithm.kalman.initial_std_m = 30.0 / std::sqrt(12.0);
   s.world.agents = agents;
   s.world.anchors = anchors;
   s.world.area_m = 30.0;

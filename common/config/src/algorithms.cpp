@@ -1,8 +1,10 @@
 // The algorithm registry (algorithms.hpp): one entry per algorithm, and each family's own scenario rules.
 #include "swarmloc/config/algorithms.hpp"
 
+#include <stdexcept>
 #include <string>
 
+#include "scenario_keys.hpp"
 #include "swarmloc/config/scenario.hpp"
 
 namespace swarmloc::config {
@@ -28,6 +30,14 @@ void validate_dml(const Scenario& s) {
   if (s.noise.shared_range_draws) {
     reject_key("noise.shared_range_draws",
                "must be false for dml (it counts each end's draws as independent; docs/algorithms.md §9.7)");
+  }
+}
+
+void validate_dml_track(const Scenario& s) {
+  if (s.noise.shared_range_draws) {
+    reject_key("noise.shared_range_draws",
+               "must be false for dml_track (it counts each end's draw of a step "
+               "as independent; docs/algorithms.md §9.8)");
   }
 }
 
@@ -92,34 +102,76 @@ constexpr BoundSpec kPoseNone{BoundModel::kNone, kAllDraws, kKnown,
 constexpr BoundSpec kOdometryNone{BoundModel::kNone, kAllDraws, kKnown,
                                   "odometry only: no bound implemented"};
 
+// Parameter blocks read, off each builder: the Kalman filters their block; the fusion centre its
+// process noise and prior std (sim/centralized_runner.cpp); dle its prior information (runtime/
+// agent_factory.cpp); dml and jacobi none.
+constexpr ParamBlocks kKalmanKeys{.kalman = true};
+constexpr ParamBlocks kPoseKeys{.kalman = true, .pose = true};
+constexpr ParamBlocks kGradientKeys{.gradient = true};
+constexpr ParamBlocks kFieldKeys{.field = true};
+constexpr ParamBlocks kMultipathKeys{.multipath = true};
+constexpr ParamBlocks kNoKeys{};
+
 constexpr AlgorithmPlacement kAgent = AlgorithmPlacement::kAgent;
 constexpr AlgorithmPlacement kCentre = AlgorithmPlacement::kFusionCentre;
 
 }  // namespace
 
 const std::vector<AlgorithmSpec>& algorithm_registry() {
-  // name, family, placement, kinds, bound, exchange_only, validate
+  // name, family, placement, kinds, bound, exchange_only, validate, parameter blocks
   static const std::vector<AlgorithmSpec> registry{
-      {"ieif", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr},  // docs/algorithms.md §3.2
-      {"iekf", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr},  // §3.5
-      {"ekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr},
-      {"lbekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr},
-      {"lbekf_vr", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr},
-      {"lbekf_i", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr},
-      {"jacobi", kConsensus, kAgent, kRelative, kScenarioBound, true, &validate_jacobi},  // 002 eq. (9)
-      {"dle", kConsensus, kAgent, kTargets, kScenarioBound, true, &validate_dle},         // 002 Alg. 1
-      {"joint_field", kConsensus, kAgent, kRelativeAndField, kScenarioBound, true, &validate_joint_field},
-      {"multipath_bp", kBp, kAgent, kPaths, kScenarioBound, true, &validate_multipath_bp},  // 003 Alg. 1
-      {"dgbb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr},                  // 004 Alg. 1
-      {"local_bb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr},
-      {"fixed_step", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr},
-      {"step_length", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr},
-      {"pose_ekf", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr},
-      {"pose_ieif", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr},
-      {"dead_reckoning", kPose, kAgent, kRangesAndFixes, kOdometryNone, false, nullptr},
-      {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml},  // §9
+      {"ieif", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys},  // §3.2
+      {"iekf", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys},  // §3.5
+      {"ekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys},
+      {"lbekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys},
+      {"lbekf_vr", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys},
+      {"lbekf_i", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys},
+      {"jacobi", kConsensus, kAgent, kRelative, kScenarioBound, true, &validate_jacobi, kNoKeys},  // 002 (9)
+      {"dle", kConsensus, kAgent, kTargets, kScenarioBound, true, &validate_dle, kKalmanKeys},  // 002 Alg. 1
+      {"joint_field", kConsensus, kAgent, kRelativeAndField, kScenarioBound, true, &validate_joint_field,
+       kFieldKeys},
+      {"multipath_bp", kBp, kAgent, kPaths, kScenarioBound, true, &validate_multipath_bp,
+       kMultipathKeys},                                                                    // 003 Alg. 1
+      {"dgbb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys},  // 004 Alg. 1
+      {"local_bb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys},
+      {"fixed_step", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys},
+      {"step_length", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys},
+      {"pose_ekf", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys},
+      {"pose_ieif", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys},
+      {"dead_reckoning", kPose, kAgent, kRangesAndFixes, kOdometryNone, false, nullptr, kPoseKeys},
+      {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml, kNoKeys},  // §9
+      // §9.8; reads process_noise_std_m and initial_std_m. Its step without a batch is an exchange only,
+      // but the registry ties exchange_only to the cooperative parameter block.
+      {"dml_track", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml_track, kKalmanKeys},
   };
   return registry;
+}
+
+const std::vector<ParamBlockSpec>& param_blocks() {
+  using enum ParamBlock;
+  static const std::vector<ParamBlockSpec> blocks{
+      {kKalman, "kalman", &detail::validate_kalman_params},
+      {kPose, "pose", &detail::validate_pose_params},
+      {kGradient, "gradient", &detail::validate_gradient_params},
+      {kField, "field", &detail::validate_field_params},
+      {kMultipath, "multipath", &detail::validate_multipath_params},
+  };
+  return blocks;
+}
+
+const ParamBlockSpec& param_block_spec(ParamBlock block) {
+  for (const auto& spec : param_blocks()) {
+    if (spec.block == block) return spec;
+  }
+  throw std::logic_error("param_block_spec: a block without an entry");
+}
+
+std::string algorithms_reading(ParamBlock block) {
+  std::string list;
+  for (const auto& spec : algorithm_registry()) {
+    if (spec.blocks.reads(block)) list += (list.empty() ? "" : ", ") + std::string(spec.name);
+  }
+  return list;
 }
 
 const AlgorithmSpec* find_algorithm(std::string_view name) {

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <filesystem>
+#include <initializer_list>
 #include <map>
 #include <memory>
 #include <optional>
@@ -18,6 +19,7 @@
 #include <system_error>
 
 #include "scenario_keys.hpp"
+#include "swarmloc/config/algorithms.hpp"
 
 namespace swarmloc::config {
 namespace {
@@ -35,6 +37,15 @@ std::string at(const std::string& origin, const YAML::Mark& mark) {
 
 std::string join_path(const std::string& section, const std::string& name) {
   return section.empty() ? name : section + "." + name;
+}
+
+/// The error about the key at `path`: the path, the parts of the message, where the key is.
+ScenarioError key_error(const std::string& path, std::initializer_list<std::string_view> parts,
+                        const std::string& key_at) {
+  std::string text = path;
+  for (const std::string_view part : parts) text += part;
+  text += key_at;
+  return ScenarioError(text);
 }
 
 std::string list_keys_of(const std::string& section) {
@@ -57,9 +68,9 @@ void apply_map(Scenario& scenario, const YAML::Node& map, const std::string& sec
     }
     const std::string& name = key_node.Scalar();
     const std::string path = join_path(section, name);
-    if (!seen.insert(name).second) throw ScenarioError(path + ": duplicate key" + key_at);
+    if (!seen.insert(name).second) throw key_error(path, {": duplicate key"}, key_at);
     if (name.find('.') != std::string::npos) {
-      throw ScenarioError(path + ": dotted names are for --set; in a file nest each part as a map" + key_at);
+      throw key_error(path, {": dotted names are for --set; in a file nest each part as a map"}, key_at);
     }
     if (const KeySpec* key = detail::find_key(path)) {
       const std::string value_at = value.Mark().is_null() ? key_at : at(origin, value.Mark());
@@ -72,12 +83,13 @@ void apply_map(Scenario& scenario, const YAML::Node& map, const std::string& sec
     } else if (detail::is_section(path)) {
       if (value.IsNull()) continue;  // "qos:" with nothing under it keeps every default
       if (!value.IsMap()) {
-        throw ScenarioError(path + ": expected a map with keys " + list_keys_of(path) + ", got " +
-                            detail::describe(value) + key_at);
+        throw key_error(
+            path, {": expected a map with keys ", list_keys_of(path), ", got ", detail::describe(value)},
+            key_at);
       }
       apply_map(scenario, value, path, origin, sources);
     } else {
-      throw ScenarioError(path + ": unknown key" + detail::suggestion_for(path) + key_at);
+      throw key_error(path, {": unknown key", detail::suggestion_for(path)}, key_at);
     }
   }
 }
@@ -150,12 +162,30 @@ class DocumentCounter : public YAML::EventHandler {
   std::vector<YAML::Mark> starts_;
 };
 
+/// load_scenario's warnings: algorithm keys of a block the algorithm does not read, set by --set, or in
+/// the file to other than the default (a file listing every key at its default is a template).
+void add_unused_key_warnings(const Scenario& scenario, const Sources& sources,
+                             std::vector<std::string>& warnings) {
+  const AlgorithmSpec& spec = algorithm_spec(scenario.algorithm.name);
+  const Scenario defaults;
+  for (const auto& key : detail::key_specs()) {
+    if (!key.block || spec.blocks.reads(*key.block)) continue;
+    const auto source = sources.find(key.path);
+    if (source == sources.end()) continue;
+    const bool from_set = source->second.starts_with(" (from --set ");
+    if (!from_set && key.write(scenario) == key.write(defaults)) continue;
+    warnings.push_back(key.path + ": a " + std::string(param_block_spec(*key.block).name) +
+                       " key, not used by " + scenario.algorithm.name + " (read by " +
+                       algorithms_reading(*key.block) + ")" + source->second);
+  }
+}
+
 /// Parses, resolves, overrides and validates. `subject` opens file-level errors ("scenario file 'x'");
 /// `origin` prefixes line:column locations; `base_dir` resolves a relative world.positions_file
 /// and world.data_dir.
 Scenario parse(const std::string& yaml_text, const std::vector<std::string>& overrides,
                const std::string& origin, const std::string& subject,
-               const std::optional<std::filesystem::path>& base_dir) {
+               const std::optional<std::filesystem::path>& base_dir, std::vector<std::string>* warnings) {
   std::vector<YAML::Node> documents;
   try {
     // Count first (cheap, and safe from the LoadAll loop above), then build the nodes.
@@ -204,6 +234,7 @@ Scenario parse(const std::string& yaml_text, const std::vector<std::string>& ove
     if (source == sources.end()) throw;
     throw ScenarioError(message + source->second);
   }
+  if (warnings != nullptr) add_unused_key_warnings(scenario, sources, *warnings);
   return scenario;
 }
 
@@ -226,15 +257,16 @@ std::string read_file(const std::string& path) {
 
 }  // namespace
 
-Scenario load_scenario(const std::string& path, const std::vector<std::string>& overrides) {
+Scenario load_scenario(const std::string& path, const std::vector<std::string>& overrides,
+                       std::vector<std::string>* warnings) {
   const std::string text = read_file(path);
   return parse(text, overrides, path, "scenario file '" + path + "'",
-               std::filesystem::path(path).parent_path());
+               std::filesystem::path(path).parent_path(), warnings);
 }
 
 Scenario parse_scenario(const std::string& yaml_text, const std::vector<std::string>& overrides,
-                        const std::string& origin) {
-  return parse(yaml_text, overrides, origin, origin, std::nullopt);
+                        const std::string& origin, std::vector<std::string>* warnings) {
+  return parse(yaml_text, overrides, origin, origin, std::nullopt, warnings);
 }
 
 std::string to_yaml(const Scenario& scenario) {

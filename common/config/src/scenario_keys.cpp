@@ -289,29 +289,45 @@ void append(std::vector<KeySpec>& keys, std::vector<KeySpec> more) {
   keys.insert(keys.end(), std::make_move_iterator(more.begin()), std::make_move_iterator(more.end()));
 }
 
+/// An algorithm knob: the key is algorithm.<member>, the member lives in the block (scenario.hpp).
+template <typename Access>
+KeySpec make_algorithm_key(std::string path, ParamBlock block, Access access) {
+  KeySpec spec = make_key(std::move(path), access);
+  spec.block = block;
+  return spec;
+}
+
+// The key path is algorithm.<member>, flat as in the file; the member is found in its block.
+#define SWARMLOC_ALGORITHM_KEY(block, kind, member) \
+  make_algorithm_key(                               \
+      "algorithm." #member, ParamBlock::kind,       \
+      [](auto& scenario) -> auto& { return scenario.algorithm.block.member; })
+
 std::vector<KeySpec> algorithm_keys() {
   return {
       SWARMLOC_KEY(algorithm.name),
-      SWARMLOC_KEY(algorithm.process_noise_std_m),
-      SWARMLOC_KEY(algorithm.initial_information),
-      SWARMLOC_KEY(algorithm.initial_std_m),
-      SWARMLOC_KEY(algorithm.inflate_stale),
-      SWARMLOC_KEY(algorithm.consensus_rounds),
-      SWARMLOC_KEY(algorithm.fixed_step),
-      SWARMLOC_KEY(algorithm.step_length),
-      SWARMLOC_KEY(algorithm.max_step),
-      SWARMLOC_KEY(algorithm.max_move_fraction),
-      SWARMLOC_KEY(algorithm.abs_tol),
-      SWARMLOC_KEY(algorithm.range_gate_chi2),
-      SWARMLOC_KEY(algorithm.update_iterations),
-      SWARMLOC_KEY(algorithm.initial_heading_std_rad),
-      SWARMLOC_KEY(algorithm.range_bearing_gate_chi2),
-      SWARMLOC_KEY(algorithm.field_warmup_steps),
-      SWARMLOC_KEY(algorithm.local_bb_difference),
-      SWARMLOC_KEY(algorithm.path_variance),
-      SWARMLOC_KEY(algorithm.bp_messages),
+      SWARMLOC_ALGORITHM_KEY(kalman, kKalman, process_noise_std_m),
+      SWARMLOC_ALGORITHM_KEY(kalman, kKalman, initial_information),
+      SWARMLOC_ALGORITHM_KEY(kalman, kKalman, initial_std_m),
+      SWARMLOC_ALGORITHM_KEY(kalman, kKalman, inflate_stale),
+      SWARMLOC_ALGORITHM_KEY(gradient, kGradient, consensus_rounds),
+      SWARMLOC_ALGORITHM_KEY(gradient, kGradient, fixed_step),
+      SWARMLOC_ALGORITHM_KEY(gradient, kGradient, step_length),
+      SWARMLOC_ALGORITHM_KEY(gradient, kGradient, max_step),
+      SWARMLOC_ALGORITHM_KEY(gradient, kGradient, max_move_fraction),
+      SWARMLOC_ALGORITHM_KEY(gradient, kGradient, abs_tol),
+      SWARMLOC_ALGORITHM_KEY(kalman, kKalman, range_gate_chi2),
+      SWARMLOC_ALGORITHM_KEY(kalman, kKalman, update_iterations),
+      SWARMLOC_ALGORITHM_KEY(pose, kPose, initial_heading_std_rad),
+      SWARMLOC_ALGORITHM_KEY(pose, kPose, range_bearing_gate_chi2),
+      SWARMLOC_ALGORITHM_KEY(field, kField, field_warmup_steps),
+      SWARMLOC_ALGORITHM_KEY(gradient, kGradient, local_bb_difference),
+      SWARMLOC_ALGORITHM_KEY(multipath, kMultipath, path_variance),
+      SWARMLOC_ALGORITHM_KEY(multipath, kMultipath, bp_messages),
   };
 }
+
+#undef SWARMLOC_ALGORITHM_KEY
 
 std::vector<KeySpec> world_keys() {
   return {

@@ -6,10 +6,12 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario.hpp"
 
 namespace swarmloc::config::detail {
@@ -20,6 +22,8 @@ struct KeySpec {
   std::function<void(Scenario&, const YAML::Node&)> read;
   /// The current value as a YAML scalar (round-trips through `read`).
   std::function<std::string(const Scenario&)> write;
+  /// algorithm.* knobs: the parameter block the key lives in (algorithm.fixed_step -> gradient).
+  std::optional<ParamBlock> block;
 };
 
 /// Every key, in document order (the order of to_yaml and known_keys).
@@ -43,6 +47,14 @@ std::string describe(const YAML::Node& node);
 /// Shortest text that parses back to exactly `value`: plain decimals for 1e-4 <= |value| < 1e15
 /// ("1.4", "-1", "100000"), exponent form otherwise ("1e-06"), "nan", "inf".
 std::string format_number(double value);
+
+/// Each parameter block's key ranges (validate.cpp), the validators of the registry's block table
+/// (algorithms.cpp). Throw ScenarioError naming the key.
+void validate_kalman_params(const Scenario& scenario);
+void validate_pose_params(const Scenario& scenario);
+void validate_gradient_params(const Scenario& scenario);
+void validate_field_params(const Scenario& scenario);
+void validate_multipath_params(const Scenario& scenario);
 
 /// Levenshtein distance with adjacent transpositions (optimal string alignment).
 std::size_t edit_distance(std::string_view a, std::string_view b);

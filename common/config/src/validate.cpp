@@ -110,23 +110,6 @@ void validate_enums(const Scenario& scenario) {
   }
 }
 
-void validate_algorithm(const Scenario::Algorithm& algorithm) {
-  require_non_negative(algorithm.process_noise_std_m, "algorithm.process_noise_std_m");
-  require_positive(algorithm.initial_information, "algorithm.initial_information");
-  require_positive(algorithm.initial_std_m, "algorithm.initial_std_m");
-  require_within(algorithm.consensus_rounds, 1, 10000, "algorithm.consensus_rounds");
-  require_positive(algorithm.fixed_step, "algorithm.fixed_step");
-  require_positive(algorithm.step_length, "algorithm.step_length");
-  require_non_negative(algorithm.max_step, "algorithm.max_step");
-  require_within(algorithm.max_move_fraction, 0.0, 10.0, "algorithm.max_move_fraction");
-  require_positive(algorithm.abs_tol, "algorithm.abs_tol");
-  require_non_negative(algorithm.range_gate_chi2, "algorithm.range_gate_chi2");
-  require_within(algorithm.update_iterations, 1, 100, "algorithm.update_iterations");
-  require_positive(algorithm.initial_heading_std_rad, "algorithm.initial_heading_std_rad");
-  require_non_negative(algorithm.range_bearing_gate_chi2, "algorithm.range_bearing_gate_chi2");
-  require_within(algorithm.field_warmup_steps, 0, 1000000, "algorithm.field_warmup_steps");
-}
-
 void validate_agent_counts(const Scenario::World& world) {
   require_within(world.agents, 1, 100000, "world.agents");
   require_at_least(world.anchors, 0, "world.anchors");
@@ -324,11 +307,46 @@ void validate_faults(const Scenario& scenario) {
 
 }  // namespace
 
+namespace detail {
+
+void validate_kalman_params(const Scenario& scenario) {
+  const KalmanParams& kalman = scenario.algorithm.kalman;
+  require_non_negative(kalman.process_noise_std_m, "algorithm.process_noise_std_m");
+  require_positive(kalman.initial_information, "algorithm.initial_information");
+  require_positive(kalman.initial_std_m, "algorithm.initial_std_m");
+  require_non_negative(kalman.range_gate_chi2, "algorithm.range_gate_chi2");
+  require_within(kalman.update_iterations, 1, 100, "algorithm.update_iterations");
+}
+
+void validate_pose_params(const Scenario& scenario) {
+  const PoseParams& pose = scenario.algorithm.pose;
+  require_positive(pose.initial_heading_std_rad, "algorithm.initial_heading_std_rad");
+  require_non_negative(pose.range_bearing_gate_chi2, "algorithm.range_bearing_gate_chi2");
+}
+
+void validate_gradient_params(const Scenario& scenario) {
+  const GradientParams& gradient = scenario.algorithm.gradient;
+  require_within(gradient.consensus_rounds, 1, 10000, "algorithm.consensus_rounds");
+  require_positive(gradient.fixed_step, "algorithm.fixed_step");
+  require_positive(gradient.step_length, "algorithm.step_length");
+  require_non_negative(gradient.max_step, "algorithm.max_step");
+  require_within(gradient.max_move_fraction, 0.0, 10.0, "algorithm.max_move_fraction");
+  require_positive(gradient.abs_tol, "algorithm.abs_tol");
+}
+
+void validate_field_params(const Scenario& scenario) {
+  require_within(scenario.algorithm.field.field_warmup_steps, 0, 1000000, "algorithm.field_warmup_steps");
+}
+
+void validate_multipath_params(const Scenario& /*scenario*/) {}  // two enums, checked by validate_enums
+
+}  // namespace detail
+
 void validate(const Scenario& scenario) {
   validate_enums(scenario);
   validate_name(scenario.name);
   const AlgorithmSpec& spec = algorithm_spec(scenario.algorithm.name);
-  validate_algorithm(scenario.algorithm);
+  for (const auto& block : param_blocks()) block.validate(scenario);
   validate_world(scenario, spec);
   validate_noise(scenario.noise);
   // The algorithm's own rules (algorithms.cpp), once every world and noise key is in range.

@@ -31,8 +31,10 @@ struct FusionTransport::Impl {
     const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
 
     const Partitions partition_names(scenario.dds.run_id);
+    const int block_count = measurement_block_count(agent_count, block_size);
     std::vector<std::string> partitions;
-    for (int block = 0; block < measurement_block_count(agent_count, block_size); ++block)
+    partitions.reserve(static_cast<std::size_t>(block_count));
+    for (int block = 0; block < block_count; ++block)
       partitions.push_back(partition_names.measurement(block));
     const dds_entity_t measurements = create_subscriber(pp, partitions);
     measurement_reader = create_reader(measurements, t_measurements, qos.measurements, kTopicMeasurements);

@@ -69,7 +69,8 @@ std::array<double, 36> pose_covariance(const estimators::Estimate& estimate) {
   constexpr int kX = 0, kY = 1, kYaw = 5, kSize = 6;
   std::array<double, 36> covariance{};
   auto at = [&covariance](int row, int col) -> double& {
-    return covariance[static_cast<std::size_t>(row * kSize + col)];
+    const int index = row * kSize + col;
+    return covariance[static_cast<std::size_t>(index)];
   };
   for (int axis = 0; axis < kSize; ++axis) at(axis, axis) = kUnknownVariance;
   at(kX, kX) = estimate.covariance(0, 0);

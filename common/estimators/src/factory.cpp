@@ -7,6 +7,7 @@
 
 #include "swarmloc/estimators/consensus/jacobi.hpp"
 #include "swarmloc/estimators/dml.hpp"
+#include "swarmloc/estimators/dml_tracking.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/estimators/ieif.hpp"
 #include "swarmloc/estimators/iekf.hpp"
@@ -52,11 +53,12 @@ using enum ParamBlock;
 
 const std::vector<EstimatorBuilder>& builders() {
   static const std::vector<EstimatorBuilder> table{
-      {"ieif", kKalman, &kalman<Ieif>, {}, false},           // docs/algorithms.md §3.2
-      {"iekf", kKalman, &kalman<Iekf>, {}, false},           // docs/algorithms.md §3.5
-      {"dml", kKalman, &kalman<Dml>, {}, false},             // docs/algorithms.md §9
-      {"pose_ekf", kKalman, &kalman<PoseEkf>, {}, false},    // pose states (x, y, θ), pose_filters.hpp
-      {"pose_ieif", kKalman, &kalman<PoseIeif>, {}, false},  // its information form
+      {"ieif", kKalman, &kalman<Ieif>, {}, false},              // docs/algorithms.md §3.2
+      {"iekf", kKalman, &kalman<Iekf>, {}, false},              // docs/algorithms.md §3.5
+      {"dml", kKalman, &kalman<Dml>, {}, false},                // docs/algorithms.md §9
+      {"dml_track", kKalman, &kalman<DmlTracking>, {}, false},  // §9.8: moving worlds
+      {"pose_ekf", kKalman, &kalman<PoseEkf>, {}, false},       // pose states (x, y, θ), pose_filters.hpp
+      {"pose_ieif", kKalman, &kalman<PoseIeif>, {}, false},     // its information form
       {"dead_reckoning", kKalman, &kalman<DeadReckoning>, {}, false},  // odometry only (baseline)
       {"jacobi", kCooperative, &jacobi, {}, false},                    // 002 eq. (9)
       {"dle", kCooperative, &dle, {}, false},                          // 002 Alg. 1

@@ -14,6 +14,7 @@
 #include <numeric>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "swarmloc/rundir/plots.hpp"
 #include "swarmloc/rundir/tum_export.hpp"
@@ -277,44 +278,49 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
   write_text_file_atomic(directory / "summary.json", summary_json(record).dump(2) + "\n");
 }
 
-void prepare_run_directory(const std::filesystem::path& directory, bool force) {
+namespace {
+
+/// Empties a non-empty --out `directory` that holds an earlier run when `force` is set; refuses otherwise.
+void clear_earlier_run(const std::filesystem::path& directory, std::filesystem::directory_iterator entries,
+                       const std::string& where, bool force) {
   namespace fs = std::filesystem;
-  const std::string where = "--out: " + directory.string();
-  std::error_code ec;
-  const auto status = fs::status(directory, ec);
-  if (ec && ec != std::errc::no_such_file_or_directory)
-    throw config::ScenarioError(where + ": " + ec.message());
-  if (fs::exists(status)) {
-    if (!fs::is_directory(status)) throw config::ScenarioError(where + " exists and is not a directory");
-    fs::directory_iterator entries(directory, ec);
-    if (ec) throw config::ScenarioError(where + ": cannot list it: " + ec.message());
-    if (entries != fs::directory_iterator()) {
-      const bool earlier_run = looks_like_run_directory(directory);
-      if (!earlier_run) {
-        throw config::ScenarioError(where + " is not empty and is not a swarmloc run directory; " +
-                                    (force ? "refusing to clear it" : "choose another directory"));
-      }
-      if (!force) {
-        throw config::ScenarioError(where +
-                                    " is not empty (it holds an earlier run); pass --force to replace it, or "
-                                    "choose another directory");
-      }
-      std::vector<fs::path> contents;
-      for (; entries != fs::directory_iterator(); entries.increment(ec)) {
-        if (ec) break;
-        contents.push_back(entries->path());
-      }
-      for (const auto& entry : contents) {
-        if (ec) break;
-        fs::remove_all(entry, ec);
-      }
-      if (ec) throw config::ScenarioError(where + ": cannot clear the earlier run: " + ec.message());
-    }
-  } else {
-    fs::create_directories(directory, ec);
-    if (ec) throw config::ScenarioError(where + ": cannot create it: " + ec.message());
+  const bool earlier_run = looks_like_run_directory(directory);
+  if (!earlier_run) {
+    throw config::ScenarioError(where + " is not empty and is not a swarmloc run directory; " +
+                                (force ? "refusing to clear it" : "choose another directory"));
   }
-  // Writable now, not after the run: a read-only mount or a missing permission is bad input (exit 2).
+  if (!force) {
+    throw config::ScenarioError(where +
+                                " is not empty (it holds an earlier run); pass --force to replace it, or "
+                                "choose another directory");
+  }
+  std::error_code ec;
+  std::vector<fs::path> contents;
+  for (; entries != fs::directory_iterator(); entries.increment(ec)) {
+    if (ec) break;
+    contents.push_back(entries->path());
+  }
+  for (const auto& entry : contents) {
+    if (ec) break;
+    fs::remove_all(entry, ec);
+  }
+  if (ec) throw config::ScenarioError(where + ": cannot clear the earlier run: " + ec.message());
+}
+
+/// An existing --out path: it must be a directory, empty or (with `force`) holding an earlier run.
+void prepare_existing_directory(const std::filesystem::path& directory,
+                                const std::filesystem::file_status& status, const std::string& where,
+                                bool force) {
+  namespace fs = std::filesystem;
+  if (!fs::is_directory(status)) throw config::ScenarioError(where + " exists and is not a directory");
+  std::error_code ec;
+  fs::directory_iterator entries(directory, ec);
+  if (ec) throw config::ScenarioError(where + ": cannot list it: " + ec.message());
+  if (entries != fs::directory_iterator()) clear_earlier_run(directory, std::move(entries), where, force);
+}
+
+/// Writable now, not after the run: a read-only mount or a missing permission is bad input (exit 2).
+void check_writable(const std::filesystem::path& directory, const std::string& where) {
   const auto probe = directory / (".swarmloc-probe-" + std::to_string(::getpid()));
   const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) {
@@ -324,6 +330,24 @@ void prepare_run_directory(const std::filesystem::path& directory, bool force) {
   if (::unlink(probe.c_str()) != 0) {
     throw config::ScenarioError(where + ": cannot remove " + probe.string() + ": " + std::strerror(errno));
   }
+}
+
+}  // namespace
+
+void prepare_run_directory(const std::filesystem::path& directory, bool force) {
+  namespace fs = std::filesystem;
+  const std::string where = "--out: " + directory.string();
+  std::error_code ec;
+  const auto status = fs::status(directory, ec);
+  if (ec && ec != std::errc::no_such_file_or_directory)
+    throw config::ScenarioError(where + ": " + ec.message());
+  if (fs::exists(status)) {
+    prepare_existing_directory(directory, status, where, force);
+  } else {
+    fs::create_directories(directory, ec);
+    if (ec) throw config::ScenarioError(where + ": cannot create it: " + ec.message());
+  }
+  check_writable(directory, where);
 }
 
 namespace {

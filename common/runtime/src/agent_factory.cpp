@@ -31,37 +31,38 @@ class SensorOnly final : public estimators::Estimator {
 estimators::CooperativeParams cooperative_params(const config::Scenario& s) {
   estimators::CooperativeParams params;
   params.bp.sigma2 = s.noise.range_std_m * s.noise.range_std_m;  // [D-6]: the algorithm knows the noise
-  params.bp.exact_messages = s.algorithm.bp_messages == config::BpMessages::kExact;
-  if (s.algorithm.path_variance == config::PathVariance::kWithDoa) {
+  params.bp.exact_messages = s.algorithm.multipath.bp_messages == config::BpMessages::kExact;
+  if (s.algorithm.multipath.path_variance == config::PathVariance::kWithDoa) {
     const double doa_max_rad = s.noise.doa_error_deg * std::numbers::pi / 180.0;
     params.bp.doa_variance_rad2 = doa_max_rad * doa_max_rad / 3.0;  // uniform on ±doa_max (world.cpp)
   }
-  if (s.algorithm.name == "dle") {
+  const config::MeasurementKinds& kinds = config::algorithm_spec(s.algorithm.name).kinds;
+  if (kinds.targets) {  // dle
     const TargetModel model = target_model(s);
     auto& dle = params.dle;
     dle.target = 0;
     dle.target_dim = model.dim;
     dle.F = model.F;
     dle.W = model.W;
-    dle.initial_information = s.algorithm.initial_information;
+    dle.initial_information = s.algorithm.kalman.initial_information;
     // Range–bearing readings are linearized at the area's centre until the first estimate exists.
     dle.initial_mean = VecX::Zero(model.dim);
     dle.initial_mean.head<2>() = Vec2::Constant(0.5 * s.world.area_m);
   }
-  if (s.algorithm.name == "joint_field") {
+  if (kinds.field) {  // joint_field
     // Anchors give Jacobi the world frame, which the field lives in: the reference is the origin.
     params.joint_field.sensor = field_sensor(s);
-    params.joint_field.warmup_steps = s.algorithm.field_warmup_steps;
+    params.joint_field.warmup_steps = s.algorithm.field.field_warmup_steps;
   }
+  const config::GradientParams& keys = s.algorithm.gradient;
   auto& gradient = params.gradient;
-  gradient.consensus_rounds = s.algorithm.consensus_rounds;
-  gradient.fixed_step = s.algorithm.fixed_step;
-  gradient.step_length = s.algorithm.step_length;
-  gradient.abs_tol = s.algorithm.abs_tol;
-  gradient.max_step =
-      s.algorithm.max_step > 0.0 ? s.algorithm.max_step : std::numeric_limits<double>::infinity();
-  gradient.max_move_fraction = s.algorithm.max_move_fraction;
-  gradient.own_move_curvature = s.algorithm.local_bb_difference == config::LocalBbDifference::kOwnMove;
+  gradient.consensus_rounds = keys.consensus_rounds;
+  gradient.fixed_step = keys.fixed_step;
+  gradient.step_length = keys.step_length;
+  gradient.abs_tol = keys.abs_tol;
+  gradient.max_step = keys.max_step > 0.0 ? keys.max_step : std::numeric_limits<double>::infinity();
+  gradient.max_move_fraction = keys.max_move_fraction;
+  gradient.own_move_curvature = keys.local_bb_difference == config::LocalBbDifference::kOwnMove;
   // A run lasts run.steps rounds; the node itself never stops early for lack of updates.
   gradient.max_updates = std::numeric_limits<std::int64_t>::max() / 4;
   return params;
@@ -73,20 +74,21 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
                                                             const AgentManifest& manifest) {
   // Centralized algorithms run in the fusion centre; their agents are sensors only.
   if (config::runs_in_fusion_centre(s.algorithm.name))
-    return make_sensor_only_estimator(manifest.setup, s.algorithm.initial_std_m);
+    return make_sensor_only_estimator(manifest.setup, s.algorithm.kalman.initial_std_m);
   const auto& cooperative = estimators::cooperative_algorithms();
   if (std::find(cooperative.begin(), cooperative.end(), s.algorithm.name) != cooperative.end()) {
     return estimators::make_cooperative_estimator(s.algorithm.name, manifest.setup, cooperative_params(s));
   }
+  const config::KalmanParams& kalman = s.algorithm.kalman;
   estimators::KalmanFamilyParams params;
-  params.process_noise_std_m = s.algorithm.process_noise_std_m;
-  params.initial_information = s.algorithm.initial_information;
-  params.initial_std_m = s.algorithm.initial_std_m;
-  params.inflate_stale = s.algorithm.inflate_stale;
-  params.range_gate_chi2 = s.algorithm.range_gate_chi2;
-  params.update_iterations = s.algorithm.update_iterations;
-  params.initial_heading_std_rad = s.algorithm.initial_heading_std_rad;
-  params.range_bearing_gate_chi2 = s.algorithm.range_bearing_gate_chi2;
+  params.process_noise_std_m = kalman.process_noise_std_m;
+  params.initial_information = kalman.initial_information;
+  params.initial_std_m = kalman.initial_std_m;
+  params.inflate_stale = kalman.inflate_stale;
+  params.range_gate_chi2 = kalman.range_gate_chi2;
+  params.update_iterations = kalman.update_iterations;
+  params.initial_heading_std_rad = s.algorithm.pose.initial_heading_std_rad;
+  params.range_bearing_gate_chi2 = s.algorithm.pose.range_bearing_gate_chi2;
   return estimators::make_estimator(s.algorithm.name, manifest.setup, params);
 }
 

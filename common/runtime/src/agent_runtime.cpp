@@ -2,15 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <optional>
+#include <set>
 
 #include "swarmloc/core/gaussian.hpp"
 
 namespace swarmloc::sim {
 
 AgentRuntime::AgentRuntime(std::unique_ptr<estimators::Estimator> estimator, estimators::AgentSetup setup,
-                           std::vector<AgentId> neighbours, AgentRuntimeParams params)
+                           std::vector<AgentId> neighbours, const AgentRuntimeParams& params)
     : estimator_(std::move(estimator)),
-      setup_(setup),
+      setup_(std::move(setup)),
       neighbours_(std::move(neighbours)),
       params_(params),
       loss_(params.seed, params.loss),
@@ -72,10 +75,12 @@ std::optional<RejectReason> AgentRuntime::check_content(const estimators::StateM
   if (!core::is_symmetric_psd(m.covariance, 1e-9)) return RejectReason::kNotSymmetricPsd;
   if (m.edge_ranges.size() > kMaxEdgeRanges) return RejectReason::kAbsurdMagnitude;
   for (const auto& edge : m.edge_ranges) {
-    if (!std::isfinite(edge.information) || !std::isfinite(edge.mean_range_m))
+    if (!std::isfinite(edge.information) || !std::isfinite(edge.mean_range_m) ||
+        !edge.peer_mean_m.allFinite())
       return RejectReason::kNonFinite;
     if (edge.information < 0.0 || edge.information > kAbsurdScalar || edge.mean_range_m < 0.0 ||
-        edge.mean_range_m > 2.0 * params_.absurd_position_bound_m) {
+        edge.mean_range_m > 2.0 * params_.absurd_position_bound_m ||
+        edge.peer_mean_m.norm() > params_.absurd_position_bound_m) {
       return RejectReason::kAbsurdMagnitude;
     }
   }
@@ -228,80 +233,109 @@ bool AgentRuntime::on_belief(const Header& header, const estimators::BeliefMessa
   return stored != nullptr;
 }
 
-void AgentRuntime::sanitize_batch(estimators::MeasurementBatch& batch) {
-  const double absurd = params_.absurd_position_bound_m;
-  const auto count = [&](RejectReason reason) { reject(nullptr, reason); };
-  const auto drop = [&](RejectReason reason) {
+namespace {
+
+/// What sanitize_batch needs of the runtime: whether a peer is a neighbour, the limits, the counter.
+struct BatchChecks {
+  std::function<bool(AgentId)> is_neighbour;
+  std::function<void(RejectReason)> count;
+  double absurd = 0.0;           ///< position bound, m
+  double absurd_variance = 0.0;  ///< covariance entry bound, m²
+  bool drop(RejectReason reason) const {
     count(reason);
     return true;
-  };
+  }
+};
+
+void sanitize_ranges(std::vector<estimators::RangeMeasurement>& ranges, const BatchChecks& c) {
   std::set<AgentId> seen;
-  std::erase_if(batch.ranges, [&](const estimators::RangeMeasurement& range) {
-    if (slot_of(range.peer) < 0) return drop(RejectReason::kUnknownSender);
-    if (!std::isfinite(range.range_m) || !std::isfinite(range.std_m)) return drop(RejectReason::kNonFinite);
-    if (range.range_m < 0.0 || range.std_m < 0.0 || range.range_m > 2.0 * absurd || range.std_m > absurd) {
-      return drop(RejectReason::kAbsurdMagnitude);
+  std::erase_if(ranges, [&](const estimators::RangeMeasurement& range) {
+    if (!c.is_neighbour(range.peer)) return c.drop(RejectReason::kUnknownSender);
+    if (!std::isfinite(range.range_m) || !std::isfinite(range.std_m)) return c.drop(RejectReason::kNonFinite);
+    if (range.range_m < 0.0 || range.std_m < 0.0 || range.range_m > 2.0 * c.absurd ||
+        range.std_m > c.absurd) {
+      return c.drop(RejectReason::kAbsurdMagnitude);
     }
-    if (!seen.insert(range.peer).second) return drop(RejectReason::kDuplicate);
+    if (!seen.insert(range.peer).second) return c.drop(RejectReason::kDuplicate);
     return false;
   });
-  if (batch.fix) {
-    const auto& fix = *batch.fix;
-    if (!fix.position_m.allFinite() || !fix.covariance.allFinite()) {
-      count(RejectReason::kNonFinite);
-      batch.fix.reset();
-    } else if (fix.position_m.norm() > absurd ||
-               fix.covariance.cwiseAbs().maxCoeff() > params_.absurd_variance_m2) {
-      count(RejectReason::kAbsurdMagnitude);
-      batch.fix.reset();
-    } else if (!core::is_symmetric_psd(fix.covariance, 1e-9)) {
-      count(RejectReason::kNotSymmetricPsd);
-      batch.fix.reset();
-    }
+}
+
+void sanitize_fix(std::optional<estimators::AbsoluteFix>& fix, const BatchChecks& c) {
+  if (!fix) return;
+  if (!fix->position_m.allFinite() || !fix->covariance.allFinite()) {
+    c.count(RejectReason::kNonFinite);
+    fix.reset();
+  } else if (fix->position_m.norm() > c.absurd || fix->covariance.cwiseAbs().maxCoeff() > c.absurd_variance) {
+    c.count(RejectReason::kAbsurdMagnitude);
+    fix.reset();
+  } else if (!core::is_symmetric_psd(fix->covariance, 1e-9)) {
+    c.count(RejectReason::kNotSymmetricPsd);
+    fix.reset();
   }
-  if (batch.motion) {
-    const auto& motion = *batch.motion;
-    if (!motion.velocity_mps.allFinite() || !std::isfinite(motion.dt_s) || !motion.process_cov.allFinite()) {
-      count(RejectReason::kNonFinite);
-      batch.motion.reset();
-    } else if ((motion.velocity_mps * motion.dt_s).norm() > absurd ||
-               motion.process_cov.cwiseAbs().maxCoeff() > params_.absurd_variance_m2) {
-      count(RejectReason::kAbsurdMagnitude);
-      batch.motion.reset();
-    } else if (!core::is_symmetric_psd(motion.process_cov, 1e-9)) {
-      count(RejectReason::kNotSymmetricPsd);
-      batch.motion.reset();
-    }
+}
+
+void sanitize_motion(std::optional<estimators::MotionInput>& motion, const BatchChecks& c) {
+  if (!motion) return;
+  if (!motion->velocity_mps.allFinite() || !std::isfinite(motion->dt_s) || !motion->process_cov.allFinite()) {
+    c.count(RejectReason::kNonFinite);
+    motion.reset();
+  } else if ((motion->velocity_mps * motion->dt_s).norm() > c.absurd ||
+             motion->process_cov.cwiseAbs().maxCoeff() > c.absurd_variance) {
+    c.count(RejectReason::kAbsurdMagnitude);
+    motion.reset();
+  } else if (!core::is_symmetric_psd(motion->process_cov, 1e-9)) {
+    c.count(RejectReason::kNotSymmetricPsd);
+    motion.reset();
   }
-  // Relative positions (jacobi): one per neighbour, finite, plausible, PSD covariance.
-  std::set<AgentId> seen_relative;
-  std::erase_if(batch.relative, [&](const estimators::RelativeMeasurement& m) {
-    if (slot_of(m.peer) < 0) return drop(RejectReason::kUnknownSender);
-    if (!m.delta_m.allFinite() || !m.covariance.allFinite()) return drop(RejectReason::kNonFinite);
-    if (m.delta_m.norm() > 2.0 * absurd || m.covariance.cwiseAbs().maxCoeff() > params_.absurd_variance_m2) {
-      return drop(RejectReason::kAbsurdMagnitude);
+}
+
+/// Relative positions (jacobi): one per neighbour, finite, plausible, PSD covariance.
+void sanitize_relative(std::vector<estimators::RelativeMeasurement>& relative, const BatchChecks& c) {
+  std::set<AgentId> seen;
+  std::erase_if(relative, [&](const estimators::RelativeMeasurement& m) {
+    if (!c.is_neighbour(m.peer)) return c.drop(RejectReason::kUnknownSender);
+    if (!m.delta_m.allFinite() || !m.covariance.allFinite()) return c.drop(RejectReason::kNonFinite);
+    if (m.delta_m.norm() > 2.0 * c.absurd || m.covariance.cwiseAbs().maxCoeff() > c.absurd_variance) {
+      return c.drop(RejectReason::kAbsurdMagnitude);
     }
     if (!core::is_symmetric_psd(m.covariance, 1e-9) || m.covariance.determinant() <= 0.0) {
-      return drop(RejectReason::kNotSymmetricPsd);
+      return c.drop(RejectReason::kNotSymmetricPsd);
     }
-    if (!seen_relative.insert(m.peer).second) return drop(RejectReason::kDuplicate);
+    if (!seen.insert(m.peer).second) return c.drop(RejectReason::kDuplicate);
     return false;
   });
-  // Multipath paths (multipath_bp): one per neighbour and path index (at most one per wall).
+}
+
+/// Multipath paths (multipath_bp): one per neighbour and path index (at most one per wall).
+void sanitize_paths(std::vector<estimators::MultipathMeasurement>& paths, const BatchChecks& c) {
   constexpr int kMaxPathsPerPeer = 32;
-  std::set<std::pair<AgentId, int>> seen_paths;
-  std::erase_if(batch.paths, [&](const estimators::MultipathMeasurement& m) {
-    if (slot_of(m.peer) < 0) return drop(RejectReason::kUnknownSender);
+  std::set<std::pair<AgentId, int>> seen;
+  std::erase_if(paths, [&](const estimators::MultipathMeasurement& m) {
+    if (!c.is_neighbour(m.peer)) return c.drop(RejectReason::kUnknownSender);
     if (!std::isfinite(m.length_m) || !std::isfinite(m.aoa_here_rad) || !std::isfinite(m.aoa_there_rad)) {
-      return drop(RejectReason::kNonFinite);
+      return c.drop(RejectReason::kNonFinite);
     }
-    if (m.length_m > 4.0 * absurd || std::abs(m.aoa_here_rad) > 1e3 || std::abs(m.aoa_there_rad) > 1e3) {
-      return drop(RejectReason::kAbsurdMagnitude);
+    if (m.length_m > 4.0 * c.absurd || std::abs(m.aoa_here_rad) > 1e3 || std::abs(m.aoa_there_rad) > 1e3) {
+      return c.drop(RejectReason::kAbsurdMagnitude);
     }
-    if (m.path_index < 0 || m.path_index >= kMaxPathsPerPeer) return drop(RejectReason::kMalformed);
-    if (!seen_paths.insert({m.peer, m.path_index}).second) return drop(RejectReason::kDuplicate);
+    if (m.path_index < 0 || m.path_index >= kMaxPathsPerPeer) return c.drop(RejectReason::kMalformed);
+    if (!seen.insert({m.peer, m.path_index}).second) return c.drop(RejectReason::kDuplicate);
     return false;
   });
+}
+
+}  // namespace
+
+void AgentRuntime::sanitize_batch(estimators::MeasurementBatch& batch) {
+  const BatchChecks checks{[this](AgentId peer) { return slot_of(peer) >= 0; },
+                           [this](RejectReason reason) { reject(nullptr, reason); },
+                           params_.absurd_position_bound_m, params_.absurd_variance_m2};
+  sanitize_ranges(batch.ranges, checks);
+  sanitize_fix(batch.fix, checks);
+  sanitize_motion(batch.motion, checks);
+  sanitize_relative(batch.relative, checks);
+  sanitize_paths(batch.paths, checks);
 }
 
 void AgentRuntime::carry_over(const estimators::MeasurementBatch& superseded,

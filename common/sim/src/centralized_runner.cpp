@@ -39,11 +39,13 @@ std::unique_ptr<centralized::CentralizedFilter> make_fusion_filter(const config:
   VecX initial_mean(2 * n);
   for (int i = 0; i < n; ++i)
     initial_mean.segment<2>(2 * i) = world.initial_guess[static_cast<std::size_t>(i)];
-  const double initial_var = scenario.algorithm.initial_std_m * scenario.algorithm.initial_std_m;
+  const double initial_var =
+      scenario.algorithm.kalman.initial_std_m * scenario.algorithm.kalman.initial_std_m;
   const std::vector<Mat2> initial_cov(static_cast<std::size_t>(n), Mat2::Identity() * initial_var);
 
   centralized::CentralizedFilterParams params;
-  params.process_var = scenario.algorithm.process_noise_std_m * scenario.algorithm.process_noise_std_m;
+  params.process_var =
+      scenario.algorithm.kalman.process_noise_std_m * scenario.algorithm.kalman.process_noise_std_m;
   params.bandwidth = kCentralizedBandwidth;
   // 000 Alg. 3 with: the relabelling variants relabel once, from the best positions at start-up.
   params.labels = builder->relabel ? centralized::lexicographic_labels(world.initial_guess)

@@ -167,6 +167,7 @@ MrclamDataset::TimedPose MrclamSteps::pose_at(AgentId agent, std::int64_t step) 
 
 std::vector<Vec2> MrclamSteps::truth(std::int64_t step) const {
   std::vector<Vec2> positions;
+  positions.reserve(static_cast<std::size_t>(kMrclamRobots));
   for (AgentId i = 0; i < kMrclamRobots; ++i) positions.push_back(pose_at(i, step).position_m);
   return positions;
 }
@@ -255,10 +256,10 @@ World build_mrclam_world(const config::Scenario& scenario) {
 
 MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world) {
   estimators::KalmanFamilyParams params;
-  params.process_noise_std_m = scenario.algorithm.process_noise_std_m;
-  params.initial_std_m = scenario.algorithm.initial_std_m;
-  params.initial_heading_std_rad = scenario.algorithm.initial_heading_std_rad;
-  params.range_bearing_gate_chi2 = scenario.algorithm.range_bearing_gate_chi2;
+  params.process_noise_std_m = scenario.algorithm.kalman.process_noise_std_m;
+  params.initial_std_m = scenario.algorithm.kalman.initial_std_m;
+  params.initial_heading_std_rad = scenario.algorithm.pose.initial_heading_std_rad;
+  params.range_bearing_gate_chi2 = scenario.algorithm.pose.range_bearing_gate_chi2;
   std::vector<estimators::AgentSetup> setups;
   std::vector<std::unique_ptr<estimators::DeadReckoning>> dead_reckoning;
   for (AgentId i = 0; i < world.size(); ++i) {
@@ -279,6 +280,8 @@ MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& 
   for (std::int64_t step = 0; step < steps; ++step) {
     std::vector<estimators::MeasurementBatch> batches;
     std::vector<const estimators::MeasurementBatch*> pointers;
+    batches.reserve(static_cast<std::size_t>(world.size()));
+    pointers.reserve(static_cast<std::size_t>(world.size()));
     for (AgentId i = 0; i < world.size(); ++i) batches.push_back(world.recorded->batch(i, step));
     for (const auto& batch : batches) pointers.push_back(&batch);
     centralized.step(pointers);

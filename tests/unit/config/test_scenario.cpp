@@ -58,11 +58,19 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.seed, b.seed);
   EXPECT_EQ(a.name, b.name);
   EXPECT_EQ(a.algorithm.name, b.algorithm.name);
-  EXPECT_EQ(a.algorithm.process_noise_std_m, b.algorithm.process_noise_std_m);
-  EXPECT_EQ(a.algorithm.initial_information, b.algorithm.initial_information);
-  EXPECT_EQ(a.algorithm.initial_std_m, b.algorithm.initial_std_m);
-  EXPECT_EQ(a.algorithm.inflate_stale, b.algorithm.inflate_stale);
-  EXPECT_EQ(a.algorithm.range_gate_chi2, b.algorithm.range_gate_chi2);
+  EXPECT_EQ(a.algorithm.kalman.process_noise_std_m, b.algorithm.kalman.process_noise_std_m);
+  EXPECT_EQ(a.algorithm.kalman.initial_information, b.algorithm.kalman.initial_information);
+  EXPECT_EQ(a.algorithm.kalman.initial_std_m, b.algorithm.kalman.initial_std_m);
+  EXPECT_EQ(a.algorithm.kalman.inflate_stale, b.algorithm.kalman.inflate_stale);
+  EXPECT_EQ(a.algorithm.kalman.range_gate_chi2, b.algorithm.kalman.range_gate_chi2);
+  EXPECT_EQ(a.algorithm.pose.initial_heading_std_rad, b.algorithm.pose.initial_heading_std_rad);
+  EXPECT_EQ(a.algorithm.pose.range_bearing_gate_chi2, b.algorithm.pose.range_bearing_gate_chi2);
+  EXPECT_EQ(a.algorithm.gradient.consensus_rounds, b.algorithm.gradient.consensus_rounds);
+  EXPECT_EQ(a.algorithm.gradient.fixed_step, b.algorithm.gradient.fixed_step);
+  EXPECT_EQ(a.algorithm.gradient.step_length, b.algorithm.gradient.step_length);
+  EXPECT_EQ(a.algorithm.gradient.max_step, b.algorithm.gradient.max_step);
+  EXPECT_EQ(a.algorithm.gradient.max_move_fraction, b.algorithm.gradient.max_move_fraction);
+  EXPECT_EQ(a.algorithm.gradient.abs_tol, b.algorithm.gradient.abs_tol);
   EXPECT_EQ(a.world.agents, b.world.agents);
   EXPECT_EQ(a.world.anchors, b.world.anchors);
   EXPECT_EQ(a.world.area_m, b.world.area_m);
@@ -85,10 +93,10 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.noise.range_std_m, b.noise.range_std_m);
   EXPECT_EQ(a.noise.target_std_m, b.noise.target_std_m);
   EXPECT_EQ(a.noise.target_bearing_std_rad, b.noise.target_bearing_std_rad);
-  EXPECT_EQ(a.algorithm.field_warmup_steps, b.algorithm.field_warmup_steps);
-  EXPECT_EQ(a.algorithm.local_bb_difference, b.algorithm.local_bb_difference);
-  EXPECT_EQ(a.algorithm.path_variance, b.algorithm.path_variance);
-  EXPECT_EQ(a.algorithm.bp_messages, b.algorithm.bp_messages);
+  EXPECT_EQ(a.algorithm.field.field_warmup_steps, b.algorithm.field.field_warmup_steps);
+  EXPECT_EQ(a.algorithm.gradient.local_bb_difference, b.algorithm.gradient.local_bb_difference);
+  EXPECT_EQ(a.algorithm.multipath.path_variance, b.algorithm.multipath.path_variance);
+  EXPECT_EQ(a.algorithm.multipath.bp_messages, b.algorithm.multipath.bp_messages);
   EXPECT_EQ(a.world.field_cells_per_side, b.world.field_cells_per_side);
   EXPECT_EQ(a.world.field_std, b.world.field_std);
   EXPECT_EQ(a.world.field_correlation_m, b.world.field_correlation_m);
@@ -129,7 +137,10 @@ Scenario everything_changed() {
   Scenario s;
   s.seed = std::numeric_limits<std::uint64_t>::max();
   s.name = "quotes \" back\\slash: colon # hash";
-  s.algorithm = {"dgbb", 0.3, 1.0 / 3.0, 1e-300, false, 7, 0.25, 3.5, 0.5, 1e-12, 9.0};
+  s.algorithm.name = "dgbb";
+  s.algorithm.kalman = {0.3, 1.0 / 3.0, 1e-300, false, 2.5, 100};
+  s.algorithm.pose = {0.25, 13.8};
+  s.algorithm.gradient = {7, 0.25, 3.5, 0.5, 1e-12, 9.0, LocalBbDifference::kGradientChange};
   s.world.agents = 100000;
   s.world.anchors = 0;
   s.world.area_m = 123.456789012345678;
@@ -156,10 +167,10 @@ Scenario everything_changed() {
   s.world.target_sensing_radius_m = 12.0;
   s.noise.target_std_m = 0.0;
   s.noise.target_bearing_std_rad = 3.2;
-  s.algorithm.field_warmup_steps = 1000000;
-  s.algorithm.local_bb_difference = LocalBbDifference::kOwnMove;
-  s.algorithm.path_variance = PathVariance::kWithDoa;
-  s.algorithm.bp_messages = BpMessages::kExact;
+  s.algorithm.field.field_warmup_steps = 1000000;
+  s.algorithm.gradient.local_bb_difference = LocalBbDifference::kOwnMove;
+  s.algorithm.multipath.path_variance = PathVariance::kWithDoa;
+  s.algorithm.multipath.bp_messages = BpMessages::kExact;
   s.world.field_cells_per_side = 8;
   s.world.field_std = 0.0;
   s.world.field_correlation_m = 1e-3;
@@ -223,8 +234,8 @@ TEST(Scenario, FullFixtureSetsEveryKeyItNames) {
   EXPECT_EQ(loaded.seed, std::numeric_limits<std::uint64_t>::max());
   EXPECT_EQ(loaded.name, "full fixture");
   EXPECT_EQ(loaded.algorithm.name, "iekf");
-  EXPECT_EQ(loaded.algorithm.initial_information, 1e-3);
-  EXPECT_FALSE(loaded.algorithm.inflate_stale);
+  EXPECT_EQ(loaded.algorithm.kalman.initial_information, 1e-3);
+  EXPECT_FALSE(loaded.algorithm.kalman.inflate_stale);
   EXPECT_EQ(loaded.world.placement, Placement::kGrid);
   EXPECT_EQ(loaded.world.motion, Motion::kRandomWalk);
   EXPECT_EQ(loaded.world.initial_guess, InitialGuess::kUniform);
@@ -297,7 +308,7 @@ TEST(Scenario, OverridesApplyBeforeValidation) {
 
 TEST(Scenario, OverrideValueIsAYamlScalar) {
   EXPECT_EQ(parse_scenario("", {"name=\"a=b: c\""}).name, "a=b: c");
-  EXPECT_EQ(parse_scenario("", {"algorithm.inflate_stale=false"}).algorithm.inflate_stale, false);
+  EXPECT_EQ(parse_scenario("", {"algorithm.inflate_stale=false"}).algorithm.kalman.inflate_stale, false);
   EXPECT_EQ(parse_scenario("", {"world.positions_file="}).world.positions_file, "");
 }
 
@@ -488,12 +499,13 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
   };
   const std::vector<Case> cases{
       {[](Scenario& s) { s.name.clear(); }, "name: must not be empty"},
-      {[](Scenario& s) { s.algorithm.process_noise_std_m = -0.5; },
+      {[](Scenario& s) { s.algorithm.kalman.process_noise_std_m = -0.5; },
        "algorithm.process_noise_std_m: -0.5 must be >= 0"},
-      {[](Scenario& s) { s.algorithm.initial_information = 0.0; },
+      {[](Scenario& s) { s.algorithm.kalman.initial_information = 0.0; },
        "algorithm.initial_information: 0 must be > 0"},
-      {[](Scenario& s) { s.algorithm.initial_std_m = 0.0; }, "algorithm.initial_std_m: 0 must be > 0"},
-      {[](Scenario& s) { s.algorithm.range_gate_chi2 = -1.0; }, "algorithm.range_gate_chi2: -1 must be >= 0"},
+      {[](Scenario& s) { s.algorithm.kalman.initial_std_m = 0.0; }, "algorithm.initial_std_m: 0 must be > 0"},
+      {[](Scenario& s) { s.algorithm.kalman.range_gate_chi2 = -1.0; },
+       "algorithm.range_gate_chi2: -1 must be >= 0"},
       {[](Scenario& s) { s.world.agents = 0; }, "world.agents: 0 is outside [1, 100000]"},
       {[](Scenario& s) { s.world.agents = 100001; }, "world.agents: 100001 is outside [1, 100000]"},
       {[](Scenario& s) { s.world.anchors = -1; }, "world.anchors: -1 must be >= 0"},

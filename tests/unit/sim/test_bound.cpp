@@ -259,7 +259,7 @@ TEST(PosteriorBound, EqualsTheKalmanCovarianceAlongTheTrueTrajectoryWithTheWorld
     auto s = small_bound_scenario(name);
     s.world.motion = config::Motion::kRandomWalk;
     s.world.motion_std_m = 0.3;
-    s.algorithm.process_noise_std_m = 0.01;  // the filter's Q: not the bound's
+    s.algorithm.kalman.process_noise_std_m = 0.01;  // the filter's Q: not the bound's
     s.world.initial_guess_std_m = 1.5;
     s.world.comm_radius_m = 9.0;  // edges leave and enter the range as the agents move
     s.noise.range_std_m = 0.5;

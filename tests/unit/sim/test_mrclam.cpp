@@ -149,9 +149,9 @@ TEST(Mrclam, Dataset6DistributedAndCentralizedFiltersBeatDeadReckoningFiveTimes)
         << SWARMLOC_SOURCE_DIR << " and its parents; set SWARMLOC_MRCLAM_DIR to the dataset directory)";
   }
   auto s = mrclam_scenario(dir, 9000);
-  s.algorithm.initial_std_m = 0.05;
-  s.algorithm.initial_heading_std_rad = 0.05;
-  s.algorithm.range_bearing_gate_chi2 = 13.8;
+  s.algorithm.kalman.initial_std_m = 0.05;
+  s.algorithm.pose.initial_heading_std_rad = 0.05;
+  s.algorithm.pose.range_bearing_gate_chi2 = 13.8;
   s.noise.range_std_m = 0.3;
   s.noise.bearing_std_rad = 0.1;
   const auto world = build_world(s);

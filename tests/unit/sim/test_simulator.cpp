@@ -53,8 +53,8 @@ TEST(World, RangeScenariosRedrawFlexibleWorldsUntilEveryAgentIsLocalizable) {
   EXPECT_TRUE(std::isfinite(range_crlb(rigid, 0.1).single_snapshot_rmse_m));
 }
 
-// Agents started by `swarmloc run` get the orchestrator's accepted draw (--world-draw) and skip the
-// localizability check; they must still end up in the orchestrator's world.
+// build_world(s, trial, draw) rebuilds a world from its accepted placement draw without the
+// localizability check; it must be the world the checked build accepted.
 TEST(World, TheAcceptedDrawRebuildsTheSameWorldWithoutTheCheck) {
   auto s = simulator_scenario();
   s.seed = 9;  // its first draw is flexible: the accepted draw is a later one

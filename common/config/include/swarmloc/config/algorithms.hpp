@@ -2,12 +2,14 @@
 // The algorithm registry: one entry per algorithm that `run` and `sim` execute, saying what it is (name,
 // family), where it runs (every agent, or one fusion centre), which data the world generates for it, what
 // data its bound is computed from (docs/algorithms.md §1.3.1) and which scenario keys it additionally
-// requires. Every layer that asks about an algorithm asks this table; none tests a name itself. The
-// builders live one layer up, in estimators (estimators/registry.hpp): config cannot see estimator types,
-// and a test (tests/unit/sim/test_algorithm_registry.cpp) keeps the two tables entry for entry equal.
+// requires, and which parameter blocks of Scenario::Algorithm it reads. Every layer that asks about an
+// algorithm asks this table; none tests a name itself. The builders live one layer up, in estimators
+// (estimators/registry.hpp): config cannot see estimator types, and a test
+// (tests/unit/sim/test_algorithm_registry.cpp) keeps the two tables entry for entry equal.
 //
-// Adding an algorithm: its estimator class, one entry here, one builder in estimators/src/factory.cpp,
-// and its tests.
+// Adding an algorithm: its estimator class, one entry here (its keys in an existing parameter block, or a
+// new block in scenario.hpp with its keys in config/src/scenario_keys.cpp and its ranges in
+// config/src/validate.cpp), one builder in estimators/src/factory.cpp, and its tests.
 #include <string>
 #include <string_view>
 #include <vector>
@@ -26,6 +28,48 @@ enum class AlgorithmFamily {
   kBp,           ///< belief propagation over reflected paths (multipath_bp; 003)
   kGradient,     ///< distributed gradient descent over ranges (dgbb and its baselines; 004)
 };
+
+/// The parameter blocks of Scenario::Algorithm (scenario.hpp), one per family that has knobs.
+enum class ParamBlock { kKalman, kPose, kGradient, kField, kMultipath };
+
+/// The blocks an algorithm reads; a key of any other block is reported as not used by it.
+struct ParamBlocks {
+  bool kalman = false;
+  bool pose = false;
+  bool gradient = false;
+  bool field = false;
+  bool multipath = false;
+  [[nodiscard]] constexpr bool reads(ParamBlock block) const {
+    switch (block) {
+      case ParamBlock::kKalman:
+        return kalman;
+      case ParamBlock::kPose:
+        return pose;
+      case ParamBlock::kGradient:
+        return gradient;
+      case ParamBlock::kField:
+        return field;
+      case ParamBlock::kMultipath:
+        return multipath;
+    }
+    return false;
+  }
+};
+
+/// One parameter block: its name in messages and its ranges. Every block is validated whatever the
+/// algorithm, so whether a file is accepted does not depend on algorithm.name.
+struct ParamBlockSpec {
+  ParamBlock block = ParamBlock::kKalman;
+  std::string_view name;  ///< "gradient"
+  /// Each key's range; throws ScenarioError naming the key ("algorithm.fixed_step: 0 must be > 0").
+  void (*validate)(const Scenario&) = nullptr;
+};
+
+/// Every block.
+const std::vector<ParamBlockSpec>& param_blocks();
+
+/// The entry of `block`.
+const ParamBlockSpec& param_block_spec(ParamBlock block);
 
 /// Where an algorithm's estimator runs.
 enum class AlgorithmPlacement {
@@ -84,6 +128,8 @@ struct AlgorithmSpec {
   bool exchange_only = false;
   /// The algorithm's own scenario rules (beyond every key's range); throws ScenarioError. May be null.
   void (*validate)(const Scenario&) = nullptr;
+  /// The parameter blocks its builder reads (runtime/agent_factory.cpp, the fusion centre).
+  ParamBlocks blocks;
 };
 
 /// Every entry, in the order `known algorithms` lists them.
@@ -100,5 +146,8 @@ bool runs_in_fusion_centre(std::string_view name);
 
 /// "ieif, iekf, …": the registry's names for messages.
 std::string known_algorithm_list();
+
+/// "dgbb, local_bb, …": the entries that read `block`.
+std::string algorithms_reading(ParamBlock block);
 
 }  // namespace swarmloc::config

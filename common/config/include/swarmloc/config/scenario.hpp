@@ -61,34 +61,65 @@ struct QosSettings {
   double liveliness_lease_s = 0.0;  ///< 0 = infinite
 };
 
+// The algorithm's parameter blocks. Member names are the flat key names (algorithm.<member>), so a key
+// cannot drift from its member; which algorithms read a block is the registry's (algorithms.hpp).
+
+/// The filters' prior, process noise and update rules: the Kalman (ieif, iekf) and pose families, the
+/// fusion centre (process noise and prior std) and dle (prior information).
+struct KalmanParams {
+  double process_noise_std_m = 0.01;
+  double initial_information = 1e-6;
+  double initial_std_m = 8.66;
+  bool inflate_stale = true;
+  double range_gate_chi2 = 0.0;  ///< chi-square gate on range innovations (ieif, iekf); 0 = off
+  int update_iterations = 1;     ///< ieif, iekf: Gauss–Newton passes per update; 1 = 001 as printed
+};
+
+/// The pose-state family (pose_ekf, pose_ieif, dead_reckoning), beside the Kalman block.
+struct PoseParams {
+  double initial_heading_std_rad = 0.1;  ///< heading prior std
+  double range_bearing_gate_chi2 = 0.0;  ///< 2-dof gate; 0 = off
+};
+
+/// The distributed gradient family (dgbb, local_bb, fixed_step, step_length; docs/algorithms.md §6).
+struct GradientParams {
+  int consensus_rounds = 20;       ///< T: consensus rounds per DG-BB update
+  double fixed_step = 0.1;         ///< α of fixed_step
+  double step_length = 10.0;       ///< k of step_length (α = k/(√τ‖D_i‖))
+  double max_step = 0.0;           ///< cap on any BB step; 0 = no cap (the source has none)
+  double max_move_fraction = 1.0;  ///< BB trust region: move ≤ this × shortest range; 0 = off
+  double abs_tol = 1e-10;          ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
+  /// local_bb: ΔD_i of 004 eq. (15) (gradient_change = [E-6], own_move = as printed).
+  LocalBbDifference local_bb_difference = LocalBbDifference::kGradientChange;
+};
+
+/// joint_field.
+struct FieldParams {
+  int field_warmup_steps = 0;  ///< readings of each agent's first steps are left out; 0 = 002
+};
+
+/// multipath_bp.
+struct MultipathParams {
+  /// A path's variance is σ² (range_only, 003) or also carries its angle errors (with_doa).
+  PathVariance path_variance = PathVariance::kRangeOnly;
+  /// Full beliefs (beliefs, 003) or cavity messages (exact, not in 003).
+  BpMessages bp_messages = BpMessages::kBeliefs;
+};
+
 struct Scenario {
   std::uint64_t seed = 1;
   std::string name = "default";
 
+  /// algorithm.*: the name and one parameter block per family (docs/scenario.md, "algorithm"). A file
+  /// writes every key flat (algorithm.fixed_step); the key table maps it to its block
+  /// (algorithm.gradient.fixed_step), and the registry (algorithms.hpp) says which blocks an algorithm reads.
   struct Algorithm {
     std::string name = "ieif";
-    double process_noise_std_m = 0.01;
-    double initial_information = 1e-6;
-    double initial_std_m = 8.66;
-    bool inflate_stale = true;
-    // Distributed gradient family (dgbb, local_bb, fixed_step, step_length; docs/algorithms.md §6).
-    int consensus_rounds = 20;       ///< T: consensus rounds per DG-BB update
-    double fixed_step = 0.1;         ///< α of fixed_step
-    double step_length = 10.0;       ///< k of step_length (α = k/(√τ‖D_i‖))
-    double max_step = 0.0;           ///< cap on any BB step; 0 = no cap (the source has none)
-    double max_move_fraction = 1.0;  ///< BB trust region: move ≤ this × shortest range; 0 = off
-    double abs_tol = 1e-10;          ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
-    double range_gate_chi2 = 0.0;    ///< chi-square gate on range innovations (IEIF, IEKF); 0 = off
-    int update_iterations = 1;       ///< ieif, iekf: Gauss–Newton passes per update; 1 = 001 as printed
-    double initial_heading_std_rad = 0.1;  ///< pose-state algorithms: heading prior std
-    double range_bearing_gate_chi2 = 0.0;  ///< pose-state algorithms: 2-dof gate; 0 = off
-    int field_warmup_steps = 0;  ///< joint_field: readings of each agent's first steps are left out; 0 = 002
-    /// local_bb: ΔD_i of 004 eq. (15) (gradient_change = [E-6], own_move = as printed).
-    LocalBbDifference local_bb_difference = LocalBbDifference::kGradientChange;
-    /// multipath_bp: a path's variance is σ² (range_only, 003) or also carries its angle errors (with_doa).
-    PathVariance path_variance = PathVariance::kRangeOnly;
-    /// multipath_bp: full beliefs (beliefs, 003) or cavity messages (exact, not in 003).
-    BpMessages bp_messages = BpMessages::kBeliefs;
+    KalmanParams kalman;
+    PoseParams pose;
+    GradientParams gradient;
+    FieldParams field;
+    MultipathParams multipath;
   } algorithm;
 
   struct World {
@@ -230,12 +261,15 @@ struct StepWindow {
 std::optional<StepWindow> parse_partition(const std::string& text);
 
 /// Loads and validates a scenario file; `overrides` are "key.path=value" strings applied before
-/// validation. Throws ScenarioError naming the key path.
-Scenario load_scenario(const std::string& path, const std::vector<std::string>& overrides = {});
+/// validation. Throws ScenarioError naming the key path. `warnings`, if given, receives one line per
+/// algorithm key the chosen algorithm does not read (its block is another family's) that was set by
+/// --set, or in the file to other than its default: "algorithm.fixed_step: not used by ieif (…) at …".
+Scenario load_scenario(const std::string& path, const std::vector<std::string>& overrides = {},
+                       std::vector<std::string>* warnings = nullptr);
 
 /// Parses YAML text (same rules as load_scenario; `origin` names the source in errors).
 Scenario parse_scenario(const std::string& yaml_text, const std::vector<std::string>& overrides = {},
-                        const std::string& origin = "<string>");
+                        const std::string& origin = "<string>", std::vector<std::string>* warnings = nullptr);
 
 /// Checks every cross-field rule (anchors <= agents, loss in [0,1], …). Throws ScenarioError.
 void validate(const Scenario& scenario);

@@ -15,7 +15,9 @@
 
 namespace swarmloc::estimators {
 
-/// The parameter block an algorithm's builder reads.
+/// The parameter block an algorithm's builder reads. runtime/agent_factory.cpp fills each from the
+/// scenario's own blocks (config::ParamBlock): kKalman from kalman and pose, kCooperative from gradient,
+/// field, multipath and (dle) kalman.initial_information.
 enum class ParamBlock {
   kKalman,       ///< KalmanFamilyParams (the Kalman, dml and pose families)
   kCooperative,  ///< CooperativeParams (the consensus, BP and gradient families)

@@ -35,7 +35,7 @@ struct AgentRuntimeParams {
 class AgentRuntime {
  public:
   AgentRuntime(std::unique_ptr<estimators::Estimator> estimator, estimators::AgentSetup setup,
-               std::vector<AgentId> neighbours, AgentRuntimeParams params);
+               std::vector<AgentId> neighbours, const AgentRuntimeParams& params);
 
   /// An inter-agent sample arrived. Applies loss, validation and ordering rules; returns true if it
   /// entered the mailbox (the newest sample per sender and family).
