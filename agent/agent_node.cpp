@@ -482,15 +482,6 @@ class AgentProcess {
 
 }  // namespace
 
-sim::AgentManifest load_manifest_file(const config::Scenario& /*scenario*/, const AgentOptions& options) {
-  if (options.manifest_path.empty()) {
-    throw sim::ManifestError(
-        "--manifest is required: `swarmloc run` writes <run>/manifests/agent_<id>.json for every agent (an "
-        "agent started elsewhere without one: `swarmloc agent --scenario ... --id ...`)");
-  }
-  return sim::load_manifest(options.manifest_path);
-}
-
 namespace {
 
 /// The scenario and the manifest must describe the same run, and --id (if given) the manifest's agent.
@@ -518,7 +509,10 @@ void check_manifest(config::Scenario& scenario, const sim::AgentManifest& manife
 std::optional<std::pair<config::Scenario, sim::AgentManifest>> load_inputs(
     const AgentOptions& options, const ManifestSource& manifest_source, spdlog::logger& logger) {
   try {
-    config::Scenario scenario = config::load_scenario(options.scenario_path, options.overrides);
+    // Without --scenario the defaults and --set tell where to wait for the manifest sample.
+    config::Scenario scenario = options.scenario_path.empty()
+                                    ? config::parse_scenario("{}", options.overrides, "--set")
+                                    : config::load_scenario(options.scenario_path, options.overrides);
     sim::AgentManifest manifest = manifest_source(scenario, options);
     check_manifest(scenario, manifest, options);
     return std::make_pair(std::move(scenario), std::move(manifest));
@@ -538,7 +532,13 @@ int run_agent(const AgentOptions& options, const ManifestSource& manifest_source
   std::signal(SIGHUP, on_signal);
   std::signal(SIGPIPE, SIG_IGN);
   auto logger = make_logger(options);
-  const auto inputs = load_inputs(options, manifest_source, *logger);
+  std::optional<std::pair<config::Scenario, sim::AgentManifest>> inputs;
+  try {
+    inputs = load_inputs(options, manifest_source, *logger);
+  } catch (const dds::DdsError& error) {  // no manifest sample came (or no participant for the wait)
+    logger->error("runtime failure: {}", error.what());
+    return 1;
+  }
   if (!inputs) return 2;
   try {
     AgentProcess process(inputs->first, inputs->second, options, logger);

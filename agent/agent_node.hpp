@@ -22,19 +22,23 @@ struct AgentOptions {
   bool hostile = false;     ///< publish NaN / non-PSD / absurd states (robustness tests)
   int incarnation = 0;      ///< restarts so far (faults.kill): numbers samples from a new range
   std::string record_path;  ///< non-empty: log every inter-agent sample received to this file (--record)
-  int world_draw = -1;      ///< `swarmloc agent` without --manifest: the world draw (sim::build_world)
+  /// Without --manifest: how long to wait for the manifest sample over DDS (dds/manifest_topic.hpp).
+  double manifest_timeout_s = 60.0;
 };
 
-/// Where the agent's manifest comes from once its scenario is loaded: the file (load_manifest_file), or
-/// in the full `swarmloc agent` without --manifest, a world built from the scenario. Throws
-/// config::ScenarioError or sim::ManifestError for bad input (exit code 2).
-using ManifestSource = std::function<sim::AgentManifest(const config::Scenario&, const AgentOptions&)>;
+/// Where the agent's manifest comes from once its scenario is loaded (from --scenario, or without it the
+/// defaults with --set applied: only its dds keys matter then). It may replace the scenario (a manifest
+/// sample carries the run's). Throws config::ScenarioError or sim::ManifestError for bad input (exit
+/// code 2), dds::DdsError when none can be had (exit code 1).
+using ManifestSource = std::function<sim::AgentManifest(config::Scenario&, const AgentOptions&)>;
 
-/// options.manifest_path, loaded and validated.
-sim::AgentManifest load_manifest_file(const config::Scenario& scenario, const AgentOptions& options);
+/// options.manifest_path, loaded and validated; without one, agent options.id's manifest sample over
+/// DDS (manifest_source.cpp), whose scenario (with options.overrides) replaces `scenario` unless
+/// options.scenario_path was given.
+sim::AgentManifest load_manifest(config::Scenario& scenario, const AgentOptions& options);
 
 /// Runs the agent until STOP, SIGINT/SIGTERM or the orchestrator goes silent. Returns the process
 /// exit code (0 ok, 2 bad input, 1 runtime failure).
-int run_agent(const AgentOptions& options, const ManifestSource& manifest_source = load_manifest_file);
+int run_agent(const AgentOptions& options, const ManifestSource& manifest_source = load_manifest);
 
 }  // namespace swarmloc::agent

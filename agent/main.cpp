@@ -1,9 +1,11 @@
 // swarmloc-agent — one agent process: its scenario file and its manifest (written by `swarmloc run` into
-// <run>/manifests/), its estimator and the DDS transport. It links neither the world nor the simulator
-// (nor SDPA/BLAS): what it may know is the manifest. `swarmloc agent` runs the same code.
-// Exit codes: 0 ok, 2 bad input (scenario, manifest, flags), 1 runtime failure.
+// <run>/manifests/), or with --id alone the manifest sample of `swarmloc run --no-launch` over DDS (which
+// carries the run's scenario); its estimator and the DDS transport. It links neither the world nor the
+// simulator (nor SDPA/BLAS): what it may know is the manifest. `swarmloc agent` runs the same code. Exit
+// codes: 0 ok, 2 bad input (scenario, manifest, flags), 1 runtime failure.
 #include <CLI/CLI.hpp>
 #include <csignal>
+#include <cstdio>
 #include <string>
 
 #include "agent_node.hpp"
@@ -12,13 +14,26 @@ int main(int argc, char** argv) {
   CLI::App app{"swarmloc-agent: one agent process of a `swarmloc run` (docs/architecture.md)"};
   swarmloc::agent::AgentOptions options;
   std::string security_dir;
-  app.add_option("--scenario", options.scenario_path, "Scenario YAML (the run directory's scenario.yaml)")
-      ->required();
+  int domain = -1;
+  std::string run_id;
+  auto* scenario =
+      app.add_option("--scenario", options.scenario_path,
+                     "Scenario YAML (the run directory's scenario.yaml; default: the run's, from "
+                     "the manifest sample)");
   app.add_option("--manifest", options.manifest_path,
-                 "This agent's manifest (<run>/manifests/agent_<id>.json)")
-      ->required();
-  app.add_option("--id", options.id, "Agent id (checked against the manifest)")
+                 "This agent's manifest (<run>/manifests/agent_<id>.json); without it the agent waits for "
+                 "its manifest sample from `swarmloc run --no-launch` on DDS")
+      ->needs(scenario);
+  app.add_option("--id", options.id,
+                 "Agent id: whose manifest to wait for on DDS (with --manifest: checked against it)")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--domain", domain, "DDS domain of the run (same as --set dds.domain_id=N)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--run-id", run_id,
+                 "Run id (dds.run_id) whose manifest to take; default: any run on the domain");
+  app.add_option("--manifest-timeout", options.manifest_timeout_s,
+                 "Without --manifest: seconds to wait for the manifest sample (default 60; exit 1 after)")
+      ->check(CLI::PositiveNumber);
   app.add_option("--set", options.overrides, "Override a scenario key (repeatable)");
   app.add_option("--log", options.log_path, "Log file (default: stderr)");
   app.add_option("--incarnation", options.incarnation,
@@ -34,6 +49,13 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
   std::signal(SIGXFSZ, SIG_IGN);  // a file size limit fails a write (EFBIG) instead of killing us
+  if (options.manifest_path.empty() && options.id < 0) {
+    std::fprintf(stderr, "error: --id (or --manifest with --scenario) is required\n");
+    return 2;
+  }
+  // After the --set overrides, so the flags win.
   if (!security_dir.empty()) options.overrides.push_back("dds.security_dir=" + security_dir);
+  if (domain >= 0) options.overrides.push_back("dds.domain_id=" + std::to_string(domain));
+  if (!run_id.empty()) options.overrides.push_back("dds.run_id=" + run_id);
   return swarmloc::agent::run_agent(options);
 }

@@ -81,6 +81,10 @@ echo "scale benchmark: ${sizes[*]} agents, $steps steps at $rate Hz; output $out
   echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
   echo "command: bench/scale.sh ${sizes[*]}"
   echo "agent_nice: $agent_nice"
+  # The machine is shared: what else was running when this started (other_cores covers the runs).
+  echo "loadavg: $(cut -d' ' -f1-3 /proc/loadavg)"
+  echo "busiest other processes (%cpu command):"
+  ps -eo pcpu=,comm= --sort=-pcpu | head -5 | sed 's/^/  /'
 } > "$out/machine.txt"
 
 # --- ddsperf loopback reference (ping/pong, see docs/measurements/ddsperf.md) ----------------------------

@@ -1,13 +1,13 @@
 #pragma once
-// `swarmloc agent --role agent`: the agent process of the full binary. With --manifest it is the lean
-// `swarmloc-agent`; without, for agents started elsewhere (`run --no-launch`, containers, other hosts)
-// that have no manifest file, it builds the world from the scenario to learn its own manifest (every
-// agent repeats the orchestrator's world: O(N) start-up per agent).
+// `swarmloc agent --role agent`: the agent process of the full binary, the same code as the lean
+// `swarmloc-agent`. Its manifest is the file given with --manifest, or (agents started elsewhere: `run
+// --no-launch`, containers, other hosts) the orchestrator's manifest sample over DDS. It never builds
+// the world.
 #include "agent_node.hpp"
 
 namespace swarmloc::orchestrator {
 
-/// Returns the process exit code (0 ok, 2 bad input, 1 runtime failure).
+/// Returns the process exit code (0 ok, 2 bad input, 1 runtime failure or no manifest in time).
 int run_agent_command(const agent::AgentOptions& options);
 
 }  // namespace swarmloc::orchestrator

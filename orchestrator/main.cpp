@@ -208,6 +208,8 @@ struct AgentCommand {
   swarmloc::agent::AgentOptions options;
   std::string role = "agent";
   CLI::Option* id = nullptr;
+  int domain = -1;     ///< --domain: dds.domain_id
+  std::string run_id;  ///< --run-id: dds.run_id
 };
 
 void add_agent_command(CLI::App& app, SharedFlags& shared, AgentCommand& agent) {
@@ -215,9 +217,9 @@ void add_agent_command(CLI::App& app, SharedFlags& shared, AgentCommand& agent) 
       app.add_subcommand("agent", "Run one agent process (what `run` starts N times; also for containers).");
   agent.command = command;
   auto& options = agent.options;
-  command
-      ->add_option("--scenario", options.scenario_path, "Scenario YAML (the run directory's scenario.yaml)")
-      ->required();
+  command->add_option("--scenario", options.scenario_path,
+                      "Scenario YAML (the run directory's scenario.yaml; needed with --manifest and --role "
+                      "fusion). Without it the agent takes the run's scenario from its manifest sample");
   command
       ->add_option("--role", agent.role,
                    "agent: one agent (needs --id); fusion: the fusion centre of a centralized algorithm "
@@ -226,19 +228,22 @@ void add_agent_command(CLI::App& app, SharedFlags& shared, AgentCommand& agent) 
   agent.id = command->add_option("--id", options.id, "Agent id in [0, world.agents) (role agent)");
   command->add_option(
       "--manifest", options.manifest_path,
-      "This agent's manifest (set by `swarmloc run`: <run>/manifests/agent_<id>.json); without "
-      "it the agent builds the world to learn its own");
+      "This agent's manifest (set by `swarmloc run`: <run>/manifests/agent_<id>.json); without it the "
+      "agent waits for its manifest sample from `swarmloc run --no-launch` on DDS");
+  command->add_option("--domain", agent.domain, "DDS domain of the run (same as --set dds.domain_id=N)")
+      ->check(CLI::NonNegativeNumber);
+  command->add_option("--run-id", agent.run_id,
+                      "Run id (dds.run_id) whose manifest to take; default: any run on the domain");
+  command
+      ->add_option("--manifest-timeout", options.manifest_timeout_s,
+                   "Without --manifest: seconds to wait for the manifest sample (default 60; exit 1 after)")
+      ->check(CLI::PositiveNumber);
   command->add_option("--set", options.overrides, "Override a scenario key (repeatable)");
   command->add_option("--log", options.log_path, "Log file (default: stderr)");
   command
       ->add_option("--incarnation", options.incarnation,
                    "Restart count of this agent (set by the orchestrator for faults.kill restarts)")
       ->check(CLI::Range(0, 255));
-  command
-      ->add_option("--world-draw", options.world_draw,
-                   "Set by `swarmloc run`: the world draw the orchestrator accepted, so the agent does not "
-                   "repeat the localizability check (a wrong value gives the agent another world)")
-      ->check(CLI::Range(0, 999));
   command->add_option("--security", shared.security_dir, kSecurityHelp);
   command->add_flag("--hostile", options.hostile, "Publish NaN / non-PSD / absurd states (robustness tests)");
   command->add_option("--record", options.record_path,
@@ -246,8 +251,15 @@ void add_agent_command(CLI::App& app, SharedFlags& shared, AgentCommand& agent) 
                       "docs/record-replay.md)");
 }
 
-int execute_agent(const AgentCommand& agent) {
-  const auto& options = agent.options;
+int execute_agent(AgentCommand& agent) {
+  auto& options = agent.options;
+  // After the --set overrides, so the flags win.
+  if (agent.domain >= 0) options.overrides.push_back("dds.domain_id=" + std::to_string(agent.domain));
+  if (!agent.run_id.empty()) options.overrides.push_back("dds.run_id=" + agent.run_id);
+  if (options.scenario_path.empty() && (agent.role == "fusion" || !options.manifest_path.empty())) {
+    std::fprintf(stderr, "error: --scenario is required with --manifest and with --role fusion\n");
+    return 2;
+  }
   if (agent.role == "fusion") {
     if (agent.id->count() > 0 || options.hostile) {
       std::fprintf(stderr, "error: --role fusion takes no --id or --hostile\n");
@@ -257,7 +269,7 @@ int execute_agent(const AgentCommand& agent) {
         swarmloc::agent::FusionOptions{options.scenario_path, options.overrides, options.log_path});
   }
   if (agent.id->count() == 0 && options.manifest_path.empty()) {
-    std::fprintf(stderr, "error: --id or --manifest is required for --role agent\n");
+    std::fprintf(stderr, "error: --id (or --manifest) is required for --role agent\n");
     return 2;
   }
   return swarmloc::orchestrator::run_agent_command(options);

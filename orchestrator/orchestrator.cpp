@@ -81,7 +81,8 @@ class Orchestrator {
     dds::require_ports_free(scenario_, options_.launch_agents);
     spdlog::info("run id {} (dds.run_id: every partition name starts with it)", scenario_.dds.run_id);
     dds::OrchestratorTransport transport(scenario_, n);
-    write_manifests();
+    // Agents started elsewhere take their manifest over DDS: offered until the run ends.
+    const auto offered = offer_manifests(scenario_, write_manifests(), options_.launch_agents);
     if (options_.launch_agents) {
       const auto launch_start = std::chrono::steady_clock::now();
       launch_agents();
@@ -229,10 +230,11 @@ class Orchestrator {
 
   /// <run>/manifests/agent_<id>.json: what each agent may know, computed once from our world. Written for
   /// agents started elsewhere too (containers that mount the run directory).
-  void write_manifests() const {
-    const auto manifests = sim::make_agent_manifests(scenario_, world_);
+  std::vector<sim::AgentManifest> write_manifests() const {
+    auto manifests = sim::make_agent_manifests(scenario_, world_);
     for (const auto& manifest : manifests)
       sim::write_manifest(sim::manifest_path(run_dir_, manifest.id), manifest);
+    return manifests;
   }
 
   /// The lean agent executable beside ours (swarmloc-agent: no world, no simulator, no BLAS), else

@@ -59,4 +59,13 @@ sim::World prepare_run(config::Scenario& scenario, const RunOptions& options, co
   return check_runnable(scenario, control);
 }
 
+std::unique_ptr<dds::ManifestPublisher> offer_manifests(const config::Scenario& scenario,
+                                                        const std::vector<sim::AgentManifest>& manifests,
+                                                        bool launch_agents) {
+  if (launch_agents) return nullptr;
+  auto publisher = std::make_unique<dds::ManifestPublisher>(scenario, static_cast<int>(manifests.size()));
+  publisher->publish(manifests, config::to_yaml(scenario));
+  return publisher;
+}
+
 }  // namespace swarmloc::orchestrator

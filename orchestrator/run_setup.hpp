@@ -2,10 +2,13 @@
 // `swarmloc run` before the orchestrator starts: the scenario loaded, bad input found and the run
 // directory prepared, before any work (run_orchestrator(const RunOptions&) is defined beside these).
 #include <filesystem>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "orchestrator.hpp"
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/dds/manifest_topic.hpp"
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
@@ -19,5 +22,12 @@ std::string fresh_run_id();
 /// are set as far as it got, for the caller to discard an empty directory.
 sim::World prepare_run(config::Scenario& scenario, const RunOptions& options, const sim::WorkControl& control,
                        std::filesystem::path& run_dir, bool& run_dir_existed);
+
+/// Agents we do not launch (`launch_agents` false) wait for their manifests on DDS: each offered as a
+/// transient-local sample, with the scenario as run, for as long as the returned publisher lives. Null
+/// when we launch the agents (they read the files).
+std::unique_ptr<dds::ManifestPublisher> offer_manifests(const config::Scenario& scenario,
+                                                        const std::vector<sim::AgentManifest>& manifests,
+                                                        bool launch_agents);
 
 }  // namespace swarmloc::orchestrator

@@ -11,7 +11,8 @@
 # SWARMLOC_MULTIHOST_IMAGE=IMAGE runs the agents of the last host as podman containers of IMAGE joined
 # to that host's namespace (`podman run --network ns:/run/netns/<host>`), the others stay processes.
 # IMAGE must contain this build (deploy/k8s/Containerfile.host-binary wraps a host build in a minute):
-# the agents read the orchestrator's resolved scenario.yaml, and an older binary may not know its keys.
+# the agents take their manifest and the run's scenario from the orchestrator over DDS (`swarmloc agent
+# --id N`, no scenario file, no world), and an older binary may not know its keys.
 #
 # Cyclone uses SPDP multicast on eth0 (dds.neighbour_discovery=false): neighbour discovery assumes
 # every peer at one address and does not work across hosts. LOSS_PERCENT (default 0) drops that
@@ -144,12 +145,12 @@ for ((i = 0; i < AGENTS; ++i)); do
     # Explicit rlimits: in this sandbox runc cannot raise them to podman's defaults (no CAP_SYS_RESOURCE; feasibility.md).
     podman run --rm --name "${P}a$i" --network "ns:/run/netns/$host" -v "$OUT:$OUT" -v "$LOGS:$LOGS" \
       --ulimit nofile=1024:1024 --ulimit nproc=1024:1024 \
-      -e SWARMLOC_CYCLONE_URI_EXTRA "$IMAGE" agent --scenario "$OUT/scenario.yaml" --id "$i" "${SETS[@]}" \
+      -e SWARMLOC_CYCLONE_URI_EXTRA "$IMAGE" agent --id "$i" "${SETS[@]}" \
       --log "$LOGS/agent-$i.log" >"$LOGS/agent-$i.out" 2>&1 &
     CONTAINERS=$((CONTAINERS + 1))
   else
     # One OpenBLAS thread: its pool spins ~0.1 s of CPU per process start (orchestrator/launcher.cpp).
-    OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1} ip netns exec "$host" "$BIN" agent --scenario "$OUT/scenario.yaml" --id "$i" "${SETS[@]}" \
+    OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1} ip netns exec "$host" "$BIN" agent --id "$i" "${SETS[@]}" \
       --log "$LOGS/agent-$i.log" >"$LOGS/agent-$i.out" 2>&1 &
   fi
 done

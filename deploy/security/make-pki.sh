@@ -87,7 +87,7 @@ rule() {  # rule publish|subscribe "TOPICS" "PARTITIONS"
   echo "      </allow_rule>"
 }
 
-# Topic and partition names: common/dds/src/endpoints.hpp.
+# Topic and partition names: common/dds/src/endpoints.hpp (the manifest's: dds/manifest_topic.hpp).
 families="swarmloc_state swarmloc_information swarmloc_consensus swarmloc_belief"
 grant() {  # grant NAME ROLE [AGENT_ID]
   local name=$1 role=$2 id=${3:-}
@@ -101,8 +101,10 @@ grant() {  # grant NAME ROLE [AGENT_ID]
       rule subscribe "$families" "*.a* *.none"    # neighbours' partitions ("none": no neighbours)
       rule subscribe "swarmloc_measurements" "*.m$id"
       rule subscribe "swarmloc_control" "*.ctl"
+      rule subscribe "swarmloc_manifest" "*.manifest.$id"  # only its own manifest (run --no-launch)
       ;;
     orchestrator)
+      rule publish "swarmloc_manifest" "*.manifest.*"
       rule publish "swarmloc_measurements" "*.m*"
       rule publish "swarmloc_control" "*.ctl"
       rule subscribe "swarmloc_estimate" "*.est"

@@ -20,6 +20,8 @@
 #include <vector>
 
 #include "process_helpers.hpp"
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/runtime/manifest.hpp"
 
 namespace {
 
@@ -307,7 +309,17 @@ TEST(RunIntegrity, AnAgentWithAnotherScenarioIsRefusedAtHelloAndExits2) {
   };
   std::vector<std::unique_ptr<Child>> honest;
   for (const int id : {0, 1, 3}) honest.push_back(agent(id, {}, "agent" + std::to_string(id)));
-  auto foreign = agent(2, {"--set", "seed=2"}, "foreign");
+  // A forged manifest that agrees with its own scenario (seed 2): without it the agent would refuse
+  // itself at once (the run's manifest has the run's results hash); with it, only hello catches it.
+  const auto manifest = dir / "manifests" / "agent_002.json";
+  while (!std::filesystem::exists(manifest) && Clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  auto forged = swarmloc::sim::load_manifest(manifest);
+  forged.results_hash =
+      swarmloc::config::results_hash(swarmloc::config::load_scenario(scenario.string(), {"seed=2"}));
+  const auto forged_file = dir.parent_path() / (dir.filename().string() + "-forged.json");
+  swarmloc::sim::write_manifest(forged_file, forged);
+  auto foreign = agent(2, {"--set", "seed=2", "--manifest", forged_file.string()}, "foreign");
   const auto foreign_code = foreign->wait(60.0);
   ASSERT_TRUE(foreign_code.has_value()) << "the foreign agent was not refused:\n" << foreign->output();
   EXPECT_EQ(*foreign_code, 2) << foreign->output();

@@ -65,7 +65,8 @@ long rejected_total(const nlohmann::json& summary) {
 /// participant index `index` (the unused fusion-centre slot N + 1 and beyond), so it does not collide
 /// with honest agent kRogueId's ports, and lists that agent's neighbours as its peers. It reads the run
 /// directory's scenario.yaml, written by then, for the run id (every partition name starts with it), with
-/// its own security setting (none: not the run's PKI, which that file names).
+/// its own security setting (none: not the run's PKI, which that file names), and agent kRogueId's
+/// manifest file (a stolen manifest: a launched run offers none over DDS).
 struct Rogue {
   pid_t pid = -1;
   std::filesystem::path log;
@@ -78,7 +79,9 @@ struct Rogue {
     const auto started =
         run_command("(sleep 2; SWARMLOC_CYCLONE_URI_EXTRA='" + extra + "' exec timeout -s TERM 120 " +
                     kBinary + " agent --scenario " + (dir / "run" / "scenario.yaml").string() + " --id " +
-                    std::to_string(kRogueId) + " --hostile" + world_flags(domain, mode) +
+                    std::to_string(kRogueId) + " --manifest " +
+                    (dir / "run" / "manifests" / ("agent_00" + std::to_string(kRogueId) + ".json")).string() +
+                    " --hostile" + world_flags(domain, mode) +
                     (security.empty() ? " --set dds.security_dir=" : security) + " --log " + log.string() +
                     ") > " + (dir / (name + ".out")).string() + " 2>&1 & echo $!");
     pid = std::stoi(started.output);

@@ -145,75 +145,107 @@ void require_ports_free(const config::Scenario& scenario, bool local_agents) {
   throw PortsInUse(message);
 }
 
-std::string cyclone_config(const config::Scenario& scenario, const Topology& topology) {
-  const auto& dds = scenario.dds;
-  const bool orchestrator = topology.self == kOrchestratorId;
-  const bool fusion_center = topology.self == kFusionCenterId;
-  const int agent_count = topology.agent_count > 0 ? topology.agent_count : 0;
-  const std::string interface = xml_escape(dds.interface);
-  const std::string address = xml_escape(dds.peer_address);
+namespace {
 
-  std::ostringstream xml;
-  xml << "<CycloneDDS><Domain id=\"any\">";
+bool is_orchestrator(const Topology& topology) { return topology.self == kOrchestratorId; }
+bool is_fusion_center(const Topology& topology) { return topology.self == kFusionCenterId; }
+int agent_count_of(const Topology& topology) { return topology.agent_count > 0 ? topology.agent_count : 0; }
+
+/// <Peers>: the orchestrator lists every agent (and the fusion centre), the fusion centre the
+/// orchestrator, an agent its neighbours and the orchestrator.
+void append_peers(std::ostringstream& xml, const config::Scenario& scenario, const Topology& topology) {
+  const auto& dds = scenario.dds;
+  const int agent_count = agent_count_of(topology);
+  const std::string address = xml_escape(dds.peer_address);
+  xml << "<Peers>";
+  if (is_orchestrator(topology)) {
+    for (int agent = 0; agent < agent_count; ++agent) {
+      xml << "<Peer address=\"" << address << ':' << discovery_port(agent, dds.domain_id) << "\"/>";
+    }
+    if (config::runs_in_fusion_centre(scenario.algorithm.name)) {
+      xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count + 1, dds.domain_id) << "\"/>";
+    }
+  } else if (is_fusion_center(topology)) {
+    xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count, dds.domain_id) << "\"/>";
+  } else {
+    for (const AgentId neighbour : topology.neighbours) {
+      if (neighbour == topology.self || neighbour < 0) {
+        continue;
+      }
+      xml << "<Peer address=\"" << address << ':' << discovery_port(neighbour, dds.domain_id) << "\"/>";
+    }
+    xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count, dds.domain_id) << "\"/>";
+  }
+  xml << "</Peers>";
+}
+
+/// <General> and, with neighbour discovery, <Discovery>: the interface, and this participant's fixed ports
+/// and peers (or multicast discovery).
+void append_general(std::ostringstream& xml, const config::Scenario& scenario, const Topology& topology) {
+  const auto& dds = scenario.dds;
+  const std::string interface = xml_escape(dds.interface);
   if (dds.neighbour_discovery) {
     xml << "<General><Interfaces><NetworkInterface name=\""
         << interface << "\"/></Interfaces><AllowMulticast>false</AllowMulticast></General>";
-    const int slot = orchestrator ? agent_count : fusion_center ? agent_count + 1 : topology.self;
+    const int agent_count = agent_count_of(topology);
+    const int slot = is_orchestrator(topology)    ? agent_count
+                     : is_fusion_center(topology) ? agent_count + 1
+                                                  : topology.self;
     xml << "<Discovery><ParticipantIndex>" << slot_index(slot) << "</ParticipantIndex>";
     xml << "<Ports><Base>" << slot_base(slot) << "</Base></Ports>";
-    xml << "<Peers>";
-    if (orchestrator) {
-      for (int agent = 0; agent < agent_count; ++agent) {
-        xml << "<Peer address=\"" << address << ':' << discovery_port(agent, dds.domain_id) << "\"/>";
-      }
-      if (config::runs_in_fusion_centre(scenario.algorithm.name)) {
-        xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count + 1, dds.domain_id)
-            << "\"/>";
-      }
-    } else if (fusion_center) {
-      xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count, dds.domain_id) << "\"/>";
-    } else {
-      for (const AgentId neighbour : topology.neighbours) {
-        if (neighbour == topology.self || neighbour < 0) {
-          continue;
-        }
-        xml << "<Peer address=\"" << address << ':' << discovery_port(neighbour, dds.domain_id) << "\"/>";
-      }
-      xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count, dds.domain_id) << "\"/>";
-    }
-    xml << "</Peers></Discovery>";
+    append_peers(xml, scenario, topology);
+    xml << "</Discovery>";
   } else {
     // Default SPDP multicast on the interface; Linux's lo lacks IFF_MULTICAST, so say it explicitly.
     xml << "<General><Interfaces><NetworkInterface name=\"" << interface << '"'
         << (dds.interface == "lo" ? " multicast=\"true\"" : "") << "/></Interfaces></General>";
   }
+}
+
+void append_internal(std::ostringstream& xml, const config::Scenario& scenario, const Topology& topology) {
+  const bool orchestrator = is_orchestrator(topology);
   const bool lockstep = scenario.run.mode == config::RunMode::kLockstep;
-  if ((dds.neighbour_discovery && orchestrator) || lockstep) {
-    xml << "<Internal>";
-    if (dds.neighbour_discovery && orchestrator) {
-      // Every agent sends its discovery traffic to this one socket (docs/measurements/discovery.md, "hub
-      // fixes").
-      xml << "<SocketReceiveBufferSize min=\"4MB\"/>";
-    }
-    if (lockstep) {
-      // Lockstep waits for acknowledgements every step; readers acknowledge on a writer's heartbeat,
-      // and the 100 ms default made each step cost ~100 ms (5 ms: 100 steps of 30 agents in 6 s, not 15 s).
-      xml << "<HeartbeatInterval min=\"1ms\" minsched=\"1ms\">5ms</HeartbeatInterval>";
-    }
-    xml << "</Internal>";
+  const bool hub = orchestrator || is_fusion_center(topology);
+  xml << "<Internal>";
+  if (scenario.dds.neighbour_discovery && orchestrator) {
+    // Every agent sends its discovery traffic to this one socket (docs/measurements/discovery.md, "hub
+    // fixes").
+    xml << "<SocketReceiveBufferSize min=\"4MB\"/>";
   }
-  if (!dds.security_dir.empty()) {
-    // DDS Security (deploy/security/README.md). No <Library> lines: Debian's libddsc finds its plugins
-    // (libddsc0debian/libdds_security_{auth,ac,crypto}.so) by their default names.
-    const SecurityFiles files = security_files(dds.security_dir, topology.self);
-    const auto uri = [](const std::string& path) { return "file:" + xml_escape(path); };
-    xml << "<Security><Authentication><IdentityCA>" << uri(files.identity_ca) << "</IdentityCA>"
-        << "<IdentityCertificate>" << uri(files.certificate) << "</IdentityCertificate>"
-        << "<PrivateKey>" << uri(files.private_key) << "</PrivateKey></Authentication>"
-        << "<AccessControl><PermissionsCA>" << uri(files.permissions_ca) << "</PermissionsCA>"
-        << "<Governance>" << uri(files.governance) << "</Governance>"
-        << "<Permissions>" << uri(files.permissions) << "</Permissions></AccessControl></Security>";
+  if (!hub) {
+    // One receive thread for discovery and data instead of two: hundreds of agent processes share
+    // two cores, and every thread woken per datagram costs a context switch (docs/scale.md, "Start-up").
+    xml << "<MultipleReceiveThreads>false</MultipleReceiveThreads>";
   }
+  if (lockstep) {
+    // Lockstep waits for acknowledgements every step; readers acknowledge on a writer's heartbeat,
+    // and the 100 ms default made each step cost ~100 ms (5 ms: 100 steps of 30 agents in 6 s, not 15 s).
+    xml << "<HeartbeatInterval min=\"1ms\" minsched=\"1ms\">5ms</HeartbeatInterval>";
+  }
+  xml << "</Internal>";
+}
+
+/// DDS Security (deploy/security/README.md). No <Library> lines: Debian's libddsc finds its plugins
+/// (libddsc0debian/libdds_security_{auth,ac,crypto}.so) by their default names.
+void append_security(std::ostringstream& xml, const std::string& security_dir, AgentId self) {
+  const SecurityFiles files = security_files(security_dir, self);
+  const auto uri = [](const std::string& path) { return "file:" + xml_escape(path); };
+  xml << "<Security><Authentication><IdentityCA>" << uri(files.identity_ca) << "</IdentityCA>"
+      << "<IdentityCertificate>" << uri(files.certificate) << "</IdentityCertificate>"
+      << "<PrivateKey>" << uri(files.private_key) << "</PrivateKey></Authentication>"
+      << "<AccessControl><PermissionsCA>" << uri(files.permissions_ca) << "</PermissionsCA>"
+      << "<Governance>" << uri(files.governance) << "</Governance>"
+      << "<Permissions>" << uri(files.permissions) << "</Permissions></AccessControl></Security>";
+}
+
+}  // namespace
+
+std::string cyclone_config(const config::Scenario& scenario, const Topology& topology) {
+  std::ostringstream xml;
+  xml << "<CycloneDDS><Domain id=\"any\">";
+  append_general(xml, scenario, topology);
+  append_internal(xml, scenario, topology);
+  if (!scenario.dds.security_dir.empty()) append_security(xml, scenario.dds.security_dir, topology.self);
   // Warnings and errors to stderr; never a cyclonedds.log in the working directory, nothing on stdout.
   xml << "<Tracing><Verbosity>warning</Verbosity><OutputFile>stderr</OutputFile></Tracing>";
   xml << "</Domain></CycloneDDS>";

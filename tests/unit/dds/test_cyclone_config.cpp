@@ -104,6 +104,21 @@ TEST(CycloneConfig, OrchestratorTakesTheSlotAfterTheLastAgentAndListsEveryAgent)
   EXPECT_TRUE(contains(small, "<Base>7400</Base>")) << small;
 }
 
+TEST(CycloneConfig, AgentsUseOneReceiveThreadAndTheOrchestratorKeepsItsOwnForData) {
+  const std::string one_thread = "<MultipleReceiveThreads>false</MultipleReceiveThreads>";
+  const auto agent = cyclone_config(unicast_scenario(), Topology{5, 10, {4, 6}});
+  EXPECT_EQ(count(agent, one_thread), 1) << agent;
+  EXPECT_EQ(count(agent, "<Internal>"), 1) << agent;
+  auto lockstep = unicast_scenario();
+  lockstep.run.mode = config::RunMode::kLockstep;
+  const auto lockstep_agent = cyclone_config(lockstep, Topology{5, 10, {4, 6}});
+  EXPECT_TRUE(contains(lockstep_agent, one_thread)) << lockstep_agent;
+  EXPECT_TRUE(contains(lockstep_agent, "<HeartbeatInterval")) << lockstep_agent;
+  EXPECT_EQ(count(lockstep_agent, "<Internal>"), 1) << lockstep_agent;
+  const auto orchestrator = cyclone_config(unicast_scenario(), Topology{kOrchestratorId, 10, {}});
+  EXPECT_FALSE(contains(orchestrator, "MultipleReceiveThreads")) << orchestrator;
+}
+
 TEST(CycloneConfig, DomainIdShiftsEveryPeerPortBy250) {
   const auto xml = cyclone_config(unicast_scenario(3), Topology{5, 10, {4}});
   EXPECT_TRUE(contains(xml, peer(7418 + 750))) << xml;
