@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "rank_one_message.hpp"
 #include "swarmloc/core/gaussian.hpp"
 #include "swarmloc/estimators/kalman_family.hpp"
 #include "swarmloc/estimators/self_check.hpp"
@@ -17,8 +18,9 @@ constexpr double kSelfCheckFalseAlarm = 1e-6;    // per agent and step: a health
 constexpr double kMirrorSeparationSigmas = 6.0;  // a mirror pair the guess tells apart: 3σ on each side
 constexpr double kMultilaterationSpreadFraction = 0.1;  // its std, as a fraction of the shortest range
 constexpr int kSolveIterations = 5;
-constexpr double kShortestDistanceM = 1e-9;  // below it a range has no direction to linearize along
-constexpr double kCavityTolerance = 1e-9;
+using rank_one::kCavityTolerance;
+using rank_one::kShortestDistanceM;
+using rank_one::message_scale;
 
 /// a^T P a for the variance of position `covariance` along unit vector `a`, after the rank-one message
 /// s·aaᵀ is taken out of its information (Sherman–Morrison): q / (1 − s q), +inf if nothing is left.
@@ -27,13 +29,6 @@ double cavity_variance(const Mat2& covariance, const Vec2& a, double message_sca
   if (!std::isfinite(q)) return kInfinity;
   const double remaining = 1.0 - message_scale * q;
   return remaining > kCavityTolerance ? q / remaining : kInfinity;
-}
-
-/// The scale s of the rank-one range message s·aaᵀ: the range's information after the far end's
-/// variance along the edge is added to the range's own variance.
-double message_scale(double range_information, double far_end_variance) {
-  if (!std::isfinite(far_end_variance)) return 0.0;
-  return 1.0 / (1.0 / range_information + far_end_variance);
 }
 
 bool exactly_known(const StateMessage& state) { return state.anchor && state.covariance.isZero(); }

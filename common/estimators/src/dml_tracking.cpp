@@ -5,22 +5,18 @@
 #include <stdexcept>
 #include <vector>
 
+#include "rank_one_message.hpp"
 #include "swarmloc/core/gaussian.hpp"
 #include "swarmloc/estimators/kalman_family.hpp"
 
 namespace swarmloc::estimators {
 namespace {
 
-constexpr double kShortestDistanceM = 1e-9;  // below it a range has no direction to linearize along
-constexpr double kCavityTolerance = 1e-9;
+using rank_one::kCavityTolerance;
+using rank_one::kShortestDistanceM;
+using rank_one::message_scale;
 
 Mat2 isotropic(double variance) { return variance * Mat2::Identity(); }
-
-/// The scale of a rank-one range message: the datum's variance plus the far end's along the edge.
-double message_scale(double datum_information, double far_variance) {
-  if (!std::isfinite(far_variance) || !(datum_information > 0.0)) return 0.0;
-  return 1.0 / (1.0 / datum_information + far_variance);
-}
 
 }  // namespace
 
