@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <optional>
 #include <set>
 
@@ -235,19 +234,24 @@ bool AgentRuntime::on_belief(const Header& header, const estimators::BeliefMessa
 
 namespace {
 
-/// What sanitize_batch needs of the runtime: whether a peer is a neighbour, the limits, the counter.
+/// What sanitize_batch needs of the runtime: its sorted neighbour ids and limits. Rejections are
+/// collected in order and counted by the runtime afterwards (no callback per measurement).
 struct BatchChecks {
-  std::function<bool(AgentId)> is_neighbour;
-  std::function<void(RejectReason)> count;
+  const std::vector<AgentId>& neighbours;
   double absurd = 0.0;           ///< position bound, m
   double absurd_variance = 0.0;  ///< covariance entry bound, m²
-  bool drop(RejectReason reason) const {
+  std::vector<RejectReason> rejected{};
+  [[nodiscard]] bool is_neighbour(AgentId id) const {
+    return std::binary_search(neighbours.begin(), neighbours.end(), id);
+  }
+  void count(RejectReason reason) { rejected.push_back(reason); }
+  bool drop(RejectReason reason) {
     count(reason);
     return true;
   }
 };
 
-void sanitize_ranges(std::vector<estimators::RangeMeasurement>& ranges, const BatchChecks& c) {
+void sanitize_ranges(std::vector<estimators::RangeMeasurement>& ranges, BatchChecks& c) {
   std::set<AgentId> seen;
   std::erase_if(ranges, [&](const estimators::RangeMeasurement& range) {
     if (!c.is_neighbour(range.peer)) return c.drop(RejectReason::kUnknownSender);
@@ -261,7 +265,7 @@ void sanitize_ranges(std::vector<estimators::RangeMeasurement>& ranges, const Ba
   });
 }
 
-void sanitize_fix(std::optional<estimators::AbsoluteFix>& fix, const BatchChecks& c) {
+void sanitize_fix(std::optional<estimators::AbsoluteFix>& fix, BatchChecks& c) {
   if (!fix) return;
   if (!fix->position_m.allFinite() || !fix->covariance.allFinite()) {
     c.count(RejectReason::kNonFinite);
@@ -275,7 +279,7 @@ void sanitize_fix(std::optional<estimators::AbsoluteFix>& fix, const BatchChecks
   }
 }
 
-void sanitize_motion(std::optional<estimators::MotionInput>& motion, const BatchChecks& c) {
+void sanitize_motion(std::optional<estimators::MotionInput>& motion, BatchChecks& c) {
   if (!motion) return;
   if (!motion->velocity_mps.allFinite() || !std::isfinite(motion->dt_s) || !motion->process_cov.allFinite()) {
     c.count(RejectReason::kNonFinite);
@@ -291,7 +295,7 @@ void sanitize_motion(std::optional<estimators::MotionInput>& motion, const Batch
 }
 
 /// Relative positions (jacobi): one per neighbour, finite, plausible, PSD covariance.
-void sanitize_relative(std::vector<estimators::RelativeMeasurement>& relative, const BatchChecks& c) {
+void sanitize_relative(std::vector<estimators::RelativeMeasurement>& relative, BatchChecks& c) {
   std::set<AgentId> seen;
   std::erase_if(relative, [&](const estimators::RelativeMeasurement& m) {
     if (!c.is_neighbour(m.peer)) return c.drop(RejectReason::kUnknownSender);
@@ -308,7 +312,7 @@ void sanitize_relative(std::vector<estimators::RelativeMeasurement>& relative, c
 }
 
 /// Multipath paths (multipath_bp): one per neighbour and path index (at most one per wall).
-void sanitize_paths(std::vector<estimators::MultipathMeasurement>& paths, const BatchChecks& c) {
+void sanitize_paths(std::vector<estimators::MultipathMeasurement>& paths, BatchChecks& c) {
   constexpr int kMaxPathsPerPeer = 32;
   std::set<std::pair<AgentId, int>> seen;
   std::erase_if(paths, [&](const estimators::MultipathMeasurement& m) {
@@ -328,14 +332,13 @@ void sanitize_paths(std::vector<estimators::MultipathMeasurement>& paths, const 
 }  // namespace
 
 void AgentRuntime::sanitize_batch(estimators::MeasurementBatch& batch) {
-  const BatchChecks checks{[this](AgentId peer) { return slot_of(peer) >= 0; },
-                           [this](RejectReason reason) { reject(nullptr, reason); },
-                           params_.absurd_position_bound_m, params_.absurd_variance_m2};
+  BatchChecks checks{neighbours_, params_.absurd_position_bound_m, params_.absurd_variance_m2};
   sanitize_ranges(batch.ranges, checks);
   sanitize_fix(batch.fix, checks);
   sanitize_motion(batch.motion, checks);
   sanitize_relative(batch.relative, checks);
   sanitize_paths(batch.paths, checks);
+  for (const RejectReason reason : checks.rejected) reject(nullptr, reason);
 }
 
 void AgentRuntime::carry_over(const estimators::MeasurementBatch& superseded,
