@@ -7,30 +7,14 @@
 #include <random>
 #include <string>
 
+#include "sample_manifest.hpp"
 #include "swarmloc/dds/manifest_topic.hpp"
 
 namespace swarmloc::dds {
 namespace {
 
 sim::AgentManifest topic_manifest(AgentId id = 3, const std::string& run_id = "r-manifest") {
-  sim::AgentManifest m;
-  m.id = id;
-  m.agent_count = 7;
-  m.setup = estimators::AgentSetup{id, id == 3, Vec2(0.1 + 0.2, 1.0 / 3.0), -2.5e-7, 0.75};
-  m.neighbours = {0, 2, 6};
-  if (id != 3) m.neighbours = {3};
-  m.clock = core::ClockModel{0.0123456789012345, -37.25};
-  m.runtime.seed = 0xfedcba9876543210ULL;
-  m.runtime.loss.loss_probability = 0.2;
-  m.runtime.loss.burst_mean_length = 3.5;
-  m.runtime.absurd_position_bound_m = 123456.0;
-  m.runtime.world_period_s = 0.1;
-  m.runtime.partition_group = {0, 1, 1, 0, 1, 0, 1};
-  m.runtime.partition_from = 5;
-  m.runtime.partition_to = 9;
-  m.results_hash = 0x0123456789abcdefULL;
-  m.run_id = run_id;
-  return m;
+  return testing::sample_manifest(id, run_id);
 }
 
 const std::string kManifestYaml = "seed: 1\nworld:\n  agents: 7\n";

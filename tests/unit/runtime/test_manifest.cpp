@@ -10,30 +10,13 @@
 #include <string>
 
 #include "process_helpers.hpp"
+#include "sample_manifest.hpp"
 #include "swarmloc/runtime/manifest.hpp"
 
 namespace swarmloc::sim {
 namespace {
 
-AgentManifest sample_manifest() {
-  AgentManifest m;
-  m.id = 3;
-  m.agent_count = 7;
-  m.setup = estimators::AgentSetup{3, true, Vec2(0.1 + 0.2, 1.0 / 3.0), -2.5e-7, 0.75};
-  m.neighbours = {0, 2, 6};
-  m.clock = core::ClockModel{0.0123456789012345, -37.25};
-  m.runtime.seed = 0xfedcba9876543210ULL;
-  m.runtime.loss.loss_probability = 0.2;
-  m.runtime.loss.burst_mean_length = 3.5;
-  m.runtime.absurd_position_bound_m = 123456.0;
-  m.runtime.world_period_s = 0.1;
-  m.runtime.partition_group = {0, 1, 1, 0, 1, 0, 1};
-  m.runtime.partition_from = 5;
-  m.runtime.partition_to = 9;
-  m.results_hash = 0x0123456789abcdefULL;
-  m.run_id = "r-abc_123";
-  return m;
-}
+AgentManifest sample_manifest() { return testing::sample_manifest(); }
 
 nlohmann::json sample_json() { return nlohmann::json::parse(to_json_text(sample_manifest())); }
 
