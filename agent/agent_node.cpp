@@ -92,9 +92,11 @@ class AgentProcess {
     while (!g_stop_requested.load()) {
       const auto now = std::chrono::steady_clock::now();
       // Lockstep wakes on data (the next batch); free run also on its own clock's tick.
+      // Before START nothing is due sooner than the next hello (START itself wakes the wait).
       const double wait_s =
-          lockstep_ ? 0.1
-                    : std::clamp(std::chrono::duration<double>(timers.next_tick - now).count(), 0.0, 0.1);
+          !started_run_ ? 0.25
+          : lockstep_   ? 0.1
+                        : std::clamp(std::chrono::duration<double>(timers.next_tick - now).count(), 0.0, 0.1);
       auto inbound = transport_.wait_and_take(wait_s);
       const Verdict verdict = handle(inbound);
       if (verdict == Verdict::kRefused) return 2;
@@ -170,12 +172,12 @@ class AgentProcess {
       initial_published_ = true;
     }
     // Until START: announce the initial state whenever another neighbour's reader has matched
-    // (best-effort samples written before that are lost to it), and once a second as a backstop.
-    // At 5 Hz to every neighbour the announcements alone kept 2 cores busy at N = 500 and START
-    // took over a minute (docs/scale.md, "Less chatter before START").
+    // (best-effort samples written before that are lost to it), and every 5 s as a backstop. Each
+    // announcement goes to every neighbour: at 5 Hz they kept 2 cores busy at N = 500 (docs/scale.md,
+    // "Less chatter before START").
     if (!lockstep_) {
       const int readers = transport_.matched_neighbour_readers();
-      if (readers > announced_to_ || after - timers.last_announcement > std::chrono::seconds(1)) {
+      if (readers > announced_to_ || after - timers.last_announcement > std::chrono::seconds(5)) {
         announced_to_ = std::max(announced_to_, readers);
         timers.last_announcement = after;
         publish(runtime_.initial_publication(local_stamp_ns()));
@@ -185,10 +187,12 @@ class AgentProcess {
     // neighbour), but only once START and our measurements can reach us (control and measurement
     // readers matched): with N >= 150 an agent matched the orchestrator's one reader long before its
     // writers, said hello, and the orchestrator sent START to agents not yet listening. Repeated
-    // every 0.5 s: a hello written before the orchestrator's reader matched ours is lost.
+    // every 0.5 s until the orchestrator's reader has acknowledged it: a hello written before that
+    // reader matched ours is lost.
     if (after - timers.last_hello > std::chrono::milliseconds(500) && (!lockstep_ || initial_published_) &&
-        transport_.orchestrator_matched()) {
+        transport_.orchestrator_matched() && !(hello_sent_ && transport_.reports_acknowledged())) {
       timers.last_hello = after;
+      hello_sent_ = true;
       transport_.publish_estimate(report());
     }
     if (std::chrono::duration<double>(after - started_).count() > scenario_.run.startup_timeout_s + 30.0) {
@@ -465,6 +469,7 @@ class AgentProcess {
   bool sensor_only_ = false;  ///< centralized algorithm: batches only, no estimator steps
   bool lockstep_ = false;     ///< run.mode = lockstep: step on batches, not on the clock
   bool initial_published_ = false;
+  bool hello_sent_ = false;     ///< before START: a hello was written (repeated until acknowledged)
   int announced_to_ = 0;        ///< free run before START: neighbour readers our last announcement reached
   int ticks_since_report_ = 0;  ///< run.agent_steps_per_world_step: estimate reports go every this many
   dds::AgentInbound held_;      ///< lockstep: samples of steps not yet run

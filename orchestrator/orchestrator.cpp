@@ -348,6 +348,7 @@ class Orchestrator {
     start.header.agent_id = kOrchestratorId;
     start.scenario_hash = results_hash_;
     transport.publish_control(start);
+    liveness_.started(seconds_since(origin_));
     spdlog::info("all {} agents reporting after {:.1f} s; START", n, seconds_since(started));
     return true;
   }

@@ -112,37 +112,59 @@ constexpr ParamBlocks kFieldKeys{.field = true};
 constexpr ParamBlocks kMultipathKeys{.multipath = true};
 constexpr ParamBlocks kNoKeys{};
 
+// Sample families each estimator's outbox fills (tests/unit/sim/test_algorithm_registry.cpp checks them
+// against what a run publishes).
+constexpr MessageFamilies kNoMessages{};
+constexpr MessageFamilies kStateMessages{.state = true};
+constexpr MessageFamilies kStateAndInformation{.state = true, .information = true};
+constexpr MessageFamilies kStateAndConsensus{.state = true, .consensus = true};
+constexpr MessageFamilies kBeliefMessages{.belief = true};
+
 constexpr AlgorithmPlacement kAgent = AlgorithmPlacement::kAgent;
 constexpr AlgorithmPlacement kCentre = AlgorithmPlacement::kFusionCentre;
 
 }  // namespace
 
 const std::vector<AlgorithmSpec>& algorithm_registry() {
-  // name, family, placement, kinds, bound, exchange_only, validate, parameter blocks
+  // name, family, placement, kinds, bound, exchange_only, validate, parameter blocks, messages
   static const std::vector<AlgorithmSpec> registry{
-      {"ieif", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys},  // §3.2
-      {"iekf", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys},  // §3.5
-      {"ekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys},
-      {"lbekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys},
-      {"lbekf_vr", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys},
-      {"lbekf_i", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys},
-      {"jacobi", kConsensus, kAgent, kRelative, kScenarioBound, true, &validate_jacobi, kNoKeys},  // 002 (9)
-      {"dle", kConsensus, kAgent, kTargets, kScenarioBound, true, &validate_dle, kKalmanKeys},  // 002 Alg. 1
+      {"ieif", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys,
+       kStateMessages},  // §3.2
+      {"iekf", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys,
+       kStateMessages},  // §3.5
+      {"ekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
+       kNoMessages},
+      {"lbekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
+       kNoMessages},
+      {"lbekf_vr", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
+       kNoMessages},
+      {"lbekf_i", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
+       kNoMessages},
+      {"jacobi", kConsensus, kAgent, kRelative, kScenarioBound, true, &validate_jacobi, kNoKeys,
+       kStateMessages},  // 002 (9)
+      {"dle", kConsensus, kAgent, kTargets, kScenarioBound, true, &validate_dle, kKalmanKeys,
+       kStateAndInformation},  // 002 Alg. 1
       {"joint_field", kConsensus, kAgent, kRelativeAndField, kScenarioBound, true, &validate_joint_field,
-       kFieldKeys},
-      {"multipath_bp", kBp, kAgent, kPaths, kScenarioBound, true, &validate_multipath_bp,
-       kMultipathKeys},                                                                    // 003 Alg. 1
-      {"dgbb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys},  // 004 Alg. 1
-      {"local_bb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys},
-      {"fixed_step", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys},
-      {"step_length", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys},
-      {"pose_ekf", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys},
-      {"pose_ieif", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys},
-      {"dead_reckoning", kPose, kAgent, kRangesAndFixes, kOdometryNone, false, nullptr, kPoseKeys},
-      {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml, kNoKeys},  // §9
+       kFieldKeys, kStateAndInformation},
+      {"multipath_bp", kBp, kAgent, kPaths, kScenarioBound, true, &validate_multipath_bp, kMultipathKeys,
+       kBeliefMessages},  // 003 Alg. 1
+      {"dgbb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys,
+       kStateAndConsensus},  // 004 Alg. 1
+      {"local_bb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys, kStateMessages},
+      {"fixed_step", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys,
+       kStateMessages},
+      {"step_length", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys,
+       kStateMessages},
+      {"pose_ekf", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys, kStateMessages},
+      {"pose_ieif", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys, kStateMessages},
+      {"dead_reckoning", kPose, kAgent, kRangesAndFixes, kOdometryNone, false, nullptr, kPoseKeys,
+       kStateMessages},
+      {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml, kNoKeys,
+       kStateMessages},  // §9
       // §9.8; reads process_noise_std_m and initial_std_m. Its step without a batch is an exchange only,
       // but the registry ties exchange_only to the cooperative parameter block.
-      {"dml_track", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml_track, kKalmanKeys},
+      {"dml_track", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml_track, kKalmanKeys,
+       kBeliefMessages},
   };
   return registry;
 }

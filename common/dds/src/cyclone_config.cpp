@@ -152,7 +152,8 @@ bool is_fusion_center(const Topology& topology) { return topology.self == kFusio
 int agent_count_of(const Topology& topology) { return topology.agent_count > 0 ? topology.agent_count : 0; }
 
 /// <Peers>: the orchestrator lists every agent (and the fusion centre), the fusion centre the
-/// orchestrator, an agent its neighbours and the orchestrator.
+/// orchestrator, an agent its neighbours and the orchestrator (a fusion-centre algorithm's agent, which
+/// exchanges nothing with its neighbours, the orchestrator only).
 void append_peers(std::ostringstream& xml, const config::Scenario& scenario, const Topology& topology) {
   const auto& dds = scenario.dds;
   const int agent_count = agent_count_of(topology);
@@ -168,8 +169,9 @@ void append_peers(std::ostringstream& xml, const config::Scenario& scenario, con
   } else if (is_fusion_center(topology)) {
     xml << "<Peer address=\"" << address << ':' << discovery_port(agent_count, dds.domain_id) << "\"/>";
   } else {
+    const bool sensor_only = config::runs_in_fusion_centre(scenario.algorithm.name);
     for (const AgentId neighbour : topology.neighbours) {
-      if (neighbour == topology.self || neighbour < 0) {
+      if (sensor_only || neighbour == topology.self || neighbour < 0) {
         continue;
       }
       xml << "<Peer address=\"" << address << ':' << discovery_port(neighbour, dds.domain_id) << "\"/>";
@@ -221,6 +223,12 @@ void append_internal(std::ostringstream& xml, const config::Scenario& scenario, 
     // Lockstep waits for acknowledgements every step; readers acknowledge on a writer's heartbeat,
     // and the 100 ms default made each step cost ~100 ms (5 ms: 100 steps of 30 agents in 6 s, not 15 s).
     xml << "<HeartbeatInterval min=\"1ms\" minsched=\"1ms\">5ms</HeartbeatInterval>";
+  } else {
+    // Free run: a built-in writer (discovery, type lookup) heartbeats to all its readers while one has
+    // not acknowledged, and each heartbeat asks every reader for an ACKNACK; at the 100 ms default that
+    // traffic dominated the start of hundreds of agents. Data writers write every period and repair on
+    // the heartbeat that goes with their data (docs/scale.md, "Endpoints, hellos and heartbeats").
+    xml << "<HeartbeatInterval>300ms</HeartbeatInterval>";
   }
   xml << "</Internal>";
 }

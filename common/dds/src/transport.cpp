@@ -82,27 +82,38 @@ struct AgentTransport::Impl {
       : self(agent_id(topology.self)),
         neighbours(topology.neighbours),
         partitions(scenario.dds.run_id),
+        algorithm(scenario.algorithm.name),
+        families(config::algorithm_spec(scenario.algorithm.name).messages),
         domain(static_cast<dds_domainid_t>(scenario.dds.domain_id), cyclone_config(scenario, topology)),
         participant(create_participant(domain)) {
     const dds_entity_t pp = participant.get();
     const auto qos = effective_qos(scenario);
     const dds_entity_t t_measurements =
         create_topic(pp, swarmloc_msg_MeasurementBlock_desc, kTopicMeasurements);
-    const dds_entity_t t_state = create_topic(pp, swarmloc_msg_State_desc, kTopicState);
-    const dds_entity_t t_information = create_topic(pp, swarmloc_msg_Information_desc, kTopicInformation);
-    const dds_entity_t t_consensus = create_topic(pp, swarmloc_msg_Consensus_desc, kTopicConsensus);
-    const dds_entity_t t_belief = create_topic(pp, swarmloc_msg_Belief_desc, kTopicBelief);
+    // Only the families the algorithm exchanges: each topic registers its type (and type information).
+    const auto topic_if = [pp](bool used, const dds_topic_descriptor_t& descriptor, const char* name) {
+      return used ? create_topic(pp, descriptor, name) : dds_entity_t{0};
+    };
+    const dds_entity_t t_state = topic_if(families.state, swarmloc_msg_State_desc, kTopicState);
+    const dds_entity_t t_information =
+        topic_if(families.information, swarmloc_msg_Information_desc, kTopicInformation);
+    const dds_entity_t t_consensus =
+        topic_if(families.consensus, swarmloc_msg_Consensus_desc, kTopicConsensus);
+    const dds_entity_t t_belief = topic_if(families.belief, swarmloc_msg_Belief_desc, kTopicBelief);
     const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);
     const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
 
     const Partitions& partition_names = partitions;
     const dds_entity_t own = create_publisher(pp, {partition_names.agent(self)});
-    state_writer = create_writer(own, t_state, qos.state, kTopicState);
-    information_writer = create_writer(own, t_information, qos.information, kTopicInformation);
-    consensus_writer = create_writer(own, t_consensus, qos.consensus, kTopicConsensus);
-    belief_writer = create_writer(own, t_belief, qos.belief, kTopicBelief);
+    if (families.state) state_writer = create_writer(own, t_state, qos.state, kTopicState);
+    if (families.information)
+      information_writer = create_writer(own, t_information, qos.information, kTopicInformation);
+    if (families.consensus)
+      consensus_writer = create_writer(own, t_consensus, qos.consensus, kTopicConsensus);
+    if (families.belief) belief_writer = create_writer(own, t_belief, qos.belief, kTopicBelief);
     const dds_entity_t estimates = create_publisher(pp, {partition_names.estimates()});
     estimate_writer = create_writer(estimates, t_estimate, qos.estimate, kTopicEstimate);
+    reliable_reports = qos.estimate.reliability == config::Reliability::kReliable;
     // A centralized algorithm's agents only sense: the fusion centre publishes their poses.
     if (scenario.dds.ros2 && !config::runs_in_fusion_centre(scenario.algorithm.name)) {
       ros2_pose_writer = ros2::create_writer(pp, geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc,
@@ -119,16 +130,24 @@ struct AgentTransport::Impl {
       neighbour_partitions.push_back(partition_names.nothing());
     }
     const dds_entity_t from_neighbours = create_subscriber(pp, neighbour_partitions);
-    state_reader = create_reader(from_neighbours, t_state, qos.state, kTopicState,
-                                 inbox_listener<swarmloc_msg_State, &AgentInbound::states>().get());
-    information_reader =
-        create_reader(from_neighbours, t_information, qos.information, kTopicInformation,
-                      inbox_listener<swarmloc_msg_Information, &AgentInbound::information>().get());
-    consensus_reader =
-        create_reader(from_neighbours, t_consensus, qos.consensus, kTopicConsensus,
-                      inbox_listener<swarmloc_msg_Consensus, &AgentInbound::consensus>().get());
-    belief_reader = create_reader(from_neighbours, t_belief, qos.belief, kTopicBelief,
-                                  inbox_listener<swarmloc_msg_Belief, &AgentInbound::beliefs>().get());
+    if (families.state) {
+      state_reader = create_reader(from_neighbours, t_state, qos.state, kTopicState,
+                                   inbox_listener<swarmloc_msg_State, &AgentInbound::states>().get());
+    }
+    if (families.information) {
+      information_reader =
+          create_reader(from_neighbours, t_information, qos.information, kTopicInformation,
+                        inbox_listener<swarmloc_msg_Information, &AgentInbound::information>().get());
+    }
+    if (families.consensus) {
+      consensus_reader =
+          create_reader(from_neighbours, t_consensus, qos.consensus, kTopicConsensus,
+                        inbox_listener<swarmloc_msg_Consensus, &AgentInbound::consensus>().get());
+    }
+    if (families.belief) {
+      belief_reader = create_reader(from_neighbours, t_belief, qos.belief, kTopicBelief,
+                                    inbox_listener<swarmloc_msg_Belief, &AgentInbound::beliefs>().get());
+    }
     const dds_entity_t from_orchestrator = create_subscriber(
         pp, {partition_names.measurement(
                 self / measurement_block_size(scenario, std::max(topology.agent_count, self + 1)))});
@@ -173,9 +192,33 @@ struct AgentTransport::Impl {
     return listener;
   }
 
+  /// The writers of the families the algorithm exchanges (0 for the others), in family order.
+  [[nodiscard]] std::vector<dds_entity_t> family_writers() const {
+    std::vector<dds_entity_t> writers;
+    for (const dds_entity_t writer : {state_writer, information_writer, consensus_writer, belief_writer})
+      if (writer != 0) writers.push_back(writer);
+    return writers;
+  }
+  /// The first family reader the algorithm has (0: it exchanges nothing).
+  [[nodiscard]] dds_entity_t first_family_reader() const {
+    for (const dds_entity_t reader : {state_reader, information_reader, consensus_reader, belief_reader})
+      if (reader != 0) return reader;
+    return 0;
+  }
+  /// The writer of a family the registry entry declares; throws (naming the entry) for any other.
+  dds_entity_t writer_for(dds_entity_t writer, const char* family) const {
+    if (writer == 0) {
+      throw DdsError(std::string("algorithm ") + algorithm + " published a " + family +
+                     " sample, which its registry entry's messages do not list");
+    }
+    return writer;
+  }
+
   AgentId self;
   std::vector<AgentId> neighbours;
   Partitions partitions;
+  std::string algorithm;
+  config::MessageFamilies families;
   // Filled by the inter-agent readers' listeners (receive thread), emptied by wait_and_take. Declared
   // before the participant, so they outlive every reader and its listener.
   mutable std::mutex inbox_mutex;
@@ -185,7 +228,9 @@ struct AgentTransport::Impl {
   Entity participant;          // owns every entity below
   dds_entity_t state_writer = 0, information_writer = 0, consensus_writer = 0, belief_writer = 0;
   dds_entity_t estimate_writer = 0;
-  dds_entity_t ros2_pose_writer = 0;  ///< dds.ros2 only (docs/ros2.md)
+  bool reliable_reports = false;          ///< the estimate writer is reliable (reports_acknowledged)
+  bool report_written_to_reader = false;  ///< the last report was written with a reader matched
+  dds_entity_t ros2_pose_writer = 0;      ///< dds.ros2 only (docs/ros2.md)
   dds_entity_t state_reader = 0, information_reader = 0, consensus_reader = 0, belief_reader = 0;
   dds_entity_t measurement_reader = 0, control_reader = 0;
   dds_entity_t waitset = 0;
@@ -202,28 +247,29 @@ AgentTransport::~AgentTransport() = default;
 
 void AgentTransport::publish_state(const sim::Header& header, const estimators::StateMessage& message) {
   const WireState wire(header, message);
-  write(impl_->state_writer, &wire.sample, kTopicState);
+  write(impl_->writer_for(impl_->state_writer, "state"), &wire.sample, kTopicState);
 }
 
 void AgentTransport::publish_information(const sim::Header& header,
                                          const estimators::InformationMessage& message) {
   const WireInformation wire(header, message);
-  write(impl_->information_writer, &wire.sample, kTopicInformation);
+  write(impl_->writer_for(impl_->information_writer, "information"), &wire.sample, kTopicInformation);
 }
 
 void AgentTransport::publish_consensus(const sim::Header& header,
                                        const estimators::ConsensusMessage& message) {
   const WireConsensus wire(header, message);
-  write(impl_->consensus_writer, &wire.sample, kTopicConsensus);
+  write(impl_->writer_for(impl_->consensus_writer, "consensus"), &wire.sample, kTopicConsensus);
 }
 
 void AgentTransport::publish_belief(const sim::Header& header, const estimators::BeliefMessage& message) {
   const WireBelief wire(header, message);
-  write(impl_->belief_writer, &wire.sample, kTopicBelief);
+  write(impl_->writer_for(impl_->belief_writer, "belief"), &wire.sample, kTopicBelief);
 }
 
 void AgentTransport::publish_estimate(const sim::EstimateReport& report) {
   const WireEstimate wire(report);
+  impl_->report_written_to_reader = matched_reader_count(impl_->estimate_writer) > 0;
   write(impl_->estimate_writer, &wire.sample, kTopicEstimate);
   if (impl_->ros2_pose_writer != 0 && ros2::publishes_pose(report)) {
     const ros2::WirePose pose(report);
@@ -273,11 +319,13 @@ AgentInbound AgentTransport::wait_and_take(double timeout_s) {
 }
 
 int AgentTransport::matched_neighbours() const {
+  const dds_entity_t reader = impl_->first_family_reader();
+  if (reader == 0) return static_cast<int>(impl_->neighbours.size());  // exchanges nothing: none to wait for
   // Asked on every wake-up; reading each matched writer's QoS allocates and copies, which at N = 500 cost
   // ~50 000 calls per second across the machine. Recount only when the match status moved.
-  const auto signature = matched_signature(impl_->state_reader);
+  const auto signature = matched_signature(reader);
   if (signature == impl_->neighbours_counted_at) return impl_->matched_neighbour_count;
-  const auto matched = matched_agent_partitions(impl_->state_reader, impl_->partitions);
+  const auto matched = matched_agent_partitions(reader, impl_->partitions);
   impl_->matched_neighbour_count =
       static_cast<int>(std::count_if(impl_->neighbours.begin(), impl_->neighbours.end(),
                                      [&](AgentId neighbour) { return matched.contains(neighbour); }));
@@ -287,8 +335,7 @@ int AgentTransport::matched_neighbours() const {
 
 int AgentTransport::matched_neighbour_readers() const {
   int32_t most = 0;
-  for (const dds_entity_t writer :
-       {impl_->state_writer, impl_->information_writer, impl_->consensus_writer, impl_->belief_writer}) {
+  for (const dds_entity_t writer : impl_->family_writers()) {
     most = std::max(most, matched_reader_count(writer));
   }
   return static_cast<int>(most);
@@ -296,8 +343,7 @@ int AgentTransport::matched_neighbour_readers() const {
 
 bool AgentTransport::neighbours_matched_both_ways() const {
   const auto degree = static_cast<int32_t>(impl_->neighbours.size());
-  for (const dds_entity_t writer :
-       {impl_->state_writer, impl_->information_writer, impl_->consensus_writer, impl_->belief_writer}) {
+  for (const dds_entity_t writer : impl_->family_writers()) {
     if (matched_reader_count(writer) < degree) return false;
   }
   return matched_neighbours() == static_cast<int>(degree);
@@ -305,8 +351,7 @@ bool AgentTransport::neighbours_matched_both_ways() const {
 
 bool AgentTransport::wait_for_acks(double timeout_s) {
   bool all = true;
-  for (const dds_entity_t writer :
-       {impl_->state_writer, impl_->information_writer, impl_->consensus_writer, impl_->belief_writer}) {
+  for (const dds_entity_t writer : impl_->family_writers()) {
     const dds_return_t rc = dds_wait_for_acks(writer, to_duration(timeout_s));
     if (rc == DDS_RETCODE_TIMEOUT) {
       all = false;
@@ -322,6 +367,13 @@ bool AgentTransport::wait_for_acks(double timeout_s) {
 // (estimate writer matched) while its control reader had not yet seen the control writer.
 bool AgentTransport::orchestrator_matched() const {
   return matched_count(impl_->control_reader) > 0 && matched_count(impl_->measurement_reader) > 0;
+}
+
+bool AgentTransport::reports_acknowledged() const {
+  // A best-effort writer has nothing acknowledged: dds_wait_for_acks returns at once. A report written
+  // before the orchestrator's reader matched never reaches it, and no acknowledgement is owed for it.
+  if (!impl_->reliable_reports || !impl_->report_written_to_reader) return false;
+  return dds_wait_for_acks(impl_->estimate_writer, 0) == DDS_RETCODE_OK;
 }
 
 // ===================================================================================================

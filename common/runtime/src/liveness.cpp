@@ -1,5 +1,6 @@
 #include "swarmloc/runtime/liveness.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 
@@ -68,6 +69,14 @@ void LivenessTracker::scheduled_up(AgentId agent, double now_s, bool restarted) 
   a.silent_since_s = now_s;
   a.allowance_s = restarted ? limits_.restart_grace_s : limits_.stall_s;
   if (restarted) a.last_heard_s.reset();  // the old process's estimates are not the new one's
+}
+
+void LivenessTracker::started(double now_s) {
+  for (auto& a : agents_) {
+    if (a.state != State::kAlive) continue;
+    a.silent_since_s = std::max(a.silent_since_s, now_s);
+    a.allowance_s = std::max(a.allowance_s, limits_.stall_s);
+  }
 }
 
 void LivenessTracker::check(std::int64_t step, double now_s) {

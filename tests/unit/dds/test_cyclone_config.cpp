@@ -78,6 +78,14 @@ TEST(CycloneConfig, AgentZeroListsItsNeighboursAndTheOrchestrator) {
   EXPECT_FALSE(contains(xml, "SocketReceiveBufferSize")) << xml;
 }
 
+TEST(CycloneConfig, AFusionCentreAlgorithmsAgentListsTheOrchestratorOnly) {
+  auto scenario = unicast_scenario();
+  scenario.algorithm.name = "ekf";  // its agents exchange nothing with their neighbours
+  const auto xml = cyclone_config(scenario, Topology{0, 30, {1, 2, 29}});
+  EXPECT_TRUE(contains(xml, peer(7470))) << xml;
+  EXPECT_EQ(count(xml, "<Peer "), 1) << xml;
+}
+
 TEST(CycloneConfig, AgentAboveOneHundredShiftsItsPortBase) {
   const auto xml = cyclone_config(unicast_scenario(), Topology{137, 200, {136, 138, 99}});
   EXPECT_TRUE(contains(xml, "<ParticipantIndex>37</ParticipantIndex>")) << xml;
@@ -117,6 +125,18 @@ TEST(CycloneConfig, AgentsUseOneReceiveThreadAndTheOrchestratorKeepsItsOwnForDat
   EXPECT_EQ(count(lockstep_agent, "<Internal>"), 1) << lockstep_agent;
   const auto orchestrator = cyclone_config(unicast_scenario(), Topology{kOrchestratorId, 10, {}});
   EXPECT_FALSE(contains(orchestrator, "MultipleReceiveThreads")) << orchestrator;
+}
+
+TEST(CycloneConfig, FreeRunHeartbeatsEvery300MsAndLockstepEvery5Ms) {
+  const auto free_run = cyclone_config(unicast_scenario(), Topology{5, 10, {4, 6}});
+  EXPECT_EQ(count(free_run, "<HeartbeatInterval>300ms</HeartbeatInterval>"), 1) << free_run;
+  const auto orchestrator = cyclone_config(unicast_scenario(), Topology{kOrchestratorId, 10, {}});
+  EXPECT_EQ(count(orchestrator, "<HeartbeatInterval>300ms</HeartbeatInterval>"), 1) << orchestrator;
+  auto lockstep = unicast_scenario();
+  lockstep.run.mode = config::RunMode::kLockstep;
+  const auto lockstep_agent = cyclone_config(lockstep, Topology{5, 10, {4, 6}});
+  EXPECT_FALSE(contains(lockstep_agent, "300ms")) << lockstep_agent;
+  EXPECT_TRUE(contains(lockstep_agent, ">5ms</HeartbeatInterval>")) << lockstep_agent;
 }
 
 TEST(CycloneConfig, DomainIdShiftsEveryPeerPortBy250) {

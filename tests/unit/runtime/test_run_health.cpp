@@ -160,6 +160,21 @@ TEST(Liveness, ADeadAgentStaysUnscoredEvenIfALateSampleArrives) {
   EXPECT_EQ(json["events"][0]["event"], "died");
 }
 
+// Agents say hello until the orchestrator has it, then wait silently for START: the stall limit runs
+// from START, not from the hello.
+TEST(Liveness, SilenceBetweenTheHelloAndStartIsNotAStall) {
+  LivenessTracker tracker(2, free_run_limits());
+  tracker.heard(0, 0, 1.0);  // hellos
+  tracker.heard(1, 0, 1.0);
+  tracker.started(9.0);
+  tracker.heard(1, 0, 9.1);
+  tracker.check(0, 9.2);
+  EXPECT_EQ(tracker.stalls(), 0) << "8 s since agent 0's hello, 0.2 s since START";
+  tracker.check(20, 11.1);
+  EXPECT_EQ(tracker.stalls(), 1) << "2.1 s after START without a report";
+  EXPECT_EQ(tracker.events().at(0).agent, 0);
+}
+
 TEST(Liveness, ScheduledFaultsAreExpectedSilence) {
   LivenessTracker tracker(2, free_run_limits());
   tracker.heard(0, 0, 0.0);

@@ -14,6 +14,7 @@
 
 #include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/estimators/registry.hpp"
+#include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/bound.hpp"
@@ -150,6 +151,41 @@ TEST(AlgorithmRegistry, EveryEntryBuildsAndRunsWhereItsPlacementSays) {
       EXPECT_THROW((void)make_fusion_filter(scenario, world), std::invalid_argument);
       EXPECT_FALSE(record.extra.contains("final_total_mse_m2")) << "run by the fusion-centre runner";
     }
+  }
+}
+
+/// Collects the sample families the agents of a run receive (the simulator delivers every published
+/// sample to each neighbour through the recorder, before loss).
+class FamilyRecorder final : public RunRecorder {
+ public:
+  void begin(const config::Scenario& /*scenario*/, const World& /*world*/) override {}
+  void world_step(std::int64_t /*step*/, const std::vector<Vec2>& /*truth*/,
+                  const std::vector<estimators::MeasurementBatch>& /*batches*/) override {}
+  void sample(const ReceivedSample& sample) override { families.insert(sample.message.index()); }
+  std::set<std::size_t> families;
+};
+
+std::set<std::size_t> declared_families(const config::MessageFamilies& messages) {
+  std::set<std::size_t> families;
+  if (messages.state) families.insert(static_cast<std::size_t>(SampleFamily::kState));
+  if (messages.information) families.insert(static_cast<std::size_t>(SampleFamily::kInformation));
+  if (messages.consensus) families.insert(static_cast<std::size_t>(SampleFamily::kConsensus));
+  if (messages.belief) families.insert(static_cast<std::size_t>(SampleFamily::kBelief));
+  return families;
+}
+
+// The DDS agent creates endpoints for the declared families only and refuses to publish any other, so an
+// entry must declare exactly what its agents publish. Pose entries need the MRCLAM dataset: not covered.
+TEST(AlgorithmRegistry, AnEntryDeclaresExactlyTheSampleFamiliesItsAgentsPublish) {
+  constexpr int kSteps = 8;  // dgbb.yaml: T = 5, so one DG-BB consensus exchange
+  for (const auto& spec : config::algorithm_registry()) {
+    if (spec.family == AlgorithmFamily::kPose) continue;
+    SCOPED_TRACE(std::string(spec.name));
+    FamilyRecorder recorder;
+    SimOptions options;
+    options.recorder = &recorder;
+    (void)run_simulation(small_scenario(spec, kSteps), options);
+    EXPECT_EQ(recorder.families, declared_families(spec.messages));
   }
 }
 

@@ -116,6 +116,17 @@ struct BoundSpec {
   std::string_view none_reason;  ///< model kNone: why
 };
 
+/// The inter-agent sample families an algorithm's agents publish and read (docs/design.md §3). The DDS
+/// agent creates a writer and a reader for these only: Cyclone announces every endpoint to every peer,
+/// so an unused one costs discovery traffic at start-up (docs/scale.md, "Endpoints, hellos and
+/// heartbeats").
+struct MessageFamilies {
+  bool state = false;
+  bool information = false;
+  bool consensus = false;
+  bool belief = false;
+};
+
 /// One algorithm.
 struct AlgorithmSpec {
   std::string_view name;
@@ -130,6 +141,8 @@ struct AlgorithmSpec {
   void (*validate)(const Scenario&) = nullptr;
   /// The parameter blocks its builder reads (runtime/agent_factory.cpp, the fusion centre).
   ParamBlocks blocks;
+  /// What its agents exchange (none: a fusion-centre algorithm's agents only sense).
+  MessageFamilies messages;
 };
 
 /// Every entry, in the order `known algorithms` lists them.

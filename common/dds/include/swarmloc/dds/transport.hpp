@@ -121,14 +121,19 @@ class AgentTransport {
   /// (one wake-up fewer per sample); a free-running agent takes its batches at its own tick.
   AgentInbound wait_and_take(double timeout_s);
 
-  /// Number of neighbours whose State writer is currently matched (discovery progress).
+  /// Number of neighbours whose writer of the algorithm's first sample family is currently matched
+  /// (discovery progress); every neighbour when the algorithm exchanges nothing.
   [[nodiscard]] int matched_neighbours() const;
-  /// Neighbour readers our writers reach (the largest count over the four inter-agent writers): a rise
+  /// Neighbour readers our writers reach (the largest count over the algorithm's family writers): a rise
   /// means a neighbour can now receive our samples (the agent re-announces its state then).
   [[nodiscard]] int matched_neighbour_readers() const;
   /// True once the orchestrator's measurement writer and control writer are both matched (the agent can
   /// receive its measurements and START).
   [[nodiscard]] bool orchestrator_matched() const;
+  /// True when the last report was written with the orchestrator's estimate reader matched and every
+  /// matched reader has acknowledged it (reliable QoS): the hello is in the orchestrator's reader, so
+  /// repeating it would only add traffic.
+  [[nodiscard]] bool reports_acknowledged() const;
   /// True once every neighbour's writers are matched to our readers and our writers to its readers
   /// (lockstep publishes its first samples only then, so no neighbour misses them).
   [[nodiscard]] bool neighbours_matched_both_ways() const;

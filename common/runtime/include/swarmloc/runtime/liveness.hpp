@@ -45,6 +45,9 @@ class LivenessTracker {
   /// faults.kill restart / faults.pause resume at `now_s`: expected back within the grace (restart) or
   /// the stall limit (resume).
   void scheduled_up(AgentId agent, double now_s, bool restarted);
+  /// START went out at `now_s`: an agent that said hello is silent until then by design (it stops
+  /// repeating its hello once the orchestrator has it), so its stall limit runs from now.
+  void started(double now_s);
   /// Finds stalls and resumptions at world step `step`.
   void check(std::int64_t step, double now_s);
 
