@@ -44,6 +44,7 @@ struct Tick {
 };
 struct ScoreStep {
   std::int64_t step = 0;
+  bool settled = false;  ///< the re-score of the last step after run.settle_s (free run)
 };
 struct WorldStep {
   std::int64_t step = 0;
@@ -120,9 +121,17 @@ class AgentClockSimulation {
       push(world_time(step), Phase::kWorldStep, WorldStep{step});
       push(world_time(step + 1), Phase::kScore, ScoreStep{step});
     }
+    // Free run: the orchestrator's settle (settle_rounds), the agents ticking on with no new batch.
+    finished_ = scenario_.run.steps <= 0;
+    if (const auto rounds = settle_rounds(scenario_); rounds > 0 && !finished_) {
+      // At the instant of the last settle tick of a drift-free clock (the same product as its tick time),
+      // so that tick is in the final score.
+      const int per_step = scenario_.run.agent_steps_per_world_step;
+      push(static_cast<double>(scenario_.run.steps * per_step + rounds) * (period_s_ / per_step),
+           Phase::kScore, ScoreStep{scenario_.run.steps - 1, true});
+    }
     // The run ends when its last interval is scored: what happens after that instant's ticks is unseen.
-    const auto steps = static_cast<std::size_t>(scenario_.run.steps);
-    while (!queue_.empty() && record.metrics.size() < steps) {
+    while (!queue_.empty() && !finished_) {
       const Event event = queue_.top();
       queue_.pop();
       now_s_ = event.time_s;
@@ -221,6 +230,13 @@ class AgentClockSimulation {
   }
 
   void handle(const ScoreStep& score_step, RunRecord& record) {
+    const bool last = score_step.step + 1 == scenario_.run.steps;
+    finished_ = score_step.settled || (last && settle_rounds(scenario_) <= 0);
+    if (score_step.settled) {
+      record.metrics.pop_back();
+      while (!record.estimates.empty() && record.estimates.back().step == score_step.step)
+        record.estimates.pop_back();
+    }
     const auto n = static_cast<std::size_t>(world_.size());
     // As the orchestrator: each agent's newest estimate, once it has stepped; not while down.
     std::vector<std::optional<estimators::Estimate>> estimates(n);
@@ -240,7 +256,7 @@ class AgentClockSimulation {
                                       world_.scored_truth(static_cast<AgentId>(k))});
       }
     }
-    if (options_.on_step) options_.on_step(score_step.step, metrics.errors);
+    if (options_.on_step && !score_step.settled) options_.on_step(score_step.step, metrics.errors);
   }
 
   void handle(const WorldStep& world_step, RunRecord& /*record*/) {
@@ -299,6 +315,7 @@ class AgentClockSimulation {
   std::priority_queue<Event, std::vector<Event>, Later> queue_;
   std::uint64_t next_order_ = 0;
   double now_s_ = 0.0;
+  bool finished_ = false;  ///< the final score is taken
 };
 
 }  // namespace

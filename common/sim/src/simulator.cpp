@@ -182,7 +182,9 @@ class LockstepSimulation {
   void deliver_previous_round(std::int64_t step, std::int64_t delivered_ns);
   void step_agent_with_batch(AgentId i, std::int64_t step);
   void run_extra_rounds(std::int64_t step);
-  void score_step(std::int64_t step, RunRecord& record);
+  void run_quiet_round(std::int64_t step, std::int64_t round_ns);
+  void settle(RunRecord& record);
+  void score_step(std::int64_t step, RunRecord& record, bool report = true);
 
   const config::Scenario& scenario_;
   World& world_;
@@ -269,6 +271,13 @@ void LockstepSimulation::run_steps(RunRecord& record) {
       break;
     }
   }
+  if (!record.interrupted && !record.metrics.empty()) {
+    try {
+      settle(record);
+    } catch (const Cancelled&) {
+      record.interrupted = true;  // the last step keeps its score before the settle
+    }
+  }
 }
 
 void LockstepSimulation::run_step(std::int64_t step, RunRecord& record) {
@@ -342,20 +351,41 @@ void LockstepSimulation::step_agent_with_batch(AgentId i, std::int64_t step) {
 /// run.agent_steps_per_world_step: further exchanges within the period, without a batch.
 void LockstepSimulation::run_extra_rounds(std::int64_t step) {
   for (int round = 1; round < scenario_.run.agent_steps_per_world_step; ++round) {
-    const std::int64_t round_ns = stamp_ns(step) + (stamp_ns(step + 1) - stamp_ns(step)) * round /
-                                                       scenario_.run.agent_steps_per_world_step;
-    deliver_previous_round(step, round_ns);
-    for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) {
-      const auto k = static_cast<std::size_t>(i);
-      if (within(kills_, i, step) || within(pauses_, i, step)) return;
-      published_[k] = agents_[k].step(round_ns);
-      make_hostile_if_listed(options_.hostile_agents, i, published_[k].outbox, published_[k].header.step);
-      estimates_[k] = agents_[k].estimate();
-    });
+    run_quiet_round(step, stamp_ns(step) + (stamp_ns(step + 1) - stamp_ns(step)) * round /
+                                               scenario_.run.agent_steps_per_world_step);
   }
 }
 
-void LockstepSimulation::score_step(std::int64_t step, RunRecord& record) {
+/// One exchange without a batch: deliver the previous round's samples, step, publish.
+void LockstepSimulation::run_quiet_round(std::int64_t step, std::int64_t round_ns) {
+  deliver_previous_round(step, round_ns);
+  for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) {
+    const auto k = static_cast<std::size_t>(i);
+    if (within(kills_, i, step) || within(pauses_, i, step)) return;
+    published_[k] = agents_[k].step(round_ns);
+    make_hostile_if_listed(options_.hostile_agents, i, published_[k].outbox, published_[k].header.step);
+    estimates_[k] = agents_[k].estimate();
+  });
+}
+
+/// Free run: the DDS orchestrator keeps collecting estimates for run.settle_s after the last world step
+/// while the agents keep ticking on no new data, then re-scores the last step; so do these rounds.
+/// Lockstep DDS agents step only on batches: none there.
+void LockstepSimulation::settle(RunRecord& record) {
+  const auto rounds = settle_rounds(scenario_);
+  if (rounds <= 0) return;
+  const std::int64_t last = record.metrics.back().step;
+  const std::int64_t round_period_ns =
+      (stamp_ns(last + 1) - stamp_ns(last)) / scenario_.run.agent_steps_per_world_step;
+  step_phase_.restart("settling");
+  for (std::int64_t round = 0; round < rounds; ++round)
+    run_quiet_round(last, stamp_ns(last + 1) + round * round_period_ns);
+  record.metrics.pop_back();
+  while (!record.estimates.empty() && record.estimates.back().step == last) record.estimates.pop_back();
+  score_step(last, record, false);
+}
+
+void LockstepSimulation::score_step(std::int64_t step, RunRecord& record, bool report) {
   StepMetrics metrics;
   metrics.step = step;
   metrics.time_s = reported_time_s(scenario_, step);
@@ -368,10 +398,15 @@ void LockstepSimulation::score_step(std::int64_t step, RunRecord& record) {
       record.estimates.push_back({step, i, *estimates_[static_cast<std::size_t>(i)], world_.scored_truth(i)});
     }
   }
-  if (options_.on_step) options_.on_step(step, metrics.errors);
+  if (report && options_.on_step) options_.on_step(step, metrics.errors);
 }
 
 }  // namespace
+
+std::int64_t settle_rounds(const config::Scenario& scenario) {
+  if (scenario.run.mode != config::RunMode::kFreeRun) return 0;
+  return std::llround(scenario.run.settle_s * scenario.run.rate_hz * scenario.run.agent_steps_per_world_step);
+}
 
 RunRecord run_simulation(const config::Scenario& scenario, World world, const SimOptions& options) {
   if (scenario.run.sim_clock == config::SimClock::kAgents)

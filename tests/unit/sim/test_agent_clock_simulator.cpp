@@ -65,7 +65,8 @@ TEST(AgentClockSimulator, DriftFreeClocksWithLatencyUnderOnePeriodReproduceRound
       for (std::size_t k = 0; k < rounds.metrics.size(); ++k)
         EXPECT_NEAR(agents.metrics[k].errors.rmse_m, rounds.metrics[k].errors.rmse_m, 1e-12) << k;
       EXPECT_EQ(link_totals(agents).dropped_injected, link_totals(rounds).dropped_injected);
-      for (const auto& summary : agents.agent_summaries) EXPECT_EQ(summary.steps_run, 40U);
+      // 40 ticks in the world steps, 10 in the settle (run.settle_s = 1 s at 10 Hz).
+      for (const auto& summary : agents.agent_summaries) EXPECT_EQ(summary.steps_run, 40U + 10U);
     }
     // The comparison can fail: samples that take longer than a period reach the step after next.
     const auto late = run_simulation(agent_clock(with({"network.delay_ms=150"})));
@@ -109,16 +110,16 @@ TEST(AgentClockSimulator, JitterBeyondOnePeriodLetsSamplesOvertakeAndTheOlderOne
 
 TEST(AgentClockSimulator, StepCountsFollowEachAgentsDriftAndTimerStart) {
   // 10 % drift so that it shows in 50 steps: agent i ticks every T/(1+drift_i), i.e. about
-  // 50·(1 + drift_i) times in the run's 50 periods.
+  // 60·(1 + drift_i) times in the run's 50 periods and the settle's 10 (run.settle_s = 1 s).
   const auto fast_and_slow = agent_clock({"run.steps=50", "clock.drift_ppm=100000", "network.delay_ms=1"});
   const auto record = run_simulation(fast_and_slow);
   const World world = build_world(fast_and_slow);
   int faster = 0, slower = 0;
   for (const auto& summary : record.agent_summaries) {
     const double drift = world.clocks[static_cast<std::size_t>(summary.agent)].drift_ppm * 1e-6;
-    EXPECT_NEAR(static_cast<double>(summary.steps_run), 50.0 * (1.0 + drift), 1.0) << summary.agent;
-    faster += summary.steps_run > 51 ? 1 : 0;
-    slower += summary.steps_run < 49 ? 1 : 0;
+    EXPECT_NEAR(static_cast<double>(summary.steps_run), 60.0 * (1.0 + drift), 1.0) << summary.agent;
+    faster += summary.steps_run > 61 ? 1 : 0;
+    slower += summary.steps_run < 59 ? 1 : 0;
   }
   EXPECT_GT(faster, 0);
   EXPECT_GT(slower, 0);
@@ -133,7 +134,7 @@ TEST(AgentClockSimulator, StepCountsFollowEachAgentsDriftAndTimerStart) {
   // An agent whose process starts 1 s (10 periods) late steps 10 times fewer.
   const auto late = run_simulation(agent_clock({"run.steps=50", "network.delay_ms=1", "faults.kill=3@0-10"}));
   for (const auto& summary : late.agent_summaries)
-    EXPECT_EQ(summary.steps_run, summary.agent == 3 ? 40U : 50U) << summary.agent;
+    EXPECT_EQ(summary.steps_run, summary.agent == 3 ? 50U : 60U) << summary.agent;
 }
 
 TEST(AgentClockSimulator, KilledAndPausedAgentsAreNotScoredAndTheRunRecovers) {

@@ -157,9 +157,59 @@ TEST(Simulator, InjectedLossDropsItsShareAndStillConverges) {
   EXPECT_LT(record.final_metrics()->errors.rmse_m, 0.1);
 }
 
+// A free run ends as over DDS: the orchestrator keeps collecting for run.settle_s while the agents tick
+// on with no new batch, then re-scores the last step (settle_rounds). Lockstep DDS agents step only on
+// batches: no settle rounds, the figures of a run without settle time bit for bit.
+TEST(Simulator, FreeRunSettlesWithQuietRoundsAndLockstepDoesNot) {
+  auto s = simulator_scenario();
+  s.algorithm.name = "dml";  // the IEIF does not move without a batch; dml's sweep does
+  s.run.steps = 30;
+  s.run.settle_s = 0.5;
+  EXPECT_EQ(settle_rounds(s), 5);
+  const auto settled = run_simulation(s);
+  auto unsettled_scenario = s;
+  unsettled_scenario.run.settle_s = 0.0;
+  const auto unsettled = run_simulation(unsettled_scenario);
+  auto lockstep_scenario = s;
+  lockstep_scenario.run.mode = config::RunMode::kLockstep;
+  EXPECT_EQ(settle_rounds(lockstep_scenario), 0);
+  const auto lockstep = run_simulation(lockstep_scenario);
+
+  ASSERT_EQ(settled.metrics.size(), 30U);
+  ASSERT_EQ(unsettled.metrics.size(), 30U);
+  ASSERT_EQ(lockstep.metrics.size(), 30U);
+  for (std::size_t k = 0; k + 1 < 30; ++k)
+    EXPECT_EQ(settled.metrics[k].errors.rmse_m, unsettled.metrics[k].errors.rmse_m) << k;
+  // Five more sweeps on the same data move the estimates: the last step is scored after them.
+  EXPECT_NE(settled.final_metrics()->errors.rmse_m, unsettled.final_metrics()->errors.rmse_m);
+  EXPECT_EQ(settled.estimates.size(), unsettled.estimates.size());  // the last step's rows replaced
+  for (const auto& summary : settled.agent_summaries) EXPECT_EQ(summary.steps_run, 30U + 5U);
+  for (std::size_t k = 0; k < 30; ++k)
+    EXPECT_EQ(lockstep.metrics[k].errors.rmse_m, unsettled.metrics[k].errors.rmse_m) << k;
+  for (const auto& summary : lockstep.agent_summaries) EXPECT_EQ(summary.steps_run, 30U);
+
+  // Two agent steps per world step: the settle counts agent steps (0.25 s · 10 Hz · 2).
+  s.run.agent_steps_per_world_step = 2;
+  s.run.settle_s = 0.25;
+  EXPECT_EQ(settle_rounds(s), 5);
+  for (const auto& summary : run_simulation(s).agent_summaries) EXPECT_EQ(summary.steps_run, 60U + 5U);
+
+  // The same on the agents' clocks: ticks until 0.5 s after the last interval, then the final score.
+  s = simulator_scenario();
+  s.algorithm.name = "dml";
+  s.run.steps = 30;
+  s.run.settle_s = 0.5;
+  s.run.sim_clock = config::SimClock::kAgents;
+  const auto ticking = run_simulation(s);
+  ASSERT_EQ(ticking.metrics.size(), 30U);
+  for (const auto& summary : ticking.agent_summaries) EXPECT_EQ(summary.steps_run, 30U + 5U);
+  EXPECT_EQ(ticking.final_metrics()->errors.rmse_m, settled.final_metrics()->errors.rmse_m);
+}
+
 // The counters the scale benchmark's "delivered / expected, in steps" rests on: losslessly, every sample
 // an agent wrote in a step reaches each neighbour, except the last round's (no round consumes it), and
-// the initial announcement (step -1) is delivered but not counted in steps.
+// the initial announcement (step -1) is delivered but not counted in steps. A free run's settle rounds
+// (settle_rounds: 10 at the default 1 s and 10 Hz) step and publish too.
 TEST(Simulator, CountsSamplesWrittenInStepsApartFromTheInitialAnnouncement) {
   auto s = simulator_scenario();
   s.run.steps = 40;
@@ -168,7 +218,7 @@ TEST(Simulator, CountsSamplesWrittenInStepsApartFromTheInitialAnnouncement) {
   for (const auto& [key, link] : record.links) {
     const auto& sender = record.agent_summaries.at(static_cast<std::size_t>(key.first));
     EXPECT_EQ(sender.samples_published, sender.samples_published_in_steps + 1);  // IEIF: one per step
-    EXPECT_EQ(sender.samples_published_in_steps, 40U);
+    EXPECT_EQ(sender.samples_published_in_steps, 40U + 10U);
     EXPECT_EQ(link.delivered_in_steps, sender.samples_published_in_steps - 1)
         << key.first << "->" << key.second;
     EXPECT_EQ(link.delivered, link.delivered_in_steps + 1);

@@ -52,13 +52,20 @@ RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& opt
 /// build their own.
 RunRecord run_simulation(const config::Scenario& scenario, World world, const SimOptions& options);
 
+/// Quiet rounds after the last world step in free run: round(run.settle_s · run.rate_hz ·
+/// run.agent_steps_per_world_step), as many exchanges as the DDS agents make while the orchestrator
+/// settles (docs/algorithms.md §9.2); 0 in lockstep mode, where DDS agents step only on batches. The
+/// last step is re-scored after them (the final figures, metrics' and estimates' last step).
+std::int64_t settle_rounds(const config::Scenario& scenario);
+
 /// run.sim_clock = agents: a discrete-event simulation on virtual time. World step k's batches are
 /// published at k·T (T = 1/run.rate_hz) and the truth advances then; agent i's timer starts with the
 /// run and ticks every local period T of its own clock (every T/(1+drift_i) of virtual time, the
 /// clock the DDS agent draws); a tick steps the agent on its newest batch and mailbox and publishes.
 /// Samples and batches arrive after network.delay_ms + U[0, network.jitter_ms). World step k is scored
-/// at (k+1)·T with each agent's newest estimate. Throws config::ScenarioError for a centralized
-/// algorithm (see require_supported_sim_clock).
+/// at (k+1)·T with each agent's newest estimate; in free run the last one again at run.steps·T +
+/// run.settle_s, the agents ticking on with no new batch (settle_rounds). Throws config::ScenarioError for a
+/// centralized algorithm (see require_supported_sim_clock).
 RunRecord run_agent_clock_simulation(const config::Scenario& scenario, const SimOptions& options = {});
 
 /// Throws config::ScenarioError naming run.sim_clock when the scenario's schedule cannot be simulated:
