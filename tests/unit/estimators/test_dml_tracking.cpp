@@ -1,6 +1,7 @@
-// dml_track (docs/algorithms.md §9.8) against the centralized Kalman filter of the same draws on collinear
-// chains, where the linearized range is exact along the line and belief propagation on a tree is exact:
-// the one-agent filter, the cavity on a chain, a late draw used once, and a symmetric PSD covariance.
+// dml_track (docs/algorithms.md §9.8) against the centralized Kalman filter and smoother of the same draws on
+// collinear chains, where the linearized range is exact along the line and belief propagation on a tree is
+// exact: the one-agent filter, the cavity on a chain, a late draw at its own step once, the window's
+// marginals, and a symmetric PSD covariance.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -65,6 +66,9 @@ class Rounds {
   void hold(int j) { held_[j] = *outboxes_[static_cast<std::size_t>(j)].belief; }
 
   [[nodiscard]] Estimate estimate(int i) const { return agents_[static_cast<std::size_t>(i)]->estimate(); }
+  [[nodiscard]] const BeliefMessage& belief(int i) const {
+    return *outboxes_[static_cast<std::size_t>(i)].belief;
+  }
 
  private:
   std::vector<std::unique_ptr<DmlTracking>> agents_;
@@ -131,28 +135,89 @@ TEST(DmlTracking, ChainReachesTheCentralizedPosteriorWithTheCavity) {
   }
 }
 
-// One exchange per world step: the anchor's draw of step k reaches the agent at step k + 1 and enters
-// that step's factor once, widened by the motion of the step between. When the anchor's newer samples
-// are lost, the same old draw is not used again.
-TEST(DmlTracking, ALateDrawEntersOneFactorOnce) {
+/// The scalar Kalman filter and Rauch–Tung–Striebel smoother of a random walk along x, one datum per step
+/// (information, information-weighted sum), from a prior N(mean, variance): the marginals of every step.
+struct ScalarMarginals {
+  std::vector<double> mean;
+  std::vector<double> variance;
+};
+ScalarMarginals smoothed_walk(double mean, double var, const std::vector<std::pair<double, double>>& data) {
+  const std::size_t n = data.size();
+  std::vector<double> filtered_mean(n), filtered_var(n), predicted_var(n);
+  for (std::size_t t = 0; t < n; ++t) {
+    predicted_var[t] = t == 0 ? var : filtered_var[t - 1] + variance(kProcessStdM);
+    const double predicted_mean = t == 0 ? mean : filtered_mean[t - 1];
+    filtered_var[t] = 1.0 / (1.0 / predicted_var[t] + data[t].first);
+    filtered_mean[t] = filtered_var[t] * (predicted_mean / predicted_var[t] + data[t].second);
+  }
+  ScalarMarginals out{filtered_mean, filtered_var};
+  for (std::size_t t = n - 1; t-- > 0;) {
+    const double gain = filtered_var[t] / predicted_var[t + 1];
+    out.mean[t] = filtered_mean[t] + gain * (out.mean[t + 1] - filtered_mean[t]);
+    out.variance[t] = filtered_var[t] + gain * gain * (out.variance[t + 1] - predicted_var[t + 1]);
+  }
+  return out;
+}
+
+/// The anchor's and the agent's draws of world step k (anchor at the origin, agent near x = 10).
+double anchor_draw(std::int64_t k) { return 10.0 + 0.4 * std::sin(1.3 * static_cast<double>(k)); }
+double agent_draw(std::int64_t k) { return 10.0 - 0.3 * std::cos(0.7 * static_cast<double>(k)); }
+
+// One exchange per world step: the anchor's draw of step k reaches the agent at step k + 1 and joins the
+// factor of step k, where it belongs. When the anchor's newer samples are lost, the held sample's draw is
+// not counted again. The agent's x is then the Kalman filter of the draws that arrived, each at its step.
+TEST(DmlTracking, ALateDrawJoinsItsOwnStepOnce) {
   Rounds rounds({Vec2(0.0, 0.0), Vec2(10.0, 0.0)}, {true, false});
-  const double own = 1.0 / variance(kRangeStdM);
-  // Widened by one step of both ends' walks (the agent cannot tell a beacon from a mover by its belief).
-  const double late = 1.0 / (variance(kRangeStdM) + 2.0 * variance(kProcessStdM));
-  double var_x = variance(kGuessStdM);
-  const auto step = [&](std::int64_t k, double information) {
-    rounds.round(k, {{0, {{1, 10.0}}}, {1, {{0, 10.0}}}}, true);
-    if (k > 0) var_x += variance(kProcessStdM);
-    var_x = 1.0 / (1.0 / var_x + information);
-    EXPECT_NEAR(rounds.estimate(1).covariance(0, 0), var_x, 1e-9) << "step " << k;
-  };
-  // Step 0: the anchor's first sample is its start (no draw yet, its prior predicted by one step).
-  step(0, 1.0 / (1.0 / own + variance(kGuessStdM) + variance(kProcessStdM)));
-  step(1, own + late);
-  rounds.hold(0);  // the anchor's sample of step 1 (with its draw of step 1) is the last to arrive
-  step(2, own + late);
-  step(3, own);
-  step(4, own);
+  const double w = 1.0 / variance(kRangeStdM);
+  std::vector<std::pair<double, double>> data;
+  for (std::int64_t k = 0; k < 8; ++k) {
+    rounds.round(k, {{0, {{1, anchor_draw(k)}}}, {1, {{0, agent_draw(k)}}}}, true);
+    if (k == 1) rounds.hold(0);  // the anchor's sample of step 1 (its draw of step 1) is the last to arrive
+    // The anchor's draw of step k − 1 arrives now (its draws of steps 2 on never do).
+    if (k >= 1 && k - 1 <= 1) data.back() = {2.0 * w, w * (agent_draw(k - 1) + anchor_draw(k - 1))};
+    data.emplace_back(w, w * agent_draw(k));
+    if (k == 0) {
+      // Step 0: the anchor's first sample is its start (not exact yet), its prior predicted by one step.
+      const double far = variance(kGuessStdM) + variance(kProcessStdM);
+      data.back().first = 1.0 / (1.0 / w + far);
+      data.back().second = data.back().first * agent_draw(0);
+    }
+    const ScalarMarginals expected = smoothed_walk(10.0, variance(kGuessStdM), data);
+    const Estimate e = rounds.estimate(1);
+    EXPECT_NEAR(e.mean_m.x(), expected.mean.back(), 1e-9) << "step " << k;
+    EXPECT_NEAR(e.covariance(0, 0), expected.variance.back(), 1e-9) << "step " << k;
+  }
+}
+
+// Longer than the window, one exchange per step: the window's published marginals (its belief's window
+// entries) are the Rauch–Tung–Striebel smoother of every draw, and the newest the Kalman filter's; the steps
+// that left the window live on in its prior exactly (a tree: the chain and an exact anchor).
+TEST(DmlTracking, TheWindowIsTheSmootherOfAllDraws) {
+  Rounds rounds({Vec2(0.0, 0.0), Vec2(10.0, 0.0)}, {true, false});
+  const double w = 1.0 / variance(kRangeStdM);
+  const auto steps = static_cast<std::int64_t>(DmlTracking::kWindowSteps) + 4;
+  std::vector<std::pair<double, double>> data;
+  for (std::int64_t k = 0; k < steps; ++k) {
+    rounds.round(k, {{0, {{1, anchor_draw(k)}}}, {1, {{0, agent_draw(k)}}}}, true);
+    if (k >= 1) data.back() = {2.0 * w, w * (agent_draw(k - 1) + anchor_draw(k - 1))};
+    data.emplace_back(w, w * agent_draw(k));
+    if (k == 0) data.back() = {1.0 / (1.0 / w + variance(kGuessStdM) + variance(kProcessStdM)), 0.0};
+    if (k == 0) data.back().second = data.back().first * agent_draw(0);
+  }
+  const ScalarMarginals expected = smoothed_walk(10.0, variance(kGuessStdM), data);
+  const BeliefMessage& belief = rounds.belief(1);
+  EXPECT_NEAR(belief.mean_m.x(), expected.mean.back(), 1e-9);
+  int entries = 0;
+  for (const auto& entry : belief.contributions) {
+    if (entry.from < DmlTracking::kWindowEntryBase) continue;
+    ++entries;
+    const auto t = static_cast<std::size_t>(steps - 1 - (entry.from - DmlTracking::kWindowEntryBase));
+    const Mat2 covariance = entry.information.inverse();
+    EXPECT_NEAR(entry.info_vec.x(), expected.mean[t], 1e-9) << "step " << t;
+    EXPECT_NEAR(covariance(0, 0), expected.variance[t], 1e-9) << "step " << t;
+    EXPECT_NEAR(covariance(0, 1), 0.0, 1e-12);
+  }
+  EXPECT_EQ(entries, static_cast<int>(DmlTracking::kWindowSteps) - 1);
 }
 
 // Four agents in the plane (two anchors, a loop): every covariance stays symmetric and positive definite.
