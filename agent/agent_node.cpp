@@ -89,8 +89,13 @@ class AgentProcess {
     timers.last_hello = std::chrono::steady_clock::now() - std::chrono::seconds(10);
     timers.last_announcement = std::chrono::steady_clock::now();
     timers.last_batch_seen = std::chrono::steady_clock::now();
+    timers.last_wake = std::chrono::steady_clock::now();
     while (!g_stop_requested.load()) {
       const auto now = std::chrono::steady_clock::now();
+      // A gap far beyond the loop's longest wait means this process did not run (SIGSTOP, a starved
+      // machine): the orchestrator's silence counts only while we run, so do not mistake ours for its.
+      if (now - timers.last_wake > std::chrono::seconds(1)) timers.last_batch_seen += now - timers.last_wake;
+      timers.last_wake = now;
       // Lockstep wakes on data (the next batch); free run also on its own clock's tick.
       // Before START nothing is due sooner than the next hello (START itself wakes the wait).
       const double wait_s =
@@ -133,6 +138,7 @@ class AgentProcess {
     SteadyTime last_hello;         ///< hellos (before START; sensor only: throughout) every 0.5 s
     SteadyTime last_announcement;  ///< free run before START: the initial state's last announcement
     SteadyTime last_batch_seen;    ///< the orchestrator-silence timer
+    SteadyTime last_wake;          ///< the loop's previous wake-up (a long gap: we were not running)
     int last_matched = -1;         ///< neighbours matched when last logged
   };
 

@@ -63,6 +63,16 @@ struct AgentPair {
   [[nodiscard]] bool matched() const {
     return sender.matched_neighbours() == 1 && receiver.matched_neighbours() == 1;
   }
+  /// Once matched, publishes with `publish` until `arrived(collected)` (best effort: a sample written
+  /// before the reader matched is lost); false on timeout.
+  template <typename Publish, typename Arrived>
+  bool deliver(Collected& collected, Publish publish, Arrived arrived) {
+    return poll_until(10.0, [&] { return matched(); }) && poll_until(10.0, [&] {
+             publish(sender);
+             collected.take(receiver, 0.05);
+             return arrived(collected);
+           });
+  }
   config::Scenario scenario;
   AgentTransport sender;
   AgentTransport receiver;
@@ -78,13 +88,10 @@ TEST(DdsLoopback, EachFamilyArrivesExactlyAndAnUndeclaredOneIsRefused) {
   const auto header = [&seq] { return test::make_header(1, seq++); };
   {
     AgentPair dle("dle", 24);  // state + information
-    ASSERT_TRUE(poll_until(10.0, [&] { return dle.matched(); }));
     Collected in;
-    ASSERT_TRUE(poll_until(10.0, [&] {
-      dle.sender.publish_information(header(), information);
-      in.take(dle.receiver, 0.05);
-      return !in.information.empty();
-    }));
+    ASSERT_TRUE(dle.deliver(
+        in, [&](AgentTransport& a) { a.publish_information(header(), information); },
+        [](const Collected& c) { return !c.information.empty(); }));
     EXPECT_TRUE(in.information.front().well_formed);
     test::expect_information_eq(in.information.front().message, information);
     EXPECT_THROW(dle.sender.publish_consensus(header(), consensus), DdsError);
@@ -92,26 +99,20 @@ TEST(DdsLoopback, EachFamilyArrivesExactlyAndAnUndeclaredOneIsRefused) {
   }
   {
     AgentPair dgbb("dgbb", 25);  // state + consensus
-    ASSERT_TRUE(poll_until(10.0, [&] { return dgbb.matched(); }));
     Collected in;
-    ASSERT_TRUE(poll_until(10.0, [&] {
-      dgbb.sender.publish_consensus(header(), consensus);
-      in.take(dgbb.receiver, 0.05);
-      return !in.consensus.empty();
-    }));
+    ASSERT_TRUE(dgbb.deliver(
+        in, [&](AgentTransport& a) { a.publish_consensus(header(), consensus); },
+        [](const Collected& c) { return !c.consensus.empty(); }));
     EXPECT_EQ(in.consensus.front().message.values, consensus.values);
     EXPECT_EQ(in.consensus.front().message.tau, consensus.tau);
     EXPECT_THROW(dgbb.sender.publish_information(header(), information), DdsError);
   }
   {
     AgentPair bp("multipath_bp", 26);  // beliefs only
-    ASSERT_TRUE(poll_until(10.0, [&] { return bp.matched(); }));
     Collected in;
-    ASSERT_TRUE(poll_until(10.0, [&] {
-      bp.sender.publish_belief(header(), belief);
-      in.take(bp.receiver, 0.05);
-      return !in.beliefs.empty();
-    }));
+    ASSERT_TRUE(bp.deliver(
+        in, [&](AgentTransport& a) { a.publish_belief(header(), belief); },
+        [](const Collected& c) { return !c.beliefs.empty(); }));
     EXPECT_EQ(in.beliefs.front().message.iteration, belief.iteration);
     EXPECT_MATRIX_NEAR(in.beliefs.front().message.information, belief.information, 0.0);
     ASSERT_EQ(in.beliefs.front().message.contributions.size(), belief.contributions.size());
