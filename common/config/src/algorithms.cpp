@@ -89,9 +89,9 @@ constexpr MeasurementKinds kRelativeAndField{.relative = true, .field = true};
 constexpr MeasurementKinds kPaths{.paths = true};
 
 // Bound data, read off each algorithm's code: ieif/iekf anchors run no filter and publish their known
-// position, each agent updates with its own ranges only (§3.1); the fusion centre takes one range per
-// edge and every anchor's fix (sim/centralized_runner.cpp centralized_measurements); dml pools both ends'
-// draws; the gradient family's anchors are known and each agent uses its own ranges (newest per
+// position, each agent updates with its own ranges only (docs/algorithms.md §3.1); the fusion centre takes
+// one range per edge and every anchor's fix (sim/centralized_runner.cpp centralized_measurements); dml pools
+// both ends' draws; the gradient family's anchors are known and each agent uses its own ranges (newest per
 // neighbour); relative positions and path lengths are one draw per link shared by both ends.
 constexpr BoundSpec kOwnRanges{BoundModel::kRanges, kOwnDraws, kKnown, {}};
 constexpr BoundSpec kFusionRanges{BoundModel::kRanges, kOnePerEdge, kFixes, {}};
@@ -129,9 +129,9 @@ const std::vector<AlgorithmSpec>& algorithm_registry() {
   // name, family, placement, kinds, bound, exchange_only, validate, parameter blocks, messages
   static const std::vector<AlgorithmSpec> registry{
       {"ieif", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys,
-       kStateMessages},  // §3.2
+       kStateMessages},  // docs/algorithms.md §3.2
       {"iekf", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys,
-       kStateMessages},  // §3.5
+       kStateMessages},  // docs/algorithms.md §3.5
       {"ekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
        kNoMessages},
       {"lbekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
@@ -160,9 +160,9 @@ const std::vector<AlgorithmSpec>& algorithm_registry() {
       {"dead_reckoning", kPose, kAgent, kRangesAndFixes, kOdometryNone, false, nullptr, kPoseKeys,
        kStateMessages},
       {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml, kNoKeys,
-       kStateMessages},  // §9
-      // §9.8; reads process_noise_std_m and initial_std_m. Its step without a batch is an exchange only,
-      // but the registry ties exchange_only to the cooperative parameter block.
+       kStateMessages},  // docs/algorithms.md §9
+      // docs/algorithms.md §9.8; reads process_noise_std_m and initial_std_m. Its step without a batch is an
+      // exchange only, but the registry ties exchange_only to the cooperative parameter block.
       {"dml_track", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml_track, kKalmanKeys,
        kBeliefMessages},
   };

@@ -21,12 +21,13 @@ struct Scenario;
 /// The family, which fixes the parameter block an algorithm reads and how its agent step behaves.
 enum class AlgorithmFamily {
   kKalman,       ///< distributed Kalman filters over ranges (ieif, iekf; docs/algorithms.md §3)
-  kDml,          ///< distributed maximum likelihood over every pooled range draw (§9)
-  kCentralized,  ///< one filter over the whole network in the fusion centre (ekf, lbekf…; §2.7)
-  kPose,         ///< pose-state filters over range-bearing and odometry data (MRCLAM)
-  kConsensus,    ///< consensus localization / tracking (jacobi, dle, joint_field; 002)
-  kBp,           ///< belief propagation over reflected paths (multipath_bp; 003)
-  kGradient,     ///< distributed gradient descent over ranges (dgbb and its baselines; 004)
+  kDml,          ///< distributed maximum likelihood over every pooled range draw (docs/algorithms.md §9)
+  kCentralized,  ///< one filter over the whole network in the fusion centre (ekf, lbekf…; docs/algorithms.md
+                 ///< §2.7)
+  kPose,       ///< pose-state filters over range-bearing and odometry data (MRCLAM)
+  kConsensus,  ///< consensus localization / tracking (jacobi, dle, joint_field; 002)
+  kBp,         ///< belief propagation over reflected paths (multipath_bp; 003)
+  kGradient,   ///< distributed gradient descent over ranges (dgbb and its baselines; 004)
 };
 
 /// The parameter blocks of Scenario::Algorithm (scenario.hpp), one per family that has knobs.
