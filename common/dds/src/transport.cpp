@@ -157,6 +157,7 @@ struct AgentTransport::Impl {
     control_reader = create_reader(control, t_control, qos.control, kTopicControl);
 
     waitset = check(dds_create_waitset(pp), "dds_create_waitset");
+    index_families();
     attach_reader(waitset, control_reader);
     // Lockstep steps on each batch, so a batch must wake the agent. A free-running agent consumes its
     // batch at its own next tick anyway, and takes it then: one wake-up fewer per step.
@@ -192,18 +193,17 @@ struct AgentTransport::Impl {
     return listener;
   }
 
-  /// The writers of the families the algorithm exchanges (0 for the others), in family order.
-  [[nodiscard]] std::vector<dds_entity_t> family_writers() const {
-    std::vector<dds_entity_t> writers;
+  /// Called once the endpoints exist: the family writers and the first family reader, which the
+  /// matching and acknowledgement checks below walk (lockstep: every step).
+  void index_families() {
     for (const dds_entity_t writer : {state_writer, information_writer, consensus_writer, belief_writer})
-      if (writer != 0) writers.push_back(writer);
-    return writers;
-  }
-  /// The first family reader the algorithm has (0: it exchanges nothing).
-  [[nodiscard]] dds_entity_t first_family_reader() const {
-    for (const dds_entity_t reader : {state_reader, information_reader, consensus_reader, belief_reader})
-      if (reader != 0) return reader;
-    return 0;
+      if (writer != 0) family_writers.push_back(writer);
+    for (const dds_entity_t reader : {state_reader, information_reader, consensus_reader, belief_reader}) {
+      if (reader != 0) {
+        first_family_reader = reader;
+        break;
+      }
+    }
   }
   /// The writer of a family the registry entry declares; throws (naming the entry) for any other.
   dds_entity_t writer_for(dds_entity_t writer, const char* family) const {
@@ -219,6 +219,8 @@ struct AgentTransport::Impl {
   Partitions partitions;
   std::string algorithm;
   config::MessageFamilies families;
+  std::vector<dds_entity_t> family_writers;  ///< the algorithm's family writers, in family order
+  dds_entity_t first_family_reader = 0;      ///< its first family reader (0: it exchanges nothing)
   // Filled by the inter-agent readers' listeners (receive thread), emptied by wait_and_take. Declared
   // before the participant, so they outlive every reader and its listener.
   mutable std::mutex inbox_mutex;
@@ -319,7 +321,7 @@ AgentInbound AgentTransport::wait_and_take(double timeout_s) {
 }
 
 int AgentTransport::matched_neighbours() const {
-  const dds_entity_t reader = impl_->first_family_reader();
+  const dds_entity_t reader = impl_->first_family_reader;
   if (reader == 0) return static_cast<int>(impl_->neighbours.size());  // exchanges nothing: none to wait for
   // Asked on every wake-up; reading each matched writer's QoS allocates and copies, which at N = 500 cost
   // ~50 000 calls per second across the machine. Recount only when the match status moved.
@@ -335,7 +337,7 @@ int AgentTransport::matched_neighbours() const {
 
 int AgentTransport::matched_neighbour_readers() const {
   int32_t most = 0;
-  for (const dds_entity_t writer : impl_->family_writers()) {
+  for (const dds_entity_t writer : impl_->family_writers) {
     most = std::max(most, matched_reader_count(writer));
   }
   return static_cast<int>(most);
@@ -343,7 +345,7 @@ int AgentTransport::matched_neighbour_readers() const {
 
 bool AgentTransport::neighbours_matched_both_ways() const {
   const auto degree = static_cast<int32_t>(impl_->neighbours.size());
-  for (const dds_entity_t writer : impl_->family_writers()) {
+  for (const dds_entity_t writer : impl_->family_writers) {
     if (matched_reader_count(writer) < degree) return false;
   }
   return matched_neighbours() == static_cast<int>(degree);
@@ -351,7 +353,7 @@ bool AgentTransport::neighbours_matched_both_ways() const {
 
 bool AgentTransport::wait_for_acks(double timeout_s) {
   bool all = true;
-  for (const dds_entity_t writer : impl_->family_writers()) {
+  for (const dds_entity_t writer : impl_->family_writers) {
     const dds_return_t rc = dds_wait_for_acks(writer, to_duration(timeout_s));
     if (rc == DDS_RETCODE_TIMEOUT) {
       all = false;
