@@ -92,10 +92,6 @@ class AgentProcess {
     timers.last_wake = std::chrono::steady_clock::now();
     while (!g_stop_requested.load()) {
       const auto now = std::chrono::steady_clock::now();
-      // A gap far beyond the loop's longest wait means this process did not run (SIGSTOP, a starved
-      // machine): the orchestrator's silence counts only while we run, so do not mistake ours for its.
-      if (now - timers.last_wake > std::chrono::seconds(1)) timers.last_batch_seen += now - timers.last_wake;
-      timers.last_wake = now;
       // Lockstep wakes on data (the next batch); free run also on its own clock's tick.
       // Before START nothing is due sooner than the next hello (START itself wakes the wait).
       const double wait_s =
@@ -109,6 +105,7 @@ class AgentProcess {
       if (!inbound.batches.empty()) timers.last_batch_seen = std::chrono::steady_clock::now();
 
       const auto after = std::chrono::steady_clock::now();
+      discount_own_pause(after, timers);
       log_matched(timers);
       if (!started_run_) {
         if (!await_start(after, period, timers)) return 1;
@@ -138,7 +135,7 @@ class AgentProcess {
     SteadyTime last_hello;         ///< hellos (before START; sensor only: throughout) every 0.5 s
     SteadyTime last_announcement;  ///< free run before START: the initial state's last announcement
     SteadyTime last_batch_seen;    ///< the orchestrator-silence timer
-    SteadyTime last_wake;          ///< the loop's previous wake-up (a long gap: we were not running)
+    SteadyTime last_wake;          ///< the loop's previous pass (a long gap: we were not running)
     int last_matched = -1;         ///< neighbours matched when last logged
   };
 
@@ -240,6 +237,15 @@ class AgentProcess {
       health_.on_tick(lateness_s, missed);
       tick();
     }
+  }
+
+  /// Between two passes lie one step and one wait of at most 0.25 s; a far longer gap means this process
+  /// did not run (SIGSTOP, a starved machine), wherever in the loop it stopped. The orchestrator's silence
+  /// counts only while we run: the silence timer moves on by the gap, never past now.
+  static void discount_own_pause(SteadyTime after, LoopTimers& timers) {
+    const auto gap = after - timers.last_wake;
+    if (gap > std::chrono::seconds(1)) timers.last_batch_seen = std::min(timers.last_batch_seen + gap, after);
+    timers.last_wake = after;
   }
 
   /// The orchestrator normally says STOP; if it vanished (crash, kill -9), do not linger. True (logged)
