@@ -50,6 +50,11 @@ std::unique_ptr<centralized::CentralizedFilter> make_fusion_filter(const config:
   // 000 Alg. 3 with: the relabelling variants relabel once, from the best positions at start-up.
   params.labels = builder->relabel ? centralized::lexicographic_labels(world.initial_guess)
                                    : centralized::identity_labels(n);
+  // A static generated world ranges every pair within the radius at every step (world generate_batch);
+  // a moving one only its step-0 pairs, so there a pair never ranged may well be within it.
+  const bool disk_graph = scenario.world.source == config::WorldSource::kGenerated &&
+                          scenario.world.motion == config::Motion::kStatic;
+  if (disk_graph) params.disk_radius_m = scenario.world.comm_radius_m;
   return centralized::make_centralized_filter(*builder->fusion, initial_mean, initial_cov, params);
 }
 

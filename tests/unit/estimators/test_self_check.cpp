@@ -221,5 +221,53 @@ TEST(FilterSelfCheck, TheCentralizedEkfFlagsAnAgentStartedConfidentlyWrongUntilI
   EXPECT_FALSE(wrong[59]);
 }
 
+/// Anchors 0 (0, 0), 1 (10, 0), 4 (5, −13); agent 3 at (5, −6) ranges all three, agent 2 at (5, 4) only
+/// anchors 0 and 1, so its mirror image (5, −4) fits its ranges as well, yet lies 2 m from agent 3, which
+/// it never ranged with (radius 8 m). Returns the `kind` filter's verdict on agents 2, 3 and anchor 0
+/// after `steps` steps with agent 2 started at `start_of_agent_2`.
+std::array<bool, 3> mirror_world_verdicts(estimators::centralized::CentralizedKind kind,
+                                          const Vec2& start_of_agent_2, double disk_radius_m, int steps) {
+  namespace centralized = estimators::centralized;
+  const std::vector<Vec2> truth{Vec2(0, 0), Vec2(10, 0), Vec2(5, 4), Vec2(5, -6), Vec2(5, -13)};
+  const std::vector<std::pair<int, int>> ranged{{0, 2}, {1, 2}, {0, 3}, {1, 3}, {3, 4}};
+  VecX initial_mean(10);
+  for (int a = 0; a < 5; ++a) initial_mean.segment<2>(2 * a) = truth[static_cast<std::size_t>(a)];
+  initial_mean.segment<2>(4) = start_of_agent_2;
+  const std::vector<Mat2> initial_cov(5, 0.01 * Mat2::Identity());
+  centralized::CentralizedFilterParams params;
+  params.process_var = 1e-6;
+  params.disk_radius_m = disk_radius_m;
+  const auto filter = centralized::make_centralized_filter(kind, initial_mean, initial_cov, params);
+  for (int k = 0; k < steps; ++k) {
+    centralized::CentralizedMeasurements meas;
+    meas.beacon_var = 1e-6;
+    meas.range_var = 0.01;
+    for (const int anchor : {0, 1, 4})
+      meas.beacon_fixes.emplace_back(anchor, truth[static_cast<std::size_t>(anchor)]);
+    for (const auto& [i, j] : ranged) {
+      const double noise = 0.1 * core::standard_normal(core::hash_keys(12, k, i, j));
+      meas.ranges.push_back(
+          {i, j, (truth[static_cast<std::size_t>(i)] - truth[static_cast<std::size_t>(j)]).norm() + noise});
+    }
+    filter->step(meas);
+  }
+  return {filter->inconsistent(2), filter->inconsistent(3), filter->inconsistent(0)};
+}
+
+TEST(FilterSelfCheck, AFusionCentreFlagsAMirrorImageInsideTheRadiusOfAnAgentItNeverRanged) {
+  namespace centralized = estimators::centralized;
+  const Vec2 mirror(5, -4);
+  for (const auto kind : {centralized::CentralizedKind::kEkf, centralized::CentralizedKind::kLbEkf,
+                          centralized::CentralizedKind::kLbEkfI}) {
+    SCOPED_TRACE(std::string(centralized::to_string(kind)));
+    // Every range fits the mirror image: only the graph tells it apart, once the patience has passed.
+    EXPECT_EQ(mirror_world_verdicts(kind, mirror, 0.0, 30), (std::array{false, false, false}));
+    EXPECT_EQ(mirror_world_verdicts(kind, mirror, 8.0, 5), (std::array{false, false, false}));
+    EXPECT_EQ(mirror_world_verdicts(kind, mirror, 8.0, 30), (std::array{true, true, false}));
+    // On the true side agent 2 is 10 m from agent 3: nothing to flag.
+    EXPECT_EQ(mirror_world_verdicts(kind, Vec2(5, 4), 8.0, 30), (std::array{false, false, false}));
+  }
+}
+
 }  // namespace
 }  // namespace swarmloc::estimators

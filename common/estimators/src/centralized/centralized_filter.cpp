@@ -12,6 +12,11 @@ namespace swarmloc::estimators::centralized {
 namespace {
 
 constexpr double kMinRange = 1e-9;  // docs/algorithms.md §1.1 guard
+// The disk-graph test (docs/algorithms.md §1.6): it waits for every pair in range to have been ranged, and a
+// pair must be placed this far inside the radius, and this many of its distance's σ, to count.
+constexpr int kGraphPatienceSteps = 10;
+constexpr double kGraphMarginFraction = 0.05;
+constexpr double kGraphFalseAlarm = 1e-4;
 
 // docs/algorithms.md §2.1: S_k and b_k without building H. `add_block(bi, bj, B)` means S[bi,bj] += B
 // (and S[bj,bi] += Bᵀ when bi != bj); block indices are internal (relabeled) agent indices.
@@ -321,11 +326,19 @@ CentralizedFilter::CentralizedFilter(const VecX& initial_mean, const std::vector
   for (int a = 0; a < num_agents(); ++a) x_.segment<2>(index(a)) = initial_mean.segment<2>(2 * a);
   pending_velocity_ = VecX::Zero(initial_mean.size());
   self_checks_.resize(initial_cov.size());
+  if (!(params.disk_radius_m >= 0.0))
+    throw std::invalid_argument("centralized filter: disk_radius_m must be >= 0");
+  disk_radius_m_ = params.disk_radius_m;
+  const std::size_t n = initial_cov.size();
+  anchor_.assign(n, 0);
+  off_graph_.assign(n, 0);
+  if (disk_radius_m_ > 0.0) ranged_.assign(n * n, 0);
 }
 
 bool CentralizedFilter::inconsistent(int agent) const {
   if (agent < 0 || agent >= num_agents()) return false;
-  return self_checks_[static_cast<std::size_t>(agent)].inconsistent();
+  const auto a = static_cast<std::size_t>(agent);
+  return self_checks_[a].inconsistent() || off_graph_[a] != 0;
 }
 
 void CentralizedFilter::check_innovations(
@@ -342,8 +355,41 @@ void CentralizedFilter::check_innovations(
     const double variance = measurements.range_var + projected_variance(li, lj, Vec2(delta / rho));
     self_checks_[static_cast<std::size_t>(edge.i)].add(edge.range_m - rho, variance);
     self_checks_[static_cast<std::size_t>(edge.j)].add(edge.range_m - rho, variance);
+    if (!ranged_.empty()) ranged_[pair_index(edge.i, edge.j)] = ranged_[pair_index(edge.j, edge.i)] = 1;
   }
   for (auto& check : self_checks_) check.end_step();
+  for (const auto& [agent, fix] : measurements.beacon_fixes) {
+    if (agent >= 0 && agent < n) anchor_[static_cast<std::size_t>(agent)] = 1;
+  }
+  if (!measurements.ranges.empty()) ++ranged_steps_;
+  check_graph(projected_variance);
+}
+
+void CentralizedFilter::check_graph(const ProjectedVariance& projected_variance) {
+  std::fill(off_graph_.begin(), off_graph_.end(), 0);
+  if (ranged_.empty() || ranged_steps_ < kGraphPatienceSteps) return;
+  const double floor_m = kGraphMarginFraction * disk_radius_m_;
+  const double sigmas = standard_normal_upper_quantile(kGraphFalseAlarm);
+  const int n = num_agents();
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      const auto ai = static_cast<std::size_t>(i);
+      const auto aj = static_cast<std::size_t>(j);
+      if (ranged_[pair_index(i, j)] != 0 || (anchor_[ai] != 0 && anchor_[aj] != 0)) continue;
+      const int li = labels_[ai];
+      const int lj = labels_[aj];
+      const Vec2 delta = x_.segment<2>(2 * li) - x_.segment<2>(2 * lj);
+      const double inside_m = disk_radius_m_ - delta.norm();
+      if (inside_m <= floor_m) continue;
+      const Vec2 u = delta.norm() > kMinRange ? Vec2(delta.normalized()) : Vec2(Vec2::UnitX());
+      const double spread_m = std::sqrt(std::max(0.0, projected_variance(li, lj, u)));
+      if (!(inside_m > sigmas * spread_m)) continue;
+      // Never ranged, yet placed well within range: one of the two is wrong (a flip or fold that fits
+      // every range it has). Both are flagged, as the residual test flags both ends of a bad edge.
+      if (anchor_[ai] == 0) off_graph_[ai] = 1;
+      if (anchor_[aj] == 0) off_graph_[aj] = 1;
+    }
+  }
 }
 
 VecX CentralizedFilter::mean() const {

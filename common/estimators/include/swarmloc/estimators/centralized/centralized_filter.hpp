@@ -38,6 +38,9 @@ struct CentralizedFilterParams {
   int bandwidth = 20;         ///< L in state (scalar) indices; clamped to n − 1; unused by the EKF
   BandInversionMethod inversion = BandInversionMethod::kWindows;
   std::vector<int> labels;  ///< π(agent) used internally (000 Alg. 3); empty = identity
+  /// > 0: every pair within this radius is ranged (a static disk graph), so the self-check also flags an
+  /// agent placed well inside the radius of one it has never ranged with (docs/algorithms.md §1.6). 0 = off.
+  double disk_radius_m = 0.0;
 };
 
 /// S_k = H_kᵀR_k⁻¹H_k and b_k = H_kᵀR_k⁻¹(y − h(x̂)) in the relabeled order (docs/algorithms.md §2.1, [A-1]).
@@ -73,7 +76,8 @@ class CentralizedFilter {
   [[nodiscard]] virtual MatX covariance_dense() const = 0;
 
   /// The self-check's verdict for `agent` (original label, docs/algorithms.md §1.6): the innovations of the
-  /// range edges it is an endpoint of, over the last steps, do not fit the filter's covariance.
+  /// range edges it is an endpoint of, over the last steps, do not fit the filter's covariance, or (with
+  /// `disk_radius_m`) the filter places it well inside the radius of an agent it has never ranged with.
   [[nodiscard]] bool inconsistent(int agent) const;
 
   [[nodiscard]] int num_agents() const { return static_cast<int>(labels_.size()); }
@@ -114,6 +118,20 @@ class CentralizedFilter {
   int last_measurement_bandwidth_ = 0;
   int last_truncated_entries_ = 0;
   std::vector<RangeResidualCheck> self_checks_;  ///< one per agent, original labels
+
+ private:
+  using ProjectedVariance = std::function<double(int li, int lj, const Vec2& u)>;
+  /// The disk-graph verdict of every agent at the predicted mean (docs/algorithms.md §1.6, "Graph").
+  void check_graph(const ProjectedVariance& projected_variance);
+  [[nodiscard]] std::size_t pair_index(int i, int j) const {
+    return static_cast<std::size_t>(i) * labels_.size() + static_cast<std::size_t>(j);
+  }
+
+  double disk_radius_m_ = 0.0;
+  std::vector<std::uint8_t> ranged_;  ///< N×N, original labels: the pair has been ranged
+  std::vector<std::uint8_t> anchor_;  ///< has had a beacon fix
+  std::vector<std::uint8_t> off_graph_;
+  int ranged_steps_ = 0;
 };
 
 /// Builds a filter. `initial_mean` 2N (original labels), `initial_cov` N blocks of Σ_0.
