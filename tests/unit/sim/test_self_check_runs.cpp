@@ -41,6 +41,19 @@ TEST(SelfCheckRuns, AFoldedSolutionIsFlaggedAndTheDefaultWorldIsNot) {
   }
 }
 
+// Seed 3 trial 2: the EKF ends 4.0 m off in an exact flip of agents 5 and 13 whose ranges all fit, so only
+// the fusion centre's graph test sees it (docs/algorithms.md §1.6, "Graph"): verified 7 agents flagged.
+// On ea2's moving world pairs come within range unranged, so the test is off: verified 0 flagged.
+TEST(SelfCheckRuns, TheFusionCentreFlagsAFlipOnlyTheGraphRevealsAndStaysQuietOnAMovingWorld) {
+  const RunRecord flipped = default_world_run("ekf", 3, 2);
+  ASSERT_GT(flipped.final_metrics()->errors.rmse_m, 3.0);
+  EXPECT_GT(flipped.final_metrics()->errors.flagged, 0);
+
+  const auto moving = config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ea2.yaml", {});
+  const RunRecord tracked = run_simulation(moving, SimOptions{});
+  EXPECT_EQ(tracked.final_metrics()->errors.flagged, 0);
+}
+
 std::vector<std::string> lines_of(const std::filesystem::path& path) {
   std::ifstream in(path);
   std::vector<std::string> lines;
