@@ -29,7 +29,7 @@ PY
 }
 echo "| estimator | default | 30 % loss, ±200 ppm, ±1 s | ea2 (moving) |"
 echo "|---|---|---|---|"
-for algorithm in dml ieif iekf ekf lbekf lbekf_vr lbekf_i dgbb local_bb; do
+for algorithm in dml dml_track ieif iekf ekf lbekf lbekf_vr lbekf_i dgbb local_bb; do
   if [[ $algorithm == ekf || $algorithm == lbekf* ]]; then  # the fusion centre steps with the world
     skewed=$(cell scenarios/default.yaml "$algorithm" --set network.loss=0.3)
     skewed="$skewed (loss only)"
