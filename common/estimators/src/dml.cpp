@@ -84,6 +84,7 @@ void Dml::absorb_states(const Inbox& inbox) {
     }
     if (received.message.active)
       two_hop_.absorb(setup_.id, received.message.mean_m, received.message.edge_ranges);
+    relays_.absorb(setup_.id, received.sender, received.message.mean_m, received.message.edge_ranges);
   }
 }
 
@@ -186,8 +187,8 @@ std::optional<Dml::GuessedStart> Dml::start_from_guess(const std::vector<Referen
   const auto hinge = std::pair{first.id, second.id};
   // The graph: a member that lands within the radius of an agent this one does not hear is impossible.
   const double margin = two_hop_.margin_m();
-  const double left_inside = penetration(left);
-  const double right_inside = penetration(right);
+  const double left_inside = impossibility(left);
+  const double right_inside = impossibility(right);
   if (left_inside > margin && right_inside <= 0.0)
     return GuessedStart{solve_position(right, refs), false, hinge};
   if (right_inside > margin && left_inside <= 0.0)
@@ -200,6 +201,16 @@ std::optional<Dml::GuessedStart> Dml::start_from_guess(const std::vector<Referen
 
 double Dml::penetration(const Vec2& x) const {
   return two_hop_.penetration(x, [this](AgentId id) { return id == setup_.id || edges_.contains(id); });
+}
+
+double Dml::impossibility(const Vec2& x) const {
+  const double through_neighbours = relays_.violation(x, [this](AgentId via) {
+    const auto edge = edges_.find(via);
+    return edge != edges_.end() && edge->second.information() > 0.0 ? edge->second.mean_range_m() : -1.0;
+  });
+  // The truth meets a bound through a neighbour only to the ranges' noise (it can touch one when three
+  // agents line up); the truth is never inside an unheard radius. Half a margin of slack keeps both apart.
+  return std::max(penetration(x), through_neighbours - 0.5 * two_hop_.margin_m());
 }
 
 std::optional<Vec2> Dml::mirror_of_current() const {
@@ -222,8 +233,8 @@ void Dml::check_mirror() {
   const auto mirror = mirror_of_current();
   if (!mirror) return;
   const double margin = two_hop_.margin_m();
-  const double here = penetration(x_);
-  const double there = penetration(*mirror);
+  const double here = impossibility(x_);
+  const double there = impossibility(*mirror);
   if (there > margin && here <= 0.0) {
     ambiguous_start_ = false;
     hinge_.reset();
@@ -305,7 +316,7 @@ StepOutput Dml::step(const StepInput& input) {
     int dof = 0;
     const double statistic = residual_statistic(dof);
     inconsistent_ = (dof > 0 && statistic > chi_square_upper_quantile(dof, kSelfCheckFalseAlarm)) ||
-                    penetration(x_) > two_hop_.margin_m();
+                    impossibility(x_) > two_hop_.margin_m();
     if (inconsistent_) {
       // Likely a wrong basin: restart from a multilateration if that explains the data better.
       if (const auto restart = multilaterate(refs);

@@ -26,4 +26,16 @@ int TwoHopPositions::absorb(AgentId self, const Vec2& sender_mean_m,
   return kept;
 }
 
+void RelayedRanges::absorb(AgentId self, AgentId sender, const Vec2& sender_mean_m,
+                           const std::vector<EdgeRangeSummary>& summaries) {
+  for (const auto& summary : summaries) {
+    if (summary.peer == self || summary.peer == sender || !summary.peer_mean_m.allFinite() ||
+        summary.peer_mean_m == sender_mean_m || !(summary.information > 0.0) ||
+        !std::isfinite(summary.mean_range_m) || !(summary.mean_range_m >= 0.0)) {
+      continue;
+    }
+    relayed_[sender][summary.peer] = {summary.peer_mean_m, summary.mean_range_m};
+  }
+}
+
 }  // namespace swarmloc::estimators

@@ -297,6 +297,45 @@ TEST(DmlTwoHop, KeepsRelayedPositionsThatFitTheSendersRangeAndDropsGarbledOnes) 
   EXPECT_FALSE(unknown.enabled());
 }
 
+TEST(Dml, RangesThroughANeighbourTellAMirrorPairApart) {
+  // Agent 2 hears anchors 0 and 1 (a mirror pair across their line) and agent 3, which hears only agent 2
+  // and anchor 4 and cannot localize before agent 2 does. Agent 3 relays its range to anchor 4: agent 2 is
+  // within r_23 + r_34 = 17.0 m of anchor 4 (the truth 16.1 m, the mirror image 27.2 m). No graph helps:
+  // no localized neighbour relays anchor 4, and the guess is uninformed and on the mirror side.
+  DmlNetwork net;
+  net.truth = {{0, 0}, {20, 0}, {10, 6}, {12, 15}, {18, 20}};
+  net.anchor = {true, true, false, false, true};
+  net.edges = {{0, 2}, {1, 2}, {2, 3}, {3, 4}};
+  const std::vector<Vec2> guesses = {net.truth[0], net.truth[1], Vec2(10.0, -5.0), Vec2(12.0, -14.0),
+                                     net.truth[4]};
+  std::mt19937_64 rng(19);
+  DrawLog log;
+  DmlRounds rounds(net, guesses, std::numeric_limits<double>::infinity(), 12.5);
+  rounds.run(static_cast<int>(Dml::kInitializationPatienceSteps) + 5, 0, rng, log);
+  ASSERT_TRUE(rounds.estimate(2).valid);
+  EXPECT_LT((rounds.estimate(2).mean_m - net.truth[2]).norm(), 0.1);
+  EXPECT_FALSE(rounds.estimate(2).inconsistent);
+}
+
+TEST(DmlRelayedRanges, BoundsTheDistanceToARelayedAgentByTheTriangleInequality) {
+  RelayedRanges relays;
+  const Vec2 sender(0.0, 0.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  relays.absorb(1, 3, sender,
+                {{5, 100.0, 4.0, Vec2(4.0, 0.0)},  // kept: agent 5 is 4 m from agent 3
+                 {6, 100.0, 4.0, sender},          // the sender's own mean: it does not know agent 6's
+                 {7, 100.0, 4.0, Vec2(nan, 0.0)},  // not finite
+                 {1, 100.0, 4.0, Vec2(4.0, 0.0)},  // about the receiver itself
+                 {8, 0.0, 4.0, Vec2(4.0, 0.0)}});  // no draws behind it
+  const auto three_m_from_agent_3 = [](AgentId via) { return via == 3 ? 3.0 : -1.0; };
+  // Agent 1 is 3 m from agent 3 and agent 3 is 4 m from agent 5: agent 1 is 1 to 7 m from agent 5.
+  EXPECT_NEAR(relays.violation(Vec2(4.0, 9.0), three_m_from_agent_3), 9.0 - 7.0, 1e-12);
+  EXPECT_NEAR(relays.violation(Vec2(4.0, 0.5), three_m_from_agent_3), 1.0 - 0.5, 1e-12);
+  EXPECT_NEAR(relays.violation(Vec2(4.0, 3.0), three_m_from_agent_3), -2.0, 1e-12);
+  EXPECT_EQ(relays.violation(Vec2(4.0, 9.0), [](AgentId) { return -1.0; }),
+            -std::numeric_limits<double>::infinity());
+}
+
 TEST(Dml, SelfCheckFlagsRangesItsSolutionCannotExplain) {
   DmlNetwork net;
   net.truth = {{8, 7}, {0, 0}, {20, 0}, {0, 20}, {20, 20}};

@@ -70,6 +70,8 @@ class Dml final : public Estimator {
     std::optional<std::pair<AgentId, AgentId>> hinge;  // a mirror pair: the two references
   };
   [[nodiscard]] double penetration(const Vec2& x) const;
+  /// How far `x` contradicts the graph or the ranges through a neighbour (> margin: impossible).
+  [[nodiscard]] double impossibility(const Vec2& x) const;
   [[nodiscard]] std::optional<Vec2> mirror_of_current() const;
   void check_mirror();
   [[nodiscard]] std::optional<GuessedStart> start_from_guess(const std::vector<Reference>& refs) const;
@@ -90,6 +92,7 @@ class Dml final : public Estimator {
   bool ambiguous_start_ = false;  // flagged until the graph confirms it: range-only data cannot
   std::optional<std::pair<AgentId, AgentId>> hinge_;  // the mirror line of a start from two references
   TwoHopPositions two_hop_;
+  RelayedRanges relays_;
   std::int64_t steps_ = 0;
   std::size_t summary_cursor_ = 0;
 };

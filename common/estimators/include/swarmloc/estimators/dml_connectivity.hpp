@@ -44,4 +44,39 @@ class TwoHopPositions {
   std::map<AgentId, Vec2> positions_;  // newest relayed mean per agent
 };
 
+/// Ranges through a neighbour (docs/algorithms.md §9.4): neighbour c measured r_cm to agent m and relays
+/// m's mean p_m, so with this agent's own range r_c to c the triangle inequality bounds its distance to m:
+/// |r_c − r_cm| ≤ ‖x − p_m‖ ≤ r_c + r_cm. Kept from every neighbour, localized or not (c's own position
+/// plays no part).
+class RelayedRanges {
+ public:
+  /// Keeps `sender`'s summaries that carry a peer's mean (not the sender's own mean, its "unknown").
+  void absorb(AgentId self, AgentId sender, const Vec2& sender_mean_m,
+              const std::vector<EdgeRangeSummary>& summaries);
+  /// The worst violation at `x` of the bounds through the neighbours `own_range` gives a range to
+  /// (> 0: x contradicts the data by that much); -inf if no bound is known. `own_range(c)` returns this
+  /// agent's mean range to c, or a negative value if it has none.
+  template <typename OwnRange>
+  [[nodiscard]] double violation(const Vec2& x, const OwnRange& own_range) const {
+    double worst = -std::numeric_limits<double>::infinity();
+    for (const auto& [via, relayed] : relayed_) {
+      const double r_via = own_range(via);
+      if (!(r_via >= 0.0)) continue;
+      for (const auto& [peer, entry] : relayed) {
+        const double distance = (x - entry.peer_mean_m).norm();
+        worst =
+            std::max({worst, distance - (r_via + entry.range_m), std::abs(r_via - entry.range_m) - distance});
+      }
+    }
+    return worst;
+  }
+
+ private:
+  struct Entry {
+    Vec2 peer_mean_m;
+    double range_m;
+  };
+  std::map<AgentId, std::map<AgentId, Entry>> relayed_;  // via → peer → newest entry
+};
+
 }  // namespace swarmloc::estimators
