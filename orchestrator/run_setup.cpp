@@ -48,6 +48,7 @@ sim::World prepare_run(config::Scenario& scenario, const RunOptions& options, co
                        std::filesystem::path& run_dir, bool& run_dir_existed) {
   check_hostile_ids(options.hostile_agents, scenario);
   dds::require_ports_fit(scenario);
+  dds::require_ports_clear_of(scenario, dds::ephemeral_port_range());
   check_security(scenario, options);
   // An unusable --out is bad input, found before any work (docs/robustness.md, "Outputs").
   run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;

@@ -26,7 +26,7 @@ const std::string kWorld =
 TEST(ManifestOverDds, AgentsStartedWithOnlyIdAndDomainReproduceALaunchedLockstepRun) {
   const auto launched = fresh_directory("manifest-launched");
   const auto reference = run_command(kBinary + " run " + kScenario + " -q --out " + launched.string() +
-                                     kWorld + " --set dds.domain_id=185");
+                                     kWorld + " --set dds.domain_id=222");
   ASSERT_TRUE(swarmloc::testing::completed_run(reference.exit_code)) << reference.output;
 
   // Half the agents start before the orchestrator, half after; both agent executables.
@@ -35,13 +35,13 @@ TEST(ManifestOverDds, AgentsStartedWithOnlyIdAndDomainReproduceALaunchedLockstep
   auto agent = [&](int id) {
     const std::string binary = id % 2 == 0 ? kAgentBinary : kBinary + " agent";
     const std::string out = logs + "/agent_" + std::to_string(id);
-    return "(timeout -k 5 100 " + binary + " --id " + std::to_string(id) + " --domain 184 > " + out +
+    return "(timeout -k 5 100 " + binary + " --id " + std::to_string(id) + " --domain 221 > " + out +
            ".log 2>&1; echo $? > " + out + ".rc) & ";
   };
   std::string script = "mkdir -p " + logs + "; ";
   for (int id = 0; id < kAgents / 2; ++id) script += agent(id);
   script += "timeout -k 5 110 " + kBinary + " run " + kScenario + " --no-launch -q --out " + dir.string() +
-            kWorld + " --set dds.domain_id=184 > " + logs + "/orchestrator.log 2>&1 & orch=$!; sleep 1; ";
+            kWorld + " --set dds.domain_id=221 > " + logs + "/orchestrator.log 2>&1 & orch=$!; sleep 1; ";
   for (int id = kAgents / 2; id < kAgents; ++id) script += agent(id);
   script += "wait $orch; rc=$?; wait; exit $rc";
   const auto run = run_command("bash -c '" + script + "'");
@@ -61,9 +61,9 @@ TEST(ManifestOverDds, AgentsStartedWithOnlyIdAndDomainReproduceALaunchedLockstep
 
 TEST(ManifestOverDds, AnAgentWithNoRunToJoinExitsOneNamingTheDomain) {
   const auto result =
-      run_command("timeout -k 5 30 " + kAgentBinary + " --id 2 --domain 183 --manifest-timeout 1 2>&1");
+      run_command("timeout -k 5 30 " + kAgentBinary + " --id 2 --domain 220 --manifest-timeout 1 2>&1");
   EXPECT_EQ(result.exit_code, 1) << result.output;
-  EXPECT_NE(result.output.find("no manifest for agent 2 on DDS domain 183"), std::string::npos)
+  EXPECT_NE(result.output.find("no manifest for agent 2 on DDS domain 220"), std::string::npos)
       << result.output;
 }
 

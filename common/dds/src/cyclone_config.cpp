@@ -17,6 +17,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <sstream>
 #include <string>
 
@@ -85,6 +86,56 @@ void require_ports_fit(const config::Scenario& scenario) {
 
 namespace {
 
+int last_slot_of(const config::Scenario& scenario) {
+  return scenario.world.agents + (config::runs_in_fusion_centre(scenario.algorithm.name) ? 1 : 0);
+}
+
+/// The run's fixed ports are contiguous: agent 0's discovery port up to the last slot's data port.
+bool clear_of(const PortRange& range, int last_slot, int domain_id) {
+  const int lowest = discovery_port(0, domain_id);
+  const int highest = discovery_port(last_slot, domain_id) + 1;
+  return highest <= 65535 && (highest < range.low || lowest > range.high);
+}
+
+}  // namespace
+
+PortRange ephemeral_port_range() {
+  std::ifstream in("/proc/sys/net/ipv4/ip_local_port_range");
+  PortRange range;
+  int low = 0;
+  int high = 0;
+  if (in >> low >> high && 0 < low && low <= high && high <= 65535) range = PortRange{low, high};
+  return range;
+}
+
+void require_ports_clear_of(const config::Scenario& scenario, const PortRange& ephemeral) {
+  if (!scenario.dds.neighbour_discovery) return;
+  const int last_slot = last_slot_of(scenario);
+  const int domain = scenario.dds.domain_id;
+  if (clear_of(ephemeral, last_slot, domain)) return;
+  int largest_below = -1;
+  int smallest_above = -1;
+  for (int d = 0; d <= 230; ++d) {
+    if (!clear_of(ephemeral, last_slot, d)) continue;
+    if (discovery_port(0, d) < ephemeral.low) largest_below = d;
+    if (discovery_port(0, d) > ephemeral.high && smallest_above < 0) smallest_above = d;
+  }
+  std::string choices;
+  if (largest_below >= 0) choices = "dds.domain_id <= " + std::to_string(largest_below);
+  if (smallest_above >= 0)
+    choices += (choices.empty() ? "dds.domain_id >= " : " or >= ") + std::to_string(smallest_above);
+  throw config::ScenarioError(
+      "dds.domain_id: " + std::to_string(domain) + " puts the run's fixed DDS ports (" +
+      std::to_string(discovery_port(0, domain)) + "-" +
+      std::to_string(discovery_port(last_slot, domain) + 1) + ") inside this host's ephemeral port range (" +
+      std::to_string(ephemeral.low) + "-" + std::to_string(ephemeral.high) +
+      ", /proc/sys/net/ipv4/ip_local_port_range), where the kernel hands them to other sockets, the "
+      "participants' own transmit sockets among them, and an agent then fails to start at random; " +
+      (choices.empty() ? std::string("no domain id is clear of it for this many agents") : "use " + choices));
+}
+
+namespace {
+
 /// 0 if UDP `port` can be bound on every address now, else the errno (EADDRINUSE: someone holds it).
 int udp_port_error(int port) {
   const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
@@ -133,9 +184,9 @@ void require_ports_free(const config::Scenario& scenario, bool local_agents) {
                         " DDS port) cannot be bound: " + std::strerror(busy.error) + ". ";
   if (busy.error == EADDRINUSE) {
     message += "Another swarmloc run (or another DDS application) is using this domain. ";
+    const PortRange ephemeral = ephemeral_port_range();
     for (int domain = 0; domain <= 230; ++domain) {
-      if (domain == scenario.dds.domain_id) continue;
-      if (discovery_port(last_slot, domain) + 1 > 65535) break;
+      if (domain == scenario.dds.domain_id || !clear_of(ephemeral, last_slot, domain)) continue;
       if (first_busy_port(first_slot, last_slot, domain).port < 0) {
         message += "Use a free domain: --set dds.domain_id=" + std::to_string(domain);
         break;

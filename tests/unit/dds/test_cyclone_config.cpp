@@ -64,6 +64,34 @@ TEST(CycloneConfig, RunsWhoseHighestFixedPortPassesTheLastPortAreRefusedNamingTh
   EXPECT_NO_THROW(require_ports_fit(scenario));
 }
 
+// Agent i's discovery port is 7410 + 250 d + 2 i: with Linux's default ephemeral range 32768-60999, 30
+// agents (ports up to the orchestrator's 7410 + 250 d + 61) fit below it up to d = 101 and above it from
+// d = 215 (61160).
+TEST(CycloneConfig, FixedPortsInsideTheEphemeralRangeAreRefusedNamingTheClearDomains) {
+  const PortRange linux_default{32768, 60999};
+  auto scenario = unicast_scenario(101);
+  EXPECT_NO_THROW(require_ports_clear_of(scenario, linux_default));
+  for (const int domain : {102, 177, 214}) {
+    scenario.dds.domain_id = domain;
+    try {
+      require_ports_clear_of(scenario, linux_default);
+      ADD_FAILURE() << "no error for d = " << domain;
+    } catch (const config::ScenarioError& error) {
+      const std::string message = error.what();
+      EXPECT_TRUE(contains(message, "dds.domain_id")) << message;
+      EXPECT_TRUE(contains(message, "<= 101 or >= 215")) << message;
+    }
+  }
+  for (const int domain : {215, 230}) {
+    scenario.dds.domain_id = domain;
+    EXPECT_NO_THROW(require_ports_clear_of(scenario, linux_default)) << domain;
+  }
+  scenario.dds.domain_id = 177;
+  EXPECT_NO_THROW(require_ports_clear_of(scenario, PortRange{56000, 60999}));  // its ports end at 51721
+  scenario.dds.neighbour_discovery = false;  // Cyclone picks every port itself
+  EXPECT_NO_THROW(require_ports_clear_of(scenario, linux_default));
+}
+
 TEST(CycloneConfig, AgentZeroListsItsNeighboursAndTheOrchestrator) {
   const auto xml = cyclone_config(unicast_scenario(), Topology{0, 30, {1, 2, 29}});
   EXPECT_TRUE(contains(xml, "<NetworkInterface name=\"lo\"/>")) << xml;

@@ -39,6 +39,20 @@ std::string cyclone_config(const config::Scenario& scenario, const Topology& top
 /// them (the orchestrator's, or the fusion centre's) would pass 65535.
 void require_ports_fit(const config::Scenario& scenario);
 
+/// The kernel's range of ephemeral ports (/proc/sys/net/ipv4/ip_local_port_range; Linux's default
+/// 32768–60999 where that cannot be read): every Cyclone participant binds one transmit socket there.
+struct PortRange {
+  int low = 32768;
+  int high = 60999;
+};
+PortRange ephemeral_port_range();
+
+/// With scenario.dds.neighbour_discovery: throws config::ScenarioError naming dds.domain_id, and the
+/// domain ids that stay clear, if the run's fixed ports overlap `ephemeral`. Any socket on the host may be
+/// handed one of those ports, the participants' own transmit sockets among them, and an agent that finds
+/// its port taken cannot start (docs/robustness.md, "Run isolation").
+void require_ports_clear_of(const config::Scenario& scenario, const PortRange& ephemeral);
+
 /// A run's fixed DDS ports are taken (another run on the same domain): named, with a free domain.
 class PortsInUse : public DdsError {
  public:
