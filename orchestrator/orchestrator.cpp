@@ -159,7 +159,13 @@ class Orchestrator {
     if (fusion_exit_) record_.extra["liveness"]["fusion_center_ended"] = *fusion_exit_;
     if (!refused_.empty()) record_.extra["refused_agents"] = refused_json();
     sim::RunHealth health = assess_health(ready);
+    if (!start_failure_.empty()) {
+      health.healthy = false;
+      health.reasons.insert(health.reasons.begin(), start_failure_);
+    }
     record_.extra["health"] = sim::to_json(health);
+    // A run that never started has no results: its summary must not read as a healthy one (exit 1).
+    if (!start_failure_.empty()) record_.extra["health"]["verdict"] = "failed";
     if (lockstep_) record_.extra["lockstep_timeouts"] = lockstep_timeouts_;
     record_.extra["run_directory"] = run_dir_.string();
     if (recording_) {
@@ -178,7 +184,11 @@ class Orchestrator {
     publish_view(record_.interrupted || failed ? "stopped" : "done", true);  // done: summary.json is written
     progress_.finish();
     std::printf("%s", sim::result_table(record_).c_str());
-    print_health(health);
+    if (start_failure_.empty()) {
+      print_health(health);
+    } else {
+      std::printf("  health: FAILED (%s)\n", start_failure_.c_str());
+    }
     std::printf("  run directory: %s\n", run_dir_.string().c_str());
     // 3: completed, but not representative of the configured system (README, exit codes).
     const int code = record_.interrupted || failed ? 1 : (health.healthy ? 0 : 3);
@@ -330,12 +340,15 @@ class Orchestrator {
       if (reporting == n && (!centralized_ || fusion_ready_) && transport.agents_listening() >= n) break;
       if (options_.launch_agents && launcher_.poll() < launcher_.size()) {
         spdlog::error("an agent process exited during start-up; see {}/logs", run_dir_.string());
+        start_failure_ = "did not start: an agent process exited during start-up (its log is in logs/)";
         return false;
       }
       if (Clock::now() > deadline) {
         spdlog::error("only {}/{} agents{} reported within run.startup_timeout_s = {} s", reporting, n,
                       centralized_ && !fusion_ready_ ? " (and not the fusion centre)" : "",
                       scenario_.run.startup_timeout_s);
+        start_failure_ = "did not start: only " + std::to_string(reporting) + "/" + std::to_string(n) +
+                         " agents reported within run.startup_timeout_s";
         return false;
       }
     }
@@ -632,6 +645,7 @@ class Orchestrator {
   std::vector<int> incarnation_;            ///< restarts so far per agent
   std::vector<int> launcher_index_;         ///< the launcher's index of each agent's newest process
   bool fusion_ready_ = false;               ///< the fusion centre has said hello
+  std::string start_failure_;               ///< why the run did not start; empty if it did
   int fusion_index_ = -1;                   ///< the fusion centre's launcher index
   std::optional<std::string> fusion_exit_;  ///< how the fusion centre ended, if it did before STOP
   std::set<int> expected_exits_;            ///< launcher indices killed by faults.kill

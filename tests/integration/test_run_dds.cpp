@@ -43,6 +43,22 @@ nlohmann::json run_sim(const std::string& name, const std::string& flags) {
   return read_json(dir / "summary.json");
 }
 
+// A run whose agents cannot all report within run.startup_timeout_s has no results: exit 1, and its
+// summary.json says so instead of a healthy verdict over zero steps.
+TEST(RunOverDds, ARunThatNeverStartsExitsOneAndItsSummarySaysFailed) {
+  const auto dir = fresh_directory("never-started");
+  const auto result = run_command(kBinary + " run " + kScenario + " --out " + dir.string() +
+                                  common_flags(97) + " --set run.startup_timeout_s=0.001");
+  EXPECT_EQ(result.exit_code, 1) << result.output;
+  EXPECT_NE(result.output.find("health: FAILED"), std::string::npos) << result.output;
+  EXPECT_EQ(count_processes_matching(dir.string()), 0) << "agent processes outlived the run";
+  const auto summary = read_json(dir / "summary.json");
+  EXPECT_EQ(summary["health"]["verdict"], "failed");
+  ASSERT_FALSE(summary["health"]["reasons"].empty());
+  EXPECT_NE(summary["health"]["reasons"][0].get<std::string>().find("did not start"), std::string::npos);
+  EXPECT_EQ(summary["steps"], 0);
+}
+
 TEST(RunOverDds, ThirtyAgentProcessesConvergeBelowRangeNoiseAndAgreeWithSimulator) {
   const auto dds = run_dds("lossless", "", 11);
   const auto sim = run_sim("lossless-sim", "");
