@@ -23,9 +23,9 @@ RunRecord default_world_run(const std::string& algorithm, int seed, std::uint64_
   return run_simulation(scenario, options);
 }
 
-// Seed 3 holds two agents of degree 3 that the filters can fold across their neighbours (docs/algorithms.md
-// §1.6). Verified cases: ieif trial 1 ends 3.8 m off with 2 agents flagged, ekf trial 1 0.53 m off with 4;
-// seed 1 trial 0 ends near the bound (ieif 0.032 m, ekf 0.030 m) with none.
+// Seed 3 holds two agents of degree 3 that the filters can fold across their neighbours
+// (docs/algorithms.md §1.6). Verified cases: ieif trial 1 ends 3.8 m off with 2 agents flagged, ekf trial 1
+// 0.53 m off with 4; seed 1 trial 0 ends near the bound (ieif 0.032 m, ekf 0.030 m) with none.
 TEST(SelfCheckRuns, AFoldedSolutionIsFlaggedAndTheDefaultWorldIsNot) {
   for (const std::string algorithm : {"ieif", "ekf"}) {
     SCOPED_TRACE(algorithm);

@@ -45,7 +45,7 @@ VecX assemble(const CentralizedMeasurements& meas, const VecX& x, const std::vec
     const Vec2 delta = x.segment<2>(2 * li) - x.segment<2>(2 * lj);
     const double rho = delta.norm();
     if (rho < kMinRange) continue;
-    const Vec2 u = delta / rho;  // ∂φ/∂x_i = uᵀ, ∂φ/∂x_j = −uᵀ (§1.1)
+    const Vec2 u = delta / rho;  // ∂φ/∂x_i = uᵀ, ∂φ/∂x_j = −uᵀ (docs/algorithms.md §1.1)
     const Mat2 uu = u * u.transpose() / meas.range_var;
     if (!keep_edge(li, lj, Mat2(-uu))) continue;
     add_block(li, li, uu);
@@ -351,7 +351,7 @@ void CentralizedFilter::check_innovations(
     const int lj = labels_[static_cast<std::size_t>(edge.j)];
     const Vec2 delta = x_.segment<2>(2 * li) - x_.segment<2>(2 * lj);
     const double rho = delta.norm();
-    if (rho < kMinRange) continue;  // no direction (§1.1)
+    if (rho < kMinRange) continue;  // no direction (docs/algorithms.md §1.1)
     const double variance = measurements.range_var + projected_variance(li, lj, Vec2(delta / rho));
     self_checks_[static_cast<std::size_t>(edge.i)].add(edge.range_m - rho, variance);
     self_checks_[static_cast<std::size_t>(edge.j)].add(edge.range_m - rho, variance);
