@@ -66,12 +66,16 @@ int discovery_port(int slot, int domain_id) {
   return slot_base(slot) + kDomainGain * domain_id + 10 + 2 * slot_index(slot);
 }
 
+/// The run's last slot: the orchestrator's (N), or the fusion centre's (N + 1).
+int last_slot_of(const config::Scenario& scenario) {
+  return scenario.world.agents + (config::runs_in_fusion_centre(scenario.algorithm.name) ? 1 : 0);
+}
+
 }  // namespace
 
 void require_ports_fit(const config::Scenario& scenario) {
   if (!scenario.dds.neighbour_discovery) return;
-  const int last_slot =
-      scenario.world.agents + (config::runs_in_fusion_centre(scenario.algorithm.name) ? 1 : 0);
+  const int last_slot = last_slot_of(scenario);
   const int highest = discovery_port(last_slot, scenario.dds.domain_id) + 1;  // its data port
   constexpr int kMaxPort = 65535;
   if (highest <= kMaxPort) return;
@@ -85,10 +89,6 @@ void require_ports_fit(const config::Scenario& scenario) {
 }
 
 namespace {
-
-int last_slot_of(const config::Scenario& scenario) {
-  return scenario.world.agents + (config::runs_in_fusion_centre(scenario.algorithm.name) ? 1 : 0);
-}
 
 /// The run's fixed ports are contiguous: agent 0's discovery port up to the last slot's data port.
 bool clear_of(const PortRange& range, int last_slot, int domain_id) {
@@ -172,7 +172,7 @@ BusyPort first_busy_port(int first_slot, int last_slot, int domain_id) {
 void require_ports_free(const config::Scenario& scenario, bool local_agents) {
   if (!scenario.dds.neighbour_discovery) return;  // multicast discovery: Cyclone picks free ports itself
   const int agents = scenario.world.agents;
-  const int last_slot = agents + (config::runs_in_fusion_centre(scenario.algorithm.name) ? 1 : 0);
+  const int last_slot = last_slot_of(scenario);
   const int first_slot = local_agents ? 0 : agents;
   const BusyPort busy = first_busy_port(first_slot, last_slot, scenario.dds.domain_id);
   if (busy.port < 0) return;
