@@ -1,6 +1,8 @@
 #include "swarmloc/estimators/dml_connectivity.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace swarmloc::estimators {
 
@@ -34,7 +36,16 @@ void RelayedRanges::absorb(AgentId self, AgentId sender, const Vec2& sender_mean
         !std::isfinite(summary.mean_range_m) || !(summary.mean_range_m >= 0.0)) {
       continue;
     }
-    relayed_[sender][summary.peer] = {summary.peer_mean_m, summary.mean_range_m};
+    const auto at = std::lower_bound(entries_.begin(), entries_.end(), std::pair{sender, summary.peer},
+                                     [](const Entry& entry, const std::pair<AgentId, AgentId>& key) {
+                                       return std::pair{entry.via, entry.peer} < key;
+                                     });
+    const Entry fresh{sender, summary.peer, summary.peer_mean_m, summary.mean_range_m};
+    if (at != entries_.end() && at->via == sender && at->peer == summary.peer) {
+      *at = fresh;
+    } else {
+      entries_.insert(at, fresh);
+    }
   }
 }
 

@@ -59,24 +59,26 @@ class RelayedRanges {
   template <typename OwnRange>
   [[nodiscard]] double violation(const Vec2& x, const OwnRange& own_range) const {
     double worst = -std::numeric_limits<double>::infinity();
-    for (const auto& [via, relayed] : relayed_) {
-      const double r_via = own_range(via);
+    double r_via = -1.0;
+    for (std::size_t k = 0; k < entries_.size(); ++k) {
+      const Entry& entry = entries_[k];
+      if (k == 0 || entry.via != entries_[k - 1].via) r_via = own_range(entry.via);  // sorted by via
       if (!(r_via >= 0.0)) continue;
-      for (const auto& [peer, entry] : relayed) {
-        const double distance = (x - entry.peer_mean_m).norm();
-        worst =
-            std::max({worst, distance - (r_via + entry.range_m), std::abs(r_via - entry.range_m) - distance});
-      }
+      const double distance = (x - entry.peer_mean_m).norm();
+      worst =
+          std::max({worst, distance - (r_via + entry.range_m), std::abs(r_via - entry.range_m) - distance});
     }
     return worst;
   }
 
  private:
   struct Entry {
+    AgentId via;
+    AgentId peer;
     Vec2 peer_mean_m;
     double range_m;
   };
-  std::map<AgentId, std::map<AgentId, Entry>> relayed_;  // via → peer → newest entry
+  std::vector<Entry> entries_;  // newest per (via, peer), sorted by (via, peer): scanned every step
 };
 
 }  // namespace swarmloc::estimators
