@@ -146,12 +146,9 @@ class AgentProcess {
     // steps run.agent_steps_per_world_step times per world period (one exchange each).
     period.tick = std::chrono::duration<double>(
         clock_.mono_duration(period.local_s / scenario_.run.agent_steps_per_world_step));
-    // Agents are not synchronized: each starts ticking at its own phase within the first period
-    // (golden-ratio spread over ids). In phase, all agents published at once and every sample queued
-    // behind the whole network's burst (inter-agent latency p50 2.5 ms at N = 20, docs/scale.md).
-    const double golden = 0.6180339887498949;
-    const double phase_fraction = std::fmod(static_cast<double>(id_) * golden, 1.0);
-    period.phase = std::chrono::duration<double>(phase_fraction * period.tick.count());
+    // Agents are not synchronized: each starts ticking at its own phase within the first period.
+    period.phase =
+        std::chrono::duration<double>(sim::tick_phase_fraction(scenario_, id_) * period.tick.count());
     return period;
   }
 

@@ -38,6 +38,8 @@ constexpr EnumNames<FieldSensing> kFieldSensingNames{
 constexpr EnumNames<RunMode> kRunModeNames{
     {{RunMode::kFreeRun, "free_run"}, {RunMode::kLockstep, "lockstep"}}};
 constexpr EnumNames<SimClock> kSimClockNames{{{SimClock::kRounds, "rounds"}, {SimClock::kAgents, "agents"}}};
+constexpr EnumNames<TickPhase> kTickPhaseNames{
+    {{TickPhase::kSpread, "spread"}, {TickPhase::kAligned, "aligned"}}};
 constexpr EnumNames<InitialGuess> kInitialGuessNames{
     {{InitialGuess::kNoisyTruth, "noisy_truth"}, {InitialGuess::kUniform, "uniform"}}};
 constexpr EnumNames<LocalBbDifference> kLocalBbDifferenceNames{
@@ -64,6 +66,7 @@ const auto& names_of(TargetSensing /*tag*/) { return kTargetSensingNames; }
 const auto& names_of(FieldSensing /*tag*/) { return kFieldSensingNames; }
 const auto& names_of(RunMode /*tag*/) { return kRunModeNames; }
 const auto& names_of(SimClock /*tag*/) { return kSimClockNames; }
+const auto& names_of(TickPhase /*tag*/) { return kTickPhaseNames; }
 const auto& names_of(InitialGuess /*tag*/) { return kInitialGuessNames; }
 const auto& names_of(LocalBbDifference /*tag*/) { return kLocalBbDifferenceNames; }
 const auto& names_of(PathVariance /*tag*/) { return kPathVarianceNames; }
@@ -394,6 +397,7 @@ std::vector<KeySpec> network_clock_and_run_keys() {
       SWARMLOC_KEY(run.mode),         SWARMLOC_KEY(run.startup_timeout_s),
       SWARMLOC_KEY(run.settle_s),     SWARMLOC_KEY(run.agent_nice),
       SWARMLOC_KEY(run.sim_clock),    SWARMLOC_KEY(run.agent_steps_per_world_step),
+      SWARMLOC_KEY(run.tick_phase),
   };
 }
 

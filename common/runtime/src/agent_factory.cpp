@@ -1,6 +1,7 @@
 #include "swarmloc/runtime/agent_factory.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <numbers>
 
@@ -127,6 +128,14 @@ AgentRuntimeParams make_runtime_params(const AgentManifest& manifest, int incarn
   AgentRuntimeParams params = manifest.runtime;
   params.first_seq = static_cast<std::uint32_t>(incarnation) << 24;
   return params;
+}
+
+double tick_phase_fraction(const config::Scenario& scenario, AgentId id) {
+  if (scenario.run.tick_phase == config::TickPhase::kAligned) return 0.0;
+  // Agents that all published in the same instant queued behind each other's bursts (inter-agent latency
+  // p50 2.5 ms at N = 20, docs/scale.md); the golden ratio spreads any number of ids evenly.
+  const double golden = std::numbers::phi - 1.0;
+  return std::fmod(static_cast<double>(id) * golden, 1.0);
 }
 
 }  // namespace swarmloc::sim

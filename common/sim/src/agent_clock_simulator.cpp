@@ -9,6 +9,7 @@
 #include <variant>
 
 #include "swarmloc/core/random.hpp"
+#include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/runtime/hostile.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -157,14 +158,16 @@ class AgentClockSimulation {
         std::llround(world_.clocks[static_cast<std::size_t>(id)].local_time(time_s) * 1e9));
   }
 
-  /// Tick m of the agent's current timer: m local periods after the timer started, i.e. m·T/(1+drift)
-  /// of virtual time (T: the world period over run.agent_steps_per_world_step). Computed from m (not
-  /// accumulated), so a drift-free clock ticks exactly at m·T.
+  /// Tick m of the agent's current timer: its phase plus m local periods after the timer started, i.e.
+  /// (φ_i + m)·T/(1+drift) of virtual time (T: the world period over run.agent_steps_per_world_step;
+  /// φ_i: tick_phase_fraction, as the DDS agent). Computed from m (not accumulated), so a drift-free
+  /// aligned clock ticks exactly at m·T.
   void schedule_tick(AgentId id, std::int64_t index) {
     const auto k = static_cast<std::size_t>(id);
     const double tick_period_s =
         world_.clocks[k].mono_duration(period_s_ / scenario_.run.agent_steps_per_world_step);
-    push(timer_start_s_[k] + static_cast<double>(index) * tick_period_s, Phase::kTick,
+    const double phase = tick_phase_fraction(scenario_, id);
+    push(timer_start_s_[k] + (phase + static_cast<double>(index)) * tick_period_s, Phase::kTick,
          Tick{id, incarnation_[k], index});
   }
 

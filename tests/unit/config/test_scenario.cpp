@@ -118,6 +118,7 @@ void expect_scenarios_equal(const Scenario& a, const Scenario& b) {
   EXPECT_EQ(a.run.agent_nice, b.run.agent_nice);
   EXPECT_EQ(a.run.sim_clock, b.run.sim_clock);
   EXPECT_EQ(a.run.agent_steps_per_world_step, b.run.agent_steps_per_world_step);
+  EXPECT_EQ(a.run.tick_phase, b.run.tick_phase);
   expect_qos_equal(a.qos.measurements, b.qos.measurements, "measurements");
   expect_qos_equal(a.qos.state, b.qos.state, "state");
   expect_qos_equal(a.qos.information, b.qos.information, "information");
@@ -184,6 +185,7 @@ Scenario everything_changed() {
   s.network.delay_ms = 250.5;
   s.network.jitter_ms = 10000.0;
   s.run = {1, 1000.0, RunMode::kLockstep, 0.5, 0.0, SimClock::kAgents, 19};
+  s.run.tick_phase = TickPhase::kAligned;
   s.qos.measurements = {Reliability::kBestEffort, 2, Durability::kTransientLocal, 1.5, 2.5};
   s.qos.state = {Reliability::kReliable, 3, Durability::kTransientLocal, 0.1, 0.2};
   s.qos.information = {Reliability::kReliable, 5, Durability::kTransientLocal, 0.3, 0.4};
@@ -329,7 +331,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 19U + 32U + 14U + 4U + 2U + 8U + 7U * 5U + 3U + 7U);
+  EXPECT_EQ(keys.size(), 2U + 19U + 32U + 14U + 4U + 2U + 9U + 7U * 5U + 3U + 7U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -601,6 +603,10 @@ TEST(ScenarioErrors, BurstLengthIsZeroOrAtLeastTheBernoulliBurst) {
 TEST(ScenarioErrors, SimulatorClockAndLatencyKeysNameThemselves) {
   EXPECT_EQ(parse_scenario("", {"run.sim_clock=agents"}).run.sim_clock, SimClock::kAgents);
   EXPECT_EQ(parse_scenario("").run.sim_clock, SimClock::kRounds);
+  EXPECT_EQ(parse_scenario("").run.tick_phase, TickPhase::kSpread);
+  EXPECT_EQ(parse_scenario("", {"run.tick_phase=aligned"}).run.tick_phase, TickPhase::kAligned);
+  EXPECT_STARTS_WITH(override_error({"run.tick_phase=late"}),
+                     "run.tick_phase: 'late' is not one of spread|aligned");
   EXPECT_STARTS_WITH(override_error({"run.sim_clock=sideways"}),
                      "run.sim_clock: 'sideways' is not one of rounds|agents");
   EXPECT_EQ(validate_error([](Scenario& s) { s.run.sim_clock = static_cast<SimClock>(5); }),

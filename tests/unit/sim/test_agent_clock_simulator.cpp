@@ -1,10 +1,12 @@
 // run.sim_clock = agents: the discrete-event simulator with per-agent clocks and network latency.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::sim {
@@ -40,13 +42,13 @@ double largest_estimate_difference(const RunRecord& a, const RunRecord& b) {
   return largest;
 }
 
-TEST(AgentClockSimulator, DriftFreeClocksWithLatencyUnderOnePeriodReproduceRounds) {
-  // With every clock exact and every arrival before the next tick, tick m (at m·T) must see exactly
-  // what round m−1 sees: batch m−1 and the neighbours' step m−2 samples; world step k is scored after
-  // the tick at (k+1)·T and before the truth moves on. A moving truth and lossy links make the
-  // comparison sensitive to scoring against the wrong truth and to sample numbering.
+TEST(AgentClockSimulator, DriftFreeAlignedClocksWithLatencyUnderOnePeriodReproduceRounds) {
+  // With every clock exact, every timer at phase 0 and every arrival before the next tick, tick m (at
+  // m·T) must see exactly what round m−1 sees: batch m−1 and the neighbours' step m−2 samples; world
+  // step k is scored after the tick at (k+1)·T and before the truth moves on. A moving truth and lossy
+  // links make the comparison sensitive to scoring against the wrong truth and to sample numbering.
   const std::vector<std::string> common{"world.motion=random_walk", "world.motion_std_m=0.05",
-                                        "network.loss=0.2"};
+                                        "network.loss=0.2", "run.tick_phase=aligned"};
   for (const std::string algorithm : {"ieif", "dgbb"}) {
     SCOPED_TRACE(algorithm);
     auto with = [&](std::vector<std::string> extra) {
@@ -72,6 +74,31 @@ TEST(AgentClockSimulator, DriftFreeClocksWithLatencyUnderOnePeriodReproduceRound
     const auto late = run_simulation(agent_clock(with({"network.delay_ms=150"})));
     EXPECT_GT(largest_estimate_difference(rounds, late), 1e-6);
   }
+}
+
+TEST(AgentClockSimulator, SpreadTimersFireAtTheDdsAgentsPhasesAndLaterPhasesSeeTheSamePeriodsSamples) {
+  // As the DDS agent (agent/agent_node.cpp calls the same function): agent i's timer fires at φ_i of its
+  // period, the ids spread by the golden ratio, agent 0 at 0; aligned timers all fire at 0.
+  const auto spread = agent_clock({"algorithm.name=dml"});
+  auto aligned = spread;
+  aligned.run.tick_phase = config::TickPhase::kAligned;
+  std::vector<double> phases;
+  for (AgentId i = 0; i < 30; ++i) {
+    phases.push_back(tick_phase_fraction(spread, i));
+    EXPECT_GE(phases.back(), 0.0);
+    EXPECT_LT(phases.back(), 1.0);
+    EXPECT_EQ(tick_phase_fraction(aligned, i), 0.0);
+  }
+  EXPECT_EQ(phases[0], 0.0);
+  EXPECT_NEAR(phases[1], 0.618034, 1e-6);
+  std::sort(phases.begin(), phases.end());
+  for (std::size_t k = 1; k < phases.size(); ++k) EXPECT_GT(phases[k] - phases[k - 1], 0.01) << k;
+
+  // A tick at a later phase uses a neighbour's sample of the same period (a DDS free run sweeps in the
+  // order of the phases within each period): no longer the rounds' schedule, which aligned timers keep.
+  const auto rounds = run_simulation(scenario({"algorithm.name=dml"}));
+  EXPECT_LE(largest_estimate_difference(rounds, run_simulation(aligned)), 1e-12);
+  EXPECT_GT(largest_estimate_difference(rounds, run_simulation(spread)), 1e-6);
 }
 
 TEST(AgentClockSimulator, DriftingOffsetClocksAreDeterministicAndConverge) {
@@ -108,16 +135,18 @@ TEST(AgentClockSimulator, JitterBeyondOnePeriodLetsSamplesOvertakeAndTheOlderOne
   EXPECT_EQ(reordered(steady), 0U);
 }
 
-TEST(AgentClockSimulator, StepCountsFollowEachAgentsDriftAndTimerStart) {
-  // 10 % drift so that it shows in 50 steps: agent i ticks every T/(1+drift_i), i.e. about
-  // 60·(1 + drift_i) times in the run's 50 periods and the settle's 10 (run.settle_s = 1 s).
+TEST(AgentClockSimulator, StepCountsFollowEachAgentsDriftPhaseAndTimerStart) {
+  // 10 % drift so that it shows in 50 steps: agent i ticks at (φ_i + m)·T/(1+drift_i), m = 1, 2, …, i.e.
+  // ⌊60·(1 + drift_i) − φ_i⌋ times in the run's 50 periods and the settle's 10 (run.settle_s = 1 s).
   const auto fast_and_slow = agent_clock({"run.steps=50", "clock.drift_ppm=100000", "network.delay_ms=1"});
   const auto record = run_simulation(fast_and_slow);
   const World world = build_world(fast_and_slow);
   int faster = 0, slower = 0;
   for (const auto& summary : record.agent_summaries) {
     const double drift = world.clocks[static_cast<std::size_t>(summary.agent)].drift_ppm * 1e-6;
-    EXPECT_NEAR(static_cast<double>(summary.steps_run), 60.0 * (1.0 + drift), 1.0) << summary.agent;
+    const double phase = tick_phase_fraction(fast_and_slow, summary.agent);
+    EXPECT_EQ(static_cast<double>(summary.steps_run), std::floor(60.0 * (1.0 + drift) - phase))
+        << summary.agent;
     faster += summary.steps_run > 61 ? 1 : 0;
     slower += summary.steps_run < 59 ? 1 : 0;
   }
@@ -131,8 +160,10 @@ TEST(AgentClockSimulator, StepCountsFollowEachAgentsDriftAndTimerStart) {
   const auto shifted = run_simulation(offset);
   EXPECT_EQ(largest_estimate_difference(record, shifted), 0.0);
 
-  // An agent whose process starts 1 s (10 periods) late steps 10 times fewer.
-  const auto late = run_simulation(agent_clock({"run.steps=50", "network.delay_ms=1", "faults.kill=3@0-10"}));
+  // An agent whose process starts 1 s (10 periods) late steps 10 times fewer; on aligned timers every
+  // other agent ticks 60 times, the last at the instant of the final score.
+  const auto late = run_simulation(
+      agent_clock({"run.steps=50", "network.delay_ms=1", "faults.kill=3@0-10", "run.tick_phase=aligned"}));
   for (const auto& summary : late.agent_summaries)
     EXPECT_EQ(summary.steps_run, summary.agent == 3 ? 50U : 60U) << summary.agent;
 }
@@ -184,9 +215,11 @@ TEST(AgentClockSimulator, TheIteratedIeifUpdateKeepsAFreeRunFromLockingInAWildFi
   const auto final_rmse = [](const std::string& iterations) {
     SimOptions options;
     options.trial = 12;
-    const auto record = run_simulation(agent_clock({"run.rate_hz=20", "run.steps=200", "clock.drift_ppm=100",
-                                                    "algorithm.update_iterations=" + iterations}),
-                                       options);
+    // Timers aligned, as the measurement ran (before run.tick_phase, docs/architecture.md).
+    const auto record =
+        run_simulation(agent_clock({"run.rate_hz=20", "run.steps=200", "clock.drift_ppm=100",
+                                    "run.tick_phase=aligned", "algorithm.update_iterations=" + iterations}),
+                       options);
     return record.metrics.back().errors.rmse_m;
   };
   const double once = final_rmse("1");

@@ -194,12 +194,14 @@ TEST(Simulator, FreeRunSettlesWithQuietRoundsAndLockstepDoesNot) {
   EXPECT_EQ(settle_rounds(s), 5);
   for (const auto& summary : run_simulation(s).agent_summaries) EXPECT_EQ(summary.steps_run, 60U + 5U);
 
-  // The same on the agents' clocks: ticks until 0.5 s after the last interval, then the final score.
+  // The same on the agents' clocks: ticks until 0.5 s after the last interval, then the final score
+  // (timers aligned: the schedule of rounds).
   s = simulator_scenario();
   s.algorithm.name = "dml";
   s.run.steps = 30;
   s.run.settle_s = 0.5;
   s.run.sim_clock = config::SimClock::kAgents;
+  s.run.tick_phase = config::TickPhase::kAligned;
   const auto ticking = run_simulation(s);
   ASSERT_EQ(ticking.metrics.size(), 30U);
   for (const auto& summary : ticking.agent_summaries) EXPECT_EQ(summary.steps_run, 30U + 5U);

@@ -35,6 +35,9 @@ enum class RunMode { kFreeRun, kLockstep };
 /// How `swarmloc sim` drives the agents: synchronous rounds, or each agent on its own clock over a
 /// network with delay (discrete events on virtual time, docs/architecture.md "Simulator").
 enum class SimClock { kRounds, kAgents };
+/// Where each agent's free-run timer fires within its period: spread over the agents (as deployed, so
+/// they do not all publish at once) or at the same instant for every agent.
+enum class TickPhase { kSpread, kAligned };
 enum class InitialGuess { kNoisyTruth, kUniform };
 /// local_bb's ΔD_i in 004 eq. (15): the change of D_i(p) between updates, neighbours' moves included
 /// (docs/algorithms.md [E-6]), or the change node i's own move made at the neighbours' newest positions (the
@@ -207,6 +210,7 @@ struct Scenario {
     int agent_nice = 0;  ///< DDS: agent processes run this much nicer than the orchestrator
     /// Agent steps (one exchange with the neighbours each) per world step; the first gets the batch.
     int agent_steps_per_world_step = 1;
+    TickPhase tick_phase = TickPhase::kSpread;  ///< free run, DDS and run.sim_clock = agents
   } run;
 
   struct Qos {

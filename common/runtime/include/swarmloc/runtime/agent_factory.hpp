@@ -38,4 +38,8 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
 /// new range of sample numbers).
 AgentRuntimeParams make_runtime_params(const AgentManifest& manifest, int incarnation = 0);
 
+/// When agent `id`'s free-run timer fires within its tick period, as a fraction of the period
+/// (run.tick_phase): spread over the ids by the golden ratio, or 0 for every agent when aligned.
+double tick_phase_fraction(const config::Scenario& scenario, AgentId id);
+
 }  // namespace swarmloc::sim
