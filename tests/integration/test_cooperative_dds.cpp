@@ -76,11 +76,12 @@ struct Smoke {
   int min_exchanges = 0;  ///< run.agent_steps_per_world_step: the least sends per link and world step
 };
 
-// Figures: seed 1, 20 % loss, simulator with agent clocks (sim_clock = agents) and one DDS run on a machine
-// at load average 8 (2 cores), 2026-12-02. "Broken": the error of the initial guess or of the first step.
+// Figures: seed 1, 20 % loss, simulator with agent clocks (sim_clock = agents, the DDS agent's tick phases;
+// measured again after run.tick_phase) and one DDS run on a machine at load average 8 (2 cores), 2026-12-02.
+// "Broken": the error of the initial guess or of the first step.
 const Smoke kSmokes[] = {
     // Jacobi (STATE), with five exchanges per world step on a sparse graph with one reference node
-    // (run.agent_steps_per_world_step): sim 0.076 m, DDS 0.035-0.047 m at 50 steps; one exchange per world
+    // (run.agent_steps_per_world_step): sim 0.043 m, DDS 0.035-0.047 m at 50 steps; one exchange per world
     // step 0.41 m; no message used 2.9 m (initial guess). DDS sent 6.0 samples per link and world step; one
     // exchange sends 1.0-1.2, so more than 2 shows that the extra exchanges ran. Jacobi at one exchange per
     // step: LockstepOverDds/jacobi.
@@ -88,19 +89,19 @@ const Smoke kSmokes[] = {
      " --set world.agents=40 --set world.anchors=1 --set world.area_m=80 --set world.comm_radius_m=20"
      " --set run.steps=50 --set run.rate_hz=10 --set run.agent_steps_per_world_step=5",
      0.3, 0.0, 2},
-    // DG-BB (STATE + CONSENSUS rounds), 5 x 5 lattice on 1 m: sim 0.0036 m at 300 steps, DDS 0.0038 m; the
+    // DG-BB (STATE + CONSENSUS rounds), 5 x 5 lattice on 1 m: sim 0.0037 m at 300 steps, DDS 0.0038 m; the
     // initial guess 0.057 m. The sim is below 0.015 m from step 50: DDS may lose 5/6 of its rounds.
     {"dgbb", "dgbb", 33, " --set run.steps=300", 0.015, 0.0},
-    // Multipath BP (BELIEF): sim 0.356 m, DDS 0.32 m, flat from step 5 (angle errors dominate); first step
+    // Multipath BP (BELIEF): sim 0.314 m, DDS 0.32 m, flat from step 5 (angle errors dominate); first step
     // 1.19 m, initial guess 2.8 m.
     {"multipath_bp", "multipath_bp", 35, " --set run.steps=30", 1.0, 0.0},
-    // Static DLE (INFO + STATE consensus): sim 0.032 m, DDS 0.027 m at 40 steps; one reading 1.0 m; a sensor
+    // Static DLE (INFO + STATE consensus): sim 0.018 m, DDS 0.027 m at 40 steps; one reading 1.0 m; a sensor
     // that only averages its own 40 readings 0.22 m.
     {"dle", "dle", 56, " --set run.rate_hz=20 --set run.steps=40", 0.15, 0.0},
-    // Tracking DLE: sim 0.05-0.2 m from step 40, DDS 0.041 m at 50 steps; the first step 11 m (the prior
+    // Tracking DLE: sim 0.071 m, DDS 0.041 m at 50 steps; the first step 11 m (the prior
     // is the area's centre).
     {"dle_tracking", "dle_tracking", 60, " --set run.steps=50", 1.0, 0.0},
-    // Joint field: positions sim 0.0087 m, DDS 0.0075 m (initial guess 2.8 m); field sim 0.20, DDS 0.20 at
+    // Joint field: positions sim 0.0075 m, DDS 0.0075 m (initial guess 2.8 m); field sim 0.20, DDS 0.20 at
     // 60 steps, 1.25 before any reading (the field is learnt slowly: half of that is the bound).
     {"joint_field", "joint_field", 34, " --set run.steps=60", 0.1, 0.625},
 };
