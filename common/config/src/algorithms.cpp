@@ -159,10 +159,9 @@ const std::vector<AlgorithmSpec>& algorithm_registry() {
       {"pose_ieif", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys, kStateMessages},
       {"dead_reckoning", kPose, kAgent, kRangesAndFixes, kOdometryNone, false, nullptr, kPoseKeys,
        kStateMessages},
-      {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml, kNoKeys,
-       kStateMessages},  // docs/algorithms.md §9
-      // docs/algorithms.md §9.8; reads process_noise_std_m and initial_std_m. Its step without a batch is an
-      // exchange only, but the registry ties exchange_only to the cooperative parameter block.
+      // docs/algorithms.md §9; a step without a batch is one more sweep (§9.2, "Several exchanges").
+      {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, true, &validate_dml, kNoKeys, kStateMessages},
+      // docs/algorithms.md §9.8; reads process_noise_std_m and initial_std_m.
       {"dml_track", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml_track, kKalmanKeys,
        kBeliefMessages},
   };

@@ -548,7 +548,8 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
        "run.agent_steps_per_world_step: 0 is outside [1, 1000]"},
       {[](Scenario& s) { s.run.agent_steps_per_world_step = 2; },
        "run.agent_steps_per_world_step: above 1 needs an algorithm whose step without a measurement is an "
-       "exchange only (jacobi, dle, joint_field, multipath_bp, dgbb, local_bb, fixed_step, step_length); "
+       "exchange only (jacobi, dle, joint_field, multipath_bp, dgbb, local_bb, fixed_step, step_length, "
+       "dml); "
        "'ieif' would predict on every extra step"},
       {[](Scenario& s) {
          s.algorithm.name = "jacobi";
