@@ -161,8 +161,9 @@ const std::vector<AlgorithmSpec>& algorithm_registry() {
        kStateMessages},
       // docs/algorithms.md §9; a step without a batch is one more sweep (§9.2, "Several exchanges").
       {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, true, &validate_dml, kNoKeys, kStateMessages},
-      // docs/algorithms.md §9.8; reads process_noise_std_m and initial_std_m.
-      {"dml_track", kDml, kAgent, kRangesAndFixes, kPooledRanges, false, &validate_dml_track, kKalmanKeys,
+      // docs/algorithms.md §9.8; reads process_noise_std_m and initial_std_m; a step without a batch
+      // iterates its window again.
+      {"dml_track", kDml, kAgent, kRangesAndFixes, kPooledRanges, true, &validate_dml_track, kKalmanKeys,
        kBeliefMessages},
   };
   return registry;

@@ -549,8 +549,7 @@ TEST(ScenarioErrors, EveryRangeRuleNamesItsKey) {
       {[](Scenario& s) { s.run.agent_steps_per_world_step = 2; },
        "run.agent_steps_per_world_step: above 1 needs an algorithm whose step without a measurement is an "
        "exchange only (jacobi, dle, joint_field, multipath_bp, dgbb, local_bb, fixed_step, step_length, "
-       "dml); "
-       "'ieif' would predict on every extra step"},
+       "dml, dml_track); 'ieif' would predict on every extra step"},
       {[](Scenario& s) {
          s.algorithm.name = "jacobi";
          s.run.agent_steps_per_world_step = 2;

@@ -111,9 +111,10 @@ TEST(AlgorithmRegistry, ConfigAcceptsExactlyTheEntries) {
   for (const auto& spec : config::algorithm_registry())
     if (spec.exchange_only) exchange_only.emplace_back(spec.name);
   EXPECT_EQ(config::exchange_only_algorithms(), exchange_only);
-  // The cooperative family, and dml, whose step without a batch is one more sweep of its solve.
+  // The cooperative family, and dml and dml_track, whose step without a batch is one more sweep.
   auto expected = estimators::cooperative_algorithms();
   expected.emplace_back("dml");
+  expected.emplace_back("dml_track");
   std::sort(expected.begin(), expected.end());
   std::sort(exchange_only.begin(), exchange_only.end());
   EXPECT_EQ(exchange_only, expected);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 
@@ -429,6 +430,25 @@ TEST(CooperativeSimulation, SeveralAgentStepsPerWorldStepDrainJacobisTransient) 
   EXPECT_NEAR(agents_10_sent, 10 * agents_1_sent, 0.02 * agents_10_sent);
   EXPECT_EQ(rounds_30_sent, 30 * rounds_1_sent);
   EXPECT_NEAR(agents_30_sent, 30 * agents_1_sent, 0.02 * agents_30_sent);
+}
+
+// dml_track's belief messages carry the sender's draws of its newest step; with three exchanges per world
+// step each draw arrives three times and must still count once (docs/algorithms.md §9.8). ea2, 60 steps:
+// final NEES 3.42 with one exchange, 3.44 with three; adding each copy instead gives 19 and 172.
+TEST(CooperativeSimulation, DmlTrackCountsARepeatedDrawOnceWithSeveralExchangesPerWorldStep) {
+  auto final_errors = [](int exchanges) {
+    return run_simulation(
+               scenario_named("ea2.yaml", {"algorithm.name=dml_track", "run.steps=60",
+                                           "run.agent_steps_per_world_step=" + std::to_string(exchanges)}))
+        .final_metrics()
+        ->errors;
+  };
+  const auto once = final_errors(1);
+  const auto thrice = final_errors(3);
+  EXPECT_LT(thrice.nees, 1.2 * once.nees);
+  EXPECT_LT(thrice.rmse_m, 1.05 * once.rmse_m);
+  std::printf("[ dml_track ] ea2, 60 steps: final NEES %.2f with one exchange per step, %.2f with three\n",
+              once.nees, thrice.nees);
 }
 
 // algorithm.local_bb_difference on 004's Table I lattice (10 × 10 with diagonals, noiseless, no trust
