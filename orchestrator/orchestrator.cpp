@@ -22,6 +22,7 @@
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/runtime/liveness.hpp"
+#include "swarmloc/runtime/report_book.hpp"
 #include "swarmloc/runtime/run_health.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -112,7 +113,7 @@ class Orchestrator {
   /// What the run record knows before the run: the scenario, the mode and the world's shape.
   void start_record(int n) {
     latest_.assign(static_cast<std::size_t>(n), std::nullopt);
-    reports_.assign(static_cast<std::size_t>(n), std::nullopt);
+    reports_ = sim::ReportBook(n);
     record_.scenario = scenario_;
     record_.mode = lockstep_ ? "dds-lockstep" : "dds-free-run";
     record_.agents = n;
@@ -293,12 +294,13 @@ class Orchestrator {
         launcher_.kill(launcher_index_[k], SIGKILL);
         down_[k] = true;
         liveness_.scheduled_down(fault.agent);
-        reports_[k].reset();
+        reports_.killed(fault.agent);
         latest_[k].reset();
         spdlog::warn("fault: killed agent {} (kill -9) at step {}", fault.agent, step);
       }
       if (fault.to_step == step) {
         launch_agent(fault.agent, ++incarnation_[k]);
+        reports_.restarted(fault.agent);
         down_[k] = false;
         liveness_.scheduled_up(fault.agent, seconds_since(origin_), true);
         spdlog::warn("fault: restarted agent {} at step {} (incarnation {}, fresh state)", fault.agent, step,
@@ -447,13 +449,13 @@ class Orchestrator {
         fusion_ready_ = true;  // the fusion centre's hello; its estimates carry each agent's id
         continue;
       }
-      auto& slot = reports_[static_cast<std::size_t>(id)];
-      if (slot && report.steps_run < slot->steps_run) continue;  // older than what we hold
+      const bool says_something = !centralized_ || report.steps_run > 0;
+      const estimators::Estimate estimate = report.estimate;
+      if (!reports_.take(std::move(report))) continue;  // older than what we hold, or a killed process's
       // A centralized run's agents only say hello (steps_run 0): the fusion centre's estimates are what
       // must stay current.
-      if (!centralized_ || report.steps_run > 0) liveness_.heard(id, current_step_, seconds_since(origin_));
-      latest_[static_cast<std::size_t>(id)] = report.estimate;
-      slot = std::move(report);
+      if (says_something) liveness_.heard(id, current_step_, seconds_since(origin_));
+      latest_[static_cast<std::size_t>(id)] = estimate;
     }
   }
 
@@ -664,7 +666,7 @@ class Orchestrator {
   ProcessLauncher launcher_;
   sim::RunRecord record_;
   std::vector<std::optional<estimators::Estimate>> latest_;
-  std::vector<std::optional<sim::EstimateReport>> reports_;
+  sim::ReportBook reports_;
   std::unique_ptr<LiveView> view_;                   ///< --view
   std::unique_ptr<sim::RecordingWriter> recording_;  ///< --record
 };
