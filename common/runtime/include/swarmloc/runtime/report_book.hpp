@@ -1,8 +1,8 @@
 #pragma once
 // The newest estimate report of each agent process, as the orchestrator holds them (docs/robustness.md,
-// "Faults"). A report replaces the held one only if it is not older; an agent killed by the fault schedule
-// holds none, and the reports its dead process still had in flight are dropped, so that its restart, whose
-// step count begins again at zero, is not taken for the older one.
+// "Liveness", Restarts). A report replaces the held one only if it is not older; an agent killed by the fault
+// schedule holds none, and the reports its dead process still had in flight are dropped, so that its restart,
+// whose step count begins again at zero, is not taken for the older one.
 #include <cstddef>
 #include <optional>
 #include <vector>
