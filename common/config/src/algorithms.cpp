@@ -159,7 +159,7 @@ const std::vector<AlgorithmSpec>& algorithm_registry() {
       {"pose_ieif", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys, kStateMessages},
       {"dead_reckoning", kPose, kAgent, kRangesAndFixes, kOdometryNone, false, nullptr, kPoseKeys,
        kStateMessages},
-      // docs/algorithms.md §9; a step without a batch is one more sweep (§9.2, "Several exchanges").
+      // docs/algorithms.md §9; a step without a batch is one more sweep (docs/algorithms.md §9.2).
       {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, true, &validate_dml, kNoKeys, kStateMessages},
       // docs/algorithms.md §9.8; reads process_noise_std_m and initial_std_m; a step without a batch
       // iterates its window again.

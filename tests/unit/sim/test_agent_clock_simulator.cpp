@@ -227,8 +227,8 @@ namespace {
 // neighbours in the first period ranges to their first estimates; one linearization from the diffuse start
 // can throw such an estimate tens of metres with a small covariance, and the cluster around it stays
 // confidently wrong for hundreds of steps. Trial 12 of the default scenario at 20 Hz is such a case; the
-// iterated update brings it back to the synchronous rounds' level (docs/measurements/free-run-spread.md
-// §2.2).
+// iterated update brings it back to the synchronous rounds' level
+// (docs/measurements/free-run-spread.md §2.2).
 TEST(AgentClockSimulator, TheIteratedIeifUpdateKeepsAFreeRunFromLockingInAWildFirstEstimate) {
   const auto final_rmse = [](const std::string& iterations) {
     SimOptions options;
