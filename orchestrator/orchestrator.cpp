@@ -112,7 +112,6 @@ class Orchestrator {
  private:
   /// What the run record knows before the run: the scenario, the mode and the world's shape.
   void start_record(int n) {
-    latest_.assign(static_cast<std::size_t>(n), std::nullopt);
     reports_ = sim::ReportBook(n);
     record_.scenario = scenario_;
     record_.mode = lockstep_ ? "dds-lockstep" : "dds-free-run";
@@ -218,7 +217,7 @@ class Orchestrator {
     for (std::size_t i = 0; i < reports_.size(); ++i) {
       const auto& report = reports_[i];
       if (!report) continue;
-      if (report->steps_run > 0) snapshot.agents[i].estimate = latest_[i];
+      if (report->steps_run > 0) snapshot.agents[i].estimate = report->estimate;
       for (const auto& link : report->links)
         add_link_counters(snapshot, link.sender, static_cast<AgentId>(i), link);
     }
@@ -295,7 +294,6 @@ class Orchestrator {
         down_[k] = true;
         liveness_.scheduled_down(fault.agent);
         reports_.killed(fault.agent);
-        latest_[k].reset();
         spdlog::warn("fault: killed agent {} (kill -9) at step {}", fault.agent, step);
       }
       if (fault.to_step == step) {
@@ -449,13 +447,11 @@ class Orchestrator {
         fusion_ready_ = true;  // the fusion centre's hello; its estimates carry each agent's id
         continue;
       }
-      const bool says_something = !centralized_ || report.steps_run > 0;
-      const estimators::Estimate estimate = report.estimate;
       if (!reports_.take(std::move(report))) continue;  // older than what we hold, or a killed process's
       // A centralized run's agents only say hello (steps_run 0): the fusion centre's estimates are what
       // must stay current.
-      if (says_something) liveness_.heard(id, current_step_, seconds_since(origin_));
-      latest_[static_cast<std::size_t>(id)] = estimate;
+      if (!centralized_ || reports_[static_cast<std::size_t>(id)]->steps_run > 0)
+        liveness_.heard(id, current_step_, seconds_since(origin_));
     }
   }
 
@@ -564,12 +560,12 @@ class Orchestrator {
     liveness_.check(step, now_s);
     const double judged_s = as_of_s.value_or(now_s);
     if (!as_of_s) last_scored_at_s_ = now_s;
-    std::vector<std::optional<estimators::Estimate>> scored(latest_.size());
-    for (std::size_t i = 0; i < latest_.size(); ++i) {
+    std::vector<std::optional<estimators::Estimate>> scored(reports_.size());
+    for (std::size_t i = 0; i < reports_.size(); ++i) {
       // Dead, paused, stalled or excluded agents are not scored: a stale estimate is not a living agent's.
       const bool current =
           !down_[i] && !lockstep_excluded_[i] && liveness_.current(static_cast<AgentId>(i), judged_s);
-      if (reports_[i] && reports_[i]->steps_run > 0 && current) scored[i] = latest_[i];
+      if (reports_[i] && reports_[i]->steps_run > 0 && current) scored[i] = reports_[i]->estimate;
     }
     current_agents_ = static_cast<int>(
         std::count_if(scored.begin(), scored.end(), [](const auto& e) { return e.has_value(); }));
@@ -598,10 +594,10 @@ class Orchestrator {
       score_step(last_step, last_scored_at_s_);
       if (centralized_) {
         // E-A2's total MSE (docs/algorithms.md §2.8): every agent, beacons included, at the final step.
-        std::vector<std::optional<estimators::Estimate>> scored(latest_.size());
-        for (std::size_t i = 0; i < latest_.size(); ++i) {
+        std::vector<std::optional<estimators::Estimate>> scored(reports_.size());
+        for (std::size_t i = 0; i < reports_.size(); ++i) {
           const bool current = liveness_.current(static_cast<AgentId>(i), last_scored_at_s_);
-          if (reports_[i] && reports_[i]->steps_run > 0 && current) scored[i] = latest_[i];
+          if (reports_[i] && reports_[i]->steps_run > 0 && current) scored[i] = reports_[i]->estimate;
         }
         record_.extra["final_total_mse_m2"] = sim::total_squared_error(world_.truth, scored);
         record_.extra["fusion_center"] = {
@@ -665,7 +661,6 @@ class Orchestrator {
   double max_world_step_lateness_s_ = 0.0;
   ProcessLauncher launcher_;
   sim::RunRecord record_;
-  std::vector<std::optional<estimators::Estimate>> latest_;
   sim::ReportBook reports_;
   std::unique_ptr<LiveView> view_;                   ///< --view
   std::unique_ptr<sim::RecordingWriter> recording_;  ///< --record
