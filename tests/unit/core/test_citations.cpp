@@ -1,6 +1,6 @@
 // The repository explains itself: every `docs/<file>.md` a source file cites exists; every `§N.M` cited
 // right after a document names a heading of that document (docs/algorithms.md keeps the specification's
-// section numbers), in every form the tree uses: "docs/design.md §4", "algorithms.md §1.3.1",
+// section numbers), in every form the tree uses: "docs/design.md §4", "docs/algorithms.md §1.3.1",
 // "feasibility §4", "feasibility.md section 2", lists such as "§4.2, §4.5" and ranges such as
 // "§2.1–§2.4"; and every interpretation tag such as `[B-6]` has its entry in the interpretation
 // register, docs/algorithms.md §8.
@@ -73,7 +73,7 @@ bool has_section(const std::string& doc, const std::string& section) {
   return false;
 }
 
-/// Every document under docs/, by its path below docs/ ("design.md", "measurements/feasibility.md").
+/// Every document under docs/, by its path below docs/ ("scale.md", "measurements/feasibility.md").
 std::vector<std::string> documents() {
   std::vector<std::string> docs;
   for (const auto& entry : fs::recursive_directory_iterator(kRoot / "docs")) {
@@ -83,7 +83,7 @@ std::vector<std::string> documents() {
   return docs;
 }
 
-/// The document under docs/ a short name stands for ("design.md", "feasibility.md" or "feasibility" for
+/// The document under docs/ a short name stands for ("scale.md", "feasibility.md" or "feasibility" for
 /// measurements/feasibility.md); "" if none or if the name is ambiguous.
 std::string resolve_short_name(const std::string& name, const std::vector<std::string>& docs) {
   const std::string file = name.ends_with(".md") ? name : name + ".md";
@@ -100,7 +100,7 @@ std::string resolve_short_name(const std::string& name, const std::vector<std::s
 
 struct Citation {
   std::string document;               ///< below docs/, as written
-  bool in_docs = true;                ///< written as docs/<document>; else a short name such as design.md
+  bool in_docs = true;                ///< written as docs/<document>; else a short name such as scale.md
   std::vector<std::string> sections;  ///< every §N.M right after it
 };
 
@@ -149,7 +149,7 @@ std::vector<std::string> sections_at(const std::string& text, std::size_t at) {
 }
 
 /// Each `docs/<file>.md` with the `§N.M` list after it (empty if none), and each short document name
-/// (`design.md`, `feasibility`) that a `§N.M` or "section N" follows. `docs` lists the documents, for
+/// (`scale.md`, `feasibility`) that a `§N.M` or "section N" follows. `docs` lists the documents, for
 /// the short names.
 std::vector<Citation> citations(const std::string& text, const std::vector<std::string>& docs) {
   std::vector<Citation> found;
@@ -164,8 +164,7 @@ std::vector<Citation> citations(const std::string& text, const std::vector<std::
     if (file.size() < 4 || !file.ends_with(".md")) continue;
     found.push_back({file, true, sections_at(text, at + kPrefix.size() + file.size())});
   }
-  // A short name right before a section mark: "design.md §4", "algorithms.md, §1.3.1", "feasibility §4",
-  // "feasibility.md section 2".
+  // A short name right before a section mark: "feasibility §4", "feasibility.md section 2".
   for (const std::string& mark : {kSection, std::string("section")}) {
     for (std::size_t at = 0; (at = text.find(mark, at)) != std::string::npos; at += mark.size()) {
       if (mark_at(text, at) == 0) continue;
@@ -210,18 +209,18 @@ std::string top_section(const std::string& doc, const std::string& number) {
 
 TEST(Citations, TheScannerReadsEveryFormTheTreeUses) {
   // Spelled in pieces so that the scan of this file does not read them as citations.
-  const std::vector<std::string> docs{"algorithms.md", "design.md", "measurements/feasibility.md"};
+  const std::vector<std::string> docs{"validation.md", "robustness.md", "measurements/feasibility.md"};
   const std::string s = kSection;
-  const auto found = citations("see docs/algorithms.md " + s + "4.2, " + s + "4.5 and " + s + "2.1" +
-                                   kEnDash + s + "2.4; design.md " + s + "3.2 or (feasibility " + s +
+  const auto found = citations("see docs/validation.md " + s + "4.2, " + s + "4.5 and " + s + "2.1" +
+                                   kEnDash + s + "2.4; robustness.md " + s + "3.2 or (feasibility " + s +
                                    "4). docs/scale.md. ros2.md " + "section 1.",
                                docs);
   ASSERT_EQ(found.size(), 5U);
-  EXPECT_EQ(found[0].document, "algorithms.md");
+  EXPECT_EQ(found[0].document, "validation.md");
   EXPECT_EQ(found[0].sections, (std::vector<std::string>{"4.2", "4.5", "2.1", "2.4"}));
   EXPECT_EQ(found[1].document, "scale.md");
   EXPECT_TRUE(found[1].sections.empty());
-  EXPECT_EQ(found[2].document, "design.md");
+  EXPECT_EQ(found[2].document, "robustness.md");
   EXPECT_EQ(found[2].sections, std::vector<std::string>{"3.2"});
   EXPECT_EQ(found[3].document, "feasibility.md");
   EXPECT_EQ(found[3].sections, std::vector<std::string>{"4"});
@@ -266,7 +265,7 @@ TEST(Citations, EveryCitedDocumentAndSectionExistsInTheRepository) {
 }
 
 TEST(Citations, EveryInterpretationTagHasItsEntryInTheRegister) {
-  const std::string doc = read_text(kRoot / "docs" / "algorithms.md");
+  const std::string doc = read_text(kRoot / "docs/algorithms.md");
   const std::string register_ = top_section(doc, "8");
   ASSERT_NE(register_.find("Interpretation register"), std::string::npos)
       << "docs/algorithms.md §8 is no longer the interpretation register";
@@ -283,8 +282,8 @@ TEST(Citations, EveryInterpretationTagHasItsEntryInTheRegister) {
 }
 
 /// The names by which a source would cite the specification outside the repository: its documents
-/// carry the names of ours (docs/algorithms.md, design.md, style.md) in capitals. Built, not written out,
-/// so that this file does not cite them itself.
+/// carry the names of ours (docs/algorithms.md, docs/design.md, docs/style.md) in capitals. Built, not
+/// written out, so that this file does not cite them itself.
 std::vector<std::string> outside_documents() {
   const std::string shared = "shared/";
   const std::string md = ".md";
