@@ -540,6 +540,7 @@ class Orchestrator {
     input.unscheduled_deaths = liveness_.deaths() + (fusion_exit_ ? 1 : 0);
     input.stalls = liveness_.stalls();
     input.lockstep_timeouts = lockstep_timeouts_;
+    input.non_finite_steps = sim::non_finite_estimates(record_).steps;
     for (const auto& report : reports_) {
       if (report && report->health.ticks > 0) input.agents.push_back(report->health);
     }
@@ -584,6 +585,15 @@ class Orchestrator {
     }
   }
 
+  /// Per agent: it has an estimate the scorer takes (a step run), or it is not the liveness's to judge
+  /// (excluded from lockstep: counted in lockstep_timeouts).
+  [[nodiscard]] std::vector<bool> scoreable_agents() const {
+    std::vector<bool> scoreable(reports_.size());
+    for (std::size_t i = 0; i < reports_.size(); ++i)
+      scoreable[i] = lockstep_excluded_[i] || (reports_[i] && reports_[i]->steps_run > 0);
+    return scoreable;
+  }
+
   /// After the settle time: re-score the last step with the newest estimates; gather counters.
   void finish_scoring() {
     if (!record_.metrics.empty()) {
@@ -591,6 +601,7 @@ class Orchestrator {
       record_.metrics.pop_back();
       while (!record_.estimates.empty() && record_.estimates.back().step == last_step)
         record_.estimates.pop_back();
+      if (!interrupted().load()) liveness_.close(last_step, seconds_since(origin_), scoreable_agents());
       score_step(last_step, last_scored_at_s_);
       if (centralized_) {
         // E-A2's total MSE (docs/algorithms.md §2.8): every agent, beacons included, at the final step.

@@ -25,6 +25,9 @@ namespace swarmloc::orchestrator {
 
 namespace {
 
+/// Completed, but some estimate was NaN or Inf: the figures are not valid (README, exit codes).
+constexpr int kExitInvalidResults = 3;
+
 /// Says on stderr what a phase that reports nothing itself is doing once it has lasted two seconds
 /// (writing 10^5 agents' trajectories and plots takes tens of seconds), then every five.
 class SlowPhaseNotice {
@@ -114,6 +117,7 @@ struct MonteCarloFigures {
   double mc_rmse = 0.0;
   double mc_bound = 0.0;
   std::ptrdiff_t trials_flagged = 0;
+  std::ptrdiff_t trials_non_finite = 0;  ///< trials with a NaN/Inf estimate at some step: results not valid
 };
 
 /// Adds summary.json's "monte_carlo" block to the first trial's record and returns its figures.
@@ -138,6 +142,10 @@ MonteCarloFigures summarize_monte_carlo(sim::MonteCarloResult& result, const std
   const auto& flagged = result.final_flagged_per_trial;
   figures.trials_flagged = std::count_if(flagged.begin(), flagged.end(), [](int f) { return f > 0; });
   record.extra["monte_carlo"]["trials_flagged"] = figures.trials_flagged;
+  const auto& broken = result.non_finite_steps_per_trial;
+  figures.trials_non_finite =
+      std::count_if(broken.begin(), broken.end(), [](std::size_t s) { return s > 0; });
+  record.extra["monte_carlo"]["trials_non_finite"] = figures.trials_non_finite;
   // MC RMSE = sqrt of the mean final squared error: the quantity the bound bounds.
   figures.mc_rmse = std::sqrt(result.steps.back().mse_mean);
   figures.mc_bound = result.steps.back().bound_rmse_m;
@@ -165,6 +173,10 @@ void print_monte_carlo(const sim::MonteCarloResult& result, const MonteCarloFigu
       figures.mc_rmse / figures.mc_bound);
   std::printf("  Monte Carlo: %lld of %d trials end with agents flagged by their self-check\n",
               static_cast<long long>(figures.trials_flagged), result.trials);
+  if (figures.trials_non_finite > 0) {
+    std::printf("  NOT VALID: %lld of %d trials hold non-finite (NaN/Inf) estimates\n",
+                static_cast<long long>(figures.trials_non_finite), result.trials);
+  }
   std::printf("  run directory: %s\n", run_dir.string().c_str());
 }
 
@@ -190,7 +202,7 @@ int run_trials(const SimCommand& command) {
     sim::write_run_directory(command.run_dir, result.first_trial, command.control);
   }
   print_monte_carlo(result, figures, command.run_dir);
-  return 0;
+  return figures.trials_non_finite > 0 ? kExitInvalidResults : 0;
 }
 
 /// One in-process run's options: threads, --hostile, replay, Ctrl-C, progress and --record (into
@@ -234,6 +246,7 @@ int report_single_run(const SimCommand& command, const sim::RunRecord& record, L
                  record.metrics.size(), scenario.run.steps);
     return 1;
   }
+  const int code = sim::non_finite_estimates(record).steps > 0 ? kExitInvalidResults : 0;
   if (view) {
     std::printf(
         "  live view: %s (playing back %zu steps at %g Hz, then serving the final state %s; Ctrl-C ends)\n",
@@ -243,7 +256,7 @@ int report_single_run(const SimCommand& command, const sim::RunRecord& record, L
     play_back(*view, scenario, record, interrupted());
     view->hold(command.options.view_hold_s, interrupted());
   }
-  return 0;
+  return code;
 }
 
 /// One in-process run on `world`: simulates, writes the run directory, reports.

@@ -105,12 +105,30 @@ WholeRunError whole_run_error(const RunRecord& record) {
   double squared_sum = 0.0;
   WholeRunError whole;
   for (const auto& m : record.metrics) {
-    if (m.errors.scored == 0 || !std::isfinite(m.errors.rmse_m)) continue;
+    // A step with a broken estimate is scored, at +inf: the whole run's figure must not hide it.
+    if (m.errors.scored == 0 && m.errors.non_finite == 0) continue;
     squared_sum += m.errors.rmse_m * m.errors.rmse_m;
     ++whole.scored_steps;
   }
   if (whole.scored_steps > 0) whole.rmse_m = std::sqrt(squared_sum / static_cast<double>(whole.scored_steps));
   return whole;
+}
+
+NonFiniteEstimates non_finite_estimates(const RunRecord& record) {
+  NonFiniteEstimates broken;
+  for (const auto& m : record.metrics) {
+    if (m.errors.non_finite == 0) continue;
+    if (broken.steps++ == 0) broken.first_step = m.step;
+    broken.most_agents = std::max(broken.most_agents, m.errors.non_finite);
+  }
+  return broken;
+}
+
+std::string describe(const NonFiniteEstimates& broken) {
+  if (broken.steps == 0) return {};
+  return "non-finite (NaN/Inf) estimates at " + std::to_string(broken.steps) + " step(s) from step " +
+         std::to_string(broken.first_step) + " (up to " + std::to_string(broken.most_agents) +
+         " agent(s) at once): the results are not valid";
 }
 
 nlohmann::json summary_json(const RunRecord& record) {
@@ -134,6 +152,7 @@ nlohmann::json summary_json(const RunRecord& record) {
     final_json["nees"] = number_or_null(last->errors.nees);
     final_json["scored_agents"] = last->errors.scored;
     final_json["missing_agents"] = last->errors.missing;
+    final_json["non_finite_agents"] = last->errors.non_finite;
     final_json["lost_agents"] = last->lost;
     final_json["flagged_agents"] = last->errors.flagged;  // self-check verdicts, docs/algorithms.md §1.6
     final_json["crlb_rmse_m"] = number_or_null(last->crlb_rmse_m);
@@ -145,8 +164,12 @@ nlohmann::json summary_json(const RunRecord& record) {
   final_json["crlb_single_snapshot_rmse_m"] = number_or_null(record.crlb.single_snapshot_rmse_m);
   summary["final"] = final_json;
   const auto whole = whole_run_error(record);
-  summary["whole_run"] = {{"rmse_m", whole.scored_steps > 0 ? json(whole.rmse_m) : json()},
+  summary["whole_run"] = {{"rmse_m", whole.scored_steps > 0 ? number_or_null(whole.rmse_m) : json()},
                           {"scored_steps", whole.scored_steps}};
+  const auto broken = non_finite_estimates(record);
+  summary["non_finite_estimates"] = {{"steps", broken.steps},
+                                     {"first_step", broken.steps > 0 ? json(broken.first_step) : json()},
+                                     {"most_agents", broken.most_agents}};
   summary["crlb"] = {{"single_snapshot_rmse_m", number_or_null(record.crlb.single_snapshot_rmse_m)},
                      {"accumulated_rmse_m", last ? number_or_null(last->crlb_rmse_m) : json()},
                      {"localizable", record.crlb.localizable}};
@@ -209,14 +232,15 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
     const bool field = measurement_kinds(record.scenario.algorithm.name).field;
     // New columns go last (`lost`, then the run's bound), so older readers keep their columns.
     out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing"
-        << (field ? ",field_rmse,lost" : ",lost") << ",bound_rmse_m,bound_all_data_rmse_m\n";
+        << (field ? ",field_rmse,lost" : ",lost") << ",bound_rmse_m,bound_all_data_rmse_m,non_finite\n";
     out << std::setprecision(9);
     for (const auto& m : record.metrics) {
       out << m.step << ',' << m.time_s << ',' << m.errors.rmse_m << ',' << m.errors.mean_error_m << ','
           << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored
           << ',' << m.errors.missing;
       if (field) out << ',' << m.errors.field_rmse;
-      out << ',' << m.lost << ',' << m.bound_rmse_m << ',' << m.bound_all_data_rmse_m << '\n';
+      out << ',' << m.lost << ',' << m.bound_rmse_m << ',' << m.bound_all_data_rmse_m << ','
+          << m.errors.non_finite << '\n';
     }
     write_text_file(directory / "metrics.csv", out.str());
   }
@@ -397,6 +421,13 @@ std::string result_table(const RunRecord& record) {
     row("final NEES (2 = consistent)", last->errors.nees, "");
     std::snprintf(line, sizeof line, "  %-34s %12d\n", "agents flagged by self-check", last->errors.flagged);
     out << line;
+    // Whom the final figures cover: a killed, silent or broken agent is not hidden by a smaller mean.
+    const int expected = last->errors.scored + last->errors.missing + last->errors.non_finite;
+    const std::string covered = std::to_string(last->errors.scored) + " of " + std::to_string(expected);
+    std::snprintf(line, sizeof line, "  %-34s %12s\n", "agents scored at the final step", covered.c_str());
+    out << line;
+    if (const auto broken = non_finite_estimates(record); broken.steps > 0)
+      out << "  NOT VALID: " << describe(broken) << "\n";
     row("RMSE over the whole run", whole_run_error(record).rmse_m, "m");
     if (measurement_kinds(record.scenario.algorithm.name).field)
       row("final field RMSE (per cell)", last->errors.field_rmse, "");

@@ -53,6 +53,10 @@ RunHealth assess_health(const RunHealthInput& input) {
   if (input.stalls > 0) degrade(format("%.0f agent stall(s): no estimate for too long", input.stalls));
   if (input.lockstep_timeouts > 0)
     degrade(format("%.0f agent(s) missed a lockstep deadline", input.lockstep_timeouts));
+  if (input.non_finite_steps > 0) {
+    degrade(format("non-finite (NaN/Inf) estimates at %.0f step(s): the results are not valid",
+                   static_cast<double>(input.non_finite_steps)));
+  }
 
   std::uint64_t ticks = 0, late = 0, missed = 0;
   double max_lateness_s = 0.0, age_max_s = 0.0;
@@ -100,7 +104,8 @@ RunHealth assess_health(const RunHealthInput& input) {
                     {"max_world_step_lateness_s", input.max_world_step_lateness_s},
                     {"unscheduled_deaths", input.unscheduled_deaths},
                     {"stalls", input.stalls},
-                    {"lockstep_timeouts", input.lockstep_timeouts}};
+                    {"lockstep_timeouts", input.lockstep_timeouts},
+                    {"non_finite_steps", input.non_finite_steps}};
   return health;
 }
 

@@ -433,13 +433,15 @@ struct TrialSeries {
       : per_trial(static_cast<std::size_t>(trials)),
         per_trial_bound(static_cast<std::size_t>(trials)),
         final_rmse(static_cast<std::size_t>(trials), 0.0),
-        final_flagged(static_cast<std::size_t>(trials), 0) {}
+        final_flagged(static_cast<std::size_t>(trials), 0),
+        non_finite_steps(static_cast<std::size_t>(trials), 0) {}
   // Per trial, per step: (mse, rmse, nees).
   std::vector<std::vector<std::array<double, 3>>> per_trial;
   // Per trial, per step: the squared bound and all-data bound (NaN when the run has none).
   std::vector<std::vector<std::array<double, 2>>> per_trial_bound;
   std::vector<double> final_rmse;
   std::vector<int> final_flagged;
+  std::vector<std::size_t> non_finite_steps;
 
   /// Trial t's rows, from its record.
   void add(int t, const RunRecord& record, std::size_t steps) {
@@ -452,6 +454,7 @@ struct TrialSeries {
     }
     final_rmse[static_cast<std::size_t>(t)] = record.final_metrics()->errors.rmse_m;
     final_flagged[static_cast<std::size_t>(t)] = record.final_metrics()->errors.flagged;
+    non_finite_steps[static_cast<std::size_t>(t)] = non_finite_estimates(record).steps;
   }
 };
 
@@ -534,6 +537,7 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
     result.steps.push_back(aggregate_step(k, trials, series, result.first_trial.metrics));
   result.final_rmse_per_trial = std::move(series.final_rmse);
   result.final_flagged_per_trial = std::move(series.final_flagged);
+  result.non_finite_steps_per_trial = std::move(series.non_finite_steps);
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return result;
 }

@@ -11,6 +11,14 @@
 #include "swarmloc/models/multipath.hpp"
 
 namespace swarmloc::sim {
+namespace {
+
+/// NaN or Inf in the mean, or in a covariance the estimate calls valid.
+bool holds_non_finite(const estimators::Estimate& estimate) {
+  return !estimate.mean_m.allFinite() || (estimate.valid && !estimate.covariance.allFinite());
+}
+
+}  // namespace
 
 ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anchor,
                  const std::vector<std::optional<estimators::Estimate>>& estimates) {
@@ -19,16 +27,26 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
   double sum = 0.0;
   double nees_sum = 0.0;
   int nees_count = 0;
+  bool broken_mean = false;
+  bool broken_nees = false;
   for (std::size_t i = 0; i < truth.size(); ++i) {
     if (is_anchor[i]) continue;
     if (!estimates[i]) {
       ++stats.missing;
       continue;
     }
+    if (!truth[i].allFinite()) {  // recorded data without ground truth at this instant: nothing to score
+      ++stats.missing;
+      continue;
+    }
     const Vec2 error = estimates[i]->mean_m - truth[i];
     const double norm = error.norm();
+    const Mat2& cov = estimates[i]->covariance;
+    const bool broken_covariance = estimates[i]->valid && !cov.allFinite();
+    if (!std::isfinite(norm) || broken_covariance) ++stats.non_finite;
+    if (broken_covariance) broken_nees = true;
     if (!std::isfinite(norm)) {
-      ++stats.missing;
+      broken_mean = true;
       continue;
     }
     squared += norm * norm;
@@ -36,7 +54,6 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
     stats.max_error_m = std::max(stats.max_error_m, norm);
     ++stats.scored;
     if (estimates[i]->inconsistent) ++stats.flagged;
-    const Mat2& cov = estimates[i]->covariance;
     if (estimates[i]->valid && cov.allFinite() && cov.determinant() > 0.0) {
       nees_sum += error.dot(cov.ldlt().solve(error));
       ++nees_count;
@@ -47,6 +64,9 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
     stats.mean_error_m = sum / stats.scored;
   }
   stats.nees = nees_count > 0 ? nees_sum / nees_count : std::numeric_limits<double>::quiet_NaN();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  if (broken_mean) stats.rmse_m = stats.mean_error_m = stats.max_error_m = kInf;
+  if (broken_nees) stats.nees = kInf;
   return stats;
 }
 
@@ -59,14 +79,22 @@ ErrorStats score(const World& world, const std::vector<std::optional<estimators:
                                               : score(world.truth, world.is_anchor, estimates);
   if (world.field.size() == 0) return stats;
   double squared = 0.0;
-  for (const auto& estimate : estimates) {
+  bool broken_field = false;
+  for (std::size_t i = 0; i < estimates.size(); ++i) {
+    const auto& estimate = estimates[i];
     if (!estimate || estimate->field.size() != world.field.size()) continue;
     const double error = (estimate->field - world.field).squaredNorm();
-    if (!std::isfinite(error)) continue;
+    if (!std::isfinite(error)) {
+      broken_field = true;
+      // Once per agent: a non-anchor with a broken position is counted already.
+      if (world.is_anchor[i] || !holds_non_finite(*estimate)) ++stats.non_finite;
+      continue;
+    }
     squared += error / static_cast<double>(world.field.size());
     ++stats.field_scored;
   }
   if (stats.field_scored > 0) stats.field_rmse = std::sqrt(squared / stats.field_scored);
+  if (broken_field) stats.field_rmse = std::numeric_limits<double>::infinity();
   return stats;
 }
 

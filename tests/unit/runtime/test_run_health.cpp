@@ -202,6 +202,51 @@ TEST(Liveness, ScheduledFaultsAreExpectedSilence) {
   EXPECT_EQ(restarted.stalls(), 1);
 }
 
+// A restart near the end leaves less time than its start-up grace: silence then must still count.
+TEST(Liveness, AnAgentNotHeardSinceItsRestartIsStalledWhenTheRunCloses) {
+  LivenessTracker tracker(3, free_run_limits());
+  for (AgentId i = 0; i < 3; ++i) tracker.heard(i, 0, 0.0);
+  tracker.scheduled_down(0);
+  tracker.scheduled_down(1);
+  tracker.scheduled_up(0, 27.0, true);  // restarted, never heard again
+  tracker.scheduled_up(1, 27.0, true);  // restarted and heard
+  tracker.heard(1, 290, 29.0);
+  tracker.heard(2, 299, 29.9);
+  tracker.close(299, 30.0, {true, true, true});
+  EXPECT_EQ(tracker.stalls(), 1) << "3 s into a 10 s grace, but the run is over";
+  ASSERT_EQ(tracker.events().size(), 1U);
+  EXPECT_EQ(tracker.events()[0].agent, 0);
+  EXPECT_NE(tracker.events()[0].reason.find("not heard"), std::string::npos) << tracker.events()[0].reason;
+  EXPECT_EQ(tracker.fate(0).status, "stalled");
+  EXPECT_EQ(tracker.fate(1).status, "ok");
+
+  LivenessTracker down(1, free_run_limits());
+  down.heard(0, 0, 0.0);
+  down.scheduled_down(0);  // killed and not restarted: expected silence to the end
+  down.close(299, 30.0, {false});
+  EXPECT_EQ(down.stalls(), 0);
+
+  LivenessTracker hello(1, free_run_limits());
+  hello.heard(0, 0, 0.0);
+  hello.scheduled_down(0);
+  hello.scheduled_up(0, 29.8, true);
+  hello.heard(0, 0, 29.9);  // the new process's hello: alive, but no step run, nothing to score
+  hello.close(299, 30.0, {false});
+  EXPECT_EQ(hello.stalls(), 1);
+  EXPECT_NE(hello.events().at(0).reason.find("no step run"), std::string::npos) << hello.events()[0].reason;
+}
+
+TEST(RunHealth, NonFiniteEstimatesMakeTheResultsInvalid) {
+  auto input = quiet_run();
+  input.free_run = false;  // lockstep or in-process: no schedule to miss, still no NaN allowed
+  input.non_finite_steps = 1;
+  const auto health = assess_health(input);
+  ASSERT_FALSE(health.healthy);
+  ASSERT_EQ(health.reasons.size(), 1U);
+  EXPECT_NE(health.reasons[0].find("non-finite"), std::string::npos) << health.reasons[0];
+  EXPECT_EQ(health.figures["non_finite_steps"], 1);
+}
+
 TEST(Liveness, DescribesExits) {
   EXPECT_EQ(describe_exit(1), "exit status 1");
   EXPECT_NE(describe_exit(137).find("signal 9"), std::string::npos);

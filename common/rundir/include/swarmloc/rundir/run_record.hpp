@@ -99,6 +99,17 @@ struct WholeRunError {
 };
 WholeRunError whole_run_error(const RunRecord& record);
 
+/// Steps at which some agent's estimate was NaN or Inf (ErrorStats::non_finite). Any makes the run's
+/// results invalid: `run` and `sim` end with exit 3 and say so (docs/robustness.md, "Non-finite estimates").
+struct NonFiniteEstimates {
+  std::size_t steps = 0;
+  std::int64_t first_step = -1;
+  int most_agents = 0;  ///< the most agents broken at one step
+};
+NonFiniteEstimates non_finite_estimates(const RunRecord& record);
+/// "non-finite estimates at K step(s) from step S (up to N agents)"; empty when there are none.
+std::string describe(const NonFiniteEstimates& broken);
+
 nlohmann::json summary_json(const RunRecord& record);
 
 /// Writes the run directory; creates it if needed. Plots are made with gnuplot when it is installed

@@ -45,7 +45,8 @@ struct RunHealthInput {
   int unscheduled_deaths = 0;
   int stalls = 0;
   int lockstep_timeouts = 0;
-  std::vector<AgentHealth> agents;  ///< one per agent that reported
+  std::size_t non_finite_steps = 0;  ///< steps scored with a NaN/Inf estimate (metrics.hpp ErrorStats)
+  std::vector<AgentHealth> agents;   ///< one per agent that reported
 };
 
 /// Limits of a healthy run (docs/robustness.md).

@@ -88,6 +88,8 @@ struct MonteCarloResult {
   std::vector<double> final_rmse_per_trial;
   /// Agents the self-check flags at the final step (docs/algorithms.md §1.6).
   std::vector<int> final_flagged_per_trial;
+  /// Steps at which some agent's estimate was NaN or Inf, per trial (run_record.hpp NonFiniteEstimates).
+  std::vector<std::size_t> non_finite_steps_per_trial;
   RunRecord first_trial;  ///< trial 0 in full (estimates, links) for the run directory
   int trials = 0;
   int threads = 0;

@@ -16,14 +16,20 @@ struct ErrorStats {
   double max_error_m = 0.0;
   double nees = 0.0;  ///< mean of eᵀP⁻¹e over agents with a valid covariance (2 if consistent)
   int scored = 0;     ///< non-anchor agents with an estimate
-  int missing = 0;    ///< non-anchor agents without any estimate yet
-  int flagged = 0;    ///< scored agents whose self-check finds them inconsistent (docs/algorithms.md §1.6)
+  int missing = 0;    ///< non-anchor agents without any estimate yet, or without ground truth (recorded gaps)
+  /// Non-anchor agents whose estimate holds NaN or Inf (in its mean, or in a covariance it calls valid): a
+  /// broken estimate, not a missing one. Any makes rmse_m, mean_error_m and max_error_m (mean) or nees
+  /// (covariance) +inf, so a diverged agent can never leave a clean-looking figure (docs/robustness.md,
+  /// "Non-finite estimates").
+  int non_finite = 0;
+  int flagged = 0;  ///< scored agents whose self-check finds them inconsistent (docs/algorithms.md §1.6)
   /// joint_field: sqrt of the mean over agents with a field estimate of ‖ŷ_i − y‖² / cells (NaN otherwise).
   double field_rmse = std::numeric_limits<double>::quiet_NaN();
   int field_scored = 0;
 };
 
-/// `estimates[i]` may be nullopt (no report from agent i yet): counted as missing, not scored.
+/// `estimates[i]` may be nullopt (no report from agent i yet): counted as missing, not scored. A non-finite
+/// estimate is counted in ErrorStats::non_finite and poisons the step's figures.
 ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anchor,
                  const std::vector<std::optional<estimators::Estimate>>& estimates);
 

@@ -1,0 +1,108 @@
+// A NaN or Inf estimate is a broken agent, not a missing one (docs/robustness.md, "Non-finite estimates"):
+// it is counted, it makes the step's figures +inf, and the run's table and summary say the results are not
+// valid, so a diverged agent cannot leave a smaller, clean-looking RMSE behind.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/rundir/run_record.hpp"
+#include "swarmloc/sim/simulator.hpp"
+#include "swarmloc/world/metrics.hpp"
+#include "swarmloc/world/world.hpp"
+
+namespace swarmloc::sim {
+namespace {
+
+constexpr double kNotANumber = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+config::Scenario eight_agent_scenario() {
+  return config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml",
+                               {"run.steps=4", "world.agents=8", "world.anchors=3", "world.area_m=15"});
+}
+
+/// Every agent at its truth plus 0.1 m east, with a unit covariance.
+std::vector<std::optional<estimators::Estimate>> estimates_near_truth(const World& world) {
+  std::vector<std::optional<estimators::Estimate>> estimates(world.truth.size());
+  for (std::size_t i = 0; i < world.truth.size(); ++i) {
+    estimators::Estimate estimate;
+    estimate.mean_m = world.truth[i] + Vec2(0.1, 0.0);
+    estimate.covariance = Mat2::Identity();
+    estimate.valid = true;
+    estimates[i] = estimate;
+  }
+  return estimates;
+}
+
+std::size_t first_non_anchor(const World& world) {
+  std::size_t i = 0;
+  while (world.is_anchor[i]) ++i;
+  return i;
+}
+
+TEST(NonFiniteEstimates, ABrokenMeanIsCountedAndMakesTheErrorInfinite) {
+  const World world = build_world(eight_agent_scenario());
+  auto estimates = estimates_near_truth(world);
+  const ErrorStats clean = score(world, estimates);
+  EXPECT_NEAR(clean.rmse_m, 0.1, 1e-12);
+  EXPECT_EQ(clean.non_finite, 0);
+
+  estimates[first_non_anchor(world)]->mean_m.x() = kNotANumber;
+  const ErrorStats broken = score(world, estimates);
+  EXPECT_EQ(broken.non_finite, 1);
+  EXPECT_EQ(broken.missing, 0) << "a broken estimate is not a missing one";
+  EXPECT_EQ(broken.scored, clean.scored - 1);
+  EXPECT_EQ(broken.rmse_m, kInfinity) << "not the 0.1 m of the others";
+  EXPECT_EQ(broken.max_error_m, kInfinity);
+  EXPECT_NEAR(broken.nees, 0.01, 1e-12) << "the NEES of the finite ones; their covariances are fine";
+
+  estimates[first_non_anchor(world)].reset();
+  EXPECT_EQ(score(world, estimates).missing, 1) << "no report is still just missing";
+}
+
+TEST(NonFiniteEstimates, ABrokenCovarianceMakesTheNeesInfiniteButNotTheError) {
+  const World world = build_world(eight_agent_scenario());
+  auto estimates = estimates_near_truth(world);
+  estimates[first_non_anchor(world)]->covariance(0, 1) = kInfinity;
+  const ErrorStats stats = score(world, estimates);
+  EXPECT_EQ(stats.non_finite, 1);
+  EXPECT_NEAR(stats.rmse_m, 0.1, 1e-12);
+  EXPECT_EQ(stats.nees, kInfinity);
+  // Without a claim to a covariance (not yet localized), whatever it holds is not judged.
+  estimates[first_non_anchor(world)]->valid = false;
+  EXPECT_EQ(score(world, estimates).non_finite, 0);
+}
+
+TEST(NonFiniteEstimates, TheRunRecordSaysTheResultsAreNotValid) {
+  const auto scenario = eight_agent_scenario();
+  RunRecord record = run_simulation(scenario, SimOptions{});
+  ASSERT_EQ(record.metrics.size(), 4U);
+  EXPECT_EQ(non_finite_estimates(record).steps, 0U);
+  EXPECT_EQ(result_table(record).find("NOT VALID"), std::string::npos);
+  EXPECT_NE(result_table(record).find("agents scored at the final step"), std::string::npos);
+  const double clean_whole = whole_run_error(record).rmse_m;
+  ASSERT_TRUE(std::isfinite(clean_whole));
+
+  const World world = build_world(scenario);
+  auto estimates = estimates_near_truth(world);
+  estimates[first_non_anchor(world)]->mean_m.y() = kInfinity;
+  record.metrics[1].errors = score(world, estimates);  // one agent diverged at step 1, then recovered
+  const auto broken = non_finite_estimates(record);
+  EXPECT_EQ(broken.steps, 1U);
+  EXPECT_EQ(broken.first_step, record.metrics[1].step);
+  EXPECT_EQ(broken.most_agents, 1);
+  EXPECT_EQ(whole_run_error(record).rmse_m, kInfinity) << "the whole run must not skip the broken step";
+  EXPECT_NE(result_table(record).find("NOT VALID"), std::string::npos) << result_table(record);
+  const auto summary = summary_json(record);
+  EXPECT_EQ(summary["non_finite_estimates"]["steps"], 1);
+  EXPECT_TRUE(summary["whole_run"]["rmse_m"].is_null());
+  EXPECT_EQ(summary["final"]["non_finite_agents"], 0) << "the final step itself is clean";
+}
+
+}  // namespace
+}  // namespace swarmloc::sim
