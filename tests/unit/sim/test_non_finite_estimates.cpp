@@ -65,6 +65,17 @@ TEST(NonFiniteEstimates, ABrokenMeanIsCountedAndMakesTheErrorInfinite) {
   EXPECT_EQ(score(world, estimates).missing, 1) << "no report is still just missing";
 }
 
+// Recorded data (MRCLAM) has instants without ground truth: nothing to score is not a broken estimate.
+TEST(NonFiniteEstimates, AnAgentWithoutGroundTruthIsMissingNotBroken) {
+  World world = build_world(eight_agent_scenario());
+  const auto estimates = estimates_near_truth(world);
+  world.truth[first_non_anchor(world)].x() = kNotANumber;
+  const ErrorStats stats = score(world, estimates);
+  EXPECT_EQ(stats.non_finite, 0);
+  EXPECT_EQ(stats.missing, 1);
+  EXPECT_NEAR(stats.rmse_m, 0.1, 1e-12);
+}
+
 TEST(NonFiniteEstimates, ABrokenCovarianceMakesTheNeesInfiniteButNotTheError) {
   const World world = build_world(eight_agent_scenario());
   auto estimates = estimates_near_truth(world);
@@ -76,6 +87,22 @@ TEST(NonFiniteEstimates, ABrokenCovarianceMakesTheNeesInfiniteButNotTheError) {
   // Without a claim to a covariance (not yet localized), whatever it holds is not judged.
   estimates[first_non_anchor(world)]->valid = false;
   EXPECT_EQ(score(world, estimates).non_finite, 0);
+}
+
+TEST(NonFiniteEstimates, ABrokenFieldIsCountedOncePerAgent) {
+  const auto scenario =
+      config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/joint_field.yaml",
+                            {"world.agents=4", "world.anchors=1", "world.comm_radius_m=100"});
+  const World world = build_world(scenario);
+  auto estimates = estimates_near_truth(world);
+  for (auto& estimate : estimates) estimate->field = world.field;
+  EXPECT_NEAR(score(world, estimates).field_rmse, 0.0, 1e-12);
+  const std::size_t agent = first_non_anchor(world);
+  estimates[agent]->field(0) = kNotANumber;
+  EXPECT_EQ(score(world, estimates).non_finite, 1);
+  EXPECT_EQ(score(world, estimates).field_rmse, kInfinity);
+  estimates[agent]->mean_m.x() = kNotANumber;  // position and field broken: one broken agent
+  EXPECT_EQ(score(world, estimates).non_finite, 1);
 }
 
 TEST(NonFiniteEstimates, TheRunRecordSaysTheResultsAreNotValid) {
