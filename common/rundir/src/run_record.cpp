@@ -218,6 +218,30 @@ void create_output_directories(const std::filesystem::path& directory) {
   if (ec) throw OutputError(directory, "create directory", ec.value());
 }
 
+namespace {
+
+/// metrics.csv: one row per scored world step.
+std::string metrics_csv(const RunRecord& record) {
+  std::ostringstream out;
+  // A field world adds the field's error (joint_field); every other run keeps the nine columns.
+  const bool field = measurement_kinds(record.scenario.algorithm.name).field;
+  // New columns go last (`lost`, the run's bound, `non_finite`), so older readers keep their columns.
+  out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing"
+      << (field ? ",field_rmse,lost" : ",lost") << ",bound_rmse_m,bound_all_data_rmse_m,non_finite\n";
+  out << std::setprecision(9);
+  for (const auto& m : record.metrics) {
+    out << m.step << ',' << m.time_s << ',' << m.errors.rmse_m << ',' << m.errors.mean_error_m << ','
+        << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored
+        << ',' << m.errors.missing;
+    if (field) out << ',' << m.errors.field_rmse;
+    out << ',' << m.lost << ',' << m.bound_rmse_m << ',' << m.bound_all_data_rmse_m << ','
+        << m.errors.non_finite << '\n';
+  }
+  return out.str();
+}
+
+}  // namespace
+
 void write_run_directory(const std::filesystem::path& directory, const RunRecord& record,
                          const WorkControl& control) {
   create_output_directories(directory);
@@ -226,24 +250,7 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
   std::filesystem::remove(directory / "summary.json", ignored);
   write_text_file(directory / "scenario.yaml", config::to_yaml(record.scenario));
   write_text_file(directory / "seed", std::to_string(record.scenario.seed) + "\n");
-  {
-    std::ostringstream out;
-    // A field world adds the field's error (joint_field); every other run keeps the nine columns.
-    const bool field = measurement_kinds(record.scenario.algorithm.name).field;
-    // New columns go last (`lost`, then the run's bound), so older readers keep their columns.
-    out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing"
-        << (field ? ",field_rmse,lost" : ",lost") << ",bound_rmse_m,bound_all_data_rmse_m,non_finite\n";
-    out << std::setprecision(9);
-    for (const auto& m : record.metrics) {
-      out << m.step << ',' << m.time_s << ',' << m.errors.rmse_m << ',' << m.errors.mean_error_m << ','
-          << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored
-          << ',' << m.errors.missing;
-      if (field) out << ',' << m.errors.field_rmse;
-      out << ',' << m.lost << ',' << m.bound_rmse_m << ',' << m.bound_all_data_rmse_m << ','
-          << m.errors.non_finite << '\n';
-    }
-    write_text_file(directory / "metrics.csv", out.str());
-  }
+  write_text_file(directory / "metrics.csv", metrics_csv(record));
   {
     // Large runs hold millions of rows: written in chunks, not built whole in memory.
     OutputFile file(directory / "estimates.csv");
