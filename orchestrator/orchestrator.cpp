@@ -585,13 +585,15 @@ class Orchestrator {
     }
   }
 
-  /// Per agent: it has an estimate the scorer takes (a step run), or it is not the liveness's to judge
-  /// (excluded from lockstep: counted in lockstep_timeouts).
-  [[nodiscard]] std::vector<bool> scoreable_agents() const {
-    std::vector<bool> scoreable(reports_.size());
-    for (std::size_t i = 0; i < reports_.size(); ++i)
-      scoreable[i] = lockstep_excluded_[i] || (reports_[i] && reports_[i]->steps_run > 0);
-    return scoreable;
+  /// The run is over: every agent expected up and not scored at the last step is a stall. Agents the
+  /// lockstep barrier excluded are counted in lockstep_timeouts, not here.
+  void close_liveness(std::int64_t last_step) {
+    std::vector<bool> stepped(reports_.size());
+    for (std::size_t i = 0; i < reports_.size(); ++i) {
+      stepped[i] = reports_[i] && reports_[i]->steps_run > 0;
+      if (lockstep_excluded_[i]) liveness_.scheduled_down(static_cast<AgentId>(i));
+    }
+    liveness_.close(last_step, last_scored_at_s_, seconds_since(origin_), stepped);
   }
 
   /// After the settle time: re-score the last step with the newest estimates; gather counters.
@@ -601,7 +603,7 @@ class Orchestrator {
       record_.metrics.pop_back();
       while (!record_.estimates.empty() && record_.estimates.back().step == last_step)
         record_.estimates.pop_back();
-      if (!interrupted().load()) liveness_.close(last_step, seconds_since(origin_), scoreable_agents());
+      if (!interrupted().load()) close_liveness(last_step);
       score_step(last_step, last_scored_at_s_);
       if (centralized_) {
         // E-A2's total MSE (docs/algorithms.md §2.8): every agent, beacons included, at the final step.

@@ -100,20 +100,28 @@ void LivenessTracker::check(std::int64_t step, double now_s) {
   }
 }
 
-void LivenessTracker::close(std::int64_t step, double now_s, const std::vector<bool>& has_estimate) {
+void LivenessTracker::close(std::int64_t step, double judged_s, double now_s,
+                            const std::vector<bool>& has_estimate) {
   check(step, now_s);
   for (std::size_t i = 0; i < agents_.size(); ++i) {
     auto& a = agents_[i];
     if (a.state != State::kAlive) continue;
     const bool heard = a.last_heard_s && *a.last_heard_s >= a.silent_since_s;
-    if (heard && (i >= has_estimate.size() || has_estimate[i])) continue;
+    const bool stepped = i < has_estimate.size() && has_estimate[i];
+    if (heard && stepped && current(static_cast<AgentId>(i), judged_s)) continue;
+    char reason[160];
+    if (heard && stepped) {
+      std::snprintf(
+          reason, sizeof reason,
+          "unscored at the end: its newest estimate is %.2f s older than the last step (limit %.2f s)",
+          judged_s - *a.last_heard_s, limits_.current_s);
+    } else {
+      std::snprintf(reason, sizeof reason,
+                    "unscored at the end: %s since it was started, restarted or resumed %.1f s before",
+                    heard ? "no step run" : "not heard", now_s - a.silent_since_s);
+    }
     a.state = State::kStalled;
     ++stalls_;
-    char reason[160];
-    std::snprintf(
-        reason, sizeof reason,
-        "no estimate to score at the end: %s since it was started, restarted or resumed %.1f s before",
-        heard ? "no step run" : "not heard", now_s - a.silent_since_s);
     record(static_cast<AgentId>(i), LivenessEvent::Kind::kStalled, step, now_s, reason);
   }
 }

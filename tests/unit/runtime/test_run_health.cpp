@@ -202,17 +202,17 @@ TEST(Liveness, ScheduledFaultsAreExpectedSilence) {
   EXPECT_EQ(restarted.stalls(), 1);
 }
 
-// A restart near the end leaves less time than its start-up grace: silence then must still count.
-TEST(Liveness, AnAgentNotHeardSinceItsRestartIsStalledWhenTheRunCloses) {
+// Every agent expected up at the end is scored or stalled, however much of its grace or stall limit is left.
+TEST(Liveness, AnAgentUnscoredAtTheEndIsStalledWhenTheRunCloses) {
   LivenessTracker tracker(3, free_run_limits());
   for (AgentId i = 0; i < 3; ++i) tracker.heard(i, 0, 0.0);
   tracker.scheduled_down(0);
   tracker.scheduled_down(1);
   tracker.scheduled_up(0, 27.0, true);  // restarted, never heard again
   tracker.scheduled_up(1, 27.0, true);  // restarted and heard
-  tracker.heard(1, 290, 29.0);
+  tracker.heard(1, 298, 29.8);
   tracker.heard(2, 299, 29.9);
-  tracker.close(299, 30.0, {true, true, true});
+  tracker.close(299, 29.9, 30.0, {true, true, true});
   EXPECT_EQ(tracker.stalls(), 1) << "3 s into a 10 s grace, but the run is over";
   ASSERT_EQ(tracker.events().size(), 1U);
   EXPECT_EQ(tracker.events()[0].agent, 0);
@@ -223,7 +223,7 @@ TEST(Liveness, AnAgentNotHeardSinceItsRestartIsStalledWhenTheRunCloses) {
   LivenessTracker down(1, free_run_limits());
   down.heard(0, 0, 0.0);
   down.scheduled_down(0);  // killed and not restarted: expected silence to the end
-  down.close(299, 30.0, {false});
+  down.close(299, 29.9, 30.0, {false});
   EXPECT_EQ(down.stalls(), 0);
 
   LivenessTracker hello(1, free_run_limits());
@@ -231,9 +231,18 @@ TEST(Liveness, AnAgentNotHeardSinceItsRestartIsStalledWhenTheRunCloses) {
   hello.scheduled_down(0);
   hello.scheduled_up(0, 29.8, true);
   hello.heard(0, 0, 29.9);  // the new process's hello: alive, but no step run, nothing to score
-  hello.close(299, 30.0, {false});
+  hello.close(299, 29.9, 30.0, {false});
   EXPECT_EQ(hello.stalls(), 1);
   EXPECT_NE(hello.events().at(0).reason.find("no step run"), std::string::npos) << hello.events()[0].reason;
+
+  LivenessTracker stale(2, free_run_limits());
+  stale.heard(0, 290, 29.0);  // a hang 0.9 s before the last step: short of the 2 s stall limit
+  stale.heard(1, 299, 30.5);  // reported during the settle: current
+  stale.close(299, 29.9, 30.6, {true, true});
+  EXPECT_EQ(stale.stalls(), 1);
+  EXPECT_EQ(stale.events().at(0).agent, 0);
+  EXPECT_NE(stale.events()[0].reason.find("older than the last step"), std::string::npos)
+      << stale.events()[0].reason;
 }
 
 TEST(RunHealth, NonFiniteEstimatesMakeTheResultsInvalid) {

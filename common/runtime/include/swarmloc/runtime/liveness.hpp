@@ -50,11 +50,12 @@ class LivenessTracker {
   void started(double now_s);
   /// Finds stalls and resumptions at world step `step`.
   void check(std::int64_t step, double now_s);
-  /// The run is over at `now_s`: an alive agent not heard since it was started, restarted or resumed, or
-  /// without an estimate to score (`has_estimate[agent]` false: a restarted process that said hello but
-  /// ran no step), is stalled now, however much of its grace is left. A run must not end healthy with an
-  /// agent it expected up and cannot score.
-  void close(std::int64_t step, double now_s, const std::vector<bool>& has_estimate);
+  /// The run is over at `now_s`; its last step is judged at `judged_s`. Every alive agent the final step
+  /// cannot score is stalled now, however much of its grace is left: one not heard since it was started,
+  /// restarted or resumed, one without an estimate to score (`has_estimate[agent]` false: a restarted
+  /// process that said hello but ran no step), or one whose newest report is not current at `judged_s`.
+  /// A run must not end healthy with an agent it expected up and did not score.
+  void close(std::int64_t step, double judged_s, double now_s, const std::vector<bool>& has_estimate);
 
   /// Alive, not down, not stalled, and its newest report no older than LivenessLimits::current_s.
   [[nodiscard]] bool current(AgentId agent, double now_s) const;
