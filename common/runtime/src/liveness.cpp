@@ -108,7 +108,7 @@ void LivenessTracker::close(std::int64_t step, double judged_s, double now_s,
     if (a.state != State::kAlive) continue;
     const bool heard = a.last_heard_s && *a.last_heard_s >= a.silent_since_s;
     const bool stepped = i < has_estimate.size() && has_estimate[i];
-    if (heard && stepped && current(static_cast<AgentId>(i), judged_s)) continue;
+    if (stepped && current(static_cast<AgentId>(i), judged_s)) continue;  // scored at the last step
     char reason[160];
     if (heard && stepped) {
       std::snprintf(
