@@ -555,10 +555,12 @@ void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloR
   }
   write_text_file(directory / "montecarlo.csv", out.str());
   std::ostringstream trials;
-  trials << "trial,final_rmse_m,flagged_agents\n" << std::setprecision(9);
+  trials << "trial,final_rmse_m,flagged_agents,non_finite_steps\n" << std::setprecision(9);
   for (std::size_t t = 0; t < result.final_rmse_per_trial.size(); ++t) {
     trials << t << ',' << result.final_rmse_per_trial[t] << ','
-           << (t < result.final_flagged_per_trial.size() ? result.final_flagged_per_trial[t] : 0) << '\n';
+           << (t < result.final_flagged_per_trial.size() ? result.final_flagged_per_trial[t] : 0) << ','
+           << (t < result.non_finite_steps_per_trial.size() ? result.non_finite_steps_per_trial[t] : 0)
+           << '\n';
   }
   write_text_file(directory / "trials.csv", trials.str());
 }

@@ -2,10 +2,14 @@
 // it is counted, it makes the step's figures +inf, and the run's table and summary say the results are not
 // valid, so a diverged agent cannot leave a smaller, clean-looking RMSE behind.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -129,6 +133,24 @@ TEST(NonFiniteEstimates, TheRunRecordSaysTheResultsAreNotValid) {
   EXPECT_EQ(summary["non_finite_estimates"]["steps"], 1);
   EXPECT_TRUE(summary["whole_run"]["rmse_m"].is_null());
   EXPECT_EQ(summary["final"]["non_finite_agents"], 0) << "the final step itself is clean";
+}
+
+TEST(NonFiniteEstimates, TrialsCsvNamesTheTrialsThatBroke) {
+  MonteCarloResult result;
+  result.trials = 2;
+  result.final_rmse_per_trial = {0.1, kInfinity};
+  result.final_flagged_per_trial = {0, 0};
+  result.non_finite_steps_per_trial = {0, 3};
+  const auto directory =
+      std::filesystem::temp_directory_path() / ("swarmloc-non-finite-trials-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(directory);
+  std::filesystem::create_directories(directory);
+  write_monte_carlo(directory, result);
+  std::ifstream in(directory / "trials.csv");
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), "trial,final_rmse_m,flagged_agents,non_finite_steps\n0,0.1,0,0\n1,inf,0,3\n");
+  std::filesystem::remove_all(directory);
 }
 
 }  // namespace
