@@ -304,7 +304,8 @@ FinalPositions collect_final_positions(const RunRecord& record, const FinalRows&
     low = low.cwiseMin(row->truth);
     high = high.cwiseMax(row->truth);
     if (anchor) continue;
-    if (e.mean_m.allFinite()) out.errors.push_back((e.mean_m - row->truth).norm());
+    // Only an error there is: no ground truth (recorded gaps) or a broken estimate has none to bin.
+    if (e.mean_m.allFinite() && row->truth.allFinite()) out.errors.push_back((e.mean_m - row->truth).norm());
     if (!e.valid) continue;
     auto curve = covariance_ellipse(e.mean_m, e.covariance);
     if (curve.empty()) continue;

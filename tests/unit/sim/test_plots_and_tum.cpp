@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "swarmloc/rundir/plots.hpp"
 #include "swarmloc/rundir/tum_export.hpp"
 #include "swarmloc/sim/simulator.hpp"
+#include "swarmloc/world/world.hpp"
 
 namespace swarmloc::sim {
 namespace {
@@ -208,6 +210,40 @@ TEST(RunDirectory, WritesTumTrajectoriesAndPlotData) {
       EXPECT_GT(fs::file_size(plots / name), 1000u) << name;
     }
   }
+}
+
+// Recorded data has instants without ground truth (MRCLAM) and an estimator can diverge: neither has an
+// error to bin. Before 2026-12-03 a truth gap put NaN into the histogram: every agent in one 1 mm bin and
+// "mean nan m" in the title of `replay --mrclam`'s plot.
+TEST(RunDirectory, TheErrorHistogramBinsOnlyErrorsThatExist) {
+  const auto scenario = tiny_scenario();
+  const World world = build_world(scenario);
+  auto record = run_simulation(scenario);
+  const auto last_step = record.estimates.back().step;
+  int changed = 0;
+  for (auto& row : record.estimates) {
+    if (row.step != last_step || world.is_anchor[static_cast<std::size_t>(row.agent)] || changed == 2)
+      continue;
+    if (changed++ == 0) {
+      row.truth.x() = std::numeric_limits<double>::quiet_NaN();
+    } else {
+      row.estimate.mean_m.y() = std::numeric_limits<double>::infinity();
+    }
+  }
+  ASSERT_EQ(changed, 2);
+  const PlotsTempDir dir("swarmloc-plots-gaps");
+  write_run_directory(dir.path(), record);
+  std::ifstream in(dir.path() / "plots" / "error_histogram.csv");
+  std::string line;
+  std::getline(in, line);
+  int total = 0;
+  while (std::getline(in, line)) total += std::stoi(line.substr(line.rfind(',') + 1));
+  EXPECT_EQ(total, 12 - 4 - 2);
+  std::ifstream script_in(dir.path() / "plots" / "error_histogram.gp");
+  std::stringstream script;
+  script << script_in.rdbuf();
+  EXPECT_EQ(script.str().find("nan"), std::string::npos) << script.str();
+  EXPECT_NE(script.str().find("final error of 6 non-anchor agents"), std::string::npos) << script.str();
 }
 
 TEST(TumExport, WritesNothingWithoutEstimates) {
