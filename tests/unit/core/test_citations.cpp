@@ -151,10 +151,9 @@ std::vector<std::string> sections_at(const std::string& text, std::size_t at) {
 /// Each `docs/<file>.md` with the `§N.M` list after it (empty if none), and each short document name
 /// (`scale.md`, `feasibility`) that a `§N.M` or "section N" follows. `docs` lists the documents, for
 /// the short names.
-std::vector<Citation> citations(const std::string& text, const std::vector<std::string>& docs) {
-  std::vector<Citation> found;
+/// docs/<file>.md, with or without sections.
+void add_path_citations(const std::string& text, std::vector<Citation>& found) {
   static const std::string kPrefix = "docs/";
-  // docs/<file>.md, with or without sections.
   for (std::size_t at = 0; (at = text.find(kPrefix, at)) != std::string::npos; at += kPrefix.size()) {
     if (at > 0 && is_word_char(text[at - 1])) continue;  // e.g. "mydocs/"
     std::size_t end = at + kPrefix.size();
@@ -164,22 +163,31 @@ std::vector<Citation> citations(const std::string& text, const std::vector<std::
     if (file.size() < 4 || !file.ends_with(".md")) continue;
     found.push_back({file, true, sections_at(text, at + kPrefix.size() + file.size())});
   }
-  // A short name right before a section mark: "feasibility §4", "feasibility.md section 2".
-  for (const std::string& mark : {kSection, std::string("section")}) {
-    for (std::size_t at = 0; (at = text.find(mark, at)) != std::string::npos; at += mark.size()) {
-      if (mark_at(text, at) == 0) continue;
-      std::size_t end = at;
-      while (end > 0 && (text[end - 1] == ' ' || text[end - 1] == ',')) --end;
-      std::size_t start = end;
-      while (start > 0 && is_name_char(text[start - 1])) --start;
-      const std::string name = text.substr(start, end - start);
-      if (name.empty() || name.find("docs/") != std::string::npos) continue;  // counted above
-      if (name.ends_with(".md") || !resolve_short_name(name, docs).empty()) {
-        // A list is read from its first mark; a later § of the same list has a § or a separator before it.
-        found.push_back({name.ends_with(".md") ? name : name + ".md", false, sections_at(text, at)});
-      }
+}
+
+/// A short name right before a section mark `mark`: "feasibility §4", "feasibility.md section 2".
+void add_short_name_citations(const std::string& text, const std::string& mark,
+                              const std::vector<std::string>& docs, std::vector<Citation>& found) {
+  for (std::size_t at = 0; (at = text.find(mark, at)) != std::string::npos; at += mark.size()) {
+    if (mark_at(text, at) == 0) continue;
+    std::size_t end = at;
+    while (end > 0 && (text[end - 1] == ' ' || text[end - 1] == ',')) --end;
+    std::size_t start = end;
+    while (start > 0 && is_name_char(text[start - 1])) --start;
+    const std::string name = text.substr(start, end - start);
+    if (name.empty() || name.find("docs/") != std::string::npos) continue;  // counted as a path
+    if (name.ends_with(".md") || !resolve_short_name(name, docs).empty()) {
+      // A list is read from its first mark; a later § of the same list has a § or a separator before it.
+      found.push_back({name.ends_with(".md") ? name : name + ".md", false, sections_at(text, at)});
     }
   }
+}
+
+std::vector<Citation> citations(const std::string& text, const std::vector<std::string>& docs) {
+  std::vector<Citation> found;
+  add_path_citations(text, found);
+  for (const std::string& mark : {kSection, std::string("section")})
+    add_short_name_citations(text, mark, docs, found);
   return found;
 }
 
