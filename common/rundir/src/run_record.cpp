@@ -150,6 +150,7 @@ nlohmann::json summary_json(const RunRecord& record) {
     final_json["mean_error_m"] = number_or_null(last->errors.mean_error_m);
     final_json["max_error_m"] = number_or_null(last->errors.max_error_m);
     final_json["nees"] = number_or_null(last->errors.nees);
+    final_json["nees_agents"] = last->errors.nees_agents;
     final_json["scored_agents"] = last->errors.scored;
     final_json["missing_agents"] = last->errors.missing;
     final_json["non_finite_agents"] = last->errors.non_finite;
@@ -426,6 +427,13 @@ std::string result_table(const RunRecord& record) {
     row("final mean error", last->errors.mean_error_m, "m");
     row("final max error", last->errors.max_error_m, "m");
     row("final NEES (2 = consistent)", last->errors.nees, "");
+    if (last->errors.nees_agents < last->errors.scored) {  // some agents publish no covariance to judge
+      const std::string over =
+          std::to_string(last->errors.nees_agents) + " of " + std::to_string(last->errors.scored);
+      std::snprintf(line, sizeof line, "  %-34s %12s\n", "  NEES over agents with covariance",
+                    over.c_str());
+      out << line;
+    }
     std::snprintf(line, sizeof line, "  %-34s %12d\n", "agents flagged by self-check", last->errors.flagged);
     out << line;
     // Whom the final figures cover: a killed, silent or broken agent is not hidden by a smaller mean.

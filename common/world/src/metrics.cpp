@@ -64,6 +64,7 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
     stats.mean_error_m = sum / stats.scored;
   }
   stats.nees = nees_count > 0 ? nees_sum / nees_count : std::numeric_limits<double>::quiet_NaN();
+  stats.nees_agents = nees_count;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   if (broken_mean) stats.rmse_m = stats.mean_error_m = stats.max_error_m = kInf;
   if (broken_nees) stats.nees = kInf;

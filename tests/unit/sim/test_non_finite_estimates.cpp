@@ -1,6 +1,7 @@
-// A NaN or Inf estimate is a broken agent, not a missing one (docs/robustness.md, "Non-finite estimates"):
-// it is counted, it makes the step's figures +inf, and the run's table and summary say the results are not
-// valid, so a diverged agent cannot leave a smaller, clean-looking RMSE behind.
+// Whom the final figures cover (docs/robustness.md, "Non-finite estimates"). A NaN or Inf estimate is a
+// broken agent, not a missing one: it is counted, it makes the step's figures +inf, and the run's table and
+// summary say the results are not valid, so a diverged agent cannot leave a smaller, clean-looking RMSE
+// behind. The NEES says over how many agents it is taken.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -78,6 +79,24 @@ TEST(NonFiniteEstimates, AnAgentWithoutGroundTruthIsMissingNotBroken) {
   EXPECT_EQ(stats.non_finite, 0);
   EXPECT_EQ(stats.missing, 1);
   EXPECT_NEAR(stats.rmse_m, 0.1, 1e-12);
+}
+
+TEST(NonFiniteEstimates, TheNeesSaysHowManyAgentsItCovers) {
+  const World world = build_world(eight_agent_scenario());
+  auto estimates = estimates_near_truth(world);
+  estimates[first_non_anchor(world)]->valid = false;  // no covariance to judge (e.g. not yet localized)
+  const ErrorStats stats = score(world, estimates);
+  EXPECT_EQ(stats.nees_agents, stats.scored - 1);
+  RunRecord record;
+  record.agents = world.size();
+  StepMetrics metrics;
+  metrics.errors = stats;
+  record.metrics.push_back(metrics);
+  const std::string table = result_table(record);
+  const std::string covered = std::to_string(stats.scored - 1) + " of " + std::to_string(stats.scored);
+  EXPECT_NE(table.find("NEES over agents with covariance"), std::string::npos) << table;
+  EXPECT_NE(table.find(covered), std::string::npos) << table;
+  EXPECT_EQ(summary_json(record)["final"]["nees_agents"], stats.scored - 1);
 }
 
 TEST(NonFiniteEstimates, ABrokenCovarianceMakesTheNeesInfiniteButNotTheError) {

@@ -14,9 +14,10 @@ struct ErrorStats {
   double rmse_m = 0.0;
   double mean_error_m = 0.0;
   double max_error_m = 0.0;
-  double nees = 0.0;  ///< mean of eᵀP⁻¹e over agents with a valid covariance (2 if consistent)
-  int scored = 0;     ///< non-anchor agents with an estimate
-  int missing = 0;    ///< non-anchor agents without any estimate yet, or without ground truth (recorded gaps)
+  double nees = 0.0;    ///< mean of eᵀP⁻¹e over agents with a valid covariance (2 if consistent)
+  int nees_agents = 0;  ///< scored agents whose covariance is valid and positive definite: the NEES's sample
+  int scored = 0;       ///< non-anchor agents with an estimate
+  int missing = 0;  ///< non-anchor agents without any estimate yet, or without ground truth (recorded gaps)
   /// Non-anchor agents whose estimate holds NaN or Inf (in its mean, or in a covariance it calls valid): a
   /// broken estimate, not a missing one. Any makes rmse_m, mean_error_m and max_error_m (mean) or nees
   /// (covariance) +inf, so a diverged agent can never leave a clean-looking figure (docs/robustness.md,
