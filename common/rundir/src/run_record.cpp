@@ -430,8 +430,7 @@ std::string result_table(const RunRecord& record) {
     if (last->errors.nees_agents < last->errors.scored) {  // some agents publish no covariance to judge
       const std::string over =
           std::to_string(last->errors.nees_agents) + " of " + std::to_string(last->errors.scored);
-      std::snprintf(line, sizeof line, "  %-34s %12s\n", "  NEES over agents with covariance",
-                    over.c_str());
+      std::snprintf(line, sizeof line, "  %-34s %12s\n", "  NEES over agents with covariance", over.c_str());
       out << line;
     }
     std::snprintf(line, sizeof line, "  %-34s %12d\n", "agents flagged by self-check", last->errors.flagged);
