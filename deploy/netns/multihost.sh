@@ -17,7 +17,7 @@
 # Cyclone uses SPDP multicast on eth0 (dds.neighbour_discovery=false): neighbour discovery assumes
 # every peer at one address and does not work across hosts. LOSS_PERCENT (default 0) drops that
 # share of UDP frames (both directions, discovery included) in the bridge's forward hook, in the
-# switch namespace, so it is real wire loss rather than EPERM on the sender (feasibility.md pitfall).
+# switch namespace, so it is real wire loss rather than EPERM on the sender (docs/measurements/feasibility.md §1, pitfall).
 #
 # Namespaces are named slm<PID>..., so parallel or crashed runs never collide; everything created here
 # (namespaces, every process inside them) is removed on exit, also on error or Ctrl-C.
@@ -142,7 +142,8 @@ for ((i = 0; i < AGENTS; ++i)); do
   host=${NS[k]}
   if [ -n "$IMAGE" ] && [ "$k" -eq "$HOSTS" ]; then
     # The run directory is mounted at the same path, so the scenario and log paths stay valid.
-    # Explicit rlimits: in this sandbox runc cannot raise them to podman's defaults (no CAP_SYS_RESOURCE; feasibility.md).
+    # Explicit rlimits: in this sandbox runc cannot raise them to podman's defaults (no CAP_SYS_RESOURCE;
+    # docs/measurements/feasibility.md §2).
     podman run --rm --name "${P}a$i" --network "ns:/run/netns/$host" -v "$OUT:$OUT" -v "$LOGS:$LOGS" \
       --ulimit nofile=1024:1024 --ulimit nproc=1024:1024 \
       -e SWARMLOC_CYCLONE_URI_EXTRA "$IMAGE" agent --id "$i" "${SETS[@]}" \

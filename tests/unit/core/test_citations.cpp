@@ -1,7 +1,7 @@
 // The repository explains itself: every `docs/<file>.md` a source file cites exists; every `§N.M` cited
 // right after a document names a heading of that document (docs/algorithms.md keeps the specification's
 // section numbers), in every form the tree uses: "docs/design.md §4", "docs/algorithms.md §1.3.1",
-// "feasibility §4", "feasibility.md section 2", lists such as "§4.2, §4.5" and ranges such as
+// "free-run-spread §2", "free-run-spread.md section 2", lists such as "§4.2, §4.5" and ranges such as
 // "§2.1–§2.4"; and every interpretation tag such as `[B-6]` has its entry in the interpretation
 // register, docs/algorithms.md §8.
 #include <gtest/gtest.h>
@@ -73,7 +73,7 @@ bool has_section(const std::string& doc, const std::string& section) {
   return false;
 }
 
-/// Every document under docs/, by its path below docs/ ("scale.md", "measurements/feasibility.md").
+/// Every document under docs/, by its path below docs/ ("scale.md", "measurements/free-run-spread.md").
 std::vector<std::string> documents() {
   std::vector<std::string> docs;
   for (const auto& entry : fs::recursive_directory_iterator(kRoot / "docs")) {
@@ -83,8 +83,8 @@ std::vector<std::string> documents() {
   return docs;
 }
 
-/// The document under docs/ a short name stands for ("scale.md", "feasibility.md" or "feasibility" for
-/// measurements/feasibility.md); "" if none or if the name is ambiguous.
+/// The document under docs/ a short name stands for ("scale.md", "free-run-spread.md" or "free-run-spread"
+/// for measurements/free-run-spread.md); "" if none or if the name is ambiguous.
 std::string resolve_short_name(const std::string& name, const std::vector<std::string>& docs) {
   const std::string file = name.ends_with(".md") ? name : name + ".md";
   std::string found;
@@ -149,7 +149,7 @@ std::vector<std::string> sections_at(const std::string& text, std::size_t at) {
 }
 
 /// Each `docs/<file>.md` with the `§N.M` list after it (empty if none), and each short document name
-/// (`scale.md`, `feasibility`) that a `§N.M` or "section N" follows. `docs` lists the documents, for
+/// (`scale.md`, `free-run-spread`) that a `§N.M` or "section N" follows. `docs` lists the documents, for
 /// the short names.
 /// docs/<file>.md, with or without sections.
 void add_path_citations(const std::string& text, std::vector<Citation>& found) {
@@ -165,7 +165,7 @@ void add_path_citations(const std::string& text, std::vector<Citation>& found) {
   }
 }
 
-/// A short name right before a section mark `mark`: "feasibility §4", "feasibility.md section 2".
+/// A short name right before a section mark `mark`: "free-run-spread §2", "free-run-spread.md section 2".
 void add_short_name_citations(const std::string& text, const std::string& mark,
                               const std::vector<std::string>& docs, std::vector<Citation>& found) {
   for (std::size_t at = 0; (at = text.find(mark, at)) != std::string::npos; at += mark.size()) {
@@ -217,10 +217,10 @@ std::string top_section(const std::string& doc, const std::string& number) {
 
 TEST(Citations, TheScannerReadsEveryFormTheTreeUses) {
   // Spelled in pieces so that the scan of this file does not read them as citations.
-  const std::vector<std::string> docs{"validation.md", "robustness.md", "measurements/feasibility.md"};
+  const std::vector<std::string> docs{"validation.md", "robustness.md", "measurements/free-run-spread.md"};
   const std::string s = kSection;
   const auto found = citations("see docs/validation.md " + s + "4.2, " + s + "4.5 and " + s + "2.1" +
-                                   kEnDash + s + "2.4; robustness.md " + s + "3.2 or (feasibility " + s +
+                                   kEnDash + s + "2.4; robustness.md " + s + "3.2 or (free-run-spread " + s +
                                    "4). docs/scale.md. ros2.md " + "section 1.",
                                docs);
   ASSERT_EQ(found.size(), 5U);
@@ -230,7 +230,7 @@ TEST(Citations, TheScannerReadsEveryFormTheTreeUses) {
   EXPECT_TRUE(found[1].sections.empty());
   EXPECT_EQ(found[2].document, "robustness.md");
   EXPECT_EQ(found[2].sections, std::vector<std::string>{"3.2"});
-  EXPECT_EQ(found[3].document, "feasibility.md");
+  EXPECT_EQ(found[3].document, "free-run-spread.md");
   EXPECT_EQ(found[3].sections, std::vector<std::string>{"4"});
   EXPECT_EQ(found[4].document, "ros2.md");
   EXPECT_EQ(found[4].sections, std::vector<std::string>{"1"});
