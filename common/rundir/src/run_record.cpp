@@ -124,13 +124,6 @@ NonFiniteEstimates non_finite_estimates(const RunRecord& record) {
   return broken;
 }
 
-std::string describe(const NonFiniteEstimates& broken) {
-  if (broken.steps == 0) return {};
-  return "non-finite (NaN/Inf) estimates at " + std::to_string(broken.steps) + " step(s) from step " +
-         std::to_string(broken.first_step) + " (up to " + std::to_string(broken.most_agents) +
-         " agent(s) at once): the results are not valid";
-}
-
 nlohmann::json summary_json(const RunRecord& record) {
   using nlohmann::json;
   json summary;
@@ -408,6 +401,13 @@ void bound_rows(std::ostringstream& out, const RunRecord& record, const StepMetr
   }
 }
 
+/// The table's verdict line on non-finite estimates.
+std::string not_valid_line(const NonFiniteEstimates& broken) {
+  return "  NOT VALID: non-finite (NaN/Inf) estimates at " + std::to_string(broken.steps) +
+         " step(s) from step " + std::to_string(broken.first_step) + " (up to " +
+         std::to_string(broken.most_agents) + " agent(s) at once): the results are not valid\n";
+}
+
 }  // namespace
 
 std::string result_table(const RunRecord& record) {
@@ -440,8 +440,7 @@ std::string result_table(const RunRecord& record) {
     const std::string covered = std::to_string(last->errors.scored) + " of " + std::to_string(expected);
     std::snprintf(line, sizeof line, "  %-34s %12s\n", "agents scored at the final step", covered.c_str());
     out << line;
-    if (const auto broken = non_finite_estimates(record); broken.steps > 0)
-      out << "  NOT VALID: " << describe(broken) << "\n";
+    if (const auto broken = non_finite_estimates(record); broken.steps > 0) out << not_valid_line(broken);
     row("RMSE over the whole run", whole_run_error(record).rmse_m, "m");
     if (measurement_kinds(record.scenario.algorithm.name).field)
       row("final field RMSE (per cell)", last->errors.field_rmse, "");

@@ -107,8 +107,6 @@ struct NonFiniteEstimates {
   int most_agents = 0;  ///< the most agents broken at one step
 };
 NonFiniteEstimates non_finite_estimates(const RunRecord& record);
-/// "non-finite estimates at K step(s) from step S (up to N agents)"; empty when there are none.
-std::string describe(const NonFiniteEstimates& broken);
 
 nlohmann::json summary_json(const RunRecord& record);
 
