@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "dml_region.hpp"
 #include "rank_one_message.hpp"
 #include "swarmloc/core/gaussian.hpp"
 #include "swarmloc/estimators/kalman_family.hpp"
@@ -18,18 +19,9 @@ constexpr double kSelfCheckFalseAlarm = 1e-6;    // per agent and step: a health
 constexpr double kMirrorSeparationSigmas = 6.0;  // a mirror pair the guess tells apart: 3σ on each side
 constexpr double kMultilaterationSpreadFraction = 0.1;  // its std, as a fraction of the shortest range
 constexpr int kSolveIterations = 5;
-using rank_one::kCavityTolerance;
+using rank_one::cavity_variance;
 using rank_one::kShortestDistanceM;
 using rank_one::message_scale;
-
-/// a^T P a for the variance of position `covariance` along unit vector `a`, after the rank-one message
-/// s·aaᵀ is taken out of its information (Sherman–Morrison): q / (1 − s q), +inf if nothing is left.
-double cavity_variance(const Mat2& covariance, const Vec2& a, double message_scale) {
-  const double q = a.dot(covariance * a);
-  if (!std::isfinite(q)) return kInfinity;
-  const double remaining = 1.0 - message_scale * q;
-  return remaining > kCavityTolerance ? q / remaining : kInfinity;
-}
 
 bool exactly_known(const StateMessage& state) { return state.anchor && state.covariance.isZero(); }
 
@@ -263,9 +255,44 @@ void Dml::update_information() {
     const double far_variance =
         exactly_known(edge.state) ? 0.0 : cavity_variance(edge.state.covariance, a, sent_scale);
     edge.message_scale = message_scale(edge.information(), far_variance);
+    edge.sent_scale = sent_scale;
     information += edge.message_scale * a * a.transpose();
   }
   information_ = information;
+}
+
+std::optional<Mat2> Dml::region_covariance() const {
+  std::vector<region::Member> members;
+  std::vector<AgentId> member_ids;
+  std::vector<region::Known> known;
+  for (const auto& [id, edge] : edges_) {
+    if (!edge.usable()) continue;
+    if (exactly_known(edge.state)) {
+      known.push_back({edge.state.mean_m, edge.information()});
+    } else {
+      members.push_back({edge.state.mean_m, edge.state.covariance, edge.information(), edge.sent_scale});
+      member_ids.push_back(id);
+    }
+  }
+  // What each member relayed of its own draws of its ranges to the others (member_ids are ascending).
+  MatX halves =
+      MatX::Zero(static_cast<Eigen::Index>(members.size()), static_cast<Eigen::Index>(members.size()));
+  relays_.for_each_information_among(member_ids, [&halves](std::size_t p, std::size_t q, double information) {
+    halves(static_cast<Eigen::Index>(p), static_cast<Eigen::Index>(q)) = information;
+  });
+  std::vector<region::Link> links;
+  for (Eigen::Index p = 0; p < halves.rows(); ++p) {
+    for (Eigen::Index q = p + 1; q < halves.rows(); ++q) {
+      // Each end relays its own draws of the range; one end's alone stands for both (equal draws).
+      const double from_p = halves(p, q);
+      const double from_q = halves(q, p);
+      const double information =
+          from_p > 0.0 && from_q > 0.0 ? from_p + from_q : 2.0 * std::max(from_p, from_q);
+      if (information > 0.0)
+        links.push_back({static_cast<std::size_t>(p), static_cast<std::size_t>(q), information});
+    }
+  }
+  return region::centre_covariance(x_, fix_information_, members, links, known);
 }
 
 double Dml::residual_statistic(int& degrees_of_freedom) const {
@@ -313,6 +340,7 @@ StepOutput Dml::step(const StepInput& input) {
     if (hinge_) check_mirror();
     x_ = solve_position(x_, refs);
     update_information();
+    reported_covariance_ = positive_definite(information_) ? region_covariance() : std::nullopt;
     int dof = 0;
     const double statistic = residual_statistic(dof);
     inconsistent_ = (dof > 0 && statistic > chi_square_upper_quantile(dof, kSelfCheckFalseAlarm)) ||
@@ -376,7 +404,7 @@ Estimate Dml::estimate() const {
   Estimate estimate;
   estimate.mean_m = x_;
   const StateMessage state = state_message();
-  estimate.covariance = state.covariance;
+  estimate.covariance = reported_covariance_ && !exact_anchor() ? *reported_covariance_ : state.covariance;
   estimate.valid = exact_anchor() || (localized_ && positive_definite(information_));
   estimate.inconsistent = inconsistent_ || ambiguous_start_;
   return estimate;

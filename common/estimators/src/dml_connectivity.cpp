@@ -40,7 +40,7 @@ void RelayedRanges::absorb(AgentId self, AgentId sender, const Vec2& sender_mean
                                      [](const Entry& entry, const std::pair<AgentId, AgentId>& key) {
                                        return std::pair{entry.via, entry.peer} < key;
                                      });
-    const Entry fresh{sender, summary.peer, summary.peer_mean_m, summary.mean_range_m};
+    const Entry fresh{sender, summary.peer, summary.peer_mean_m, summary.mean_range_m, summary.information};
     if (at != entries_.end() && at->via == sender && at->peer == summary.peer) {
       *at = fresh;
     } else {

@@ -46,6 +46,7 @@ class Dml final : public Estimator {
     bool has_state = false;
     StateMessage state;          // the neighbour's newest state
     double message_scale = 0.0;  // m_{j→i} = s·aaᵀ, the BP message last added to the belief
+    double sent_scale = 0.0;     // m_{i→j}, the message this agent's belief sends the neighbour
     [[nodiscard]] double information() const { return own_information + peer_information; }
     [[nodiscard]] double mean_range_m() const;
     [[nodiscard]] bool usable() const;
@@ -76,6 +77,7 @@ class Dml final : public Estimator {
   void check_mirror();
   [[nodiscard]] std::optional<GuessedStart> start_from_guess(const std::vector<Reference>& refs) const;
   void update_information();
+  [[nodiscard]] std::optional<Mat2> region_covariance() const;
   [[nodiscard]] double residual_statistic(int& degrees_of_freedom) const;
   [[nodiscard]] bool exact_anchor() const;
   [[nodiscard]] StateMessage state_message() const;
@@ -84,8 +86,9 @@ class Dml final : public Estimator {
   AgentSetup setup_;
   std::map<AgentId, Edge> edges_;
   Vec2 x_;
-  Mat2 information_ = Mat2::Zero();
-  Mat2 fix_information_ = Mat2::Zero();  // Σ C⁻¹ of the fixes (anchors with noisy fixes)
+  Mat2 information_ = Mat2::Zero();          // the belief propagation belief (published)
+  std::optional<Mat2> reported_covariance_;  // its neighbourhood solved exactly (§9.3): the estimate's
+  Mat2 fix_information_ = Mat2::Zero();      // Σ C⁻¹ of the fixes (anchors with noisy fixes)
   Vec2 fix_information_vector_ = Vec2::Zero();
   bool localized_ = false;
   bool inconsistent_ = false;

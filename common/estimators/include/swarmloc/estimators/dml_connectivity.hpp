@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <utility>
 #include <vector>
 
 #include "swarmloc/estimators/messages.hpp"
@@ -56,6 +57,21 @@ class RelayedRanges {
   /// The worst violation at `x` of the bounds through the neighbours `own_range` gives a range to
   /// (> 0: x contradicts the data by that much); -inf if no bound is known. `own_range(c)` returns this
   /// agent's mean range to c, or a negative value if it has none.
+  /// Calls visit(p, q, information) for what agent ids[p] relayed of its own draws of its range to
+  /// ids[q]; `ids` ascending.
+  template <typename Visit>
+  void for_each_information_among(const std::vector<AgentId>& ids, const Visit& visit) const {
+    auto entry = entries_.begin();
+    for (std::size_t p = 0; p < ids.size(); ++p) {
+      entry = std::lower_bound(entry, entries_.end(), ids[p],
+                               [](const Entry& e, AgentId via) { return e.via < via; });
+      std::size_t q = 0;
+      for (; entry != entries_.end() && entry->via == ids[p]; ++entry) {
+        while (q < ids.size() && ids[q] < entry->peer) ++q;  // both ascending: one merge pass
+        if (q < ids.size() && ids[q] == entry->peer) visit(p, q, entry->information);
+      }
+    }
+  }
   template <typename OwnRange>
   [[nodiscard]] double violation(const Vec2& x, const OwnRange& own_range) const {
     double worst = -std::numeric_limits<double>::infinity();
@@ -77,6 +93,7 @@ class RelayedRanges {
     AgentId peer;
     Vec2 peer_mean_m;
     double range_m;
+    double information;
   };
   std::vector<Entry> entries_;  // newest per (via, peer), sorted by (via, peer): scanned every step
 };
