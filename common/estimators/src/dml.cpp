@@ -5,9 +5,9 @@
 #include <limits>
 #include <stdexcept>
 
-#include "dml_region.hpp"
 #include "rank_one_message.hpp"
 #include "swarmloc/core/gaussian.hpp"
+#include "swarmloc/estimators/dml_region.hpp"
 #include "swarmloc/estimators/kalman_family.hpp"
 #include "swarmloc/estimators/self_check.hpp"
 

@@ -1,4 +1,4 @@
-#include "dml_region.hpp"
+#include "swarmloc/estimators/dml_region.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>

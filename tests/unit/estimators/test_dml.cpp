@@ -8,10 +8,12 @@
 #include <map>
 #include <memory>
 #include <random>
+#include <tuple>
 #include <utility>
 #include <vector>
 
 #include "swarmloc/estimators/dml.hpp"
+#include "swarmloc/estimators/dml_region.hpp"
 
 namespace swarmloc::estimators {
 namespace {
@@ -364,6 +366,39 @@ TEST(DmlRelayedRanges, BoundsTheDistanceToARelayedAgentByTheTriangleInequality) 
   EXPECT_NEAR(relays.violation(Vec2(4.0, 3.0), three_m_from_agent_3), -2.0, 1e-12);
   EXPECT_EQ(relays.violation(Vec2(4.0, 9.0), [](AgentId) { return -1.0; }),
             -std::numeric_limits<double>::infinity());
+}
+
+TEST(DmlRelayedRanges, VisitsWhatTheGivenAgentsRelayedOfTheirRangesToEachOther) {
+  RelayedRanges relays;
+  relays.absorb(1, 3, Vec2(0, 0),
+                {{5, 10.0, 4.0, Vec2(4, 0)}, {7, 20.0, 4.0, Vec2(0, 4)}, {9, 30.0, 5.0, Vec2(3, 4)}});
+  relays.absorb(1, 5, Vec2(4, 0), {{3, 60.0, 4.0, Vec2(0, 0)}});
+  relays.absorb(1, 7, Vec2(0, 4), {{3, 40.0, 4.0, Vec2(0, 0)}, {5, 50.0, 5.7, Vec2(4, 0)}});
+  std::vector<std::tuple<std::size_t, std::size_t, double>> visited;
+  relays.for_each_information_among({3, 7, 9}, [&visited](std::size_t p, std::size_t q, double information) {
+    visited.emplace_back(p, q, information);
+  });
+  // 3→7, 3→9 and 7→3; agent 5 is not among them, as sender or as peer.
+  const std::vector<std::tuple<std::size_t, std::size_t, double>> expected{
+      {0, 1, 20.0}, {0, 2, 30.0}, {1, 0, 40.0}};
+  EXPECT_EQ(visited, expected);
+}
+
+TEST(DmlRegion, AStaleMessageTakesOutNoMoreThanTheNeighboursBeliefHolds) {
+  // The centre hears two anchors (x and y) and one neighbour along x with belief precision 100 there. Had it
+  // sent that neighbour 50 along x, 50 of the neighbour's 100 come from outside; a message of 150 (stale,
+  // larger than the belief) leaves nothing outside, not −50.
+  const std::vector<region::Known> anchors{{Vec2(-10, 0), 100.0}, {Vec2(0, -10), 100.0}};
+  const auto centre = [&anchors](double sent_scale) {
+    const std::vector<region::Member> members{{Vec2(10, 0), 0.01 * Mat2::Identity(), 200.0, sent_scale}};
+    return region::centre_covariance(Vec2::Zero(), Mat2::Zero(), members, {}, anchors);
+  };
+  ASSERT_TRUE(centre(50.0).has_value());
+  // Along x: 100 from the anchor + the neighbour's range (200) against its outside 50: 200·50/250 = 40.
+  EXPECT_NEAR((*centre(50.0))(0, 0), 1.0 / 140.0, 1e-12);
+  ASSERT_TRUE(centre(150.0).has_value());
+  EXPECT_NEAR((*centre(150.0))(0, 0), 1.0 / 100.0, 1e-12);  // nothing from outside: the range adds nothing
+  EXPECT_NEAR((*centre(150.0))(1, 1), 1.0 / 100.0, 1e-12);
 }
 
 TEST(Dml, SelfCheckFlagsRangesItsSolutionCannotExplain) {
