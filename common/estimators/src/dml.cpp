@@ -19,9 +19,18 @@ constexpr double kSelfCheckFalseAlarm = 1e-6;    // per agent and step: a health
 constexpr double kMirrorSeparationSigmas = 6.0;  // a mirror pair the guess tells apart: 3σ on each side
 constexpr double kMultilaterationSpreadFraction = 0.1;  // its std, as a fraction of the shortest range
 constexpr int kSolveIterations = 5;
-using rank_one::cavity_variance;
+using rank_one::kCavityTolerance;
 using rank_one::kShortestDistanceM;
 using rank_one::message_scale;
+
+/// a^T P a for the variance of position `covariance` along unit vector `a`, after the rank-one message
+/// s·aaᵀ is taken out of its information (Sherman–Morrison): q / (1 − s q), +inf if nothing is left.
+double cavity_variance(const Mat2& covariance, const Vec2& a, double message_scale) {
+  const double q = a.dot(covariance * a);
+  if (!std::isfinite(q)) return kInfinity;
+  const double remaining = 1.0 - message_scale * q;
+  return remaining > kCavityTolerance ? q / remaining : kInfinity;
+}
 
 bool exactly_known(const StateMessage& state) { return state.anchor && state.covariance.isZero(); }
 

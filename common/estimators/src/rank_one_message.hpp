@@ -2,9 +2,6 @@
 // The rank-one range messages of dml and dml_track (docs/algorithms.md §9.3, §9.8).
 
 #include <cmath>
-#include <limits>
-
-#include "swarmloc/core/types.hpp"
 
 namespace swarmloc::estimators::rank_one {
 
@@ -16,15 +13,6 @@ inline constexpr double kCavityTolerance = 1e-9;
 inline double message_scale(double range_information, double far_end_variance) {
   if (!std::isfinite(far_end_variance) || !(range_information > 0.0)) return 0.0;
   return 1.0 / (1.0 / range_information + far_end_variance);
-}
-
-/// aᵀPa, the variance of a position with covariance P along unit vector a, after the rank-one message
-/// s·aaᵀ is taken out of its information (Sherman–Morrison): q / (1 − s q), +inf if nothing is left.
-inline double cavity_variance(const Mat2& covariance, const Vec2& a, double message_scale) {
-  const double q = a.dot(covariance * a);
-  if (!std::isfinite(q)) return std::numeric_limits<double>::infinity();
-  const double remaining = 1.0 - message_scale * q;
-  return remaining > kCavityTolerance ? q / remaining : std::numeric_limits<double>::infinity();
 }
 
 }  // namespace swarmloc::estimators::rank_one

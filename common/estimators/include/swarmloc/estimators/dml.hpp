@@ -87,7 +87,7 @@ class Dml final : public Estimator {
   std::map<AgentId, Edge> edges_;
   Vec2 x_;
   Mat2 information_ = Mat2::Zero();          // the belief propagation belief (published)
-  std::optional<Mat2> reported_covariance_;  // its neighbourhood solved exactly (§9.3): the estimate's
+  std::optional<Mat2> reported_covariance_;  // the estimate's: docs/algorithms.md §9.3, region correction
   Mat2 fix_information_ = Mat2::Zero();      // Σ C⁻¹ of the fixes (anchors with noisy fixes)
   Vec2 fix_information_vector_ = Vec2::Zero();
   bool localized_ = false;

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <utility>
 #include <vector>
 
 #include "swarmloc/estimators/messages.hpp"
@@ -54,9 +53,6 @@ class RelayedRanges {
   /// Keeps `sender`'s summaries that carry a peer's mean (not the sender's own mean, its "unknown").
   void absorb(AgentId self, AgentId sender, const Vec2& sender_mean_m,
               const std::vector<EdgeRangeSummary>& summaries);
-  /// The worst violation at `x` of the bounds through the neighbours `own_range` gives a range to
-  /// (> 0: x contradicts the data by that much); -inf if no bound is known. `own_range(c)` returns this
-  /// agent's mean range to c, or a negative value if it has none.
   /// Calls visit(p, q, information) for what agent ids[p] relayed of its own draws of its range to
   /// ids[q]; `ids` ascending.
   template <typename Visit>
@@ -72,6 +68,9 @@ class RelayedRanges {
       }
     }
   }
+  /// The worst violation at `x` of the bounds through the neighbours `own_range` gives a range to
+  /// (> 0: x contradicts the data by that much); -inf if no bound is known. `own_range(c)` returns this
+  /// agent's mean range to c, or a negative value if it has none.
   template <typename OwnRange>
   [[nodiscard]] double violation(const Vec2& x, const OwnRange& own_range) const {
     double worst = -std::numeric_limits<double>::infinity();
