@@ -143,7 +143,7 @@ CentralizedKind ea2_filter_params(const Ea2Config& config, const Ea2World& world
   return kind;
 }
 
-// eq. (5) at the true `positions`; the disk graph follows them (§1.2).
+// eq. (5) at the true `positions`; the disk graph follows them (docs/algorithms.md §1.2).
 CentralizedMeasurements ea2_measurements(const Ea2Config& config, const Ea2World& world,
                                          const std::vector<Vec2>& positions, std::mt19937_64& noise_rng,
                                          std::normal_distribution<double>& standard) {

@@ -38,7 +38,7 @@ namespace {
 
 using Positions = std::array<Vec2, kNodes>;
 
-/// Walls outside the square, both endpoints of every pair on the same side (§5.4 [D-6]).
+/// Walls outside the square, both endpoints of every pair on the same side (docs/algorithms.md §5.4 [D-6]).
 std::vector<models::Wall> make_walls(const MultipathExperimentConfig& c) {
   const Vec2 center(0.5 * c.side_m, 0.5 * c.side_m);
   const double offset = c.side_m * std::numbers::sqrt2 / 2.0 + c.wall_margin_m;
@@ -82,7 +82,7 @@ std::vector<estimators::MeasurementBatch> measure_paths(const MultipathExperimen
       const auto path =
           models::reflect_path(s[static_cast<std::size_t>(i)], s[static_cast<std::size_t>(j)], walls[r]);
       if (!path) throw std::logic_error("multipath_experiment: wall between two nodes");
-      // One noisy path shared by both ends; DOA errors independent at each end (§5.4).
+      // One noisy path shared by both ends; DOA errors independent at each end (docs/algorithms.md §5.4).
       const double length_error = draws.range_noise(draws.rng);
       const double theta_ji = path->theta_ji_rad + draws.doa_noise(draws.rng);
       const double theta_ij = path->theta_ij_rad + draws.doa_noise(draws.rng);
@@ -170,7 +170,7 @@ void add_centralized(MultipathExperimentResult& result,
   }
 }
 
-/// Pairwise baseline (§5.4): S_1, S_2 from S_0; S_3 from S_1; S_4 from S_2.
+/// Pairwise baseline (docs/algorithms.md §5.4): S_1, S_2 from S_0; S_3 from S_1; S_4 from S_2.
 void add_pairwise(MultipathExperimentResult& result, const std::vector<estimators::MeasurementBatch>& batches,
                   const Positions& s, const estimators::bp::MultipathBpParams& params) {
   std::array<estimators::bp::Gaussian2, kNodes> pairwise;

@@ -35,7 +35,8 @@ TEST(MultipathBp, PathSetRecoversTheRelativePositionWithoutNoise) {  // eq. (2)
   EXPECT_MATRIX_NEAR(rel, Vec2(s_i - s_j), 1e-10);
 }
 
-TEST(MultipathBp, SafeMessageEqualsThePaperForm) {  // §5.2: W⁻¹ = (σ²Σ + P_j)⁻¹, ν = μ_j + G†d
+// docs/algorithms.md §5.2: W⁻¹ = (σ²Σ + P_j)⁻¹, ν = μ_j + G†d.
+TEST(MultipathBp, SafeMessageEqualsThePaperForm) {
   const PathSet set = path_set(two_paths(Vec2(3.0, 7.0), Vec2(8.0, 3.0), 1), 1);
   MultipathBpParams params;
   params.sigma2 = 2.0;

@@ -192,7 +192,7 @@ TEST(Dle, AStaticTargetsPriorIsNotTiedToAWorldStep) {
   EXPECT_EQ(output.outbox.information->world_step, -1);
 }
 
-TEST(Dle, MissingNeighbourIsDroppedAndTheWeightReturnsToSelf) {  // §4.5
+TEST(Dle, MissingNeighbourIsDroppedAndTheWeightReturnsToSelf) {  // docs/algorithms.md §4.5
   DleParams params;
   AgentSetup setup;
   Dle node(setup, params);

@@ -137,7 +137,8 @@ TEST(Ieif, IteratedUpdateHalvesStepsThatWouldRaiseTheCost) {
 }
 
 TEST(Ieif, UpdateEqualsPredictionPlusGainTimesInnovation) {
-  // §3.2: x̂_{k|k} = x̂_{k|k−1} + Ψ_{k|k}⁻¹ J_iᵀ R̃⁻¹ ν, with uncertain (non-anchor) neighbours.
+  // x̂_{k|k} = x̂_{k|k−1} + Ψ_{k|k}⁻¹ J_iᵀ R̃⁻¹ ν with uncertain (non-anchor) neighbours
+  // (docs/algorithms.md §3.2).
   std::mt19937_64 rng(7);
   std::normal_distribution<double> normal(0.0, 1.0);
   for (int trial = 0; trial < 20; ++trial) {

@@ -12,7 +12,7 @@
 namespace swarmloc::sim::experiments {
 namespace {
 
-/// 002 §4.6 scaled to 60 nodes at the same density and edges per node, 10 runs.
+/// 002, docs/algorithms.md §4.6 scaled to 60 nodes at the same density and edges per node, 10 runs.
 JacobiExperimentConfig scaled_geometric_experiment() {
   JacobiExperimentConfig config;
   config.num_nodes = 60;

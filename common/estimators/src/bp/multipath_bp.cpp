@@ -122,7 +122,7 @@ std::optional<InformationPair> neighbour_message(const LinkModel& link, const Ve
   if (link.full_rank) {
     const Mat2& A = link.A;                  // A_ji = (σ²Σ_ji)⁻¹
     const Vec2 nu = mean_j + link.relative;  // ν_ji = μ_j + G†d
-    // W_ji⁻¹ = A − A(A + Λ_j)⁻¹A = (A⁻¹ + Λ_j⁻¹)⁻¹ (§5.2); anchor: W⁻¹ = A.
+    // W_ji⁻¹ = A − A(A + Λ_j)⁻¹A = (A⁻¹ + Λ_j⁻¹)⁻¹ (docs/algorithms.md §5.2); anchor: W⁻¹ = A.
     message.information = anchor_j ? A : Mat2(A - A * (A + info_j).ldlt().solve(A));
     message.information = 0.5 * (message.information + message.information.transpose());
     message.info_vec = message.information * nu;  // eq. (4) numerator term

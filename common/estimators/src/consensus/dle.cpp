@@ -38,7 +38,7 @@ Dle::Dle(const AgentSetup& setup, const DleParams& params) : setup_(setup), para
     H_ = MatX::Zero(2, d);
     H_.leftCols(2).setIdentity();
   }
-  omega_ = VecX::Zero(d);  // ω_{i,0} = 0 (§4.2)
+  omega_ = VecX::Zero(d);  // ω_{i,0} = 0 (docs/algorithms.md §4.2)
   Omega_ = params.initial_information * MatX::Identity(d, d);
   y_ = VecX::Zero(d);
   predicted_ = params.initial_mean.size() != 0 ? params.initial_mean : VecX::Zero(d);
@@ -121,7 +121,7 @@ bool Dle::add_observations(const MeasurementBatch& batch, VecX& omega_plus, MatX
     if (V.info() != Eigen::Success) continue;
     MatX H = H_;
     Vec2 value = z.value;
-    if (z.kind == 1) {      // range–bearing: linearize at ŷ_pred (§4.2)
+    if (z.kind == 1) {      // range–bearing: linearize at ŷ_pred (docs/algorithms.md §4.2)
       if (d < 2) continue;  // no target position to range to
       const Vec2 target = predicted_.head<2>();
       const auto r = models::range(setup_.initial_guess_m, target);

@@ -45,7 +45,8 @@ CombinedPrior combine_priors(const VecX& omega, const MatX& Omega, std::int32_t 
     for (const auto& received : input.inbox->states)
       degrees.neighbours[received.sender] = received.message.degree;
   }
-  // Neighbour priors of this target (newest per sender, §4.5), aligned copies when asked for.
+  // Neighbour priors of this target (newest per sender), aligned copies when asked for
+  // (docs/algorithms.md §4.5).
   struct Prior {
     AgentId sender;
     const InformationMessage* message;
@@ -79,7 +80,8 @@ CombinedPrior combine_priors(const VecX& omega, const MatX& Omega, std::int32_t 
   } else {
     degrees.own = std::max(degrees.own, static_cast<int>(priors.size()));
   }
-  // Metropolis κ over the received set; missing neighbours dropped, then renormalized with self (§4.5).
+  // Metropolis κ over the received set; missing neighbours dropped, then renormalized with self
+  // (docs/algorithms.md §4.5).
   std::vector<double> kappa;
   double kappa_sum = 0.0;
   for (const Prior& prior : priors) {

@@ -39,7 +39,8 @@ Outbox JacobiLocalization::initial_outbox() const { return published(); }
 
 StepOutput JacobiLocalization::step(const StepInput& input) {
   StepOutput out;
-  // Running means over the samples received so far ([C-3]); a missing sample leaves s̄_ij unchanged (§4.5).
+  // Running means over the samples received so far ([C-3]); a missing sample leaves s̄_ij unchanged
+  // (docs/algorithms.md §4.5).
   if (input.measurements != nullptr) {
     for (const RelativeMeasurement& m : input.measurements->relative) {
       if (m.peer == setup_.id || !m.delta_m.allFinite() || !positive_definite(m.covariance)) continue;
@@ -53,7 +54,8 @@ StepOutput JacobiLocalization::step(const StepInput& input) {
     out.outbox = published();
     return out;
   }
-  // 002 eq. (9) over the neighbours with both a measurement mean and a STATE (newest, §4.5).
+  // 002 eq. (9) over the neighbours with both a measurement mean and a STATE (the newest:
+  // docs/algorithms.md §4.5).
   Mat2 D = Mat2::Zero();
   Vec2 b = Vec2::Zero();
   for (const auto& received : input.inbox->states) {

@@ -56,7 +56,7 @@ JointLocalizationField::JointLocalizationField(const AgentSetup& setup, const Jo
     : setup_(setup), params_(params), jacobi_(setup) {
   validate(params);
   const Eigen::Index d = params.sensor.grid.cells();
-  omega_ = VecX::Zero(d);  // ω_{i,0} = 0, Ω_{i,0} = 0 (static field, §4.2)
+  omega_ = VecX::Zero(d);  // ω_{i,0} = 0, Ω_{i,0} = 0 (static field, docs/algorithms.md §4.2)
   Omega_ = MatX::Zero(d, d);
   y_ = VecX::Zero(d);
 }
