@@ -413,7 +413,7 @@ Estimate Dml::estimate() const {
   Estimate estimate;
   estimate.mean_m = x_;
   const StateMessage state = state_message();
-  estimate.covariance = reported_covariance_ && !exact_anchor() ? *reported_covariance_ : state.covariance;
+  estimate.covariance = reported_covariance_.value_or(state.covariance);
   estimate.valid = exact_anchor() || (localized_ && positive_definite(information_));
   estimate.inconsistent = inconsistent_ || ambiguous_start_;
   return estimate;
