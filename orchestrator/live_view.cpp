@@ -69,6 +69,10 @@ nlohmann::json snapshot_json(const ViewSnapshot& s) {
           {"crlb_rmse_m", metric(s.crlb_rmse_m)},
           {"bound_rmse_m", metric(s.bound_rmse_m)},
           {"bound_kind", s.bound_kind},
+          {"optimum_kind", s.optimum_kind},
+          {"optimum_step", s.optimum_step},
+          {"optimum_rmse_m", number_or_null(s.optimum_rmse_m)},
+          {"efficiency", number_or_null(s.efficiency)},
           {"scored", s.scored},
           {"done", s.done}};
 }
@@ -118,6 +122,20 @@ void set_metrics(ViewSnapshot& snapshot, const sim::StepMetrics& metrics) {
   snapshot.has_metrics = true;
 }
 
+void set_optimum(ViewSnapshot& snapshot, const sim::RunRecord& record, std::size_t up_to) {
+  snapshot.optimum_kind = std::string(sim::to_string(record.optimum.kind));
+  const std::size_t end =
+      std::min(up_to == SIZE_MAX ? record.metrics.size() : up_to + 1, record.metrics.size());
+  for (std::size_t k = end; k-- > 0;) {
+    const auto& m = record.metrics[k];
+    if (!std::isfinite(m.optimum_rmse_m)) continue;
+    snapshot.optimum_step = m.step;
+    snapshot.optimum_rmse_m = m.optimum_rmse_m;
+    snapshot.efficiency = m.errors.rmse_m / m.optimum_rmse_m;
+    return;
+  }
+}
+
 void play_back(LiveView& view, const config::Scenario& scenario, const sim::RunRecord& record,
                const std::atomic<bool>& interrupted) {
   using Clock = std::chrono::steady_clock;
@@ -149,6 +167,7 @@ void play_back(LiveView& view, const config::Scenario& scenario, const sim::RunR
     }
     for (std::size_t i = 0; i < s.agents.size(); ++i) s.agents[i].estimate = latest[i];
     set_metrics(s, metrics);
+    set_optimum(s, record, k);
     const bool done = k + 1 == record.metrics.size();
     s.done = done;
     s.phase = done ? "done" : "playback";

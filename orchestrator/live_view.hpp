@@ -5,11 +5,13 @@
 //   GET /            the page; it polls /state.json about five times a second and redraws
 //   GET /state.json  {step, steps, time_s, phase, done, agents: [{id, anchor, truth, estimate,
 //                    covariance}], target, links: [{a, b, delivered_fraction, delivered, sent}], rmse_m,
-//                    mean_error_m, max_error_m, crlb_rmse_m, bound_rmse_m, bound_kind, nees, scored, …}
+//                    mean_error_m, max_error_m, crlb_rmse_m, bound_rmse_m, bound_kind, nees, scored,
+//                    optimum_kind, optimum_step, optimum_rmse_m, efficiency, …}
 //                    (target: [x, y] of the true target when the agents estimate it, dle; else null)
 // The run loop calls publish() once per world step: it swaps a shared pointer under a mutex and
 // returns, so the run never waits for the viewer; JSON is made on the server thread per request.
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -59,6 +61,12 @@ struct ViewSnapshot {
   /// The run's bound at this step and its kind (sim::RunRecord::bound, docs/algorithms.md §1.3.1).
   double bound_rmse_m = std::numeric_limits<double>::quiet_NaN();
   std::string bound_kind;
+  /// The newest solved optimum of the run's data (docs/algorithms.md §1.3.2): its kind, step, RMSE, and the
+  /// RMSE of that step over it (the efficiency). Solved at checkpoints, so it trails `step`.
+  std::string optimum_kind;
+  std::int64_t optimum_step = -1;
+  double optimum_rmse_m = std::numeric_limits<double>::quiet_NaN();
+  double efficiency = std::numeric_limits<double>::quiet_NaN();
   int scored = 0;            ///< non-anchor agents with an estimate
   bool has_metrics = false;  ///< false before the first scored step
   bool done = false;         ///< final: the figures equal summary.json's final.*
@@ -74,6 +82,9 @@ void add_link_counters(ViewSnapshot& snapshot, AgentId sender, AgentId receiver,
                        const sim::LinkCounters& counters);
 /// Copies a scored step's figures (step, RMSE, mean/max error, NEES, accumulated CRLB, scored agents).
 void set_metrics(ViewSnapshot& snapshot, const sim::StepMetrics& metrics);
+/// The optimum's kind, and its newest solved step among record.metrics[0 … up_to] (default: all) with the
+/// efficiency there.
+void set_optimum(ViewSnapshot& snapshot, const sim::RunRecord& record, std::size_t up_to = SIZE_MAX);
 
 class LiveView;
 /// `swarmloc sim --view`: replays a finished in-process run at run.rate_hz (estimates and scores per

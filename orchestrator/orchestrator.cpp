@@ -103,6 +103,7 @@ class Orchestrator {
     if (ready) record_.extra["world_steps_s"] = seconds_since(world_phase_start);
     settle_and_stop(transport, ready, failed, world_phase_start);
     finish_scoring();
+    sim::update_run_optimum(record_, true);
     launcher_.stop_all(5.0);
     const sim::RunHealth health = complete_record(transport, started, ready);
     sim::write_run_directory(run_dir_, record_);
@@ -222,6 +223,7 @@ class Orchestrator {
         add_link_counters(snapshot, link.sender, static_cast<AgentId>(i), link);
     }
     if (!record_.metrics.empty()) set_metrics(snapshot, record_.metrics.back());
+    set_optimum(snapshot, record_);
     view_->publish(std::move(snapshot));
   }
 
@@ -384,6 +386,7 @@ class Orchestrator {
       for (AgentId i = 0; i < world_.size(); ++i)
         batches.push_back(sim::generate_batch(world_, scenario_, i, step));
       if (recording_) recording_->append_step(step, world_.truth, batches);
+      sim::observe_world_step(record_, step, world_.truth, batches);
       transport.publish_batches(
           sim::Header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns}, batches);
       transport.publish_ros2_world(step, stamp_ns, world_.truth, batches);  // dds.ros2 only (docs/ros2.md)
@@ -397,6 +400,7 @@ class Orchestrator {
       }
       watch_processes(step);
       score_step(step);
+      sim::update_run_optimum(record_, false);  // a checkpoint's optimum, for the live view
       publish_view("running");
       progress_.update(progress_line(step, scenario_.run.steps, record_.metrics.back().errors,
                                      current_agents_, world_.size(), seconds_since(started)),

@@ -116,6 +116,7 @@ struct MonteCarloFigures {
   double spread = 0.0;  ///< final RMSE, standard deviation over trials
   double mc_rmse = 0.0;
   double mc_bound = 0.0;
+  double mc_optimum = 0.0;  ///< sqrt of the mean over trials of the optimum² of each trial's data
   std::ptrdiff_t trials_flagged = 0;
   std::ptrdiff_t trials_non_finite = 0;  ///< trials with a NaN/Inf estimate at some step: results not valid
 };
@@ -156,6 +157,13 @@ MonteCarloFigures summarize_monte_carlo(sim::MonteCarloResult& result, const std
   record.extra["monte_carlo"]["bound_all_data_rmse_m"] =
       finite_or_null(result.steps.back().bound_all_data_rmse_m);
   record.extra["monte_carlo"]["ratio"] = finite_or_null(figures.mc_rmse / figures.mc_bound);
+  // The optimum of each trial's own data (docs/algorithms.md §1.3.2): the pooled efficiency.
+  double optimum_sq = 0.0;
+  for (double o : result.final_optimum_per_trial) optimum_sq += o * o;
+  figures.mc_optimum = std::sqrt(optimum_sq / result.trials);
+  record.extra["monte_carlo"]["optimum_kind"] = std::string(sim::to_string(record.optimum.kind));
+  record.extra["monte_carlo"]["optimum_rmse_m"] = finite_or_null(figures.mc_optimum);
+  record.extra["monte_carlo"]["efficiency"] = finite_or_null(figures.mc_rmse / figures.mc_optimum);
   return figures;
 }
 
@@ -171,6 +179,9 @@ void print_monte_carlo(const sim::MonteCarloResult& result, const MonteCarloFigu
       "  Monte Carlo RMSE (sqrt of the mean final squared error) %.4f m; bound (%s) %.4f m; ratio %.2f\n",
       figures.mc_rmse, std::string(sim::to_string(record.bound.kind)).c_str(), figures.mc_bound,
       figures.mc_rmse / figures.mc_bound);
+  std::printf("  Monte Carlo optimum of each trial's data (%s) %.4f m; efficiency %.3f\n",
+              std::string(sim::to_string(record.optimum.kind)).c_str(), figures.mc_optimum,
+              figures.mc_rmse / figures.mc_optimum);
   std::printf("  Monte Carlo: %lld of %d trials end with agents flagged by their self-check\n",
               static_cast<long long>(figures.trials_flagged), result.trials);
   if (figures.trials_non_finite > 0) {

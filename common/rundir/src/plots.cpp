@@ -101,6 +101,21 @@ std::string bound_label(const RunRecord& record) {
   return kind + " (" + draws + ")";
 }
 
+/// Whether the run's optimum was solved at some scored step (plots/optimum.csv has rows).
+bool has_optimum_points(const RunRecord& record) {
+  return std::any_of(record.metrics.begin(), record.metrics.end(),
+                     [](const StepMetrics& m) { return std::isfinite(m.optimum_rmse_m); });
+}
+
+/// "optimum of the run's data (batch ML, all draws)" (no '_': the enhanced terminal's subscript).
+std::string optimum_label(const RunRecord& record) {
+  std::string kind(to_string(record.optimum.kind));
+  std::string draws(to_string(record.optimum.draws));
+  std::replace(kind.begin(), kind.end(), '_', ' ');
+  std::replace(draws.begin(), draws.end(), '_', ' ');
+  return "optimum of the run's data (" + kind + ", " + draws + ")";
+}
+
 std::string error_script(const RunRecord& record) {
   // metrics.csv: the bound columns come after `lost` (run_record.cpp), one further on in a field world.
   const int bound_column = measurement_kinds(record.scenario.algorithm.name).field ? 12 : 11;
@@ -120,6 +135,29 @@ std::string error_script(const RunRecord& record) {
       gp << ", '' using 1:" << bound_column + 1
          << " skip 1 with lines dt 3 lw 1 lc rgb 'gray40' title 'the same bound with all the data'";
     }
+  }
+  if (has_optimum_points(record)) {
+    gp << ", 'optimum.csv' using 1:3 skip 1 with linespoints pt 7 ps 0.6 lw 1.5 lc rgb '#d62728' title "
+       << gnuplot_quote(optimum_label(record));
+  }
+  gp << "\n";
+  return gp.str();
+}
+
+/// plots/efficiency.gp: the RMSE over the optimum of the run's own data at its solved steps, beside the
+/// RMSE over the bound (docs/algorithms.md §1.3.2).
+std::string efficiency_script(const RunRecord& record) {
+  std::ostringstream gp;
+  gp << preamble("efficiency.png") << "set key top right box opaque\nset logscale y\n"
+     << "set xlabel 'world step'\nset ylabel 'RMSE / reference (log scale)'\n"
+     << "set title \"" << header_title(record) << "\\nefficiency: RMSE over the " << optimum_label(record)
+     << "\"\n"
+     << "plot 1 with lines dt 2 lw 1 lc rgb 'black' title 'the optimum of the run''s data (1)', "
+        "'optimum.csv' using 1:4 skip 1 with linespoints pt 7 ps 0.6 lw 2 lc rgb '#d62728' "
+        "title 'RMSE / optimum (efficiency)'";
+  if (record.bound.kind != BoundKind::kNone) {
+    gp << ", '' using 1:5 skip 1 with linespoints pt 6 ps 0.6 lw 1 lc rgb 'gray40' title 'RMSE / "
+       << bound_label(record) << "'";
   }
   gp << "\n";
   return gp.str();
@@ -268,6 +306,21 @@ namespace {
 
 using FinalRows = std::map<AgentId, const EstimateRow*>;
 using ScriptMap = std::map<std::string, std::string>;  // file name -> script
+
+/// plots/optimum.csv: the steps the optimum was solved at, with the RMSE, the optimum, the efficiency and the
+/// RMSE over the bound there; and efficiency.gp. Nothing without a solved step.
+void add_optimum_plot(const std::filesystem::path& plots, const RunRecord& record, ScriptMap& scripts) {
+  if (!has_optimum_points(record)) return;
+  std::ostringstream out;
+  out << "step,rmse_m,optimum_rmse_m,efficiency,bound_ratio\n" << std::setprecision(9);
+  for (const auto& m : record.metrics) {
+    if (!std::isfinite(m.optimum_rmse_m)) continue;
+    out << m.step << ',' << m.errors.rmse_m << ',' << m.optimum_rmse_m << ','
+        << m.errors.rmse_m / m.optimum_rmse_m << ',' << m.errors.rmse_m / m.bound_rmse_m << '\n';
+  }
+  write_text_file(plots / "optimum.csv", out.str());
+  scripts["efficiency.gp"] = efficiency_script(record);
+}
 
 /// NEES with its per-step band (the number of scored agents can change from step to step).
 void write_nees_band(const std::filesystem::path& plots, const RunRecord& record) {
@@ -488,6 +541,7 @@ bool write_plots(const std::filesystem::path& directory, const RunRecord& record
   if (!record.metrics.empty()) scripts["error.gp"] = error_script(record);
   write_nees_band(plots, record);
   if (!record.metrics.empty()) scripts["nees.gp"] = nees_script(record);
+  add_optimum_plot(plots, record, scripts);
   const auto finals = final_rows(record);
   if (!finals.empty()) add_final_position_plots(plots, record, finals, scripts);
   write_scripts(plots, scripts);

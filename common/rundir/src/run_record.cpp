@@ -76,6 +76,8 @@ LinkTotals link_totals(const RunRecord& record) {
 void compute_run_bounds(RunRecord& record, const World& world) {
   record.crlb = scenario_crlb(world, record.scenario);
   record.bound = run_bound(world, record.scenario, record.crlb);
+  record.optimum_data = std::make_shared<OptimumAccumulator>(world, record.scenario);
+  record.optimum = record.optimum_data->result();
 }
 
 void set_step_bounds(const RunRecord& record, StepMetrics& metrics) {
@@ -168,6 +170,8 @@ nlohmann::json summary_json(const RunRecord& record) {
                      {"accumulated_rmse_m", last ? number_or_null(last->crlb_rmse_m) : json()},
                      {"localizable", record.crlb.localizable}};
   summary["bound"] = bound_json(record);
+  summary["optimum"] = optimum_json(record);
+  summary["efficiency"] = number_or_null(run_efficiency(record));
   const auto totals = link_totals(record);
   summary["links"] = {{"sent", totals.sent},
                       {"arrived", totals.arrived},
@@ -219,9 +223,11 @@ std::string metrics_csv(const RunRecord& record) {
   std::ostringstream out;
   // A field world adds the field's error (joint_field); every other run keeps the nine columns.
   const bool field = measurement_kinds(record.scenario.algorithm.name).field;
-  // New columns go last (`lost`, the run's bound, `non_finite`), so older readers keep their columns.
+  // New columns go last (`lost`, the run's bound, `non_finite`, the optimum), so older readers keep their
+  // columns. The optimum and the efficiency are NaN off the optimum's checkpoints.
   out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing"
-      << (field ? ",field_rmse,lost" : ",lost") << ",bound_rmse_m,bound_all_data_rmse_m,non_finite\n";
+      << (field ? ",field_rmse,lost" : ",lost")
+      << ",bound_rmse_m,bound_all_data_rmse_m,non_finite,optimum_rmse_m,efficiency\n";
   out << std::setprecision(9);
   for (const auto& m : record.metrics) {
     out << m.step << ',' << m.time_s << ',' << m.errors.rmse_m << ',' << m.errors.mean_error_m << ','
@@ -229,7 +235,8 @@ std::string metrics_csv(const RunRecord& record) {
         << ',' << m.errors.missing;
     if (field) out << ',' << m.errors.field_rmse;
     out << ',' << m.lost << ',' << m.bound_rmse_m << ',' << m.bound_all_data_rmse_m << ','
-        << m.errors.non_finite << '\n';
+        << m.errors.non_finite << ',' << m.optimum_rmse_m << ',' << m.errors.rmse_m / m.optimum_rmse_m
+        << '\n';
   }
   return out.str();
 }
@@ -401,6 +408,25 @@ void bound_rows(std::ostringstream& out, const RunRecord& record, const StepMetr
   }
 }
 
+/// The result table's optimum (docs/algorithms.md §1.3.2): its kind and RMSE, and the efficiency beside the
+/// bound's ratio.
+void optimum_rows(std::ostringstream& out, const RunRecord& record, const StepMetrics& last) {
+  char line[256];
+  const RunOptimum& optimum = record.optimum;
+  if (optimum.kind == OptimumKind::kNone) {
+    std::snprintf(line, sizeof line, "  %-34s %12s  (%s)\n", "optimum of the run's data", "none",
+                  optimum.reason.c_str());
+    out << line;
+    return;
+  }
+  const std::string label = "optimum of its data (" + std::string(to_string(optimum.draws)) + ")";
+  std::snprintf(line, sizeof line, "  %-34s %12.4f m\n", label.c_str(), last.optimum_rmse_m);
+  out << line;
+  std::snprintf(line, sizeof line, "  %-34s %12.2f  (%s)\n", "final RMSE / optimum (efficiency)",
+                last.errors.rmse_m / last.optimum_rmse_m, std::string(to_string(optimum.kind)).c_str());
+  out << line;
+}
+
 /// The table's verdict line on non-finite estimates.
 std::string not_valid_line(const NonFiniteEstimates& broken) {
   return "  NOT VALID: non-finite (NaN/Inf) estimates at " + std::to_string(broken.steps) +
@@ -445,6 +471,7 @@ std::string result_table(const RunRecord& record) {
     if (measurement_kinds(record.scenario.algorithm.name).field)
       row("final field RMSE (per cell)", last->errors.field_rmse, "");
     bound_rows(out, record, *last);
+    optimum_rows(out, record, *last);
     // replay --mrclam: the baselines scored on the same steps (RMSE over the whole run).
     const auto baselines = record.extra.find("baselines");
     if (baselines != record.extra.end()) {

@@ -139,6 +139,7 @@ class AgentClockSimulation {
       std::visit([&](const auto& what) { handle(what, record); }, event.what);
     }
 
+    update_run_optimum(record, true);
     record_agents(record, world_, agents_);
     record.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     return record;
@@ -262,7 +263,7 @@ class AgentClockSimulation {
     if (options_.on_step && !score_step.settled) options_.on_step(score_step.step, metrics.errors);
   }
 
-  void handle(const WorldStep& world_step, RunRecord& /*record*/) {
+  void handle(const WorldStep& world_step, RunRecord& record) {
     const std::int64_t step = world_step.step;
     if (step > 0) advance_truth(world_, scenario_, step);
     apply_faults(step);
@@ -271,6 +272,7 @@ class AgentClockSimulation {
     batches.reserve(static_cast<std::size_t>(world_.size()));
     for (AgentId i = 0; i < world_.size(); ++i) batches.push_back(generate_batch(world_, scenario_, i, step));
     if (options_.recorder) options_.recorder->world_step(step, world_.truth, batches);
+    observe_world_step(record, step, world_.truth, batches);
     for (AgentId i = 0; i < world_.size(); ++i) {
       auto batch = std::make_shared<const estimators::MeasurementBatch>(
           std::move(batches[static_cast<std::size_t>(i)]));

@@ -128,6 +128,7 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
       pointers[static_cast<std::size_t>(i)] = &batches[static_cast<std::size_t>(i)];
     }
     if (options.recorder) options.recorder->world_step(step, world.truth, batches);
+    observe_world_step(record, step, world.truth, batches);
     filter->step(centralized_measurements(scenario, pointers));
     if (filter->last_truncated_entries() > 0) ++truncated_steps;
     for (AgentId i = 0; i < n; ++i) estimates[static_cast<std::size_t>(i)] = fusion_estimate(*filter, i);
@@ -147,6 +148,7 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
     if (options.on_step) options.on_step(step, metrics.errors);
   }
 
+  update_run_optimum(record, true);
   for (AgentId i = 0; i < n; ++i) {
     AgentSummary summary;
     summary.agent = i;

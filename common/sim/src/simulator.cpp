@@ -290,6 +290,7 @@ void LockstepSimulation::run_step(std::int64_t step, RunRecord& record) {
     batches_[static_cast<std::size_t>(i)] = generate_batch(world_, scenario_, i, step);
   });
   if (options_.recorder) options_.recorder->world_step(step, world_.truth, batches_);
+  observe_world_step(record, step, world_.truth, batches_);
   for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) { step_agent_with_batch(i, step); });
   run_extra_rounds(step);
   score_step(step, record);
@@ -419,6 +420,7 @@ RunRecord run_simulation(const config::Scenario& scenario, World world, const Si
   RunRecord record;
   simulation.set_up(record);
   simulation.run_steps(record);
+  update_run_optimum(record, true);
   record_agents(record, world, simulation.agents());
   record.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return record;
@@ -426,35 +428,45 @@ RunRecord run_simulation(const config::Scenario& scenario, World world, const Si
 
 namespace {
 
-/// Per trial, per step: (mse, rmse, nees), the squared bounds, and the final figures. Trials are
+/// Per trial, per step: (mse, rmse, nees), the squared bounds and optimum, and the final figures. Trials are
 /// independent, so threads share nothing but an index.
 struct TrialSeries {
   explicit TrialSeries(int trials)
       : per_trial(static_cast<std::size_t>(trials)),
         per_trial_bound(static_cast<std::size_t>(trials)),
         final_rmse(static_cast<std::size_t>(trials), 0.0),
+        final_bound(static_cast<std::size_t>(trials), 0.0),
+        final_optimum(static_cast<std::size_t>(trials), 0.0),
         final_flagged(static_cast<std::size_t>(trials), 0),
         non_finite_steps(static_cast<std::size_t>(trials), 0) {}
   // Per trial, per step: (mse, rmse, nees).
   std::vector<std::vector<std::array<double, 3>>> per_trial;
-  // Per trial, per step: the squared bound and all-data bound (NaN when the run has none).
-  std::vector<std::vector<std::array<double, 2>>> per_trial_bound;
+  // Per trial, per step: the squared bound, all-data bound and optimum (NaN when the run has none, and the
+  // optimum off its checkpoints).
+  std::vector<std::vector<std::array<double, 3>>> per_trial_bound;
   std::vector<double> final_rmse;
+  std::vector<double> final_bound;
+  std::vector<double> final_optimum;
   std::vector<int> final_flagged;
   std::vector<std::size_t> non_finite_steps;
 
   /// Trial t's rows, from its record.
   void add(int t, const RunRecord& record, std::size_t steps) {
-    auto& rows = per_trial[static_cast<std::size_t>(t)];
+    const auto k = static_cast<std::size_t>(t);
+    auto& rows = per_trial[k];
     rows.reserve(steps);
     for (const auto& m : record.metrics) {
       rows.push_back({m.errors.rmse_m * m.errors.rmse_m, m.errors.rmse_m, m.errors.nees});
-      per_trial_bound[static_cast<std::size_t>(t)].push_back(
-          {m.bound_rmse_m * m.bound_rmse_m, m.bound_all_data_rmse_m * m.bound_all_data_rmse_m});
+      per_trial_bound[k].push_back({m.bound_rmse_m * m.bound_rmse_m,
+                                    m.bound_all_data_rmse_m * m.bound_all_data_rmse_m,
+                                    m.optimum_rmse_m * m.optimum_rmse_m});
     }
-    final_rmse[static_cast<std::size_t>(t)] = record.final_metrics()->errors.rmse_m;
-    final_flagged[static_cast<std::size_t>(t)] = record.final_metrics()->errors.flagged;
-    non_finite_steps[static_cast<std::size_t>(t)] = non_finite_estimates(record).steps;
+    const StepMetrics& last = *record.final_metrics();
+    final_rmse[k] = last.errors.rmse_m;
+    final_bound[k] = last.bound_rmse_m;
+    final_optimum[k] = last.optimum_rmse_m;
+    final_flagged[k] = last.errors.flagged;
+    non_finite_steps[k] = non_finite_estimates(record).steps;
   }
 };
 
@@ -464,11 +476,13 @@ MonteCarloStep aggregate_step(std::size_t k, int trials, const TrialSeries& seri
   MonteCarloStep row;
   row.step = static_cast<std::int64_t>(k);
   row.crlb_rmse_m = k < reference.size() ? reference[k].crlb_rmse_m : 0.0;
-  std::array<double, 2> bound_sum{};
-  for (const auto& trial_rows : series.per_trial_bound)
-    bound_sum[0] += trial_rows[k][0], bound_sum[1] += trial_rows[k][1];
+  std::array<double, 3> bound_sum{};
+  for (const auto& trial_rows : series.per_trial_bound) {
+    for (std::size_t q = 0; q < 3; ++q) bound_sum[q] += trial_rows[k][q];
+  }
   row.bound_rmse_m = std::sqrt(bound_sum[0] / static_cast<double>(trials));
   row.bound_all_data_rmse_m = std::sqrt(bound_sum[1] / static_cast<double>(trials));
+  row.optimum_rmse_m = std::sqrt(bound_sum[2] / static_cast<double>(trials));
   std::array<double, 3> sum{}, sum_sq{};
   for (const auto& trial_rows : series.per_trial) {
     for (std::size_t q = 0; q < 3; ++q) {
@@ -536,6 +550,8 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
   for (std::size_t k = 0; k < steps; ++k)
     result.steps.push_back(aggregate_step(k, trials, series, result.first_trial.metrics));
   result.final_rmse_per_trial = std::move(series.final_rmse);
+  result.final_bound_per_trial = std::move(series.final_bound);
+  result.final_optimum_per_trial = std::move(series.final_optimum);
   result.final_flagged_per_trial = std::move(series.final_flagged);
   result.non_finite_steps_per_trial = std::move(series.non_finite_steps);
   result.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -546,21 +562,31 @@ void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloR
   create_output_directories(directory);
   std::ostringstream out;
   out << "step,mse_mean_m2,mse_std_m2,rmse_mean_m,rmse_std_m,nees_mean,nees_std,crlb_rmse_m,bound_rmse_m,"
-         "bound_all_data_rmse_m\n"
+         "bound_all_data_rmse_m,optimum_rmse_m\n"
       << std::setprecision(9);
   for (const auto& r : result.steps) {
     out << r.step << ',' << r.mse_mean << ',' << r.mse_std << ',' << r.rmse_mean << ',' << r.rmse_std << ','
         << r.nees_mean << ',' << r.nees_std << ',' << r.crlb_rmse_m << ',' << r.bound_rmse_m << ','
-        << r.bound_all_data_rmse_m << '\n';
+        << r.bound_all_data_rmse_m << ',' << r.optimum_rmse_m << '\n';
   }
   write_text_file(directory / "montecarlo.csv", out.str());
   std::ostringstream trials;
-  trials << "trial,final_rmse_m,flagged_agents,non_finite_steps\n" << std::setprecision(9);
+  // The bound and the optimum of each trial's own data come last (docs/algorithms.md §1.3.1, §1.3.2).
+  trials << "trial,final_rmse_m,flagged_agents,non_finite_steps,bound_rmse_m,bound_ratio,optimum_rmse_m,"
+            "efficiency\n"
+         << std::setprecision(9);
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  auto at = [](const std::vector<double>& values, std::size_t t) {
+    return t < values.size() ? values[t] : kNaN;
+  };
   for (std::size_t t = 0; t < result.final_rmse_per_trial.size(); ++t) {
-    trials << t << ',' << result.final_rmse_per_trial[t] << ','
+    const double rmse = result.final_rmse_per_trial[t];
+    const double bound = at(result.final_bound_per_trial, t);
+    const double optimum = at(result.final_optimum_per_trial, t);
+    trials << t << ',' << rmse << ','
            << (t < result.final_flagged_per_trial.size() ? result.final_flagged_per_trial[t] : 0) << ','
-           << (t < result.non_finite_steps_per_trial.size() ? result.non_finite_steps_per_trial[t] : 0)
-           << '\n';
+           << (t < result.non_finite_steps_per_trial.size() ? result.non_finite_steps_per_trial[t] : 0) << ','
+           << bound << ',' << rmse / bound << ',' << optimum << ',' << rmse / optimum << '\n';
   }
   write_text_file(directory / "trials.csv", trials.str());
 }

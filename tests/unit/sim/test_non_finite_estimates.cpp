@@ -168,7 +168,9 @@ TEST(NonFiniteEstimates, TrialsCsvNamesTheTrialsThatBroke) {
   std::ifstream in(directory / "trials.csv");
   std::stringstream text;
   text << in.rdbuf();
-  EXPECT_EQ(text.str(), "trial,final_rmse_m,flagged_agents,non_finite_steps\n0,0.1,0,0\n1,inf,0,3\n");
+  EXPECT_EQ(text.str(),
+            "trial,final_rmse_m,flagged_agents,non_finite_steps,bound_rmse_m,bound_ratio,optimum_rmse_m,"
+            "efficiency\n0,0.1,0,0,nan,nan,nan,nan\n1,inf,0,3,nan,nan,nan,nan\n");
   std::filesystem::remove_all(directory);
 }
 

@@ -7,6 +7,8 @@
 //   positions.png        final truth, estimates, 95 % covariance ellipses, anchors, links coloured by
 //                        delivered fraction (equal aspect)
 //   error_histogram.png  histogram of the non-anchor agents' final errors
+//   efficiency.png       RMSE over the optimum of the run's own data (and over the bound) at the optimum's
+//                        solved steps (optimum.csv; docs/algorithms.md §1.3.2); error.png draws the optimum
 #include <filesystem>
 #include <string>
 #include <string_view>

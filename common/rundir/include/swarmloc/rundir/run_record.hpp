@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -15,6 +16,7 @@
 #include "swarmloc/runtime/output_file.hpp"
 #include "swarmloc/world/bound.hpp"
 #include "swarmloc/world/metrics.hpp"
+#include "swarmloc/world/optimum.hpp"
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::sim {
@@ -29,6 +31,8 @@ struct StepMetrics {
   double bound_rmse_m = std::numeric_limits<double>::quiet_NaN();           ///< RunRecord::bound at this step
   double bound_all_data_rmse_m = std::numeric_limits<double>::quiet_NaN();  ///< the same with every draw
   int lost = 0;  ///< agents dead or stalled (unscheduled) at this step: among `missing`
+  /// The optimum of the run's data at this step (RunRecord::optimum; NaN off its checkpoints).
+  double optimum_rmse_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct EstimateRow {
@@ -61,6 +65,10 @@ struct RunRecord {
   double mean_degree = 0.0;
   RangeCrlb crlb;  ///< the static all-draws CRLB (summary.json "crlb", kept for older readers)
   RunBound bound;  ///< the bound of the algorithm's data (summary.json "bound", docs/algorithms.md §1.3.1)
+  /// The optimum of the run's own data (summary.json "optimum", docs/algorithms.md §1.3.2).
+  RunOptimum optimum;
+  /// During the run: the data the optimum is solved from (set by compute_run_bounds; released once final).
+  std::shared_ptr<OptimumAccumulator> optimum_data;
   std::vector<StepMetrics> metrics;
   std::vector<EstimateRow> estimates;
   std::map<std::pair<AgentId, AgentId>, LinkCounters> links;  ///< (sender, receiver)
@@ -83,8 +91,21 @@ struct LinkTotals {
 };
 LinkTotals link_totals(const RunRecord& record);
 
-/// Sets record.crlb (scenario_crlb) and record.bound (run_bound) from `world` at world step 0.
+/// Sets record.crlb (scenario_crlb) and record.bound (run_bound) from `world` at world step 0, and starts
+/// the run's optimum (record.optimum_data).
 void compute_run_bounds(RunRecord& record, const World& world);
+/// Hands world step `step`'s truth and batches (index = agent id) to the run's optimum; every runtime calls
+/// it where it generates them (docs/algorithms.md §1.3.2).
+void observe_world_step(RunRecord& record, std::int64_t step, const std::vector<Vec2>& truth,
+                        const std::vector<estimators::MeasurementBatch>& batches);
+/// Solves the optimum's pending checkpoints and sets record.optimum and the last metrics row's
+/// optimum_rmse_m; `final`: the last observed step too, every metrics row, and the data are released.
+void update_run_optimum(RunRecord& record, bool final);
+/// Final RMSE / the optimum's RMSE at the final scored step (NaN without one).
+double run_efficiency(const RunRecord& record);
+/// summary.json's "optimum" block: kind, data, anchors, start, step, rmse_m, nees, iterations, converged,
+/// interval, points, observe_s, solve_s, reference; reason when kind is none.
+nlohmann::json optimum_json(const RunRecord& record);
 /// Fills metrics.crlb_rmse_m, bound_rmse_m and bound_all_data_rmse_m for metrics.step.
 void set_step_bounds(const RunRecord& record, StepMetrics& metrics);
 /// summary.json's "bound" block: kind, data, anchors, rmse_m, all_data_rmse_m, ratio (final RMSE / bound),

@@ -82,10 +82,14 @@ struct MonteCarloStep {
   /// sqrt of the mean over trials of the run's bound² (a PCRB differs per trial: each has its trajectory).
   double bound_rmse_m = std::numeric_limits<double>::quiet_NaN();
   double bound_all_data_rmse_m = std::numeric_limits<double>::quiet_NaN();
+  /// sqrt of the mean over trials of the optimum² (docs/algorithms.md §1.3.2; NaN off its checkpoints).
+  double optimum_rmse_m = std::numeric_limits<double>::quiet_NaN();
 };
 struct MonteCarloResult {
   std::vector<MonteCarloStep> steps;
   std::vector<double> final_rmse_per_trial;
+  std::vector<double> final_bound_per_trial;    ///< each trial's own bound at its final step
+  std::vector<double> final_optimum_per_trial;  ///< the optimum of each trial's own data at its final step
   /// Agents the self-check flags at the final step (docs/algorithms.md §1.6).
   std::vector<int> final_flagged_per_trial;
   /// Steps at which some agent's estimate was NaN or Inf, per trial (run_record.hpp NonFiniteEstimates).

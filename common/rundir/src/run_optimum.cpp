@@ -1,0 +1,80 @@
+// The run's optimum in the run record (docs/algorithms.md §1.3.2): fed by every runtime as it generates
+// the batches, solved at checkpoints, written to summary.json, metrics.csv and the result table.
+#include <cmath>
+#include <limits>
+
+#include "swarmloc/rundir/run_record.hpp"
+
+namespace swarmloc::sim {
+namespace {
+
+nlohmann::json finite_or_null(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json();
+}
+
+/// What a causal estimate at a step is compared with (docs/algorithms.md §1.3.2).
+std::string_view reference_text(OptimumKind kind) {
+  if (kind == OptimumKind::kMapSmoother) {
+    return "causal: the MAP of the trajectory given the data up to the step, read at that step (at the "
+           "last step the full smoother's final state)";
+  }
+  return "the ML of every selected draw up to the step";
+}
+
+}  // namespace
+
+void observe_world_step(RunRecord& record, std::int64_t step, const std::vector<Vec2>& truth,
+                        const std::vector<estimators::MeasurementBatch>& batches) {
+  if (record.optimum_data) record.optimum_data->observe(step, truth, batches);
+}
+
+void update_run_optimum(RunRecord& record, bool final) {
+  if (!record.optimum_data) return;
+  record.optimum_data->solve_pending(final);
+  record.optimum = record.optimum_data->result();
+  if (!final) {
+    if (!record.metrics.empty()) {
+      const OptimumPoint* point = record.optimum.at(record.metrics.back().step);
+      if (point != nullptr) record.metrics.back().optimum_rmse_m = point->rmse_m;
+    }
+    return;
+  }
+  for (auto& m : record.metrics) {
+    const OptimumPoint* point = record.optimum.at(m.step);
+    m.optimum_rmse_m = point != nullptr ? point->rmse_m : std::numeric_limits<double>::quiet_NaN();
+  }
+  record.optimum_data.reset();
+}
+
+double run_efficiency(const RunRecord& record) {
+  const StepMetrics* last = record.final_metrics();
+  if (last == nullptr) return std::numeric_limits<double>::quiet_NaN();
+  return last->errors.rmse_m / last->optimum_rmse_m;
+}
+
+nlohmann::json optimum_json(const RunRecord& record) {
+  const RunOptimum& optimum = record.optimum;
+  nlohmann::json block = {{"kind", std::string(to_string(optimum.kind))}};
+  if (optimum.kind == OptimumKind::kNone) {
+    block["reason"] = optimum.reason;
+    return block;
+  }
+  block["data"] = std::string(to_string(optimum.draws));
+  block["anchors"] = std::string(to_string(optimum.anchors));
+  block["start"] = "truth";
+  block["reference"] = std::string(reference_text(optimum.kind));
+  const StepMetrics* last = record.final_metrics();
+  const OptimumPoint* point = last != nullptr ? optimum.at(last->step) : nullptr;
+  block["step"] = point != nullptr ? nlohmann::json(point->step) : nlohmann::json();
+  block["rmse_m"] = point != nullptr ? finite_or_null(point->rmse_m) : nlohmann::json();
+  block["nees"] = point != nullptr ? finite_or_null(point->nees) : nlohmann::json();
+  block["iterations"] = point != nullptr ? point->iterations : 0;
+  block["converged"] = point != nullptr && point->converged;
+  block["interval"] = optimum.interval;
+  block["points"] = optimum.points.size();
+  block["observe_s"] = optimum.observe_s;
+  block["solve_s"] = optimum.solve_s;
+  return block;
+}
+
+}  // namespace swarmloc::sim

@@ -1,0 +1,147 @@
+#pragma once
+// The optimum of each run's own data (docs/algorithms.md §1.3.2): the centralized batch maximum-likelihood
+// solution (static truth) or MAP smoother (moving truth) of exactly the draws the algorithm's agents were
+// delivered, computed by the scorer from the truth, with its covariance. A run's efficiency is its final RMSE
+// over the optimum's: the bound (§1.3.1) is an average over draws, the optimum is this run's draws.
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "swarmloc/config/algorithms.hpp"
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/estimators/messages.hpp"
+#include "swarmloc/world/world.hpp"
+
+namespace swarmloc::sim {
+
+// ---- The sparse least-squares problem and its solver ----
+
+/// ‖x_a − x_b‖ observed as `mean_range_m` with information `information` (the sufficient statistic of any
+/// number of draws of one edge: Σ 1/σ² and the information-weighted mean). b < 0: x_b is `known_b`.
+struct OptimumRangeFactor {
+  int a = 0;
+  int b = -1;
+  Vec2 known_b = Vec2::Zero();
+  double information = 0.0;
+  double mean_range_m = 0.0;
+};
+
+/// b < 0: x_a ~ N(value, information⁻¹) (an anchor's fixes, a prior); else x_b − x_a ~ N(value,
+/// information⁻¹) (a random-walk step, value 0).
+struct OptimumLinearFactor {
+  int a = 0;
+  int b = -1;
+  Vec2 value = Vec2::Zero();
+  Mat2 information = Mat2::Zero();
+};
+
+/// Unknown 2-D blocks (one agent at one step), the point each starts from, and the factors over them.
+struct OptimumProblem {
+  std::vector<Vec2> start;
+  std::vector<OptimumRangeFactor> ranges;
+  std::vector<OptimumLinearFactor> linear;
+  /// The blocks' order is a good elimination order (a trajectory numbered step by step): factor in it
+  /// instead of an AMD ordering.
+  bool keep_order = false;
+  /// The covariance is wanted for blocks from this one on (the others are left zero): with keep_order,
+  /// a trajectory's last step costs a few columns of the recursion instead of all of them.
+  std::size_t marginals_from = 0;
+};
+
+struct OptimumSolution {
+  std::vector<Vec2> x;           ///< one per block
+  std::vector<Mat2> covariance;  ///< each block's marginal of the inverse information (if asked;
+                                 ///< zero before problem.marginals_from)
+  int iterations = 0;            ///< Gauss–Newton / Levenberg–Marquardt steps taken
+  bool converged = false;        ///< the last step moved no block by more than ~1e-10 m
+  bool singular = false;         ///< the information at the solution is not positive definite
+  double cost = 0.0;             ///< Σ weighted squared residuals (up to the draws' constant)
+};
+
+/// Levenberg–Marquardt on Newton's Hessian from problem.start, on the sparse normal equations (Eigen's
+/// SimplicialLDLT, AMD ordering unless keep_order), and, if `covariance`, every block's 2×2 marginal of the
+/// inverse Fisher (Gauss–Newton) information at the solution by selected inversion of its factor
+/// (Takahashi's recursion on the factor's pattern: never the dense inverse).
+OptimumSolution solve_optimum_problem(const OptimumProblem& problem, bool covariance);
+
+// ---- The run's optimum ----
+
+enum class OptimumKind {
+  kBatchMl,      ///< static truth: the ML of every draw up to the step (no prior)
+  kMapSmoother,  ///< moving truth: the MAP of the trajectory up to the step, read at the step
+  kNone,
+};
+std::string_view to_string(OptimumKind kind);
+
+/// The optimum at one world step.
+struct OptimumPoint {
+  std::int64_t step = 0;
+  double rmse_m = std::numeric_limits<double>::quiet_NaN();  ///< over the world's non-anchor agents
+  double nees = std::numeric_limits<double>::quiet_NaN();    ///< mean eᵀP⁻¹e over the same agents
+  int iterations = 0;
+  bool converged = false;
+};
+
+struct RunOptimum {
+  OptimumKind kind = OptimumKind::kNone;
+  config::RangeDraws draws = config::RangeDraws::kAllDraws;
+  config::AnchorData anchors = config::AnchorData::kKnown;
+  std::string reason;                ///< kind kNone: why there is none
+  std::vector<OptimumPoint> points;  ///< the solved steps, ascending
+  std::int64_t interval = 1;         ///< a point every `interval` steps, and at the last step
+  double observe_s = 0.0;            ///< wall time taking the batches in
+  double solve_s = 0.0;              ///< wall time solving
+  /// The point at `step`, or nullptr.
+  [[nodiscard]] const OptimumPoint* at(std::int64_t step) const;
+};
+
+/// The optimum in full, at the last observed step (for tests and tools).
+struct OptimumEstimate {
+  std::int64_t step = -1;
+  std::vector<Vec2> position;    ///< per agent; a known anchor's known position
+  std::vector<Mat2> covariance;  ///< per agent; zero for a known anchor
+  std::vector<bool> in_state;    ///< the agent is an unknown of the problem
+  OptimumPoint point;
+  bool solved = false;  ///< false: kind kNone, nothing observed, or not localizable
+};
+
+/// Takes each world step's batches as the runner generates them (every runtime delivers every batch; loss
+/// drops inter-agent samples only), keeps what the algorithm's data selection uses (config::BoundSpec:
+/// own draws, one per edge or all draws; known anchors or fixes), and solves at checkpoints. Static truth
+/// keeps per-edge sufficient statistics (O(edges), independent of the steps); moving truth keeps every
+/// step's. The scorer's start is the truth; the data are only the batches.
+class OptimumAccumulator {
+ public:
+  /// Decides the kind from the scenario (kNone with the reason when not covered) at world step 0.
+  /// `checkpoints`: about this many solved steps over the run, the last step always (0: 25 for static truth;
+  /// 5 for moving truth, whose every checkpoint solves the whole trajectory up to it).
+  OptimumAccumulator(const World& world, const config::Scenario& scenario, int checkpoints = 0);
+  ~OptimumAccumulator();
+  OptimumAccumulator(OptimumAccumulator&&) noexcept;
+  OptimumAccumulator& operator=(OptimumAccumulator&&) noexcept;
+  OptimumAccumulator(const OptimumAccumulator&) = delete;
+  OptimumAccumulator& operator=(const OptimumAccumulator&) = delete;
+
+  /// World step `step`'s truth and every agent's batch (index = agent id), in step order.
+  void observe(std::int64_t step, const std::vector<Vec2>& truth,
+               const std::vector<estimators::MeasurementBatch>& batches);
+  /// Solves the checkpoints observed and not solved yet; `final`: the last observed step as well.
+  void solve_pending(bool final);
+  [[nodiscard]] const RunOptimum& result() const;
+  /// The optimum of every batch observed so far, with each agent's position and covariance.
+  [[nodiscard]] OptimumEstimate solve_now() const;
+
+  class Data;  ///< the kept data: static (sufficient statistics) or moving (every step), optimum.cpp
+
+ private:
+  std::unique_ptr<Data> data_;
+  RunOptimum result_;
+  std::int64_t steps_ = 1;  ///< the run's world steps (the last is always a checkpoint)
+  std::int64_t last_observed_ = -1;
+  std::vector<std::int64_t> pending_;  ///< checkpoints observed, not solved yet
+};
+
+}  // namespace swarmloc::sim

@@ -1,0 +1,544 @@
+// The run's optimum (docs/algorithms.md §1.3.2): which draws the algorithm's agents use, kept as they are
+// generated, and the batch ML (static truth) or MAP smoother (moving truth) of them at checkpoints.
+#include "swarmloc/world/optimum.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+
+#include "swarmloc/world/bound.hpp"
+
+namespace swarmloc::sim {
+namespace {
+
+using enum config::RangeDraws;
+using enum config::AnchorData;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kMinRangeStd = 1e-9;  ///< m: a noiseless range keeps a finite weight (as the bound does)
+/// A noisy_truth start with initial_guess_std_m = 0 is exact; this keeps the smoother's prior finite.
+constexpr double kMinPriorVariance = 1e-12;
+/// The smoother's unknown blocks (agents × steps): beyond this its sparse factor costs seconds per
+/// checkpoint.
+constexpr std::int64_t kMaxSmootherBlocks = 200000;
+/// Solved steps over a run (docs/algorithms.md §1.3.2): a static solve costs a few factorizations of the
+/// network (N = 1000: ~10 ms); a moving one factorizes the whole trajectory up to its step.
+constexpr int kStaticCheckpoints = 25;
+constexpr int kMovingCheckpoints = 5;
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+/// What the algorithm's data hold (config::BoundSpec, docs/algorithms.md §1.3.1) and the world's static
+/// facts.
+struct Selection {
+  config::RangeDraws draws = kAllDraws;
+  bool anchors_in_state = false;  ///< anchors are unknowns with fixes (else their positions are known)
+  bool shared = false;            ///< both ends hold one draw: it counts once
+  std::vector<bool> is_anchor;
+  std::vector<std::vector<AgentId>> neighbours;    ///< the step-0 graph (sorted)
+  std::vector<std::vector<int>> edge_of;           ///< parallel to neighbours: the undirected edge's index
+  std::vector<std::pair<AgentId, AgentId>> edges;  ///< (lo, hi)
+
+  [[nodiscard]] bool anchor(AgentId i) const { return is_anchor[static_cast<std::size_t>(i)]; }
+
+  /// Whether agent i's draw of the range to j is in the data (snapshot_network's rule, with the values).
+  [[nodiscard]] bool uses(AgentId i, AgentId j) const {
+    switch (draws) {
+      case kOnePerEdge:
+        return i < j;  // the fusion centre's: the lower id's draw (centralized_measurements)
+      case kOwnDraws:
+        return !anchor(i) && (!shared || i < j || anchor(j));
+      case kAllDraws:
+        break;
+    }
+    return !shared || i < j;
+  }
+
+  /// The undirected edge i–j of the step-0 graph, or −1.
+  [[nodiscard]] int edge(AgentId i, AgentId j) const {
+    const auto& list = neighbours[static_cast<std::size_t>(i)];
+    const auto it = std::lower_bound(list.begin(), list.end(), j);
+    if (it == list.end() || *it != j) return -1;
+    return edge_of[static_cast<std::size_t>(i)][static_cast<std::size_t>(it - list.begin())];
+  }
+};
+
+Selection make_selection(const World& world, const config::Scenario& s, const BoundData& data) {
+  Selection sel;
+  sel.draws = data.draws;
+  sel.anchors_in_state = data.anchors == kFixes && s.noise.anchor_fix_std_m > 0.0;
+  sel.shared = s.noise.shared_range_draws;
+  sel.is_anchor = world.is_anchor;
+  sel.neighbours = world.neighbours;
+  sel.edge_of.resize(world.neighbours.size());
+  for (std::size_t i = 0; i < world.neighbours.size(); ++i) {
+    for (const AgentId j : world.neighbours[i]) {
+      const auto lo = static_cast<AgentId>(i);
+      if (lo < j) {
+        sel.edge_of[i].push_back(static_cast<int>(sel.edges.size()));
+        sel.edges.emplace_back(lo, j);
+      } else {
+        sel.edge_of[i].push_back(-1);  // filled from j's side below
+      }
+    }
+  }
+  for (std::size_t i = 0; i < world.neighbours.size(); ++i) {
+    for (std::size_t k = 0; k < world.neighbours[i].size(); ++k) {
+      const AgentId j = world.neighbours[i][k];
+      if (j < static_cast<AgentId>(i)) sel.edge_of[i][k] = sel.edge(j, static_cast<AgentId>(i));
+    }
+  }
+  return sel;
+}
+
+/// Σ 1/σ² and Σ r/σ² of an edge's draws: their ML is that of one draw of the weighted mean.
+struct EdgeStat {
+  double information = 0.0;
+  double weighted = 0.0;
+};
+
+/// Σ C⁻¹ and Σ C⁻¹ y of an anchor's fixes.
+struct FixStat {
+  Mat2 information = Mat2::Zero();
+  Vec2 weighted = Vec2::Zero();
+};
+
+/// Adds the selected range draws of one step's batches into `stats` (indexed by edge).
+void add_ranges(const Selection& sel, const std::vector<estimators::MeasurementBatch>& batches,
+                std::vector<EdgeStat>& stats) {
+  for (std::size_t i = 0; i < batches.size() && i < sel.is_anchor.size(); ++i) {
+    const auto agent = static_cast<AgentId>(i);
+    for (const auto& range : batches[i].ranges) {
+      if (!sel.uses(agent, range.peer)) continue;
+      const int e = sel.edge(agent, range.peer);
+      if (e < 0) continue;
+      const double std_m = std::max(kMinRangeStd, range.std_m);
+      const double w = 1.0 / (std_m * std_m);
+      stats[static_cast<std::size_t>(e)].information += w;
+      stats[static_cast<std::size_t>(e)].weighted += w * range.range_m;
+    }
+  }
+}
+
+/// Adds the anchors' fixes of one step's batches into `fixes` (indexed by agent), if anchors are unknowns.
+void add_fixes(const Selection& sel, const std::vector<estimators::MeasurementBatch>& batches,
+               std::vector<FixStat>& fixes) {
+  if (!sel.anchors_in_state) return;
+  for (std::size_t i = 0; i < batches.size() && i < fixes.size(); ++i) {
+    const auto& fix = batches[i].fix;
+    if (!sel.is_anchor[i] || !fix || !(fix->covariance.determinant() > 0.0)) continue;
+    const Mat2 information = fix->covariance.inverse();
+    fixes[i].information += information;
+    fixes[i].weighted += information * fix->position_m;
+  }
+}
+
+/// RMSE and mean NEES of `estimate` over the world's non-anchor agents.
+OptimumPoint score_point(std::int64_t step, const Selection& sel, const std::vector<Vec2>& truth,
+                         const OptimumEstimate& estimate, const OptimumSolution& solution) {
+  OptimumPoint point;
+  point.step = step;
+  point.iterations = solution.iterations;
+  point.converged = solution.converged;
+  double squared = 0.0;
+  double nees = 0.0;
+  int scored = 0;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    if (sel.is_anchor[i]) continue;
+    const Vec2 error = estimate.position[i] - truth[i];
+    squared += error.squaredNorm();
+    nees += error.dot(estimate.covariance[i].ldlt().solve(error));
+    ++scored;
+  }
+  if (scored > 0 && !solution.singular) {
+    point.rmse_m = std::sqrt(squared / scored);
+    point.nees = nees / scored;
+  }
+  return point;
+}
+
+}  // namespace
+
+// ---- The data, static or moving ----
+
+class OptimumAccumulator::Data {
+ public:
+  explicit Data(Selection selection) : sel_(std::move(selection)) {}
+  virtual ~Data() = default;
+  Data(const Data&) = delete;
+  Data& operator=(const Data&) = delete;
+  Data(Data&&) = delete;
+  Data& operator=(Data&&) = delete;
+  virtual void observe(std::int64_t step, const std::vector<Vec2>& truth,
+                       const std::vector<estimators::MeasurementBatch>& batches) = 0;
+  /// Keeps the data through `step` (the step just observed) for a later solve.
+  virtual void checkpoint(std::int64_t step) = 0;
+  /// The optimum of the data through `step` (a kept checkpoint or the last observed step).
+  [[nodiscard]] virtual OptimumEstimate solve(std::int64_t step) const = 0;
+  /// Drops what was kept for `step`'s checkpoint.
+  virtual void release(std::int64_t /*step*/) {}
+
+ protected:
+  Selection sel_;
+};
+
+namespace {
+
+/// Static truth: per-edge sufficient statistics, copied at checkpoints.
+class StaticData final : public OptimumAccumulator::Data {
+ public:
+  StaticData(Selection selection, bool once)
+      : Data(std::move(selection)),
+        once_(once),
+        current_{std::vector<EdgeStat>(sel_.edges.size()), std::vector<FixStat>(sel_.is_anchor.size()), {}} {}
+
+  void observe(std::int64_t step, const std::vector<Vec2>& truth,
+               const std::vector<estimators::MeasurementBatch>& batches) override {
+    // noise.draw = once repeats step 0's draws bit for bit: one draw, not many.
+    if (!once_ || step == 0) {
+      add_ranges(sel_, batches, current_.edges);
+      add_fixes(sel_, batches, current_.fixes);
+    }
+    current_.truth = truth;
+    last_step_ = step;
+  }
+
+  void checkpoint(std::int64_t step) override { kept_[step] = current_; }
+
+  [[nodiscard]] OptimumEstimate solve(std::int64_t step) const override {
+    const auto it = kept_.find(step);
+    if (it == kept_.end() && step != last_step_) return {};
+    return solve_snapshot(step, it != kept_.end() ? it->second : current_);
+  }
+
+  void release(std::int64_t step) override { kept_.erase(step); }
+
+ private:
+  struct Snapshot {
+    std::vector<EdgeStat> edges;
+    std::vector<FixStat> fixes;
+    std::vector<Vec2> truth;
+  };
+
+  /// The problem of one snapshot: an unknown per non-anchor (and per anchor with fixes), from the truth.
+  OptimumEstimate solve_snapshot(std::int64_t step, const Snapshot& snap) const {
+    const std::size_t n = snap.truth.size();
+    std::vector<int> block(n, -1);
+    OptimumProblem problem;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (sel_.is_anchor[i] && !sel_.anchors_in_state) continue;
+      block[i] = static_cast<int>(problem.start.size());
+      problem.start.push_back(snap.truth[i]);
+    }
+    add_range_factors(snap, block, problem);
+    for (std::size_t i = 0; i < n; ++i) {
+      const FixStat& fix = snap.fixes[i];
+      if (block[i] < 0 || !(fix.information.determinant() > 0.0)) continue;
+      problem.linear.push_back({block[i], -1, fix.information.ldlt().solve(fix.weighted), fix.information});
+    }
+    const OptimumSolution solution = solve_optimum_problem(problem, true);
+    OptimumEstimate estimate;
+    estimate.step = step;
+    estimate.solved = !solution.singular;
+    estimate.position = snap.truth;
+    estimate.covariance.assign(n, Mat2::Zero());
+    estimate.in_state.assign(n, false);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (block[i] < 0) continue;
+      const auto b = static_cast<std::size_t>(block[i]);
+      estimate.in_state[i] = true;
+      estimate.position[i] = solution.x[b];
+      if (!solution.singular) estimate.covariance[i] = solution.covariance[b];
+    }
+    estimate.point = score_point(step, sel_, snap.truth, estimate, solution);
+    return estimate;
+  }
+
+  void add_range_factors(const Snapshot& snap, const std::vector<int>& block, OptimumProblem& problem) const {
+    for (std::size_t e = 0; e < sel_.edges.size(); ++e) {
+      const EdgeStat& stat = snap.edges[e];
+      if (!(stat.information > 0.0)) continue;
+      auto [lo, hi] = sel_.edges[e];
+      if (block[static_cast<std::size_t>(lo)] < 0) std::swap(lo, hi);  // the unknown end first
+      const int a = block[static_cast<std::size_t>(lo)];
+      if (a < 0) continue;  // two known anchors: no unknown
+      const int b = block[static_cast<std::size_t>(hi)];
+      problem.ranges.push_back({a, b, snap.truth[static_cast<std::size_t>(hi)], stat.information,
+                                stat.weighted / stat.information});
+    }
+  }
+
+  bool once_ = false;
+  Snapshot current_;
+  std::int64_t last_step_ = -1;
+  std::map<std::int64_t, Snapshot> kept_;
+};
+
+/// One step's selected data of a moving world.
+struct StepData {
+  std::vector<std::pair<int, EdgeStat>> edges;  ///< (edge, its draws this step)
+  std::vector<std::pair<int, FixStat>> fixes;   ///< (anchor, its fix this step)
+  std::vector<Vec2> truth;
+};
+
+/// Moving truth: every step's data, and the MAP of the trajectory up to a step (docs/algorithms.md §1.3.2).
+class MovingData final : public OptimumAccumulator::Data {
+ public:
+  MovingData(Selection selection, const World& world, const config::Scenario& s)
+      : Data(std::move(selection)),
+        initial_guess_(world.initial_guess),
+        prior_variance_(
+            s.world.initial_guess == config::InitialGuess::kUniform
+                ? s.world.area_m * s.world.area_m / 12.0
+                : std::max(kMinPriorVariance, s.world.initial_guess_std_m * s.world.initial_guess_std_m)),
+        motion_variance_(s.world.motion_std_m * s.world.motion_std_m),
+        scratch_(sel_.edges.size()) {}
+
+  void observe(std::int64_t /*step*/, const std::vector<Vec2>& truth,
+               const std::vector<estimators::MeasurementBatch>& batches) override {
+    StepData data;
+    data.truth = truth;
+    std::fill(scratch_.begin(), scratch_.end(), EdgeStat{});
+    add_ranges(sel_, batches, scratch_);
+    for (std::size_t e = 0; e < scratch_.size(); ++e) {
+      if (scratch_[e].information > 0.0) data.edges.emplace_back(static_cast<int>(e), scratch_[e]);
+    }
+    std::vector<FixStat> fixes(sel_.anchors_in_state ? sel_.is_anchor.size() : 0);
+    add_fixes(sel_, batches, fixes);
+    for (std::size_t i = 0; i < fixes.size(); ++i) {
+      if (fixes[i].information.determinant() > 0.0) data.fixes.emplace_back(static_cast<int>(i), fixes[i]);
+    }
+    steps_.push_back(std::move(data));
+  }
+
+  void checkpoint(std::int64_t /*step*/) override {}  // every step is kept
+
+  [[nodiscard]] OptimumEstimate solve(std::int64_t step) const override;
+
+ private:
+  /// Block indices: non-anchor i at step k, k·moving + slot(i); an anchor with fixes, one block after them.
+  struct Layout {
+    std::vector<int> slot;    ///< per agent: its index among the moving agents, or −1
+    std::vector<int> anchor;  ///< per agent: its block if it is a static unknown (anchor with fixes), or −1
+    int moving = 0;
+    [[nodiscard]] int at(std::size_t agent, std::size_t step) const {
+      if (anchor[agent] >= 0) return anchor[agent];
+      return slot[agent] < 0 ? -1 : static_cast<int>(step) * moving + slot[agent];
+    }
+  };
+
+  Layout layout(std::size_t steps, OptimumProblem& problem) const;
+  void add_step_factors(std::size_t k, const Layout& layout, OptimumProblem& problem) const;
+
+  std::vector<Vec2> initial_guess_;
+  double prior_variance_ = 1.0;
+  double motion_variance_ = 0.0;
+  std::vector<EdgeStat> scratch_;
+  std::vector<StepData> steps_;
+  /// The last solve's blocks and its steps: a later checkpoint starts its earlier steps there (the
+  /// trajectory up to the previous checkpoint is nearly solved already), its new steps from the truth.
+  mutable std::vector<Vec2> warm_;
+  mutable std::size_t warm_steps_ = 0;
+};
+
+MovingData::Layout MovingData::layout(std::size_t steps, OptimumProblem& problem) const {
+  const std::size_t n = sel_.is_anchor.size();
+  Layout out;
+  out.slot.assign(n, -1);
+  out.anchor.assign(n, -1);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!sel_.is_anchor[i]) out.slot[i] = out.moving++;
+  }
+  const auto moving = static_cast<std::size_t>(out.moving);
+  const std::size_t warm = warm_steps_ <= steps ? warm_steps_ : 0;
+  problem.start.resize(moving * steps);
+  for (std::size_t k = 0; k < steps; ++k) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto b = static_cast<std::size_t>(out.at(i, k));
+      if (out.slot[i] >= 0) problem.start[b] = k < warm ? warm_[b] : steps_[k].truth[i];
+    }
+  }
+  std::size_t anchors = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!sel_.is_anchor[i] || !sel_.anchors_in_state) continue;
+    out.anchor[i] = static_cast<int>(problem.start.size());
+    // Anchors do not move (world.cpp advance_truth): one block each, after the moving ones.
+    problem.start.push_back(warm > 0 ? warm_[moving * warm + anchors] : steps_[0].truth[i]);
+    ++anchors;
+  }
+  return out;
+}
+
+void MovingData::add_step_factors(std::size_t k, const Layout& lay, OptimumProblem& problem) const {
+  const StepData& data = steps_[k];
+  for (const auto& [e, stat] : data.edges) {
+    auto [lo, hi] = sel_.edges[static_cast<std::size_t>(e)];
+    if (lay.at(static_cast<std::size_t>(lo), k) < 0) std::swap(lo, hi);
+    const int a = lay.at(static_cast<std::size_t>(lo), k);
+    if (a < 0) continue;
+    const int b = lay.at(static_cast<std::size_t>(hi), k);
+    problem.ranges.push_back(
+        {a, b, data.truth[static_cast<std::size_t>(hi)], stat.information, stat.weighted / stat.information});
+  }
+  for (const auto& [i, fix] : data.fixes) {
+    const int a = lay.at(static_cast<std::size_t>(i), k);
+    if (a >= 0)
+      problem.linear.push_back({a, -1, fix.information.ldlt().solve(fix.weighted), fix.information});
+  }
+  if (k == 0) return;
+  // The world's random walk (world.cpp advance_truth): x_i(k) − x_i(k−1) ~ N(0, motion_std² I).
+  const Mat2 step_information = Mat2::Identity() / motion_variance_;
+  for (std::size_t i = 0; i < lay.slot.size(); ++i) {
+    if (lay.slot[i] >= 0)
+      problem.linear.push_back({lay.at(i, k - 1), lay.at(i, k), Vec2::Zero(), step_information});
+  }
+}
+
+OptimumEstimate MovingData::solve(std::int64_t step) const {
+  OptimumEstimate estimate;
+  if (step < 0 || static_cast<std::size_t>(step) >= steps_.size()) return estimate;
+  const auto steps = static_cast<std::size_t>(step) + 1;
+  OptimumProblem problem;
+  problem.keep_order = true;  // blocks step by step, the anchors' last: a band with a border
+  const Layout lay = layout(steps, problem);
+  // The prior of x(0) the PCRB starts from (bound.cpp): the initial guesses with their spread, for every
+  // unknown (the anchors with fixes included: their guess is their position).
+  const Mat2 prior = Mat2::Identity() / prior_variance_;
+  for (std::size_t i = 0; i < lay.slot.size(); ++i) {
+    const int a = lay.at(i, 0);
+    if (a >= 0) problem.linear.push_back({a, -1, initial_guess_[i], prior});
+  }
+  problem.ranges.reserve(steps * (steps_[0].edges.size() + 1));
+  problem.linear.reserve(steps * (lay.slot.size() + 1));
+  for (std::size_t k = 0; k < steps; ++k) add_step_factors(k, lay, problem);
+  problem.marginals_from = (steps - 1) * static_cast<std::size_t>(lay.moving);  // the last step, the anchors
+  const OptimumSolution solution = solve_optimum_problem(problem, true);
+  warm_ = solution.x;
+  warm_steps_ = steps;
+  const std::vector<Vec2>& truth = steps_[steps - 1].truth;
+  const std::size_t n = truth.size();
+  estimate.step = step;
+  estimate.solved = !solution.singular;
+  estimate.position = truth;
+  estimate.covariance.assign(n, Mat2::Zero());
+  estimate.in_state.assign(n, false);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int b = lay.at(i, steps - 1);
+    if (b < 0) continue;
+    estimate.in_state[i] = true;
+    estimate.position[i] = solution.x[static_cast<std::size_t>(b)];
+    if (!solution.singular) estimate.covariance[i] = solution.covariance[static_cast<std::size_t>(b)];
+  }
+  estimate.point = score_point(step, sel_, truth, estimate, solution);
+  return estimate;
+}
+
+bool truth_moves(const config::Scenario& s) {
+  return s.world.motion == config::Motion::kRandomWalk && s.world.motion_std_m > 0.0;
+}
+
+/// The steps the run will observe (a recorded world holds its own number).
+std::int64_t run_steps(const World& world, const config::Scenario& s) {
+  return world.recorded ? std::min<std::int64_t>(s.run.steps, world.recorded->steps()) : s.run.steps;
+}
+
+/// Why `s` has no optimum, or empty if it has one (docs/algorithms.md §1.3.2).
+std::string none_reason(const World& world, const config::Scenario& s, const BoundData& data) {
+  if (s.world.source == config::WorldSource::kMrclam)
+    return "real data (world.source = mrclam): its noise is not a known model";
+  if (data.model == BoundModel::kNone) return std::string(data.none_reason);
+  if (data.model != BoundModel::kRanges)
+    return "relative positions, reflected paths and target readings: no optimum implemented (ranges only)";
+  if (!truth_moves(s)) return {};
+  if (s.noise.draw == config::NoiseDraw::kOnce)
+    return "moving truth with noise.draw = once (repeated draws): no optimum implemented";
+  const std::int64_t moving = world.size() - world.anchor_count();
+  if (moving * run_steps(world, s) > kMaxSmootherBlocks)
+    return "moving truth: the smoother's agents x steps exceed " + std::to_string(kMaxSmootherBlocks);
+  return {};
+}
+
+}  // namespace
+
+std::string_view to_string(OptimumKind kind) {
+  switch (kind) {
+    case OptimumKind::kBatchMl:
+      return "batch_ml";
+    case OptimumKind::kMapSmoother:
+      return "map_smoother";
+    case OptimumKind::kNone:
+      break;
+  }
+  return "none";
+}
+
+const OptimumPoint* RunOptimum::at(std::int64_t step) const {
+  const auto it = std::lower_bound(points.begin(), points.end(), step,
+                                   [](const OptimumPoint& p, std::int64_t s) { return p.step < s; });
+  return it != points.end() && it->step == step ? &*it : nullptr;
+}
+
+OptimumAccumulator::OptimumAccumulator(const World& world, const config::Scenario& s, int checkpoints) {
+  const BoundData data = bound_data(s.algorithm.name);
+  result_.draws = data.draws;
+  result_.anchors = data.anchors;
+  if (checkpoints <= 0) checkpoints = truth_moves(s) ? kMovingCheckpoints : kStaticCheckpoints;
+  const std::int64_t steps = std::max<std::int64_t>(1, run_steps(world, s));
+  result_.interval = std::max<std::int64_t>(1, (steps + checkpoints - 1) / std::max(1, checkpoints));
+  steps_ = steps;
+  result_.reason = none_reason(world, s, data);
+  if (!result_.reason.empty()) return;
+  Selection selection = make_selection(world, s, data);
+  if (truth_moves(s)) {
+    result_.kind = OptimumKind::kMapSmoother;
+    data_ = std::make_unique<MovingData>(std::move(selection), world, s);
+  } else {
+    result_.kind = OptimumKind::kBatchMl;
+    data_ = std::make_unique<StaticData>(std::move(selection), s.noise.draw == config::NoiseDraw::kOnce);
+  }
+}
+
+OptimumAccumulator::~OptimumAccumulator() = default;
+OptimumAccumulator::OptimumAccumulator(OptimumAccumulator&&) noexcept = default;
+OptimumAccumulator& OptimumAccumulator::operator=(OptimumAccumulator&&) noexcept = default;
+
+void OptimumAccumulator::observe(std::int64_t step, const std::vector<Vec2>& truth,
+                                 const std::vector<estimators::MeasurementBatch>& batches) {
+  if (!data_) return;
+  const auto started = std::chrono::steady_clock::now();
+  data_->observe(step, truth, batches);
+  last_observed_ = step;
+  if ((step + 1) % result_.interval == 0 || step + 1 == steps_) {
+    data_->checkpoint(step);
+    pending_.push_back(step);
+  }
+  result_.observe_s += seconds_since(started);
+}
+
+void OptimumAccumulator::solve_pending(bool final) {
+  if (!data_) return;
+  const auto started = std::chrono::steady_clock::now();
+  const std::int64_t solved_to = result_.points.empty() ? -1 : result_.points.back().step;
+  if (final && last_observed_ > solved_to &&
+      std::find(pending_.begin(), pending_.end(), last_observed_) == pending_.end())
+    pending_.push_back(last_observed_);
+  for (const std::int64_t step : pending_) {
+    const OptimumEstimate estimate = data_->solve(step);
+    data_->release(step);
+    if (estimate.step >= 0) result_.points.push_back(estimate.point);
+  }
+  pending_.clear();
+  result_.solve_s += seconds_since(started);
+}
+
+const RunOptimum& OptimumAccumulator::result() const { return result_; }
+
+OptimumEstimate OptimumAccumulator::solve_now() const {
+  if (!data_ || last_observed_ < 0) return {};
+  return data_->solve(last_observed_);
+}
+
+}  // namespace swarmloc::sim

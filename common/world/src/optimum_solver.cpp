@@ -1,0 +1,302 @@
+// The sparse least-squares solver of the run's optimum (docs/algorithms.md §1.3.2): Levenberg–Marquardt
+// on the normal equations with Eigen's SimplicialLDLT, and the marginal covariances by selected inversion.
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "swarmloc/world/optimum.hpp"
+
+namespace swarmloc::sim {
+namespace {
+
+using SparseMatrix = Eigen::SparseMatrix<double>;
+/// AMD ordering (a static network), or the blocks' own order (a trajectory numbered time-major, whose band
+/// AMD does not improve on: 30 % faster on scenarios/ea2.yaml).
+using AmdFactor = Eigen::SimplicialLDLT<SparseMatrix>;
+using BandFactor = Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::NaturalOrdering<int>>;
+using Triplet = Eigen::Triplet<double>;
+
+constexpr int kMaxIterations = 100;  ///< from the truth: 3–6 (Newton steps converge quadratically)
+constexpr int kMaxDampingTries = 60;
+/// An undamped Newton step below this (m, relative to max(1, the largest coordinate)) is the last: Newton
+/// converges quadratically, so the next one would move ~1e-12 m (coordinates of ~10² m, curvature ~1/10 m).
+constexpr double kStepTolerance = 1e-7;
+/// A pivot below this fraction of the largest one: the information is singular (not localizable).
+constexpr double kSingularPivot = 1e-13;
+
+Vec2 other_end(const OptimumRangeFactor& f, const std::vector<Vec2>& x) {
+  return f.b < 0 ? f.known_b : x[static_cast<std::size_t>(f.b)];
+}
+
+/// Residual of a linear factor: value − x_a (unary) or value − (x_b − x_a).
+Vec2 linear_residual(const OptimumLinearFactor& f, const std::vector<Vec2>& x) {
+  const Vec2& xa = x[static_cast<std::size_t>(f.a)];
+  return f.b < 0 ? Vec2(f.value - xa) : Vec2(f.value - (x[static_cast<std::size_t>(f.b)] - xa));
+}
+
+double cost_of(const OptimumProblem& p, const std::vector<Vec2>& x) {
+  double cost = 0.0;
+  for (const auto& f : p.ranges) {
+    const double e = f.mean_range_m - (x[static_cast<std::size_t>(f.a)] - other_end(f, x)).norm();
+    cost += f.information * e * e;
+  }
+  for (const auto& f : p.linear) {
+    const Vec2 e = linear_residual(f, x);
+    cost += e.dot(f.information * e);
+  }
+  return cost;
+}
+
+/// The normal equations H dx = g at an iterate (g = −½∇cost), H either the Gauss–Newton information JᵀΛJ
+/// or Newton's Hessian ½∇²cost. The entries come in the same order at every iterate: the first assembly
+/// builds the pattern from triplets and records each entry's slot in the compressed matrix, later ones add
+/// each value into its slot (no triplets, no sort).
+class NormalSystem {
+ public:
+  explicit NormalSystem(Eigen::Index size) : H(size, size), gradient(VecX::Zero(size)) {}
+
+  void assemble(const OptimumProblem& p, const std::vector<Vec2>& x, bool newton) {
+    const bool first = slot_.empty();
+    gradient.setZero();
+    cursor_ = 0;
+    if (first) {
+      triplets_.reserve(static_cast<std::size_t>(H.rows()) + 16 * p.ranges.size() + 16 * p.linear.size());
+      // Every diagonal entry is in the pattern (the damping adds to it), even for a block no factor touches.
+      for (Eigen::Index k = 0; k < H.rows(); ++k) triplets_.emplace_back(k, k, 0.0);
+    } else {
+      std::fill(H.valuePtr(), H.valuePtr() + H.nonZeros(), 0.0);
+      cursor_ = static_cast<std::size_t>(H.rows());  // the diagonal's zeros
+    }
+    for (const auto& f : p.ranges) {
+      const Vec2 d = x[static_cast<std::size_t>(f.a)] - other_end(f, x);
+      const double distance = d.norm();
+      const Vec2 u = distance > 0.0 ? Vec2(d / distance) : Vec2::Zero();  // ∂‖x_a − x_b‖/∂x_a
+      const double e = f.mean_range_m - distance;
+      Mat2 block = f.information * u * u.transpose();
+      // Newton: − w e ∂²‖x_a − x_b‖/∂x_a² = − w e (I − uuᵀ)/‖x_a − x_b‖ (indefinite far from the minimum).
+      if (newton && distance > 0.0)
+        block -= f.information * e / distance * (Mat2::Identity() - u * u.transpose());
+      add_pair(f.a, f.b, block, f.information * e * u);
+    }
+    for (const auto& f : p.linear) {
+      const Vec2 weighted = f.information * linear_residual(f, x);
+      // Unary: ∂r/∂x_a = −I; binary: ∂r/∂x_a = I, ∂r/∂x_b = −I. Both give JᵀΛe = ∓Λe at a.
+      add_pair(f.a, f.b, f.information, f.b < 0 ? weighted : Vec2(-weighted));
+    }
+    if (first) {
+      H.setFromTriplets(triplets_.begin(), triplets_.end());
+      find_slots();
+      triplets_ = {};
+    }
+  }
+
+  SparseMatrix H;
+  VecX gradient;
+
+ private:
+  void add_block(int row_block, int column_block, const Mat2& block) {
+    for (int r = 0; r < 2; ++r) {
+      for (int c = 0; c < 2; ++c) {
+        if (slot_.empty()) {
+          triplets_.emplace_back(2 * row_block + r, 2 * column_block + c, block(r, c));
+        } else {
+          H.valuePtr()[slot_[cursor_++]] += block(r, c);
+        }
+      }
+    }
+  }
+
+  /// The four blocks of a factor between a and b (b < 0: a's diagonal only), ∂r/∂x_a = −∂r/∂x_b.
+  void add_pair(int a, int b, const Mat2& block, const Vec2& gradient_a) {
+    add_block(a, a, block);
+    gradient.segment<2>(2 * a) += gradient_a;
+    if (b < 0) return;
+    add_block(b, b, block);
+    add_block(a, b, -block);
+    add_block(b, a, -block);
+    gradient.segment<2>(2 * b) -= gradient_a;
+  }
+
+  /// Each triplet's index in H's values (setFromTriplets leaves each column's rows sorted).
+  void find_slots() {
+    slot_.resize(triplets_.size());
+    const int* outer = H.outerIndexPtr();
+    const int* inner = H.innerIndexPtr();
+    for (std::size_t t = 0; t < triplets_.size(); ++t) {
+      const int* begin = inner + outer[triplets_[t].col()];
+      const int* end = inner + outer[triplets_[t].col() + 1];
+      slot_[t] = static_cast<int>(std::lower_bound(begin, end, triplets_[t].row()) - inner);
+    }
+  }
+
+  std::vector<Triplet> triplets_;  ///< the first assembly's
+  std::vector<int> slot_;          ///< per entry, in assembly order
+  std::size_t cursor_ = 0;
+};
+
+/// Whether the factorization holds a positive definite matrix (every pivot above kSingularPivot of the
+/// largest).
+template <typename Factor>
+bool positive_definite(const Factor& factor) {
+  if (factor.info() != Eigen::Success) return false;
+  const VecX& d = factor.vectorD();
+  if (d.size() == 0) return true;
+  const double largest = d.maxCoeff();
+  return largest > 0.0 && d.minCoeff() > kSingularPivot * largest;
+}
+
+enum class StepResult { kAccepted, kConverged, kStuck };
+
+/// One Levenberg–Marquardt step on Newton's Hessian, damped by λ·|diag H| until it is positive definite
+/// and lowers the cost (λ adapted in place). Converged when the undamped step, taken, moves no coordinate by
+/// more than `tolerance` (taken without a cost test: that close to the minimum, rounding decides the sign
+/// of the change); stuck if no damping lowers the cost.
+template <typename Factor>
+StepResult lm_step(const OptimumProblem& p, NormalSystem& system, Factor& factor, std::vector<Vec2>& x,
+                   double& cost, double& lambda, double tolerance) {
+  const VecX diagonal = system.H.diagonal();
+  const double floor = 1e-12 * std::max(1.0, diagonal.cwiseAbs().maxCoeff());
+  for (int attempt = 0; attempt < kMaxDampingTries; ++attempt) {
+    for (Eigen::Index k = 0; k < diagonal.size(); ++k)
+      system.H.coeffRef(k, k) = diagonal(k) + lambda * (std::abs(diagonal(k)) + floor);
+    factor.factorize(system.H);
+    if (positive_definite(factor)) {
+      const VecX dx = factor.solve(system.gradient);
+      std::vector<Vec2> trial = x;
+      for (std::size_t b = 0; b < x.size(); ++b) trial[b] += dx.segment<2>(2 * static_cast<Eigen::Index>(b));
+      const bool small = dx.allFinite() && dx.cwiseAbs().maxCoeff() < tolerance;
+      const double trial_cost = cost_of(p, trial);
+      if (small || (dx.allFinite() && trial_cost <= cost)) {
+        x = std::move(trial);
+        cost = trial_cost;
+        const bool converged = small && lambda == 0.0;
+        lambda = lambda < 1e-6 ? 0.0 : lambda / 10.0;
+        return converged ? StepResult::kConverged : StepResult::kAccepted;
+      }
+    }
+    lambda = lambda == 0.0 ? 1e-4 : lambda * 10.0;
+  }
+  return StepResult::kStuck;
+}
+
+double coordinate_scale(const std::vector<Vec2>& x) {
+  double scale = 1.0;
+  for (const auto& v : x) scale = std::max(scale, v.cwiseAbs().maxCoeff());
+  return scale;
+}
+
+/// Each block's 2×2 marginal of H⁻¹ from H = Pᵀ L D Lᵀ P (Eigen's SimplicialLDLT: L unit lower, columns
+/// with ascending rows, no diagonal stored). Takahashi's recursion computes Z = H⁻¹ on L's pattern only:
+/// for j from the last column down, with R its rows, Z_Rj = −Z_RR L_Rj and Z_jj = 1/D_j − L_Rjᵀ Z_Rj. Every
+/// Z_ik it reads lies in the pattern (R is a clique of the filled graph: R's rows after k are in column k's
+/// pattern), so Z_RR L_Rj is a merge of column k = R_q with R, q by q.
+template <typename Factor>
+std::vector<Mat2> marginal_covariances(const Factor& factor, std::size_t blocks, std::size_t first_block) {
+  const SparseMatrix& L = factor.matrixL().nestedExpression();
+  const VecX& D = factor.vectorD();
+  const Eigen::Index n = L.cols();
+  const int* outer = L.outerIndexPtr();
+  const int* inner = L.innerIndexPtr();
+  const double* value = L.valuePtr();
+  const auto& permutation = factor.permutationP().indices();  // empty: the identity
+  auto permuted = [&](std::size_t k) {
+    return permutation.size() == 0 ? static_cast<int>(k) : permutation(static_cast<Eigen::Index>(k));
+  };
+  // Column j needs only the columns after it: the recursion stops at the first column a wanted block uses.
+  int first = static_cast<int>(n);
+  for (std::size_t k = 2 * first_block; k < 2 * blocks; ++k) first = std::min(first, permuted(k));
+  std::vector<double> z_off(static_cast<std::size_t>(outer[n]), 0.0);
+  VecX z_diag = VecX::Zero(n);
+  std::vector<double> sum;
+  for (Eigen::Index j = n - 1; j >= first; --j) {
+    const int from = outer[j];
+    const int m = outer[j + 1] - from;
+    const int* rows = inner + from;
+    const double* l = value + from;
+    sum.assign(static_cast<std::size_t>(m), 0.0);  // sum[p] = Σ_q Z(R_p, R_q) l_q
+    for (int q = 0; q < m; ++q) {
+      const int k = rows[q];
+      sum[static_cast<std::size_t>(q)] += z_diag(k) * l[q];
+      int p = q + 1;
+      for (int c = outer[k]; c < outer[k + 1] && p < m; ++c) {
+        if (inner[c] < rows[p]) continue;
+        while (p < m && rows[p] < inner[c]) ++p;  // never in a chordal pattern; kept safe
+        if (p < m && rows[p] == inner[c]) {
+          const double z = z_off[static_cast<std::size_t>(c)];  // Z(R_p, k), R_p > k
+          sum[static_cast<std::size_t>(p)] += z * l[q];
+          sum[static_cast<std::size_t>(q)] += z * l[p];
+          ++p;
+        }
+      }
+    }
+    double diagonal = 1.0 / D(j);
+    for (int p = 0; p < m; ++p) {
+      z_off[static_cast<std::size_t>(from + p)] = -sum[static_cast<std::size_t>(p)];
+      diagonal += l[p] * sum[static_cast<std::size_t>(p)];
+    }
+    z_diag(j) = diagonal;
+  }
+  // Z_rc, r != c: column min(r, c), found by bisection on its ascending rows.
+  auto z = [&](int r, int c) -> double {
+    const int row = std::max(r, c);
+    const int column = std::min(r, c);
+    const int* begin = inner + outer[column];
+    const int* end = inner + outer[column + 1];
+    const int* hit = std::lower_bound(begin, end, row);
+    return hit != end && *hit == row ? z_off[static_cast<std::size_t>(hit - inner)] : 0.0;
+  };
+  std::vector<Mat2> out(blocks, Mat2::Zero());
+  for (std::size_t b = first_block; b < blocks; ++b) {
+    const int x = permuted(2 * b);
+    const int y = permuted(2 * b + 1);
+    const double xy = z(x, y);
+    out[b] << z_diag(x), xy, xy, z_diag(y);
+  }
+  return out;
+}
+
+template <typename Factor>
+OptimumSolution solve_with(const OptimumProblem& p, bool covariance) {
+  OptimumSolution solution;
+  solution.x = p.start;
+  const auto size = static_cast<Eigen::Index>(2 * p.start.size());
+  if (size == 0) {
+    solution.converged = true;
+    return solution;
+  }
+  NormalSystem system(size);
+  system.assemble(p, solution.x, true);
+  Factor factor;
+  factor.analyzePattern(system.H);  // the pattern is the same at every iterate
+  solution.cost = cost_of(p, solution.x);
+  double lambda = 0.0;
+  for (int iteration = 0; iteration < kMaxIterations; ++iteration) {
+    const double tolerance = kStepTolerance * coordinate_scale(solution.x);
+    const StepResult step = lm_step(p, system, factor, solution.x, solution.cost, lambda, tolerance);
+    if (step == StepResult::kStuck) break;
+    ++solution.iterations;
+    if (step == StepResult::kConverged) {
+      solution.converged = true;
+      break;
+    }
+    system.assemble(p, solution.x, true);
+  }
+  // The covariance is the inverse of the Fisher (Gauss–Newton) information at the solution.
+  system.assemble(p, solution.x, false);
+  factor.factorize(system.H);
+  solution.singular = !positive_definite(factor);
+  if (covariance && !solution.singular)
+    solution.covariance =
+        marginal_covariances(factor, p.start.size(), std::min(p.marginals_from, p.start.size()));
+  return solution;
+}
+
+}  // namespace
+
+OptimumSolution solve_optimum_problem(const OptimumProblem& p, bool covariance) {
+  return p.keep_order ? solve_with<BandFactor>(p, covariance) : solve_with<AmdFactor>(p, covariance);
+}
+
+}  // namespace swarmloc::sim
