@@ -178,6 +178,10 @@ TEST(LiveView, HeadlessChromiumDrawsEveryAgentAndShowsTheSummaryFigures) {
   EXPECT_EQ(element_text(dom, "boundkind"), summary["bound"]["kind"].get<std::string>());
   EXPECT_NEAR(std::stod(element_text(dom, "bound")), summary["bound"]["rmse_m"].get<double>(),
               0.5e-4 + 1e-12);
+  // The optimum of the run's own data and the efficiency (docs/algorithms.md §1.3.2), 3 decimals.
+  EXPECT_EQ(element_text(dom, "optimumkind"), summary["optimum"]["kind"].get<std::string>());
+  EXPECT_NEAR(std::stod(element_text(dom, "efficiency")), summary["efficiency"].get<double>(),
+              0.5e-3 + 1e-12);
   EXPECT_EQ(count_of(map_of(dom), "<ellipse class=\"ellipse\""), kAgents - 3)
       << "one 95 % ellipse per estimate";
   EXPECT_EQ(static_cast<std::size_t>(count_of(map_of(dom), "class=\"link\"")),
@@ -211,6 +215,9 @@ TEST(LiveView, SimPlaybackEndsOnTheSummaryFiguresAndTheHoldExpires) {
                    summary["final"]["crlb_rmse_m"].get<double>());
   EXPECT_DOUBLE_EQ((*final_state)["bound_rmse_m"].get<double>(), summary["bound"]["rmse_m"].get<double>());
   EXPECT_EQ((*final_state)["bound_kind"], summary["bound"]["kind"]);
+  EXPECT_EQ((*final_state)["optimum_kind"], summary["optimum"]["kind"]);
+  EXPECT_EQ((*final_state)["optimum_step"], 39);
+  EXPECT_DOUBLE_EQ((*final_state)["efficiency"].get<double>(), summary["efficiency"].get<double>());
   // The 1 s hold expires by itself: the server goes away.
   const auto deadline = Clock::now() + std::chrono::seconds(5);
   while (get_state(port) && Clock::now() < deadline)

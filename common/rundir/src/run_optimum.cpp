@@ -70,6 +70,8 @@ nlohmann::json optimum_json(const RunRecord& record) {
   block["nees"] = point != nullptr ? finite_or_null(point->nees) : nlohmann::json();
   block["iterations"] = point != nullptr ? point->iterations : 0;
   block["converged"] = point != nullptr && point->converged;
+  // A degenerate ML: its information is singular at the solution, so it has no covariance (nees null).
+  if (point != nullptr && point->singular_at_solution) block["singular_at_solution"] = true;
   block["interval"] = optimum.interval;
   block["points"] = optimum.points.size();
   block["observe_s"] = optimum.observe_s;

@@ -143,6 +143,8 @@ OptimumPoint score_point(std::int64_t step, const Selection& sel, const std::vec
   point.step = step;
   point.iterations = solution.iterations;
   point.converged = solution.converged;
+  point.singular_at_solution = solution.singular_at_solution;
+  const bool covariance = !solution.covariance.empty();
   double squared = 0.0;
   double nees = 0.0;
   int scored = 0;
@@ -150,13 +152,11 @@ OptimumPoint score_point(std::int64_t step, const Selection& sel, const std::vec
     if (sel.is_anchor[i]) continue;
     const Vec2 error = estimate.position[i] - truth[i];
     squared += error.squaredNorm();
-    nees += error.dot(estimate.covariance[i].ldlt().solve(error));
+    if (covariance) nees += error.dot(estimate.covariance[i].ldlt().solve(error));
     ++scored;
   }
-  if (scored > 0 && !solution.singular) {
-    point.rmse_m = std::sqrt(squared / scored);
-    point.nees = nees / scored;
-  }
+  if (scored > 0 && !solution.singular) point.rmse_m = std::sqrt(squared / scored);
+  if (scored > 0 && covariance) point.nees = nees / scored;
   return point;
 }
 
@@ -251,7 +251,7 @@ class StaticData final : public OptimumAccumulator::Data {
       const auto b = static_cast<std::size_t>(block[i]);
       estimate.in_state[i] = true;
       estimate.position[i] = solution.x[b];
-      if (!solution.singular) estimate.covariance[i] = solution.covariance[b];
+      if (!solution.covariance.empty()) estimate.covariance[i] = solution.covariance[b];
     }
     estimate.point = score_point(step, sel_, snap.truth, estimate, solution);
     return estimate;
@@ -430,7 +430,8 @@ OptimumEstimate MovingData::solve(std::int64_t step) const {
     if (b < 0) continue;
     estimate.in_state[i] = true;
     estimate.position[i] = solution.x[static_cast<std::size_t>(b)];
-    if (!solution.singular) estimate.covariance[i] = solution.covariance[static_cast<std::size_t>(b)];
+    if (!solution.covariance.empty())
+      estimate.covariance[i] = solution.covariance[static_cast<std::size_t>(b)];
   }
   estimate.point = score_point(step, sel_, truth, estimate, solution);
   return estimate;

@@ -286,8 +286,16 @@ OptimumSolution solve_with(const OptimumProblem& p, bool covariance) {
   // The covariance is the inverse of the Fisher (Gauss–Newton) information at the solution.
   system.assemble(p, solution.x, false);
   factor.factorize(system.H);
-  solution.singular = !positive_definite(factor);
-  if (covariance && !solution.singular)
+  if (!positive_definite(factor)) {
+    // Singular at the solution: also at the start? If not, the data localize every block and the ML
+    // itself sits at a degenerate point (no covariance there, the solution stands).
+    system.assemble(p, p.start, false);
+    factor.factorize(system.H);
+    solution.singular = !positive_definite(factor);
+    solution.singular_at_solution = !solution.singular;
+    return solution;
+  }
+  if (covariance)
     solution.covariance =
         marginal_covariances(factor, p.start.size(), std::min(p.marginals_from, p.start.size()));
   return solution;

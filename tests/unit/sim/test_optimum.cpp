@@ -258,7 +258,22 @@ TEST(OptimumSolver, ASingularProblemIsReportedNotSolved) {
   OptimumProblem p;  // one known point: the unknown can sit anywhere on a circle
   p.start = {{3.0, 4.0}};
   p.ranges = {{0, -1, Vec2::Zero(), 100.0, 5.0}};
-  EXPECT_TRUE(solve_optimum_problem(p, true).singular);
+  const OptimumSolution solution = solve_optimum_problem(p, true);
+  EXPECT_TRUE(solution.singular);
+  EXPECT_FALSE(solution.singular_at_solution);
+}
+
+TEST(OptimumSolver, ADegenerateMlKeepsItsSolutionWithoutACovariance) {
+  // Two known points 10 m apart, both ranges 4 m: the circles do not meet, the ML is the midpoint, where
+  // both range directions are collinear and the information is singular (it is not at the start).
+  OptimumProblem p;
+  p.start = {{5.0, 0.5}};
+  p.ranges = {{0, -1, Vec2(0.0, 0.0), 100.0, 4.0}, {0, -1, Vec2(10.0, 0.0), 100.0, 4.0}};
+  const OptimumSolution solution = solve_optimum_problem(p, true);
+  EXPECT_FALSE(solution.singular);
+  EXPECT_TRUE(solution.singular_at_solution);
+  EXPECT_TRUE(solution.covariance.empty());
+  EXPECT_LT((solution.x[0] - Vec2(5.0, 0.0)).norm(), 1e-6) << solution.x[0].transpose();
 }
 
 // ---- The batch ML equals brute force ----

@@ -805,6 +805,8 @@ void expect_same_metrics(const RunRecord& a, const RunRecord& b) {
     EXPECT_BITS(a.metrics[k].errors.max_error_m, b.metrics[k].errors.max_error_m) << "step " << k;
     EXPECT_BITS(a.metrics[k].errors.nees, b.metrics[k].errors.nees) << "step " << k;
     EXPECT_BITS(a.metrics[k].crlb_rmse_m, b.metrics[k].crlb_rmse_m) << "step " << k;
+    // The optimum of the run's data (docs/algorithms.md §1.3.2): a replay holds the same data.
+    EXPECT_BITS(a.metrics[k].optimum_rmse_m, b.metrics[k].optimum_rmse_m) << "step " << k;
   }
   ASSERT_EQ(a.estimates.size(), b.estimates.size());
   for (std::size_t k = 0; k < a.estimates.size(); ++k) {

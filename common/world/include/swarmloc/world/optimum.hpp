@@ -57,8 +57,14 @@ struct OptimumSolution {
                                  ///< zero before problem.marginals_from)
   int iterations = 0;            ///< Gauss–Newton / Levenberg–Marquardt steps taken
   bool converged = false;        ///< the last step moved no block by more than ~1e-10 m
-  bool singular = false;         ///< the information at the solution is not positive definite
-  double cost = 0.0;             ///< Σ weighted squared residuals (up to the draws' constant)
+  /// The information is singular at the start (the truth) too: the data do not localize every block
+  /// (not localizable; the solution is arbitrary along the singular directions).
+  bool singular = false;
+  /// The information is singular at the solution but not at the start: a degenerate ML (e.g. an agent with
+  /// two ranges whose circles do not meet lands on the line between their centres). The solution stands;
+  /// there is no covariance.
+  bool singular_at_solution = false;
+  double cost = 0.0;  ///< Σ weighted squared residuals (up to the draws' constant)
 };
 
 /// Levenberg–Marquardt on Newton's Hessian from problem.start, on the sparse normal equations (Eigen's
@@ -81,6 +87,8 @@ struct OptimumPoint {
   std::int64_t step = 0;
   double rmse_m = std::numeric_limits<double>::quiet_NaN();  ///< over the world's non-anchor agents
   double nees = std::numeric_limits<double>::quiet_NaN();    ///< mean eᵀP⁻¹e over the same agents
+  /// The information is singular at the solution (a degenerate ML): rmse_m stands, nees is NaN.
+  bool singular_at_solution = false;
   int iterations = 0;
   bool converged = false;
 };
