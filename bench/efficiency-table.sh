@@ -27,7 +27,7 @@ mc = summary["monte_carlo"]
 rows = list(csv.DictReader(open(f"{run}/trials.csv")))
 eff = sorted(float(r["efficiency"]) for r in rows)
 optimum = summary["optimum"]
-cost = optimum["observe_s"] + optimum["solve_s"]
+cost = optimum["observe_cpu_s"] + optimum["solve_cpu_s"]
 per_trial = summary["wall_s"] * mc["threads"] / len(rows)
 print(f"| {n} | {summary['mean_degree']:.1f} | {len(rows)} | {mc['mc_rmse_m']:.5f} m | {mc['bound_rmse_m']:.5f} m | "
       f"{mc['ratio']:.3f} | {mc['optimum_rmse_m']:.5f} m | **{mc['efficiency']:.3f}** | "

@@ -400,7 +400,9 @@ class Orchestrator {
       }
       watch_processes(step);
       score_step(step);
-      sim::update_run_optimum(record_, false);  // a checkpoint's optimum, for the live view
+      // A checkpoint's optimum, for the live view; without one every solve waits until after STOP, so it
+      // never delays a world step (docs/algorithms.md §1.3.2).
+      if (view_) sim::update_run_optimum(record_, false);
       publish_view("running");
       progress_.update(progress_line(step, scenario_.run.steps, record_.metrics.back().errors,
                                      current_agents_, world_.size(), seconds_since(started)),

@@ -74,8 +74,8 @@ nlohmann::json optimum_json(const RunRecord& record) {
   if (point != nullptr && point->singular_at_solution) block["singular_at_solution"] = true;
   block["interval"] = optimum.interval;
   block["points"] = optimum.points.size();
-  block["observe_s"] = optimum.observe_s;
-  block["solve_s"] = optimum.solve_s;
+  block["observe_cpu_s"] = optimum.observe_cpu_s;
+  block["solve_cpu_s"] = optimum.solve_cpu_s;
   return block;
 }
 

@@ -104,7 +104,7 @@ void update_run_optimum(RunRecord& record, bool final);
 /// Final RMSE / the optimum's RMSE at the final scored step (NaN without one).
 double run_efficiency(const RunRecord& record);
 /// summary.json's "optimum" block: kind, data, anchors, start, step, rmse_m, nees, iterations, converged,
-/// interval, points, observe_s, solve_s, reference; reason when kind is none.
+/// interval, points, observe_cpu_s, solve_cpu_s, reference; reason when kind is none.
 nlohmann::json optimum_json(const RunRecord& record);
 /// Fills metrics.crlb_rmse_m, bound_rmse_m and bound_all_data_rmse_m for metrics.step.
 void set_step_bounds(const RunRecord& record, StepMetrics& metrics);

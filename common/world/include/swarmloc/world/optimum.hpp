@@ -100,8 +100,8 @@ struct RunOptimum {
   std::string reason;                ///< kind kNone: why there is none
   std::vector<OptimumPoint> points;  ///< the solved steps, ascending
   std::int64_t interval = 1;         ///< a point every `interval` steps, and at the last step
-  double observe_s = 0.0;            ///< wall time taking the batches in
-  double solve_s = 0.0;              ///< wall time solving
+  double observe_cpu_s = 0.0;        ///< CPU time taking the batches in (the calling thread's)
+  double solve_cpu_s = 0.0;          ///< CPU time solving
   /// The point at `step`, or nullptr.
   [[nodiscard]] const OptimumPoint* at(std::int64_t step) const;
 };
