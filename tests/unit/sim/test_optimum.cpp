@@ -557,6 +557,37 @@ TEST(OptimumSmoother, OverManyTrialsItsFinalErrorIsThePosteriorCrb) {
   }
 }
 
+TEST(OptimumCheckpoints, EachEqualsTheOptimumOfTheDataUpToItsStep) {
+  // Static truth keeps a copy of the sufficient statistics at each checkpoint; moving truth solves the
+  // trajectory up to it (its earlier steps started from the previous checkpoint's solution).
+  for (const bool moving : {false, true}) {
+    const auto s = moving ? moving_scenario("dml_track", 10) : optimum_scenario("dml", 7, 4, 10);
+    World start = square_world();
+    draw_guesses(start, s.world.initial_guess_std_m, 7);
+    World world = start;
+    std::vector<std::vector<Vec2>> truths;
+    const auto batches = all_batches(world, s, &truths);
+    OptimumAccumulator accumulator(start, s, 5);
+    for (std::size_t k = 0; k < batches.size(); ++k)
+      accumulator.observe(static_cast<std::int64_t>(k), truths[k], batches[k]);
+    accumulator.solve_pending(true);
+    const auto& points = accumulator.result().points;
+    ASSERT_EQ(points.size(), 5U) << "steps 1, 3, 5, 7, 9";
+    for (const auto& point : points) {
+      const auto steps = static_cast<std::ptrdiff_t>(point.step + 1);
+      const std::vector<std::vector<estimators::MeasurementBatch>> prefix(batches.begin(),
+                                                                          batches.begin() + steps);
+      const std::vector<std::vector<Vec2>> prefix_truths(truths.begin(), truths.begin() + steps);
+      const OptimumEstimate fresh = optimum_of(start, s, prefix, prefix_truths);
+      EXPECT_NEAR(point.rmse_m, fresh.point.rmse_m, 1e-9 * fresh.point.rmse_m)
+          << (moving ? "moving" : "static") << " step " << point.step;
+      EXPECT_NEAR(point.nees, fresh.point.nees, 1e-6)
+          << (moving ? "moving" : "static") << " step " << point.step;
+    }
+    EXPECT_NE(points.front().rmse_m, points.back().rmse_m) << "each checkpoint has its own data";
+  }
+}
+
 // ---- What a run reports ----
 
 TEST(OptimumReport, SummaryTableMetricsAndTrialsCarryTheOptimumAndTheEfficiency) {
