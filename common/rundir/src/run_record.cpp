@@ -126,20 +126,12 @@ NonFiniteEstimates non_finite_estimates(const RunRecord& record) {
   return broken;
 }
 
-nlohmann::json summary_json(const RunRecord& record) {
-  using nlohmann::json;
-  json summary;
-  summary["algorithm"] = record.scenario.algorithm.name;
-  summary["mode"] = record.mode;
-  summary["agents"] = record.agents;
-  summary["anchors"] = record.anchors;
-  summary["mean_degree"] = record.mean_degree;
-  summary["steps"] = record.metrics.size();
-  summary["seed"] = record.scenario.seed;
-  summary["scenario_hash"] = config::scenario_hash(record.scenario);
-  const StepMetrics* last = record.final_metrics();
-  json final_json = json::object();
-  if (last != nullptr) {
+namespace {
+
+/// summary.json's "final" block: the last scored step's figures.
+nlohmann::json final_block(const RunRecord& record) {
+  nlohmann::json final_json = nlohmann::json::object();
+  if (const StepMetrics* last = record.final_metrics(); last != nullptr) {
     final_json["step"] = last->step;
     final_json["rmse_m"] = number_or_null(last->errors.rmse_m);
     final_json["mean_error_m"] = number_or_null(last->errors.mean_error_m);
@@ -158,7 +150,24 @@ nlohmann::json summary_json(const RunRecord& record) {
     }
   }
   final_json["crlb_single_snapshot_rmse_m"] = number_or_null(record.crlb.single_snapshot_rmse_m);
-  summary["final"] = final_json;
+  return final_json;
+}
+
+}  // namespace
+
+nlohmann::json summary_json(const RunRecord& record) {
+  using nlohmann::json;
+  json summary;
+  summary["algorithm"] = record.scenario.algorithm.name;
+  summary["mode"] = record.mode;
+  summary["agents"] = record.agents;
+  summary["anchors"] = record.anchors;
+  summary["mean_degree"] = record.mean_degree;
+  summary["steps"] = record.metrics.size();
+  summary["seed"] = record.scenario.seed;
+  summary["scenario_hash"] = config::scenario_hash(record.scenario);
+  const StepMetrics* last = record.final_metrics();
+  summary["final"] = final_block(record);
   const auto whole = whole_run_error(record);
   summary["whole_run"] = {{"rmse_m", whole.scored_steps > 0 ? number_or_null(whole.rmse_m) : json()},
                           {"scored_steps", whole.scored_steps}};

@@ -15,7 +15,6 @@ namespace {
 using enum config::RangeDraws;
 using enum config::AnchorData;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kMinRangeStd = 1e-9;  ///< m: a noiseless range keeps a finite weight (as the bound does)
 /// A noisy_truth start with initial_guess_std_m = 0 is exact; this keeps the smoother's prior finite.
 constexpr double kMinPriorVariance = 1e-12;

@@ -233,7 +233,7 @@ std::vector<Mat2> marginal_covariances(const Factor& factor, std::size_t blocks,
     }
     double diagonal = 1.0 / D(j);
     for (int p = 0; p < m; ++p) {
-      z_off[static_cast<std::size_t>(from + p)] = -sum[static_cast<std::size_t>(p)];
+      z_off[static_cast<std::size_t>(from) + static_cast<std::size_t>(p)] = -sum[static_cast<std::size_t>(p)];
       diagonal += l[p] * sum[static_cast<std::size_t>(p)];
     }
     z_diag(j) = diagonal;
