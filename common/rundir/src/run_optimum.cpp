@@ -72,6 +72,7 @@ nlohmann::json optimum_json(const RunRecord& record) {
   block["converged"] = point != nullptr && point->converged;
   // A degenerate ML: its information is singular at the solution, so it has no covariance (nees null).
   if (point != nullptr && point->singular_at_solution) block["singular_at_solution"] = true;
+  if (point != nullptr && !point->localizable) block["localizable"] = false;  // rmse_m null
   block["interval"] = optimum.interval;
   block["points"] = optimum.points.size();
   block["observe_cpu_s"] = optimum.observe_cpu_s;

@@ -25,6 +25,13 @@ constexpr std::int64_t kMaxSmootherBlocks = 200000;
 /// network (N = 1000: ~10 ms); a moving one factorizes the whole trajectory up to its step.
 constexpr int kStaticCheckpoints = 25;
 constexpr int kMovingCheckpoints = 5;
+/// Beyond this many unknown agents a static solve takes ~0.1 s of CPU per Newton step (10⁴ agents: 0.15 s
+/// per factorization): the checkpoints thin out as kStaticCheckpoints · this / unknowns, down to the last
+/// step.
+constexpr std::int64_t kFullCheckpointAgents = 2000;
+/// The kept statistics and the graph's copy cost ~40 bytes per edge; a dense world of 10⁵ agents (31 000
+/// neighbours each, docs/scale.md) would need tens of gigabytes: no optimum beyond this.
+constexpr std::int64_t kMaxOptimumEdges = 5000000;
 
 /// The calling thread's CPU time: the optimum's own cost, not the time a loaded machine keeps it waiting
 /// (an orchestrator sharing two cores with 200 agents measured 80× its CPU in wall time).
@@ -147,6 +154,7 @@ OptimumPoint score_point(std::int64_t step, const Selection& sel, const std::vec
   point.iterations = solution.iterations;
   point.converged = solution.converged;
   point.singular_at_solution = solution.singular_at_solution;
+  point.localizable = !solution.singular;
   const bool covariance = !solution.covariance.empty();
   double squared = 0.0;
   double nees = 0.0;
@@ -456,6 +464,10 @@ std::string none_reason(const World& world, const config::Scenario& s, const Bou
   if (data.model == BoundModel::kNone) return std::string(data.none_reason);
   if (data.model != BoundModel::kRanges)
     return "relative positions, reflected paths and target readings: no optimum implemented (ranges only)";
+  std::int64_t edges = 0;
+  for (const auto& list : world.neighbours) edges += static_cast<std::int64_t>(list.size());
+  if (edges / 2 > kMaxOptimumEdges)
+    return "more than " + std::to_string(kMaxOptimumEdges) + " edges: the optimum is not computed";
   if (!truth_moves(s)) return {};
   if (s.noise.draw == config::NoiseDraw::kOnce)
     return "moving truth with noise.draw = once (repeated draws): no optimum implemented";
@@ -489,7 +501,14 @@ OptimumAccumulator::OptimumAccumulator(const World& world, const config::Scenari
   const BoundData data = bound_data(s.algorithm.name);
   result_.draws = data.draws;
   result_.anchors = data.anchors;
-  if (checkpoints <= 0) checkpoints = truth_moves(s) ? kMovingCheckpoints : kStaticCheckpoints;
+  if (checkpoints <= 0) {
+    const std::int64_t unknowns = world.size() - world.anchor_count();
+    checkpoints = truth_moves(s)
+                      ? kMovingCheckpoints
+                      : static_cast<int>(std::clamp<std::int64_t>(
+                            kStaticCheckpoints * kFullCheckpointAgents / std::max<std::int64_t>(1, unknowns),
+                            1, kStaticCheckpoints));
+  }
   const std::int64_t steps = std::max<std::int64_t>(1, run_steps(world, s));
   result_.interval = std::max<std::int64_t>(1, (steps + checkpoints - 1) / std::max(1, checkpoints));
   steps_ = steps;

@@ -89,6 +89,8 @@ struct OptimumPoint {
   double nees = std::numeric_limits<double>::quiet_NaN();    ///< mean eᵀP⁻¹e over the same agents
   /// The information is singular at the solution (a degenerate ML): rmse_m stands, nees is NaN.
   bool singular_at_solution = false;
+  /// False: the information is singular at the truth, the data do not localize every agent (rmse_m NaN).
+  bool localizable = true;
   int iterations = 0;
   bool converged = false;
 };
@@ -124,8 +126,9 @@ struct OptimumEstimate {
 class OptimumAccumulator {
  public:
   /// Decides the kind from the scenario (kNone with the reason when not covered) at world step 0.
-  /// `checkpoints`: about this many solved steps over the run, the last step always (0: 25 for static truth;
-  /// 5 for moving truth, whose every checkpoint solves the whole trajectory up to it).
+  /// `checkpoints`: about this many solved steps over the run, the last step always (0: for static truth 25,
+  /// fewer beyond 2000 unknown agents, 25·2000/unknowns; 5 for moving truth, whose every checkpoint solves
+  /// the whole trajectory up to it).
   OptimumAccumulator(const World& world, const config::Scenario& scenario, int checkpoints = 0);
   ~OptimumAccumulator();
   OptimumAccumulator(OptimumAccumulator&&) noexcept;
