@@ -8,7 +8,7 @@
 
 namespace {
 
-namespace experiments = swarmloc::sim::experiments;
+namespace experiments = swarmloc::research;
 namespace gradient = swarmloc::estimators::gradient;
 
 experiments::LatticeProblem table_one_lattice() {

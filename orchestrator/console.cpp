@@ -50,7 +50,7 @@ void Progress::finish() {
   if (enabled_ && tty_) std::fprintf(stderr, "\n");
 }
 
-std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& errors, int reporting,
+std::string progress_line(std::int64_t step, int steps, const world::ErrorStats& errors, int reporting,
                           int agents, double elapsed_s) {
   char line[200];
   std::snprintf(line, sizeof line,
@@ -60,8 +60,8 @@ std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& e
   return line;
 }
 
-sim::WorkControl interruptible_work(Progress& progress, Clock::time_point started) {
-  sim::WorkControl control;
+world::WorkControl interruptible_work(Progress& progress, Clock::time_point started) {
+  world::WorkControl control;
   control.cancel = &interrupted();
   control.on_progress = [&progress, started](const std::string& phase, double fraction) {
     char line[240];

@@ -8,7 +8,7 @@
 
 #include "reproduce_common.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 namespace {
 
 using Experiment = std::function<int(const ReproduceOptions&)>;
@@ -66,4 +66,4 @@ int run_reproduce(const ReproduceOptions& options) {
   return 2;
 }
 
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

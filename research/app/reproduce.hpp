@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 
 struct ReproduceOptions {
   std::string experiment;
@@ -32,4 +32,4 @@ struct KalmanTableColumn {
 KalmanTableColumn run_kalman_table_column(const std::string& algorithm, int agents, int anchors,
                                           double noise_std_m, int trials, int threads, std::uint64_t seed);
 
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

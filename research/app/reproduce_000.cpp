@@ -8,14 +8,12 @@
 #include "reproduce_common.hpp"
 #include "swarmloc/research/centralized_experiments.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 namespace {
-
-namespace cen = estimators::centralized;
 
 // ---------------- E-A2 ----------------
 
-using Ea2Variants = std::vector<std::pair<cen::Ea2Variant, std::string>>;
+using Ea2Variants = std::vector<std::pair<Ea2Variant, std::string>>;
 
 /// Sums over the trials of the total and per-agent MSE of each filter, and of the posterior CRB.
 struct Ea2Sums {
@@ -28,7 +26,7 @@ struct Ea2Sums {
   MatX crb_agent;
 };
 
-Ea2Sums run_ea2_trials(const cen::Ea2Config& config, const cen::Ea2World& world, const Ea2Variants& variants,
+Ea2Sums run_ea2_trials(const Ea2Config& config, const Ea2World& world, const Ea2Variants& variants,
                        int trials, const ReproduceOptions& options) {
   const auto steps = static_cast<std::size_t>(config.steps);
   const auto agents = static_cast<Eigen::Index>(config.num_agents);
@@ -39,12 +37,12 @@ Ea2Sums run_ea2_trials(const cen::Ea2Config& config, const cen::Ea2World& world,
   sums.crb_agent = MatX::Zero(static_cast<Eigen::Index>(steps), agents);
   std::mutex mutex;
   parallel_trials(trials, options.threads, [&](int t) {
-    std::vector<cen::Ea2TrialResult> results;
+    std::vector<Ea2TrialResult> results;
     for (const auto& [variant, name] : variants) {
       auto cfg = config;
-      cfg.compute_crb = (variant == cen::Ea2Variant::kEkf);
+      cfg.compute_crb = (variant == Ea2Variant::kEkf);
       results.push_back(
-          cen::run_ea2_trial(cfg, world, variant, options.seed * 100000 + static_cast<std::uint64_t>(t)));
+          run_ea2_trial(cfg, world, variant, options.seed * 100000 + static_cast<std::uint64_t>(t)));
     }
     const std::lock_guard<std::mutex> lock(mutex);
     for (std::size_t v = 0; v < variants.size(); ++v) {
@@ -82,9 +80,8 @@ struct Ea2SteadyState {
   }
 };
 
-std::string ea2_markdown(const cen::Ea2Config& config, const cen::Ea2World& world,
-                         const Ea2Variants& variants, const Ea2Sums& sums, int trials, double wall_s,
-                         const ReproduceOptions& options) {
+std::string ea2_markdown(const Ea2Config& config, const Ea2World& world, const Ea2Variants& variants,
+                         const Ea2Sums& sums, int trials, double wall_s, const ReproduceOptions& options) {
   const double n = trials;
   Ea2SteadyState steady{static_cast<std::size_t>(config.steps), static_cast<Eigen::Index>(config.num_agents),
                         n, std::vector<bool>(static_cast<std::size_t>(config.num_agents), false)};
@@ -155,7 +152,7 @@ int reproduce_ea1(const ReproduceOptions& options) {
   std::vector<std::vector<double>> errors;
   for (int b : a_bandwidths) {
     std::mt19937_64 rng(options.seed * 1000 + static_cast<std::uint64_t>(b));
-    errors.push_back(cen::banded_inversion_errors(n, b, ls, rng));
+    errors.push_back(banded_inversion_errors(n, b, ls, rng));
   }
   for (std::size_t i = 0; i < ls.size(); ++i) {
     md << "| " << ls[i] << " |";
@@ -169,13 +166,13 @@ int reproduce_ea1(const ReproduceOptions& options) {
 // ---------------- 000 E-A2 ----------------
 int reproduce_ea2(const ReproduceOptions& options) {
   const int trials = options.trials > 0 ? options.trials : 1000;
-  cen::Ea2Config config;
+  Ea2Config config;
   config.config_seed = options.seed + 2;
-  const auto world = cen::make_ea2_world(config);
-  const Ea2Variants variants{{cen::Ea2Variant::kEkf, "EKF"},
-                             {cen::Ea2Variant::kLbEkfVr, "LB-EKF+VR (L=20)"},
-                             {cen::Ea2Variant::kLbEkfNoVr, "LB-EKF without VR (L=20)"},
-                             {cen::Ea2Variant::kLbEkfIVr, "LB-EKF-I+VR (L=20)"}};
+  const auto world = make_ea2_world(config);
+  const Ea2Variants variants{{Ea2Variant::kEkf, "EKF"},
+                             {Ea2Variant::kLbEkfVr, "LB-EKF+VR (L=20)"},
+                             {Ea2Variant::kLbEkfNoVr, "LB-EKF without VR (L=20)"},
+                             {Ea2Variant::kLbEkfIVr, "LB-EKF-I+VR (L=20)"}};
   const auto started = std::chrono::steady_clock::now();
   const auto sums = run_ea2_trials(config, world, variants, trials, options);
   const double wall_s = seconds_since(started);
@@ -205,7 +202,7 @@ int reproduce_ea3(const ReproduceOptions& options) {
       const double side = std::sqrt(ev / lambda);
       double sum = 0.0, sq = 0.0, agents = 0.0;
       for (int s = 0; s < samples; ++s) {
-        const auto sample = cen::vr_bandwidth_bound(lambda, side, r, rng);
+        const auto sample = vr_bandwidth_bound(lambda, side, r, rng);
         sum += sample.phi_max;
         sq += static_cast<double>(sample.phi_max) * sample.phi_max;
         agents += sample.num_agents;
@@ -222,4 +219,4 @@ int reproduce_ea3(const ReproduceOptions& options) {
   return 0;
 }
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

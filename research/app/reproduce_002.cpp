@@ -7,10 +7,10 @@
 #include "reproduce_common.hpp"
 #include "swarmloc/research/relative_localization.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 namespace {
 
-namespace ex = sim::experiments;
+namespace ex = research;
 
 // ---------------- Figs. 2, 4: distributed Jacobi vs BLUE ----------------
 
@@ -288,4 +288,4 @@ int reproduce_joint_field(const ReproduceOptions& options) {
   return 0;
 }
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

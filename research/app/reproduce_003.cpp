@@ -6,10 +6,10 @@
 #include "reproduce_common.hpp"
 #include "swarmloc/research/multipath_localization.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 namespace {
 
-namespace ex = sim::experiments;
+namespace ex = research;
 
 /// |x error| statistics of one 003 run, pooled over the nodes the paper's Fig. 2 claims are about.
 struct MultipathSummary {
@@ -208,4 +208,4 @@ int reproduce_multipath(const ReproduceOptions& options) {
   return 0;
 }
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

@@ -12,10 +12,10 @@
 #include "swarmloc/research/gradient_localization.hpp"
 #include "swarmloc/research/sdp_refinement.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 namespace {
 
-namespace ex = sim::experiments;
+namespace ex = research;
 
 /// The DG-BB parameters of Table I and Figs. 4–7.
 estimators::gradient::DgBbParams lattice_dgbb_params() {
@@ -391,4 +391,4 @@ int reproduce_dgbb_table3(const ReproduceOptions& options) {
   return 0;
 }
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

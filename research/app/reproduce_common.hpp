@@ -11,7 +11,7 @@
 
 #include "reproduce.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 
 /// `threads`, or every core when it is 0.
 int resolve_threads(int threads);
@@ -76,4 +76,4 @@ int reproduce_dgbb_figures(const ReproduceOptions& options);
 int reproduce_dgbb_table2(const ReproduceOptions& options);
 int reproduce_dgbb_table3(const ReproduceOptions& options);
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

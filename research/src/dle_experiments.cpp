@@ -15,7 +15,7 @@
 #include "swarmloc/research/relative_localization.hpp"
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 using detail::Graph;
@@ -276,4 +276,4 @@ TrackingExperimentResult run_tracking_experiment(const TrackingExperimentConfig&
   return result;
 }
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

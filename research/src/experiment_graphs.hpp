@@ -7,7 +7,7 @@
 #include "swarmloc/core/types.hpp"
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments::detail {
+namespace swarmloc::research::detail {
 
 struct Edge {
   int i = 0;
@@ -54,4 +54,4 @@ inline Graph make_graph(const std::vector<Vec2>& points, double radius_m) {
   return g;
 }
 
-}  // namespace swarmloc::sim::experiments::detail
+}  // namespace swarmloc::research::detail

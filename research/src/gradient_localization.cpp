@@ -7,7 +7,7 @@
 
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 namespace gradient = estimators::gradient;
 
@@ -211,4 +211,4 @@ std::vector<TableOneRow> run_table_one(const LatticeConfig& config, const gradie
   return rows;
 }
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

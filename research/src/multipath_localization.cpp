@@ -15,7 +15,7 @@
 #include "swarmloc/models/multipath.hpp"
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 constexpr int kNodes = 5;
@@ -247,4 +247,4 @@ MultipathExperimentResult run_multipath_experiment(const MultipathExperimentConf
   return result;
 }
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

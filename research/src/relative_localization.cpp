@@ -14,7 +14,7 @@
 #include "swarmloc/world/world.hpp"
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 using detail::Adjacency;
@@ -357,7 +357,7 @@ JointFieldRunSums run_joint_field_once(const JointFieldExperimentConfig& c,
   for (auto* v : {&location_se, &field_se, &known_se, &central_se}) v->assign(steps + 1, 0.0);
   const Graph g = draw_field_graph(c, rng, sums.graphs_rejected);
   sums.radius_m = g.radius_m;
-  const VecX y = draw_gaussian_field(sensor.grid, c.field_std, c.field_correlation_m, rng);
+  const VecX y = world::draw_gaussian_field(sensor.grid, c.field_std, c.field_correlation_m, rng);
   JointFieldNodes nodes = make_field_nodes(c, sensor, g, rng);
   const auto& joint = nodes.joint;
   const auto& known = nodes.known;
@@ -448,4 +448,4 @@ JointFieldExperimentResult run_joint_field_experiment(const JointFieldExperiment
   return result;
 }
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

@@ -13,7 +13,7 @@
 #include "campaign.hpp"
 #include "process_helpers.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 namespace {
 
 using swarmloc::testing::fresh_directory;
@@ -205,4 +205,4 @@ TEST(Campaign, StillFallingFlagsARunWhoseLastTenthIsWellBelowItsSeventhToEighthT
 }
 
 }  // namespace
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

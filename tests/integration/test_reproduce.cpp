@@ -11,7 +11,7 @@
 
 #include "reproduce.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 namespace {
 
 // 001 Table I, noise std 0.2 m column, 8 trials: the paper's mean error is 4.38 cm (IEIF) and
@@ -71,4 +71,4 @@ TEST(ReproduceCommands, Ea2WritesItsCsvIntoANewDirectory) {
 }
 
 }  // namespace
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 namespace {
 
 constexpr double kNoBound = std::numeric_limits<double>::quiet_NaN();
@@ -169,7 +169,7 @@ RunBound moving_range_bound(RunBound bound, const World& world, const config::Sc
 /// prior is diffuse (kDiffuseTargetInformation).
 RunBound moving_target_bound(RunBound bound, const World& world, const config::Scenario& s) {
   constexpr double kDiffuseTargetInformation = 1e-6;
-  const TargetModel model = target_model(s);
+  const config::TargetModel model = config::target_model(s);
   World replay = world;
   MatX information = MatX::Identity(model.dim, model.dim) * kDiffuseTargetInformation;
   bound.pcrb_rmse_m.reserve(static_cast<std::size_t>(s.run.steps));
@@ -330,4 +330,4 @@ RunBound run_bound(const World& world, const config::Scenario& s, const RangeCrl
   return truth_moves(s) ? moving_range_bound(bound, world, s) : static_range_bound(bound, world, s, legacy);
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

@@ -9,7 +9,7 @@
 #include "swarmloc/research/multipath_localization.hpp"
 #include "swarmloc/research/relative_localization.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 /// 002, docs/algorithms.md §4.6 scaled to 60 nodes at the same density and edges per node, 10 runs.
@@ -262,9 +262,9 @@ TEST(GradientExperiment, EquationFifteenAsPrintedConvergesOnTheTableOneLattice) 
 }
 
 }  // namespace
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 JointFieldExperimentConfig small_field(estimators::consensus::FieldSensing sensing,
@@ -378,9 +378,9 @@ TEST(JointFieldExperiment, ResultsDoNotDependOnTheThreadCount) {
 }
 
 }  // namespace
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 // 002 Figs. 1, 3 (40 sensors, 10 targets, range–bearing, noise growing with distance; 20 runs here): errors
@@ -405,4 +405,4 @@ TEST(TrackingExperiment, ErrorsGrowAsTargetsMoveAwayAndTheSensorAtTheOriginTrack
 }
 
 }  // namespace
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

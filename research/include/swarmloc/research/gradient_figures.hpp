@@ -10,7 +10,7 @@
 
 #include "swarmloc/research/gradient_localization.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 /// Figs. 4–5: local BB (T = 0; eq. (15) as printed, the reading that converges on this lattice, see
 /// Table I), DG-BB with `base.consensus_rounds`, and the fixed step 0.1, as 004 plots them.
@@ -82,4 +82,4 @@ struct ScalingCell {
 std::vector<ScalingCell> run_scaling_figures(const ScalingFiguresConfig& config,
                                              const estimators::gradient::DgBbParams& base);
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

@@ -8,7 +8,7 @@
 
 #include "swarmloc/estimators/gradient/dgbb.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 struct LatticeConfig {
   int side = 10;                ///< side × side nodes on [0, 1]², anchors at the 4 corners
@@ -66,4 +66,4 @@ struct TableOneRow {
 std::vector<TableOneRow> run_table_one(const LatticeConfig& config,
                                        const estimators::gradient::DgBbParams& base);
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

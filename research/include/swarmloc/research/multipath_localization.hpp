@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 struct MultipathExperimentConfig {
   int trials = 1000;
@@ -53,4 +53,4 @@ MultipathExperimentResult run_multipath_experiment(const MultipathExperimentConf
 /// Quantile q ∈ [0, 1] of |values| (linear interpolation); NaN for an empty vector.
 double abs_quantile(std::vector<double> values, double q);
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

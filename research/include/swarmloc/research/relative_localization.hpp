@@ -7,7 +7,7 @@
 
 #include "swarmloc/estimators/consensus/joint_field.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 /// How the 002 localization graph is drawn ([C-5]: the source says only "randomly generated graphs with 300
 /// nodes and 1288 edges").
@@ -141,4 +141,4 @@ TrackingExperimentResult run_tracking_experiment(const TrackingExperimentConfig&
 /// 002 Fig. 5: joint localization (Jacobi, node 0 the reference) and estimation of a static field.
 JointFieldExperimentResult run_joint_field_experiment(const JointFieldExperimentConfig& config);
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

@@ -16,7 +16,7 @@
 namespace swarmloc::estimators {
 
 /// The parameter block an algorithm's builder reads. runtime/agent_factory.cpp fills each from the
-/// scenario's own blocks (config::ParamBlock): kKalman from kalman and pose, kCooperative from gradient,
+/// scenario's own blocks (config's ParamBlock): kKalman from kalman and pose, kCooperative from gradient,
 /// field, multipath and (dle) kalman.initial_information.
 enum class ParamBlock {
   kKalman,       ///< KalmanFamilyParams (the Kalman, dml and pose families)

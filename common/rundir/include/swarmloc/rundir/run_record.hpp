@@ -17,12 +17,12 @@
 #include "swarmloc/world/metrics.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 
 struct StepMetrics {
   std::int64_t step = 0;
   double time_s = 0.0;
-  ErrorStats errors;
+  world::ErrorStats errors;
   /// The static all-draws CRLB at the initial truth, accumulated over step+1 snapshots (kept for older
   /// readers; the run's bound is bound_rmse_m).
   double crlb_rmse_m = 0.0;
@@ -45,7 +45,7 @@ struct AgentSummary {
   std::uint32_t samples_published = 0;
   std::uint32_t samples_published_in_steps = 0;  ///< not counting start-up announcements
   double cpu_s = 0.0;
-  std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason{};
+  std::array<std::uint32_t, runtime::kRejectReasonCount> rejected_by_reason{};
   std::optional<int> exit_code;  ///< DDS runs: the process's exit status
   /// DDS runs: "ok", or "died" / "stalled" (its last unscheduled loss, docs/robustness.md "Liveness").
   std::string fate = "ok";
@@ -59,11 +59,12 @@ struct RunRecord {
   int agents = 0;
   int anchors = 0;
   double mean_degree = 0.0;
-  RangeCrlb crlb;  ///< the static all-draws CRLB (summary.json "crlb", kept for older readers)
-  RunBound bound;  ///< the bound of the algorithm's data (summary.json "bound", docs/algorithms.md §1.3.1)
+  world::RangeCrlb crlb;  ///< the static all-draws CRLB (summary.json "crlb", kept for older readers)
+  world::RunBound
+      bound;  ///< the bound of the algorithm's data (summary.json "bound", docs/algorithms.md §1.3.1)
   std::vector<StepMetrics> metrics;
   std::vector<EstimateRow> estimates;
-  std::map<std::pair<AgentId, AgentId>, LinkCounters> links;  ///< (sender, receiver)
+  std::map<std::pair<AgentId, AgentId>, runtime::LinkCounters> links;  ///< (sender, receiver)
   std::vector<AgentSummary> agent_summaries;
   int processes = 0;
   double wall_s = 0.0;
@@ -84,7 +85,7 @@ struct LinkTotals {
 LinkTotals link_totals(const RunRecord& record);
 
 /// Sets record.crlb (scenario_crlb) and record.bound (run_bound) from `world` at world step 0.
-void compute_run_bounds(RunRecord& record, const World& world);
+void compute_run_bounds(RunRecord& record, const world::World& world);
 /// Fills metrics.crlb_rmse_m, bound_rmse_m and bound_all_data_rmse_m for metrics.step.
 void set_step_bounds(const RunRecord& record, StepMetrics& metrics);
 /// summary.json's "bound" block: kind, data, anchors, rmse_m, all_data_rmse_m, ratio (final RMSE / bound),
@@ -117,7 +118,7 @@ nlohmann::json summary_json(const RunRecord& record);
 /// `control.cancel` (Ctrl-C) is polled between files and per agent: once set, writing stops with
 /// Cancelled and no summary.json, so the directory reads as incomplete.
 void write_run_directory(const std::filesystem::path& directory, const RunRecord& record,
-                         const WorkControl& control = {});
+                         const world::WorkControl& control = {});
 
 /// create_directories, throwing OutputError (the directory and the OS error) on failure.
 void create_output_directories(const std::filesystem::path& directory);
@@ -134,4 +135,4 @@ void prepare_run_directory(const std::filesystem::path& directory, bool force);
 /// under runs/ (a name validate() would refuse is made path-safe first).
 std::filesystem::path default_run_directory(const config::Scenario& scenario);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

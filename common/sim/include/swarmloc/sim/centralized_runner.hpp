@@ -25,7 +25,7 @@ inline constexpr int kCentralizedBandwidth = 20;
 /// lbekf_vr and lbekf_i, identity for lbekf and ekf. Throws std::invalid_argument if the scenario's
 /// algorithm is not centralized.
 std::unique_ptr<estimators::centralized::CentralizedFilter> make_fusion_filter(
-    const config::Scenario& scenario, const World& world);
+    const config::Scenario& scenario, const world::World& world);
 
 /// One world step's batches (batches[i] = agent i's, nullptr if it did not arrive) as the fusion
 /// centre's input: each anchor's fix is a beacon fix; each undirected edge contributes one range, the
@@ -47,7 +47,8 @@ double total_squared_error(const std::vector<Vec2>& truth,
 /// generate_batch, steps the fusion filter and scores every agent. Besides the usual metrics (over
 /// non-anchors), record.extra holds "final_total_mse_m2" (all agents, final step) and "total_mse_m2"
 /// (per step).
-RunRecord run_centralized_simulation(const config::Scenario& scenario, const SimOptions& options = {});
+rundir::RunRecord run_centralized_simulation(const config::Scenario& scenario,
+                                             const SimOptions& options = {});
 
 // make_sensor_only_estimator: runtime/agent_factory.hpp.
 
