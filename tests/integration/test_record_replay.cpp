@@ -18,7 +18,7 @@ using swarmloc::testing::read_json;
 using swarmloc::testing::run_command;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 double final_rmse(const std::filesystem::path& run_dir) {
   return read_json(run_dir / "summary.json")["final"]["rmse_m"].get<double>();

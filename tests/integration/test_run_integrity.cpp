@@ -32,7 +32,7 @@ using swarmloc::testing::read_text;
 using Clock = std::chrono::steady_clock;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 /// A child process with stdout and stderr in `log` (stdout: a pipe whose reader is gone, if asked).
 class Child {

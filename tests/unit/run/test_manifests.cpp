@@ -11,7 +11,7 @@
 namespace swarmloc::run {
 namespace {
 
-const std::string kManifestScenarioFile = SWARMLOC_SOURCE_DIR "/scenarios/default.yaml";
+const std::string kManifestScenarioFile = SWARMLOC_SOURCE_DIR "/scenarios/ieif.yaml";
 
 config::Scenario manifest_scenario(const std::vector<std::string>& overrides) {
   auto s = config::load_scenario(kManifestScenarioFile, overrides);

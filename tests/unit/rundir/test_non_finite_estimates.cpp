@@ -27,7 +27,7 @@ constexpr double kNotANumber = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 config::Scenario eight_agent_scenario() {
-  return config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml",
+  return config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml",
                                {"run.steps=4", "world.agents=8", "world.anchors=3", "world.area_m=15"});
 }
 

@@ -12,7 +12,7 @@
 namespace swarmloc::sim {
 namespace {
 
-const std::string kDefault = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kDefault = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 /// The default scenario shrunk to a fast size, with `overrides` on top.
 config::Scenario scenario(const std::vector<std::string>& overrides) {
@@ -223,7 +223,7 @@ TEST(AgentClockSimulator, CentralizedAlgorithmsAreRejectedNamingTheKey) {
 namespace swarmloc::sim {
 namespace {
 
-// Why scenarios/default.yaml iterates the IEIF update. In a free run an agent that steps after its
+// Why scenarios/ieif.yaml iterates the IEIF update. In a free run an agent that steps after its
 // neighbours in the first period ranges to their first estimates; one linearization from the diffuse start
 // can throw such an estimate tens of metres with a small covariance, and the cluster around it stays
 // confidently wrong for hundreds of steps. Trial 12 of the default scenario at 20 Hz is such a case; the

@@ -128,7 +128,7 @@ config::Scenario small_scenario(const AlgorithmSpec& spec, int steps = 3,
   if (!std::filesystem::exists(path)) {
     path = spec.family == AlgorithmFamily::kCentralized ? dir + "ea2.yaml"
            : spec.family == AlgorithmFamily::kGradient  ? dir + "dgbb.yaml"
-                                                        : dir + "default.yaml";
+                                                        : dir + "ieif.yaml";
   }
   std::vector<std::string> overrides{"algorithm.name=" + std::string(spec.name),
                                      "run.steps=" + std::to_string(steps)};

@@ -12,7 +12,7 @@
 namespace swarmloc::sim {
 namespace {
 
-const std::string kDefaultScenarioFile = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kDefaultScenarioFile = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 config::Scenario faults_scenario(const std::vector<std::string>& overrides) {
   std::vector<std::string> all{"run.steps=200"};
@@ -162,10 +162,10 @@ TEST_P(HostileAgent, ChangesNoHonestAgentsFinalErrorByMoreThanTenPercent) {
 
 INSTANTIATE_TEST_SUITE_P(
     EveryRuntimeAlgorithm, HostileAgent,
-    ::testing::Values(HostileCase{"default", "run.steps=100"}, HostileCase{"jacobi", "run.steps=60"},
+    ::testing::Values(HostileCase{"ieif", "run.steps=100"}, HostileCase{"jacobi", "run.steps=60"},
                       HostileCase{"dgbb", "run.steps=150"}, HostileCase{"multipath_bp", "run.steps=30"},
                       HostileCase{"multipath_bp", "run.steps=30", "algorithm.bp_messages=exact", "_exact"},
-                      HostileCase{"default", "run.steps=100", "run.sim_clock=agents", "_agent_clocks"}),
+                      HostileCase{"ieif", "run.steps=100", "run.sim_clock=agents", "_agent_clocks"}),
     [](const ::testing::TestParamInfo<HostileCase>& param_info) {
       return std::string(param_info.param.scenario) + param_info.param.label;
     });

@@ -13,10 +13,10 @@
 namespace swarmloc::sim {
 namespace {
 
-/// scenarios/default.yaml with `algorithm` and `seed`, run as Monte Carlo trial `trial`.
+/// scenarios/ieif.yaml with `algorithm` and `seed`, run as Monte Carlo trial `trial`.
 rundir::RunRecord default_world_run(const std::string& algorithm, int seed, std::uint64_t trial) {
   const auto scenario =
-      config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml",
+      config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml",
                             {"seed=" + std::to_string(seed), "algorithm.name=" + algorithm});
   SimOptions options;
   options.trial = trial;

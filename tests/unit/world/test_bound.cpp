@@ -342,8 +342,8 @@ TEST(RunBoundReport, MonteCarloComparesWithTheRootMeanSquareOfEachTrialsBound) {
   EXPECT_NEAR(result.steps.back().bound_rmse_m, std::sqrt(mean_square), 1e-12);
 }
 
-TEST(RunBoundReport, TheDefaultScenarioReportsTheStaticBoundOfIeifsOwnDraws) {
-  auto s = config::load_scenario(kBoundScenarios + "default.yaml", {"run.steps=20"});
+TEST(RunBoundReport, TheDefaultWorldReportsTheStaticBoundOfIeifsOwnDraws) {
+  auto s = config::load_scenario(kBoundScenarios + "ieif.yaml", {"run.steps=20"});
   const World world = build_world(s);
   const RangeCrlb legacy = scenario_crlb(world, s);
   const RunBound bound = run_bound(world, s, legacy);
