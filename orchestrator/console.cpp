@@ -50,6 +50,14 @@ void Progress::finish() {
   if (enabled_ && tty_) std::fprintf(stderr, "\n");
 }
 
+std::string starting_line(const config::Scenario& scenario) {
+  char line[160];
+  std::snprintf(line, sizeof line, "[0s] starting %s: %d agents, %d steps at %g Hz",
+                scenario.algorithm.name.c_str(), scenario.world.agents, scenario.run.steps,
+                scenario.run.rate_hz);
+  return line;
+}
+
 std::string progress_line(std::int64_t step, int steps, const world::ErrorStats& errors, int reporting,
                           int agents, double elapsed_s) {
   char line[200];

@@ -42,6 +42,9 @@ class Progress {
   Clock::time_point last_ = Clock::now() - std::chrono::hours(1);
 };
 
+/// "[0s] starting dml: 30 agents, 300 steps at 10 Hz": a run's first progress line.
+std::string starting_line(const config::Scenario& scenario);
+
 std::string progress_line(std::int64_t step, int steps, const world::ErrorStats& errors, int reporting,
                           int agents, double elapsed_s);
 

@@ -77,6 +77,7 @@ class Orchestrator {
     const auto started = origin_;
     const int n = world_.size();
     start_record(n);
+    progress_.update(starting_line(scenario_), true);  // the first line a user sees says what starts
     if (options_.view_port >= 0) start_view();
     if (options_.record) {
       recording_ =
