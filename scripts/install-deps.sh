@@ -12,7 +12,7 @@ packages=(
   libeigen3-dev libspdlog-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   zlib1g-dev                               # gzip-compressed datasets (UTIAS MRCLAM)
-  libsdpa-dev                              # SDPA (pulls MUMPS seq, OpenBLAS): SDP relaxation of 004
+  libsdpa-dev                              # SDPA (pulls MUMPS seq, OpenBLAS): SDP relaxation of Calafiore et al.
   gnuplot-nox                              # plots in every run directory
   procps                                   # pgrep/ps for the orphan-process checks in tests
   nftables iproute2                        # network namespaces + bridge loss for the multi-host test
