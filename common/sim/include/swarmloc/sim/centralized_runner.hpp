@@ -2,7 +2,7 @@
 // The centralized algorithms (ekf, lbekf, lbekf_vr, lbekf_i; docs/algorithms.md §2) as a fusion centre: one
 // filter holds the whole network state, consumes every agent's measurement batch of a world step and
 // yields every agent's estimate (docs/algorithms.md §2.7). The in-process runner below and the DDS
-// fusion-centre process (agent/fusion_center.cpp) share these functions, so both build the same filter
+// fusion-centre process (orchestrator/fusion_center.cpp) share these functions, so both build the same filter
 // from the same world and turn the same batches into the same measurements.
 #include <memory>
 #include <optional>
