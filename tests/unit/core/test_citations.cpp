@@ -4,8 +4,8 @@
 // "free-run-spread §2", "free-run-spread.md section 2", lists such as "§4.2, §4.5" and ranges such as
 // "§2.1–§2.4"; every interpretation tag such as `[B-6]` has its entry in the interpretation register,
 // docs/algorithms.md §8; every repository path the code, the docs and the READMEs cite exists (the path
-// forms are those of cited_path below); and every paper is cited by a tag of docs/papers.md, never by
-// its number or by the file name of a plain-text copy.
+// forms are those of resolve_cited_path below); every paper is cited by a tag of docs/papers.md, never
+// by its number or by the file name of a plain-text copy; and docs/README.md lists every page under docs/.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -644,6 +644,18 @@ TEST(Citations, EveryPaperIsCitedByATagOfThePapersPage) {
   }
   EXPECT_GT(cited, 300) << "the scan found too few paper tags to mean anything";
   RecordProperty("paper_tags", cited);
+}
+
+TEST(Citations, TheDocsIndexListsEveryPage) {
+  const std::string index = read_text(kRoot / "docs/README.md");
+  int listed = 0;
+  for (const auto& doc : documents()) {
+    if (doc == "README.md") continue;
+    EXPECT_NE(index.find("](" + doc + ")"), std::string::npos)
+        << "docs/README.md does not list docs/" << doc << " (a line saying what it answers)";
+    ++listed;
+  }
+  EXPECT_GT(listed, 30);
 }
 
 }  // namespace
