@@ -30,7 +30,7 @@ run_packages=(
 # style checks, and what the integration tests drive.
 test_packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
-  libsdpa-dev                              # SDPA (pulls MUMPS seq, OpenBLAS): SDP relaxation of 004 (research/)
+  libsdpa-dev                              # SDPA (pulls MUMPS seq, OpenBLAS): SDP relaxation of Calafiore et al. (research/)
   clang-format git                         # the clang_format test (scripts/check-format)
   clang-tidy                               # scripts/tidy (function size, complexity; .clang-tidy)
   procps                                   # pgrep/ps for the orphan-process checks in tests

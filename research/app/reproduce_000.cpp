@@ -1,4 +1,4 @@
-// Paper 000 (banded inversion, LB-EKF, vertex relabeling): experiments E-A1, E-A2 and E-A3.
+// Khan et al. (banded inversion, LB-EKF, vertex relabeling): experiments E-A1, E-A2 and E-A3.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -87,7 +87,7 @@ std::string ea2_markdown(const Ea2Config& config, const Ea2World& world, const E
                         n, std::vector<bool>(static_cast<std::size_t>(config.num_agents), false)};
   for (int b : world.beacons) steady.beacon[static_cast<std::size_t>(b)] = true;
   std::ostringstream md;
-  md << "# E-A2 — EKF vs LB-EKF with and without vertex relabeling (000 Figs. 4–6)\n\n"
+  md << "# E-A2 — EKF vs LB-EKF with and without vertex relabeling (Khan et al. Figs. 4–6)\n\n"
      << trials
      << " Monte Carlo trials on one fixed configuration (30 agents, 8 beacons, 40 m × 40 m, r = 15 m, "
      << "σ_q = 2 m², σ_r = 10 m², σ_p = 0.02 m², Σ_0 = 5 I, 100 steps); configuration seed "
@@ -132,14 +132,14 @@ void write_ea2_csv(const std::filesystem::path& path, const Ea2Variants& variant
 
 }  // namespace
 
-// ---------------- 000 E-A1 ----------------
+// ---------------- Khan et al. E-A1 ----------------
 int reproduce_ea1(const ReproduceOptions& options) {
   const int n = 500;
   const std::vector<int> a_bandwidths{5, 10, 20};
   std::vector<int> ls;
   for (int l = 0; l <= 50; l += 5) ls.push_back(l);
   std::ostringstream md;
-  md << "# E-A1 — banded inversion error ‖A⁻¹ − BandInv_L(A)‖_F (000 Fig. 2)\n\n"
+  md << "# E-A1 — banded inversion error ‖A⁻¹ − BandInv_L(A)‖_F (Khan et al. Fig. 2)\n\n"
      << "n = 500, in-band entries U(−1, 1), diagonal 15, normalized by the largest entry; seed "
      << options.seed
      << ". The paper gives a figure, no numbers: error falls steeply until L exceeds the bandwidth of A, "
@@ -163,7 +163,7 @@ int reproduce_ea1(const ReproduceOptions& options) {
   return 0;
 }
 
-// ---------------- 000 E-A2 ----------------
+// ---------------- Khan et al. E-A2 ----------------
 int reproduce_ea2(const ReproduceOptions& options) {
   const int trials = options.trials > 0 ? options.trials : 1000;
   Ea2Config config;
@@ -184,14 +184,14 @@ int reproduce_ea2(const ReproduceOptions& options) {
   return 0;
 }
 
-// ---------------- 000 E-A3 ----------------
+// ---------------- Khan et al. E-A3 ----------------
 int reproduce_ea3(const ReproduceOptions& options) {
   const std::vector<double> lambdas{0.005, 0.01, 0.02, 0.05, 0.1};
   const std::vector<double> expected_agents{10, 100, 1000, 10000, 100000};
   const int samples = options.trials > 0 ? options.trials : 20;
   const double r = 15.0;
   std::ostringstream md;
-  md << "# E-A3 — relabeling bandwidth bound φ_max vs number of agents (000 Fig. 7)\n\n"
+  md << "# E-A3 — relabeling bandwidth bound φ_max vs number of agents (Khan et al. Fig. 7)\n\n"
      << "r = 15 m; N ~ Poisson(λ l²) in [0, l]²; " << samples << " samples per point; mean ± 2 std of φ_max; "
      << "eq. (35) gives r·sqrt(λ·E|V|). Paper: sublinear growth, slightly above eq. (35).\n\n"
      << "| λ [1/m²] | E|V| | mean |V| | φ_max mean ± 2 std | φ_max / |V| | r·sqrt(λ·E|V|) "

@@ -1,4 +1,4 @@
-// Paper 001 (IEIF vs IEKF): Tables I and II.
+// Gasparri & Pascucci (IEIF vs IEKF): Tables I and II.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -108,7 +108,8 @@ KalmanTableColumn run_kalman_table_column(const std::string& algorithm, int agen
 namespace reproduce_detail {
 namespace {
 
-/// One column of 001 Table I or II: what runs, and the paper's statistics (std < 0: not reported).
+/// One column of Gasparri & Pascucci Table I or II: what runs, and the paper's statistics (std < 0: not
+/// reported).
 struct PaperColumn {
   std::string label;
   std::string algorithm;

@@ -105,8 +105,8 @@ namespace {
 
 Eigen::Index ea2_index(int a) { return 2 * static_cast<Eigen::Index>(a); }
 
-// The filter of `variant`; its labels are 000 Alg. 3's relabeling once at k = 0 ([A-5]) where the variant
-// relabels, else the generation order.
+// The filter of `variant`; its labels are Khan et al. Alg. 3's relabeling once at k = 0 ([A-5]) where the
+// variant relabels, else the generation order.
 centralized::CentralizedKind ea2_filter_params(const Ea2Config& config, const Ea2World& world,
                                                Ea2Variant variant, const VecX& initial_mean,
                                                centralized::CentralizedFilterParams& params) {

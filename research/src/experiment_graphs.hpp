@@ -1,6 +1,6 @@
 #pragma once
-// Random sensor graphs of the 002 experiments (relative_localization.cpp, dle_experiments.cpp). Internal to
-// the experiments.
+// Random sensor graphs of the Atanasov et al. experiments (relative_localization.cpp, dle_experiments.cpp).
+// Internal to the experiments.
 #include <random>
 #include <vector>
 

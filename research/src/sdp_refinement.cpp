@@ -58,7 +58,7 @@ LatticeProblem make_geometric_graph_problem(const GeometricGraphConfig& c, std::
       for (std::size_t j = i + 1; j < n; ++j) {
         const double d = (world.truth[i] - world.truth[j]).norm();
         if (!(d < c.radius)) continue;
-        const double noisy = std::abs(d + c.noise_factor * d * normal(rng));  // 004 eq. (16)
+        const double noisy = std::abs(d + c.noise_factor * d * normal(rng));  // Calafiore et al. eq. (16)
         world.problem.edges.push_back(gradient::RangeEdge{static_cast<int>(i), static_cast<int>(j), noisy});
         adjacency[i].push_back(static_cast<int>(j));
         adjacency[j].push_back(static_cast<int>(i));

@@ -47,7 +47,8 @@ std::unique_ptr<centralized::CentralizedFilter> make_fusion_filter(const config:
   params.process_var =
       scenario.algorithm.kalman.process_noise_std_m * scenario.algorithm.kalman.process_noise_std_m;
   params.bandwidth = kCentralizedBandwidth;
-  // 000 Alg. 3 with: the relabelling variants relabel once, from the best positions at start-up.
+  // Khan et al. Alg. 3 with: the relabelling variants relabel once, from the best positions at
+  // start-up.
   params.labels = builder->relabel ? centralized::lexicographic_labels(world.initial_guess)
                                    : centralized::identity_labels(n);
   // A static generated world ranges every pair within the radius at every step (world generate_batch);

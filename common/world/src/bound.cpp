@@ -163,7 +163,7 @@ RunBound moving_range_bound(RunBound bound, const World& world, const config::Sc
   return bound;
 }
 
-/// A moving target (002 eq. (1)): the tracking PCRB of docs/algorithms.md §1.3,
+/// A moving target (Atanasov et al. eq. (1)): the tracking PCRB of docs/algorithms.md §1.3,
 /// J_{k+1} = (F J_k⁻¹ Fᵀ + W)⁻¹ + I(y(k+1)), I from every sensor's reading (all the data: every sensor
 /// estimates the same target). The target's start is a scenario constant no estimator is told, so J_0's
 /// prior is diffuse (kDiffuseTargetInformation).

@@ -285,7 +285,8 @@ void draw_initial_guesses(World& world, const Scenario& s, std::uint64_t trial,
     } else {
       world.initial_guess[i] = world.truth[i] + s.world.initial_guess_std_m * Vec2(gauss(rng), gauss(rng));
     }
-    // Anchors know their position; so does every sensor of a target-estimating world (002 Sec. II).
+    // Anchors know their position; so does every sensor of a target-estimating world (Atanasov et al. Sec.
+    // II).
     if (world.is_anchor[i] || kinds.targets) world.initial_guess[i] = world.truth[i];
   }
 }
@@ -363,7 +364,7 @@ VecX draw_gaussian_field(const estimators::consensus::FieldGrid& grid, double st
 
 namespace {
 
-/// y(k) = F y(k−1) + η, η ~ N(0, W) (002 eq. (1)); one seeded draw per step.
+/// y(k) = F y(k−1) + η, η ~ N(0, W) (Atanasov et al. eq. (1)); one seeded draw per step.
 void advance_target(World& world, const Scenario& s, std::int64_t step) {
   if (!world.estimates_target() || s.world.target_motion == config::TargetMotion::kStatic) return;
   const config::TargetModel model = config::target_model(s);

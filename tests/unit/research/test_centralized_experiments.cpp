@@ -1,4 +1,4 @@
-// E-A1 and E-A2 of 000 Sec. 5 (docs/algorithms.md §2.8), reduced in size.
+// E-A1 and E-A2 of Khan et al. Sec. 5 (docs/algorithms.md §2.8), reduced in size.
 #include <gtest/gtest.h>
 
 #include <iostream>

@@ -1,4 +1,4 @@
-// Vertex relabeling, graph bandwidth, Lemma 1 and Theorem 1 (000 Alg. 3, eqs. (18)–(19);
+// Vertex relabeling, graph bandwidth, Lemma 1 and Theorem 1 (Khan et al. Alg. 3, eqs. (18)–(19);
 // docs/algorithms.md §2.5).
 #include <gtest/gtest.h>
 

@@ -17,7 +17,7 @@ struct Instance {
 };
 
 // Anchors at the corners of [0, 1]², `sensors` unknowns drawn uniformly inside, every pair within `radius`
-// measured with std ν_d·d (004 eq. (16)); `radius` ≥ √2 gives the complete graph.
+// measured with std ν_d·d (Calafiore et al. eq. (16)); `radius` ≥ √2 gives the complete graph.
 Instance make_instance(int sensors, double radius, double noise_factor, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> uniform(0.05, 0.95);

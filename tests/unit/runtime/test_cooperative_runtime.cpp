@@ -1,5 +1,5 @@
-// The shared runtime with the 002/003/004 estimators: validation of the information, consensus and belief
-// families, and batches that supersede each other.
+// The shared runtime with the Atanasov et al., Leng et al. and Calafiore et al. estimators: validation of the
+// information, consensus and belief families, and batches that supersede each other.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -90,7 +90,7 @@ TEST(CentralizedRunner, FiltersImproveOnTheInitialGuess) {
   }
 }
 
-// E-A2 (000 Fig. 6): LB-EKF + VR's total MSE close to the dense EKF's. Averaged over a few seeds
+// E-A2 (Khan et al. Fig. 6): LB-EKF + VR's total MSE close to the dense EKF's. Averaged over a few seeds
 // (configurations) so one unlucky draw does not decide the comparison.
 TEST(CentralizedRunner, LbEkfWithRelabelingIsWithinFifteenPercentOfTheEkf) {
   double ekf_sum = 0.0;

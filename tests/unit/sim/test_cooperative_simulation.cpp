@@ -1,4 +1,5 @@
-// The 002/003/004 estimators in in-process runs of the shipped scenarios.
+// The Atanasov et al., Leng et al. and Calafiore et al. estimators in in-process runs of the shipped
+// scenarios.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -96,8 +97,8 @@ TEST(CooperativeSimulation, DmlTrackCountsARepeatedDrawOnceWithSeveralExchangesP
               once.nees, thrice.nees);
 }
 
-// algorithm.local_bb_difference on 004's Table I lattice (10 × 10 with diagonals, noiseless, no trust
-// region): eq. (15) as printed (own_move) converges, the [E-6] reading (gradient_change) diverges.
+// algorithm.local_bb_difference on Calafiore et al.'s Table I lattice (10 × 10 with diagonals, noiseless, no
+// trust region): eq. (15) as printed (own_move) converges, the [E-6] reading (gradient_change) diverges.
 TEST(CooperativeSimulation, LocalBbAsPrintedConvergesWhereTheGradientChangeReadingDiverges) {
   auto final_rmse = [](const std::string& difference) {
     const auto record = run_simulation(scenario_named(
@@ -131,9 +132,9 @@ TEST(CooperativeSimulation, DgbbUnderTwentyPercentLossStaysOutOfFoldOverMinima) 
   EXPECT_LT(lossy.metrics.back().errors.max_error_m, 0.05);
 }
 
-// 002 Thm. 1: the static target's MSE falls toward 0. Averaged over 20 worlds (one realization is a single
-// 2-D error shared by all sensors: seeds 1–8 give 0.81–1.64× the bound), the MSE falls at every checkpoint
-// and ends near the centralized estimate's from all readings (20 seeds: 1.1×).
+// Atanasov et al. Thm. 1: the static target's MSE falls toward 0. Averaged over 20 worlds (one realization is
+// a single 2-D error shared by all sensors: seeds 1–8 give 0.81–1.64× the bound), the MSE falls at every
+// checkpoint and ends near the centralized estimate's from all readings (20 seeds: 1.1×).
 TEST(CooperativeSimulation, DleMseFallsTowardZeroAndReachesTheCentralizedBound) {
   constexpr int kSeeds = 20;
   const std::array<std::size_t, 5> checkpoints{0, 9, 19, 49, 99};
@@ -156,8 +157,9 @@ TEST(CooperativeSimulation, DleMseFallsTowardZeroAndReachesTheCentralizedBound) 
   EXPECT_GT(mse.back(), 0.7 * bound_mse) << "below the bound: the readings' noise is not what it says";
 }
 
-// 002 Figs. 1, 3 in the runtime: range and bearing readings, first linearized at the area's centre ~12 m
-// from the target; after 150 steps (15 s) every sensor tracks it within decimetres (seeds 1–6: 0.06–0.27 m).
+// Atanasov et al. Figs. 1, 3 in the runtime: range and bearing readings, first linearized at the area's
+// centre ~12 m from the target; after 150 steps (15 s) every sensor tracks it within decimetres (seeds 1–6:
+// 0.06–0.27 m).
 TEST(CooperativeSimulation, DleTracksAMovingTargetFromRangeAndBearing) {
   const auto record = run_simulation(scenario_named("dle_tracking.yaml"));
   const auto& first = record.metrics.front().errors;
@@ -188,10 +190,10 @@ TEST(CooperativeSimulation, FreeRunTrackingDleMixesNeighbourPriorsBroughtToOneWo
   EXPECT_EQ(free_run.metrics.back().errors.scored, 30);
 }
 
-// 002 Fig. 5 in the runtime (readings from step 10 on, the scenario's warm-up): with the continuous tents the
-// field error keeps falling as the sensors localize (step 20: 0.327, step 99: 0.151 per cell); reading the
-// containing cell makes the model jump at boundaries and the error stalls (0.7827 → 0.7823). Location error
-// is the same in both (Jacobi ignores the field).
+// Atanasov et al. Fig. 5 in the runtime (readings from step 10 on, the scenario's warm-up): with the
+// continuous tents the field error keeps falling as the sensors localize (step 20: 0.327, step 99: 0.151 per
+// cell); reading the containing cell makes the model jump at boundaries and the error stalls (0.7827 →
+// 0.7823). Location error is the same in both (Jacobi ignores the field).
 TEST(CooperativeSimulation, JointFieldErrorFallsWithContinuousSensingAndStallsWithCellBasedSensing) {
   const auto continuous = run_simulation(scenario_named("joint_field.yaml"));
   const auto cell_based =
@@ -225,9 +227,9 @@ TEST(CooperativeSimulation, JointFieldWarmupRemovesTheEarlyReadingsBias) {
   EXPECT_LT(rounds, 0.9 * rounds_without);
 }
 
-// multipath_bp.yaml's angle errors (±1°) move its reflected paths by decimetres, which 003's σ² (path
+// multipath_bp.yaml's angle errors (±1°) move its reflected paths by decimetres, which Leng et al.'s σ² (path
 // length only) ignores: the beliefs' covariances are far too small. algorithm.path_variance=with_doa
-// (not in 003) puts the angle errors into each path's variance (bp::path_variances).
+// (not in Leng et al.) puts the angle errors into each path's variance (bp::path_variances).
 TEST(CooperativeSimulation, AngleAwarePathVarianceMakesMultipathBpConsistentAndMoreAccurate) {
   const auto final_step = [](const std::string& path_variance) {
     const auto result = run_monte_carlo(
@@ -255,10 +257,10 @@ TEST(CooperativeSimulation, WithExactAnglesMultipathBpReachesThePathsCrlb) {
   EXPECT_LT(result.steps.back().mse_mean, 1.2 * bound * bound);
 }
 
-// algorithm.bp_messages=exact (not in 003, the [D-4] ablation): with cavity messages no evidence returns over
-// the edge it came by, so the beliefs' covariances shrink less. Exact angles, 50 trials: NEES 9.38 with 003's
-// beliefs, 3.89 with cavity messages (2 is consistent; on this loopy graph Gaussian BP's variances are still
-// too small), and the same error (MSE 1.70e-3 and 1.68e-3 m²).
+// algorithm.bp_messages=exact (not in Leng et al., the [D-4] ablation): with cavity messages no evidence
+// returns over the edge it came by, so the beliefs' covariances shrink less. Exact angles, 50 trials:
+// NEES 9.38 with Leng et al.'s beliefs, 3.89 with cavity messages (2 is consistent; on this loopy graph
+// Gaussian BP's variances are still too small), and the same error (MSE 1.70e-3 and 1.68e-3 m²).
 TEST(CooperativeSimulation, ExactGaBpMessagesCutTheBeliefsOverconfidence) {
   const auto final_step = [](const std::string& messages) {
     return run_monte_carlo(scenario_named("multipath_bp.yaml",

@@ -1,5 +1,6 @@
-// The measurements the world generates for the 002/003/004 estimators: relative positions, reflected
-// paths, proportional ranges, target readings and field readings, and the scoring of a field.
+// The measurements the world generates for the Atanasov et al., Leng et al. and Calafiore et al. estimators:
+// relative positions, reflected paths, proportional ranges, target readings and field readings, and the
+// scoring of a field.
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -1,6 +1,6 @@
 #pragma once
-// The experiments of 000 Sec. 5 (docs/algorithms.md §2.8) as library functions: no I/O, the caller prints.
-// Randomness comes from caller-provided engines or seeds (filters themselves never draw).
+// The experiments of Khan et al. Sec. 5 (docs/algorithms.md §2.8) as library functions: no I/O, the caller
+// prints. Randomness comes from caller-provided engines or seeds (filters themselves never draw).
 #include <cstdint>
 #include <random>
 #include <vector>

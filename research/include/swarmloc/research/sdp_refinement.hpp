@@ -1,7 +1,7 @@
 #pragma once
-// Reproduction experiment of 004 Example 3 / Tables II–III (docs/algorithms.md §6.6): random geometric
-// graphs, the SDP relaxation as initial guess, DG-BB refinement as DgBb agents over the in-process bus, with
-// a synchronous or an asynchronous (random start tick per node, §6.4) start. No I/O.
+// Reproduction experiment of Calafiore et al. Example 3 / Tables II–III (docs/algorithms.md §6.6): random
+// geometric graphs, the SDP relaxation as initial guess, DG-BB refinement as DgBb agents over the in-process
+// bus, with a synchronous or an asynchronous (random start tick per node, §6.4) start. No I/O.
 #include <cstdint>
 #include <random>
 #include <string>
@@ -48,7 +48,7 @@ struct SdpInstance {
 SdpInstance make_sdp_instance(const GeometricGraphConfig& config, std::mt19937_64& rng,
                               const SdpRelaxationParams& sdp_params = {});
 
-/// DG-BB parameters of Example 3: T = 20, η_abstol = 1e−15, τ_max = 1e5 (004 Sec. V-C).
+/// DG-BB parameters of Example 3: T = 20, η_abstol = 1e−15, τ_max = 1e5 (Calafiore et al. Sec. V-C).
 estimators::gradient::DgBbParams example3_dgbb_params();
 
 // ---- Table II: Φ of SDP and SDP+DG for n_a × ν_d ----

@@ -1,7 +1,7 @@
 #pragma once
-// Full SDP relaxation of range localization (Biswas–Ye form; 004 Sec. V-C, docs/algorithms.md §6.5 item 4),
-// solved with SDPA. Centralized, one shot: the initial guess of the SDP+DG refinement (Tables II–III).
-// Plain C++/Eigen in and out: no I/O, logging, RNG or clock; SDPA is seen only by the .cpp.
+// Full SDP relaxation of range localization (Biswas–Ye form; Calafiore et al. Sec. V-C, docs/algorithms.md
+// §6.5 item 4), solved with SDPA. Centralized, one shot: the initial guess of the SDP+DG refinement (Tables
+// II–III). Plain C++/Eigen in and out: no I/O, logging, RNG or clock; SDPA is seen only by the .cpp.
 #include <Eigen/Core>
 #include <string>
 #include <vector>

@@ -8,8 +8,8 @@
 
 namespace swarmloc::config {
 
-/// The target's model at the world period 1 / run.rate_hz (002 eq. (1)): state dimension 2 (static, F and
-/// W empty) or 4 (double integrator: F = [I τI; 0 I], W = q [τ³/3 I, τ²/2 I; τ²/2 I, τ I]).
+/// The target's model at the world period 1 / run.rate_hz (Atanasov et al. eq. (1)): state dimension 2
+/// (static, F and W empty) or 4 (double integrator: F = [I τI; 0 I], W = q [τ³/3 I, τ²/2 I; τ²/2 I, τ I]).
 struct TargetModel {
   int dim = 2;
   MatX F;

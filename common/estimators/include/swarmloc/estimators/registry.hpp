@@ -36,8 +36,8 @@ struct EstimatorBuilder {
   ParamBlock params = ParamBlock::kKalman;
   /// The agent's estimator (block kKalman or kCooperative); null for kFusion.
   std::unique_ptr<Estimator> (*agent)(const AgentSetup&, const EstimatorParams&) = nullptr;
-  /// kFusion: the fusion centre's filter and whether it relabels the agents once at start-up (000 Alg. 3
-  /// with ).
+  /// kFusion: the fusion centre's filter and whether it relabels the agents once at start-up (Khan et al.
+  /// Alg. 3 with ).
   std::optional<centralized::CentralizedKind> fusion;
   bool relabel = false;
 };

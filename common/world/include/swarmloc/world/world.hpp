@@ -168,7 +168,7 @@ std::vector<models::Wall> make_walls(const config::Scenario& scenario);
 
 /// Agent `agent`'s noisy measurements for world step `step`, of the kinds its algorithm consumes:
 /// - ranges to each current neighbour, drawn per endpoint ([B-1]) or shared by both ends
-///   (noise.shared_range_draws), additive or proportional to the distance (004 eq. (16));
+///   (noise.shared_range_draws), additive or proportional to the distance (Calafiore et al. eq. (16));
 /// - for anchors (Kalman family), an absolute fix;
 /// - relative positions s_ij = x_j − x_i + ε, one draw per link shared by both ends (i gets s_ij, j gets
 ///   −s_ij, [C-7]);
