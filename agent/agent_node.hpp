@@ -1,8 +1,9 @@
 #pragma once
 // One agent = one OS process: its estimator runs on a timer of its own (skewed, drifting) clock and
-// talks to its neighbours over DDS. All estimator-facing logic lives in sim::AgentRuntime; this file
-// only moves samples between DDS and that runtime. What the agent knows is its scenario file and its
-// manifest (runtime/manifest.hpp): it never builds the world.
+// talks to its neighbours over DDS. When it steps and what it does with what arrives is the agent loop
+// (runtime/agent_loop.hpp), which the simulator drives too; this file moves samples between DDS and that
+// loop and holds what only a process has (start-up handshake, control, signals, logs). What the agent
+// knows is its scenario file and its manifest (runtime/manifest.hpp): it never builds the world.
 #include <functional>
 #include <string>
 #include <vector>
@@ -28,14 +29,14 @@ struct AgentOptions {
 
 /// Where the agent's manifest comes from once its scenario is loaded (from --scenario, or without it the
 /// defaults with --set applied: only its dds keys matter then). It may replace the scenario (a manifest
-/// sample carries the run's). Throws config::ScenarioError or sim::ManifestError for bad input (exit
+/// sample carries the run's). Throws config::ScenarioError or runtime::ManifestError for bad input (exit
 /// code 2), dds::DdsError when none can be had (exit code 1).
-using ManifestSource = std::function<sim::AgentManifest(config::Scenario&, const AgentOptions&)>;
+using ManifestSource = std::function<runtime::AgentManifest(config::Scenario&, const AgentOptions&)>;
 
 /// options.manifest_path, loaded and validated; without one, agent options.id's manifest sample over
 /// DDS (manifest_source.cpp), whose scenario (with options.overrides) replaces `scenario` unless
 /// options.scenario_path was given.
-sim::AgentManifest load_manifest(config::Scenario& scenario, const AgentOptions& options);
+runtime::AgentManifest load_manifest(config::Scenario& scenario, const AgentOptions& options);
 
 /// Runs the agent until STOP, SIGINT/SIGTERM or the orchestrator goes silent. Returns the process
 /// exit code (0 ok, 2 bad input, 1 runtime failure).

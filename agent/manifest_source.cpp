@@ -9,10 +9,10 @@
 
 namespace swarmloc::agent {
 
-sim::AgentManifest load_manifest(config::Scenario& scenario, const AgentOptions& options) {
-  if (!options.manifest_path.empty()) return sim::load_manifest(options.manifest_path);
+runtime::AgentManifest load_manifest(config::Scenario& scenario, const AgentOptions& options) {
+  if (!options.manifest_path.empty()) return runtime::load_manifest(options.manifest_path);
   if (options.id < 0) {
-    throw sim::ManifestError(
+    throw runtime::ManifestError(
         "--id is required without --manifest: the agent waits for agent <id>'s manifest on DDS");
   }
   // The agent's own logger (agent_node.cpp names it agent<id>), so these lines go to --log.

@@ -1,7 +1,7 @@
 // One centralized filter step (EKF, LB-EKF with Alg. 1, LB-EKF with the O(nL²) inversion, LB-EKF-I)
-// and one BandInv_L call, 000 Secs. 4–5 (docs/algorithms.md §2.6). Agents are placed uniformly in a
+// and one BandInv_L call, Khan et al. Secs. 4–5 (docs/algorithms.md §2.6). Agents are placed uniformly in a
 // 40 m-high corridor at the E-A2 density (30 agents per 40 m × 40 m), so the VR bandwidth stays near
-// the E-A2 value as N grows; relabeled by 000 Alg. 3 on the true positions; L = 20.
+// the E-A2 value as N grows; relabeled by Khan et al. Alg. 3 on the true positions; L = 20.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>

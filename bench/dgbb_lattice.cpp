@@ -1,5 +1,5 @@
-// One 004 Table I lattice run (10 × 10, both diagonals, noiseless) over the in-process bus: DG-BB with
-// T = 20 to convergence, and the fixed step (one STATE exchange per update) for 2000 updates.
+// One Calafiore et al. Table I lattice run (10 × 10, both diagonals, noiseless) over the in-process bus:
+// DG-BB with T = 20 to convergence, and the fixed step (one STATE exchange per update) for 2000 updates.
 #include <benchmark/benchmark.h>
 
 #include <random>
@@ -8,7 +8,7 @@
 
 namespace {
 
-namespace experiments = swarmloc::sim::experiments;
+namespace experiments = swarmloc::research;
 namespace gradient = swarmloc::estimators::gradient;
 
 experiments::LatticeProblem table_one_lattice() {

@@ -1,5 +1,5 @@
-// One IEIF / IEKF / dml step with 8 neighbours, one multipath BP step with 8 neighbours (003's beliefs and
-// exact GaBP), and one CRLB build at N = 30 and N = 300.
+// One IEIF / IEKF / dml step with 8 neighbours, one multipath BP step with 8 neighbours (Leng et al.'s
+// beliefs and exact GaBP), and one CRLB build at N = 30 and N = 300.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -54,7 +54,7 @@ BENCHMARK_TEMPLATE(filter_step_8_neighbours, est::Ieif);
 BENCHMARK_TEMPLATE(filter_step_8_neighbours, est::Iekf);
 BENCHMARK_TEMPLATE(filter_step_8_neighbours, est::Dml);
 
-/// The IEIF step with algorithm.update_iterations = Arg (1: 001's single linearization).
+/// The IEIF step with algorithm.update_iterations = Arg (1: Gasparri & Pascucci's single linearization).
 void ieif_step_8_neighbours_update_iterations(benchmark::State& state) {
   const Neighbourhood n = eight_neighbours();
   est::AgentSetup setup;
@@ -71,7 +71,8 @@ void ieif_step_8_neighbours_update_iterations(benchmark::State& state) {
 BENCHMARK(ieif_step_8_neighbours_update_iterations)->Arg(1)->Arg(10);
 
 /// One multipath BP iteration at a node with 8 neighbours, two reflected paths each (walls at 0° and 45°),
-/// after the paths arrived; Arg 0: 003's beliefs, 1: exact GaBP (each neighbour lists its contributions).
+/// after the paths arrived; Arg 0: Leng et al.'s beliefs, 1: exact GaBP (each neighbour lists its
+/// contributions).
 void multipath_bp_step_8_neighbours(benchmark::State& state) {
   const bool exact = state.range(0) == 1;
   const Vec2 self(10.0, 10.0);
@@ -123,7 +124,8 @@ void crlb_all_pairs(benchmark::State& state) {
 }
 BENCHMARK(crlb_all_pairs)->Arg(30)->Arg(300)->Unit(benchmark::kMillisecond);
 
-/// One IEKF measurement update with M ranges: 001 Table II has every pair measuring, M = N − 1.
+/// One IEKF measurement update with M ranges: Gasparri & Pascucci Table II has every pair measuring, M = N
+/// − 1.
 est::Linearization ranges_rows(Eigen::Index m) {
   std::mt19937_64 rng(2);
   std::normal_distribution<double> normal(0.0, 1.0);

@@ -50,7 +50,15 @@ void Progress::finish() {
   if (enabled_ && tty_) std::fprintf(stderr, "\n");
 }
 
-std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& errors, int reporting,
+std::string starting_line(const config::Scenario& scenario) {
+  char line[160];
+  std::snprintf(line, sizeof line, "[0s] starting %s: %d agents, %d steps at %g Hz",
+                scenario.algorithm.name.c_str(), scenario.world.agents, scenario.run.steps,
+                scenario.run.rate_hz);
+  return line;
+}
+
+std::string progress_line(std::int64_t step, int steps, const world::ErrorStats& errors, int reporting,
                           int agents, double elapsed_s) {
   char line[200];
   std::snprintf(line, sizeof line,
@@ -60,8 +68,8 @@ std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& e
   return line;
 }
 
-sim::WorkControl interruptible_work(Progress& progress, Clock::time_point started) {
-  sim::WorkControl control;
+world::WorkControl interruptible_work(Progress& progress, Clock::time_point started) {
+  world::WorkControl control;
   control.cancel = &interrupted();
   control.on_progress = [&progress, started](const std::string& phase, double fraction) {
     char line[240];

@@ -42,12 +42,15 @@ class Progress {
   Clock::time_point last_ = Clock::now() - std::chrono::hours(1);
 };
 
-std::string progress_line(std::int64_t step, int steps, const sim::ErrorStats& errors, int reporting,
+/// "[0s] starting dml: 30 agents, 300 steps at 10 Hz": a run's first progress line.
+std::string starting_line(const config::Scenario& scenario);
+
+std::string progress_line(std::int64_t step, int steps, const world::ErrorStats& errors, int reporting,
                           int agents, double elapsed_s);
 
 /// Long computations (world building, simulation, writing) cancelled by interrupted() and reporting on
 /// `progress` ("[  3.1s] world: neighbour graph: 40 %"). `progress` must outlive the result.
-sim::WorkControl interruptible_work(Progress& progress, Clock::time_point started);
+world::WorkControl interruptible_work(Progress& progress, Clock::time_point started);
 
 /// A run that ends before anything was written leaves no empty directory behind (unless it was there).
 void discard_if_empty(const std::filesystem::path& run_dir, bool existed);

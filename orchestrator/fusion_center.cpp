@@ -17,7 +17,7 @@
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::agent {
+namespace swarmloc::orchestrator {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -27,7 +27,7 @@ std::atomic<bool> g_stop_requested{false};
 // Only sets a flag: never call DDS from a signal handler.
 void on_signal(int /*signal*/) { g_stop_requested.store(true); }
 
-using sim::process_cpu_s;
+using runtime::process_cpu_s;
 
 std::shared_ptr<spdlog::logger> make_logger(const FusionOptions& options) {
   const std::string name = "fusion";
@@ -48,7 +48,7 @@ std::int64_t stamp_ns() {
 
 class FusionProcess {
  public:
-  FusionProcess(const config::Scenario& scenario, const sim::World& world,
+  FusionProcess(const config::Scenario& scenario, const world::World& world,
                 std::shared_ptr<spdlog::logger> logger)
       : scenario_(scenario),
         agent_count_(world.size()),
@@ -82,8 +82,8 @@ class FusionProcess {
         // Until START: say hello so the orchestrator knows the fusion centre is up.
         if (now - last_hello > std::chrono::milliseconds(200)) {
           last_hello = now;
-          sim::EstimateReport hello;
-          hello.header = sim::Header{dds::kFusionCenterId, 0, 0, stamp_ns(), 0};
+          runtime::EstimateReport hello;
+          hello.header = runtime::Header{dds::kFusionCenterId, 0, 0, stamp_ns(), 0};
           hello.cpu_s = process_cpu_s();
           hello.results_hash = results_hash_;
           transport_.publish_estimate(hello);
@@ -124,10 +124,10 @@ class FusionProcess {
   /// STOP, or a refusal of our scenario (as for an agent, agent_node.cpp), ends the run.
   Verdict handle_control(const dds::FusionInbound& inbound) {
     for (const auto& control : inbound.control) {
-      const bool refused = control.command == sim::ControlCommand::kRefuse &&
+      const bool refused = control.command == runtime::ControlCommand::kRefuse &&
                            control.target == dds::kFusionCenterId && control.scenario_hash == results_hash_;
       const bool foreign =
-          control.command == sim::ControlCommand::kStart && control.scenario_hash != results_hash_;
+          control.command == runtime::ControlCommand::kStart && control.scenario_hash != results_hash_;
       if (refused || foreign) {
         logger_->error(
             "refused by the orchestrator: this fusion centre's scenario (results hash {:016x}) differs from "
@@ -135,10 +135,10 @@ class FusionProcess {
             results_hash_);
         return Verdict::kRefused;
       }
-      if (control.command == sim::ControlCommand::kStart && !started_run_) {
+      if (control.command == runtime::ControlCommand::kStart && !started_run_) {
         started_run_ = true;
         logger_->info("START received");
-      } else if (control.command == sim::ControlCommand::kStop) {
+      } else if (control.command == runtime::ControlCommand::kStop) {
         logger_->info("STOP received");
         return Verdict::kStop;
       }
@@ -202,8 +202,8 @@ class FusionProcess {
     const double cpu_s = process_cpu_s();
     const auto world_ns = static_cast<std::int64_t>(std::llround(world_time_s * 1e9));
     for (AgentId i = 0; i < agent_count_; ++i) {
-      sim::EstimateReport report;
-      report.header = sim::Header{i, static_cast<std::uint32_t>(step), step, stamp_ns(), world_ns};
+      runtime::EstimateReport report;
+      report.header = runtime::Header{i, static_cast<std::uint32_t>(step), step, stamp_ns(), world_ns};
       report.estimate = sim::fusion_estimate(*filter_, i);
       report.steps_run = static_cast<std::uint32_t>(next_step_);
       report.samples_published = static_cast<std::uint32_t>(next_step_);
@@ -237,10 +237,10 @@ int run_fusion_center(const FusionOptions& options) {
   std::signal(SIGPIPE, SIG_IGN);
   auto logger = make_logger(options);
   config::Scenario scenario;
-  sim::World world;
+  world::World world;
   try {
     scenario = config::load_scenario(options.scenario_path, options.overrides);
-    world = sim::build_world(scenario);
+    world = world::build_world(scenario);
     if (!scenario.dds.security_dir.empty())
       dds::security_files(scenario.dds.security_dir, dds::kFusionCenterId);
   } catch (const config::ScenarioError& error) {
@@ -265,4 +265,4 @@ int run_fusion_center(const FusionOptions& options) {
   }
 }
 
-}  // namespace swarmloc::agent
+}  // namespace swarmloc::orchestrator

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-namespace swarmloc::agent {
+namespace swarmloc::orchestrator {
 
 struct FusionOptions {
   std::string scenario_path;
@@ -18,4 +18,4 @@ struct FusionOptions {
 /// process exit code (0 ok, 2 bad input, 1 runtime failure).
 int run_fusion_center(const FusionOptions& options);
 
-}  // namespace swarmloc::agent
+}  // namespace swarmloc::orchestrator

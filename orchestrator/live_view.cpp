@@ -77,7 +77,7 @@ nlohmann::json snapshot_json(const ViewSnapshot& s) {
           {"done", s.done}};
 }
 
-ViewSnapshot view_snapshot(const config::Scenario& scenario, const sim::World& world) {
+ViewSnapshot view_snapshot(const config::Scenario& scenario, const world::World& world) {
   ViewSnapshot s;
   s.name = scenario.name;
   s.algorithm = scenario.algorithm.name;
@@ -99,7 +99,7 @@ ViewSnapshot view_snapshot(const config::Scenario& scenario, const sim::World& w
 }
 
 void add_link_counters(ViewSnapshot& snapshot, AgentId sender, AgentId receiver,
-                       const sim::LinkCounters& counters) {
+                       const runtime::LinkCounters& counters) {
   const auto key = std::minmax(sender, receiver);
   auto it = std::lower_bound(snapshot.links.begin(), snapshot.links.end(), key,
                              [](const ViewLink& link, const auto& k) {
@@ -110,7 +110,7 @@ void add_link_counters(ViewSnapshot& snapshot, AgentId sender, AgentId receiver,
   it->sent += counters.sent();
 }
 
-void set_metrics(ViewSnapshot& snapshot, const sim::StepMetrics& metrics) {
+void set_metrics(ViewSnapshot& snapshot, const rundir::StepMetrics& metrics) {
   snapshot.step = metrics.step;
   snapshot.rmse_m = metrics.errors.rmse_m;
   snapshot.mean_error_m = metrics.errors.mean_error_m;
@@ -122,8 +122,8 @@ void set_metrics(ViewSnapshot& snapshot, const sim::StepMetrics& metrics) {
   snapshot.has_metrics = true;
 }
 
-void set_optimum(ViewSnapshot& snapshot, const sim::RunRecord& record, std::size_t up_to) {
-  snapshot.optimum_kind = std::string(sim::to_string(record.optimum.kind));
+void set_optimum(ViewSnapshot& snapshot, const rundir::RunRecord& record, std::size_t up_to) {
+  snapshot.optimum_kind = std::string(world::to_string(record.optimum.kind));
   const std::size_t end =
       std::min(up_to == SIZE_MAX ? record.metrics.size() : up_to + 1, record.metrics.size());
   for (std::size_t k = end; k-- > 0;) {
@@ -136,15 +136,15 @@ void set_optimum(ViewSnapshot& snapshot, const sim::RunRecord& record, std::size
   }
 }
 
-void play_back(LiveView& view, const config::Scenario& scenario, const sim::RunRecord& record,
+void play_back(LiveView& view, const config::Scenario& scenario, const rundir::RunRecord& record,
                const std::atomic<bool>& interrupted) {
   using Clock = std::chrono::steady_clock;
-  auto world = sim::build_world(scenario);
+  auto world = world::build_world(scenario);
   ViewSnapshot base = view_snapshot(scenario, world);
   base.mode = "sim";
-  base.bound_kind = std::string(sim::to_string(record.bound.kind));
+  base.bound_kind = std::string(world::to_string(record.bound.kind));
   for (const auto& [key, counters] : record.links) add_link_counters(base, key.first, key.second, counters);
-  std::map<std::int64_t, std::vector<const sim::EstimateRow*>> rows;
+  std::map<std::int64_t, std::vector<const rundir::EstimateRow*>> rows;
   for (const auto& row : record.estimates) rows[row.step].push_back(&row);
   std::vector<std::optional<estimators::Estimate>> latest(base.agents.size());
   const auto period =
@@ -152,7 +152,7 @@ void play_back(LiveView& view, const config::Scenario& scenario, const sim::RunR
   auto next = Clock::now();
   for (std::size_t k = 0; k < record.metrics.size() && !interrupted.load(); ++k) {
     const auto& metrics = record.metrics[k];
-    if (metrics.step > 0) sim::advance_truth(world, scenario, metrics.step);
+    if (metrics.step > 0) world::advance_truth(world, scenario, metrics.step);
     ViewSnapshot s = base;
     for (std::size_t i = 0; i < s.agents.size(); ++i) s.agents[i].truth = world.truth[i];
     if (s.target) s.target = world.scored_truth(0);

@@ -58,7 +58,7 @@ struct ViewSnapshot {
   std::vector<ViewLink> links;
   double rmse_m = 0.0, mean_error_m = 0.0, max_error_m = 0.0, nees = 0.0;
   double crlb_rmse_m = 0.0;  ///< accumulated CRLB after step + 1 snapshots
-  /// The run's bound at this step and its kind (sim::RunRecord::bound, docs/algorithms.md §1.3.1).
+  /// The run's bound at this step and its kind (rundir::RunRecord::bound, docs/algorithms.md §1.3.1).
   double bound_rmse_m = std::numeric_limits<double>::quiet_NaN();
   std::string bound_kind;
   /// The newest solved optimum of the run's data (docs/algorithms.md §1.3.2): its kind, step, RMSE, and the
@@ -76,20 +76,20 @@ nlohmann::json snapshot_json(const ViewSnapshot& snapshot);
 
 /// A snapshot of `world` before any estimate: true positions, anchors, the step-0 graph's links with
 /// no counters, the scenario's name, algorithm, steps, rate and area.
-ViewSnapshot view_snapshot(const config::Scenario& scenario, const sim::World& world);
+ViewSnapshot view_snapshot(const config::Scenario& scenario, const world::World& world);
 /// Adds the counters of the link sender -> receiver to its undirected link (if it is in the graph).
 void add_link_counters(ViewSnapshot& snapshot, AgentId sender, AgentId receiver,
-                       const sim::LinkCounters& counters);
+                       const runtime::LinkCounters& counters);
 /// Copies a scored step's figures (step, RMSE, mean/max error, NEES, accumulated CRLB, scored agents).
-void set_metrics(ViewSnapshot& snapshot, const sim::StepMetrics& metrics);
+void set_metrics(ViewSnapshot& snapshot, const rundir::StepMetrics& metrics);
 /// The optimum's kind, and its newest solved step among record.metrics[0 … up_to] (default: all) with the
 /// efficiency there.
-void set_optimum(ViewSnapshot& snapshot, const sim::RunRecord& record, std::size_t up_to = SIZE_MAX);
+void set_optimum(ViewSnapshot& snapshot, const rundir::RunRecord& record, std::size_t up_to = SIZE_MAX);
 
 class LiveView;
 /// `swarmloc sim --view`: replays a finished in-process run at run.rate_hz (estimates and scores per
 /// step as recorded; links show the run's final counters). The last snapshot is marked done.
-void play_back(LiveView& view, const config::Scenario& scenario, const sim::RunRecord& record,
+void play_back(LiveView& view, const config::Scenario& scenario, const rundir::RunRecord& record,
                const std::atomic<bool>& interrupted);
 
 /// The embedded page (live_view_page.cpp).

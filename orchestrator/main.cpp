@@ -265,8 +265,8 @@ int execute_agent(AgentCommand& agent) {
       std::fprintf(stderr, "error: --role fusion takes no --id or --hostile\n");
       return 2;
     }
-    return swarmloc::agent::run_fusion_center(
-        swarmloc::agent::FusionOptions{options.scenario_path, options.overrides, options.log_path});
+    return swarmloc::orchestrator::run_fusion_center(
+        swarmloc::orchestrator::FusionOptions{options.scenario_path, options.overrides, options.log_path});
   }
   if (agent.id->count() == 0 && options.manifest_path.empty()) {
     std::fprintf(stderr, "error: --id (or --manifest) is required for --role agent\n");

@@ -15,11 +15,13 @@
 #include <set>
 #include <thread>
 
+#include "agent_launch.hpp"
 #include "console.hpp"
 #include "launcher.hpp"
 #include "live_view.hpp"
 #include "run_setup.hpp"
 #include "swarmloc/dds/transport.hpp"
+#include "swarmloc/run/manifests.hpp"
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/runtime/liveness.hpp"
 #include "swarmloc/runtime/report_book.hpp"
@@ -31,29 +33,15 @@
 namespace swarmloc::orchestrator {
 namespace {
 
-sim::World with_recording(sim::World world, const RunOptions& options) {
-  sim::attach_recorded(world, options.recorded);
+world::World with_recording(world::World world, const RunOptions& options) {
+  world::attach_recorded(world, options.recorded);
   return world;
-}
-
-/// How old an estimate may be and still count as current, and when silence is a stall (free run: a few
-/// world periods; lockstep: the barrier decides, docs/robustness.md "Liveness").
-sim::LivenessLimits liveness_limits(const config::Scenario& scenario, bool lockstep) {
-  sim::LivenessLimits limits;
-  const double period_s = 1.0 / scenario.run.rate_hz;
-  limits.restart_grace_s = scenario.run.startup_timeout_s;
-  if (lockstep) {
-    limits.stall_s = scenario.run.startup_timeout_s;
-  } else {
-    limits.current_s = std::max(0.25, 3.0 * period_s);
-    limits.stall_s = std::max(2.0, 5.0 * period_s);
-  }
-  return limits;
 }
 
 class Orchestrator {
  public:
-  Orchestrator(config::Scenario scenario, RunOptions options, std::filesystem::path run_dir, sim::World world)
+  Orchestrator(config::Scenario scenario, RunOptions options, std::filesystem::path run_dir,
+               world::World world)
       : scenario_(std::move(scenario)),
         options_(std::move(options)),
         run_dir_(std::move(run_dir)),
@@ -74,9 +62,11 @@ class Orchestrator {
     const auto started = origin_;
     const int n = world_.size();
     start_record(n);
+    progress_.update(starting_line(scenario_), true);  // the first line a user sees says what starts
     if (options_.view_port >= 0) start_view();
     if (options_.record) {
-      recording_ = std::make_unique<sim::RecordingWriter>(run_dir_ / sim::kRecordingFile, scenario_, world_);
+      recording_ =
+          std::make_unique<rundir::RecordingWriter>(run_dir_ / rundir::kRecordingFile, scenario_, world_);
     }
     // Before our own participant binds its port: a busy block means another run on this domain.
     dds::require_ports_free(scenario_, options_.launch_agents);
@@ -103,23 +93,23 @@ class Orchestrator {
     if (ready) record_.extra["world_steps_s"] = seconds_since(world_phase_start);
     settle_and_stop(transport, ready, failed, world_phase_start);
     finish_scoring();
-    sim::update_run_optimum(record_, true);
+    rundir::update_run_optimum(record_, true);
     launcher_.stop_all(5.0);
-    const sim::RunHealth health = complete_record(transport, started, ready);
-    sim::write_run_directory(run_dir_, record_);
+    const runtime::RunHealth health = complete_record(transport, started, ready);
+    rundir::write_run_directory(run_dir_, record_);
     return report_result(health, failed);
   }
 
  private:
   /// What the run record knows before the run: the scenario, the mode and the world's shape.
   void start_record(int n) {
-    reports_ = sim::ReportBook(n);
+    reports_ = runtime::ReportBook(n);
     record_.scenario = scenario_;
     record_.mode = lockstep_ ? "dds-lockstep" : "dds-free-run";
     record_.agents = n;
     record_.anchors = world_.anchor_count();
     record_.mean_degree = world_.mean_degree();
-    sim::compute_run_bounds(record_, world_);
+    rundir::compute_run_bounds(record_, world_);
   }
 
   /// After the world steps (or a failed start): the settle time (none after a failure), STOP, the last
@@ -134,8 +124,8 @@ class Orchestrator {
       collect(transport, 0.05);
       if (ready) watch_processes(scenario_.run.steps - 1);
     }
-    sim::ControlMessage stop;
-    stop.command = sim::ControlCommand::kStop;
+    runtime::ControlMessage stop;
+    stop.command = runtime::ControlCommand::kStop;
     stop.header.agent_id = kOrchestratorId;
     transport.publish_control(stop);
     if (ready) record_.world_phase_s = seconds_since(world_phase_start);
@@ -143,8 +133,8 @@ class Orchestrator {
   }
 
   /// The run record's closing figures (processes, exit codes, liveness, health, recording); the health.
-  sim::RunHealth complete_record(const dds::OrchestratorTransport& transport, Clock::time_point started,
-                                 bool ready) {
+  runtime::RunHealth complete_record(const dds::OrchestratorTransport& transport, Clock::time_point started,
+                                     bool ready) {
     record_.processes = launcher_.size() + 1;
     record_.interrupted = interrupted().load();
     record_.wall_s = seconds_since(started);
@@ -159,12 +149,12 @@ class Orchestrator {
     record_.extra["liveness"] = liveness_.to_json();
     if (fusion_exit_) record_.extra["liveness"]["fusion_center_ended"] = *fusion_exit_;
     if (!refused_.empty()) record_.extra["refused_agents"] = refused_json();
-    sim::RunHealth health = assess_health(ready);
+    runtime::RunHealth health = assess_health(ready);
     if (!start_failure_.empty()) {
       health.healthy = false;
       health.reasons.insert(health.reasons.begin(), start_failure_);
     }
-    record_.extra["health"] = sim::to_json(health);
+    record_.extra["health"] = runtime::to_json(health);
     // A run that never started has no results: its summary must not read as a healthy one (exit 1).
     if (!start_failure_.empty()) record_.extra["health"]["verdict"] = "failed";
     if (lockstep_) record_.extra["lockstep_timeouts"] = lockstep_timeouts_;
@@ -172,19 +162,19 @@ class Orchestrator {
     if (recording_) {
       recording_->close();
       record_.extra["recording"] = {
-          {"file", sim::kRecordingFile},
+          {"file", rundir::kRecordingFile},
           {"steps", recording_->steps()},
-          {"sample_logs", std::string(sim::kSampleLogDirectory) + "/agent_<id>.slrec"}};
+          {"sample_logs", std::string(rundir::kSampleLogDirectory) + "/agent_<id>.slrec"}};
     }
     for (const auto& [key, value] : options_.summary_extra.items()) record_.extra[key] = value;
     return health;
   }
 
   /// Once summary.json is written: the result table, the health, the live view's final state. The exit code.
-  int report_result(const sim::RunHealth& health, bool failed) {
+  int report_result(const runtime::RunHealth& health, bool failed) {
     publish_view(record_.interrupted || failed ? "stopped" : "done", true);  // done: summary.json is written
     progress_.finish();
-    std::printf("%s", sim::result_table(record_).c_str());
+    std::printf("%s", rundir::result_table(record_).c_str());
     if (start_failure_.empty()) {
       print_health(health);
     } else {
@@ -212,7 +202,7 @@ class Orchestrator {
     if (!view_) return;
     ViewSnapshot snapshot = view_snapshot(scenario_, world_);
     snapshot.mode = "dds";
-    snapshot.bound_kind = std::string(sim::to_string(record_.bound.kind));
+    snapshot.bound_kind = std::string(world::to_string(record_.bound.kind));
     snapshot.phase = phase;
     snapshot.done = done;
     for (std::size_t i = 0; i < reports_.size(); ++i) {
@@ -230,59 +220,31 @@ class Orchestrator {
   void launch_agents() {
     std::filesystem::create_directories(run_dir_ / "logs");
     for (AgentId i = 0; i < world_.size(); ++i) launch_agent(i, 0);
-    const auto scenario_file = (run_dir_ / "scenario.yaml").string();
     if (centralized_) {
       // Launched last, so the agents keep launcher indices 0 … N−1 (their summaries' exit codes).
-      const auto log = (run_dir_ / "logs" / "fusion_center.log").string();
-      fusion_index_ = launcher_.launch(
-          {options_.agent_binary, "agent", "--role", "fusion", "--scenario", scenario_file, "--log", log},
-          log + ".out", scenario_.run.agent_nice);
+      const ProcessCommand fusion = fusion_centre_process(launch_plan());
+      fusion_index_ = launcher_.launch(fusion.argv, fusion.output_path, scenario_.run.agent_nice);
     }
   }
 
   /// <run>/manifests/agent_<id>.json: what each agent may know, computed once from our world. Written for
   /// agents started elsewhere too (containers that mount the run directory).
-  std::vector<sim::AgentManifest> write_manifests() const {
-    auto manifests = sim::make_agent_manifests(scenario_, world_);
+  std::vector<runtime::AgentManifest> write_manifests() const {
+    auto manifests = run::make_agent_manifests(scenario_, world_);
     for (const auto& manifest : manifests)
-      sim::write_manifest(sim::manifest_path(run_dir_, manifest.id), manifest);
+      runtime::write_manifest(runtime::manifest_path(run_dir_, manifest.id), manifest);
     return manifests;
   }
 
-  /// The lean agent executable beside ours (swarmloc-agent: no world, no simulator, no BLAS), else
-  /// `<agent_binary> agent`, which runs the same code.
-  std::vector<std::string> agent_command() const {
-    const auto lean = std::filesystem::path(options_.agent_binary).parent_path() / "swarmloc-agent";
-    if (std::filesystem::exists(lean)) return {lean.string()};
-    return {options_.agent_binary, "agent"};
+  [[nodiscard]] LaunchPlan launch_plan() const {
+    return {run_dir_, options_.agent_binary, options_.record, options_.hostile_agents};
   }
 
   /// Starts agent `id`'s process (incarnation > 0: a restart after faults.kill, with its own log).
   void launch_agent(AgentId id, int incarnation) {
-    const auto scenario_file = (run_dir_ / "scenario.yaml").string();
-    char name[48];
-    if (incarnation == 0) {
-      std::snprintf(name, sizeof name, "agent_%03d.log", id);
-    } else {
-      std::snprintf(name, sizeof name, "agent_%03d.restart%d.log", id, incarnation);
-    }
-    const auto log = (run_dir_ / "logs" / name).string();
-    // The agent learns what it may know from its manifest; it never builds the world.
-    std::vector<std::string> argv = agent_command();
-    argv.insert(argv.end(), {"--scenario", scenario_file, "--id", std::to_string(id), "--manifest",
-                             sim::manifest_path(run_dir_, id).string(), "--log", log});
-    if (incarnation > 0) argv.insert(argv.end(), {"--incarnation", std::to_string(incarnation)});
-    if (options_.record) {
-      std::string file = name;  // agent_003.log -> recording/agent_003.slrec
-      file.replace(file.size() - 4, 4, ".slrec");
-      argv.insert(argv.end(), {"--record", (run_dir_ / sim::kSampleLogDirectory / file).string()});
-    }
-    if (std::find(options_.hostile_agents.begin(), options_.hostile_agents.end(), id) !=
-        options_.hostile_agents.end()) {
-      argv.emplace_back("--hostile");
-    }
+    const ProcessCommand command = agent_process(launch_plan(), id, incarnation);
     launcher_index_[static_cast<std::size_t>(id)] =
-        launcher_.launch(argv, log + ".out", scenario_.run.agent_nice);
+        launcher_.launch(command.argv, command.output_path, scenario_.run.agent_nice);
   }
 
   /// faults.kill / faults.pause at world step `step` (free run: real signals to real processes).
@@ -358,8 +320,8 @@ class Orchestrator {
     // Neighbour discovery is scoped and fast (~0.1–0.4 s, docs/measurements/discovery.md); give it a moment.
     const auto grace_until = Clock::now() + std::chrono::milliseconds(1000);
     while (Clock::now() < grace_until) collect(transport, 0.05);
-    sim::ControlMessage start;
-    start.command = sim::ControlCommand::kStart;
+    runtime::ControlMessage start;
+    start.command = runtime::ControlCommand::kStart;
     start.header.agent_id = kOrchestratorId;
     start.scenario_hash = results_hash_;
     transport.publish_control(start);
@@ -377,18 +339,19 @@ class Orchestrator {
       if (interrupted().load()) return false;
       current_step_ = step;
       if (!lockstep_) note_world_step_lateness(std::chrono::duration<double>(Clock::now() - next).count());
-      if (step > 0) sim::advance_truth(world_, scenario_, step);
+      if (step > 0) world::advance_truth(world_, scenario_, step);
       apply_faults(step);
       const auto stamp_ns =
           static_cast<std::int64_t>(static_cast<double>(step) / scenario_.run.rate_hz * 1e9);
       std::vector<estimators::MeasurementBatch> batches;
       batches.reserve(static_cast<std::size_t>(world_.size()));
       for (AgentId i = 0; i < world_.size(); ++i)
-        batches.push_back(sim::generate_batch(world_, scenario_, i, step));
+        batches.push_back(world::generate_batch(world_, scenario_, i, step));
       if (recording_) recording_->append_step(step, world_.truth, batches);
-      sim::observe_world_step(record_, step, world_.truth, batches);
+      rundir::observe_world_step(record_, step, world_.truth, batches);
       transport.publish_batches(
-          sim::Header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns}, batches);
+          runtime::Header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns},
+          batches);
       transport.publish_ros2_world(step, stamp_ns, world_.truth, batches);  // dds.ros2 only (docs/ros2.md)
       if (lockstep_) {
         wait_for_step(transport, step);
@@ -402,7 +365,7 @@ class Orchestrator {
       score_step(step);
       // A checkpoint's optimum, for the live view; without one every solve waits until after STOP, so it
       // never delays a world step (docs/algorithms.md §1.3.2).
-      if (view_) sim::update_run_optimum(record_, false);
+      if (view_) rundir::update_run_optimum(record_, false);
       publish_view("running");
       progress_.update(progress_line(step, scenario_.run.steps, record_.metrics.back().errors,
                                      current_agents_, world_.size(), seconds_since(started)),
@@ -472,11 +435,11 @@ class Orchestrator {
     const auto& events = liveness_.events();
     for (; logged_events_ < events.size(); ++logged_events_) {
       const auto& e = events[logged_events_];
-      if (e.kind == sim::LivenessEvent::Kind::kResumed) {
+      if (e.kind == runtime::LivenessEvent::Kind::kResumed) {
         spdlog::warn("agent {} resumed at step {}: {}", e.agent, e.step, e.reason);
       } else {
         spdlog::warn("agent {} {} at step {}: {}; its estimate is not scored from now on", e.agent,
-                     sim::to_string(e.kind), e.step, e.reason);
+                     runtime::to_string(e.kind), e.step, e.reason);
       }
     }
   }
@@ -493,7 +456,7 @@ class Orchestrator {
       liveness_.exited(i, step, now_s, launcher_.exit_code(index).value_or(-1));
     }
     if (fusion_index_ >= 0 && !launcher_.running(fusion_index_) && reaped_.insert(fusion_index_).second) {
-      fusion_exit_ = sim::describe_exit(launcher_.exit_code(fusion_index_).value_or(-1));
+      fusion_exit_ = runtime::describe_exit(launcher_.exit_code(fusion_index_).value_or(-1));
       spdlog::error("the fusion centre ended at step {} ({}); no agent is estimated any more", step,
                     *fusion_exit_);
     }
@@ -509,8 +472,8 @@ class Orchestrator {
         "and "
         "no --set that changes the world, the algorithm, the network, the clocks or the run",
         name, their_hash, results_hash_, (run_dir_ / "scenario.yaml").string());
-    sim::ControlMessage refusal;
-    refusal.command = sim::ControlCommand::kRefuse;
+    runtime::ControlMessage refusal;
+    refusal.command = runtime::ControlCommand::kRefuse;
     refusal.header.agent_id = kOrchestratorId;
     refusal.target = who;
     refusal.scenario_hash = their_hash;
@@ -534,8 +497,8 @@ class Orchestrator {
   }
 
   /// The run's verdict from the liveness events and everyone's timing (docs/robustness.md).
-  [[nodiscard]] sim::RunHealth assess_health(bool started) const {
-    sim::RunHealthInput input;
+  [[nodiscard]] runtime::RunHealth assess_health(bool started) const {
+    runtime::RunHealthInput input;
     input.free_run = !lockstep_;
     input.rate_hz = scenario_.run.rate_hz;
     input.world_steps = started ? static_cast<std::int64_t>(record_.metrics.size()) : 0;
@@ -546,14 +509,14 @@ class Orchestrator {
     input.unscheduled_deaths = liveness_.deaths() + (fusion_exit_ ? 1 : 0);
     input.stalls = liveness_.stalls();
     input.lockstep_timeouts = lockstep_timeouts_;
-    input.non_finite_steps = sim::non_finite_estimates(record_).steps;
+    input.non_finite_steps = rundir::non_finite_estimates(record_).steps;
     for (const auto& report : reports_) {
       if (report && report->health.ticks > 0) input.agents.push_back(report->health);
     }
-    return sim::assess_health(input);
+    return runtime::assess_health(input);
   }
 
-  static void print_health(const sim::RunHealth& health) {
+  static void print_health(const runtime::RunHealth& health) {
     std::printf("  health: %s\n",
                 health.healthy ? "healthy" : "DEGRADED (completed; results not representative)");
     for (const auto& reason : health.reasons) std::printf("    - %s\n", reason.c_str());
@@ -577,12 +540,12 @@ class Orchestrator {
     current_agents_ = static_cast<int>(
         std::count_if(scored.begin(), scored.end(), [](const auto& e) { return e.has_value(); }));
     log_liveness_events();
-    sim::StepMetrics metrics;
+    rundir::StepMetrics metrics;
     metrics.lost = liveness_.lost_count();
     metrics.step = step;
-    metrics.time_s = sim::reported_time_s(scenario_, step);
-    metrics.errors = sim::score(world_, scored);
-    sim::set_step_bounds(record_, metrics);
+    metrics.time_s = world::reported_time_s(scenario_, step);
+    metrics.errors = world::score(world_, scored);
+    rundir::set_step_bounds(record_, metrics);
     record_.metrics.push_back(metrics);
     for (std::size_t i = 0; i < scored.size(); ++i) {
       if (scored[i])
@@ -627,7 +590,7 @@ class Orchestrator {
       }
     }
     for (AgentId i = 0; i < world_.size(); ++i) {
-      sim::AgentSummary summary;
+      rundir::AgentSummary summary;
       summary.agent = i;
       summary.anchor = world_.is_anchor[static_cast<std::size_t>(i)];
       const auto fate = liveness_.fate(i);
@@ -649,7 +612,7 @@ class Orchestrator {
   config::Scenario scenario_;
   RunOptions options_;
   std::filesystem::path run_dir_;
-  sim::World world_;
+  world::World world_;
   bool centralized_ = false;  ///< the algorithm runs in a fusion-centre process
   /// run.mode = lockstep: the next batch goes out once every agent finished the step (the fusion
   /// centre of a centralized algorithm already consumes complete world steps).
@@ -671,7 +634,7 @@ class Orchestrator {
   Progress progress_;
   Clock::time_point origin_ = Clock::now();  ///< the time origin of liveness and of the run's wall time
   std::uint64_t results_hash_;               ///< config::results_hash: agents must agree on it
-  sim::LivenessTracker liveness_;
+  runtime::LivenessTracker liveness_;
   std::int64_t current_step_ = 0;
   std::size_t logged_events_ = 0;  ///< liveness events already logged
   double last_scored_at_s_ = 0.0;  ///< when the last world step was scored (the final re-score's time)
@@ -679,10 +642,10 @@ class Orchestrator {
   std::int64_t late_world_steps_ = 0;  ///< free run: world steps published > half a period late
   double max_world_step_lateness_s_ = 0.0;
   ProcessLauncher launcher_;
-  sim::RunRecord record_;
-  sim::ReportBook reports_;
-  std::unique_ptr<LiveView> view_;                   ///< --view
-  std::unique_ptr<sim::RecordingWriter> recording_;  ///< --record
+  rundir::RunRecord record_;
+  runtime::ReportBook reports_;
+  std::unique_ptr<LiveView> view_;                      ///< --view
+  std::unique_ptr<rundir::RecordingWriter> recording_;  ///< --record
 };
 
 }  // namespace
@@ -692,14 +655,14 @@ int run_orchestrator(config::Scenario scenario, const RunOptions& options) {
   install_interrupt_handlers();
   Progress progress(options.progress);
   const auto started = Clock::now();
-  const sim::WorkControl control = interruptible_work(progress, started);
+  const world::WorkControl control = interruptible_work(progress, started);
   std::filesystem::path run_dir;
   bool run_dir_existed = false;
-  sim::World world;
+  world::World world;
   try {
     world = prepare_run(scenario, options, control, run_dir, run_dir_existed);
     progress.finish();
-  } catch (const sim::Cancelled&) {
+  } catch (const world::Cancelled&) {
     progress.finish();
     discard_if_empty(run_dir, run_dir_existed);
     std::fprintf(stderr, "interrupted while the world was built; nothing written\n");
@@ -714,7 +677,7 @@ int run_orchestrator(config::Scenario scenario, const RunOptions& options) {
   if (options.launch_agents || scenario.dds.run_id.empty()) scenario.dds.run_id = fresh_run_id();
   try {
     // Agents read the scenario as run (overrides applied, defaults filled) from the run directory.
-    sim::write_text_file(run_dir / "scenario.yaml", config::to_yaml(scenario));
+    runtime::write_text_file(run_dir / "scenario.yaml", config::to_yaml(scenario));
     Orchestrator orchestrator(scenario, options, run_dir, std::move(world));
     return orchestrator.run();
   } catch (const std::exception& error) {

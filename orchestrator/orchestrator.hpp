@@ -28,7 +28,7 @@ struct RunOptions {
   /// agent's received inter-agent samples) in the run directory.
   bool record = false;
   /// Replay: the world's truth and batches come from here (World::recorded), not the generator.
-  std::shared_ptr<const sim::RecordedSteps> recorded;
+  std::shared_ptr<const world::RecordedSteps> recorded;
   nlohmann::json summary_extra = nlohmann::json::object();  ///< added to summary.json (replay provenance)
 };
 
@@ -51,7 +51,7 @@ struct SimCommandOptions {
   std::vector<AgentId> hostile_agents;  ///< publish garbage, as `run --hostile` (single runs only)
   /// --record: recording.slrec and recording/samples.slrec in the run directory (single runs only).
   bool record = false;
-  std::shared_ptr<const sim::RecordedSteps> recorded;       ///< replay (see RunOptions::recorded)
+  std::shared_ptr<const world::RecordedSteps> recorded;     ///< replay (see RunOptions::recorded)
   nlohmann::json summary_extra = nlohmann::json::object();  ///< added to summary.json
 };
 

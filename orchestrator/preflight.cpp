@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/simulator.hpp"
+#include "swarmloc/run/manifests.hpp"
+#include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
@@ -32,10 +32,11 @@ void check_hostile_ids(const std::vector<AgentId>& hostile_agents, const config:
   }
 }
 
-sim::World check_runnable(const config::Scenario& scenario, const sim::WorkControl& control) {
-  auto world = sim::build_world(scenario, 0, -1, control);
+world::World check_runnable(const config::Scenario& scenario, const world::WorkControl& control) {
+  auto world = world::build_world(scenario, 0, -1, control);
   try {
-    (void)sim::make_agent_estimator(scenario, world, 0);
+    (void)runtime::make_agent_estimator(scenario,
+                                        run::agent_manifest(run::shared_manifest(scenario, world), world, 0));
   } catch (const std::invalid_argument& error) {
     throw config::ScenarioError("algorithm.name: '" + scenario.algorithm.name +
                                 "' is not runnable by swarmloc run/sim yet (" + error.what() + ")");

@@ -20,7 +20,7 @@ void check_hostile_ids(const std::vector<AgentId>& hostile_agents, const config:
 /// Builds the world and one agent's estimator, so that an unplaceable world or an algorithm this runtime
 /// cannot run yet is reported as bad input naming the key. Returns the world, for the run to use rather
 /// than build it again (minutes at 10^5 agents). `control`: progress and Ctrl-C while building (throws
-/// sim::Cancelled).
-sim::World check_runnable(const config::Scenario& scenario, const sim::WorkControl& control = {});
+/// world::Cancelled).
+world::World check_runnable(const config::Scenario& scenario, const world::WorkControl& control = {});
 
 }  // namespace swarmloc::orchestrator

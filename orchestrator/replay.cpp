@@ -19,7 +19,7 @@ namespace {
 /// What a replay runs: the scenario (overrides applied), the recorded steps, and where they came from.
 struct ReplaySource {
   config::Scenario scenario;
-  std::shared_ptr<const sim::RecordedSteps> steps;
+  std::shared_ptr<const world::RecordedSteps> steps;
   nlohmann::json provenance = nlohmann::json::object();
   nlohmann::json baselines;  ///< --mrclam: summary.json's "baselines"
 };
@@ -41,7 +41,7 @@ void reject_world_overrides(const std::vector<std::string>& overrides) {
   }
 }
 
-std::string kinds_text(const sim::MeasurementKinds& k) {
+std::string kinds_text(const world::MeasurementKinds& k) {
   std::string text;
   auto add = [&](bool on, const char* name) {
     if (on) text += (text.empty() ? "" : ", ") + std::string(name);
@@ -58,8 +58,8 @@ std::string kinds_text(const sim::MeasurementKinds& k) {
 /// The replayed algorithm must consume what the recorded one was fed (ranges, relative positions,
 /// reflected paths or target readings); a missing kind would leave it without measurements.
 void check_measurement_kinds(const std::string& recorded_algorithm, const std::string& algorithm) {
-  const auto had = sim::measurement_kinds(recorded_algorithm);
-  const auto needs = sim::measurement_kinds(algorithm);
+  const auto had = world::measurement_kinds(recorded_algorithm);
+  const auto needs = world::measurement_kinds(algorithm);
   if ((needs.ranges && !had.ranges) || (needs.relative && !had.relative) || (needs.paths && !had.paths) ||
       (needs.targets && !had.targets) || (needs.field && !had.field)) {
     throw config::ScenarioError("algorithm.name: " + algorithm + " consumes " + kinds_text(needs) +
@@ -73,7 +73,7 @@ void check_measurement_kinds(const std::string& recorded_algorithm, const std::s
 
 /// Loads a recording file and checks that the overridden scenario replays it unchanged.
 ReplaySource recording_source(const std::string& path, const std::vector<std::string>& overrides) {
-  const auto recording = sim::load_recording(path);
+  const auto recording = rundir::load_recording(path);
   reject_world_overrides(overrides);
   const std::string origin = path + " (recorded scenario)";
   const auto recorded = config::parse_scenario(recording->scenario_yaml(), {}, origin);
@@ -91,7 +91,7 @@ ReplaySource recording_source(const std::string& path, const std::vector<std::st
                                 " (a replay can run at most the recorded steps)");
   }
   check_measurement_kinds(recorded.algorithm.name, scenario.algorithm.name);
-  const auto difference = recording->world().difference(sim::build_world(scenario));
+  const auto difference = recording->world().difference(world::build_world(scenario));
   if (!difference.empty()) {
     throw config::ScenarioError(path + ": the scenario no longer builds the recorded world (" + difference +
                                 "; a changed positions file?)");
@@ -149,15 +149,15 @@ ReplaySource mrclam_source(const ReplayOptions& options) {
   const auto dataset_steps = [&] {
     auto probe = scenario;
     probe.run.steps = 1;
-    return sim::build_world(probe).recorded->steps();
+    return world::build_world(probe).recorded->steps();
   }();
   if (!steps_set) scenario.run.steps = static_cast<int>(dataset_steps);
   config::validate(scenario);
-  const auto world = sim::build_world(scenario);
+  const auto world = world::build_world(scenario);
   spdlog::info("UTIAS MRCLAM {}: {} steps of {} s ({:.0f} s of data) at {:.0f}x real time; baselines first",
                dir.string(), scenario.run.steps, scenario.world.data_step_s,
                scenario.run.steps * scenario.world.data_step_s, options.speedup);
-  const auto baselines = sim::mrclam_baselines(scenario, world);
+  const auto baselines = world::mrclam_baselines(scenario, world);
   ReplaySource source;
   source.scenario = scenario;
   source.provenance = {
@@ -187,7 +187,7 @@ int run_replay(const ReplayOptions& options) {
       throw config::ScenarioError("replay: a recording FILE (or --mrclam DIR) is required");
     }
     source = mrclam ? mrclam_source(options) : recording_source(options.recording_path, options.overrides);
-  } catch (const sim::RecordingError& error) {
+  } catch (const rundir::RecordingError& error) {
     std::fprintf(stderr, "error: %s\n", error.what());
     return 2;
   } catch (const config::ScenarioError& error) {
@@ -208,7 +208,7 @@ int run_replay(const ReplayOptions& options) {
   nlohmann::json extra = {{"replay", source.provenance}};
   if (!source.baselines.is_null()) extra["baselines"] = source.baselines;
   if (dds) {
-    // The run directory is prepared (sim::prepare_run_directory: writable, empty unless --force) by the
+    // The run directory is prepared (prepare_run_directory: writable, empty unless --force) by the
     // runtime, before any work.
     RunOptions run;
     run.out_dir = options.out_dir;

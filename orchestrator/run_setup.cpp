@@ -1,5 +1,6 @@
 #include "run_setup.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <random>
@@ -44,29 +45,43 @@ std::string fresh_run_id() {
   return text;
 }
 
-sim::World prepare_run(config::Scenario& scenario, const RunOptions& options, const sim::WorkControl& control,
-                       std::filesystem::path& run_dir, bool& run_dir_existed) {
+world::World prepare_run(config::Scenario& scenario, const RunOptions& options,
+                         const world::WorkControl& control, std::filesystem::path& run_dir,
+                         bool& run_dir_existed) {
   check_hostile_ids(options.hostile_agents, scenario);
   dds::require_ports_fit(scenario);
   dds::require_ports_clear_of(scenario, dds::ephemeral_port_range());
   check_security(scenario, options);
   // An unusable --out is bad input, found before any work (docs/robustness.md, "Outputs").
-  run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
+  run_dir = options.out_dir.empty() ? rundir::default_run_directory(scenario) : options.out_dir;
   std::error_code ignored;
   run_dir_existed = std::filesystem::exists(run_dir, ignored);
-  sim::prepare_run_directory(run_dir, options.force);
+  rundir::prepare_run_directory(run_dir, options.force);
   // Placement and algorithm errors are bad input, found before anything starts; the world built for
   // the check is the run's.
   return check_runnable(scenario, control);
 }
 
 std::unique_ptr<dds::ManifestPublisher> offer_manifests(const config::Scenario& scenario,
-                                                        const std::vector<sim::AgentManifest>& manifests,
+                                                        const std::vector<runtime::AgentManifest>& manifests,
                                                         bool launch_agents) {
   if (launch_agents) return nullptr;
   auto publisher = std::make_unique<dds::ManifestPublisher>(scenario, static_cast<int>(manifests.size()));
   publisher->publish(manifests, config::to_yaml(scenario));
   return publisher;
+}
+
+runtime::LivenessLimits liveness_limits(const config::Scenario& scenario, bool lockstep) {
+  runtime::LivenessLimits limits;
+  const double period_s = 1.0 / scenario.run.rate_hz;
+  limits.restart_grace_s = scenario.run.startup_timeout_s;
+  if (lockstep) {
+    limits.stall_s = scenario.run.startup_timeout_s;
+  } else {
+    limits.current_s = std::max(0.25, 3.0 * period_s);
+    limits.stall_s = std::max(2.0, 5.0 * period_s);
+  }
+  return limits;
 }
 
 }  // namespace swarmloc::orchestrator

@@ -9,6 +9,7 @@
 #include "orchestrator.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/dds/manifest_topic.hpp"
+#include "swarmloc/runtime/liveness.hpp"
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
@@ -18,16 +19,21 @@ std::string fresh_run_id();
 
 /// Checks the scenario and options (--hostile ids, DDS ports, security files), prepares the run
 /// directory (set in `run_dir`; `run_dir_existed`: whether it existed before) and builds the run's world.
-/// Throws config::ScenarioError on bad input, sim::Cancelled on Ctrl-C; `run_dir` and `run_dir_existed`
+/// Throws config::ScenarioError on bad input, world::Cancelled on Ctrl-C; `run_dir` and `run_dir_existed`
 /// are set as far as it got, for the caller to discard an empty directory.
-sim::World prepare_run(config::Scenario& scenario, const RunOptions& options, const sim::WorkControl& control,
-                       std::filesystem::path& run_dir, bool& run_dir_existed);
+world::World prepare_run(config::Scenario& scenario, const RunOptions& options,
+                         const world::WorkControl& control, std::filesystem::path& run_dir,
+                         bool& run_dir_existed);
 
 /// Agents we do not launch (`launch_agents` false) wait for their manifests on DDS: each offered as a
 /// transient-local sample, with the scenario as run, for as long as the returned publisher lives. Null
 /// when we launch the agents (they read the files).
 std::unique_ptr<dds::ManifestPublisher> offer_manifests(const config::Scenario& scenario,
-                                                        const std::vector<sim::AgentManifest>& manifests,
+                                                        const std::vector<runtime::AgentManifest>& manifests,
                                                         bool launch_agents);
+
+/// How old an estimate may be and still count as current, and when silence is a stall (free run: a few
+/// world periods; lockstep: the barrier decides, docs/robustness.md "Liveness").
+runtime::LivenessLimits liveness_limits(const config::Scenario& scenario, bool lockstep);
 
 }  // namespace swarmloc::orchestrator

@@ -72,8 +72,8 @@ struct SimCommand {
   const std::filesystem::path& run_dir;
   Progress& progress;
   Clock::time_point started;
-  const sim::WorkControl& control;
-  const char*& cancelled_when;  ///< what an interrupt (sim::Cancelled) leaves behind, for its message
+  const world::WorkControl& control;
+  const char*& cancelled_when;  ///< what an interrupt (world::Cancelled) leaves behind, for its message
 };
 
 /// Option combinations `sim` refuses: 2 (told on stderr), else 0. (--view with --trials is checked
@@ -98,7 +98,7 @@ int check_options(const config::Scenario& scenario, const SimCommandOptions& opt
 }
 
 /// --view: the live view, showing the world while the in-process run computes.
-std::unique_ptr<LiveView> start_view(const config::Scenario& scenario, const sim::World& world,
+std::unique_ptr<LiveView> start_view(const config::Scenario& scenario, const world::World& world,
                                      const SimCommandOptions& options) {
   auto view = std::make_unique<LiveView>(options.view_port);
   auto waiting = view_snapshot(scenario, world);
@@ -152,7 +152,7 @@ MonteCarloFigures summarize_monte_carlo(sim::MonteCarloResult& result, const std
   figures.mc_bound = result.steps.back().bound_rmse_m;
   auto finite_or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
   record.extra["monte_carlo"]["mc_rmse_m"] = figures.mc_rmse;
-  record.extra["monte_carlo"]["bound_kind"] = std::string(sim::to_string(record.bound.kind));
+  record.extra["monte_carlo"]["bound_kind"] = std::string(world::to_string(record.bound.kind));
   record.extra["monte_carlo"]["bound_rmse_m"] = finite_or_null(figures.mc_bound);
   record.extra["monte_carlo"]["bound_all_data_rmse_m"] =
       finite_or_null(result.steps.back().bound_all_data_rmse_m);
@@ -161,7 +161,7 @@ MonteCarloFigures summarize_monte_carlo(sim::MonteCarloResult& result, const std
   double optimum_sq = 0.0;
   for (double o : result.final_optimum_per_trial) optimum_sq += o * o;
   figures.mc_optimum = std::sqrt(optimum_sq / result.trials);
-  record.extra["monte_carlo"]["optimum_kind"] = std::string(sim::to_string(record.optimum.kind));
+  record.extra["monte_carlo"]["optimum_kind"] = std::string(world::to_string(record.optimum.kind));
   record.extra["monte_carlo"]["optimum_rmse_m"] = finite_or_null(figures.mc_optimum);
   record.extra["monte_carlo"]["efficiency"] = finite_or_null(figures.mc_rmse / figures.mc_optimum);
   return figures;
@@ -170,17 +170,17 @@ MonteCarloFigures summarize_monte_carlo(sim::MonteCarloResult& result, const std
 void print_monte_carlo(const sim::MonteCarloResult& result, const MonteCarloFigures& figures,
                        const std::filesystem::path& run_dir) {
   const auto& record = result.first_trial;
-  std::printf("%s", sim::result_table(record).c_str());
+  std::printf("%s", rundir::result_table(record).c_str());
   std::printf(
       "  Monte Carlo: %d trials on %d threads in %.2f s; final RMSE %.4f ± %.4f m (mean ± std over "
       "trials)\n",
       result.trials, result.threads, result.wall_s, figures.mean, figures.spread);
   std::printf(
       "  Monte Carlo RMSE (sqrt of the mean final squared error) %.4f m; bound (%s) %.4f m; ratio %.2f\n",
-      figures.mc_rmse, std::string(sim::to_string(record.bound.kind)).c_str(), figures.mc_bound,
+      figures.mc_rmse, std::string(world::to_string(record.bound.kind)).c_str(), figures.mc_bound,
       figures.mc_rmse / figures.mc_bound);
   std::printf("  Monte Carlo optimum of each trial's data (%s) %.4f m; efficiency %.3f\n",
-              std::string(sim::to_string(record.optimum.kind)).c_str(), figures.mc_optimum,
+              std::string(world::to_string(record.optimum.kind)).c_str(), figures.mc_optimum,
               figures.mc_rmse / figures.mc_optimum);
   std::printf("  Monte Carlo: %lld of %d trials end with agents flagged by their self-check\n",
               static_cast<long long>(figures.trials_flagged), result.trials);
@@ -210,7 +210,7 @@ int run_trials(const SimCommand& command) {
     const SlowPhaseNotice notice(options.progress, "writing the run directory");
     // summary.json is the run directory's last file: the Monte Carlo tables go first.
     sim::write_monte_carlo(command.run_dir, result);
-    sim::write_run_directory(command.run_dir, result.first_trial, command.control);
+    rundir::write_run_directory(command.run_dir, result.first_trial, command.control);
   }
   print_monte_carlo(result, figures, command.run_dir);
   return figures.trials_non_finite > 0 ? kExitInvalidResults : 0;
@@ -219,7 +219,7 @@ int run_trials(const SimCommand& command) {
 /// One in-process run's options: threads, --hostile, replay, Ctrl-C, progress and --record (into
 /// `recorder`, which must outlive the run).
 sim::SimOptions single_run_options(const SimCommand& command,
-                                   std::unique_ptr<sim::DirectoryRecorder>& recorder) {
+                                   std::unique_ptr<rundir::DirectoryRecorder>& recorder) {
   const auto& options = command.options;
   sim::SimOptions sim_options;
   // Results are identical for any count; unasked, large worlds use every core (auto_round_threads).
@@ -228,25 +228,25 @@ sim::SimOptions single_run_options(const SimCommand& command,
   sim_options.recorded = options.recorded;
   sim_options.control = command.control;
   if (options.record) {
-    recorder = std::make_unique<sim::DirectoryRecorder>(command.run_dir);
+    recorder = std::make_unique<rundir::DirectoryRecorder>(command.run_dir);
     sim_options.recorder = recorder.get();
   }
   sim_options.on_step = [&progress = command.progress, &scenario = command.scenario,
-                         started = command.started](std::int64_t step, const sim::ErrorStats& errors) {
+                         started = command.started](std::int64_t step, const world::ErrorStats& errors) {
     progress.update(progress_line(step, scenario.run.steps, errors, scenario.world.agents,
                                   scenario.world.agents, seconds_since(started)),
                     step + 1 == scenario.run.steps);
     // The agent-clock and centralized runners poll no flag: they stop here, after a step, and write
     // nothing (the round runner returns the steps done instead).
-    if (interrupted().load()) throw sim::Cancelled();
+    if (interrupted().load()) throw world::Cancelled();
   };
   return sim_options;
 }
 
 /// The single run's result table, its interruption, and --view's playback. The exit code.
-int report_single_run(const SimCommand& command, const sim::RunRecord& record, LiveView* view) {
+int report_single_run(const SimCommand& command, const rundir::RunRecord& record, LiveView* view) {
   const auto& scenario = command.scenario;
-  std::printf("%s", sim::result_table(record).c_str());
+  std::printf("%s", rundir::result_table(record).c_str());
   std::printf("  run directory: %s\n", command.run_dir.string().c_str());
   if (interrupted().load() && !record.interrupted) {
     std::fprintf(stderr, "interrupted while the run directory was written: it was completed first\n");
@@ -257,7 +257,7 @@ int report_single_run(const SimCommand& command, const sim::RunRecord& record, L
                  record.metrics.size(), scenario.run.steps);
     return 1;
   }
-  const int code = sim::non_finite_estimates(record).steps > 0 ? kExitInvalidResults : 0;
+  const int code = rundir::non_finite_estimates(record).steps > 0 ? kExitInvalidResults : 0;
   if (view) {
     std::printf(
         "  live view: %s (playing back %zu steps at %g Hz, then serving the final state %s; Ctrl-C ends)\n",
@@ -271,10 +271,10 @@ int report_single_run(const SimCommand& command, const sim::RunRecord& record, L
 }
 
 /// One in-process run on `world`: simulates, writes the run directory, reports.
-int run_single(const SimCommand& command, sim::World& world, LiveView* view) {
+int run_single(const SimCommand& command, world::World& world, LiveView* view) {
   const auto& scenario = command.scenario;
   const auto& options = command.options;
-  std::unique_ptr<sim::DirectoryRecorder> recorder;
+  std::unique_ptr<rundir::DirectoryRecorder> recorder;
   const sim::SimOptions sim_options = single_run_options(command, recorder);
   if (scenario.run.sim_clock == config::SimClock::kAgents ||
       config::runs_in_fusion_centre(scenario.algorithm.name))
@@ -286,9 +286,9 @@ int run_single(const SimCommand& command, sim::World& world, LiveView* view) {
   if (recorder) {
     recorder->close();
     record.extra["recording"] = {
-        {"file", sim::kRecordingFile},
+        {"file", rundir::kRecordingFile},
         {"steps", recorder->steps()},
-        {"sample_log", std::string(sim::kSampleLogDirectory) + "/" + sim::kSimSampleLogFile},
+        {"sample_log", std::string(rundir::kSampleLogDirectory) + "/" + rundir::kSimSampleLogFile},
         {"samples", recorder->samples()}};
   }
   for (const auto& [key, value] : options.summary_extra.items()) record.extra[key] = value;
@@ -296,9 +296,9 @@ int run_single(const SimCommand& command, sim::World& world, LiveView* view) {
     const SlowPhaseNotice notice(options.progress, "writing the run directory");
     command.cancelled_when = "while the run directory was written: it is incomplete (no summary.json)";
     // After a Ctrl-C that stopped the simulation, the steps done are saved; a second one cancels that.
-    sim::WorkControl writing = command.control;
+    world::WorkControl writing = command.control;
     if (record.interrupted) writing.cancel = &interrupted_again();
-    sim::write_run_directory(command.run_dir, record, writing);
+    rundir::write_run_directory(command.run_dir, record, writing);
   }
   return report_single_run(command, record, view);
 }
@@ -316,23 +316,23 @@ int run_sim_command(config::Scenario scenario, const SimCommandOptions& options)
   // Ctrl-C (SIGINT, SIGTERM, SIGHUP) in every phase: building a 10^5-agent world alone takes minutes.
   install_interrupt_handlers();
   if (const int code = check_options(scenario, options); code != 0) return code;
-  const auto run_dir = options.out_dir.empty() ? sim::default_run_directory(scenario) : options.out_dir;
+  const auto run_dir = options.out_dir.empty() ? rundir::default_run_directory(scenario) : options.out_dir;
   if (options.view_port >= 0 && options.trials > 1) {
     std::fprintf(stderr, "error: --view shows one run; it cannot be combined with --trials\n");
     return 2;
   }
   Progress progress(options.progress);
   const auto started = Clock::now();
-  const sim::WorkControl control = interruptible_work(progress, started);
+  const world::WorkControl control = interruptible_work(progress, started);
   std::error_code ignored;
   const bool run_dir_existed = std::filesystem::exists(run_dir, ignored);
   const char* cancelled_when = "before the first step; nothing written";
   const SimCommand command{scenario, options, run_dir, progress, started, control, cancelled_when};
   try {
-    sim::prepare_run_directory(run_dir, options.force);
+    rundir::prepare_run_directory(run_dir, options.force);
     // The world is built once (the check's world is the run's), after the run directory is known to be
     // writable: a bad --out is reported at once, not after minutes of work.
-    sim::World world = check_runnable(scenario, control);
+    world::World world = check_runnable(scenario, control);
     std::unique_ptr<LiveView> view;
     if (options.view_port >= 0) view = start_view(scenario, world, options);
     if (options.trials > 1) {
@@ -341,7 +341,7 @@ int run_sim_command(config::Scenario scenario, const SimCommandOptions& options)
       return run_trials(command);
     }
     return run_single(command, world, view.get());
-  } catch (const sim::Cancelled&) {
+  } catch (const world::Cancelled&) {
     progress.finish();
     discard_if_empty(run_dir, run_dir_existed);
     std::fprintf(stderr, "interrupted %s\n", cancelled_when);

@@ -23,6 +23,10 @@
 #   OUT      where the generated pods.yaml and the logs go (default: a new mktemp -d)
 #   NETWORK  podman network name (default swarmloc-k8s-$$; created and removed here)
 #   DOMAIN   replaces dds.domain_id of the ConfigMap's scenario (default: keep it)
+#   SCENARIO_SETS  more of the ConfigMap scenario's keys to replace, as KEY=VALUE words, e.g.
+#            "run.mode=lockstep run.steps=150" (VALUE parsed as YAML; CI compares a lockstep run with the
+#            same scenario run as processes)
+#   IMAGE    replaces every container's image (default: keep the manifests' localhost/swarmloc:latest)
 #   RESOLVE  dns (default) or hosts, above
 #   BLOCK_MULTICAST=1  also drop every IPv4 multicast frame the network's bridge would forward between
 #            pods (an nftables bridge-family table, removed at the end; needs nft) and print how many
@@ -80,9 +84,9 @@ fi
 printf '[containers]\ndefault_ulimits = ["nofile=1024:1024", "nproc=4096:4096"]\n' >"$out/containers.conf"
 export CONTAINERS_CONF="$out/containers.conf"
 
-python3 - "$here" "$out" "${DOMAIN:-}" "$service" "$subnet" <<'EOF'
+python3 - "$here" "$out" "${DOMAIN:-}" "$service" "$subnet" "${IMAGE:-}" "${SCENARIO_SETS:-}" <<'EOF'
 import copy, ipaddress, sys, yaml
-here, out, domain, service, subnet = sys.argv[1:6]
+here, out, domain, service, subnet, image, scenario_sets = sys.argv[1:8]
 target = f"{out}/pods.yaml"
 load = lambda name: yaml.safe_load(open(f"{here}/{name}"))
 statefulset, job = load("agents-statefulset.yaml"), load("orchestrator-job.yaml")
@@ -91,6 +95,14 @@ scenario = yaml.safe_load(configmap["data"]["scenario.yaml"])
 agents = scenario["world"]["agents"]
 if domain:
     scenario["dds"]["domain_id"] = int(domain)
+for assignment in scenario_sets.split():
+    key, _, value = assignment.partition("=")
+    *path, leaf = key.split(".")
+    node = scenario
+    for part in path:
+        node = node.setdefault(part, {})
+    node[leaf] = yaml.safe_load(value)
+if domain or scenario_sets:
     configmap["data"]["scenario.yaml"] = yaml.safe_dump(scenario, sort_keys=False)
 with open(f"{out}/configmap.yaml", "w") as f:
     yaml.safe_dump(configmap, f, sort_keys=False)
@@ -104,6 +116,9 @@ def pod(name, template):
     # hostname swarmloc-orchestrator itself.
     spec.setdefault("hostname", name)
     spec.pop("subdomain", None)  # the Service's DNS is the network's (RESOLVE) here
+    if image:
+        for container in spec["containers"]:
+            container["image"] = image
     return {"apiVersion": "v1", "kind": "Pod",
             "metadata": {"name": name, "labels": template["metadata"]["labels"]}, "spec": spec}
 

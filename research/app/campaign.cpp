@@ -14,7 +14,7 @@
 #include "swarmloc/rundir/run_record.hpp"
 #include "swarmloc/runtime/output_file.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 namespace campaign_detail {
 namespace {
 
@@ -170,11 +170,11 @@ int run_campaign(const CampaignOptions& options) {
   const auto& spec = *spec_or_error;
   const auto out_dir = options.out_dir.empty() ? detail::default_campaign_directory(spec) : options.out_dir;
   try {
-    sim::create_output_directories(out_dir);
-    sim::write_text_file(out_dir / "spec.yaml", "# The campaign as run (swarmloc campaign " +
-                                                    options.spec_path.string() + ")\n" +
-                                                    campaign_spec_yaml(spec));
-  } catch (const sim::OutputError& error) {
+    rundir::create_output_directories(out_dir);
+    runtime::write_text_file(out_dir / "spec.yaml", "# The campaign as run (swarmloc campaign " +
+                                                        options.spec_path.string() + ")\n" +
+                                                        campaign_spec_yaml(spec));
+  } catch (const runtime::OutputError& error) {
     std::fprintf(stderr, "error: --out: %s\n", error.what());
     return 2;
   }
@@ -194,7 +194,7 @@ int run_campaign(const CampaignOptions& options) {
   const auto cells = detail::aggregate(runs);
   const auto markdown = detail::campaign_markdown(spec, mode_runs, cells);
   try {
-    sim::write_text_file(out_dir / "campaign.md", markdown);
+    runtime::write_text_file(out_dir / "campaign.md", markdown);
     detail::write_csv(out_dir / "campaign.csv", spec, runs);
     detail::write_plot(out_dir, spec, mode_runs, cells);
   } catch (const std::exception& error) {
@@ -207,4 +207,4 @@ int run_campaign(const CampaignOptions& options) {
   return failed ? 1 : 0;
 }
 
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

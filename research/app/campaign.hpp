@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 
 struct CampaignSpec {
   std::string name = "campaign";
@@ -71,4 +71,4 @@ struct CampaignOptions {
 /// Returns the exit code: 0 ok, 2 bad spec, 1 if any run failed or the campaign was interrupted.
 int run_campaign(const CampaignOptions& options);
 
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

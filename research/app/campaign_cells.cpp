@@ -16,7 +16,7 @@
 #include "swarmloc/runtime/output_file.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 namespace campaign_detail {
 namespace {
 
@@ -49,7 +49,7 @@ void measure(RunResult& result, const nlohmann::json& summary, const std::vector
   result.dropped_injected = links.value("dropped_injected", std::uint64_t{0});
 }
 
-void write_metrics_csv(const std::filesystem::path& path, const sim::RunRecord& record) {
+void write_metrics_csv(const std::filesystem::path& path, const rundir::RunRecord& record) {
   std::ostringstream out;
   out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing\n"
       << std::setprecision(9);
@@ -58,7 +58,7 @@ void write_metrics_csv(const std::filesystem::path& path, const sim::RunRecord& 
         << m.errors.max_error_m << ',' << m.crlb_rmse_m << ',' << m.errors.nees << ',' << m.errors.scored
         << ',' << m.errors.missing << '\n';
   }
-  sim::write_text_file(path, out.str());
+  runtime::write_text_file(path, out.str());
 }
 
 /// Per-step RMSE and missing count from a run directory's metrics.csv.
@@ -117,12 +117,12 @@ void run_sim_cell(const CampaignSpec& spec, RunResult& result) {
     options.record_estimates = false;
     auto record = sim::run_simulation(scenario, options);
     record.wall_s = seconds_since(started);
-    sim::create_output_directories(result.run_dir);
-    sim::write_text_file(result.run_dir / "scenario.yaml", config::to_yaml(scenario));
-    const auto summary = sim::summary_json(record);
+    rundir::create_output_directories(result.run_dir);
+    runtime::write_text_file(result.run_dir / "scenario.yaml", config::to_yaml(scenario));
+    const auto summary = rundir::summary_json(record);
     write_metrics_csv(result.run_dir / "metrics.csv", record);
     // Last and atomic, as in a full run directory: its presence means the cell's files are complete.
-    sim::write_text_file_atomic(result.run_dir / "summary.json", summary.dump(2) + "\n");
+    runtime::write_text_file_atomic(result.run_dir / "summary.json", summary.dump(2) + "\n");
     std::vector<RmseSample> steps;
     for (const auto& m : record.metrics) steps.push_back({m.errors.rmse_m, m.errors.missing});
     result.ok = true;
@@ -139,7 +139,7 @@ void run_sim_cell(const CampaignSpec& spec, RunResult& result) {
 void run_dds_cell(const CampaignSpec& spec, RunResult& result, const std::string& agent_binary,
                   bool& interrupted) {
   const auto started = Clock::now();
-  RunOptions options;
+  orchestrator::RunOptions options;
   options.scenario_path = spec.algorithms[result.algorithm].scenario.string();
   options.overrides = cell_overrides(spec, result.algorithm, result.variant, result.value, result.seed);
   options.out_dir = result.run_dir;
@@ -152,7 +152,7 @@ void run_dds_cell(const CampaignSpec& spec, RunResult& result, const std::string
   int code = 1;
   {
     StdoutToFile redirect(log);
-    code = run_orchestrator(options);
+    code = orchestrator::run_orchestrator(options);
   }
   std::filesystem::create_directories(result.run_dir, ec);
   std::filesystem::rename(log, result.run_dir / "orchestrator.out", ec);
@@ -219,4 +219,4 @@ bool still_falling(const std::vector<RmseSample>& steps) {
   return std::isfinite(earlier) && std::isfinite(last) && last < 0.8 * earlier;
 }
 
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

@@ -12,7 +12,7 @@
 
 #include "campaign.hpp"
 
-namespace swarmloc::orchestrator::campaign_detail {
+namespace swarmloc::research::campaign_detail {
 
 using Clock = std::chrono::steady_clock;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -108,4 +108,4 @@ void write_csv(const std::filesystem::path& path, const CampaignSpec& spec,
 void write_plot(const std::filesystem::path& directory, const CampaignSpec& spec,
                 const std::vector<ModeRun>& modes, const std::map<CellKey, CellStats>& cells);
 
-}  // namespace swarmloc::orchestrator::campaign_detail
+}  // namespace swarmloc::research::campaign_detail

@@ -9,7 +9,7 @@
 #include "swarmloc/rundir/plots.hpp"
 #include "swarmloc/runtime/output_file.hpp"
 
-namespace swarmloc::orchestrator::campaign_detail {
+namespace swarmloc::research::campaign_detail {
 namespace {
 
 double median_of(std::vector<double> values) {
@@ -239,7 +239,7 @@ void write_csv(const std::filesystem::path& path, const CampaignSpec& spec,
         << ',' << number(run.wall_s) << ',' << run.bound_kind << ',' << number(run.bound_rmse_m) << ','
         << number(run.final_rmse_m / run.bound_rmse_m) << ',' << run.run_dir.string() << ',' << error << '\n';
   }
-  sim::write_text_file(path, out.str());
+  runtime::write_text_file(path, out.str());
 }
 
 namespace {
@@ -307,18 +307,18 @@ void plot_panels(std::ostringstream& gp, const CampaignSpec& spec, const ModeRun
     gp << (panel == 0 ? "set logscale y\n" : "unset logscale y\n");
     // Labels come from the spec: quoted for gnuplot, never pasted into a command.
     gp << "set title "
-       << sim::gnuplot_quote((panel == 0 ? "final RMSE ÷ reference (" : "time to converge, s (") + where +
-                             ")")
+       << rundir::gnuplot_quote((panel == 0 ? "final RMSE ÷ reference (" : "time to converge, s (") + where +
+                                ")")
        << "\n"
-       << "set xlabel " << sim::gnuplot_quote(spec.swept_key) << "\n"
+       << "set xlabel " << rundir::gnuplot_quote(spec.swept_key) << "\n"
        << "set ylabel "
-       << sim::gnuplot_quote(panel == 0 ? "RMSE ÷ RMSE at " + spec.swept_values.front() : "s") << "\n"
+       << rundir::gnuplot_quote(panel == 0 ? "RMSE ÷ RMSE at " + spec.swept_values.front() : "s") << "\n"
        << "plot ";
     for (std::size_t s = 0; s < series.size(); ++s) {
       gp << (s ? ", \\\n     " : "") << "'campaign_plot.dat' index " << series[s].block
          << " using 1:" << (panel == 0 ? 2 : 3) << xtics << " with linespoints lc " << series[s].algorithm + 1
          << " dt " << series[s].variant + 1 << " pt " << series[s].algorithm + 4 << " title "
-         << sim::gnuplot_quote(series[s].title);
+         << rundir::gnuplot_quote(series[s].title);
     }
     if (panel == 0 && spec.check_value) {
       gp << ", \\\n     " << spec.check_max_ratio << " with lines lc rgb 'gray' dt 3 title '"
@@ -347,9 +347,9 @@ void write_plot(const std::filesystem::path& directory, const CampaignSpec& spec
     plot_panels(gp, spec, run, series, numeric);
   }
   gp << "unset multiplot\n";
-  sim::write_text_file(directory / "campaign_plot.dat", data.str());
-  sim::write_text_file(directory / "campaign.gp", gp.str());
-  sim::run_gnuplot(directory, "campaign.gp", {"campaign.png"});
+  runtime::write_text_file(directory / "campaign_plot.dat", data.str());
+  runtime::write_text_file(directory / "campaign.gp", gp.str());
+  rundir::run_gnuplot(directory, "campaign.gp", {"campaign.png"});
 }
 
-}  // namespace swarmloc::orchestrator::campaign_detail
+}  // namespace swarmloc::research::campaign_detail

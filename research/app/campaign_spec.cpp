@@ -7,7 +7,7 @@
 #include "campaign_internal.hpp"
 #include "swarmloc/config/scenario.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 namespace campaign_detail {
 namespace {
 
@@ -321,4 +321,4 @@ std::string campaign_spec_yaml(const CampaignSpec& spec) {
   return std::string(out.c_str()) + "\n";
 }
 
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

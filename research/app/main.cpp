@@ -36,14 +36,14 @@ int main(int argc, char** argv) {
 
   auto* reproduce = app.add_subcommand(
       "reproduce", "Run a paper experiment; writes a Markdown table beside the paper's numbers.");
-  swarmloc::orchestrator::ReproduceOptions reproduce_options;
+  swarmloc::research::ReproduceOptions reproduce_options;
   std::string reproduce_out = "runs/reproduce";
   std::string experiments_help;
-  for (const auto& name : swarmloc::orchestrator::known_experiments())
+  for (const auto& name : swarmloc::research::known_experiments())
     experiments_help += (experiments_help.empty() ? "" : " | ") + name;
   reproduce->add_option("experiment", reproduce_options.experiment, experiments_help)
       ->required()
-      ->check(CLI::IsMember(swarmloc::orchestrator::known_experiments()));
+      ->check(CLI::IsMember(swarmloc::research::known_experiments()));
   reproduce->add_option("--out", reproduce_out, "Output directory (default runs/reproduce)");
   reproduce
       ->add_option("--trials", reproduce_options.trials, "Monte Carlo trials (default: the paper's count)")
@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
       "campaign",
       "Sweep one scenario key (e.g. network.loss) over algorithms, variants and seeds, in the simulator "
       "and/or over DDS; writes campaign.md, campaign.csv and campaign.png (docs/robustness.md).");
-  swarmloc::orchestrator::CampaignOptions campaign_options;
+  swarmloc::research::CampaignOptions campaign_options;
   campaign
       ->add_option("spec", campaign_options.spec_path,
                    "Campaign spec YAML (e.g. scenarios/campaigns/loss.yaml)")
@@ -86,8 +86,8 @@ int main(int argc, char** argv) {
   if (campaign->parsed()) {
     campaign_options.progress = !campaign_quiet;
     campaign_options.agent_binary = product_executable(argv[0]);
-    return swarmloc::orchestrator::run_campaign(campaign_options);
+    return swarmloc::research::run_campaign(campaign_options);
   }
   reproduce_options.out_dir = reproduce_out;
-  return swarmloc::orchestrator::run_reproduce(reproduce_options);
+  return swarmloc::research::run_reproduce(reproduce_options);
 }

@@ -5,9 +5,9 @@
 #include <string>
 #include <string_view>
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 
 /// File name (e.g. "001_table1.csv") → its text.
 const std::map<std::string, std::string_view>& embedded_reference_tables();
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

@@ -8,7 +8,7 @@
 
 #include "reproduce_common.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 namespace {
 
 using Experiment = std::function<int(const ReproduceOptions&)>;
@@ -22,15 +22,15 @@ const std::vector<std::pair<std::string, Experiment>>& experiments() {
       {"ea3", reproduce_ea3},
       {"ieif-table1",
        [](const ReproduceOptions& options) {
-         return reproduce_kalman_table(
-             options, "ieif_table1", "001_table1",
-             "001 Table I — IEIF vs IEKF, 90 nodes, 30 anchors, noise std 0.05 / 0.2 / 0.5 m");
+         return reproduce_kalman_table(options, "ieif_table1", "001_table1",
+                                       "Gasparri & Pascucci Table I — IEIF vs IEKF, 90 nodes, 30 anchors, "
+                                       "noise std 0.05 / 0.2 / 0.5 m");
        }},
       {"ieif-table2",
        [](const ReproduceOptions& options) {
-         return reproduce_kalman_table(
-             options, "ieif_table2", "001_table2",
-             "001 Table II — IEIF vs IEKF, noise std 0.1 m, node/anchor ratio 4, 30 m × 30 m");
+         return reproduce_kalman_table(options, "ieif_table2", "001_table2",
+                                       "Gasparri & Pascucci Table II — IEIF vs IEKF, noise std 0.1 m, "
+                                       "node/anchor ratio 4, 30 m × 30 m");
        }},
       {"jacobi-002", reproduce_jacobi},
       {"joint-field-002", reproduce_joint_field},
@@ -66,4 +66,4 @@ int run_reproduce(const ReproduceOptions& options) {
   return 2;
 }
 
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

@@ -1,4 +1,4 @@
-// Paper 000 (banded inversion, LB-EKF, vertex relabeling): experiments E-A1, E-A2 and E-A3.
+// Khan et al. (banded inversion, LB-EKF, vertex relabeling): experiments E-A1, E-A2 and E-A3.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -8,14 +8,12 @@
 #include "reproduce_common.hpp"
 #include "swarmloc/research/centralized_experiments.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 namespace {
-
-namespace cen = estimators::centralized;
 
 // ---------------- E-A2 ----------------
 
-using Ea2Variants = std::vector<std::pair<cen::Ea2Variant, std::string>>;
+using Ea2Variants = std::vector<std::pair<Ea2Variant, std::string>>;
 
 /// Sums over the trials of the total and per-agent MSE of each filter, and of the posterior CRB.
 struct Ea2Sums {
@@ -28,7 +26,7 @@ struct Ea2Sums {
   MatX crb_agent;
 };
 
-Ea2Sums run_ea2_trials(const cen::Ea2Config& config, const cen::Ea2World& world, const Ea2Variants& variants,
+Ea2Sums run_ea2_trials(const Ea2Config& config, const Ea2World& world, const Ea2Variants& variants,
                        int trials, const ReproduceOptions& options) {
   const auto steps = static_cast<std::size_t>(config.steps);
   const auto agents = static_cast<Eigen::Index>(config.num_agents);
@@ -39,12 +37,12 @@ Ea2Sums run_ea2_trials(const cen::Ea2Config& config, const cen::Ea2World& world,
   sums.crb_agent = MatX::Zero(static_cast<Eigen::Index>(steps), agents);
   std::mutex mutex;
   parallel_trials(trials, options.threads, [&](int t) {
-    std::vector<cen::Ea2TrialResult> results;
+    std::vector<Ea2TrialResult> results;
     for (const auto& [variant, name] : variants) {
       auto cfg = config;
-      cfg.compute_crb = (variant == cen::Ea2Variant::kEkf);
+      cfg.compute_crb = (variant == Ea2Variant::kEkf);
       results.push_back(
-          cen::run_ea2_trial(cfg, world, variant, options.seed * 100000 + static_cast<std::uint64_t>(t)));
+          run_ea2_trial(cfg, world, variant, options.seed * 100000 + static_cast<std::uint64_t>(t)));
     }
     const std::lock_guard<std::mutex> lock(mutex);
     for (std::size_t v = 0; v < variants.size(); ++v) {
@@ -82,15 +80,14 @@ struct Ea2SteadyState {
   }
 };
 
-std::string ea2_markdown(const cen::Ea2Config& config, const cen::Ea2World& world,
-                         const Ea2Variants& variants, const Ea2Sums& sums, int trials, double wall_s,
-                         const ReproduceOptions& options) {
+std::string ea2_markdown(const Ea2Config& config, const Ea2World& world, const Ea2Variants& variants,
+                         const Ea2Sums& sums, int trials, double wall_s, const ReproduceOptions& options) {
   const double n = trials;
   Ea2SteadyState steady{static_cast<std::size_t>(config.steps), static_cast<Eigen::Index>(config.num_agents),
                         n, std::vector<bool>(static_cast<std::size_t>(config.num_agents), false)};
   for (int b : world.beacons) steady.beacon[static_cast<std::size_t>(b)] = true;
   std::ostringstream md;
-  md << "# E-A2 — EKF vs LB-EKF with and without vertex relabeling (000 Figs. 4–6)\n\n"
+  md << "# E-A2 — EKF vs LB-EKF with and without vertex relabeling (Khan et al. Figs. 4–6)\n\n"
      << trials
      << " Monte Carlo trials on one fixed configuration (30 agents, 8 beacons, 40 m × 40 m, r = 15 m, "
      << "σ_q = 2 m², σ_r = 10 m², σ_p = 0.02 m², Σ_0 = 5 I, 100 steps); configuration seed "
@@ -135,14 +132,14 @@ void write_ea2_csv(const std::filesystem::path& path, const Ea2Variants& variant
 
 }  // namespace
 
-// ---------------- 000 E-A1 ----------------
+// ---------------- Khan et al. E-A1 ----------------
 int reproduce_ea1(const ReproduceOptions& options) {
   const int n = 500;
   const std::vector<int> a_bandwidths{5, 10, 20};
   std::vector<int> ls;
   for (int l = 0; l <= 50; l += 5) ls.push_back(l);
   std::ostringstream md;
-  md << "# E-A1 — banded inversion error ‖A⁻¹ − BandInv_L(A)‖_F (000 Fig. 2)\n\n"
+  md << "# E-A1 — banded inversion error ‖A⁻¹ − BandInv_L(A)‖_F (Khan et al. Fig. 2)\n\n"
      << "n = 500, in-band entries U(−1, 1), diagonal 15, normalized by the largest entry; seed "
      << options.seed
      << ". The paper gives a figure, no numbers: error falls steeply until L exceeds the bandwidth of A, "
@@ -155,7 +152,7 @@ int reproduce_ea1(const ReproduceOptions& options) {
   std::vector<std::vector<double>> errors;
   for (int b : a_bandwidths) {
     std::mt19937_64 rng(options.seed * 1000 + static_cast<std::uint64_t>(b));
-    errors.push_back(cen::banded_inversion_errors(n, b, ls, rng));
+    errors.push_back(banded_inversion_errors(n, b, ls, rng));
   }
   for (std::size_t i = 0; i < ls.size(); ++i) {
     md << "| " << ls[i] << " |";
@@ -166,16 +163,16 @@ int reproduce_ea1(const ReproduceOptions& options) {
   return 0;
 }
 
-// ---------------- 000 E-A2 ----------------
+// ---------------- Khan et al. E-A2 ----------------
 int reproduce_ea2(const ReproduceOptions& options) {
   const int trials = options.trials > 0 ? options.trials : 1000;
-  cen::Ea2Config config;
+  Ea2Config config;
   config.config_seed = options.seed + 2;
-  const auto world = cen::make_ea2_world(config);
-  const Ea2Variants variants{{cen::Ea2Variant::kEkf, "EKF"},
-                             {cen::Ea2Variant::kLbEkfVr, "LB-EKF+VR (L=20)"},
-                             {cen::Ea2Variant::kLbEkfNoVr, "LB-EKF without VR (L=20)"},
-                             {cen::Ea2Variant::kLbEkfIVr, "LB-EKF-I+VR (L=20)"}};
+  const auto world = make_ea2_world(config);
+  const Ea2Variants variants{{Ea2Variant::kEkf, "EKF"},
+                             {Ea2Variant::kLbEkfVr, "LB-EKF+VR (L=20)"},
+                             {Ea2Variant::kLbEkfNoVr, "LB-EKF without VR (L=20)"},
+                             {Ea2Variant::kLbEkfIVr, "LB-EKF-I+VR (L=20)"}};
   const auto started = std::chrono::steady_clock::now();
   const auto sums = run_ea2_trials(config, world, variants, trials, options);
   const double wall_s = seconds_since(started);
@@ -187,14 +184,14 @@ int reproduce_ea2(const ReproduceOptions& options) {
   return 0;
 }
 
-// ---------------- 000 E-A3 ----------------
+// ---------------- Khan et al. E-A3 ----------------
 int reproduce_ea3(const ReproduceOptions& options) {
   const std::vector<double> lambdas{0.005, 0.01, 0.02, 0.05, 0.1};
   const std::vector<double> expected_agents{10, 100, 1000, 10000, 100000};
   const int samples = options.trials > 0 ? options.trials : 20;
   const double r = 15.0;
   std::ostringstream md;
-  md << "# E-A3 — relabeling bandwidth bound φ_max vs number of agents (000 Fig. 7)\n\n"
+  md << "# E-A3 — relabeling bandwidth bound φ_max vs number of agents (Khan et al. Fig. 7)\n\n"
      << "r = 15 m; N ~ Poisson(λ l²) in [0, l]²; " << samples << " samples per point; mean ± 2 std of φ_max; "
      << "eq. (35) gives r·sqrt(λ·E|V|). Paper: sublinear growth, slightly above eq. (35).\n\n"
      << "| λ [1/m²] | E|V| | mean |V| | φ_max mean ± 2 std | φ_max / |V| | r·sqrt(λ·E|V|) "
@@ -205,7 +202,7 @@ int reproduce_ea3(const ReproduceOptions& options) {
       const double side = std::sqrt(ev / lambda);
       double sum = 0.0, sq = 0.0, agents = 0.0;
       for (int s = 0; s < samples; ++s) {
-        const auto sample = cen::vr_bandwidth_bound(lambda, side, r, rng);
+        const auto sample = vr_bandwidth_bound(lambda, side, r, rng);
         sum += sample.phi_max;
         sq += static_cast<double>(sample.phi_max) * sample.phi_max;
         agents += sample.num_agents;
@@ -222,4 +219,4 @@ int reproduce_ea3(const ReproduceOptions& options) {
   return 0;
 }
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

@@ -1,4 +1,4 @@
-// Paper 001 (IEIF vs IEKF): Tables I and II.
+// Gasparri & Pascucci (IEIF vs IEKF): Tables I and II.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -8,7 +8,7 @@
 #include "reproduce_common.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 namespace {
 
 config::Scenario kalman_table_scenario(const std::string& algorithm, int agents, int anchors,
@@ -35,7 +35,7 @@ struct KalmanTrialStats {
   bool failed = false;
 };
 
-KalmanTrialStats kalman_trial_stats(const sim::RunRecord& record, double noise_std_m) {
+KalmanTrialStats kalman_trial_stats(const rundir::RunRecord& record, double noise_std_m) {
   const int n = record.agents;
   const auto steps = static_cast<std::int64_t>(record.metrics.size());
   std::vector<bool> anchor(static_cast<std::size_t>(n));
@@ -81,7 +81,7 @@ KalmanTableColumn run_kalman_table_column(const std::string& algorithm, int agen
                                           double noise_std_m, int trials, int threads, std::uint64_t seed) {
   const auto scenario = kalman_table_scenario(algorithm, agents, anchors, noise_std_m, seed);
   std::vector<KalmanTrialStats> stats(static_cast<std::size_t>(trials));
-  sim::run_monte_carlo(scenario, trials, threads, {}, [&](int t, const sim::RunRecord& record) {
+  sim::run_monte_carlo(scenario, trials, threads, {}, [&](int t, const rundir::RunRecord& record) {
     stats[static_cast<std::size_t>(t)] = kalman_trial_stats(record, noise_std_m);
   });
   KalmanTableColumn column;
@@ -108,7 +108,8 @@ KalmanTableColumn run_kalman_table_column(const std::string& algorithm, int agen
 namespace reproduce_detail {
 namespace {
 
-/// One column of 001 Table I or II: what runs, and the paper's statistics (std < 0: not reported).
+/// One column of Gasparri & Pascucci Table I or II: what runs, and the paper's statistics (std < 0: not
+/// reported).
 struct PaperColumn {
   std::string label;
   std::string algorithm;
@@ -204,4 +205,4 @@ int reproduce_kalman_table(const ReproduceOptions& options, const std::string& n
 }
 
 }  // namespace reproduce_detail
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

@@ -1,4 +1,4 @@
-// Paper 002 (distributed localization from relative measurements): Figs. 1–5.
+// Atanasov et al. (distributed localization from relative measurements): Figs. 1–5.
 #include <algorithm>
 #include <array>
 #include <fstream>
@@ -7,10 +7,10 @@
 #include "reproduce_common.hpp"
 #include "swarmloc/research/relative_localization.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 namespace {
 
-namespace ex = sim::experiments;
+namespace ex = research;
 
 // ---------------- Figs. 2, 4: distributed Jacobi vs BLUE ----------------
 
@@ -63,7 +63,7 @@ void jacobi_rmse_table(std::ostringstream& md, const ex::JacobiExperimentConfig&
      << "× the BLUE): the prior errors' common mode decays only through the one reference node.\n";
 }
 
-/// Not in 002: more eq. (9) exchanges between two measurements (agents that talk faster than they
+/// Not in Atanasov et al.: more eq. (9) exchanges between two measurements (agents that talk faster than they
 /// measure). What it takes for the transient to drain by step 50 on these graphs.
 void jacobi_sweeps_table(std::ostringstream& md, const ex::JacobiExperimentConfig& config,
                          const ex::JacobiExperimentResult& result, const ReproduceOptions& options) {
@@ -87,13 +87,14 @@ void jacobi_sweeps_table(std::ostringstream& md, const ex::JacobiExperimentConfi
   }
 }
 
-/// 𝓔 is not in 002 ([C-5]). The prior transient does not depend on it, the BLUE's error grows with it,
-/// so the ratio at step 50 says how noisy the relative measurements must be for one sweep to keep up.
+/// 𝓔 is not in Atanasov et al. ([C-5]). The prior transient does not depend on it, the BLUE's error grows
+/// with it, so the ratio at step 50 says how noisy the relative measurements must be for one sweep to keep
+/// up.
 void jacobi_noise_table(std::ostringstream& md, const ex::JacobiExperimentConfig& config,
                         const ex::JacobiExperimentResult& result, const ReproduceOptions& options) {
   const std::size_t last = result.rmse.size() - 1;
-  md << "\nOne sweep per step (002 as printed) with other relative-measurement noise (𝓔 is not given by "
-        "002; same seed, graphs and priors):\n\n"
+  md << "\nOne sweep per step (Atanasov et al. as printed) with other relative-measurement noise (𝓔 is not "
+        "given by Atanasov et al.; same seed, graphs and priors):\n\n"
      << "| 𝓔 std [m] | RMSE step 50 [m] | BLUE step 50 [m] | / BLUE |\n|---|---|---|---|\n";
   const std::vector<double> noise_levels{2.0, 3.0, 5.0, 8.0};
   const auto noisier =
@@ -144,7 +145,7 @@ struct JointFieldVariant {
 
 std::string joint_field_intro(const ex::JointFieldExperimentConfig& config, const ReproduceOptions& options) {
   std::ostringstream md;
-  md << "# 002 Fig. 5 — joint localization and field estimation (eq. (10))\n\n"
+  md << "# Atanasov et al. Fig. 5 — joint localization and field estimation (eq. (10))\n\n"
      << "The paper shows curves only: location and field RMSE both fall with a continuous observation model, "
      << "and the field RMSE does not vanish when sensors sit on the cell boundaries of a model defined by "
         "the "
@@ -196,7 +197,7 @@ void joint_field_section(std::ostringstream& md, std::ofstream& csv, const Joint
 // geometric default and Erdős–Rényi G(n, m). One table and one CSV per reading.
 int reproduce_jacobi(const ReproduceOptions& options) {
   std::ostringstream md;
-  md << "# 002 Figs. 2 and 4 — distributed Jacobi localization from relative measurements\n\n"
+  md << "# Atanasov et al. Figs. 2 and 4 — distributed Jacobi localization from relative measurements\n\n"
      << "The paper shows RMSE falling toward zero (no numbers); the acceptance asks for monotone decrease "
      << "and, at step 50, RMSE within 1.2× the BLUE/CRB. The source says only \"randomly generated graphs "
      << "with 300 nodes and 1288 edges\" ([C-5]), so both readings are run on the same seed: the spec's "
@@ -208,7 +209,7 @@ int reproduce_jacobi(const ReproduceOptions& options) {
   return 0;
 }
 
-// ---------------- 002 Figs. 1, 3 ----------------
+// ---------------- Atanasov et al. Figs. 1, 3 ----------------
 int reproduce_tracking(const ReproduceOptions& options) {
   ex::TrackingExperimentConfig config;
   config.runs = options.trials > 0 ? options.trials : 50;
@@ -217,7 +218,7 @@ int reproduce_tracking(const ReproduceOptions& options) {
   const auto r = ex::run_tracking_experiment(config);
   const double wall_s = seconds_since(started);
   std::ostringstream md;
-  md << "# 002 Figs. 1, 3 — distributed tracking of moving targets (DLE, range and bearing)\n\n"
+  md << "# Atanasov et al. Figs. 1, 3 — distributed tracking of moving targets (DLE, range and bearing)\n\n"
      << "The paper shows curves only: errors grow with time as the targets move away, and node 1's errors "
         "are "
      << "the lowest. Settings (docs/algorithms.md §4.6 defaults where the source is silent): "
@@ -254,7 +255,7 @@ int reproduce_tracking(const ReproduceOptions& options) {
   return 0;
 }
 
-// ---------------- 002 Fig. 5 ----------------
+// ---------------- Atanasov et al. Fig. 5 ----------------
 int reproduce_joint_field(const ReproduceOptions& options) {
   using estimators::consensus::FieldSensing;
   const std::array<JointFieldVariant, 2> variants{{
@@ -288,4 +289,4 @@ int reproduce_joint_field(const ReproduceOptions& options) {
   return 0;
 }
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

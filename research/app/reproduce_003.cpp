@@ -1,4 +1,4 @@
-// Paper 003 (cooperative multipath localization by belief propagation): Figs. 2–3.
+// Leng et al. (cooperative multipath localization by belief propagation): Figs. 2–3.
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -6,12 +6,12 @@
 #include "reproduce_common.hpp"
 #include "swarmloc/research/multipath_localization.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 namespace {
 
-namespace ex = sim::experiments;
+namespace ex = research;
 
-/// |x error| statistics of one 003 run, pooled over the nodes the paper's Fig. 2 claims are about.
+/// |x error| statistics of one Leng et al. run, pooled over the nodes the paper's Fig. 2 claims are about.
 struct MultipathSummary {
   double far_bp_below_2m = 0.0;  ///< BP, S3/S4
   double all_bp_below_3m = 0.0;  ///< BP, S1–S4
@@ -62,22 +62,22 @@ struct MultipathSetup {
   std::vector<double> walls;
   double range_std;
   const char* label;
-  bool doa_aware = false;                     // not in 003: paths weighted by their angle errors too
-  bool exact_messages = false;                // not in 003: exact GaBP (cavity messages)
-  bool lengths_from_measured_angles = false;  // the other reading of how 003 drew its lengths
+  bool doa_aware = false;                     // not in Leng et al.: paths weighted by their angle errors too
+  bool exact_messages = false;                // not in Leng et al.: exact GaBP (cavity messages)
+  bool lengths_from_measured_angles = false;  // the other reading of how Leng et al. drew its lengths
 };
 
-/// 003's configuration as printed, and the readings and variants not in it.
+/// Leng et al.'s configuration as printed, and the readings and variants not in it.
 std::vector<MultipathSetup> multipath_setups() {
   return {{{0.0, 45.0}, 3.0, "0°, 45°"},
           {{0.0, 45.0}, std::sqrt(3.0), "0°, 45°"},
           {{10.0, 20.0, 30.0}, 3.0, "10°, 20°, 30°"},
-          {{0.0, 45.0}, 3.0, "0°, 45°, angle-aware (not in 003)", true},
-          {{0.0, 45.0}, std::sqrt(3.0), "0°, 45°, angle-aware (not in 003)", true},
-          {{10.0, 20.0, 30.0}, 3.0, "10°, 20°, 30°, angle-aware (not in 003)", true},
-          {{0.0, 45.0}, 3.0, "0°, 45°, exact GaBP (not in 003)", false, true},
-          {{0.0, 45.0}, std::sqrt(3.0), "0°, 45°, exact GaBP (not in 003)", false, true},
-          {{0.0, 45.0}, std::sqrt(3.0), "0°, 45°, angle-aware exact GaBP (not in 003)", true, true},
+          {{0.0, 45.0}, 3.0, "0°, 45°, angle-aware (not in Leng et al.)", true},
+          {{0.0, 45.0}, std::sqrt(3.0), "0°, 45°, angle-aware (not in Leng et al.)", true},
+          {{10.0, 20.0, 30.0}, 3.0, "10°, 20°, 30°, angle-aware (not in Leng et al.)", true},
+          {{0.0, 45.0}, 3.0, "0°, 45°, exact GaBP (not in Leng et al.)", false, true},
+          {{0.0, 45.0}, std::sqrt(3.0), "0°, 45°, exact GaBP (not in Leng et al.)", false, true},
+          {{0.0, 45.0}, std::sqrt(3.0), "0°, 45°, angle-aware exact GaBP (not in Leng et al.)", true, true},
           {{0.0, 45.0}, 3.0, "0°, 45°, lengths from eq. (1) at the measured angles", false, false, true},
           {{0.0, 45.0},
            std::sqrt(3.0),
@@ -88,7 +88,7 @@ std::vector<MultipathSetup> multipath_setups() {
 }
 
 void multipath_main_table(std::ostringstream& md, int trials, const ReproduceOptions& options) {
-  md << "# 003 Figs. 2–3 — cooperative multipath BP vs pairwise localization\n\n"
+  md << "# Leng et al. Figs. 2–3 — cooperative multipath BP vs pairwise localization\n\n"
      << "5 nodes in 10 m × 10 m, S_0 anchor at the origin, links S1–S0, S2–S0, S3–S1, S4–S2, S3–S4, one "
         "reflection per wall, walls 5 m beyond the square's circumscribed circle, DOA error U(±5°) at each "
         "end, 50 BP iterations, seed "
@@ -118,26 +118,25 @@ void multipath_main_table(std::ostringstream& md, int trials, const ReproduceOpt
        << " |\n";
   }
   md << "\n|x error| of nodes S1–S4 after 50 iterations; 'Thm. 1 violations' counts trials in which some "
-        "belief's covariance grew between iterations (Thm. 1 is about 003's form; exact GaBP is not covered "
-        "by it). The angle-aware rows (not in 003; `algorithm.path_variance=with_doa` in the runtime) give "
-        "each path the variance σ² + σ_θ²(‖g‖² − 1)d²/2 of its length and angle errors (σ_θ² = 5²/3 deg²) "
-        "instead of σ²; same seed, geometry and noise. The exact GaBP rows (not in 003, the [D-4] ablation; "
-        "`algorithm.bp_messages=exact`) divide each node's own contribution out of the belief it receives. "
-        "'centralized' is weighted least squares on all five links' paths at once (not in 003), which exact "
-        "GaBP's means converge to. Every row but the last two draws a path's length by the image method "
-        "(docs/algorithms.md §5.4), so the angle errors also make eq. (1) wrong; the last two read 003's "
-        "Sec. 4 "
-        "as "
-        "drawing each length from eq. (1) itself at the measured angles, g(θ̃_ij, θ̃_ji)ᵀ(s_i − s_j) plus the "
-        "range noise — the model its Thm. 2 (unbiased means) takes as exact — so the angle errors enter only "
-        "through G. With two walls pairwise is unchanged (two paths, two unknowns).\n";
+        "belief's covariance grew between iterations (Thm. 1 is about Leng et al.'s form; exact GaBP is not "
+        "covered by it). The angle-aware rows (not in Leng et al.; `algorithm.path_variance=with_doa` in "
+        "the runtime) give each path the variance σ² + σ_θ²(‖g‖² − 1)d²/2 of its length and angle errors "
+        "(σ_θ² = 5²/3 deg²) instead of σ²; same seed, geometry and noise. The exact GaBP rows (not in Leng "
+        "et al., the [D-4] ablation; `algorithm.bp_messages=exact`) divide each node's own contribution out "
+        "of the belief it receives. 'centralized' is weighted least squares on all five links' paths at "
+        "once (not in Leng et al.), which exact GaBP's means converge to. Every row but the last two draws "
+        "a path's length by the image method (docs/algorithms.md §5.4), so the angle errors also make eq. "
+        "(1) wrong; the last two read Leng et al.'s Sec. 4 as drawing each length from eq. (1) itself at "
+        "the measured angles, g(θ̃_ij, θ̃_ji)ᵀ(s_i − s_j) plus the range noise — the model its Thm. 2 "
+        "(unbiased means) takes as exact — so the angle errors enter only through G. With two walls "
+        "pairwise is unchanged (two paths, two unknowns).\n";
 }
 
-// Where the walls stand is not in 003 ([D-6]); the angle errors' effect grows as the rays to a far wall
-// become parallel, so the figure's numbers depend on it.
+// Where the walls stand is not in Leng et al. ([D-6]); the angle errors' effect grows as the rays to a far
+// wall become parallel, so the figure's numbers depend on it.
 void multipath_wall_distance_table(std::ostringstream& md, int trials, const ReproduceOptions& options) {
-  md << "\n## Wall distance (not given by 003)\n\n"
-     << "Walls 0° and 45°, 003's BP as printed, " << trials
+  md << "\n## Wall distance (not given by Leng et al.)\n\n"
+     << "Walls 0° and 45°, Leng et al.'s BP as printed, " << trials
      << " trials per row; the margin is the distance between a wall and the square's circumscribed circle "
         "(0 m: the walls touch it).\n\n"
      << "| margin [m] | range noise | BP S3/S4 < 2 m | BP all < 3 m | BP above 3 m | BP largest [m] | "
@@ -165,11 +164,11 @@ void multipath_wall_distance_table(std::ostringstream& md, int trials, const Rep
 void multipath_error_sources_table(std::ostringstream& md, int trials, const ReproduceOptions& options) {
   md << "\n## Where the errors above 3 m come from\n\n"
      << "Walls 0° and 45° at the 5 m margin, " << trials
-     << " trials per row, 003's BP as printed and the centralized least squares on the same draws. 'image': "
-        "lengths by the image method (§5.4); 'eq. (1)': lengths from eq. (1) at the measured angles.\n\n"
+     << " trials per row, Leng et al.'s BP as printed and the centralized least squares on the same draws. "
+        "'image': lengths by the image method (§5.4); 'eq. (1)': lengths from eq. (1) at the measured "
+        "angles.\n\n"
      << "| range noise | DOA error | lengths | BP S3/S4 < 2 m | BP all < 3 m | BP above 3 m | BP largest [m] "
-        "| "
-        "centralized above 3 m |\n|---|---|---|---|---|---|---|---|\n";
+        "| centralized above 3 m |\n|---|---|---|---|---|---|---|---|\n";
   struct Source {
     double doa_deg;
     bool lengths_from_measured_angles;
@@ -208,4 +207,4 @@ int reproduce_multipath(const ReproduceOptions& options) {
   return 0;
 }
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

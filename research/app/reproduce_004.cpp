@@ -1,4 +1,4 @@
-// Paper 004 (distributed gradient descent with Barzilai–Borwein steps, DG-BB): Tables I–III, Figs. 4–7.
+// Calafiore et al. (DG-BB, distributed gradient with Barzilai–Borwein steps): Tables I–III, Figs. 4–7.
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -12,10 +12,10 @@
 #include "swarmloc/research/gradient_localization.hpp"
 #include "swarmloc/research/sdp_refinement.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 namespace {
 
-namespace ex = sim::experiments;
+namespace ex = research;
 
 /// The DG-BB parameters of Table I and Figs. 4–7.
 estimators::gradient::DgBbParams lattice_dgbb_params() {
@@ -39,9 +39,9 @@ std::optional<std::size_t> table1_paper_row(const ReferenceTable& paper, const s
 void fig4_table(std::ostringstream& md, const ex::ConvergenceFiguresConfig& convergence,
                 const ex::ConvergenceFiguresResult& figures) {
   md << "## Fig. 4 — Φ against τ, n = 100, σ_I = " << convergence.traced_initial_std << "\n\n"
-     << "004: DG-BB converges fastest; local steps cause spikes; the fixed step has long tails. Mean Φ over "
-        "the runs after update τ (a run that stopped keeps its final Φ); spikes: updates per run at which Φ "
-        "grew by more than 10 %.\n\n| method |";
+     << "Calafiore et al.: DG-BB converges fastest; local steps cause spikes; the fixed step has long tails. "
+        "Mean Φ over the runs after update τ (a run that stopped keeps its final Φ); spikes: updates per "
+        "run at which Φ grew by more than 10 %.\n\n| method |";
   for (const auto tau : convergence.trace_taus) md << " τ = " << tau << " |";
   md << " spikes per run |\n|---|";
   for (std::size_t k = 0; k <= convergence.trace_taus.size(); ++k) md << "---|";
@@ -57,8 +57,8 @@ void fig5_tables(std::ostringstream& md, const ex::ConvergenceFiguresConfig& con
                  const ex::ConvergenceFiguresResult& figures) {
   for (const double abs_tol : convergence.abs_tols) {
     md << "\n## Fig. 5 — convergent runs against σ_I, n = 100, η_abstol = " << fmt("%.0e", abs_tol) << "\n\n"
-       << "004: DG-BB has the highest share of convergent runs. Converged: Φ < 1e−3 before τ_max ([E-9]); "
-          "mean τ_end in brackets.\n\n| method |";
+       << "Calafiore et al.: DG-BB has the highest share of convergent runs. Converged: Φ < 1e−3 before "
+          "τ_max ([E-9]); mean τ_end in brackets.\n\n| method |";
     for (const double s : convergence.initial_stds) md << " σ_I = " << s << " |";
     md << "\n|---|";
     for (std::size_t k = 0; k < convergence.initial_stds.size(); ++k) md << "---|";
@@ -80,11 +80,11 @@ std::string tau_text(double value) { return std::isfinite(value) ? fmt("%.0f", v
 void fig6_table(std::ostringstream& md, const ex::ScalingFiguresConfig& scaling,
                 const std::vector<ex::ScalingCell>& cells, double abs_tol) {
   md << "\n## Fig. 6 — τ_end against T, DG-BB, η_abstol = " << fmt("%.0e", abs_tol) << "\n\n"
-     << "004: even a small T cuts τ_end strongly, and a large T is not needed. σ_I = "
+     << "Calafiore et al.: even a small T cuts τ_end strongly, and a large T is not needed. σ_I = "
      << scaling.initial_std_per_spacing
-     << " lattice spacings (Table I's 0.05 at n = 100; 004 does not say how σ_I scales with n). Mean τ_end "
-        "of the convergent runs [share of convergent runs]. Local BB (T = 0) at n = 100: Fig. 5's σ_I = "
-        "0.05 column.\n\n| n |";
+     << " lattice spacings (Table I's 0.05 at n = 100; Calafiore et al. does not say how σ_I scales with n). "
+        "Mean τ_end of the convergent runs [share of convergent runs]. Local BB (T = 0) at n = 100: Fig. "
+        "5's σ_I = 0.05 column.\n\n| n |";
   for (const int t : scaling.consensus_rounds) md << " T = " << t << " |";
   md << "\n|---|";
   for (std::size_t k = 0; k < scaling.consensus_rounds.size(); ++k) md << "---|";
@@ -105,8 +105,8 @@ void fig6_table(std::ostringstream& md, const ex::ScalingFiguresConfig& scaling,
 
 void fig7_table(std::ostringstream& md, const std::vector<ex::ScalingCell>& cells, double abs_tol) {
   md << "\n## Fig. 7 — τ_end against n, DG-BB, T = 20, η_abstol = " << fmt("%.0e", abs_tol) << "\n\n"
-     << "004: τ_end grows mildly with n.\n\n| n | mean τ_end, convergent runs | mean τ_end, all runs | "
-        "converged | mean final Φ |\n|---|---|---|---|---|\n";
+     << "Calafiore et al.: τ_end grows mildly with n.\n\n| n | mean τ_end, convergent runs | mean τ_end, all "
+        "runs | converged | mean final Φ |\n|---|---|---|---|---|\n";
   std::vector<int> listed;
   for (const auto& c : cells) {
     if (c.abs_tol != abs_tol || c.consensus_rounds != 20) continue;
@@ -214,7 +214,7 @@ std::optional<std::size_t> table3_paper_row(std::int64_t max_skew) {
 
 }  // namespace
 
-// ---------------- 004 Table I: DG-BB vs baselines ----------------
+// ---------------- Calafiore et al. Table I: DG-BB vs baselines ----------------
 int reproduce_dgbb_table1(const ReproduceOptions& options) {
   ex::LatticeConfig config;
   config.runs = options.trials > 0 ? options.trials : 50;
@@ -225,7 +225,7 @@ int reproduce_dgbb_table1(const ReproduceOptions& options) {
   const double wall_s = seconds_since(started);
   const auto& paper = ReferenceTable::get("004_table1");
   std::ostringstream md;
-  md << "# 004 Table I — DG-BB and baselines on the 10 × 10 lattice\n\n"
+  md << "# Calafiore et al. Table I — DG-BB and baselines on the 10 × 10 lattice\n\n"
      << "100 nodes on [0, 1]², anchors at the corners, lattice edges plus both diagonals, noiseless ranges, "
         "σ_I = "
      << config.initial_std << ", T = 20, η_abstol = 1e−10, τ_max = 1e5, " << config.runs << " runs, seed "
@@ -244,11 +244,10 @@ int reproduce_dgbb_table1(const ReproduceOptions& options) {
        << " | " << fmt("%.1f", row.mean_trust_region_fires) << " |\n";
   }
   md << "\nThe two local BB rows without a trust region read eq. (15) two ways. The first, "
-        "docs/algorithms.md "
-        "[E-6], takes ΔD_i = D_i(p^(τ)) − D_i(p^(τ−1)), the change of node i's gradient with its neighbours' "
-        "moves in it. The sixth row takes the equation as printed, ∇_i f(p_i^(τ)) − ∇_i f(p_i^(τ−1)): both "
-        "gradients at the neighbours' newest positions, so ΔD_i is what node i's own move changed (node i "
-        "has everything it needs after the one exchange per update).\n\n"
+        "docs/algorithms.md [E-6], takes ΔD_i = D_i(p^(τ)) − D_i(p^(τ−1)), the change of node i's gradient "
+        "with its neighbours' moves in it. The sixth row takes the equation as printed, ∇_i f(p_i^(τ)) − ∇_i "
+        "f(p_i^(τ−1)): both gradients at the neighbours' newest positions, so ΔD_i is what node i's own move "
+        "changed (node i has everything it needs after the one exchange per update).\n\n"
      << "The last two rows are not in the source: the same methods with the BB trust region "
         "(`algorithm.max_move_fraction` = 1, the runtime's default: one update moves a node at most its "
         "shortest measured range). The first six rows run without it.\n";
@@ -256,9 +255,10 @@ int reproduce_dgbb_table1(const ReproduceOptions& options) {
   return 0;
 }
 
-// ---------------- 004 Figs. 4–7: convergence and scaling of DG-BB on lattices ----------------
+// ---------------- Calafiore et al. Figs. 4–7: convergence and scaling of DG-BB on lattices ----------------
 int reproduce_dgbb_figures(const ReproduceOptions& options) {
-  const int runs = options.trials > 0 ? options.trials : 50;  // 004: 50 runs (Fig. 4; the others unstated)
+  // Calafiore et al.: 50 runs (Fig. 4; the others unstated)
+  const int runs = options.trials > 0 ? options.trials : 50;
   const auto base = lattice_dgbb_params();
   ex::ConvergenceFiguresConfig convergence;
   convergence.lattice.side = 10;
@@ -276,16 +276,15 @@ int reproduce_dgbb_figures(const ReproduceOptions& options) {
   const double wall_s = seconds_since(started);
 
   std::ostringstream md;
-  md << "# 004 Figs. 4–7 — DG-BB on anchored lattices: convergence and scaling\n\n"
+  md << "# Calafiore et al. Figs. 4–7 — DG-BB on anchored lattices: convergence and scaling\n\n"
      << "Lattices of Table I ([0, 1]², anchors at the corners, lattice edges plus both diagonals, noiseless "
         "ranges), τ_max = 1e5, no trust region; η_abstol = 1e−10 as in Table I, and 1e−14 in a second "
         "table for Figs. 5–7 (see the end); "
      << runs << " runs per cell, seed " << options.seed << ", " << convergence.threads << " threads ("
      << fmt("%.0f", convergence_s) << " s for Figs. 4–5, " << fmt("%.0f", wall_s - convergence_s)
      << " s for Figs. 6–7). Local BB is eq. (15) as printed (docs/algorithms.md [E-6]'s reading diverges on "
-        "this "
-        "lattice, Table I). 004 gives these figures as curves without numbers; its claims are quoted above "
-        "each table.\n\n";
+        "this lattice, Table I). Calafiore et al. gives these figures as curves without numbers; its claims "
+        "are quoted above each table.\n\n";
   fig4_table(md, convergence, figures);
   fig5_tables(md, convergence, figures);
   // Figs. 6–7, one table pair per stopping tolerance.
@@ -293,20 +292,19 @@ int reproduce_dgbb_figures(const ReproduceOptions& options) {
     fig6_table(md, scaling, cells, abs_tol);
     fig7_table(md, cells, abs_tol);
   }
-  md << "\nWith η_abstol = 1e−10 (Table I's) some runs stop before Φ < 1e−3: runs on the larger "
-        "lattices, "
+  md << "\nWith η_abstol = 1e−10 (Table I's) some runs stop before Φ < 1e−3: runs on the larger lattices, "
         "and at n = 100 some with a small σ_I, for all three methods alike (compare the two Fig. 5 tables). "
         "Φ then sits on a plateau of a few 1e−3 where the cost is nearly flat (a soft bending mode that "
         "only the four corner anchors hold): each node's move per update falls below η, and the nodes stop "
         "one by one, for good ([E-5]), while their BB steps are of normal size. With η_abstol = 1e−14 the "
-        "same "
-        "runs get through the plateau (docs/reproduction.md).\n";
+        "same runs get through the plateau (docs/reproduction.md).\n";
   emit(options.out_dir, "dgbb_004_figs", md.str());
   write_figures_csv(options.out_dir / "dgbb_004_figs.csv", convergence, figures, cells);
   return 0;
 }
 
-// ---------------- 004 Tables II–III: SDP and SDP + DG-BB on random geometric graphs ----------------
+// ---------------- Calafiore et al. Tables II–III: SDP and SDP + DG-BB on random geometric graphs
+// ----------------
 int reproduce_dgbb_table2(const ReproduceOptions& options) {
   const auto config = example3_config<ex::TableTwoConfig>(options);
   const auto params = ex::example3_dgbb_params();
@@ -314,14 +312,12 @@ int reproduce_dgbb_table2(const ReproduceOptions& options) {
   const auto cells = ex::run_table_two(config, params);
   const double wall_s = seconds_since(started);
   std::ostringstream md;
-  md << "# 004 Table II — Φ of SDP and SDP + DG-BB on random geometric graphs\n\n"
+  md << "# Calafiore et al. Table II — Φ of SDP and SDP + DG-BB on random geometric graphs\n\n"
      << "n = " << config.nodes << " nodes uniform on [0, 1]², R = " << config.radius
      << ", n_a anchors at random, ranges d̄ = |d + ε|, ε ~ N(0, (ν_d d)²) (eq. (16)); graphs resampled until "
         "connected with ≥ 3 ranges per unknown node. SDP: full relaxation (docs/algorithms.md §6.5 item 4, "
-        "SDPA). "
-        "DG: DG-BB agents from the SDP output, T = 20, η_abstol = 1e−15, τ_max = 1e5. Φ = (1/n) Σ ‖p_i − "
-        "p̂_i‖ "
-        "over all n nodes (anchors 0, [E-9]). "
+        "SDPA). DG: DG-BB agents from the SDP output, T = 20, η_abstol = 1e−15, τ_max = 1e5. Φ = (1/n) Σ "
+        "‖p_i − p̂_i‖ over all n nodes (anchors 0, [E-9]). "
      << config.runs << " runs per cell (the same positions, anchor order and noise draws in every cell of a "
      << "run), seed " << options.seed << " (" << fmt("%.1f", wall_s) << " s).\n\n"
      << "| n_a | method | ν_d = 0.05 ours | paper | ν_d = 0.1 ours | paper | ν_d = 0.15 ours | paper |\n"
@@ -329,9 +325,7 @@ int reproduce_dgbb_table2(const ReproduceOptions& options) {
   const bool all_improved = table2_phi_rows(md, config, cells);
   md << "\nSDP+DG improves on SDP in every column: **" << (all_improved ? "yes" : "no") << "**.\n\n"
      << "| n_a | ν_d | runs used | SDP failed | SDP inaccurate (gap > 1e−5) | runs where SDP+DG < SDP | mean "
-        "τ_end | median τ_end | "
-        "τ_max "
-        "reached |\n|---|---|---|---|---|---|---|---|---|\n";
+        "τ_end | median τ_end | τ_max reached |\n|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& c : cells) {
     md << "| " << c.anchors << " | " << c.noise_factor << " | " << c.runs << " | " << c.sdp_failures << " | "
        << c.sdp_inaccurate << " | " << c.refined_better << " / " << c.runs << " | "
@@ -351,20 +345,18 @@ int reproduce_dgbb_table3(const ReproduceOptions& options) {
   const double wall_s = seconds_since(started);
   const auto& paper = ReferenceTable::get("004_table3");
   std::ostringstream md;
-  md << "# 004 Table III — asynchronous start, SDP + DG-BB\n\n"
+  md << "# Calafiore et al. Table III — asynchronous start, SDP + DG-BB\n\n"
      << "n = " << config.nodes << ", R = " << config.radius << ", " << config.anchors
      << " anchors, ν_d = " << config.noise_factor << ", T = 20, η_abstol = 1e−15, τ_max = 1e5, "
      << config.runs << " runs, seed " << options.seed << " (" << fmt("%.1f", wall_s)
      << " s). Node i starts at t_i ~ U{0, …, Δt_max} ticks (one tick = one communication round, [E-7]); "
         "before that it neither steps nor publishes, after it runs on its own T + 1 rounds per update; a "
-        "node "
-        "waits until every range neighbour has published (§6.4). The same worlds and SDP solutions in every "
-        "column; Δt_max = 0 is the synchronous start. τ_end ours = the largest update count of any node, "
-        "averaged over runs (median in brackets; a run that stops only at τ_max adds 1e5/runs to the mean); "
-        "per node = updates per non-anchor node.\n\n"
+        "node waits until every range neighbour has published (§6.4). The same worlds and SDP solutions in "
+        "every column; Δt_max = 0 is the synchronous start. τ_end ours = the largest update count of any "
+        "node, averaged over runs (median in brackets; a run that stops only at τ_max adds 1e5/runs to the "
+        "mean); per node = updates per non-anchor node.\n\n"
      << "| Δt_max | Φ SDP ours | paper | Φ SDP+DG ours | paper | τ_end ours | per node | paper | Φ / Φ_sync "
-        "| "
-        "τ_max reached |\n|---|---|---|---|---|---|---|---|---|---|\n";
+        "| τ_max reached |\n|---|---|---|---|---|---|---|---|---|---|\n";
   const double sync = columns.front().refined_error;
   for (const auto& c : columns) {
     const auto p = table3_paper_row(c.max_skew);
@@ -391,4 +383,4 @@ int reproduce_dgbb_table3(const ReproduceOptions& options) {
   return 0;
 }
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

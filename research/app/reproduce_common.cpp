@@ -9,7 +9,7 @@
 
 #include "reference_tables.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 
 int resolve_threads(int threads) {
   return threads > 0 ? threads : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
@@ -104,4 +104,4 @@ double ReferenceTable::number(std::size_t row, const std::string& column, double
   return value;
 }
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

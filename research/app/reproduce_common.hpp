@@ -11,7 +11,7 @@
 
 #include "reproduce.hpp"
 
-namespace swarmloc::orchestrator::reproduce_detail {
+namespace swarmloc::research::reproduce_detail {
 
 /// `threads`, or every core when it is 0.
 int resolve_threads(int threads);
@@ -64,7 +64,7 @@ class ReferenceTable {
 int reproduce_ea1(const ReproduceOptions& options);
 int reproduce_ea2(const ReproduceOptions& options);
 int reproduce_ea3(const ReproduceOptions& options);
-/// 001 Table I or II: `table` names the reference table (001_table1, 001_table2).
+/// Gasparri & Pascucci Table I or II: `table` names the reference table (001_table1, 001_table2).
 int reproduce_kalman_table(const ReproduceOptions& options, const std::string& name, const std::string& table,
                            const std::string& title);
 int reproduce_jacobi(const ReproduceOptions& options);
@@ -76,4 +76,4 @@ int reproduce_dgbb_figures(const ReproduceOptions& options);
 int reproduce_dgbb_table2(const ReproduceOptions& options);
 int reproduce_dgbb_table3(const ReproduceOptions& options);
 
-}  // namespace swarmloc::orchestrator::reproduce_detail
+}  // namespace swarmloc::research::reproduce_detail

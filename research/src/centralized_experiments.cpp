@@ -9,7 +9,7 @@
 #include "swarmloc/core/random.hpp"
 #include "swarmloc/estimators/centralized/posterior_crb.hpp"
 
-namespace swarmloc::estimators::centralized {
+namespace swarmloc::research {
 
 MatX make_ea1_matrix(int n, int bandwidth_of_a, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> off_diagonal(-1.0, 1.0);
@@ -25,19 +25,20 @@ MatX make_ea1_matrix(int n, int bandwidth_of_a, std::mt19937_64& rng) {
 }
 
 std::vector<double> banded_inversion_errors(int n, int bandwidth_of_a, const std::vector<int>& bandwidths,
-                                            std::mt19937_64& rng, BandInversionMethod method) {
+                                            std::mt19937_64& rng, centralized::BandInversionMethod method) {
   const MatX a = make_ea1_matrix(n, bandwidth_of_a, rng);
   Eigen::LLT<MatX> llt(a);
   if (llt.info() != Eigen::Success) throw std::domain_error("E-A1: matrix is not positive definite");
   const MatX exact = llt.solve(MatX::Identity(n, n));
   std::vector<double> errors;
   errors.reserve(bandwidths.size());
-  for (int bandwidth : bandwidths) errors.push_back((exact - band_inverse(a, bandwidth, method)).norm());
+  for (int bandwidth : bandwidths)
+    errors.push_back((exact - centralized::band_inverse(a, bandwidth, method)).norm());
   return errors;
 }
 
 double banded_inversion_error(int n, int bandwidth_of_a, int bandwidth, std::mt19937_64& rng,
-                              BandInversionMethod method) {
+                              centralized::BandInversionMethod method) {
   return banded_inversion_errors(n, bandwidth_of_a, {bandwidth}, rng, method).front();
 }
 
@@ -79,16 +80,20 @@ Ea2World make_ea2_world(const Ea2Config& config) {
       p.x() = coordinate(placement);
       p.y() = coordinate(placement);
     }
-    world.edges = disk_graph_edges(world.positions, config.sensing_radius_m);
-    world.vr_bandwidth = graph_bandwidth(world.edges, lexicographic_labels(world.positions));
+    world.edges = centralized::disk_graph_edges(world.positions, config.sensing_radius_m);
+    world.vr_bandwidth =
+        centralized::graph_bandwidth(world.edges, centralized::lexicographic_labels(world.positions));
     if (config.max_vr_bandwidth >= 0 && world.vr_bandwidth > config.max_vr_bandwidth) continue;
-    if (!is_connected(config.num_agents, world.edges) || !is_rigid(world.positions, world.edges)) continue;
+    if (!centralized::is_connected(config.num_agents, world.edges) ||
+        !centralized::is_rigid(world.positions, world.edges))
+      continue;
     auto anchors = core::make_engine(config.config_seed, core::Stream::kAnchors, attempt);
-    std::vector<int> agents = identity_labels(config.num_agents);
+    std::vector<int> agents = centralized::identity_labels(config.num_agents);
     std::shuffle(agents.begin(), agents.end(), anchors);
     world.beacons.assign(agents.begin(), agents.begin() + config.num_beacons);
     std::sort(world.beacons.begin(), world.beacons.end());
-    world.natural_bandwidth = graph_bandwidth(world.edges, identity_labels(config.num_agents));
+    world.natural_bandwidth =
+        centralized::graph_bandwidth(world.edges, centralized::identity_labels(config.num_agents));
     world.attempts = attempt + 1;
     return world;
   }
@@ -100,35 +105,36 @@ namespace {
 
 Eigen::Index ea2_index(int a) { return 2 * static_cast<Eigen::Index>(a); }
 
-// The filter of `variant`; its labels are 000 Alg. 3's relabeling once at k = 0 ([A-5]) where the variant
-// relabels, else the generation order.
-CentralizedKind ea2_filter_params(const Ea2Config& config, const Ea2World& world, Ea2Variant variant,
-                                  const VecX& initial_mean, CentralizedFilterParams& params) {
+// The filter of `variant`; its labels are Khan et al. Alg. 3's relabeling once at k = 0 ([A-5]) where the
+// variant relabels, else the generation order.
+centralized::CentralizedKind ea2_filter_params(const Ea2Config& config, const Ea2World& world,
+                                               Ea2Variant variant, const VecX& initial_mean,
+                                               centralized::CentralizedFilterParams& params) {
   const int agents = config.num_agents;
   params.process_var = config.process_var;
   params.inversion = config.inversion;
-  CentralizedKind kind = CentralizedKind::kEkf;
+  centralized::CentralizedKind kind = centralized::CentralizedKind::kEkf;
   bool relabel = false;
   switch (variant) {
     case Ea2Variant::kEkf:
       params.bandwidth = 2 * agents - 1;
       break;
     case Ea2Variant::kLbEkfVr:
-      kind = CentralizedKind::kLbEkf;
+      kind = centralized::CentralizedKind::kLbEkf;
       relabel = true;
       break;
     case Ea2Variant::kLbEkfNoVr:
-      kind = CentralizedKind::kLbEkf;
+      kind = centralized::CentralizedKind::kLbEkf;
       break;
     case Ea2Variant::kLbEkfIVr:
-      kind = CentralizedKind::kLbEkfI;
+      kind = centralized::CentralizedKind::kLbEkfI;
       relabel = true;
       break;
     case Ea2Variant::kLbEkfINoVr:
-      kind = CentralizedKind::kLbEkfI;
+      kind = centralized::CentralizedKind::kLbEkfI;
       break;
   }
-  if (kind != CentralizedKind::kEkf) params.bandwidth = config.bandwidth;
+  if (kind != centralized::CentralizedKind::kEkf) params.bandwidth = config.bandwidth;
   if (relabel) {
     std::vector<Vec2> reference(static_cast<std::size_t>(agents));
     for (int a = 0; a < agents; ++a) {
@@ -136,27 +142,28 @@ CentralizedKind ea2_filter_params(const Ea2Config& config, const Ea2World& world
                                                    ? world.positions[static_cast<std::size_t>(a)]
                                                    : Vec2(initial_mean.segment<2>(ea2_index(a)));
     }
-    params.labels = lexicographic_labels(reference);
+    params.labels = centralized::lexicographic_labels(reference);
   } else {
-    params.labels = identity_labels(agents);  // generation order
+    params.labels = centralized::identity_labels(agents);  // generation order
   }
   return kind;
 }
 
 // eq. (5) at the true `positions`; the disk graph follows them (docs/algorithms.md §1.2).
-CentralizedMeasurements ea2_measurements(const Ea2Config& config, const Ea2World& world,
-                                         const std::vector<Vec2>& positions, std::mt19937_64& noise_rng,
-                                         std::normal_distribution<double>& standard) {
+centralized::CentralizedMeasurements ea2_measurements(const Ea2Config& config, const Ea2World& world,
+                                                      const std::vector<Vec2>& positions,
+                                                      std::mt19937_64& noise_rng,
+                                                      std::normal_distribution<double>& standard) {
   const double beacon_std = std::sqrt(config.beacon_var);
   const double range_std = std::sqrt(config.range_var);
-  CentralizedMeasurements meas;
+  centralized::CentralizedMeasurements meas;
   meas.beacon_var = config.beacon_var;
   meas.range_var = config.range_var;
   for (int b : world.beacons) {
     const Vec2 noise = beacon_std * Vec2(standard(noise_rng), standard(noise_rng));
     meas.beacon_fixes.emplace_back(b, positions[static_cast<std::size_t>(b)] + noise);
   }
-  for (const auto& [i, j] : disk_graph_edges(positions, config.sensing_radius_m)) {
+  for (const auto& [i, j] : centralized::disk_graph_edges(positions, config.sensing_radius_m)) {
     const double range =
         (positions[static_cast<std::size_t>(i)] - positions[static_cast<std::size_t>(j)]).norm();
     meas.ranges.push_back({i, j, range + range_std * standard(noise_rng)});
@@ -183,13 +190,13 @@ Ea2TrialResult run_ea2_trial(const Ea2Config& config, const Ea2World& world, Ea2
   const std::vector<Mat2> initial_cov(static_cast<std::size_t>(agents),
                                       Mat2::Identity() * config.initial_var);
 
-  CentralizedFilterParams params;
-  const CentralizedKind kind = ea2_filter_params(config, world, variant, initial_mean, params);
-  const auto filter = make_centralized_filter(kind, initial_mean, initial_cov, params);
-  PosteriorCrb crb(initial_cov, config.process_var);
+  centralized::CentralizedFilterParams params;
+  const centralized::CentralizedKind kind = ea2_filter_params(config, world, variant, initial_mean, params);
+  const auto filter = centralized::make_centralized_filter(kind, initial_mean, initial_cov, params);
+  centralized::PosteriorCrb crb(initial_cov, config.process_var);
 
   Ea2TrialResult result;
-  result.labels_bandwidth = graph_bandwidth(world.edges, params.labels);
+  result.labels_bandwidth = centralized::graph_bandwidth(world.edges, params.labels);
   result.total_mse.assign(static_cast<std::size_t>(config.steps), 0.0);
   result.agent_mse = MatX::Zero(config.steps, agents);
   if (config.compute_crb) {
@@ -204,7 +211,8 @@ Ea2TrialResult run_ea2_trial(const Ea2Config& config, const Ea2World& world, Ea2
       for (int a = 0; a < agents; ++a)
         truth.segment<2>(ea2_index(a)) = positions[static_cast<std::size_t>(a)];
     }
-    const CentralizedMeasurements meas = ea2_measurements(config, world, positions, noise_rng, standard);
+    const centralized::CentralizedMeasurements meas =
+        ea2_measurements(config, world, positions, noise_rng, standard);
     filter->step(meas);
     result.max_measurement_bandwidth =
         std::max(result.max_measurement_bandwidth, filter->last_measurement_bandwidth());
@@ -228,4 +236,4 @@ Ea2TrialResult run_ea2_trial(const Ea2Config& config, Ea2Variant variant, std::u
   return run_ea2_trial(config, make_ea2_world(config), variant, trial_seed);
 }
 
-}  // namespace swarmloc::estimators::centralized
+}  // namespace swarmloc::research

@@ -1,5 +1,5 @@
-// The DLE experiments of 002 (docs/algorithms.md §4.6): a static target seen through random projections,
-// and moving targets tracked from range and bearing against a centralized EKF.
+// The DLE experiments of Atanasov et al. (docs/algorithms.md §4.6): a static target seen through random
+// projections, and moving targets tracked from range and bearing against a centralized EKF.
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <cmath>
@@ -15,7 +15,7 @@
 #include "swarmloc/research/relative_localization.hpp"
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 using detail::Graph;
@@ -76,7 +76,7 @@ void run_static_dle_once(const StaticDleExperimentConfig& c, std::mt19937_64& rn
   for (std::size_t t = 1; t <= steps; ++t) {
     for (std::size_t i = 0; i < batches.size(); ++i) {
       const Vec2 noise(c.observation_std * normal(rng), c.observation_std * normal(rng));
-      const Vec2 z = H[i] * y + noise;  // 002 eq. (2)
+      const Vec2 z = H[i] * y + noise;  // Atanasov et al. eq. (2)
       batches[i].targets = {estimators::TargetObservation{0, z, var * Mat2::Identity(), 0}};
       batches[i].world_step = static_cast<std::int64_t>(t);
       central_info += H[i].transpose() * z / var;
@@ -185,7 +185,7 @@ void track_target(const TrackingExperimentConfig& c, const Graph& g, const Track
   VecX central_mean = VecX::Zero(4);
   MatX central_info = c.initial_information * MatX::Identity(4, 4);
   for (std::size_t t = 1; t <= steps; ++t) {
-    if (t > 1) {  // y(t) = F y(t−1) + η (002 eq. (1)); the first step observes the initial state
+    if (t > 1) {  // y(t) = F y(t−1) + η (Atanasov et al. eq. (1)); the first step observes the initial state
       VecX eta(4);
       for (int r = 0; r < 4; ++r) eta(r) = normal(rng);
       y = F * y + model.W_root.matrixL() * eta;
@@ -276,4 +276,4 @@ TrackingExperimentResult run_tracking_experiment(const TrackingExperimentConfig&
   return result;
 }
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

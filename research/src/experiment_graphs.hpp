@@ -1,13 +1,13 @@
 #pragma once
-// Random sensor graphs of the 002 experiments (relative_localization.cpp, dle_experiments.cpp). Internal to
-// the experiments.
+// Random sensor graphs of the Atanasov et al. experiments (relative_localization.cpp, dle_experiments.cpp).
+// Internal to the experiments.
 #include <random>
 #include <vector>
 
 #include "swarmloc/core/types.hpp"
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments::detail {
+namespace swarmloc::research::detail {
 
 struct Edge {
   int i = 0;
@@ -54,4 +54,4 @@ inline Graph make_graph(const std::vector<Vec2>& points, double radius_m) {
   return g;
 }
 
-}  // namespace swarmloc::sim::experiments::detail
+}  // namespace swarmloc::research::detail

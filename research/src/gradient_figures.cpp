@@ -8,7 +8,7 @@
 #include "parallel_runs.hpp"
 #include "swarmloc/core/random.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 namespace gradient = estimators::gradient;
 
@@ -175,4 +175,4 @@ std::vector<ScalingCell> run_scaling_figures(const ScalingFiguresConfig& config,
   return cells;
 }
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

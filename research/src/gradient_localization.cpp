@@ -7,7 +7,7 @@
 
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 namespace gradient = estimators::gradient;
 
@@ -31,7 +31,7 @@ LatticeProblem make_lattice_problem(const LatticeConfig& c, std::mt19937_64& rng
   auto add_edge = [&](int i, int j) {
     const double d =
         (lattice.truth[static_cast<std::size_t>(i)] - lattice.truth[static_cast<std::size_t>(j)]).norm();
-    const double noisy = std::abs(d + c.noise_factor * d * normal(rng));  // 004 eq. (16)
+    const double noisy = std::abs(d + c.noise_factor * d * normal(rng));  // Calafiore et al. eq. (16)
     lattice.problem.edges.push_back(gradient::RangeEdge{i, j, c.noise_factor > 0.0 ? noisy : d});
   };
   for (int r = 0; r < c.side; ++r) {
@@ -211,4 +211,4 @@ std::vector<TableOneRow> run_table_one(const LatticeConfig& config, const gradie
   return rows;
 }
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

@@ -15,7 +15,7 @@
 #include "swarmloc/models/multipath.hpp"
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 constexpr int kNodes = 5;
@@ -99,7 +99,7 @@ std::vector<estimators::MeasurementBatch> measure_paths(const MultipathExperimen
   return batches;
 }
 
-/// One trial of cooperative BP (003 Algorithm 1).
+/// One trial of cooperative BP (Leng et al. Algorithm 1).
 struct BpTrial {
   bool grew = false;                ///< some belief's covariance grew between iterations (Thm. 1)
   bool localized = true;            ///< every node has a belief at the end
@@ -149,7 +149,7 @@ BpTrial run_bp_trial(const detail::Adjacency& adjacency, const estimators::bp::M
   return trial;
 }
 
-/// Centralized baseline (not in 003): every link's paths in one weighted least-squares problem.
+/// Centralized baseline (not in Leng et al.): every link's paths in one weighted least-squares problem.
 void add_centralized(MultipathExperimentResult& result,
                      const std::vector<estimators::MeasurementBatch>& batches, const Positions& s,
                      const estimators::bp::MultipathBpParams& params) {
@@ -247,4 +247,4 @@ MultipathExperimentResult run_multipath_experiment(const MultipathExperimentConf
   return result;
 }
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

@@ -5,7 +5,7 @@
 #include <thread>
 #include <vector>
 
-namespace swarmloc::sim::experiments::detail {
+namespace swarmloc::research::detail {
 
 /// Calls fn(k) for k in [0, count) on `threads` threads. Each call must write only its own slot, so the
 /// results do not depend on the thread count.
@@ -21,4 +21,4 @@ void parallel_runs(int count, int threads, Fn&& fn) {
   for (auto& thread : pool) thread.join();
 }
 
-}  // namespace swarmloc::sim::experiments::detail
+}  // namespace swarmloc::research::detail

@@ -14,7 +14,7 @@
 #include "swarmloc/world/world.hpp"
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 using detail::Adjacency;
@@ -100,7 +100,7 @@ struct JacobiSums {
   std::vector<double> se, blue_se, crb;
 };
 
-/// BLUE normal matrix L̃ = (Laplacian ⊗ I₂)/σ² without node 0 (002 eq. (8)).
+/// BLUE normal matrix L̃ = (Laplacian ⊗ I₂)/σ² without node 0 (Atanasov et al. eq. (8)).
 MatX blue_normal_matrix(const Graph& g, int m, double var) {
   MatX L = MatX::Zero(2 * m, 2 * m);
   for (const Edge& e : g.edges) {
@@ -116,8 +116,8 @@ MatX blue_normal_matrix(const Graph& g, int m, double var) {
   return L;
 }
 
-/// One step's relative measurements of every edge (002 eq. (3)) into the batches; adds each edge's sample
-/// of x_j − x_i to edge_sum.
+/// One step's relative measurements of every edge (Atanasov et al. eq. (3)) into the batches; adds each
+/// edge's sample of x_j − x_i to edge_sum.
 void measure_edges(const JacobiExperimentConfig& c, const Graph& g, const std::vector<Vec2>& truth,
                    std::mt19937_64& rng, std::vector<estimators::MeasurementBatch>& batches,
                    std::vector<Vec2>& edge_sum) {
@@ -126,7 +126,7 @@ void measure_edges(const JacobiExperimentConfig& c, const Graph& g, const std::v
     const Edge& e = g.edges[k];
     const auto i = static_cast<std::size_t>(e.i);
     const auto j = static_cast<std::size_t>(e.j);
-    const Vec2 s_ij = truth[j] - truth[i] + normal2(rng, c.measurement_std_m);  // 002 eq. (3)
+    const Vec2 s_ij = truth[j] - truth[i] + normal2(rng, c.measurement_std_m);  // Atanasov et al. eq. (3)
     const Vec2 s_ji =
         c.shared_measurements ? Vec2(-s_ij) : Vec2(truth[i] - truth[j] + normal2(rng, c.measurement_std_m));
     const Mat2 cov = var * Mat2::Identity();
@@ -314,8 +314,8 @@ JointFieldNodes make_field_nodes(const JointFieldExperimentConfig& c,
   return nodes;
 }
 
-/// Step t's field readings (002 eq. (2), at the true positions; their information sum into central_info)
-/// and relative measurements (eq. (3), shared [C-7]) into the batches.
+/// Step t's field readings (Atanasov et al. eq. (2), at the true positions; their information sum into
+/// central_info) and relative measurements (eq. (3), shared [C-7]) into the batches.
 void measure_field_step(const JointFieldExperimentConfig& c, const Graph& g, const JointFieldNodes& nodes,
                         const VecX& y, std::size_t t, std::normal_distribution<double>& reading_noise,
                         std::mt19937_64& rng, std::vector<estimators::MeasurementBatch>& batches,
@@ -357,7 +357,7 @@ JointFieldRunSums run_joint_field_once(const JointFieldExperimentConfig& c,
   for (auto* v : {&location_se, &field_se, &known_se, &central_se}) v->assign(steps + 1, 0.0);
   const Graph g = draw_field_graph(c, rng, sums.graphs_rejected);
   sums.radius_m = g.radius_m;
-  const VecX y = draw_gaussian_field(sensor.grid, c.field_std, c.field_correlation_m, rng);
+  const VecX y = world::draw_gaussian_field(sensor.grid, c.field_std, c.field_correlation_m, rng);
   JointFieldNodes nodes = make_field_nodes(c, sensor, g, rng);
   const auto& joint = nodes.joint;
   const auto& known = nodes.known;
@@ -448,4 +448,4 @@ JointFieldExperimentResult run_joint_field_experiment(const JointFieldExperiment
   return result;
 }
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

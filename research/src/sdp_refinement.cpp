@@ -9,7 +9,7 @@
 #include "parallel_runs.hpp"
 #include "sync_bus.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 namespace gradient = estimators::gradient;
 using detail::parallel_runs;
@@ -58,7 +58,7 @@ LatticeProblem make_geometric_graph_problem(const GeometricGraphConfig& c, std::
       for (std::size_t j = i + 1; j < n; ++j) {
         const double d = (world.truth[i] - world.truth[j]).norm();
         if (!(d < c.radius)) continue;
-        const double noisy = std::abs(d + c.noise_factor * d * normal(rng));  // 004 eq. (16)
+        const double noisy = std::abs(d + c.noise_factor * d * normal(rng));  // Calafiore et al. eq. (16)
         world.problem.edges.push_back(gradient::RangeEdge{static_cast<int>(i), static_cast<int>(j), noisy});
         adjacency[i].push_back(static_cast<int>(j));
         adjacency[j].push_back(static_cast<int>(i));
@@ -106,10 +106,10 @@ std::uint64_t run_seed(std::uint64_t seed, int run) {
 }
 
 SdpInstance make_sdp_instance(const GeometricGraphConfig& config, std::mt19937_64& rng,
-                              const gradient::SdpRelaxationParams& sdp_params) {
+                              const SdpRelaxationParams& sdp_params) {
   SdpInstance instance;
   instance.world = make_geometric_graph_problem(config, rng);
-  instance.sdp = gradient::solve_sdp_relaxation(instance.world.problem, sdp_params);
+  instance.sdp = solve_sdp_relaxation(instance.world.problem, sdp_params);
   if (instance.sdp.usable()) {
     instance.world.problem.initial = instance.sdp.positions;
     instance.sdp_error = mean_position_error(instance.world.truth, instance.sdp.positions);
@@ -155,7 +155,7 @@ std::vector<TableTwoCell> run_table_two(const TableTwoConfig& config, const grad
         Outcome& o = outcomes[cell++][static_cast<std::size_t>(run)];
         o.usable = instance.sdp.usable();
         if (!o.usable) continue;
-        o.inaccurate = instance.sdp.status == gradient::SdpStatus::kInaccurate;
+        o.inaccurate = instance.sdp.status == SdpStatus::kInaccurate;
         o.sdp = instance.sdp_error;
         const GradientRun refined = run_gradient_agents(instance.world, params);
         o.refined = refined.final_error;
@@ -258,4 +258,4 @@ std::vector<TableThreeColumn> run_table_three(const TableThreeConfig& config,
   return table;
 }
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

@@ -11,7 +11,7 @@
 #include <streambuf>
 #include <string>
 
-namespace swarmloc::estimators::gradient {
+namespace swarmloc::research {
 namespace {
 
 // SDPA keeps process-wide state inside (timers, MUMPS' sequential MPI stub): one solve at a time.
@@ -48,13 +48,14 @@ struct SdpEdge {
   double range = 0.0;
 };
 
-std::vector<SdpEdge> relaxation_edges(const RangeProblem& problem, const std::vector<int>& unknown_index) {
+std::vector<SdpEdge> relaxation_edges(const gradient::RangeProblem& problem,
+                                      const std::vector<int>& unknown_index) {
   const auto n = static_cast<int>(problem.anchor.size());
   if (problem.initial.size() != problem.anchor.size())
     throw std::invalid_argument("sdp_relaxation: initial and anchor sizes differ");
   std::vector<SdpEdge> edges;
   for (std::size_t k = 0; k < problem.edges.size(); ++k) {
-    const RangeEdge& e = problem.edges[k];
+    const gradient::RangeEdge& e = problem.edges[k];
     const std::string where = "sdp_relaxation: edge " + std::to_string(k);
     if (e.i < 0 || e.i >= n || e.j < 0 || e.j >= n)
       throw std::invalid_argument(where + ": node index out of range");
@@ -231,7 +232,7 @@ const char* to_string(SdpStatus status) {
   return "failed";
 }
 
-std::vector<int> sdp_unknown_index(const RangeProblem& problem) {
+std::vector<int> sdp_unknown_index(const gradient::RangeProblem& problem) {
   std::vector<int> index(problem.anchor.size(), -1);
   int next = 0;
   for (std::size_t i = 0; i < problem.anchor.size(); ++i) {
@@ -240,7 +241,7 @@ std::vector<int> sdp_unknown_index(const RangeProblem& problem) {
   return index;
 }
 
-double sdp_relaxation_objective(const RangeProblem& problem, const std::vector<Vec2>& positions,
+double sdp_relaxation_objective(const gradient::RangeProblem& problem, const std::vector<Vec2>& positions,
                                 const Eigen::MatrixXd& gram, const std::vector<int>& unknown_index) {
   const std::vector<SdpEdge> edges = relaxation_edges(problem, unknown_index);
   const int n_u = static_cast<int>(
@@ -256,7 +257,8 @@ double sdp_relaxation_objective(const RangeProblem& problem, const std::vector<V
   return sum;
 }
 
-SdpRelaxationResult solve_sdp_relaxation(const RangeProblem& problem, const SdpRelaxationParams& params) {
+SdpRelaxationResult solve_sdp_relaxation(const gradient::RangeProblem& problem,
+                                         const SdpRelaxationParams& params) {
   validate(params);
   SdpRelaxationResult result;
   result.unknown_index = sdp_unknown_index(problem);
@@ -297,4 +299,4 @@ SdpRelaxationResult solve_sdp_relaxation(const RangeProblem& problem, const SdpR
   return result;
 }
 
-}  // namespace swarmloc::estimators::gradient
+}  // namespace swarmloc::research

@@ -12,7 +12,7 @@
 
 #include "swarmloc/estimators/estimator.hpp"
 
-namespace swarmloc::sim::experiments::detail {
+namespace swarmloc::research::detail {
 
 using Adjacency = std::vector<std::vector<int>>;
 
@@ -133,4 +133,4 @@ inline bool connected(const Adjacency& adjacency) {
   return count == adjacency.size();
 }
 
-}  // namespace swarmloc::sim::experiments::detail
+}  // namespace swarmloc::research::detail

@@ -8,7 +8,7 @@
 // deserialization cannot produce a wild pointer or a bool other than 0/1). Contract checked:
 //   - the decoder never crashes, and its well_formed flag is exactly the documented structural rule;
 //   - a well-formed sample carries the wire values unchanged;
-//   - States and batches go on into a real sim::AgentRuntime (the code both runtimes share): a State is
+//   - States and batches go on into a real runtime::AgentRuntime (the code both runtimes share): a State is
 //     either not well-formed (and rejected), or rejected by the runtime with a reason, or accepted, and
 //     an accepted State is finite, symmetric PSD and within the absurd-magnitude bounds; after every
 //     estimator step the agent's estimate is finite.
@@ -181,8 +181,8 @@ void mutate_header(swarmloc_msg_Header& header, Rng& rng) {
   }
 }
 
-sim::Header random_header(Rng& rng, AgentId sender, std::uint32_t seq) {
-  sim::Header header;
+runtime::Header random_header(Rng& rng, AgentId sender, std::uint32_t seq) {
+  runtime::Header header;
   header.agent_id = sender;
   header.seq = seq;
   header.step = static_cast<std::int64_t>(seq);
@@ -213,14 +213,15 @@ class Recorder {
 constexpr AgentId kSelf = 0;
 const std::vector<AgentId> kNeighbours{1, 2, 3};
 
-sim::AgentRuntime make_runtime(std::uint64_t seed, const std::string& algorithm) {
+runtime::AgentRuntime make_runtime(std::uint64_t seed, const std::string& algorithm) {
   estimators::AgentSetup setup;
   setup.id = kSelf;
   setup.initial_guess_m = Vec2(5.0, 5.0);
   estimators::KalmanFamilyParams params;
-  sim::AgentRuntimeParams runtime;
+  runtime::AgentRuntimeParams runtime;
   runtime.seed = seed;
-  return sim::AgentRuntime(estimators::make_estimator(algorithm, setup, params), setup, kNeighbours, runtime);
+  return runtime::AgentRuntime(estimators::make_estimator(algorithm, setup, params), setup, kNeighbours,
+                               runtime);
 }
 
 estimators::MeasurementBatch plausible_batch(Rng& rng, std::int64_t step) {
@@ -232,7 +233,7 @@ estimators::MeasurementBatch plausible_batch(Rng& rng, std::int64_t step) {
   return batch;
 }
 
-bool estimate_is_finite(const sim::AgentRuntime& runtime) {
+bool estimate_is_finite(const runtime::AgentRuntime& runtime) {
   const auto estimate = runtime.estimate();
   return estimate.mean_m.allFinite() && estimate.covariance.allFinite();
 }
@@ -310,11 +311,12 @@ constexpr std::uint64_t kSession = 64;
 
 void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, FuzzResult& result) {
   Recorder record(result);
-  std::unique_ptr<sim::AgentRuntime> runtime;
+  std::unique_ptr<runtime::AgentRuntime> runtime;
   for (std::uint64_t i = first; i < first + inputs; ++i) {
     Rng rng(core::hash_keys(seed, 1, i));
     if (runtime == nullptr || i % kSession == 0 || i == first) {
-      runtime = std::make_unique<sim::AgentRuntime>(make_runtime(seed, rng.chance(0.5) ? "ieif" : "iekf"));
+      runtime =
+          std::make_unique<runtime::AgentRuntime>(make_runtime(seed, rng.chance(0.5) ? "ieif" : "iekf"));
     }
     const AgentId sender = rng.chance(0.9) ? kNeighbours[rng.below(3)] : hostile_int<std::int32_t>(rng);
     const dds::WireState wire(random_header(rng, sender, static_cast<std::uint32_t>(i % kSession)),
@@ -342,8 +344,8 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
     if (!decoded.well_formed) {
       record.check(!accepted, i, "state: a malformed sample was accepted");
       if (decoded.header.agent_id != kSelf) {
-        record.check(after[static_cast<std::size_t>(sim::RejectReason::kMalformed)] ==
-                         before[static_cast<std::size_t>(sim::RejectReason::kMalformed)] + 1,
+        record.check(after[static_cast<std::size_t>(runtime::RejectReason::kMalformed)] ==
+                         before[static_cast<std::size_t>(runtime::RejectReason::kMalformed)] + 1,
                      i, "state: a malformed sample was not counted as malformed");
       }
     }
@@ -616,11 +618,12 @@ void fuzz_belief(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, 
 
 void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, FuzzResult& result) {
   Recorder record(result);
-  std::unique_ptr<sim::AgentRuntime> runtime;
+  std::unique_ptr<runtime::AgentRuntime> runtime;
   for (std::uint64_t i = first; i < first + inputs; ++i) {
     Rng rng(core::hash_keys(seed, 5, i));
     if (runtime == nullptr || i % kSession == 0 || i == first) {
-      runtime = std::make_unique<sim::AgentRuntime>(make_runtime(seed, rng.chance(0.5) ? "ieif" : "iekf"));
+      runtime =
+          std::make_unique<runtime::AgentRuntime>(make_runtime(seed, rng.chance(0.5) ? "ieif" : "iekf"));
       // Neighbours with known states, so ranges to them are used.
       for (const AgentId peer : kNeighbours) {
         estimators::StateMessage anchor;
@@ -759,7 +762,7 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
   Recorder record(result);
   for (std::uint64_t i = first; i < first + inputs; ++i) {
     Rng rng(core::hash_keys(seed, 6, i));
-    sim::EstimateReport report;
+    runtime::EstimateReport report;
     report.header = random_header(rng, static_cast<AgentId>(rng.below(30)), static_cast<std::uint32_t>(i));
     report.estimate.mean_m = Vec2(rng.uniform(-50, 50), rng.uniform(-50, 50));
     report.estimate.covariance = random_psd(rng, 1.0);
@@ -836,7 +839,7 @@ void fuzz_estimate(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs
         (s.rejected_by_reason._length == 0 || s.rejected_by_reason._buffer != nullptr) &&
         (s.field._length == 0 || s.field._buffer != nullptr) &&
         s.field._length <= dds::codec::kMaxFieldValues &&
-        s.rejected_by_reason._length <= sim::kRejectReasonCount && s.agent_id == s.header.agent_id;
+        s.rejected_by_reason._length <= runtime::kRejectReasonCount && s.agent_id == s.header.agent_id;
     record.check(decoded.well_formed == expect_well_formed, i, "estimate: well_formed differs from the rule");
     if (!decoded.well_formed) {
       ++result.rejected;
@@ -860,9 +863,9 @@ void fuzz_control(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs,
   Recorder record(result);
   for (std::uint64_t i = first; i < first + inputs; ++i) {
     Rng rng(core::hash_keys(seed, 7, i));
-    sim::ControlMessage message;
+    runtime::ControlMessage message;
     message.header = random_header(rng, kOrchestratorId, static_cast<std::uint32_t>(i));
-    message.command = static_cast<sim::ControlCommand>(rng.below(4));
+    message.command = static_cast<runtime::ControlCommand>(rng.below(4));
     message.scenario_hash = rng.next();
     const dds::WireControl wire(message);
     swarmloc_msg_Control s = wire.sample;

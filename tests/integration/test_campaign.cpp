@@ -13,7 +13,7 @@
 #include "campaign.hpp"
 #include "process_helpers.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 namespace {
 
 using swarmloc::testing::fresh_directory;
@@ -57,7 +57,7 @@ std::string small_spec() {
          "algorithms:\n"
          "  - {label: IEIF, scenario: " +
          kScenarios +
-         "/default.yaml}\n"
+         "/ieif.yaml}\n"
          "  - {label: Jacobi, scenario: " +
          kScenarios +
          "/jacobi.yaml, overrides: {run.steps: 60}}\n"
@@ -142,7 +142,7 @@ TEST(Campaign, ShippedSpecsLoadWithEveryCellValid) {
 
 TEST(Campaign, BadSpecExitsTwoNamingTheKey) {
   const auto dir = fresh_directory("campaign-bad");
-  const std::string algorithms = "algorithms: [{label: IEIF, scenario: " + kScenarios + "/default.yaml}]\n";
+  const std::string algorithms = "algorithms: [{label: IEIF, scenario: " + kScenarios + "/ieif.yaml}]\n";
   const std::vector<BadSpec> cases{
       {"unknown top-level key", algorithms + "sweep: {key: network.loss, values: [0]}\nseed: 3\n", "seed"},
       {"misspelt sweep key", algorithms + "sweep: {key: network.loss, valeus: [0]}\n", "sweep.valeus"},
@@ -205,4 +205,4 @@ TEST(Campaign, StillFallingFlagsARunWhoseLastTenthIsWellBelowItsSeventhToEighthT
 }
 
 }  // namespace
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

@@ -1,6 +1,6 @@
-// Papers 002, 003, 004 as one OS process per agent over Cyclone DDS: Jacobi (STATE), DG-BB (STATE +
-// CONSENSUS rounds), multipath BP (BELIEF) and the DLE (INFO + STATE): a short free run per family under
-// 20 % injected loss, and lockstep runs equal to the simulator on the same seed.
+// Atanasov et al., Leng et al., Calafiore et al. as one OS process per agent over Cyclone DDS: Jacobi
+// (STATE), DG-BB (STATE + CONSENSUS rounds), multipath BP (BELIEF) and the DLE (INFO + STATE): a short free
+// run per family under 20 % injected loss, and lockstep runs equal to the simulator on the same seed.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -192,25 +192,25 @@ TEST_P(LockstepOverDds, FinalErrorsEqualTheSimulatorsToOneInABillion) {
 
 INSTANTIATE_TEST_SUITE_P(
     EveryRuntimeAlgorithm, LockstepOverDds,
-    ::testing::Values(
-        Case{"default", 37, " --set run.steps=60 --set network.loss=0.2"},
-        Case{"default", 79, " --set run.steps=60 --set network.loss=0.2 --set algorithm.name=dml", "dml"},
-        // dml_track (docs/algorithms.md §9.8) on the moving world with noisy beacon fixes.
-        Case{"ea2", 89, " --set run.steps=30 --set network.loss=0.2 --set algorithm.name=dml_track",
-             "dml_track"},
-        Case{"jacobi", 38, " --set run.steps=60 --set network.loss=0.2"},
-        Case{"dgbb", 39, " --set run.steps=150"},
-        Case{"multipath_bp", 40, " --set run.steps=30 --set network.loss=0.2"},
-        Case{"dle", 57, " --set run.steps=40 --set network.loss=0.2"},
-        Case{"dle_tracking", 58, " --set run.steps=60 --set network.loss=0.2"},
-        Case{"joint_field", 68, " --set run.steps=40 --set network.loss=0.2"},
-        // algorithm.bp_messages=exact (not in 003): each BELIEF lists the messages its sender
-        // summed. Its free run is not in CI (26 s): 2026-12-01, seed 1, DDS 0.36103 m = the
-        // simulator's free run, and 0.36103 m with 20 % loss (cavity messages reach the same
-        // fixed point, later).
-        Case{"multipath_bp", 76,
-             " --set run.steps=30 --set network.loss=0.2 --set algorithm.bp_messages=exact",
-             "multipath_bp_exact"}),
+    ::testing::Values(Case{"ieif", 37, " --set run.steps=60 --set network.loss=0.2"},
+                      Case{"default", 79, " --set run.steps=60 --set network.loss=0.2", "dml"},
+                      // dml_track (docs/algorithms.md §9.8) on the moving world with noisy beacon fixes.
+                      Case{"ea2", 89,
+                           " --set run.steps=30 --set network.loss=0.2 --set algorithm.name=dml_track",
+                           "dml_track"},
+                      Case{"jacobi", 38, " --set run.steps=60 --set network.loss=0.2"},
+                      Case{"dgbb", 39, " --set run.steps=150"},
+                      Case{"multipath_bp", 40, " --set run.steps=30 --set network.loss=0.2"},
+                      Case{"dle", 57, " --set run.steps=40 --set network.loss=0.2"},
+                      Case{"dle_tracking", 58, " --set run.steps=60 --set network.loss=0.2"},
+                      Case{"joint_field", 68, " --set run.steps=40 --set network.loss=0.2"},
+                      // algorithm.bp_messages=exact (not in Leng et al.): each BELIEF lists the messages its
+                      // sender summed. Its free run is not in CI (26 s): 2026-12-01, seed 1, DDS 0.36103 m =
+                      // the simulator's free run, and 0.36103 m with 20 % loss (cavity messages reach the
+                      // same fixed point, later).
+                      Case{"multipath_bp", 76,
+                           " --set run.steps=30 --set network.loss=0.2 --set algorithm.bp_messages=exact",
+                           "multipath_bp_exact"}),
     case_name);
 
 }  // namespace

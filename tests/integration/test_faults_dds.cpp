@@ -16,7 +16,7 @@ using swarmloc::testing::read_json;
 using swarmloc::testing::run_command;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 struct StepRow {
   double rmse_m = 0.0;

@@ -29,7 +29,7 @@ using swarmloc::testing::read_text;
 using Clock = std::chrono::steady_clock;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 /// Starts `swarmloc run` with stdout and stderr to `log`; returns its pid.
 pid_t start_run(const std::filesystem::path& dir, const std::filesystem::path& log) {

@@ -54,7 +54,7 @@ TEST(AgentBinary, LinksNoSdpaMumpsBlasLapackOrFortran) {
 TEST(AgentBinary, RefusesABadManifestWithExitCodeTwoAndSaysWhy) {
   const auto dir = swarmloc::testing::fresh_directory("agent-bad-manifest");
   std::ofstream(dir / "manifest.json") << R"({"format": "swarmloc-agent-manifest", "version": 1, "id": 9})";
-  const std::string scenario = SWARMLOC_SOURCE_DIR "/scenarios/default.yaml";
+  const std::string scenario = SWARMLOC_SOURCE_DIR "/scenarios/ieif.yaml";
   const auto result =
       swarmloc::testing::run_command(std::string(SWARMLOC_AGENT_BINARY) + " --scenario " + scenario +
                                      " --manifest " + (dir / "manifest.json").string());

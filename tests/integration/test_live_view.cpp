@@ -29,7 +29,7 @@ using swarmloc::testing::run_command;
 using Clock = std::chrono::steady_clock;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 constexpr int kAgents = 6;
 constexpr int kSteps = 150;
 

@@ -17,7 +17,7 @@ using swarmloc::testing::run_command;
 
 const std::string kBinary = SWARMLOC_BINARY;
 const std::string kAgentBinary = SWARMLOC_AGENT_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 constexpr int kAgents = 6;
 const std::string kWorld =
     " --set world.agents=6 --set world.anchors=3 --set run.steps=40 --set run.mode=lockstep"

@@ -27,7 +27,7 @@ namespace fs = std::filesystem;
 using swarmloc::testing::fresh_directory;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 struct Outcome {
   int exit_code = -1;

@@ -39,7 +39,9 @@ TEST(RealData, MrclamOverDdsScoresFiveRobotsAgainstBothBaselines) {
   EXPECT_EQ(summary["mode"], "dds-free-run");
   EXPECT_EQ(summary["agents"], 5);
   EXPECT_EQ(summary["processes"], 6);  // five agents + the orchestrator
-  EXPECT_EQ(summary["whole_run"]["scored_steps"], 1500);
+  // Every step is scored but perhaps the first: it is scored one period after START, and an agent's timer
+  // fires first one period (plus its phase) after it received START (docs/architecture.md, "One agent loop").
+  EXPECT_GE(summary["whole_run"]["scored_steps"].get<int>(), 1499);
   const double distributed = summary["whole_run"]["rmse_m"].get<double>();
   const double dead_reckoning = summary["baselines"]["dead_reckoning"]["rmse_m"].get<double>();
   const double centralized = summary["baselines"]["centralized_ekf"]["rmse_m"].get<double>();

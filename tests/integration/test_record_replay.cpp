@@ -18,7 +18,7 @@ using swarmloc::testing::read_json;
 using swarmloc::testing::run_command;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 double final_rmse(const std::filesystem::path& run_dir) {
   return read_json(run_dir / "summary.json")["final"]["rmse_m"].get<double>();
@@ -32,7 +32,7 @@ TEST(RecordReplay, SimulatorRecordingReplaysToTheSameFinalErrorAndOtherAlgorithm
                   " --set run.steps=60 --set world.motion=random_walk --set world.motion_std_m=0.05 "
                   "--set network.loss=0.2");
   ASSERT_EQ(run.exit_code, 0) << run.output;
-  const auto file = recorded / swarmloc::sim::kRecordingFile;
+  const auto file = recorded / swarmloc::rundir::kRecordingFile;
   const auto summary = read_json(recorded / "summary.json");
   EXPECT_EQ(summary["recording"]["steps"], 60);
   EXPECT_GT(summary["recording"]["samples"].get<double>(), 0.0);
@@ -69,7 +69,8 @@ TEST(RecordReplay, SimulatorRecordingReplaysToTheSameFinalErrorAndOtherAlgorithm
   expect_rejected(file.string() + " --set algorithm.name=jacobi",
                   "algorithm.name: jacobi consumes relative positions");
   expect_rejected((root / "missing.slrec").string(), "cannot be read");
-  const auto sample_log = recorded / swarmloc::sim::kSampleLogDirectory / swarmloc::sim::kSimSampleLogFile;
+  const auto sample_log =
+      recorded / swarmloc::rundir::kSampleLogDirectory / swarmloc::rundir::kSimSampleLogFile;
   expect_rejected(sample_log.string(), "is a sample log");
   {
     std::filesystem::copy_file(file, root / "cut.slrec");
@@ -95,7 +96,7 @@ TEST(RecordReplay, LockstepDdsRunRecordsBatchesAndSamplesAndReplaysInBothRuntime
   ASSERT_TRUE(swarmloc::testing::completed_run(run.exit_code)) << run.output;
   EXPECT_EQ(count_processes_matching(recorded.string()), 0) << "agent processes outlived the run";
 
-  const auto recording = swarmloc::sim::load_recording(recorded / swarmloc::sim::kRecordingFile);
+  const auto recording = swarmloc::rundir::load_recording(recorded / swarmloc::rundir::kRecordingFile);
   EXPECT_EQ(recording->agents(), 8);
   EXPECT_EQ(recording->steps(), 30);
   std::size_t ranges = 0;
@@ -106,7 +107,8 @@ TEST(RecordReplay, LockstepDdsRunRecordsBatchesAndSamplesAndReplaysInBothRuntime
   for (int i = 0; i < 8; ++i) {
     char name[32];
     std::snprintf(name, sizeof name, "agent_%03d.slrec", i);
-    const auto log = swarmloc::sim::load_sample_log(recorded / swarmloc::sim::kSampleLogDirectory / name);
+    const auto log =
+        swarmloc::rundir::load_sample_log(recorded / swarmloc::rundir::kSampleLogDirectory / name);
     EXPECT_TRUE(log.complete) << name;
     EXPECT_GT(log.samples.size(), 30u) << name;  // at least one state per step from some neighbour
     for (const auto& sample : log.samples) {
@@ -118,11 +120,11 @@ TEST(RecordReplay, LockstepDdsRunRecordsBatchesAndSamplesAndReplaysInBothRuntime
 
   // Lockstep DDS runs equal the simulator (LockstepOverDds), so the replays equal the recorded run.
   const auto in_sim = root / "replay-sim";
-  const auto sim = run_command(kBinary + " replay " + (recorded / swarmloc::sim::kRecordingFile).string() +
+  const auto sim = run_command(kBinary + " replay " + (recorded / swarmloc::rundir::kRecordingFile).string() +
                                " -q --out " + in_sim.string());
   ASSERT_EQ(sim.exit_code, 0) << sim.output;
   const auto over_dds = root / "replay-dds";
-  const auto dds = run_command(kBinary + " replay " + (recorded / swarmloc::sim::kRecordingFile).string() +
+  const auto dds = run_command(kBinary + " replay " + (recorded / swarmloc::rundir::kRecordingFile).string() +
                                " --dds -q --set dds.domain_id=230 --out " + over_dds.string());
   ASSERT_TRUE(swarmloc::testing::completed_run(dds.exit_code)) << dds.output;
   EXPECT_EQ(count_processes_matching(over_dds.string()), 0) << "agent processes outlived the replay";

@@ -11,10 +11,10 @@
 
 #include "reproduce.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::research {
 namespace {
 
-// 001 Table I, noise std 0.2 m column, 8 trials: the paper's mean error is 4.38 cm (IEIF) and
+// Gasparri & Pascucci Table I, noise std 0.2 m column, 8 trials: the paper's mean error is 4.38 cm (IEIF) and
 // 2.30 cm (IEKF); ours must be no worse than 1.5x and must converge in every trial.
 TEST(KalmanTables, Table1MeanErrorsAtTwentyCentimetreNoiseAreNoWorseThanThePaper) {
   const auto ieif = run_kalman_table_column("ieif", 90, 30, 0.2, 8, 0, 1);
@@ -27,7 +27,8 @@ TEST(KalmanTables, Table1MeanErrorsAtTwentyCentimetreNoiseAreNoWorseThanThePaper
   EXPECT_LE(ieif.max_error_cm, 1.5 * 11.64);
 }
 
-// The 002–004 reproduction commands end to end, small: each writes its Markdown table.
+// The Atanasov et al., Leng et al. and Calafiore et al. reproduction commands end to end, small: each writes
+// its Markdown table.
 TEST(ReproduceCommands, PapersTwoToFourWriteTheirTables) {
   const auto dir = std::filesystem::temp_directory_path() / "swarmloc-reproduce-test";
   std::filesystem::remove_all(dir);
@@ -71,4 +72,4 @@ TEST(ReproduceCommands, Ea2WritesItsCsvIntoANewDirectory) {
 }
 
 }  // namespace
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::research

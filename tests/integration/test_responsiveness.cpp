@@ -34,7 +34,7 @@ using swarmloc::testing::run_command;
 using Clock = std::chrono::steady_clock;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
@@ -107,7 +107,7 @@ class Swarmloc {
   int status_ = 0;
 };
 
-// `sim scenarios/default.yaml --set world.agents=100000` (the command) puts 10^5 agents in a 40 m
+// `sim scenarios/ieif.yaml --set world.agents=100000` (the command) puts 10^5 agents in a 40 m
 // square: ~31 000 neighbours each, a neighbour graph of minutes and gigabytes. It used to print nothing and
 // ignore Ctrl-C; now the first progress line comes within about a second and SIGINT ends it at once.
 TEST(LargeInputs, AHundredThousandAgentSimShowsProgressAndStopsOnSigint) {

@@ -167,8 +167,7 @@ Ros2Run run_with_ros2_reader(const std::string& name, int domain, int agents, co
       "CYCLONEDDS_URI=file://" + kRos2Source + "/deploy/ros2/cyclonedds.xml " + kRos2Reader + " " +
       std::to_string(domain) + " " + std::to_string(agents) + " 120 >" + reader_out.string() + " 2>" +
       reader_err.string() + " & reader=$!; " + kRos2Binary + " run " + kRos2Source +
-      "/scenarios/default.yaml -q --out " + run.dir.string() +
-      " --set world.agents=" + std::to_string(agents) +
+      "/scenarios/ieif.yaml -q --out " + run.dir.string() + " --set world.agents=" + std::to_string(agents) +
       " --set world.anchors=" + std::to_string(agents >= 10 ? 6 : 3) +
       " --set run.steps=" + std::to_string(kRos2Steps) + " --set dds.domain_id=" + std::to_string(domain) +
       flags + "; code=$?; sleep 1; kill $reader 2>/dev/null; wait $reader; exit $code";
@@ -344,7 +343,7 @@ TEST(Ros2OffByDefault, NoRosTopicIsPublishedWithoutTheKey) {
 
 TEST(Ros2BadInput, InvalidRos2ValueExitsTwoNamingTheKey) {
   const auto dir = fresh_directory("ros2-bad");
-  const auto result = run_command(kRos2Binary + " run " + kRos2Source + "/scenarios/default.yaml -q --out " +
+  const auto result = run_command(kRos2Binary + " run " + kRos2Source + "/scenarios/ieif.yaml -q --out " +
                                   dir.string() + " --set dds.ros2=maybe");
   EXPECT_EQ(result.exit_code, 2) << result.output;
   EXPECT_NE(result.output.find("dds.ros2"), std::string::npos) << result.output;

@@ -18,7 +18,7 @@ using swarmloc::testing::read_json;
 using swarmloc::testing::run_command;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 // The acceptance scenario of issue 2: 30 agents, 8 anchors, 40 m x 40 m, radius 15 m, range std 0.1 m.
 // 20 Hz and 200 steps keep the test at ~10 s of world time per run.

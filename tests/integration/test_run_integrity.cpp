@@ -32,7 +32,7 @@ using swarmloc::testing::read_text;
 using Clock = std::chrono::steady_clock;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 /// A child process with stdout and stderr in `log` (stdout: a pipe whose reader is gone, if asked).
 class Child {
@@ -314,11 +314,11 @@ TEST(RunIntegrity, AnAgentWithAnotherScenarioIsRefusedAtHelloAndExits2) {
   const auto manifest = dir / "manifests" / "agent_002.json";
   while (!std::filesystem::exists(manifest) && Clock::now() < give_up)
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  auto forged = swarmloc::sim::load_manifest(manifest);
+  auto forged = swarmloc::runtime::load_manifest(manifest);
   forged.results_hash =
       swarmloc::config::results_hash(swarmloc::config::load_scenario(scenario.string(), {"seed=2"}));
   const auto forged_file = dir.parent_path() / (dir.filename().string() + "-forged.json");
-  swarmloc::sim::write_manifest(forged_file, forged);
+  swarmloc::runtime::write_manifest(forged_file, forged);
   auto foreign = agent(2, {"--set", "seed=2", "--manifest", forged_file.string()}, "foreign");
   const auto foreign_code = foreign->wait(60.0);
   ASSERT_TRUE(foreign_code.has_value()) << "the foreign agent was not refused:\n" << foreign->output();

@@ -24,7 +24,7 @@ using swarmloc::testing::read_text;
 using swarmloc::testing::run_command;
 
 const std::string kBinary = SWARMLOC_BINARY;
-const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 const std::string kMakePki = std::string(SWARMLOC_SOURCE_DIR) + "/deploy/security/make-pki.sh";
 
 constexpr int kAgents = 8;
@@ -200,7 +200,7 @@ TEST(Security, SecuredRunConvergesAndRoguesNeitherReceiveNorInject) {
 
   const double plain_rmse = plain["final"]["rmse_m"];
   const double secured_rmse = secured["final"]["rmse_m"];
-  const double range_std = 0.1;  // noise.range_std_m of scenarios/default.yaml
+  const double range_std = 0.1;  // noise.range_std_m of scenarios/ieif.yaml
   EXPECT_LT(secured_rmse, range_std);
   EXPECT_LT(plain_rmse, range_std);
   EXPECT_NEAR(secured_rmse, plain_rmse, 1e-9) << "the rogues changed the honest estimates";

@@ -8,8 +8,8 @@
 namespace swarmloc::testing {
 
 /// Agent `id` of 7; agent 3 is an anchor with neighbours 0, 2, 6, any other agent has neighbour 3.
-inline sim::AgentManifest sample_manifest(AgentId id = 3, const std::string& run_id = "r-abc_123") {
-  sim::AgentManifest m;
+inline runtime::AgentManifest sample_manifest(AgentId id = 3, const std::string& run_id = "r-abc_123") {
+  runtime::AgentManifest m;
   m.id = id;
   m.agent_count = 7;
   m.setup = estimators::AgentSetup{id, id == 3, Vec2(0.1 + 0.2, 1.0 / 3.0), -2.5e-7, 0.75};

@@ -141,15 +141,15 @@ const std::vector<AlgorithmSpec>& algorithm_registry() {
       {"lbekf_i", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
        kNoMessages},
       {"jacobi", kConsensus, kAgent, kRelative, kScenarioBound, true, &validate_jacobi, kNoKeys,
-       kStateMessages},  // 002 (9)
+       kStateMessages},  // Atanasov et al. (9)
       {"dle", kConsensus, kAgent, kTargets, kScenarioBound, true, &validate_dle, kKalmanKeys,
-       kStateAndInformation},  // 002 Alg. 1
+       kStateAndInformation},  // Atanasov et al. Alg. 1
       {"joint_field", kConsensus, kAgent, kRelativeAndField, kScenarioBound, true, &validate_joint_field,
        kFieldKeys, kStateAndInformation},
       {"multipath_bp", kBp, kAgent, kPaths, kScenarioBound, true, &validate_multipath_bp, kMultipathKeys,
-       kBeliefMessages},  // 003 Alg. 1
+       kBeliefMessages},  // Leng et al. Alg. 1
       {"dgbb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys,
-       kStateAndConsensus},  // 004 Alg. 1
+       kStateAndConsensus},  // Calafiore et al. Alg. 1
       {"local_bb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys, kStateMessages},
       {"fixed_step", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys,
        kStateMessages},

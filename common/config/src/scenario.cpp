@@ -27,7 +27,7 @@ namespace {
 using detail::KeySpec;
 
 /// Where each key's value came from, as the suffix appended to errors about it:
-/// " at scenarios/x.yaml:12:9" or " (from --set network.loss=1.4)".
+/// " at x.yaml:12:9" or " (from --set network.loss=1.4)".
 using Sources = std::map<std::string, std::string>;
 
 std::string at(const std::string& origin, const YAML::Mark& mark) {

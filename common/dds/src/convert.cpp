@@ -9,7 +9,7 @@ namespace swarmloc::dds {
 
 namespace {
 
-swarmloc_msg_Header encode_header(const sim::Header& header) {
+swarmloc_msg_Header encode_header(const runtime::Header& header) {
   swarmloc_msg_Header wire{};
   wire.agent_id = header.agent_id;
   wire.seq = header.seq;
@@ -114,22 +114,22 @@ bool apply_state_flags(std::uint8_t flags, estimators::StateMessage& message) {
   return true;
 }
 
-std::optional<sim::ControlCommand> control_command(std::uint8_t wire) {
+std::optional<runtime::ControlCommand> control_command(std::uint8_t wire) {
   switch (wire) {
     case swarmloc_msg_CONTROL_HELLO:
-      return sim::ControlCommand::kHello;
+      return runtime::ControlCommand::kHello;
     case swarmloc_msg_CONTROL_START:
-      return sim::ControlCommand::kStart;
+      return runtime::ControlCommand::kStart;
     case swarmloc_msg_CONTROL_STOP:
-      return sim::ControlCommand::kStop;
+      return runtime::ControlCommand::kStop;
     case swarmloc_msg_CONTROL_REFUSE:
-      return sim::ControlCommand::kRefuse;
+      return runtime::ControlCommand::kRefuse;
     default:
       return std::nullopt;
   }
 }
 
-Inbound<estimators::InformationMessage> decode_information_fields(const sim::Header& header, AgentId key,
+Inbound<estimators::InformationMessage> decode_information_fields(const runtime::Header& header, AgentId key,
                                                                   std::int32_t target,
                                                                   std::span<const double> info_vec,
                                                                   std::span<const double> info_mat) {
@@ -156,7 +156,7 @@ Inbound<estimators::InformationMessage> decode_information_fields(const sim::Hea
 // ---------------------------------------------------------------------------------------------------
 // Writes
 
-WireState::WireState(const sim::Header& header, const estimators::StateMessage& message) {
+WireState::WireState(const runtime::Header& header, const estimators::StateMessage& message) {
   sample.agent_id = header.agent_id;
   sample.header = encode_header(header);
   put_vec2(message.mean_m, sample.mean_m);
@@ -176,7 +176,8 @@ WireState::WireState(const sim::Header& header, const estimators::StateMessage& 
   point_at(sample.edge_ranges, edge_ranges);
 }
 
-WireInformation::WireInformation(const sim::Header& header, const estimators::InformationMessage& message) {
+WireInformation::WireInformation(const runtime::Header& header,
+                                 const estimators::InformationMessage& message) {
   const auto n = message.info_vec.size();
   if (static_cast<std::size_t>(n) > codec::kMaxInfoDim) {
     throw DdsError("publish_information: info_vec has " + std::to_string(n) + " entries (IDL bound 64)");
@@ -196,7 +197,7 @@ WireInformation::WireInformation(const sim::Header& header, const estimators::In
   point_at(sample.info_mat, info_mat);
 }
 
-WireConsensus::WireConsensus(const sim::Header& header, const estimators::ConsensusMessage& message)
+WireConsensus::WireConsensus(const runtime::Header& header, const estimators::ConsensusMessage& message)
     : values(message.values) {
   if (values.size() > codec::kMaxConsensusValues) {
     throw DdsError("publish_consensus: " + std::to_string(values.size()) + " values (IDL bound 16)");
@@ -208,7 +209,7 @@ WireConsensus::WireConsensus(const sim::Header& header, const estimators::Consen
   point_at(sample.values, values);
 }
 
-WireBelief::WireBelief(const sim::Header& header, const estimators::BeliefMessage& message) {
+WireBelief::WireBelief(const runtime::Header& header, const estimators::BeliefMessage& message) {
   sample.agent_id = header.agent_id;
   sample.header = encode_header(header);
   sample.iteration = message.iteration;
@@ -230,7 +231,7 @@ WireBelief::WireBelief(const sim::Header& header, const estimators::BeliefMessag
   point_at(sample.contributions, contributions);
 }
 
-WireBatch::WireBatch(AgentId recipient, const sim::Header& header,
+WireBatch::WireBatch(AgentId recipient, const runtime::Header& header,
                      const estimators::MeasurementBatch& batch) {
   ranges.reserve(batch.ranges.size());
   for (const auto& range : batch.ranges) {
@@ -310,7 +311,8 @@ WireBatch::WireBatch(AgentId recipient, const sim::Header& header,
   point_at(sample.neighbours, neighbours);
 }
 
-void WireBlock::add(AgentId recipient, const sim::Header& header, const estimators::MeasurementBatch& batch) {
+void WireBlock::add(AgentId recipient, const runtime::Header& header,
+                    const estimators::MeasurementBatch& batch) {
   owned.push_back(std::make_unique<WireBatch>(recipient, header, batch));
   batches.push_back(owned.back()->sample);  // shallow: points into the WireBatch, which stays put
 }
@@ -320,7 +322,7 @@ const swarmloc_msg_MeasurementBlock& WireBlock::sample() {
   return block;
 }
 
-WireEstimate::WireEstimate(const sim::EstimateReport& report)
+WireEstimate::WireEstimate(const runtime::EstimateReport& report)
     : rejected_by_reason(report.rejected_by_reason.begin(), report.rejected_by_reason.end()),
       field(report.estimate.field.begin(), report.estimate.field.end()) {
   links.reserve(report.links.size());
@@ -356,7 +358,7 @@ WireEstimate::WireEstimate(const sim::EstimateReport& report)
   point_at(sample.field, field);
 }
 
-WireControl::WireControl(const sim::ControlMessage& message) {
+WireControl::WireControl(const runtime::ControlMessage& message) {
   sample.agent_id = message.target;
   sample.header = encode_header(message.header);
   sample.command = static_cast<uint8_t>(message.command);
@@ -367,8 +369,8 @@ WireControl::WireControl(const sim::ControlMessage& message) {
 // ---------------------------------------------------------------------------------------------------
 // Reads
 
-sim::Header decode_header(const swarmloc_msg_Header& wire) {
-  sim::Header header;
+runtime::Header decode_header(const swarmloc_msg_Header& wire) {
+  runtime::Header header;
   header.agent_id = wire.agent_id;
   header.seq = wire.seq;
   header.step = wire.step;
@@ -544,16 +546,16 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
   report.cpu_s = wire.cpu_s;
   report.results_hash = wire.results_hash;
   const auto& h = wire.health;
-  report.health = sim::AgentHealth{h.ticks,
-                                   h.late_ticks,
-                                   h.missed_ticks,
-                                   h.max_tick_lateness_s,
-                                   h.mean_tick_lateness_s,
-                                   h.batches_received,
-                                   h.batches_merged,
-                                   h.max_batch_wait_s,
-                                   h.neighbour_age_mean_s,
-                                   h.neighbour_age_max_s};
+  report.health = runtime::AgentHealth{h.ticks,
+                                       h.late_ticks,
+                                       h.missed_ticks,
+                                       h.max_tick_lateness_s,
+                                       h.mean_tick_lateness_s,
+                                       h.batches_received,
+                                       h.batches_merged,
+                                       h.max_batch_wait_s,
+                                       h.neighbour_age_mean_s,
+                                       h.neighbour_age_max_s};
   const auto links = view(wire.links);
   const auto reasons = view(wire.rejected_by_reason);
   const auto field = view(wire.field);
@@ -564,7 +566,7 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
                          duration(h.max_batch_wait_s) && duration(h.neighbour_age_mean_s) &&
                          duration(h.neighbour_age_max_s) && h.late_ticks <= h.ticks &&
                          h.batches_merged <= h.batches_received;
-  if (!links || !reasons || !field || reasons->size() > sim::kRejectReasonCount ||
+  if (!links || !reasons || !field || reasons->size() > runtime::kRejectReasonCount ||
       field->size() > codec::kMaxFieldValues || wire.agent_id != wire.header.agent_id || !health_ok) {
     decoded.well_formed = false;
     return decoded;
@@ -572,9 +574,9 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
   report.estimate.field = Eigen::Map<const VecX>(field->data(), static_cast<Eigen::Index>(field->size()));
   report.links.reserve(links->size());
   for (const auto& link : *links) {
-    report.links.push_back(sim::LinkCounters{link.sender, link.arrived, link.delivered, link.dropped_injected,
-                                             link.rejected, link.first_seq, link.last_seq,
-                                             link.delivered_in_steps});
+    report.links.push_back(runtime::LinkCounters{link.sender, link.arrived, link.delivered,
+                                                 link.dropped_injected, link.rejected, link.first_seq,
+                                                 link.last_seq, link.delivered_in_steps});
   }
   std::copy(reasons->begin(), reasons->end(), report.rejected_by_reason.begin());
   return decoded;
@@ -600,42 +602,42 @@ codec::DecodedControl decode(const swarmloc_msg_Control& wire) {
 
 namespace codec {
 
-Inbound<estimators::StateMessage> round_trip(const sim::Header& header,
+Inbound<estimators::StateMessage> round_trip(const runtime::Header& header,
                                              const estimators::StateMessage& message) {
   const WireState wire(header, message);
   return decode(wire.sample);
 }
 
-Inbound<estimators::InformationMessage> round_trip(const sim::Header& header,
+Inbound<estimators::InformationMessage> round_trip(const runtime::Header& header,
                                                    const estimators::InformationMessage& message) {
   const WireInformation wire(header, message);
   return decode(wire.sample);
 }
 
-Inbound<estimators::ConsensusMessage> round_trip(const sim::Header& header,
+Inbound<estimators::ConsensusMessage> round_trip(const runtime::Header& header,
                                                  const estimators::ConsensusMessage& message) {
   const WireConsensus wire(header, message);
   return decode(wire.sample);
 }
 
-Inbound<estimators::BeliefMessage> round_trip(const sim::Header& header,
+Inbound<estimators::BeliefMessage> round_trip(const runtime::Header& header,
                                               const estimators::BeliefMessage& message) {
   const WireBelief wire(header, message);
   return decode(wire.sample);
 }
 
-DecodedBatch round_trip(AgentId recipient, const sim::Header& header,
+DecodedBatch round_trip(AgentId recipient, const runtime::Header& header,
                         const estimators::MeasurementBatch& batch) {
   const WireBatch wire(recipient, header, batch);
   return decode(wire.sample);
 }
 
-DecodedEstimate round_trip(const sim::EstimateReport& report) {
+DecodedEstimate round_trip(const runtime::EstimateReport& report) {
   const WireEstimate wire(report);
   return decode(wire.sample);
 }
 
-DecodedControl round_trip(const sim::ControlMessage& message) {
+DecodedControl round_trip(const runtime::ControlMessage& message) {
   const WireControl wire(message);
   return decode(wire.sample);
 }

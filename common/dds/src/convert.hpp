@@ -11,10 +11,10 @@
 
 namespace swarmloc::dds {
 
-sim::Header decode_header(const swarmloc_msg_Header& wire);
+runtime::Header decode_header(const swarmloc_msg_Header& wire);
 
 struct WireState {
-  WireState(const sim::Header& header, const estimators::StateMessage& message);
+  WireState(const runtime::Header& header, const estimators::StateMessage& message);
   WireState(const WireState&) = delete;
   WireState& operator=(const WireState&) = delete;
   std::vector<swarmloc_msg_EdgeRange> edge_ranges;
@@ -22,7 +22,7 @@ struct WireState {
 };
 
 struct WireInformation {
-  WireInformation(const sim::Header& header, const estimators::InformationMessage& message);
+  WireInformation(const runtime::Header& header, const estimators::InformationMessage& message);
   WireInformation(const WireInformation&) = delete;
   WireInformation& operator=(const WireInformation&) = delete;
   std::vector<double> info_vec;
@@ -31,7 +31,7 @@ struct WireInformation {
 };
 
 struct WireConsensus {
-  WireConsensus(const sim::Header& header, const estimators::ConsensusMessage& message);
+  WireConsensus(const runtime::Header& header, const estimators::ConsensusMessage& message);
   WireConsensus(const WireConsensus&) = delete;
   WireConsensus& operator=(const WireConsensus&) = delete;
   std::vector<double> values;
@@ -39,7 +39,7 @@ struct WireConsensus {
 };
 
 struct WireBelief {
-  WireBelief(const sim::Header& header, const estimators::BeliefMessage& message);
+  WireBelief(const runtime::Header& header, const estimators::BeliefMessage& message);
   WireBelief(const WireBelief&) = delete;
   WireBelief& operator=(const WireBelief&) = delete;
   std::vector<swarmloc_msg_BeliefContribution> contributions;
@@ -47,7 +47,7 @@ struct WireBelief {
 };
 
 struct WireBatch {
-  WireBatch(AgentId recipient, const sim::Header& header, const estimators::MeasurementBatch& batch);
+  WireBatch(AgentId recipient, const runtime::Header& header, const estimators::MeasurementBatch& batch);
   WireBatch(const WireBatch&) = delete;
   WireBatch& operator=(const WireBatch&) = delete;
   std::vector<swarmloc_msg_Range> ranges;
@@ -68,7 +68,7 @@ struct WireBlock {
   WireBlock(const WireBlock&) = delete;
   WireBlock& operator=(const WireBlock&) = delete;
   explicit WireBlock(int block_index) { block.block = block_index; }
-  void add(AgentId recipient, const sim::Header& header, const estimators::MeasurementBatch& batch);
+  void add(AgentId recipient, const runtime::Header& header, const estimators::MeasurementBatch& batch);
   /// The sample, valid until the next add().
   const swarmloc_msg_MeasurementBlock& sample();
 
@@ -78,7 +78,7 @@ struct WireBlock {
 };
 
 struct WireEstimate {
-  explicit WireEstimate(const sim::EstimateReport& report);
+  explicit WireEstimate(const runtime::EstimateReport& report);
   WireEstimate(const WireEstimate&) = delete;
   WireEstimate& operator=(const WireEstimate&) = delete;
   std::vector<swarmloc_msg_LinkCounters> links;
@@ -88,7 +88,7 @@ struct WireEstimate {
 };
 
 struct WireControl {
-  explicit WireControl(const sim::ControlMessage& message);
+  explicit WireControl(const runtime::ControlMessage& message);
   WireControl(const WireControl&) = delete;
   WireControl& operator=(const WireControl&) = delete;
   swarmloc_msg_Control sample{};

@@ -70,7 +70,7 @@ FusionTransport::FusionTransport(const config::Scenario& scenario, int agent_cou
 
 FusionTransport::~FusionTransport() = default;
 
-void FusionTransport::publish_estimate(const sim::EstimateReport& report) {
+void FusionTransport::publish_estimate(const runtime::EstimateReport& report) {
   const WireEstimate wire(report);
   write(impl_->estimate_writer, &wire.sample, kTopicEstimate);
   const AgentId agent = report.header.agent_id;

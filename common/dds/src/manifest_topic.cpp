@@ -39,7 +39,7 @@ std::string hex64(std::uint64_t value) {
 /// The file's rules know finite numbers (and null for an unknown std or radius) only.
 void require_finite(double value, const char* field, const std::string& source) {
   if (!std::isfinite(value))
-    throw sim::ManifestError(source + ": invalid agent manifest: " + field + " must be finite");
+    throw runtime::ManifestError(source + ": invalid agent manifest: " + field + " must be finite");
 }
 
 void require_finite_fields(const ManifestFields& f, const std::string& source) {
@@ -59,7 +59,8 @@ void require_finite_fields(const ManifestFields& f, const std::string& source) {
   for (const auto& [value, field] : {std::pair{f.initial_guess_std_m, "setup.initial_guess_std_m"},
                                      std::pair{f.comm_radius_m, "setup.comm_radius_m"}}) {
     if (std::isnan(value) || value == -std::numeric_limits<double>::infinity())
-      throw sim::ManifestError(source + ": invalid agent manifest: " + field + " must be a number or +inf");
+      throw runtime::ManifestError(source + ": invalid agent manifest: " + field +
+                                   " must be a number or +inf");
   }
 }
 
@@ -80,7 +81,7 @@ json file_document(const ManifestFields& f, const std::string& source) {
         message += ": invalid agent manifest: runtime.partition.groups lists agent ";
         message += key;
         message += " twice";
-        throw sim::ManifestError(message);
+        throw runtime::ManifestError(message);
       }
       groups[key] = group;
     }
@@ -195,10 +196,10 @@ QosPtr manifest_qos() {
 
 }  // namespace
 
-ManifestFields manifest_fields(const sim::AgentManifest& m, const std::string& scenario_yaml) {
+ManifestFields manifest_fields(const runtime::AgentManifest& m, const std::string& scenario_yaml) {
   ManifestFields f;
   f.agent_id = m.id;
-  f.version = sim::kManifestVersion;
+  f.version = runtime::kManifestVersion;
   f.agent_count = m.agent_count;
   f.run_id = m.run_id;
   f.results_hash = m.results_hash;
@@ -211,7 +212,7 @@ ManifestFields manifest_fields(const sim::AgentManifest& m, const std::string& s
   f.neighbours.assign(m.neighbours.begin(), m.neighbours.end());
   f.clock_offset_s = m.clock.offset_s;
   f.clock_drift_ppm = m.clock.drift_ppm;
-  const sim::AgentRuntimeParams& p = m.runtime;
+  const runtime::AgentRuntimeParams& p = m.runtime;
   f.seed = p.seed;
   f.loss_probability = p.loss.loss_probability;
   f.burst_mean_length = p.loss.burst_mean_length;
@@ -237,14 +238,14 @@ ManifestFields manifest_fields(const sim::AgentManifest& m, const std::string& s
 ManifestOffer read_manifest_fields(const ManifestFields& fields, const std::string& source) {
   require_finite_fields(fields, source);
   if (fields.scenario_yaml.empty())
-    throw sim::ManifestError(source + ": invalid agent manifest: scenario_yaml is empty");
+    throw runtime::ManifestError(source + ": invalid agent manifest: scenario_yaml is empty");
   std::string text;
   try {
     text = file_document(fields, source).dump();
   } catch (const nlohmann::json::exception& error) {  // e.g. a run id that is not UTF-8
-    throw sim::ManifestError(source + ": invalid agent manifest: " + error.what());
+    throw runtime::ManifestError(source + ": invalid agent manifest: " + error.what());
   }
-  return ManifestOffer{sim::parse_manifest(text, source), fields.scenario_yaml};
+  return ManifestOffer{runtime::parse_manifest(text, source), fields.scenario_yaml};
 }
 
 // ===================================================================================================
@@ -293,7 +294,7 @@ ManifestPublisher::ManifestPublisher(const config::Scenario& scenario, int agent
 
 ManifestPublisher::~ManifestPublisher() = default;
 
-void ManifestPublisher::publish(const std::vector<sim::AgentManifest>& manifests,
+void ManifestPublisher::publish(const std::vector<runtime::AgentManifest>& manifests,
                                 const std::string& scenario_yaml) {
   for (const auto& manifest : manifests) publish_fields(manifest_fields(manifest, scenario_yaml));
 }
@@ -328,7 +329,7 @@ void take_manifests(dds_entity_t reader, AgentId id, int domain_id, std::vector<
                                fields.run_id + "\", DDS domain " + std::to_string(domain_id) + ")";
     try {
       accepted.push_back(read_manifest_fields(fields, source));
-    } catch (const sim::ManifestError& error) {
+    } catch (const runtime::ManifestError& error) {
       ++stats.rejected;
       stats.last_rejection = error.what();
     }
@@ -339,7 +340,7 @@ void take_manifests(dds_entity_t reader, AgentId id, int domain_id, std::vector<
 
 ManifestOffer receive_manifest(const config::Scenario& scenario, AgentId id, double timeout_s,
                                ManifestWaitStats* stats_out) {
-  if (id < 0) throw sim::ManifestError("agent id " + std::to_string(id) + " is not an agent");
+  if (id < 0) throw runtime::ManifestError("agent id " + std::to_string(id) + " is not an agent");
   ManifestWaitStats stats;
   std::vector<ManifestOffer> accepted;
   {
@@ -368,14 +369,14 @@ ManifestOffer receive_manifest(const config::Scenario& scenario, AgentId id, dou
   std::set<std::string> runs;
   for (const auto& offer : accepted) runs.insert(offer.manifest.run_id);
   if (runs.size() > 1) {
-    throw sim::ManifestError("runs \"" + *runs.begin() + "\" and \"" + *std::next(runs.begin()) +
-                             "\" both offer agent " + std::to_string(id) + "'s manifest on DDS domain " +
-                             std::to_string(scenario.dds.domain_id) + ": name one with --run-id");
+    throw runtime::ManifestError("runs \"" + *runs.begin() + "\" and \"" + *std::next(runs.begin()) +
+                                 "\" both offer agent " + std::to_string(id) + "'s manifest on DDS domain " +
+                                 std::to_string(scenario.dds.domain_id) + ": name one with --run-id");
   }
   if (!accepted.empty()) return std::move(accepted.back());
   if (stats.rejected > 0) {
-    throw sim::ManifestError(stats.last_rejection + " (" + std::to_string(stats.rejected) +
-                             " manifest sample(s) rejected, none accepted)");
+    throw runtime::ManifestError(stats.last_rejection + " (" + std::to_string(stats.rejected) +
+                                 " manifest sample(s) rejected, none accepted)");
   }
   throw ManifestTimeout(
       "no manifest for agent " + std::to_string(id) + " on DDS domain " +

@@ -85,7 +85,7 @@ std::array<double, 36> pose_covariance(const estimators::Estimate& estimate) {
   return covariance;
 }
 
-WirePose::WirePose(const sim::EstimateReport& report) {
+WirePose::WirePose(const runtime::EstimateReport& report) {
   const estimators::Estimate& estimate = report.estimate;
   sample.header = ros2_header_of(report.header.sender_stamp_ns);
   auto& pose = sample.pose.pose;

@@ -15,7 +15,7 @@ namespace swarmloc::dds::ros2 {
 /// geometry_msgs/PoseWithCovarianceStamped of one estimate report, stamped with the reporter's clock
 /// (header.sender_stamp_ns).
 struct WirePose {
-  explicit WirePose(const sim::EstimateReport& report);
+  explicit WirePose(const runtime::EstimateReport& report);
   WirePose(const WirePose&) = delete;
   WirePose& operator=(const WirePose&) = delete;
   geometry_msgs_msg_dds__PoseWithCovarianceStamped_ sample{};

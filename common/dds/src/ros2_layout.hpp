@@ -37,7 +37,7 @@ std::array<double, 4> yaw_quaternion(double yaw_rad);
 std::array<double, 36> pose_covariance(const estimators::Estimate& estimate);
 
 /// Whether a report becomes a ROS 2 pose: a valid estimate from a step the agent ran (not a hello).
-inline bool publishes_pose(const sim::EstimateReport& report) {
+inline bool publishes_pose(const runtime::EstimateReport& report) {
   return report.steps_run > 0 && report.estimate.valid;
 }
 

@@ -247,29 +247,29 @@ AgentTransport::AgentTransport(const config::Scenario& scenario, const Topology&
 
 AgentTransport::~AgentTransport() = default;
 
-void AgentTransport::publish_state(const sim::Header& header, const estimators::StateMessage& message) {
+void AgentTransport::publish_state(const runtime::Header& header, const estimators::StateMessage& message) {
   const WireState wire(header, message);
   write(impl_->writer_for(impl_->state_writer, "state"), &wire.sample, kTopicState);
 }
 
-void AgentTransport::publish_information(const sim::Header& header,
+void AgentTransport::publish_information(const runtime::Header& header,
                                          const estimators::InformationMessage& message) {
   const WireInformation wire(header, message);
   write(impl_->writer_for(impl_->information_writer, "information"), &wire.sample, kTopicInformation);
 }
 
-void AgentTransport::publish_consensus(const sim::Header& header,
+void AgentTransport::publish_consensus(const runtime::Header& header,
                                        const estimators::ConsensusMessage& message) {
   const WireConsensus wire(header, message);
   write(impl_->writer_for(impl_->consensus_writer, "consensus"), &wire.sample, kTopicConsensus);
 }
 
-void AgentTransport::publish_belief(const sim::Header& header, const estimators::BeliefMessage& message) {
+void AgentTransport::publish_belief(const runtime::Header& header, const estimators::BeliefMessage& message) {
   const WireBelief wire(header, message);
   write(impl_->writer_for(impl_->belief_writer, "belief"), &wire.sample, kTopicBelief);
 }
 
-void AgentTransport::publish_estimate(const sim::EstimateReport& report) {
+void AgentTransport::publish_estimate(const runtime::EstimateReport& report) {
   const WireEstimate wire(report);
   impl_->report_written_to_reader = matched_reader_count(impl_->estimate_writer) > 0;
   write(impl_->estimate_writer, &wire.sample, kTopicEstimate);
@@ -434,7 +434,7 @@ OrchestratorTransport::OrchestratorTransport(const config::Scenario& scenario, i
 
 OrchestratorTransport::~OrchestratorTransport() = default;
 
-void OrchestratorTransport::publish_batch(AgentId agent, const sim::Header& header,
+void OrchestratorTransport::publish_batch(AgentId agent, const runtime::Header& header,
                                           const estimators::MeasurementBatch& batch) {
   if (agent < 0 || agent >= impl_->agent_count) {
     throw DdsError("publish_batch: agent " + std::to_string(agent) + " outside [0, " +
@@ -446,7 +446,7 @@ void OrchestratorTransport::publish_batch(AgentId agent, const sim::Header& head
   write(impl_->measurement_writers[static_cast<std::size_t>(writer)], &block.sample(), kTopicMeasurements);
 }
 
-void OrchestratorTransport::publish_batches(const sim::Header& header,
+void OrchestratorTransport::publish_batches(const runtime::Header& header,
                                             const std::vector<estimators::MeasurementBatch>& batches) {
   if (batches.size() != static_cast<std::size_t>(impl_->agent_count)) {
     throw DdsError("publish_batches: " + std::to_string(batches.size()) + " batches for " +
@@ -473,14 +473,14 @@ void OrchestratorTransport::publish_ros2_world(std::int64_t step, std::int64_t w
   write(impl_->ros2_ranges_writer, &ranges.sample, "ROS 2 ranges");
 }
 
-void OrchestratorTransport::publish_control(const sim::ControlMessage& message) {
+void OrchestratorTransport::publish_control(const runtime::ControlMessage& message) {
   const WireControl wire(message);
   write(impl_->control_writer, &wire.sample, kTopicControl);
 }
 
-std::vector<sim::EstimateReport> OrchestratorTransport::wait_and_take_estimates(double timeout_s) {
+std::vector<runtime::EstimateReport> OrchestratorTransport::wait_and_take_estimates(double timeout_s) {
   wait(impl_->waitset, timeout_s);
-  std::vector<sim::EstimateReport> reports;
+  std::vector<runtime::EstimateReport> reports;
   take_all<swarmloc_msg_Estimate>(impl_->estimate_reader, [&](const swarmloc_msg_Estimate& wire) {
     auto decoded = decode(wire);
     if (!decoded.well_formed) {

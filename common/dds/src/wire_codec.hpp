@@ -40,11 +40,11 @@ std::optional<MatX> unpack_upper(std::span<const double> packed, std::size_t n);
 std::uint8_t state_flags(const estimators::StateMessage& message);
 /// False if flags has bits other than ANCHOR | ACTIVE set (message left untouched then).
 bool apply_state_flags(std::uint8_t flags, estimators::StateMessage& message);
-std::optional<sim::ControlCommand> control_command(std::uint8_t wire);
+std::optional<runtime::ControlCommand> control_command(std::uint8_t wire);
 
 /// Decodes Information from its fields; well_formed is false if info_vec is longer than 64, info_mat
 /// longer than 2080, or info_mat.size() != n (n + 1) / 2 with n = info_vec.size(), or key != sender.
-Inbound<estimators::InformationMessage> decode_information_fields(const sim::Header& header, AgentId key,
+Inbound<estimators::InformationMessage> decode_information_fields(const runtime::Header& header, AgentId key,
                                                                   std::int32_t target,
                                                                   std::span<const double> info_vec,
                                                                   std::span<const double> info_mat);
@@ -52,31 +52,31 @@ Inbound<estimators::InformationMessage> decode_information_fields(const sim::Hea
 /// A measurement batch as taken (recipient = the topic key).
 struct DecodedBatch {
   AgentId recipient = 0;
-  sim::Header header;
+  runtime::Header header;
   estimators::MeasurementBatch batch;
   bool well_formed = true;
 };
 struct DecodedEstimate {
-  sim::EstimateReport report;
+  runtime::EstimateReport report;
   bool well_formed = true;
 };
 struct DecodedControl {
-  sim::ControlMessage message;
+  runtime::ControlMessage message;
   bool well_formed = true;
 };
 
 // Round trips swarmloc -> IDL sample -> swarmloc through the exact code dds_write / dds_take use.
-Inbound<estimators::StateMessage> round_trip(const sim::Header& header,
+Inbound<estimators::StateMessage> round_trip(const runtime::Header& header,
                                              const estimators::StateMessage& message);
-Inbound<estimators::InformationMessage> round_trip(const sim::Header& header,
+Inbound<estimators::InformationMessage> round_trip(const runtime::Header& header,
                                                    const estimators::InformationMessage& message);
-Inbound<estimators::ConsensusMessage> round_trip(const sim::Header& header,
+Inbound<estimators::ConsensusMessage> round_trip(const runtime::Header& header,
                                                  const estimators::ConsensusMessage& message);
-Inbound<estimators::BeliefMessage> round_trip(const sim::Header& header,
+Inbound<estimators::BeliefMessage> round_trip(const runtime::Header& header,
                                               const estimators::BeliefMessage& message);
-DecodedBatch round_trip(AgentId recipient, const sim::Header& header,
+DecodedBatch round_trip(AgentId recipient, const runtime::Header& header,
                         const estimators::MeasurementBatch& batch);
-DecodedEstimate round_trip(const sim::EstimateReport& report);
-DecodedControl round_trip(const sim::ControlMessage& message);
+DecodedEstimate round_trip(const runtime::EstimateReport& report);
+DecodedControl round_trip(const runtime::ControlMessage& message);
 
 }  // namespace swarmloc::dds::codec

@@ -60,15 +60,16 @@ const std::vector<EstimatorBuilder>& builders() {
       {"pose_ekf", kKalman, &kalman<PoseEkf>, {}, false},       // pose states (x, y, θ), pose_filters.hpp
       {"pose_ieif", kKalman, &kalman<PoseIeif>, {}, false},     // its information form
       {"dead_reckoning", kKalman, &kalman<DeadReckoning>, {}, false},  // odometry only (baseline)
-      {"jacobi", kCooperative, &jacobi, {}, false},                    // 002 eq. (9)
-      {"dle", kCooperative, &dle, {}, false},                          // 002 Alg. 1
-      {"joint_field", kCooperative, &joint_field, {}, false},          // 002 eq. (10)
-      {"multipath_bp", kCooperative, &multipath_bp, {}, false},        // 003 Alg. 1
-      {"dgbb", kCooperative, &gradient_descent<StepRule::kConsensusBb>, {}, false},  // 004 Alg. 1
-      {"local_bb", kCooperative, &gradient_descent<StepRule::kLocalBb>, {}, false},  // 004 Sec. V-B baselines
+      {"jacobi", kCooperative, &jacobi, {}, false},                    // Atanasov et al. eq. (9)
+      {"dle", kCooperative, &dle, {}, false},                          // Atanasov et al. Alg. 1
+      {"joint_field", kCooperative, &joint_field, {}, false},          // Atanasov et al. eq. (10)
+      {"multipath_bp", kCooperative, &multipath_bp, {}, false},        // Leng et al. Alg. 1
+      // Calafiore et al. Alg. 1, and its Sec. V-B baselines:
+      {"dgbb", kCooperative, &gradient_descent<StepRule::kConsensusBb>, {}, false},
+      {"local_bb", kCooperative, &gradient_descent<StepRule::kLocalBb>, {}, false},
       {"fixed_step", kCooperative, &gradient_descent<StepRule::kFixed>, {}, false},
       {"step_length", kCooperative, &gradient_descent<StepRule::kStepLength>, {}, false},
-      {"ekf", kFusion, nullptr, CentralizedKind::kEkf, false},  // 000
+      {"ekf", kFusion, nullptr, CentralizedKind::kEkf, false},  // Khan et al.
       {"lbekf", kFusion, nullptr, CentralizedKind::kLbEkf, false},
       {"lbekf_vr", kFusion, nullptr, CentralizedKind::kLbEkf, true},
       {"lbekf_i", kFusion, nullptr, CentralizedKind::kLbEkfI, true},

@@ -43,12 +43,12 @@ StepOutput Ieif::step(const StepInput& input) {
     out.outbox = published();
     return out;
   }
-  // Prediction, 001 eq. (48) (F = I): x̂_{k|k−1} = x̂_{k−1|k−1}, Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ.
+  // Prediction, Gasparri & Pascucci eq. (48) (F = I): x̂_{k|k−1} = x̂_{k−1|k−1}, Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ.
   const ProcessStep process = process_step(input, params_);
   const Vec2 x_pred = x_ + process.shift;
   const Mat2 Psi_pred = predict_information(Psi_, process.Q);
 
-  // Estimation, 001 eq. (49), over N_k(i) (§3.4 rules (1)–(3)).
+  // Estimation, Gasparri & Pascucci eq. (49), over N_k(i) (§3.4 rules (1)–(3)).
   const LinkSelection selection = collect_range_links(input, setup_.id, params_);
   Linearization rows = linearize_ranges(x_pred, selection.links);
   // Self-check (docs/algorithms.md §1.6) on every range, gated or not; only once there is an estimate.

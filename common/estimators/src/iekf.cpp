@@ -63,7 +63,7 @@ StepOutput Iekf::step(const StepInput& input) {
     x_ = x_pred;
     P_ = P_pred;
   } else {
-    KalmanUpdate update = kalman_update(x_pred, P_pred, rows);  // 001 eqs. (30)–(31)
+    KalmanUpdate update = kalman_update(x_pred, P_pred, rows);  // Gasparri & Pascucci eqs. (30)–(31)
     if (params_.update_iterations > 1 && positive_definite(P_pred)) {
       // The iterated update in information form: the same Gauss–Newton passes as the IEIF's, from the
       // prior Ψ = P_{k|k−1}⁻¹ (the two forms are algebraically equal, docs/algorithms.md §3.5).

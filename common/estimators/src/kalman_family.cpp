@@ -74,7 +74,7 @@ Linearization linearize_ranges(const Vec2& x_i, const std::vector<RangeLink>& li
       ++rows.skipped;  // ρ < 1e−9: no direction (§1.1)
       continue;
     }
-    const models::Row2& u = h->d_xi;  // u_ijᵀ, 001 eq. (44)
+    const models::Row2& u = h->d_xi;  // u_ijᵀ, Gasparri & Pascucci eq. (44)
     const double r_tilde =
         link.std_m * link.std_m + u * link.neighbour_covariance * u.transpose();  // interlacing
     if (!(r_tilde > 0.0) || !std::isfinite(r_tilde)) {
@@ -139,7 +139,7 @@ void add_range_innovations(RangeResidualCheck& check, const Linearization& rows,
 }
 
 Mat2 predict_information(const Mat2& Psi, const Mat2& Q) {
-  // 001 eq. (48): Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ — valid for singular Ψ.
+  // Gasparri & Pascucci eq. (48): Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ — valid for singular Ψ.
   const Mat2 L = (Mat2::Identity() + Psi * Q).inverse();
   return core::symmetrized(L * Psi);
 }
@@ -174,7 +174,7 @@ const AbsoluteFix* usable_fix(const Linearization& rows) {
 }
 
 /// Φ = Σ u uᵀ/r̃ (+ R_fix⁻¹) and b = Σ u ν/r̃ (+ R_fix⁻¹ (z_fix − x̂)): the information both update forms
-/// need (001 eq. (49); the Kalman form through the push-through identity).
+/// need (Gasparri & Pascucci eq. (49); the Kalman form through the push-through identity).
 struct RangeRowsInformation {
   Mat2 Phi = Mat2::Zero();
   Vec2 b = Vec2::Zero();
@@ -204,8 +204,8 @@ InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, c
 InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows,
                                      const Vec2& linearized_at) {
   InformationUpdate out;
-  // 001 eq. (49), docs/algorithms.md §3.2: Φ = Σ u uᵀ/r̃, ι = Σ u z′/r̃, z′ = ν + uᵀ x̂_i, i.e. ι = b + Φ x̂_i,
-  // with x̂_i the point the rows are linearized at.
+  // Gasparri & Pascucci eq. (49), docs/algorithms.md §3.2: Φ = Σ u uᵀ/r̃, ι = Σ u z′/r̃, z′ = ν + uᵀ x̂_i, i.e.
+  // ι = b + Φ x̂_i, with x̂_i the point the rows are linearized at.
   const RangeRowsInformation info = row_information(linearized_at, rows);
   out.Phi = info.Phi;
   out.iota = info.b + info.Phi * linearized_at;
@@ -290,9 +290,9 @@ InformationUpdate iterated_information_update(const Vec2& x_pred, const Mat2& Ps
 }
 
 KalmanUpdate kalman_update(const Vec2& x_pred, const Mat2& P_pred, const Linearization& rows) {
-  // 001 eqs. (30)–(32): S = H P Hᵀ + R̃, K = P Hᵀ S⁻¹, Joseph form. R̃ is block diagonal (independent
-  // ranges, one 2×2 fix), so by the push-through identity K = (I + P A)⁻¹ P Hᵀ R̃⁻¹ with A = Hᵀ R̃⁻¹ H:
-  // only A and b = Hᵀ R̃⁻¹ ν are needed, O(M) instead of factoring the M×M S (360 nodes: M = 359).
+  // Gasparri & Pascucci eqs. (30)–(32): S = H P Hᵀ + R̃, K = P Hᵀ S⁻¹, Joseph form. R̃ is block diagonal
+  // (independent ranges, one 2×2 fix), so by the push-through identity K = (I + P A)⁻¹ P Hᵀ R̃⁻¹ with A = Hᵀ
+  // R̃⁻¹ H: only A and b = Hᵀ R̃⁻¹ ν are needed, O(M) instead of factoring the M×M S (360 nodes: M = 359).
   // P_pred is never inverted; I + P A is invertible because P and A are PSD.
   if (rows.jacobian.rows() == 0 && usable_fix(rows) == nullptr) return KalmanUpdate{x_pred, P_pred};
   const RangeRowsInformation info = row_information(x_pred, rows);

@@ -13,7 +13,7 @@ Vec2 path_direction(double theta_ij_rad, double theta_ji_rad, double los_thresho
   // [D-2]: LOS (opposite rays, cos(β − α) ≈ −1). A folded reflection (parallel rays, cos ≈ +1, pair
   // perpendicular to the wall) keeps eq. (1), which stays exact but ill-conditioned; sin = 0 exactly is 0/0.
   if ((std::abs(s) < los_threshold && std::cos(beta - alpha) < 0.0) || s == 0.0) return unit_direction(alpha);
-  // 003 eq. (1)
+  // Leng et al. eq. (1)
   return Vec2(std::sin(alpha) + std::sin(beta), -(std::cos(alpha) + std::cos(beta))) / s;
 }
 

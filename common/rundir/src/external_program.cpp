@@ -15,7 +15,7 @@
 
 extern char** environ;
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 namespace {
 
 /// Owns a posix_spawn_file_actions_t.
@@ -112,4 +112,4 @@ std::optional<std::filesystem::path> find_program(std::string_view name) {
   return std::nullopt;
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

@@ -21,7 +21,7 @@
 #include "swarmloc/rundir/external_program.hpp"
 #include "swarmloc/runtime/output_file.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -94,10 +94,10 @@ std::string preamble(const std::string& output) {
 /// Which bound a plot draws (docs/algorithms.md §1.3.1), e.g. "posterior CRB (own draws)" (no '_': the
 /// enhanced terminal would take it for a subscript).
 std::string bound_label(const RunRecord& record) {
-  const RunBound& bound = record.bound;
-  std::string draws(to_string(bound.draws));
+  const world::RunBound& bound = record.bound;
+  std::string draws(world::to_string(bound.draws));
   std::replace(draws.begin(), draws.end(), '_', ' ');
-  const std::string kind = bound.kind == BoundKind::kPcrb ? "posterior CRB" : "CRLB, accumulated";
+  const std::string kind = bound.kind == world::BoundKind::kPcrb ? "posterior CRB" : "CRLB, accumulated";
   return kind + " (" + draws + ")";
 }
 
@@ -109,8 +109,8 @@ bool has_optimum_points(const RunRecord& record) {
 
 /// "optimum of the run's data (batch ML, all draws)" (no '_': the enhanced terminal's subscript).
 std::string optimum_label(const RunRecord& record) {
-  std::string kind(to_string(record.optimum.kind));
-  std::string draws(to_string(record.optimum.draws));
+  std::string kind(world::to_string(record.optimum.kind));
+  std::string draws(world::to_string(record.optimum.draws));
   std::replace(kind.begin(), kind.end(), '_', ' ');
   std::replace(draws.begin(), draws.end(), '_', ' ');
   return "optimum of the run's data (" + kind + ", " + draws + ")";
@@ -118,8 +118,8 @@ std::string optimum_label(const RunRecord& record) {
 
 std::string error_script(const RunRecord& record) {
   // metrics.csv: the bound columns come after `lost` (run_record.cpp), one further on in a field world.
-  const int bound_column = measurement_kinds(record.scenario.algorithm.name).field ? 12 : 11;
-  const bool has_bound = record.bound.kind != BoundKind::kNone;
+  const int bound_column = world::measurement_kinds(record.scenario.algorithm.name).field ? 12 : 11;
+  const bool has_bound = record.bound.kind != world::BoundKind::kNone;
   std::ostringstream gp;
   gp << preamble("error.png") << "set key top right box opaque\nset logscale y\n"
      << "set xlabel 'world step'\nset ylabel 'position error [m] (log scale)'\n"
@@ -131,7 +131,7 @@ std::string error_script(const RunRecord& record) {
   if (has_bound) {
     gp << ", '' using 1:" << bound_column << " skip 1 with lines dt 2 lw 2 lc rgb 'black' title '"
        << bound_label(record) << "'";
-    if (record.bound.draws != RangeDraws::kAllDraws) {
+    if (record.bound.draws != world::RangeDraws::kAllDraws) {
       gp << ", '' using 1:" << bound_column + 1
          << " skip 1 with lines dt 3 lw 1 lc rgb 'gray40' title 'the same bound with all the data'";
     }
@@ -155,7 +155,7 @@ std::string efficiency_script(const RunRecord& record) {
      << "plot 1 with lines dt 2 lw 1 lc rgb 'black' title 'the optimum of the run''s data (1)', "
         "'optimum.csv' using 1:4 skip 1 with linespoints pt 7 ps 0.6 lw 2 lc rgb '#d62728' "
         "title 'RMSE / optimum (efficiency)'";
-  if (record.bound.kind != BoundKind::kNone) {
+  if (record.bound.kind != world::BoundKind::kNone) {
     gp << ", '' using 1:5 skip 1 with linespoints pt 6 ps 0.6 lw 1 lc rgb 'gray40' title 'RMSE / "
        << bound_label(record) << "'";
   }
@@ -318,7 +318,7 @@ void add_optimum_plot(const std::filesystem::path& plots, const RunRecord& recor
     out << m.step << ',' << m.errors.rmse_m << ',' << m.optimum_rmse_m << ','
         << m.errors.rmse_m / m.optimum_rmse_m << ',' << m.errors.rmse_m / m.bound_rmse_m << '\n';
   }
-  write_text_file(plots / "optimum.csv", out.str());
+  runtime::write_text_file(plots / "optimum.csv", out.str());
   scripts["efficiency.gp"] = efficiency_script(record);
 }
 
@@ -331,7 +331,7 @@ void write_nees_band(const std::filesystem::path& plots, const RunRecord& record
     out << m.step << ',' << m.errors.nees << ',' << band.lower << ',' << band.upper << ',' << m.errors.scored
         << '\n';
   }
-  write_text_file(plots / "nees_band.csv", out.str());
+  runtime::write_text_file(plots / "nees_band.csv", out.str());
 }
 
 /// The final positions' table and what the other plots draw from it.
@@ -450,8 +450,8 @@ LinkPlot write_link_segments(const std::filesystem::path& plots, const RunRecord
              << '\n';
     drawn.have_links = true;
   }
-  write_text_file(plots / "link_segments.csv", segments.str());
-  write_text_file(plots / "lost_link_segments.csv", lost_segments.str());
+  runtime::write_text_file(plots / "link_segments.csv", segments.str());
+  runtime::write_text_file(plots / "lost_link_segments.csv", lost_segments.str());
   return drawn;
 }
 
@@ -477,7 +477,7 @@ void add_error_histogram(const std::filesystem::path& plots, const RunRecord& re
     const double lo = width * static_cast<double>(k);
     histogram << lo << ',' << lo + width << ',' << lo + 0.5 * width << ',' << counts[k] << '\n';
   }
-  write_text_file(plots / "error_histogram.csv", histogram.str());
+  runtime::write_text_file(plots / "error_histogram.csv", histogram.str());
   const double n = static_cast<double>(errors.size());
   const auto* last = record.final_metrics();
   scripts["error_histogram.gp"] = histogram_script(record, static_cast<int>(errors.size()),
@@ -492,8 +492,8 @@ void add_final_position_plots(const std::filesystem::path& plots, const RunRecor
   const double magnification = ellipse_magnification(positions.semi_major, positions.extent);
   bool have_ellipses = false;
   const std::string ellipses = ellipses_csv(positions.curves, magnification, have_ellipses);
-  write_text_file(plots / "final_positions.csv", positions.csv);
-  write_text_file(plots / "ellipses.csv", ellipses);
+  runtime::write_text_file(plots / "final_positions.csv", positions.csv);
+  runtime::write_text_file(plots / "ellipses.csv", ellipses);
   const LinkPlot links = write_link_segments(plots, record, finals);
   scripts["positions.gp"] =
       positions_script(record, links.have_links, links.have_lost_links, have_ellipses, magnification);
@@ -505,10 +505,10 @@ void write_scripts(const std::filesystem::path& plots, const ScriptMap& scripts)
   std::ostringstream all;
   all << "# Makes every plot of this run: cd into plots/ and run `gnuplot plots.gp`.\n";
   for (const auto& [name, script] : scripts) {
-    write_text_file(plots / name, script);
+    runtime::write_text_file(plots / name, script);
     all << "reset\nload " << gnuplot_quote(name) << "\n";
   }
-  write_text_file(plots / "plots.gp", all.str());
+  runtime::write_text_file(plots / "plots.gp", all.str());
 }
 
 /// Runs gnuplot on each script; false if any PNG is not made (or gnuplot is not installed).
@@ -577,8 +577,8 @@ GnuplotResult run_gnuplot(const std::filesystem::path& directory, const std::str
     const int error = room_for_a_plot(directory);
     std::error_code ignored;
     std::filesystem::remove(path, ignored);  // no truncated PNG passes for a plot later
-    if (error != 0) throw OutputError(path, "write", error);
-    if (status.succeeded()) throw OutputError(path, "write (gnuplot left it incomplete)", EIO);
+    if (error != 0) throw runtime::OutputError(path, "write", error);
+    if (status.succeeded()) throw runtime::OutputError(path, "write (gnuplot left it incomplete)", EIO);
     std::fprintf(stderr, "warning: gnuplot %s on %s; %s not made\n", status.describe().c_str(),
                  (directory / script).c_str(), path.c_str());
     return GnuplotResult::kFailed;
@@ -591,4 +591,4 @@ GnuplotResult run_gnuplot(const std::filesystem::path& directory, const std::str
   return GnuplotResult::kDone;
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

@@ -12,9 +12,10 @@
 
 #include "slrec_decoder.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 
-using namespace slrec;  // NOLINT(google-build-using-namespace): the shared .slrec framing
+using namespace runtime::slrec;  // NOLINT(google-build-using-namespace): the shared .slrec framing
+using namespace slrec;           // NOLINT(google-build-using-namespace): its decoder
 
 namespace {
 
@@ -132,11 +133,11 @@ estimators::MeasurementBatch decode_batch(Decoder& in, int agents) {
 
 // ---- RecordedWorld ----
 
-RecordedWorld RecordedWorld::of(const World& world) {
+RecordedWorld RecordedWorld::of(const world::World& world) {
   return RecordedWorld{world.is_anchor, world.neighbours, world.initial_guess, world.initial_heading};
 }
 
-std::string RecordedWorld::difference(const World& world) const {
+std::string RecordedWorld::difference(const world::World& world) const {
   const auto n = is_anchor.size();
   if (static_cast<std::size_t>(world.size()) != n) {
     return "the world has " + std::to_string(world.size()) + " agents, the recording " + std::to_string(n);
@@ -158,7 +159,7 @@ std::string RecordedWorld::difference(const World& world) const {
 // ---- RecordingWriter ----
 
 RecordingWriter::RecordingWriter(const std::filesystem::path& path, const config::Scenario& scenario,
-                                 const World& world)
+                                 const world::World& world)
     : path_(path), out_(with_parent_directories(path)), agents_(world.size()) {
   Encoder e;
   e.text(config::to_yaml(scenario));
@@ -334,7 +335,7 @@ std::shared_ptr<const Recording> parse_recording(std::vector<std::uint8_t> bytes
   r.bytes_ = std::move(bytes);
   Decoder in(r.bytes_, source);
   r.version_ = in.file_header(kKindRecording);
-  const bool checksummed = r.version_ >= kFirstChecksummedRecordingVersion;
+  const bool checksummed = r.version_ >= runtime::kFirstChecksummedRecordingVersion;
   Decoder::Record head;
   if (checksummed) {
     head = in.begin_record();
@@ -365,10 +366,10 @@ std::shared_ptr<const Recording> parse_recording(std::vector<std::uint8_t> bytes
 
 // ---- DirectoryRecorder ----
 
-void DirectoryRecorder::begin(const config::Scenario& scenario, const World& world) {
+void DirectoryRecorder::begin(const config::Scenario& scenario, const world::World& world) {
   steps_ = std::make_unique<RecordingWriter>(run_dir_ / kRecordingFile, scenario, world);
-  samples_ = std::make_unique<SampleLogWriter>(run_dir_ / kSampleLogDirectory / kSimSampleLogFile,
-                                               world.size(), config::scenario_hash(scenario));
+  samples_ = std::make_unique<runtime::SampleLogWriter>(run_dir_ / kSampleLogDirectory / kSimSampleLogFile,
+                                                        world.size(), config::scenario_hash(scenario));
 }
 
 void DirectoryRecorder::world_step(std::int64_t step, const std::vector<Vec2>& truth,
@@ -376,7 +377,7 @@ void DirectoryRecorder::world_step(std::int64_t step, const std::vector<Vec2>& t
   if (steps_) steps_->append_step(step, truth, batches);
 }
 
-void DirectoryRecorder::sample(const ReceivedSample& sample) {
+void DirectoryRecorder::sample(const runtime::ReceivedSample& sample) {
   if (samples_) samples_->append(sample);
 }
 
@@ -385,4 +386,4 @@ void DirectoryRecorder::close() {
   if (samples_) samples_->close();
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

@@ -5,7 +5,7 @@
 
 #include "swarmloc/rundir/run_record.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 namespace {
 
 nlohmann::json finite_or_null(double value) {
@@ -13,8 +13,8 @@ nlohmann::json finite_or_null(double value) {
 }
 
 /// What a causal estimate at a step is compared with (docs/algorithms.md §1.3.2).
-std::string_view reference_text(OptimumKind kind) {
-  if (kind == OptimumKind::kMapSmoother) {
+std::string_view reference_text(world::OptimumKind kind) {
+  if (kind == world::OptimumKind::kMapSmoother) {
     return "causal: the MAP of the trajectory given the data up to the step, read at that step (at the "
            "last step the full smoother's final state)";
   }
@@ -34,13 +34,13 @@ void update_run_optimum(RunRecord& record, bool final) {
   record.optimum = record.optimum_data->result();
   if (!final) {
     if (!record.metrics.empty()) {
-      const OptimumPoint* point = record.optimum.at(record.metrics.back().step);
+      const world::OptimumPoint* point = record.optimum.at(record.metrics.back().step);
       if (point != nullptr) record.metrics.back().optimum_rmse_m = point->rmse_m;
     }
     return;
   }
   for (auto& m : record.metrics) {
-    const OptimumPoint* point = record.optimum.at(m.step);
+    const world::OptimumPoint* point = record.optimum.at(m.step);
     m.optimum_rmse_m = point != nullptr ? point->rmse_m : std::numeric_limits<double>::quiet_NaN();
   }
   record.optimum_data.reset();
@@ -53,18 +53,18 @@ double run_efficiency(const RunRecord& record) {
 }
 
 nlohmann::json optimum_json(const RunRecord& record) {
-  const RunOptimum& optimum = record.optimum;
-  nlohmann::json block = {{"kind", std::string(to_string(optimum.kind))}};
-  if (optimum.kind == OptimumKind::kNone) {
+  const world::RunOptimum& optimum = record.optimum;
+  nlohmann::json block = {{"kind", std::string(world::to_string(optimum.kind))}};
+  if (optimum.kind == world::OptimumKind::kNone) {
     block["reason"] = optimum.reason;
     return block;
   }
-  block["data"] = std::string(to_string(optimum.draws));
-  block["anchors"] = std::string(to_string(optimum.anchors));
+  block["data"] = std::string(world::to_string(optimum.draws));
+  block["anchors"] = std::string(world::to_string(optimum.anchors));
   block["start"] = "truth";
   block["reference"] = std::string(reference_text(optimum.kind));
   const StepMetrics* last = record.final_metrics();
-  const OptimumPoint* point = last != nullptr ? optimum.at(last->step) : nullptr;
+  const world::OptimumPoint* point = last != nullptr ? optimum.at(last->step) : nullptr;
   block["step"] = point != nullptr ? nlohmann::json(point->step) : nlohmann::json();
   block["rmse_m"] = point != nullptr ? finite_or_null(point->rmse_m) : nlohmann::json();
   block["nees"] = point != nullptr ? finite_or_null(point->nees) : nlohmann::json();
@@ -80,4 +80,4 @@ nlohmann::json optimum_json(const RunRecord& record) {
   return block;
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

@@ -19,7 +19,7 @@
 #include "swarmloc/rundir/plots.hpp"
 #include "swarmloc/rundir/tum_export.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 namespace {
 
 nlohmann::json number_or_null(double value) {
@@ -73,10 +73,10 @@ LinkTotals link_totals(const RunRecord& record) {
   return totals;
 }
 
-void compute_run_bounds(RunRecord& record, const World& world) {
-  record.crlb = scenario_crlb(world, record.scenario);
-  record.bound = run_bound(world, record.scenario, record.crlb);
-  record.optimum_data = std::make_shared<OptimumAccumulator>(world, record.scenario);
+void compute_run_bounds(RunRecord& record, const world::World& world) {
+  record.crlb = world::scenario_crlb(world, record.scenario);
+  record.bound = world::run_bound(world, record.scenario, record.crlb);
+  record.optimum_data = std::make_shared<world::OptimumAccumulator>(world, record.scenario);
   record.optimum = record.optimum_data->result();
 }
 
@@ -87,16 +87,16 @@ void set_step_bounds(const RunRecord& record, StepMetrics& metrics) {
 }
 
 nlohmann::json bound_json(const RunRecord& record) {
-  const RunBound& bound = record.bound;
+  const world::RunBound& bound = record.bound;
   const StepMetrics* last = record.final_metrics();
   const double rmse = last != nullptr ? last->bound_rmse_m : std::numeric_limits<double>::quiet_NaN();
-  nlohmann::json block = {{"kind", std::string(to_string(bound.kind))}};
-  if (bound.kind == BoundKind::kNone) {
+  nlohmann::json block = {{"kind", std::string(world::to_string(bound.kind))}};
+  if (bound.kind == world::BoundKind::kNone) {
     block["reason"] = bound.reason;
     return block;
   }
-  block["data"] = std::string(to_string(bound.draws));
-  block["anchors"] = std::string(to_string(bound.anchors));
+  block["data"] = std::string(world::to_string(bound.draws));
+  block["anchors"] = std::string(world::to_string(bound.anchors));
   block["rmse_m"] = number_or_null(rmse);
   block["all_data_rmse_m"] = last != nullptr ? number_or_null(last->bound_all_data_rmse_m) : nlohmann::json();
   block["ratio"] = last != nullptr ? number_or_null(last->errors.rmse_m / rmse) : nlohmann::json();
@@ -144,7 +144,7 @@ nlohmann::json final_block(const RunRecord& record) {
     final_json["lost_agents"] = last->lost;
     final_json["flagged_agents"] = last->errors.flagged;  // self-check verdicts, docs/algorithms.md §1.6
     final_json["crlb_rmse_m"] = number_or_null(last->crlb_rmse_m);
-    if (measurement_kinds(record.scenario.algorithm.name).field) {
+    if (world::measurement_kinds(record.scenario.algorithm.name).field) {
       final_json["field_rmse"] = number_or_null(last->errors.field_rmse);
       final_json["field_scored_agents"] = last->errors.field_scored;
     }
@@ -192,15 +192,16 @@ nlohmann::json summary_json(const RunRecord& record) {
                       {"loss_probability", record.scenario.network.loss},
                       {"burst_mean_length", record.scenario.network.burst.mean_length}};
   json rejected = json::object();
-  std::array<std::uint64_t, kRejectReasonCount> rejected_sum{};
+  std::array<std::uint64_t, runtime::kRejectReasonCount> rejected_sum{};
   double cpu_sum = 0.0;
   int cpu_count = 0;
   for (const auto& agent : record.agent_summaries) {
-    for (std::size_t r = 0; r < kRejectReasonCount; ++r) rejected_sum[r] += agent.rejected_by_reason[r];
+    for (std::size_t r = 0; r < runtime::kRejectReasonCount; ++r)
+      rejected_sum[r] += agent.rejected_by_reason[r];
     if (agent.cpu_s > 0.0) cpu_sum += agent.cpu_s, ++cpu_count;
   }
-  for (std::size_t r = 0; r < kRejectReasonCount; ++r) {
-    rejected[to_string(static_cast<RejectReason>(r))] = rejected_sum[r];
+  for (std::size_t r = 0; r < runtime::kRejectReasonCount; ++r) {
+    rejected[runtime::to_string(static_cast<runtime::RejectReason>(r))] = rejected_sum[r];
   }
   summary["rejected_by_reason"] = rejected;
   summary["processes"] = record.processes;
@@ -222,7 +223,7 @@ nlohmann::json summary_json(const RunRecord& record) {
 void create_output_directories(const std::filesystem::path& directory) {
   std::error_code ec;
   std::filesystem::create_directories(directory, ec);
-  if (ec) throw OutputError(directory, "create directory", ec.value());
+  if (ec) throw runtime::OutputError(directory, "create directory", ec.value());
 }
 
 namespace {
@@ -231,7 +232,7 @@ namespace {
 std::string metrics_csv(const RunRecord& record) {
   std::ostringstream out;
   // A field world adds the field's error (joint_field); every other run keeps the nine columns.
-  const bool field = measurement_kinds(record.scenario.algorithm.name).field;
+  const bool field = world::measurement_kinds(record.scenario.algorithm.name).field;
   // New columns go last (`lost`, the run's bound, `non_finite`, the optimum), so older readers keep their
   // columns. The optimum and the efficiency are NaN off the optimum's checkpoints.
   out << "step,time_s,rmse_m,mean_error_m,max_error_m,crlb_rmse_m,nees,scored,missing"
@@ -253,17 +254,17 @@ std::string metrics_csv(const RunRecord& record) {
 }  // namespace
 
 void write_run_directory(const std::filesystem::path& directory, const RunRecord& record,
-                         const WorkControl& control) {
+                         const world::WorkControl& control) {
   create_output_directories(directory);
   // A summary.json of an earlier attempt must not vouch for this one while it is half written.
   std::error_code ignored;
   std::filesystem::remove(directory / "summary.json", ignored);
-  write_text_file(directory / "scenario.yaml", config::to_yaml(record.scenario));
-  write_text_file(directory / "seed", std::to_string(record.scenario.seed) + "\n");
-  write_text_file(directory / "metrics.csv", metrics_csv(record));
+  runtime::write_text_file(directory / "scenario.yaml", config::to_yaml(record.scenario));
+  runtime::write_text_file(directory / "seed", std::to_string(record.scenario.seed) + "\n");
+  runtime::write_text_file(directory / "metrics.csv", metrics_csv(record));
   {
     // Large runs hold millions of rows: written in chunks, not built whole in memory.
-    OutputFile file(directory / "estimates.csv");
+    runtime::OutputFile file(directory / "estimates.csv");
     std::ostringstream out;
     // `inconsistent` (the self-check's verdict) comes last, so older readers keep their columns.
     out << "step,agent,x_m,y_m,cov_xx,cov_xy,cov_yy,valid,truth_x_m,truth_y_m,error_m,inconsistent\n";
@@ -291,7 +292,7 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
           << link.delivered << ',' << link.dropped_injected << ',' << link.rejected << ','
           << link.delivered_in_steps << '\n';
     }
-    write_text_file(directory / "links.csv", out.str());
+    runtime::write_text_file(directory / "links.csv", out.str());
   }
   control.throw_if_cancelled();
   {
@@ -309,14 +310,14 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
           << (a.fate_step >= 0 ? std::to_string(a.fate_step) : "") << ',' << reason << ','
           << (flagged.contains(a.agent) ? 1 : 0) << '\n';
     }
-    write_text_file(directory / "agents.csv", out.str());
+    runtime::write_text_file(directory / "agents.csv", out.str());
   }
   control.throw_if_cancelled();
   write_tum_trajectories(directory, record, control);
   control.throw_if_cancelled();
   write_plots(directory, record);
   control.throw_if_cancelled();
-  write_text_file_atomic(directory / "summary.json", summary_json(record).dump(2) + "\n");
+  runtime::write_text_file_atomic(directory / "summary.json", summary_json(record).dump(2) + "\n");
 }
 
 namespace {
@@ -396,21 +397,21 @@ namespace {
 /// The result table's bound: which one, its value, the RMSE / bound ratio, and the all-data bound.
 void bound_rows(std::ostringstream& out, const RunRecord& record, const StepMetrics& last) {
   char line[256];
-  const RunBound& bound = record.bound;
-  if (bound.kind == BoundKind::kNone) {
+  const world::RunBound& bound = record.bound;
+  if (bound.kind == world::BoundKind::kNone) {
     std::snprintf(line, sizeof line, "  %-34s %12s  (%s)\n", "bound", "none", bound.reason.c_str());
     out << line;
     return;
   }
   const std::string label =
-      std::string(bound.kind == BoundKind::kPcrb ? "posterior CRB" : "CRLB, accumulated") + " (" +
-      std::string(to_string(bound.draws)) + ")";
+      std::string(bound.kind == world::BoundKind::kPcrb ? "posterior CRB" : "CRLB, accumulated") + " (" +
+      std::string(world::to_string(bound.draws)) + ")";
   std::snprintf(line, sizeof line, "  %-34s %12.4f m\n", label.c_str(), last.bound_rmse_m);
   out << line;
   std::snprintf(line, sizeof line, "  %-34s %12.2f  (%s)\n", "final RMSE / bound",
-                last.errors.rmse_m / last.bound_rmse_m, std::string(to_string(bound.kind)).c_str());
+                last.errors.rmse_m / last.bound_rmse_m, std::string(world::to_string(bound.kind)).c_str());
   out << line;
-  if (bound.draws != RangeDraws::kAllDraws) {
+  if (bound.draws != world::RangeDraws::kAllDraws) {
     std::snprintf(line, sizeof line, "  %-34s %12.4f m\n", "bound with all the data",
                   last.bound_all_data_rmse_m);
     out << line;
@@ -421,18 +422,19 @@ void bound_rows(std::ostringstream& out, const RunRecord& record, const StepMetr
 /// bound's ratio.
 void optimum_rows(std::ostringstream& out, const RunRecord& record, const StepMetrics& last) {
   char line[256];
-  const RunOptimum& optimum = record.optimum;
-  if (optimum.kind == OptimumKind::kNone) {
+  const world::RunOptimum& optimum = record.optimum;
+  if (optimum.kind == world::OptimumKind::kNone) {
     std::snprintf(line, sizeof line, "  %-34s %12s  (%s)\n", "optimum of the run's data", "none",
                   optimum.reason.c_str());
     out << line;
     return;
   }
-  const std::string label = "optimum of its data (" + std::string(to_string(optimum.draws)) + ")";
+  const std::string label = "optimum of its data (" + std::string(world::to_string(optimum.draws)) + ")";
   std::snprintf(line, sizeof line, "  %-34s %12.4f m\n", label.c_str(), last.optimum_rmse_m);
   out << line;
   std::snprintf(line, sizeof line, "  %-34s %12.2f  (%s)\n", "final RMSE / optimum (efficiency)",
-                last.errors.rmse_m / last.optimum_rmse_m, std::string(to_string(optimum.kind)).c_str());
+                last.errors.rmse_m / last.optimum_rmse_m,
+                std::string(world::to_string(optimum.kind)).c_str());
   out << line;
 }
 
@@ -477,7 +479,7 @@ std::string result_table(const RunRecord& record) {
     out << line;
     if (const auto broken = non_finite_estimates(record); broken.steps > 0) out << not_valid_line(broken);
     row("RMSE over the whole run", whole_run_error(record).rmse_m, "m");
-    if (measurement_kinds(record.scenario.algorithm.name).field)
+    if (world::measurement_kinds(record.scenario.algorithm.name).field)
       row("final field RMSE (per cell)", last->errors.field_rmse, "");
     bound_rows(out, record, *last);
     optimum_rows(out, record, *last);
@@ -492,7 +494,7 @@ std::string result_table(const RunRecord& record) {
       }
     }
     // The noise of what the algorithm measures (multipath path lengths use the range std).
-    const auto kinds = measurement_kinds(record.scenario.algorithm.name);
+    const auto kinds = world::measurement_kinds(record.scenario.algorithm.name);
     if (kinds.relative) row("noise std (relative, per axis)", record.scenario.noise.relative_std_m, "m");
     if (kinds.field) row("noise std (field reading)", record.scenario.noise.field_std, "");
     if (kinds.targets) row("noise std (target reading)", record.scenario.noise.target_std_m, "m");
@@ -533,4 +535,4 @@ std::filesystem::path default_run_directory(const config::Scenario& scenario) {
   return candidate;
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

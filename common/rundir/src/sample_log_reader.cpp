@@ -1,9 +1,10 @@
 // Reading sample logs (recording.hpp; the writer is runtime/sample_log.cpp).
 #include "slrec_decoder.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 
-using namespace slrec;  // NOLINT(google-build-using-namespace): the shared .slrec framing
+using namespace runtime::slrec;  // NOLINT(google-build-using-namespace): the shared .slrec framing
+using namespace slrec;           // NOLINT(google-build-using-namespace): its decoder
 
 SampleLog load_sample_log(const std::filesystem::path& path, bool allow_unfinished) {
   return parse_sample_log(read_file(path), path.string(), allow_unfinished);
@@ -12,8 +13,8 @@ SampleLog load_sample_log(const std::filesystem::path& path, bool allow_unfinish
 namespace {
 
 /// A sample record's fields after its tag ('R'); `version` decides which payload fields exist.
-ReceivedSample decode_sample(Decoder& in, int agents, std::uint16_t version) {
-  ReceivedSample s;
+runtime::ReceivedSample decode_sample(Decoder& in, int agents, std::uint16_t version) {
+  runtime::ReceivedSample s;
   s.receiver = in.agent(agents, "receiver");
   s.receiver_steps = in.i64();
   s.source_timestamp_ns = in.i64();
@@ -67,7 +68,7 @@ SampleLog parse_sample_log(const std::vector<std::uint8_t>& bytes, const std::st
   SampleLog log;
   Decoder in(bytes, source);
   log.version = in.file_header(kKindSampleLog);
-  const bool checksummed = log.version >= kFirstChecksummedRecordingVersion;
+  const bool checksummed = log.version >= runtime::kFirstChecksummedRecordingVersion;
   Decoder::Record head;
   if (checksummed) {
     head = in.begin_record();
@@ -120,4 +121,4 @@ SampleLog parse_sample_log(const std::vector<std::uint8_t>& bytes, const std::st
   }
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

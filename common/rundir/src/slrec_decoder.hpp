@@ -9,7 +9,9 @@
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/runtime/slrec_codec.hpp"
 
-namespace swarmloc::sim::slrec {
+namespace swarmloc::rundir::slrec {
+// The framing the agents write (runtime/slrec_codec.hpp) is what this decoder reads.
+using namespace runtime::slrec;  // NOLINT(google-build-using-namespace)
 
 inline constexpr int kMaxAgents = 1'000'000;
 inline constexpr std::uint32_t kMaxScenarioBytes = 16u << 20;
@@ -152,7 +154,7 @@ class Decoder {
     const std::uint8_t found = u8();
     const auto version_at = offset_;
     const std::uint16_t version = u16();
-    if (version >= kFirstChecksummedRecordingVersion && version <= kRecordingVersion) {
+    if (version >= runtime::kFirstChecksummedRecordingVersion && version <= runtime::kRecordingVersion) {
       // Checked first: a damaged kind or version byte is damage, not another kind of file.
       if (u32() != crc32_of(bytes_.data(), kFileHeaderBytes))
         fail("checksum mismatch in the file header: the file is damaged", 0);
@@ -165,10 +167,10 @@ class Decoder {
       };
       fail("the file is " + name(found) + ", expected " + name(kind), at);
     }
-    if (version < kOldestReadableRecordingVersion || version > kRecordingVersion) {
+    if (version < runtime::kOldestReadableRecordingVersion || version > runtime::kRecordingVersion) {
       fail("format version " + std::to_string(version) + " is not supported (this build reads versions " +
-               std::to_string(kOldestReadableRecordingVersion) + " to " + std::to_string(kRecordingVersion) +
-               ")",
+               std::to_string(runtime::kOldestReadableRecordingVersion) + " to " +
+               std::to_string(runtime::kRecordingVersion) + ")",
            version_at);
     }
     return version;
@@ -254,4 +256,4 @@ inline void decode_into(Decoder& in, estimators::BeliefMessage& m) {
   m.infinite_information = in.boolean();
 }
 
-}  // namespace swarmloc::sim::slrec
+}  // namespace swarmloc::rundir::slrec

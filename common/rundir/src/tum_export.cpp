@@ -8,7 +8,7 @@
 
 #include "swarmloc/runtime/output_file.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 namespace {
 
 void write_line(std::ostringstream& out, double time_s, const Vec2& position) {
@@ -18,7 +18,7 @@ void write_line(std::ostringstream& out, double time_s, const Vec2& position) {
 }  // namespace
 
 int write_tum_trajectories(const std::filesystem::path& directory, const RunRecord& record,
-                           const WorkControl& control) {
+                           const world::WorkControl& control) {
   if (record.estimates.empty()) return 0;
   std::map<std::int64_t, double> step_time;
   for (const auto& m : record.metrics) step_time[m.step] = m.time_s;
@@ -48,11 +48,11 @@ int write_tum_trajectories(const std::filesystem::path& directory, const RunReco
       if (row->estimate.mean_m.allFinite()) write_line(estimate, t, row->estimate.mean_m);
       if (row->truth.allFinite()) write_line(truth, t, row->truth);
     }
-    write_text_file(stem.string() + ".tum", estimate.str());
-    write_text_file(stem.string() + "_truth.tum", truth.str());
+    runtime::write_text_file(stem.string() + ".tum", estimate.str());
+    runtime::write_text_file(stem.string() + "_truth.tum", truth.str());
     ++written;
   }
   return written;
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

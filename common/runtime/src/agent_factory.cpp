@@ -6,9 +6,10 @@
 #include <numbers>
 
 #include "swarmloc/config/algorithms.hpp"
+#include "swarmloc/config/scenario_models.hpp"
 #include "swarmloc/estimators/consensus/cooperative.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 namespace {
 
 /// The prior an agent starts from in the fusion centre and in the sensor-only placeholder.
@@ -39,7 +40,7 @@ estimators::CooperativeParams cooperative_params(const config::Scenario& s) {
   }
   const config::MeasurementKinds& kinds = config::algorithm_spec(s.algorithm.name).kinds;
   if (kinds.targets) {  // dle
-    const TargetModel model = target_model(s);
+    const config::TargetModel model = config::target_model(s);
     auto& dle = params.dle;
     dle.target = 0;
     dle.target_dim = model.dim;
@@ -52,7 +53,7 @@ estimators::CooperativeParams cooperative_params(const config::Scenario& s) {
   }
   if (kinds.field) {  // joint_field
     // Anchors give Jacobi the world frame, which the field lives in: the reference is the origin.
-    params.joint_field.sensor = field_sensor(s);
+    params.joint_field.sensor = config::field_sensor(s);
     params.joint_field.warmup_steps = s.algorithm.field.field_warmup_steps;
   }
   const config::GradientParams& keys = s.algorithm.gradient;
@@ -93,35 +94,15 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
   return estimators::make_estimator(s.algorithm.name, manifest.setup, params);
 }
 
-TargetModel target_model(const config::Scenario& s) {
-  TargetModel model;
-  if (s.world.target_motion == config::TargetMotion::kStatic) return model;
-  const double tau = 1.0 / s.run.rate_hz;
-  model.dim = 4;
-  model.F = MatX::Identity(4, 4);
-  model.F.topRightCorner<2, 2>() = tau * Mat2::Identity();
-  model.W = MatX(4, 4);
-  model.W << tau * tau * tau / 3.0 * Mat2::Identity(), tau * tau / 2.0 * Mat2::Identity(),
-      tau * tau / 2.0 * Mat2::Identity(), tau * Mat2::Identity();
-  model.W *= s.world.target_accel_psd;
-  return model;
-}
-
-estimators::consensus::FieldSensor field_sensor(const config::Scenario& s) {
-  estimators::consensus::FieldSensor sensor;
-  sensor.grid.columns = s.world.field_cells_per_side;
-  sensor.grid.rows = s.world.field_cells_per_side;
-  sensor.grid.cell_m = s.world.area_m / s.world.field_cells_per_side;
-  sensor.sensing = s.world.field_sensing == config::FieldSensing::kContinuous
-                       ? estimators::consensus::FieldSensing::kContinuous
-                       : estimators::consensus::FieldSensing::kCellBased;
-  sensor.radius_m = s.world.field_sensing_radius_m;
-  return sensor;
-}
-
 std::unique_ptr<estimators::Estimator> make_sensor_only_estimator(const estimators::AgentSetup& setup,
                                                                   double initial_std_m) {
   return std::make_unique<SensorOnly>(setup, initial_std_m);
+}
+
+AgentRuntime make_agent_runtime(const config::Scenario& scenario, const AgentManifest& manifest,
+                                int incarnation) {
+  return AgentRuntime(make_agent_estimator(scenario, manifest), manifest.setup, manifest.neighbours,
+                      make_runtime_params(manifest, incarnation));
 }
 
 AgentRuntimeParams make_runtime_params(const AgentManifest& manifest, int incarnation) {
@@ -138,4 +119,4 @@ double tick_phase_fraction(const config::Scenario& scenario, AgentId id) {
   return std::fmod(static_cast<double>(id) * golden, 1.0);
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

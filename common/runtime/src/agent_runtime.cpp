@@ -7,7 +7,7 @@
 
 #include "swarmloc/core/gaussian.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 AgentRuntime::AgentRuntime(std::unique_ptr<estimators::Estimator> estimator, estimators::AgentSetup setup,
                            std::vector<AgentId> neighbours, const AgentRuntimeParams& params)
@@ -456,4 +456,4 @@ EstimateReport AgentRuntime::report(std::int64_t sender_stamp_ns, double cpu_s) 
   return r;
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

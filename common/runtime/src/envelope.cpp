@@ -1,6 +1,6 @@
 #include "swarmloc/runtime/envelope.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 const char* to_string(RejectReason reason) {
   switch (reason) {
@@ -24,4 +24,4 @@ const char* to_string(RejectReason reason) {
   return "unknown";
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

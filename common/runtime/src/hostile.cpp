@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <limits>
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 namespace {
 
@@ -62,4 +62,4 @@ void make_hostile_if_listed(const std::vector<AgentId>& hostile_agents, AgentId 
   }
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

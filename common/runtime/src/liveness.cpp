@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <cstring>
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 const char* to_string(LivenessEvent::Kind kind) {
   switch (kind) {
@@ -161,4 +161,4 @@ nlohmann::json LivenessTracker::to_json() const {
   return {{"unscheduled_deaths", deaths_}, {"stalls", stalls_}, {"events", events}};
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -11,7 +11,7 @@
 
 #include "swarmloc/runtime/output_file.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 namespace {
 
 using nlohmann::json;
@@ -258,4 +258,4 @@ AgentManifest load_manifest(const std::filesystem::path& path) {
   return parse_manifest(text.str(), path.string());
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

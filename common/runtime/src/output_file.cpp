@@ -7,7 +7,7 @@
 #include <cstring>
 #include <utility>
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 OutputError::OutputError(const std::filesystem::path& path, const std::string& what_failed, int os_error)
     : std::runtime_error("cannot " + what_failed + " " + path.string() + ": " + std::strerror(os_error)),
@@ -67,4 +67,4 @@ void write_text_file_atomic(const std::filesystem::path& path, std::string_view 
   }
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -2,7 +2,7 @@
 
 #include <sys/resource.h>
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 double process_cpu_s() {
   rusage usage{};
@@ -13,4 +13,4 @@ double process_cpu_s() {
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

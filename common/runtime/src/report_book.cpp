@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <utility>
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 ReportBook::ReportBook(int agents)
     : slots_(static_cast<std::size_t>(std::max(0, agents))), killed_(slots_.size(), false) {}
@@ -27,4 +27,4 @@ void ReportBook::restarted(AgentId agent) {
   if (known(agent)) killed_[static_cast<std::size_t>(agent)] = false;
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 void HealthMeter::on_tick(double lateness_s, std::uint32_t missed) {
   lateness_s = std::max(0.0, lateness_s);
@@ -115,4 +115,4 @@ nlohmann::json to_json(const RunHealth& health) {
           {"figures", health.figures}};
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -3,7 +3,7 @@
 
 #include "swarmloc/runtime/slrec_codec.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 using namespace slrec;  // NOLINT(google-build-using-namespace): the shared .slrec framing
 
@@ -64,4 +64,4 @@ void SampleLogWriter::close() {
   out_.close();
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

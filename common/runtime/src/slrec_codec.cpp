@@ -5,7 +5,7 @@
 
 #include <system_error>
 
-namespace swarmloc::sim::slrec {
+namespace swarmloc::runtime::slrec {
 
 /// zlib's CRC-32 (the IEEE polynomial; it detects every error burst of up to 32 bits).
 std::uint32_t crc32_of(const void* data, std::size_t size) {
@@ -94,4 +94,4 @@ const std::filesystem::path& with_parent_directories(const std::filesystem::path
   return path;
 }
 
-}  // namespace swarmloc::sim::slrec
+}  // namespace swarmloc::runtime::slrec

@@ -1,6 +1,7 @@
 // run.sim_clock = agents: the simulator as a deterministic discrete-event simulation on virtual time.
 // The orchestrator publishes world step k's batches at t = k·T; agent i ticks on its own drifting clock
-// as the DDS agent does; every sample and batch reaches its receiver after a seeded latency.
+// by the same agent loop as the DDS agent (runtime/agent_loop.hpp); every sample and batch reaches its
+// receiver after a seeded latency.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,8 +10,9 @@
 #include <variant>
 
 #include "swarmloc/core/random.hpp"
+#include "swarmloc/run/manifests.hpp"
 #include "swarmloc/runtime/agent_factory.hpp"
-#include "swarmloc/runtime/hostile.hpp"
+#include "swarmloc/runtime/agent_loop.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
@@ -31,7 +33,7 @@ enum class Phase : int {
 struct SampleArrival {
   AgentId receiver = 0;
   double sent_s = 0.0;  ///< virtual time of the publication (--record)
-  std::shared_ptr<const AgentRuntime::Publication> publication;  ///< shared by every receiver
+  std::shared_ptr<const runtime::AgentRuntime::Publication> publication;  ///< shared by every receiver
 };
 struct BatchArrival {
   AgentId receiver = 0;
@@ -40,8 +42,7 @@ struct BatchArrival {
 };
 struct Tick {
   AgentId agent = 0;
-  int incarnation = 0;     ///< a tick of a killed incarnation is dropped
-  std::int64_t index = 1;  ///< the m-th tick of this incarnation's timer
+  int incarnation = 0;  ///< a tick of a killed incarnation is dropped
 };
 struct ScoreStep {
   std::int64_t step = 0;
@@ -65,14 +66,29 @@ struct Later {
   }
 };
 
-World make_world(const config::Scenario& scenario, const SimOptions& options) {
-  World world = build_world(scenario, options.trial);
-  attach_recorded(world, options.recorded);
+world::World make_world(const config::Scenario& scenario, const SimOptions& options) {
+  world::World world = world::build_world(scenario, options.trial);
+  world::attach_recorded(world, options.recorded);
   return world;
 }
 
 /// Virtual time in integer nanoseconds (the simulator's stamps in --record sample logs).
 std::int64_t virtual_ns(double time_s) { return static_cast<std::int64_t>(std::llround(time_s * 1e9)); }
+
+class AgentClockSimulation;
+
+/// An agent's outputs as deliveries on the simulated network (the simulator scores estimates itself, so
+/// reports go nowhere).
+class NetworkPort final : public runtime::AgentPort {
+ public:
+  NetworkPort(AgentClockSimulation& simulation, AgentId agent) : simulation_(simulation), agent_(agent) {}
+  void publish(const runtime::AgentRuntime::Publication& publication) override;
+  void report(const runtime::EstimateReport& /*report*/) override {}
+
+ private:
+  AgentClockSimulation& simulation_;
+  AgentId agent_;
+};
 
 class AgentClockSimulation {
  public:
@@ -81,31 +97,31 @@ class AgentClockSimulation {
         options_(options),
         world_(make_world(scenario, options)),
         period_s_(1.0 / scenario.run.rate_hz),
-        latency_seed_(trial_seed(scenario.seed, options.trial)),
+        latency_seed_(world::trial_seed(scenario.seed, options.trial)),
         kills_(config::parse_agent_faults(scenario.faults.kill, "faults.kill", false)),
-        pauses_(config::parse_agent_faults(scenario.faults.pause, "faults.pause", true)) {
+        pauses_(config::parse_agent_faults(scenario.faults.pause, "faults.pause", true)),
+        shared_manifest_(run::shared_manifest(scenario, world_, options.trial)) {
     const auto n = static_cast<std::size_t>(world_.size());
-    agents_.reserve(n);
+    ports_.reserve(n);
+    loops_.resize(n);
     for (AgentId i = 0; i < world_.size(); ++i) {
-      agents_.emplace_back(make_agent_estimator(scenario, world_, i), world_.setup_of(i),
-                           world_.neighbours[static_cast<std::size_t>(i)],
-                           make_runtime_params(scenario, world_, options.trial));
+      ports_.push_back(std::make_unique<NetworkPort>(*this, i));
+      make_agent(i);
     }
     incarnation_.assign(n, 0);
     dead_.assign(n, false);
     paused_.assign(n, false);
-    timer_start_s_.assign(n, 0.0);
   }
 
-  RunRecord run() {
+  rundir::RunRecord run() {
     const auto started = std::chrono::steady_clock::now();
-    RunRecord record;
+    rundir::RunRecord record;
     record.scenario = scenario_;
     record.mode = "sim";
     record.agents = world_.size();
     record.anchors = world_.anchor_count();
     record.mean_degree = world_.mean_degree();
-    compute_run_bounds(record, world_);
+    rundir::compute_run_bounds(record, world_);
     record.processes = 1;
     record.extra["sim_clock"] = "agents";
     record.extra["network_delay_ms"] = scenario_.network.delay_ms;
@@ -114,10 +130,7 @@ class AgentClockSimulation {
 
     // As over DDS: every agent announces its prior before the run starts, and its timer starts with
     // the run (START), whatever its clock reads; the first tick comes one local period later.
-    for (AgentId i = 0; i < world_.size(); ++i) {
-      publish(i, agent(i).initial_publication(local_stamp_ns(i, 0.0)), 0.0);
-      schedule_tick(i, 1);
-    }
+    for (AgentId i = 0; i < world_.size(); ++i) start_agent(i);
     for (std::int64_t step = 0; step < scenario_.run.steps; ++step) {
       push(world_time(step), Phase::kWorldStep, WorldStep{step});
       push(world_time(step + 1), Phase::kScore, ScoreStep{step});
@@ -139,37 +152,52 @@ class AgentClockSimulation {
       std::visit([&](const auto& what) { handle(what, record); }, event.what);
     }
 
-    update_run_optimum(record, true);
-    record_agents(record, world_, agents_);
+    rundir::update_run_optimum(record, true);
+    std::vector<const runtime::AgentRuntime*> runtimes;
+    runtimes.reserve(loops_.size());
+    for (const auto& loop : loops_) runtimes.push_back(&loop->runtime());
+    record_agents(record, world_, runtimes);
     record.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     return record;
   }
 
+  /// Sends `publication` of `sender` to its neighbours now.
+  void publish(AgentId sender, const runtime::AgentRuntime::Publication& publication) {
+    auto shared = std::make_shared<const runtime::AgentRuntime::Publication>(publication);
+    constexpr std::uint64_t kSampleKind = 0;
+    for (AgentId receiver : world_.neighbours[static_cast<std::size_t>(sender)]) {
+      push_arrival(now_s_, latency_s(sender, receiver, kSampleKind, shared->header.seq),
+                   SampleArrival{receiver, now_s_, shared});
+    }
+  }
+
  private:
-  AgentRuntime& agent(AgentId id) { return agents_[static_cast<std::size_t>(id)]; }
+  runtime::AgentLoop& loop(AgentId id) { return *loops_[static_cast<std::size_t>(id)]; }
   [[nodiscard]] double world_time(std::int64_t step) const { return static_cast<double>(step) * period_s_; }
 
   void push(double time_s, Phase phase, decltype(Event::what) what) {
     queue_.push(Event{time_s, phase, next_order_++, std::move(what)});
   }
 
-  /// The agent's clock reading at virtual time t (ClockModel, the seeded draw the DDS agent uses).
-  [[nodiscard]] std::int64_t local_stamp_ns(AgentId id, double time_s) const {
-    return static_cast<std::int64_t>(
-        std::llround(world_.clocks[static_cast<std::size_t>(id)].local_time(time_s) * 1e9));
+  /// Agent `id`'s process, as its manifest and the shared agent loop make it (a restart makes a new one).
+  void make_agent(AgentId id) {
+    const runtime::AgentManifest manifest = run::agent_manifest(shared_manifest_, world_, id);
+    const auto k = static_cast<std::size_t>(id);
+    const int incarnation = incarnation_.empty() ? 0 : incarnation_[k];
+    runtime::LoopSettings settings =
+        runtime::loop_settings(scenario_, manifest,
+                               std::find(options_.hostile_agents.begin(), options_.hostile_agents.end(),
+                                         id) != options_.hostile_agents.end());
+    settings.reports = false;  // the simulator reads estimates where it scores them
+    loops_[k] = std::make_unique<runtime::AgentLoop>(
+        runtime::make_agent_runtime(scenario_, manifest, incarnation), settings, *ports_[k]);
   }
 
-  /// Tick m of the agent's current timer: its phase plus m local periods after the timer started, i.e.
-  /// (φ_i + m)·T/(1+drift) of virtual time (T: the world period over run.agent_steps_per_world_step;
-  /// φ_i: tick_phase_fraction, as the DDS agent). Computed from m (not accumulated), so a drift-free
-  /// aligned clock ticks exactly at m·T.
-  void schedule_tick(AgentId id, std::int64_t index) {
-    const auto k = static_cast<std::size_t>(id);
-    const double tick_period_s =
-        world_.clocks[k].mono_duration(period_s_ / scenario_.run.agent_steps_per_world_step);
-    const double phase = tick_phase_fraction(scenario_, id);
-    push(timer_start_s_[k] + (phase + static_cast<double>(index)) * tick_period_s, Phase::kTick,
-         Tick{id, incarnation_[k], index});
+  /// The process announces its prior and starts its timer now (START, or a restart).
+  void start_agent(AgentId id) {
+    loop(id).announce(now_s_);
+    loop(id).start(now_s_);
+    push(loop(id).next_due_s(), Phase::kTick, Tick{id, incarnation_[static_cast<std::size_t>(id)]});
   }
 
   /// Latency of one delivery: delay + U[0, jitter), seeded per (sender, receiver, what). Each
@@ -192,48 +220,37 @@ class AgentClockSimulation {
     push(arrives_s, arrives_s > sent_s ? Phase::kArrival : Phase::kSameInstant, std::move(what));
   }
 
-  void publish(AgentId sender, AgentRuntime::Publication publication, double sent_s) {
-    auto shared = std::make_shared<const AgentRuntime::Publication>(std::move(publication));
-    constexpr std::uint64_t kSampleKind = 0;
-    for (AgentId receiver : world_.neighbours[static_cast<std::size_t>(sender)]) {
-      push_arrival(sent_s, latency_s(sender, receiver, kSampleKind, shared->header.seq),
-                   SampleArrival{receiver, sent_s, shared});
-    }
-  }
-
-  void handle(const SampleArrival& arrival, RunRecord& /*record*/) {
+  void handle(const SampleArrival& arrival, rundir::RunRecord& /*record*/) {
     // A dead process receives nothing; a paused one keeps its reader cache (as in rounds mode).
     if (dead_[static_cast<std::size_t>(arrival.receiver)]) return;
-    auto& receiver = agent(arrival.receiver);
-    AgentRuntime::for_each_sample(*arrival.publication, [&](const Header& header, const auto& message) {
-      if (options_.recorder) {
-        options_.recorder->sample(ReceivedSample{arrival.receiver, receiver.steps_run(),
-                                                 virtual_ns(arrival.sent_s), virtual_ns(now_s_), true, header,
-                                                 SampleMessage(message)});
-      }
-      receiver.on_sample(header, message);  // receiver-side loss, partition and ordering checks
-    });
+    auto& receiver = loop(arrival.receiver);
+    runtime::AgentRuntime::for_each_sample(
+        *arrival.publication, [&](const runtime::Header& header, const auto& message) {
+          if (options_.recorder) {
+            options_.recorder->sample(runtime::ReceivedSample{
+                arrival.receiver, receiver.runtime().steps_run(), virtual_ns(arrival.sent_s),
+                virtual_ns(now_s_), true, header, runtime::SampleMessage(message)});
+          }
+          // Receiver-side loss, partition and ordering checks happen in the runtime, as over DDS.
+          receiver.on_sample(runtime::InboundSample{header, message, true}, now_s_);
+        });
   }
 
-  void handle(const BatchArrival& arrival, RunRecord& /*record*/) {
+  void handle(const BatchArrival& arrival, rundir::RunRecord& /*record*/) {
     if (dead_[static_cast<std::size_t>(arrival.receiver)]) return;
     const auto stamp = static_cast<std::int64_t>(static_cast<double>(arrival.step) * period_s_ * 1e9);
-    const Header header{kOrchestratorId, static_cast<std::uint32_t>(arrival.step), arrival.step, stamp,
-                        stamp};
-    agent(arrival.receiver).on_batch(header, *arrival.batch);  // keeps only the newest, carries over
+    const runtime::Header header{kOrchestratorId, static_cast<std::uint32_t>(arrival.step), arrival.step,
+                                 stamp, stamp};
+    loop(arrival.receiver).on_batch(header, *arrival.batch, now_s_);  // keeps the newest, carries over
   }
 
-  void handle(const Tick& tick, RunRecord& /*record*/) {
+  void handle(const Tick& tick, rundir::RunRecord& /*record*/) {
     const auto k = static_cast<std::size_t>(tick.agent);
     if (tick.incarnation != incarnation_[k] || dead_[k]) return;  // that process is gone
-    schedule_tick(tick.agent, tick.index + 1);
-    if (paused_[k]) return;  // SIGSTOP: the timer's periods pass without a step
-    auto publication = agent(tick.agent).step(local_stamp_ns(tick.agent, now_s_));
-    make_hostile_if_listed(options_.hostile_agents, tick.agent, publication.outbox, publication.header.step);
-    publish(tick.agent, std::move(publication), now_s_);
+    loop(tick.agent).advance(now_s_);  // steps unless paused (SIGSTOP: the period passes), publishes
+    push(loop(tick.agent).next_due_s(), Phase::kTick, tick);
   }
-
-  void handle(const ScoreStep& score_step, RunRecord& record) {
+  void handle(const ScoreStep& score_step, rundir::RunRecord& record) {
     const bool last = score_step.step + 1 == scenario_.run.steps;
     finished_ = score_step.settled || (last && settle_rounds(scenario_) <= 0);
     if (score_step.settled) {
@@ -245,13 +262,14 @@ class AgentClockSimulation {
     // As the orchestrator: each agent's newest estimate, once it has stepped; not while down.
     std::vector<std::optional<estimators::Estimate>> estimates(n);
     for (std::size_t k = 0; k < n; ++k) {
-      if (!dead_[k] && !paused_[k] && agents_[k].steps_run() > 0) estimates[k] = agents_[k].estimate();
+      const auto& agent = loops_[k]->runtime();
+      if (!dead_[k] && !paused_[k] && agent.steps_run() > 0) estimates[k] = agent.estimate();
     }
-    StepMetrics metrics;
+    rundir::StepMetrics metrics;
     metrics.step = score_step.step;
     metrics.time_s = world_time(score_step.step);
-    metrics.errors = score(world_, estimates);
-    set_step_bounds(record, metrics);
+    metrics.errors = world::score(world_, estimates);
+    rundir::set_step_bounds(record, metrics);
     record.metrics.push_back(metrics);
     if (options_.record_estimates) {
       for (std::size_t k = 0; k < n; ++k) {
@@ -263,16 +281,17 @@ class AgentClockSimulation {
     if (options_.on_step && !score_step.settled) options_.on_step(score_step.step, metrics.errors);
   }
 
-  void handle(const WorldStep& world_step, RunRecord& record) {
+  void handle(const WorldStep& world_step, rundir::RunRecord& record) {
     const std::int64_t step = world_step.step;
-    if (step > 0) advance_truth(world_, scenario_, step);
+    if (step > 0) world::advance_truth(world_, scenario_, step);
     apply_faults(step);
     constexpr std::uint64_t kBatchKind = 1;
     std::vector<estimators::MeasurementBatch> batches;
     batches.reserve(static_cast<std::size_t>(world_.size()));
-    for (AgentId i = 0; i < world_.size(); ++i) batches.push_back(generate_batch(world_, scenario_, i, step));
+    for (AgentId i = 0; i < world_.size(); ++i)
+      batches.push_back(world::generate_batch(world_, scenario_, i, step));
     if (options_.recorder) options_.recorder->world_step(step, world_.truth, batches);
-    observe_world_step(record, step, world_.truth, batches);
+    rundir::observe_world_step(record, step, world_.truth, batches);
     for (AgentId i = 0; i < world_.size(); ++i) {
       auto batch = std::make_shared<const estimators::MeasurementBatch>(
           std::move(batches[static_cast<std::size_t>(i)]));
@@ -289,39 +308,41 @@ class AgentClockSimulation {
       if (fault.from_step == step) dead_[k] = true;
       if (fault.to_step == step) {
         ++incarnation_[k];
-        agents_[k] = AgentRuntime(make_agent_estimator(scenario_, world_, fault.agent),
-                                  world_.setup_of(fault.agent), world_.neighbours[k],
-                                  make_runtime_params(scenario_, world_, options_.trial, incarnation_[k]));
+        make_agent(fault.agent);
         dead_[k] = false;
-        timer_start_s_[k] = now_s_;
-        publish(fault.agent, agents_[k].initial_publication(local_stamp_ns(fault.agent, now_s_)), now_s_);
-        schedule_tick(fault.agent, 1);
+        start_agent(fault.agent);
       }
     }
     for (const auto& fault : pauses_) {
       const auto k = static_cast<std::size_t>(fault.agent);
       if (fault.from_step == step) paused_[k] = true;
       if (fault.to_step == step) paused_[k] = false;
+      loops_[k]->set_paused(paused_[k]);
     }
   }
 
   const config::Scenario& scenario_;
   const SimOptions& options_;
-  World world_;
+  world::World world_;
   double period_s_;
   std::uint64_t latency_seed_;
   std::vector<config::AgentFault> kills_;
   std::vector<config::AgentFault> pauses_;
-  std::vector<AgentRuntime> agents_;
+  runtime::AgentManifest shared_manifest_;  ///< what every agent is told alike (run/manifests.hpp)
+  std::vector<std::unique_ptr<NetworkPort>> ports_;
+  std::vector<std::unique_ptr<runtime::AgentLoop>> loops_;
   std::vector<int> incarnation_;
   std::vector<bool> dead_;
   std::vector<bool> paused_;
-  std::vector<double> timer_start_s_;  ///< virtual time the agent's current process started its timer
   std::priority_queue<Event, std::vector<Event>, Later> queue_;
   std::uint64_t next_order_ = 0;
   double now_s_ = 0.0;
   bool finished_ = false;  ///< the final score is taken
 };
+
+void NetworkPort::publish(const runtime::AgentRuntime::Publication& publication) {
+  simulation_.publish(agent_, publication);
+}
 
 }  // namespace
 
@@ -335,7 +356,7 @@ void require_supported_sim_clock(const config::Scenario& scenario) {
   }
 }
 
-RunRecord run_agent_clock_simulation(const config::Scenario& scenario, const SimOptions& options) {
+rundir::RunRecord run_agent_clock_simulation(const config::Scenario& scenario, const SimOptions& options) {
   require_supported_sim_clock(scenario);
   return AgentClockSimulation(scenario, options).run();
 }

@@ -16,7 +16,7 @@ namespace centralized = estimators::centralized;
 
 constexpr double kMinVariance = 1e-6;  // m²: exactly known anchors / noiseless ranges stay finite
 
-std::vector<centralized::Edge> graph_edges(const World& world) {
+std::vector<centralized::Edge> graph_edges(const world::World& world) {
   std::vector<centralized::Edge> edges;
   for (int i = 0; i < world.size(); ++i) {
     for (AgentId j : world.neighbours[static_cast<std::size_t>(i)]) {
@@ -29,7 +29,7 @@ std::vector<centralized::Edge> graph_edges(const World& world) {
 }  // namespace
 
 std::unique_ptr<centralized::CentralizedFilter> make_fusion_filter(const config::Scenario& scenario,
-                                                                   const World& world) {
+                                                                   const world::World& world) {
   const std::string& algorithm = scenario.algorithm.name;
   const estimators::EstimatorBuilder* builder = estimators::find_estimator_builder(algorithm);
   if (!config::runs_in_fusion_centre(algorithm) || builder == nullptr || !builder->fusion) {
@@ -47,7 +47,8 @@ std::unique_ptr<centralized::CentralizedFilter> make_fusion_filter(const config:
   params.process_var =
       scenario.algorithm.kalman.process_noise_std_m * scenario.algorithm.kalman.process_noise_std_m;
   params.bandwidth = kCentralizedBandwidth;
-  // 000 Alg. 3 with: the relabelling variants relabel once, from the best positions at start-up.
+  // Khan et al. Alg. 3 with: the relabelling variants relabel once, from the best positions at
+  // start-up.
   params.labels = builder->relabel ? centralized::lexicographic_labels(world.initial_guess)
                                    : centralized::identity_labels(n);
   // A static generated world ranges every pair within the radius at every step (world generate_batch);
@@ -99,21 +100,21 @@ double total_squared_error(const std::vector<Vec2>& truth,
   return total;
 }
 
-RunRecord run_centralized_simulation(const config::Scenario& scenario, const SimOptions& options) {
+rundir::RunRecord run_centralized_simulation(const config::Scenario& scenario, const SimOptions& options) {
   const auto started = std::chrono::steady_clock::now();
-  World world = build_world(scenario, options.trial);
-  attach_recorded(world, options.recorded);
+  world::World world = world::build_world(scenario, options.trial);
+  world::attach_recorded(world, options.recorded);
   if (options.recorder) options.recorder->begin(scenario, world);
   const int n = world.size();
   auto filter = make_fusion_filter(scenario, world);
 
-  RunRecord record;
+  rundir::RunRecord record;
   record.scenario = scenario;
   record.mode = "sim";
   record.agents = n;
   record.anchors = world.anchor_count();
   record.mean_degree = world.mean_degree();
-  compute_run_bounds(record, world);
+  rundir::compute_run_bounds(record, world);
   record.processes = 1;
 
   std::vector<std::optional<estimators::Estimate>> estimates(static_cast<std::size_t>(n));
@@ -122,22 +123,22 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
   nlohmann::json total_mse = nlohmann::json::array();
   int truncated_steps = 0;
   for (std::int64_t step = 0; step < scenario.run.steps; ++step) {
-    if (step > 0) advance_truth(world, scenario, step);
+    if (step > 0) world::advance_truth(world, scenario, step);
     for (AgentId i = 0; i < n; ++i) {
-      batches[static_cast<std::size_t>(i)] = generate_batch(world, scenario, i, step);
+      batches[static_cast<std::size_t>(i)] = world::generate_batch(world, scenario, i, step);
       pointers[static_cast<std::size_t>(i)] = &batches[static_cast<std::size_t>(i)];
     }
     if (options.recorder) options.recorder->world_step(step, world.truth, batches);
-    observe_world_step(record, step, world.truth, batches);
+    rundir::observe_world_step(record, step, world.truth, batches);
     filter->step(centralized_measurements(scenario, pointers));
     if (filter->last_truncated_entries() > 0) ++truncated_steps;
     for (AgentId i = 0; i < n; ++i) estimates[static_cast<std::size_t>(i)] = fusion_estimate(*filter, i);
 
-    StepMetrics metrics;
+    rundir::StepMetrics metrics;
     metrics.step = step;
-    metrics.time_s = reported_time_s(scenario, step);
-    metrics.errors = score(world, estimates);
-    set_step_bounds(record, metrics);
+    metrics.time_s = world::reported_time_s(scenario, step);
+    metrics.errors = world::score(world, estimates);
+    rundir::set_step_bounds(record, metrics);
     record.metrics.push_back(metrics);
     total_mse.push_back(total_squared_error(world.truth, estimates));
     if (options.record_estimates) {
@@ -148,9 +149,9 @@ RunRecord run_centralized_simulation(const config::Scenario& scenario, const Sim
     if (options.on_step) options.on_step(step, metrics.errors);
   }
 
-  update_run_optimum(record, true);
+  rundir::update_run_optimum(record, true);
   for (AgentId i = 0; i < n; ++i) {
-    AgentSummary summary;
+    rundir::AgentSummary summary;
     summary.agent = i;
     summary.anchor = world.is_anchor[static_cast<std::size_t>(i)];
     summary.steps_run = static_cast<std::uint32_t>(filter->steps_done());

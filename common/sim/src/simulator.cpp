@@ -12,6 +12,7 @@
 #include <sstream>
 #include <thread>
 
+#include "swarmloc/run/manifests.hpp"
 #include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/runtime/agent_runtime.hpp"
 #include "swarmloc/runtime/hostile.hpp"
@@ -19,78 +20,20 @@
 
 namespace swarmloc::sim {
 
-std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& s, const World& world,
-                                                            AgentId id) {
-  // The estimator depends on the agent's setup only (the DDS agent builds it from its manifest).
-  AgentManifest manifest;
-  manifest.id = id;
-  manifest.agent_count = world.size();
-  manifest.setup = world.setup_of(id);
-  return make_agent_estimator(s, manifest);
-}
-
-std::vector<AgentManifest> make_agent_manifests(const config::Scenario& s, const World& world,
-                                                std::uint64_t trial) {
-  const AgentRuntimeParams runtime = make_runtime_params(s, world, trial);  // partition groups once
-  const std::uint64_t results_hash = config::results_hash(s);
-  std::vector<AgentManifest> manifests(static_cast<std::size_t>(world.size()));
-  for (AgentId i = 0; i < world.size(); ++i) {
-    AgentManifest& m = manifests[static_cast<std::size_t>(i)];
-    m.id = i;
-    m.agent_count = world.size();
-    m.setup = world.setup_of(i);
-    m.neighbours = world.neighbours.at(static_cast<std::size_t>(i));
-    m.clock = world.clocks.at(static_cast<std::size_t>(i));
-    m.runtime = runtime;
-    m.results_hash = results_hash;
-    m.run_id = s.dds.run_id;
-  }
-  return manifests;
-}
-
-AgentRuntimeParams make_runtime_params(const config::Scenario& s, const World& world, std::uint64_t trial,
-                                       int incarnation) {
-  AgentRuntimeParams params;
-  params.seed = trial_seed(s.seed, trial);
-  params.loss.loss_probability = s.network.loss;
-  params.loss.burst_mean_length = s.network.burst.mean_length;
-  params.absurd_position_bound_m = absurd_position_bound_m(s);
-  params.world_period_s = 1.0 / s.run.rate_hz;
-  params.first_seq = static_cast<std::uint32_t>(incarnation) << 24;
-  if (const auto window = config::parse_partition(s.faults.partition)) {
-    params.partition_from = window->from_step;
-    params.partition_to = window->to_step;
-    params.partition_group = partition_groups(world);
-  }
-  return params;
-}
-
-std::vector<std::uint8_t> partition_groups(const World& world) {
-  std::vector<double> xs;
-  for (const auto& p : world.truth) xs.push_back(p.x());
-  std::vector<double> sorted = xs;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
-                   sorted.end());
-  const double median = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
-  std::vector<std::uint8_t> group;
-  group.reserve(xs.size());
-  for (const double x : xs) group.push_back(x < median ? 0 : 1);
-  return group;
-}
-
-void record_agents(RunRecord& record, const World& world, const std::vector<AgentRuntime>& agents) {
+void record_agents(rundir::RunRecord& record, const world::World& world,
+                   const std::vector<const runtime::AgentRuntime*>& agents) {
   // Inserted in key order (sender, receiver), each at the end: linear, where inserting receiver by
   // receiver searched the tree for every one of the 10^6–10^7 links of a 10^5-agent run.
-  std::vector<std::pair<std::pair<AgentId, AgentId>, LinkCounters>> links;
+  std::vector<std::pair<std::pair<AgentId, AgentId>, runtime::LinkCounters>> links;
   for (AgentId i = 0; i < world.size(); ++i) {
-    for (const auto& [sender, counters] : agents[static_cast<std::size_t>(i)].links())
+    for (const auto& [sender, counters] : agents[static_cast<std::size_t>(i)]->links())
       links.push_back({{sender, i}, counters});
   }
   std::sort(links.begin(), links.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (const auto& [key, counters] : links) record.links.insert_or_assign(record.links.end(), key, counters);
   for (AgentId i = 0; i < world.size(); ++i) {
-    const auto& agent = agents[static_cast<std::size_t>(i)];
-    AgentSummary summary;
+    const auto& agent = *agents[static_cast<std::size_t>(i)];
+    rundir::AgentSummary summary;
     summary.agent = i;
     summary.anchor = world.is_anchor[static_cast<std::size_t>(i)];
     summary.steps_run = static_cast<std::uint32_t>(agent.steps_run());
@@ -107,7 +50,7 @@ namespace {
 /// Every thread stops at the next agent once control's flag is set; then, all joined, this throws
 /// Cancelled. The calling thread reports its own block's progress to `phase`.
 template <typename Fn>
-void for_each_agent(int n, int threads, const WorkControl& control, WorkPhase& phase, Fn&& fn) {
+void for_each_agent(int n, int threads, const world::WorkControl& control, world::WorkPhase& phase, Fn&& fn) {
   auto run = [&](AgentId from, AgentId to, bool report) {
     for (AgentId i = from; i < to && !control.cancelled(); ++i) {
       if (report) phase.report(static_cast<std::size_t>(i - from), static_cast<std::size_t>(to - from));
@@ -135,12 +78,12 @@ int auto_round_threads(int agents) {
   return static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
 }
 
-RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options) {
+rundir::RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options) {
   if (scenario.run.sim_clock == config::SimClock::kAgents)
     return run_agent_clock_simulation(scenario, options);
   if (config::runs_in_fusion_centre(scenario.algorithm.name))
     return run_centralized_simulation(scenario, options);
-  return run_simulation(scenario, build_world(scenario, options.trial, -1, options.control), options);
+  return run_simulation(scenario, world::build_world(scenario, options.trial, -1, options.control), options);
 }
 
 namespace {
@@ -156,7 +99,7 @@ bool within(const std::vector<config::AgentFault>& faults, AgentId agent, std::i
 /// faults, and the per-step scoring into a RunRecord.
 class LockstepSimulation {
  public:
-  LockstepSimulation(const config::Scenario& scenario, World& world, const SimOptions& options)
+  LockstepSimulation(const config::Scenario& scenario, world::World& world, const SimOptions& options)
       : scenario_(scenario),
         world_(world),
         options_(options),
@@ -166,10 +109,10 @@ class LockstepSimulation {
         step_phase_(options.control, "") {}
 
   /// The agents, the record's header, the first publications, the faults and the links.
-  void set_up(RunRecord& record);
+  void set_up(rundir::RunRecord& record);
   /// The world steps, until run.steps or Ctrl-C.
-  void run_steps(RunRecord& record);
-  [[nodiscard]] const std::vector<AgentRuntime>& agents() const { return agents_; }
+  void run_steps(rundir::RunRecord& record);
+  [[nodiscard]] const std::vector<runtime::AgentRuntime>& agents() const { return agents_; }
 
  private:
   [[nodiscard]] std::int64_t stamp_ns(std::int64_t step) const {
@@ -177,23 +120,24 @@ class LockstepSimulation {
   }
   void create_agents();
   void index_incoming();
-  void run_step(std::int64_t step, RunRecord& record);
+  void run_step(std::int64_t step, rundir::RunRecord& record);
   void restart_killed(std::int64_t step);
   void deliver_previous_round(std::int64_t step, std::int64_t delivered_ns);
   void step_agent_with_batch(AgentId i, std::int64_t step);
   void run_extra_rounds(std::int64_t step);
   void run_quiet_round(std::int64_t step, std::int64_t round_ns);
-  void settle(RunRecord& record);
-  void score_step(std::int64_t step, RunRecord& record, bool report = true);
+  void settle(rundir::RunRecord& record);
+  void score_step(std::int64_t step, rundir::RunRecord& record, bool report = true);
 
   const config::Scenario& scenario_;
-  World& world_;
+  world::World& world_;
   const SimOptions& options_;
-  const WorkControl& control_;
+  const world::WorkControl& control_;
   const int n_;
   const double period_s_;
-  std::vector<AgentRuntime> agents_;
-  std::vector<AgentRuntime::Publication> published_;
+  runtime::AgentManifest shared_manifest_;  ///< what every agent is told alike (run/manifests.hpp)
+  std::vector<runtime::AgentRuntime> agents_;
+  std::vector<runtime::AgentRuntime::Publication> published_;
   std::vector<config::AgentFault> kills_;
   std::vector<config::AgentFault> pauses_;
   std::vector<int> incarnation_;
@@ -204,23 +148,23 @@ class LockstepSimulation {
   int threads_ = 1;
   // A step of a large world takes seconds (a dense one: minutes), so the rounds report their progress and
   // stop at the next agent on Ctrl-C; the step cut short is not scored.
-  WorkPhase step_phase_;
+  world::WorkPhase step_phase_;
 };
 
 void LockstepSimulation::create_agents() {
   agents_.reserve(static_cast<std::size_t>(n_));
-  WorkPhase phase(control_, "agents: creating " + std::to_string(n_) + " agents");
+  shared_manifest_ = run::shared_manifest(scenario_, world_, options_.trial);
+  world::WorkPhase phase(control_, "agents: creating " + std::to_string(n_) + " agents");
   for (AgentId i = 0; i < n_; ++i) {
     phase.tick(static_cast<std::size_t>(i), static_cast<std::size_t>(n_));
-    agents_.emplace_back(make_agent_estimator(scenario_, world_, i), world_.setup_of(i),
-                         world_.neighbours[static_cast<std::size_t>(i)],
-                         make_runtime_params(scenario_, world_, options_.trial));
+    agents_.push_back(
+        runtime::make_agent_runtime(scenario_, run::agent_manifest(shared_manifest_, world_, i)));
   }
 }
 
 void LockstepSimulation::index_incoming() {
   incoming_.resize(static_cast<std::size_t>(n_));
-  WorkPhase phase(control_, "agents: links");
+  world::WorkPhase phase(control_, "agents: links");
   for (AgentId sender = 0; sender < n_; ++sender) {
     phase.tick(static_cast<std::size_t>(sender), static_cast<std::size_t>(n_));
     for (AgentId receiver : world_.neighbours[static_cast<std::size_t>(sender)])
@@ -228,14 +172,14 @@ void LockstepSimulation::index_incoming() {
   }
 }
 
-void LockstepSimulation::set_up(RunRecord& record) {
+void LockstepSimulation::set_up(rundir::RunRecord& record) {
   create_agents();
   record.scenario = scenario_;
   record.mode = "sim";
   record.agents = n_;
   record.anchors = world_.anchor_count();
   record.mean_degree = world_.mean_degree();
-  compute_run_bounds(record, world_);
+  rundir::compute_run_bounds(record, world_);
   record.processes = 1;
 
   published_.resize(static_cast<std::size_t>(n_));
@@ -257,7 +201,7 @@ void LockstepSimulation::set_up(RunRecord& record) {
   if (options_.recorder) options_.recorder->begin(scenario_, world_);
 }
 
-void LockstepSimulation::run_steps(RunRecord& record) {
+void LockstepSimulation::run_steps(rundir::RunRecord& record) {
   for (std::int64_t step = 0; step < scenario_.run.steps; ++step) {
     if (control_.cancelled()) {
       record.interrupted = true;
@@ -266,7 +210,7 @@ void LockstepSimulation::run_steps(RunRecord& record) {
     step_phase_.restart("step " + std::to_string(step + 1) + "/" + std::to_string(scenario_.run.steps));
     try {
       run_step(step, record);
-    } catch (const Cancelled&) {
+    } catch (const world::Cancelled&) {
       record.interrupted = true;
       break;
     }
@@ -274,23 +218,23 @@ void LockstepSimulation::run_steps(RunRecord& record) {
   if (!record.interrupted && !record.metrics.empty()) {
     try {
       settle(record);
-    } catch (const Cancelled&) {
+    } catch (const world::Cancelled&) {
       record.interrupted = true;  // the last step keeps its score before the settle
     }
   }
 }
 
-void LockstepSimulation::run_step(std::int64_t step, RunRecord& record) {
-  if (step > 0) advance_truth(world_, scenario_, step);
+void LockstepSimulation::run_step(std::int64_t step, rundir::RunRecord& record) {
+  if (step > 0) world::advance_truth(world_, scenario_, step);
   restart_killed(step);
   // Deliver round k−1's samples over the lossy bus, then the world-step-k batches. Each receiver takes
   // its senders in ascending id order, so its mailbox and loss draws do not depend on the threads.
   deliver_previous_round(step, stamp_ns(step));
   for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) {
-    batches_[static_cast<std::size_t>(i)] = generate_batch(world_, scenario_, i, step);
+    batches_[static_cast<std::size_t>(i)] = world::generate_batch(world_, scenario_, i, step);
   });
   if (options_.recorder) options_.recorder->world_step(step, world_.truth, batches_);
-  observe_world_step(record, step, world_.truth, batches_);
+  rundir::observe_world_step(record, step, world_.truth, batches_);
   for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) { step_agent_with_batch(i, step); });
   run_extra_rounds(step);
   score_step(step, record);
@@ -300,9 +244,8 @@ void LockstepSimulation::restart_killed(std::int64_t step) {
   for (const auto& fault : kills_) {
     if (fault.to_step != step) continue;
     const auto k = static_cast<std::size_t>(fault.agent);
-    agents_[k] = AgentRuntime(make_agent_estimator(scenario_, world_, fault.agent),
-                              world_.setup_of(fault.agent), world_.neighbours[k],
-                              make_runtime_params(scenario_, world_, options_.trial, ++incarnation_[k]));
+    agents_[k] = runtime::make_agent_runtime(
+        scenario_, run::agent_manifest(shared_manifest_, world_, fault.agent), ++incarnation_[k]);
   }
 }
 
@@ -312,15 +255,16 @@ void LockstepSimulation::deliver_previous_round(std::int64_t step, std::int64_t 
     auto& agent = agents_[static_cast<std::size_t>(receiver)];
     for (AgentId sender : incoming_[static_cast<std::size_t>(receiver)]) {
       const auto& publication = published_[static_cast<std::size_t>(sender)];
-      AgentRuntime::for_each_sample(publication, [&](const Header& header, const auto& message) {
-        if (options_.recorder) {
-          // Published in the previous round, delivered in this one (virtual world time).
-          options_.recorder->sample(ReceivedSample{receiver, agent.steps_run(),
-                                                   publication.header.sender_stamp_ns, delivered_ns, true,
-                                                   header, SampleMessage(message)});
-        }
-        agent.on_sample(header, message);
-      });
+      runtime::AgentRuntime::for_each_sample(
+          publication, [&](const runtime::Header& header, const auto& message) {
+            if (options_.recorder) {
+              // Published in the previous round, delivered in this one (virtual world time).
+              options_.recorder->sample(
+                  runtime::ReceivedSample{receiver, agent.steps_run(), publication.header.sender_stamp_ns,
+                                          delivered_ns, true, header, runtime::SampleMessage(message)});
+            }
+            agent.on_sample(header, message);
+          });
     }
   });
 }
@@ -328,11 +272,12 @@ void LockstepSimulation::deliver_previous_round(std::int64_t step, std::int64_t 
 /// Agent i takes its world-step batch, then steps and publishes (unless down or restarted just now).
 void LockstepSimulation::step_agent_with_batch(AgentId i, std::int64_t step) {
   const auto k = static_cast<std::size_t>(i);
-  Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns(step), stamp_ns(step)};
+  runtime::Header header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns(step),
+                         stamp_ns(step)};
   agents_[k].on_batch(header, std::move(batches_[k]));
   if (within(kills_, i, step) || within(pauses_, i, step)) {
-    published_[k] = AgentRuntime::Publication{};  // publishes nothing this round
-    estimates_[k].reset();                        // not scored while down
+    published_[k] = runtime::AgentRuntime::Publication{};  // publishes nothing this round
+    estimates_[k].reset();                                 // not scored while down
     return;
   }
   const bool restarted_now = std::any_of(kills_.begin(), kills_.end(), [&](const config::AgentFault& f) {
@@ -345,7 +290,8 @@ void LockstepSimulation::step_agent_with_batch(AgentId i, std::int64_t step) {
     return;
   }
   published_[k] = agents_[k].step(stamp_ns(step));
-  make_hostile_if_listed(options_.hostile_agents, i, published_[k].outbox, published_[k].header.step);
+  runtime::make_hostile_if_listed(options_.hostile_agents, i, published_[k].outbox,
+                                  published_[k].header.step);
   estimates_[k] = agents_[k].estimate();
 }
 
@@ -364,7 +310,8 @@ void LockstepSimulation::run_quiet_round(std::int64_t step, std::int64_t round_n
     const auto k = static_cast<std::size_t>(i);
     if (within(kills_, i, step) || within(pauses_, i, step)) return;
     published_[k] = agents_[k].step(round_ns);
-    make_hostile_if_listed(options_.hostile_agents, i, published_[k].outbox, published_[k].header.step);
+    runtime::make_hostile_if_listed(options_.hostile_agents, i, published_[k].outbox,
+                                    published_[k].header.step);
     estimates_[k] = agents_[k].estimate();
   });
 }
@@ -372,7 +319,7 @@ void LockstepSimulation::run_quiet_round(std::int64_t step, std::int64_t round_n
 /// Free run: the DDS orchestrator keeps collecting estimates for run.settle_s after the last world step
 /// while the agents keep ticking on no new data, then re-scores the last step; so do these rounds.
 /// Lockstep DDS agents step only on batches: none there.
-void LockstepSimulation::settle(RunRecord& record) {
+void LockstepSimulation::settle(rundir::RunRecord& record) {
   const auto rounds = settle_rounds(scenario_);
   if (rounds <= 0) return;
   const std::int64_t last = record.metrics.back().step;
@@ -386,12 +333,12 @@ void LockstepSimulation::settle(RunRecord& record) {
   score_step(last, record, false);
 }
 
-void LockstepSimulation::score_step(std::int64_t step, RunRecord& record, bool report) {
-  StepMetrics metrics;
+void LockstepSimulation::score_step(std::int64_t step, rundir::RunRecord& record, bool report) {
+  rundir::StepMetrics metrics;
   metrics.step = step;
-  metrics.time_s = reported_time_s(scenario_, step);
-  metrics.errors = score(world_, estimates_);
-  set_step_bounds(record, metrics);
+  metrics.time_s = world::reported_time_s(scenario_, step);
+  metrics.errors = world::score(world_, estimates_);
+  rundir::set_step_bounds(record, metrics);
   record.metrics.push_back(metrics);
   if (options_.record_estimates) {
     for (AgentId i = 0; i < n_; ++i) {
@@ -409,19 +356,23 @@ std::int64_t settle_rounds(const config::Scenario& scenario) {
   return std::llround(scenario.run.settle_s * scenario.run.rate_hz * scenario.run.agent_steps_per_world_step);
 }
 
-RunRecord run_simulation(const config::Scenario& scenario, World world, const SimOptions& options) {
+rundir::RunRecord run_simulation(const config::Scenario& scenario, world::World world,
+                                 const SimOptions& options) {
   if (scenario.run.sim_clock == config::SimClock::kAgents)
     return run_agent_clock_simulation(scenario, options);
   if (config::runs_in_fusion_centre(scenario.algorithm.name))
     return run_centralized_simulation(scenario, options);
   const auto started = std::chrono::steady_clock::now();
-  attach_recorded(world, options.recorded);
+  world::attach_recorded(world, options.recorded);
   LockstepSimulation simulation(scenario, world, options);
-  RunRecord record;
+  rundir::RunRecord record;
   simulation.set_up(record);
   simulation.run_steps(record);
-  update_run_optimum(record, true);
-  record_agents(record, world, simulation.agents());
+  rundir::update_run_optimum(record, true);
+  std::vector<const runtime::AgentRuntime*> runtimes;
+  runtimes.reserve(simulation.agents().size());
+  for (const auto& agent : simulation.agents()) runtimes.push_back(&agent);
+  record_agents(record, world, runtimes);
   record.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return record;
 }
@@ -451,7 +402,7 @@ struct TrialSeries {
   std::vector<std::size_t> non_finite_steps;
 
   /// Trial t's rows, from its record.
-  void add(int t, const RunRecord& record, std::size_t steps) {
+  void add(int t, const rundir::RunRecord& record, std::size_t steps) {
     const auto k = static_cast<std::size_t>(t);
     auto& rows = per_trial[k];
     rows.reserve(steps);
@@ -461,18 +412,18 @@ struct TrialSeries {
                                     m.bound_all_data_rmse_m * m.bound_all_data_rmse_m,
                                     m.optimum_rmse_m * m.optimum_rmse_m});
     }
-    const StepMetrics& last = *record.final_metrics();
+    const rundir::StepMetrics& last = *record.final_metrics();
     final_rmse[k] = last.errors.rmse_m;
     final_bound[k] = last.bound_rmse_m;
     final_optimum[k] = last.optimum_rmse_m;
     final_flagged[k] = last.errors.flagged;
-    non_finite_steps[k] = non_finite_estimates(record).steps;
+    non_finite_steps[k] = rundir::non_finite_estimates(record).steps;
   }
 };
 
 /// Step k's mean and spread over the trials; the CRLB is the first trial's.
 MonteCarloStep aggregate_step(std::size_t k, int trials, const TrialSeries& series,
-                              const std::vector<StepMetrics>& reference) {
+                              const std::vector<rundir::StepMetrics>& reference) {
   MonteCarloStep row;
   row.step = static_cast<std::int64_t>(k);
   row.crlb_rmse_m = k < reference.size() ? reference[k].crlb_rmse_m : 0.0;
@@ -504,7 +455,7 @@ MonteCarloStep aggregate_step(std::size_t k, int trials, const TrialSeries& seri
 
 MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, int threads,
                                  const std::function<void(int, int)>& on_trial,
-                                 const std::function<void(int, const RunRecord&)>& on_record,
+                                 const std::function<void(int, const rundir::RunRecord&)>& on_record,
                                  const std::atomic<bool>* cancel) {
   require_supported_sim_clock(scenario);  // here, not in a worker thread, where it would terminate
   const auto started = std::chrono::steady_clock::now();
@@ -517,17 +468,17 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
   std::atomic<int> next{0};
   std::atomic<int> done{0};
   std::mutex progress_mutex;
-  const WorkControl control{cancel, {}};
+  const world::WorkControl control{cancel, {}};
   auto worker = [&] {
     for (int t = next++; t < trials && !control.cancelled(); t = next++) {
       SimOptions options;
       options.trial = static_cast<std::uint64_t>(t);
       options.record_estimates = (t == 0) || static_cast<bool>(on_record);
       options.control = control;
-      RunRecord record;
+      rundir::RunRecord record;
       try {
         record = run_simulation(scenario, options);
-      } catch (const Cancelled&) {
+      } catch (const world::Cancelled&) {
         return;  // an exception must not leave a worker thread
       }
       if (record.interrupted) return;
@@ -559,7 +510,7 @@ MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, i
 }
 
 void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result) {
-  create_output_directories(directory);
+  rundir::create_output_directories(directory);
   std::ostringstream out;
   out << "step,mse_mean_m2,mse_std_m2,rmse_mean_m,rmse_std_m,nees_mean,nees_std,crlb_rmse_m,bound_rmse_m,"
          "bound_all_data_rmse_m,optimum_rmse_m\n"
@@ -569,7 +520,7 @@ void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloR
         << r.nees_mean << ',' << r.nees_std << ',' << r.crlb_rmse_m << ',' << r.bound_rmse_m << ','
         << r.bound_all_data_rmse_m << ',' << r.optimum_rmse_m << '\n';
   }
-  write_text_file(directory / "montecarlo.csv", out.str());
+  runtime::write_text_file(directory / "montecarlo.csv", out.str());
   std::ostringstream trials;
   // The bound and the optimum of each trial's own data come last (docs/algorithms.md §1.3.1, §1.3.2).
   trials << "trial,final_rmse_m,flagged_agents,non_finite_steps,bound_rmse_m,bound_ratio,optimum_rmse_m,"
@@ -588,7 +539,7 @@ void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloR
            << (t < result.non_finite_steps_per_trial.size() ? result.non_finite_steps_per_trial[t] : 0) << ','
            << bound << ',' << rmse / bound << ',' << optimum << ',' << rmse / optimum << '\n';
   }
-  write_text_file(directory / "trials.csv", trials.str());
+  runtime::write_text_file(directory / "trials.csv", trials.str());
 }
 
 }  // namespace swarmloc::sim

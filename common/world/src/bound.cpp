@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 namespace {
 
 constexpr double kNoBound = std::numeric_limits<double>::quiet_NaN();
@@ -163,13 +163,13 @@ RunBound moving_range_bound(RunBound bound, const World& world, const config::Sc
   return bound;
 }
 
-/// A moving target (002 eq. (1)): the tracking PCRB of docs/algorithms.md §1.3,
+/// A moving target (Atanasov et al. eq. (1)): the tracking PCRB of docs/algorithms.md §1.3,
 /// J_{k+1} = (F J_k⁻¹ Fᵀ + W)⁻¹ + I(y(k+1)), I from every sensor's reading (all the data: every sensor
 /// estimates the same target). The target's start is a scenario constant no estimator is told, so J_0's
 /// prior is diffuse (kDiffuseTargetInformation).
 RunBound moving_target_bound(RunBound bound, const World& world, const config::Scenario& s) {
   constexpr double kDiffuseTargetInformation = 1e-6;
-  const TargetModel model = target_model(s);
+  const config::TargetModel model = config::target_model(s);
   World replay = world;
   MatX information = MatX::Identity(model.dim, model.dim) * kDiffuseTargetInformation;
   bound.pcrb_rmse_m.reserve(static_cast<std::size_t>(s.run.steps));
@@ -330,4 +330,4 @@ RunBound run_bound(const World& world, const config::Scenario& s, const RangeCrl
   return truth_moves(s) ? moving_range_bound(bound, world, s) : static_range_bound(bound, world, s, legacy);
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

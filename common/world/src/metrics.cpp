@@ -10,7 +10,7 @@
 #include "swarmloc/models/measurement_models.hpp"
 #include "swarmloc/models/multipath.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 namespace {
 
 /// NaN or Inf in the mean, or in a covariance the estimate calls valid.
@@ -139,9 +139,9 @@ RangeCrlb range_crlb(const World& world, double range_std_m) {
   return crlb;
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 namespace {
 
 constexpr int kMaxDenseCrlbAgents = 3000;  // dense L⁻¹ beyond this costs seconds and ~70 MB
@@ -322,4 +322,4 @@ RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario) {
   return crlb;
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

@@ -12,7 +12,7 @@
 #include "swarmloc/estimators/pose_filters.hpp"
 #include "swarmloc/models/measurement_models.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 namespace {
 
 using config::ScenarioError;
@@ -312,4 +312,4 @@ MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& 
   return baselines;
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

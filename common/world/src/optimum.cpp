@@ -9,7 +9,7 @@
 
 #include "swarmloc/world/bound.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 namespace {
 
 using enum config::RangeDraws;
@@ -564,4 +564,4 @@ OptimumEstimate OptimumAccumulator::solve_now() const {
   return data_->solve(last_observed_);
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

@@ -8,7 +8,7 @@
 
 #include "swarmloc/world/optimum.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 namespace {
 
 using SparseMatrix = Eigen::SparseMatrix<double>;
@@ -313,4 +313,4 @@ OptimumSolution solve_optimum_problem(const OptimumProblem& p, bool covariance) 
   return p.keep_order ? solve_with<BandFactor>(p, covariance) : solve_with<AmdFactor>(p, covariance);
 }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

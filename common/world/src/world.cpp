@@ -18,7 +18,7 @@
 #include "swarmloc/models/measurement_models.hpp"
 #include "swarmloc/world/mrclam.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 namespace {
 
 using config::Scenario;
@@ -285,7 +285,8 @@ void draw_initial_guesses(World& world, const Scenario& s, std::uint64_t trial,
     } else {
       world.initial_guess[i] = world.truth[i] + s.world.initial_guess_std_m * Vec2(gauss(rng), gauss(rng));
     }
-    // Anchors know their position; so does every sensor of a target-estimating world (002 Sec. II).
+    // Anchors know their position; so does every sensor of a target-estimating world (Atanasov et al. Sec.
+    // II).
     if (world.is_anchor[i] || kinds.targets) world.initial_guess[i] = world.truth[i];
   }
 }
@@ -295,11 +296,11 @@ void add_environment(World& world, const Scenario& s, const MeasurementKinds& ki
   const auto n = static_cast<std::size_t>(s.world.agents);
   if (kinds.field) {
     auto field_rng = core::make_engine(s.seed, core::Stream::kPlacement, -2);  // the world's, not the trial's
-    world.field =
-        draw_gaussian_field(field_sensor(s).grid, s.world.field_std, s.world.field_correlation_m, field_rng);
+    world.field = draw_gaussian_field(config::field_sensor(s).grid, s.world.field_std,
+                                      s.world.field_correlation_m, field_rng);
   }
   if (kinds.targets) {
-    world.target = VecX::Zero(target_model(s).dim);
+    world.target = VecX::Zero(config::target_model(s).dim);
     world.target.head<2>() = Vec2(s.world.target_x_m, s.world.target_y_m);
     if (world.target.size() == 4) world.target.tail<2>() = Vec2(s.world.target_vx_mps, s.world.target_vy_mps);
   }
@@ -363,10 +364,10 @@ VecX draw_gaussian_field(const estimators::consensus::FieldGrid& grid, double st
 
 namespace {
 
-/// y(k) = F y(k−1) + η, η ~ N(0, W) (002 eq. (1)); one seeded draw per step.
+/// y(k) = F y(k−1) + η, η ~ N(0, W) (Atanasov et al. eq. (1)); one seeded draw per step.
 void advance_target(World& world, const Scenario& s, std::int64_t step) {
   if (!world.estimates_target() || s.world.target_motion == config::TargetMotion::kStatic) return;
-  const TargetModel model = target_model(s);
+  const config::TargetModel model = config::target_model(s);
   const Eigen::LLT<MatX> root(model.W);
   auto rng = core::make_engine(trial_seed(s.seed, world.trial), core::Stream::kMotion, step, -1);
   std::normal_distribution<double> gauss(0.0, 1.0);
@@ -516,7 +517,7 @@ estimators::MeasurementBatch generate_batch(const World& world, const Scenario& 
   if (kinds.targets) add_target_reading(world, s, agent, step, batch);
   if (kinds.field) {
     const double reading =
-        estimators::consensus::field_observation_row(field_sensor(s), xi).dot(world.field) +
+        estimators::consensus::field_observation_row(config::field_sensor(s), xi).dot(world.field) +
         s.noise.field_std * core::standard_normal(noise_key(world, s, step, agent, -8));
     const double variance = s.noise.field_std * s.noise.field_std;
     batch.targets.push_back(
@@ -532,4 +533,4 @@ double reported_time_s(const Scenario& s, std::int64_t step) {
 
 double absurd_position_bound_m(const Scenario& s) { return 1000.0 * std::max(1.0, s.world.area_m); }
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

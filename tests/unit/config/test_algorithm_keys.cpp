@@ -48,18 +48,18 @@ TEST(AlgorithmKeys, NoWarningForABlockTheAlgorithmReadsOrAFileDefault) {
   EXPECT_TRUE(warnings_of("algorithm:\n  name: dgbb\n  fixed_step: 0.2\n  consensus_rounds: 3\n").empty());
   EXPECT_TRUE(warnings_of("algorithm:\n  name: dle\n  initial_information: 1.0e-3\n").empty());
   // A file that lists keys at their defaults is a template (scenarios/default.yaml lists the gradient
-  // keys for ieif).
+  // and kalman keys for dml).
   EXPECT_TRUE(warnings_of("algorithm:\n  consensus_rounds: 20\n  path_variance: range_only\n").empty());
-  for (const char* file : {"default.yaml", "dgbb.yaml", "dle.yaml", "dle_tracking.yaml", "ea2.yaml",
-                           "jacobi.yaml", "joint_field.yaml", "multipath_bp.yaml"}) {
+  for (const char* file : {"default.yaml", "ieif.yaml", "dgbb.yaml", "dle.yaml", "dle_tracking.yaml",
+                           "ea2.yaml", "jacobi.yaml", "joint_field.yaml", "multipath_bp.yaml"}) {
     EXPECT_EQ(file_warnings(file, {}), std::vector<std::string>{}) << file;
   }
-  // default.yaml's update_iterations: 10 is not a default, and dgbb does not read it.
-  const auto warnings = file_warnings("default.yaml", {"algorithm.name=dgbb"});
+  // ieif.yaml's update_iterations: 10 is not a default, and dgbb does not read it.
+  const auto warnings = file_warnings("ieif.yaml", {"algorithm.name=dgbb"});
   ASSERT_EQ(warnings.size(), 1U);
   EXPECT_EQ(warnings[0].rfind("algorithm.update_iterations: a kalman key, not used by dgbb (read by ", 0),
             0U);
-  EXPECT_NE(warnings[0].find("default.yaml:"), std::string::npos);
+  EXPECT_NE(warnings[0].find("ieif.yaml:"), std::string::npos);
 }
 
 TEST(AlgorithmKeys, EveryBlockIsRangeCheckedWhateverTheAlgorithm) {

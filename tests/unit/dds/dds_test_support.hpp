@@ -11,8 +11,8 @@
 
 namespace swarmloc::dds::test {
 
-inline sim::Header make_header(AgentId agent, std::uint32_t seq) {
-  sim::Header header;
+inline runtime::Header make_header(AgentId agent, std::uint32_t seq) {
+  runtime::Header header;
   header.agent_id = agent;
   header.seq = seq;
   header.step = 1000 + seq;
@@ -21,7 +21,7 @@ inline sim::Header make_header(AgentId agent, std::uint32_t seq) {
   return header;
 }
 
-inline void expect_header_eq(const sim::Header& actual, const sim::Header& expected) {
+inline void expect_header_eq(const runtime::Header& actual, const runtime::Header& expected) {
   EXPECT_EQ(actual.agent_id, expected.agent_id);
   EXPECT_EQ(actual.seq, expected.seq);
   EXPECT_EQ(actual.step, expected.step);
@@ -104,8 +104,8 @@ inline estimators::MeasurementBatch make_batch(std::int64_t world_step, std::int
   return b;
 }
 
-inline sim::EstimateReport make_estimate(AgentId agent, std::uint32_t seq) {
-  sim::EstimateReport r;
+inline runtime::EstimateReport make_estimate(AgentId agent, std::uint32_t seq) {
+  runtime::EstimateReport r;
   r.header = make_header(agent, seq);
   r.estimate.mean_m = Vec2(3.25 + agent, 1.0 / 3.0);
   r.estimate.covariance = sym2(0.2, 0.01, 0.3);
@@ -193,7 +193,7 @@ inline void expect_batch_eq(const estimators::MeasurementBatch& a, const estimat
   }
 }
 
-inline void expect_estimate_eq(const sim::EstimateReport& a, const sim::EstimateReport& b) {
+inline void expect_estimate_eq(const runtime::EstimateReport& a, const runtime::EstimateReport& b) {
   expect_header_eq(a.header, b.header);
   EXPECT_MATRIX_NEAR(a.estimate.mean_m, b.estimate.mean_m, 0.0);
   EXPECT_MATRIX_NEAR(a.estimate.covariance, b.estimate.covariance, 0.0);

@@ -125,10 +125,10 @@ TEST(Convert, UnknownStateFlagBitsAreMalformed) {
 }
 
 TEST(Convert, ControlCommandsOutOfRangeAreMalformed) {
-  EXPECT_EQ(codec::control_command(0), sim::ControlCommand::kHello);
-  EXPECT_EQ(codec::control_command(1), sim::ControlCommand::kStart);
-  EXPECT_EQ(codec::control_command(2), sim::ControlCommand::kStop);
-  EXPECT_EQ(codec::control_command(3), sim::ControlCommand::kRefuse);
+  EXPECT_EQ(codec::control_command(0), runtime::ControlCommand::kHello);
+  EXPECT_EQ(codec::control_command(1), runtime::ControlCommand::kStart);
+  EXPECT_EQ(codec::control_command(2), runtime::ControlCommand::kStop);
+  EXPECT_EQ(codec::control_command(3), runtime::ControlCommand::kRefuse);
   EXPECT_FALSE(codec::control_command(4).has_value());
   EXPECT_FALSE(codec::control_command(255).has_value());
 }
@@ -208,10 +208,10 @@ TEST(Convert, EstimateWithLinkCountersRoundTripsExactly) {
 }
 
 TEST(Convert, ControlRoundTripsExactly) {
-  sim::ControlMessage message;
+  runtime::ControlMessage message;
   message.header = test::make_header(kOrchestratorId, 1);
   message.target = kOrchestratorId;
-  message.command = sim::ControlCommand::kStop;
+  message.command = runtime::ControlCommand::kStop;
   message.scenario_hash = 0xfedcba9876543210ULL;
   message.start_world_ns = 5'000'000'000LL;
   const auto back = codec::round_trip(message);
@@ -225,7 +225,7 @@ TEST(Convert, ControlRoundTripsExactly) {
 
 TEST(Convert, EstimateCarriesTheSelfCheckVerdict) {
   for (const bool inconsistent : {false, true}) {
-    sim::EstimateReport report;
+    runtime::EstimateReport report;
     report.header = test::make_header(2, 5);
     report.estimate.valid = true;
     report.estimate.inconsistent = inconsistent;

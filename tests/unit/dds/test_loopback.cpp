@@ -32,8 +32,8 @@ struct Collected {
   std::vector<Inbound<estimators::InformationMessage>> information;
   std::vector<Inbound<estimators::ConsensusMessage>> consensus;
   std::vector<Inbound<estimators::BeliefMessage>> beliefs;
-  std::vector<std::pair<sim::Header, estimators::MeasurementBatch>> batches;
-  std::vector<sim::ControlMessage> control;
+  std::vector<std::pair<runtime::Header, estimators::MeasurementBatch>> batches;
+  std::vector<runtime::ControlMessage> control;
 
   void take(AgentTransport& agent, double timeout_s = 0.0) {
     auto in = agent.wait_and_take(timeout_s);
@@ -215,7 +215,7 @@ TEST(DdsLoopback, RoutesBatchesStatesAndEstimatesOnlyAlongTheTopology) {
   EXPECT_TRUE(in2.states.back().well_formed);
 
   // Estimates from every agent reach the orchestrator with every field intact.
-  std::map<AgentId, sim::EstimateReport> reports;
+  std::map<AgentId, runtime::EstimateReport> reports;
   ASSERT_TRUE(poll_until(10.0, [&] {
     agent1.publish_estimate(test::make_estimate(1, 5));
     agent2.publish_estimate(test::make_estimate(2, 5));
@@ -308,10 +308,10 @@ TEST(DdsLoopback, WaitReturnsAfterTheTimeoutWhenNothingArrives) {
 TEST(DdsLoopback, TransientLocalControlReachesAnAgentCreatedAfterItWasWritten) {
   const auto scenario = loopback_scenario(18);
   OrchestratorTransport orchestrator(scenario, 3);
-  sim::ControlMessage start;
+  runtime::ControlMessage start;
   start.header = test::make_header(kOrchestratorId, 4);
   start.target = kOrchestratorId;
-  start.command = sim::ControlCommand::kStart;
+  start.command = runtime::ControlCommand::kStart;
   start.scenario_hash = 0x0123456789abcdefULL;
   start.start_world_ns = 2'500'000'000LL;
   orchestrator.publish_control(start);

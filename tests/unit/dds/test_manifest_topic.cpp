@@ -13,7 +13,7 @@
 namespace swarmloc::dds {
 namespace {
 
-sim::AgentManifest topic_manifest(AgentId id = 3, const std::string& run_id = "r-manifest") {
+runtime::AgentManifest topic_manifest(AgentId id = 3, const std::string& run_id = "r-manifest") {
   return testing::sample_manifest(id, run_id);
 }
 
@@ -23,7 +23,7 @@ const std::string kManifestYaml = "seed: 1\nworld:\n  agents: 7\n";
 std::string field_rejection(const ManifestFields& fields) {
   try {
     (void)read_manifest_fields(fields, "sample");
-  } catch (const sim::ManifestError& error) {
+  } catch (const runtime::ManifestError& error) {
     return error.what();
   }
   return "";
@@ -36,7 +36,7 @@ TEST(ManifestTopic, FieldsCarryExactlyTheFilesManifest) {
     m.setup.comm_radius_m = std::isinf(std_m) ? std_m : 15.5;
     const ManifestOffer back = read_manifest_fields(manifest_fields(m, kManifestYaml), "sample");
     // The file's text is exact for doubles: equal text, equal manifests bit for bit.
-    EXPECT_EQ(sim::to_json_text(back.manifest), sim::to_json_text(m));
+    EXPECT_EQ(runtime::to_json_text(back.manifest), runtime::to_json_text(m));
     EXPECT_EQ(back.manifest.setup.initial_guess_m, m.setup.initial_guess_m);
     EXPECT_EQ(back.manifest.clock.offset_s, m.clock.offset_s);
     EXPECT_EQ(back.manifest.runtime.partition_group[6], 1);
@@ -139,9 +139,9 @@ TEST(ManifestTopic, GarbledFieldsNeverEscapeAsAnythingButManifestError) {
     if (random() % 8 == 0) f.run_id.push_back(static_cast<char>(random()));
     try {
       const ManifestOffer offer = read_manifest_fields(f, "garbled");
-      EXPECT_NO_THROW((void)sim::parse_manifest(sim::to_json_text(offer.manifest), "again"));
+      EXPECT_NO_THROW((void)runtime::parse_manifest(runtime::to_json_text(offer.manifest), "again"));
       ++accepted;
-    } catch (const sim::ManifestError&) {
+    } catch (const runtime::ManifestError&) {
     }
   }
   EXPECT_GT(accepted, 0);  // the mutations leave some samples whole
@@ -170,7 +170,7 @@ TEST(ManifestTopic, AgentTakesItsOwnSampleAndRefusesAHostileOne) {
   try {
     (void)receive_manifest(scenario, 3, 3.0, &stats);
     ADD_FAILURE() << "a hostile manifest was accepted";
-  } catch (const sim::ManifestError& error) {
+  } catch (const runtime::ManifestError& error) {
     EXPECT_NE(std::string(error.what()).find("neighbours holds 3"), std::string::npos) << error.what();
     EXPECT_NE(std::string(error.what()).find("1 manifest sample(s) rejected"), std::string::npos)
         << error.what();
@@ -181,7 +181,7 @@ TEST(ManifestTopic, AgentTakesItsOwnSampleAndRefusesAHostileOne) {
   publisher.publish({honest, topic_manifest(5, "r-mt186")}, kManifestYaml);
   const ManifestOffer offer = receive_manifest(scenario, 3, 10.0, &stats);
   EXPECT_EQ(stats.rejected, 0);
-  EXPECT_EQ(sim::to_json_text(offer.manifest), sim::to_json_text(honest));
+  EXPECT_EQ(runtime::to_json_text(offer.manifest), runtime::to_json_text(honest));
   EXPECT_EQ(offer.scenario_yaml, kManifestYaml);
 
   const ManifestOffer any_run = receive_manifest(manifest_scenario(kDomain, ""), 5, 10.0);

@@ -72,16 +72,16 @@ TEST(DdsChild, RunAgentFromEnvironment) {
       batches += header.agent_id == kOrchestratorId && !batch.ranges.empty() && batch.ranges[0].peer == self;
     }
     for (const auto& control : in.control) {
-      stop = stop || control.command == sim::ControlCommand::kStop;
+      stop = stop || control.command == runtime::ControlCommand::kStop;
     }
     if (tick % 2 == 0) {
-      sim::EstimateReport report;
+      runtime::EstimateReport report;
       report.header = test::make_header(self, tick);
       report.estimate.valid = transport.orchestrator_matched();
       report.steps_run = static_cast<std::uint32_t>(transport.matched_neighbours());
       report.samples_published = batches;
       for (const auto& [sender, count] : states_from) {
-        report.links.push_back(sim::LinkCounters{sender, count, 0, 0, 0, 0, 0});
+        report.links.push_back(runtime::LinkCounters{sender, count, 0, 0, 0, 0, 0});
       }
       transport.publish_estimate(report);
     }
@@ -89,7 +89,7 @@ TEST(DdsChild, RunAgentFromEnvironment) {
   EXPECT_TRUE(stop) << "agent " << self << " never received STOP";
 }
 
-std::set<AgentId> senders(const sim::EstimateReport& report) {
+std::set<AgentId> senders(const runtime::EstimateReport& report) {
   std::set<AgentId> out;
   for (const auto& link : report.links) {
     out.insert(link.sender);
@@ -129,7 +129,7 @@ TEST(DdsMultiProcess, UnicastPeersDiscoverNeighboursAndRouteOnlyTheirData) {
 
   // Feed every agent its own batches and watch the reports until each one has matched its neighbours and
   // the orchestrator, got its batches and states from every neighbour; then one more second for strays.
-  std::map<AgentId, sim::EstimateReport> latest;
+  std::map<AgentId, runtime::EstimateReport> latest;
   const auto done = [&] {
     if (latest.size() != kAgents) {
       return false;
@@ -165,9 +165,9 @@ TEST(DdsMultiProcess, UnicastPeersDiscoverNeighboursAndRouteOnlyTheirData) {
     feed();
   }
 
-  sim::ControlMessage stop;
+  runtime::ControlMessage stop;
   stop.header = test::make_header(kOrchestratorId, 0);
-  stop.command = sim::ControlCommand::kStop;
+  stop.command = runtime::ControlCommand::kStop;
   orchestrator.publish_control(stop);
   for (const pid_t pid : children) {
     int status = -1;

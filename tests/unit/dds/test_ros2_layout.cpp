@@ -74,7 +74,7 @@ TEST(Ros2Layout, HeadingFillsYawsRowAndColumn) {
 }
 
 TEST(Ros2Layout, OnlyValidEstimatesOfStepsRunBecomePoses) {
-  sim::EstimateReport report;
+  runtime::EstimateReport report;
   report.estimate.valid = true;
   EXPECT_FALSE(publishes_pose(report));  // a hello (steps_run = 0) carries the prior
   report.steps_run = 1;

@@ -29,8 +29,8 @@ config::Scenario scenario_on(int domain_id, const std::string& run_id) {
   return scenario;
 }
 
-std::vector<sim::ControlMessage> control_taken(AgentTransport& agent, double for_s) {
-  std::vector<sim::ControlMessage> control;
+std::vector<runtime::ControlMessage> control_taken(AgentTransport& agent, double for_s) {
+  std::vector<runtime::ControlMessage> control;
   poll_until(for_s, [&] {
     auto in = agent.wait_and_take(0.05);
     control.insert(control.end(), in.control.begin(), in.control.end());
@@ -49,20 +49,20 @@ TEST(RunIsolation, AnotherRunsStopNeverReachesThisRunsAgents) {
   ASSERT_TRUE(
       poll_until(10.0, [&] { return agent_a.orchestrator_matched() && agent_b.orchestrator_matched(); }));
 
-  sim::ControlMessage stop;
+  runtime::ControlMessage stop;
   stop.header = test::make_header(kOrchestratorId, 1);
-  stop.command = sim::ControlCommand::kStop;
+  stop.command = runtime::ControlCommand::kStop;
   orchestrator_b.publish_control(stop);
-  sim::ControlMessage start = stop;
-  start.command = sim::ControlCommand::kStart;
+  runtime::ControlMessage start = stop;
+  start.command = runtime::ControlCommand::kStart;
   orchestrator_a.publish_control(start);
 
   const auto seen_by_a = control_taken(agent_a, 1.0);
   const auto seen_by_b = control_taken(agent_b, 0.2);
   ASSERT_EQ(seen_by_a.size(), 1U);
-  EXPECT_EQ(seen_by_a[0].command, sim::ControlCommand::kStart) << "run A's agent took run B's STOP";
+  EXPECT_EQ(seen_by_a[0].command, runtime::ControlCommand::kStart) << "run A's agent took run B's STOP";
   ASSERT_EQ(seen_by_b.size(), 1U);
-  EXPECT_EQ(seen_by_b[0].command, sim::ControlCommand::kStop);
+  EXPECT_EQ(seen_by_b[0].command, runtime::ControlCommand::kStop);
 }
 
 /// Holds a UDP port as another run's participant would.
@@ -107,7 +107,7 @@ TEST(RunIsolation, ABusyPortOfTheRunIsRefusedNamingItsOwnerAndAFreeDomain) {
 }
 
 TEST(RunIsolation, EstimatesCarryTheResultsHashAndHealth) {
-  sim::EstimateReport report;
+  runtime::EstimateReport report;
   report.header = test::make_header(3, 9);
   report.results_hash = 0xfeedfacecafebeefULL;
   report.health.ticks = 100;
@@ -134,7 +134,7 @@ TEST(RunIsolation, EstimatesCarryTheResultsHashAndHealth) {
 TEST(RunIsolation, AbsurdHealthFiguresMakeAReportMalformed) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (int broken = 0; broken < 5; ++broken) {
-    sim::EstimateReport report;
+    runtime::EstimateReport report;
     report.header = test::make_header(1, 1);
     report.health.ticks = 10;
     switch (broken) {
@@ -159,14 +159,14 @@ TEST(RunIsolation, AbsurdHealthFiguresMakeAReportMalformed) {
 }
 
 TEST(RunIsolation, RefuseIsAControlCommand) {
-  sim::ControlMessage refusal;
+  runtime::ControlMessage refusal;
   refusal.header = test::make_header(kOrchestratorId, 2);
   refusal.target = 5;
-  refusal.command = sim::ControlCommand::kRefuse;
+  refusal.command = runtime::ControlCommand::kRefuse;
   refusal.scenario_hash = 42;
   const auto back = codec::round_trip(refusal);
   ASSERT_TRUE(back.well_formed);
-  EXPECT_EQ(back.message.command, sim::ControlCommand::kRefuse);
+  EXPECT_EQ(back.message.command, runtime::ControlCommand::kRefuse);
   EXPECT_EQ(back.message.target, 5);
 }
 

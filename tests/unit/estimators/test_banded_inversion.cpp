@@ -1,4 +1,4 @@
-// BandMatrix, banded Cholesky/Takahashi and 000 Alg. 1 (docs/algorithms.md §2.3 properties 1–5).
+// BandMatrix, banded Cholesky/Takahashi and Khan et al. Alg. 1 (docs/algorithms.md §2.3 properties 1–5).
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>

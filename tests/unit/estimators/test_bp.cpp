@@ -180,10 +180,10 @@ TEST(MultipathBp, AnchorPublishesInfiniteInformationAndNodeLocalizesFromIt) {
   EXPECT_MATRIX_NEAR(node.mean(), s_1, 1e-9);
 }
 
-// ---- Exact GaBP (not in 003, the [D-4] ablation) and the centralized baseline ----
+// ---- Exact GaBP (not in Leng et al., the [D-4] ablation) and the centralized baseline ----
 
 // A small network: node 0 the anchor at truth[0], every link seen over the two walls of two_paths() with
-// seeded length and angle noise, one path draw shared by both ends (as in 003's experiment).
+// seeded length and angle noise, one path draw shared by both ends (as in Leng et al.'s experiment).
 struct SmallNetwork {
   std::vector<Vec2> truth;
   std::vector<std::array<AgentId, 2>> links;
@@ -280,7 +280,7 @@ TEST(CentralizedFromPaths, NoiseFreePathsGiveTheTruthAndAnUnlinkedNodeNoSolution
 }
 
 // On a tree, Gaussian BP with cavity messages is exact: its means and covariances are the centralized
-// least-squares solution's once messages have crossed the tree. 003's beliefs count every edge's
+// least-squares solution's once messages have crossed the tree. Leng et al.'s beliefs count every edge's
 // evidence again on the way back, so they are more confident than the data allow.
 TEST(MultipathBp, ExactMessagesOnATreeGiveTheCentralizedMeansAndCovariances) {
   const auto net =
@@ -297,7 +297,7 @@ TEST(MultipathBp, ExactMessagesOnATreeGiveTheCentralizedMeansAndCovariances) {
     EXPECT_MATRIX_NEAR(exact[k]->mean(), reference[k].mean, 1e-9) << k;
     EXPECT_MATRIX_NEAR(Mat2(exact[k]->information().inverse()), reference[k].covariance, 1e-9) << k;
   }
-  // Node 4, three hops out: 003's belief claims more than twice the information the data hold.
+  // Node 4, three hops out: Leng et al.'s belief claims more than twice the information the data hold.
   EXPECT_GT(printed[4]->information().trace(), 2.0 * reference[4].covariance.inverse().trace());
   // A node publishes the messages it summed. Without priors only what comes from the anchor's side
   // carries information: node 3's leaf (node 4) has nothing to tell it but what node 3 told it.
@@ -307,7 +307,8 @@ TEST(MultipathBp, ExactMessagesOnATreeGiveTheCentralizedMeansAndCovariances) {
   EXPECT_MATRIX_NEAR(published.contributions[0].information, exact[3]->information(), 0.0);
 }
 
-// On 003's five-node loop the means still converge to the centralized solution (Gaussian BP's fixed point).
+// On Leng et al.'s five-node loop the means still converge to the centralized solution (Gaussian BP's fixed
+// point).
 TEST(MultipathBp, ExactMessagesOnTheLoopOfTheExperimentConvergeToTheCentralizedMeans) {
   const auto net =
       noisy_network({Vec2::Zero(), Vec2(3.0, 8.0), Vec2(9.0, 1.0), Vec2(6.0, 9.0), Vec2(9.5, 4.0)},
@@ -324,7 +325,7 @@ TEST(MultipathBp, ExactMessagesOnTheLoopOfTheExperimentConvergeToTheCentralizedM
     EXPECT_MATRIX_NEAR(exact[k]->mean(), reference[k].mean, 1e-8) << k;
     printed_gap = std::max(printed_gap, (printed[k]->mean() - reference[k].mean).norm());
   }
-  EXPECT_GT(printed_gap, 1e-4);  // 003's fixed point is another one: the test tells the two apart
+  EXPECT_GT(printed_gap, 1e-4);  // Leng et al.'s fixed point is another one: the test tells the two apart
 }
 
 }  // namespace

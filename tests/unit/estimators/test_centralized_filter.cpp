@@ -1,5 +1,5 @@
-// Centralized EKF / LB-EKF / LB-EKF-I (000 eqs. (10)–(12), Alg. 2; docs/algorithms.md §2.1–§2.4) and the
-// posterior CRB recursion (§1.3).
+// Centralized EKF / LB-EKF / LB-EKF-I (Khan et al. eqs. (10)–(12), Alg. 2; docs/algorithms.md §2.1–§2.4) and
+// the posterior CRB recursion (§1.3).
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>

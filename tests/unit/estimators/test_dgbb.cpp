@@ -102,7 +102,7 @@ struct Lattice {
   }
 };
 
-TEST(DgBb, ConsensusStepConvergesToTheCentralizedBbStep) {  // 004 Prop. 1
+TEST(DgBb, ConsensusStepConvergesToTheCentralizedBbStep) {  // Calafiore et al. Prop. 1
   const Lattice lattice(4, 0.05, 9);
   DgBbParams params;
   params.consensus_rounds = 150;

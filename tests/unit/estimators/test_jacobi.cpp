@@ -105,7 +105,7 @@ TEST(Jacobi, FixedPointEqualsTheCentralizedBlue) {
   for (int t = samples; t < 3000; ++t)
     bus.round(agents, net.edges, nullptr, t);  // s̄ frozen: iterate to the fixed point
 
-  // BLUE (002 eq. (8)): minimize Σ (x_j − x_i − s̄_ij)ᵀ𝓔_ij⁻¹(·) with x_0 = 0.
+  // BLUE (Atanasov et al. eq. (8)): minimize Σ (x_j − x_i − s̄_ij)ᵀ𝓔_ij⁻¹(·) with x_0 = 0.
   const int m = n - 1;
   MatX L = MatX::Zero(2 * m, 2 * m);
   VecX b = VecX::Zero(2 * m);

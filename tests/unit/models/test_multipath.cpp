@@ -12,7 +12,8 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-// 003 eq. (1) for noise-free specular reflections: d = g(θ_ij, θ_ji)ᵀ(s_i − s_j) to machine precision.
+// Leng et al. eq. (1) for noise-free specular reflections: d = g(θ_ij, θ_ji)ᵀ(s_i − s_j) to machine
+// precision.
 void expect_eq1_holds_for_wall(double wall_angle_deg) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(0.0, 10.0);

@@ -1,4 +1,4 @@
-// E-A1 and E-A2 of 000 Sec. 5 (docs/algorithms.md §2.8), reduced in size.
+// E-A1 and E-A2 of Khan et al. Sec. 5 (docs/algorithms.md §2.8), reduced in size.
 #include <gtest/gtest.h>
 
 #include <iostream>
@@ -7,7 +7,7 @@
 
 #include "swarmloc/research/centralized_experiments.hpp"
 
-namespace swarmloc::estimators::centralized {
+namespace swarmloc::research {
 namespace {
 
 // E-A1 (Fig. 2): the error falls steeply until L reaches the bandwidth of A, then slowly, to 0 at n − 1.
@@ -20,8 +20,9 @@ TEST(CentralizedExperiments, BandedInversionErrorFallsWithBandwidth) {
   EXPECT_LT(errors[2], 0.1 * errors[0]);
   EXPECT_LT(errors[5], 1e-10);
   std::mt19937_64 same(1);
-  EXPECT_NEAR(banded_inversion_error(n, a_bandwidth, 5, same, BandInversionMethod::kSlidingCholesky),
-              errors[2], 1e-9);
+  EXPECT_NEAR(
+      banded_inversion_error(n, a_bandwidth, 5, same, centralized::BandInversionMethod::kSlidingCholesky),
+      errors[2], 1e-9);
 }
 
 // Mean of MSE_i(k) over trials, steps [from, to) and the given agents.
@@ -108,4 +109,4 @@ TEST(CentralizedExperiments, VariantsShareTheTrialDraws) {
 }
 
 }  // namespace
-}  // namespace swarmloc::estimators::centralized
+}  // namespace swarmloc::research

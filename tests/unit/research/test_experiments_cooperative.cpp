@@ -9,10 +9,11 @@
 #include "swarmloc/research/multipath_localization.hpp"
 #include "swarmloc/research/relative_localization.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
-/// 002, docs/algorithms.md §4.6 scaled to 60 nodes at the same density and edges per node, 10 runs.
+/// Atanasov et al., docs/algorithms.md §4.6 scaled to 60 nodes at the same density and edges per node, 10
+/// runs.
 JacobiExperimentConfig scaled_geometric_experiment() {
   JacobiExperimentConfig config;
   config.num_nodes = 60;
@@ -37,8 +38,9 @@ TEST(JacobiExperiment, RmseFallsFarBelowThePriorsAndStaysAboveTheBlue) {
   EXPECT_NEAR(r.blue_rmse[50] / r.crb_rmse[50], 1.0, 0.15);
 }
 
-// Not in 002: agents that exchange estimates several times between two measurements drain the prior
-// transient, and at step 50 Jacobi comes within the acceptance's 1.2x of the BLUE (300 nodes: 30 sweeps).
+// Not in Atanasov et al.: agents that exchange estimates several times between two measurements drain the
+// prior transient, and at step 50 Jacobi comes within the acceptance's 1.2x of the BLUE (300 nodes: 30
+// sweeps).
 TEST(JacobiExperiment, SweepsBetweenMeasurementsBringJacobiToTheBlue) {
   JacobiExperimentConfig config = scaled_geometric_experiment();
   const JacobiExperimentResult one = run_jacobi_experiment(config);
@@ -51,9 +53,9 @@ TEST(JacobiExperiment, SweepsBetweenMeasurementsBringJacobiToTheBlue) {
   EXPECT_THROW(run_jacobi_experiment(config), std::invalid_argument);
 }
 
-// 𝓔 is not in 002: the prior transient does not depend on it and the BLUE's error grows with it, so one sweep
-// per step lags the BLUE by a factor that falls as the measurements get noisier (300 nodes: 3.15 at 1 m,
-// 1.16 at 3 m, 0.82 at 5 m, where Jacobi's memory of the priors puts it below the BLUE).
+// 𝓔 is not in Atanasov et al.: the prior transient does not depend on it and the BLUE's error grows with it,
+// so one sweep per step lags the BLUE by a factor that falls as the measurements get noisier (300 nodes: 3.15
+// at 1 m, 1.16 at 3 m, 0.82 at 5 m, where Jacobi's memory of the priors puts it below the BLUE).
 TEST(JacobiExperiment, TheLagOfOneSweepBehindTheBlueShrinksWithNoisierMeasurements) {
   JacobiExperimentConfig config = scaled_geometric_experiment();
   const JacobiExperimentResult one_metre = run_jacobi_experiment(config);
@@ -115,7 +117,7 @@ TEST(MultipathExperiment, CovariancesNeverGrowAndCooperationBeatsPairwiseAtS3S4)
   config.iterations = 30;
   config.seed = 5;
   const MultipathExperimentResult r = run_multipath_experiment(config);
-  EXPECT_EQ(r.covariance_increase_trials, 0);  // 003 Thm. 1
+  EXPECT_EQ(r.covariance_increase_trials, 0);  // Leng et al. Thm. 1
   EXPECT_EQ(r.trials_unlocalized, 0);
   for (const int node : {3, 4}) {
     const double bp = abs_quantile(r.bp_x_error[static_cast<std::size_t>(node)], 0.5);
@@ -124,8 +126,8 @@ TEST(MultipathExperiment, CovariancesNeverGrowAndCooperationBeatsPairwiseAtS3S4)
   }
 }
 
-// Exact GaBP (not in 003) converges on the experiment's five-node loop to the centralized weighted least
-// squares of the same paths, trial by trial; 003's beliefs reach another point nearby.
+// Exact GaBP (not in Leng et al.) converges on the experiment's five-node loop to the centralized weighted
+// least squares of the same paths, trial by trial; Leng et al.'s beliefs reach another point nearby.
 TEST(MultipathExperiment, ExactGaBpReachesTheCentralizedSolutionInEveryTrial) {
   MultipathExperimentConfig config;
   config.trials = 100;
@@ -155,11 +157,11 @@ TEST(MultipathExperiment, ExactGaBpReachesTheCentralizedSolutionInEveryTrial) {
   EXPECT_EQ(exact.centralized_x_error[3], printed.centralized_x_error[3]);
 }
 
-// The other reading of how 003 drew its lengths: eq. (1) itself at the measured angles. The model is then
-// exact for the G the nodes form, so without length noise the centralized solution recovers every position
-// (the image method's lengths do not satisfy eq. (1) at the noisy angles), and with the variance-3 reading
-// 003's claims hold: > 90 % of S3/S4 below 2 m and every error below 3 m (1000 trials: 100 %, largest 1.74
-// m).
+// The other reading of how Leng et al. drew its lengths: eq. (1) itself at the measured angles. The model is
+// then exact for the G the nodes form, so without length noise the centralized solution recovers every
+// position (the image method's lengths do not satisfy eq. (1) at the noisy angles), and with the variance-3
+// reading Leng et al.'s claims hold: > 90 % of S3/S4 below 2 m and every error below 3 m (1000 trials: 100 %,
+// largest 1.74 m).
 TEST(MultipathExperiment, LengthsFromEquationOneAtTheMeasuredAnglesReproduceTheFiguresClaims) {
   MultipathExperimentConfig config;
   config.trials = 50;
@@ -208,10 +210,12 @@ TEST(GradientExperiment, DgBbNeedsFewerUpdatesThanLocalBbAndFixedStepOn5x5Lattic
   EXPECT_LT(dgbb, fixed);
 }
 
-// 004 Table I lattice (10 × 10, both diagonals, σ_I = 0.05, noiseless): the BB trust region of one shortest
-// range never fires for DG-BB (same τ_end as the source's algorithm) and makes local BB converge, which
-// diverges without it (a near-zero positive ψ_i gives a huge step); local BB still needs more updates.
-/// The first lattice of 004 Table I's runs (seed 1): 10 × 10, both diagonals, σ_I = 0.05, noiseless.
+// Calafiore et al. Table I lattice (10 × 10, both diagonals, σ_I = 0.05, noiseless): the BB trust region of
+// one shortest range never fires for DG-BB (same τ_end as the source's algorithm) and makes local BB
+// converge, which diverges without it (a near-zero positive ψ_i gives a huge step); local BB still needs more
+// updates.
+/// The first lattice of Calafiore et al. Table I's runs (seed 1): 10 × 10, both diagonals, σ_I = 0.05,
+/// noiseless.
 LatticeProblem first_table_one_lattice() {
   LatticeConfig config;
   config.both_diagonals = true;
@@ -242,10 +246,10 @@ TEST(GradientExperiment, TrustRegionMakesLocalBbConvergeAndLeavesDgBbUnchangedOn
   EXPECT_LT(local.final_error, 1e-3);
 }
 
-// 004 eq. (15) as printed takes ΔD_i = ∇_i f(p_i^(τ)) − ∇_i f(p_i^(τ−1)), both at the neighbours' newest
-// positions: the change node i's own move made. Read that way, local BB converges on the Table I lattice
-// without any trust region (seed 1, first lattice: τ_end 1414, DG-BB 250), where the [E-6] reading (the
-// change of ∇_i f(p), the neighbours' moves in it) diverges.
+// Calafiore et al. eq. (15) as printed takes ΔD_i = ∇_i f(p_i^(τ)) − ∇_i f(p_i^(τ−1)), both at the
+// neighbours' newest positions: the change node i's own move made. Read that way, local BB converges on the
+// Table I lattice without any trust region (seed 1, first lattice: τ_end 1414, DG-BB 250), where the [E-6]
+// reading (the change of ∇_i f(p), the neighbours' moves in it) diverges.
 TEST(GradientExperiment, EquationFifteenAsPrintedConvergesOnTheTableOneLattice) {
   const LatticeProblem lattice = first_table_one_lattice();
   estimators::gradient::DgBbParams params;
@@ -262,14 +266,15 @@ TEST(GradientExperiment, EquationFifteenAsPrintedConvergesOnTheTableOneLattice) 
 }
 
 }  // namespace
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 JointFieldExperimentConfig small_field(estimators::consensus::FieldSensing sensing,
                                        SensorPlacement placement) {
-  JointFieldExperimentConfig config;  // 002 Fig. 5 at a fifth of the size: 60 sensors, 5 × 5 cells of 10 m
+  // Atanasov et al. Fig. 5 at a fifth of the size: 60 sensors, 5 × 5 cells of 10 m
+  JointFieldExperimentConfig config;
   config.num_nodes = 60;
   config.num_edges = 258;
   config.side_m = 50.0;
@@ -282,9 +287,9 @@ JointFieldExperimentConfig small_field(estimators::consensus::FieldSensing sensi
   return config;
 }
 
-// 002 Fig. 5: with a continuous model both errors fall; with sensors on the cell boundaries of a model that
-// jumps there, the field error stalls while the same DLE with true positions keeps falling.
-// 004 Figs. 6–7, small: consensus rounds cut τ_end at every size, and τ_end grows with n.
+// Atanasov et al. Fig. 5: with a continuous model both errors fall; with sensors on the cell boundaries of a
+// model that jumps there, the field error stalls while the same DLE with true positions keeps falling.
+// Calafiore et al. Figs. 6–7, small: consensus rounds cut τ_end at every size, and τ_end grows with n.
 TEST(GradientFigures, MoreConsensusRoundsNeedFewerUpdatesAndLargerLatticesMore) {
   ScalingFiguresConfig config;
   config.lattice.both_diagonals = true;
@@ -307,7 +312,8 @@ TEST(GradientFigures, MoreConsensusRoundsNeedFewerUpdatesAndLargerLatticesMore) 
   for (std::size_t k = 0; k < cells.size(); ++k) EXPECT_EQ(serial[k].mean_tau_end, cells[k].mean_tau_end);
 }
 
-// 004 Figs. 4–5, small (6 × 6 lattice, 3 runs): DG-BB ahead of local BB and far ahead of the fixed step.
+// Calafiore et al. Figs. 4–5, small (6 × 6 lattice, 3 runs): DG-BB ahead of local BB and far ahead of the
+// fixed step.
 TEST(GradientFigures, DgBbIsAheadOfLocalBbAndTheFixedStepAtEveryTracedUpdate) {
   ConvergenceFiguresConfig config;
   config.lattice.side = 6;
@@ -378,14 +384,14 @@ TEST(JointFieldExperiment, ResultsDoNotDependOnTheThreadCount) {
 }
 
 }  // namespace
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
-// 002 Figs. 1, 3 (40 sensors, 10 targets, range–bearing, noise growing with distance; 20 runs here): errors
-// grow as the targets move away, node 1 (at the origin, where the targets start) tracks best while they
-// are near, and the centralized EKF on every reading beats the sensors' average.
+// Atanasov et al. Figs. 1, 3 (40 sensors, 10 targets, range–bearing, noise growing with distance; 20 runs
+// here): errors grow as the targets move away, node 1 (at the origin, where the targets start) tracks best
+// while they are near, and the centralized EKF on every reading beats the sensors' average.
 TEST(TrackingExperiment, ErrorsGrowAsTargetsMoveAwayAndTheSensorAtTheOriginTracksBest) {
   TrackingExperimentConfig config;
   config.runs = 20;
@@ -405,4 +411,4 @@ TEST(TrackingExperiment, ErrorsGrowAsTargetsMoveAwayAndTheSensorAtTheOriginTrack
 }
 
 }  // namespace
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

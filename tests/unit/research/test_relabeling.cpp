@@ -1,4 +1,4 @@
-// Vertex relabeling, graph bandwidth, Lemma 1 and Theorem 1 (000 Alg. 3, eqs. (18)–(19);
+// Vertex relabeling, graph bandwidth, Lemma 1 and Theorem 1 (Khan et al. Alg. 3, eqs. (18)–(19);
 // docs/algorithms.md §2.5).
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include "swarmloc/estimators/centralized/relabeling.hpp"
 #include "swarmloc/research/centralized_experiments.hpp"
 
-namespace swarmloc::estimators::centralized {
+namespace swarmloc::research {
 namespace {
 
 std::vector<Vec2> random_positions(int count, double side, std::mt19937_64& rng) {
@@ -22,8 +22,9 @@ std::vector<Vec2> random_positions(int count, double side, std::mt19937_64& rng)
 
 TEST(Relabeling, LexicographicSortsByXThenY) {
   const std::vector<Vec2> positions{{2.0, 0.0}, {1.0, 5.0}, {1.0, 3.0}, {0.0, 9.0}};
-  EXPECT_EQ(lexicographic_labels(positions), (std::vector<int>{3, 2, 1, 0}));
-  EXPECT_EQ(inverse_labels(lexicographic_labels(positions)), (std::vector<int>{3, 2, 1, 0}));
+  EXPECT_EQ(centralized::lexicographic_labels(positions), (std::vector<int>{3, 2, 1, 0}));
+  EXPECT_EQ(centralized::inverse_labels(centralized::lexicographic_labels(positions)),
+            (std::vector<int>{3, 2, 1, 0}));
 }
 
 // Fig. 1: a k×k unit grid with r = 1 gets bandwidth k, its minimum.
@@ -35,26 +36,26 @@ TEST(Relabeling, GridGetsMinimalBandwidth) {
       for (int j = 0; j < k; ++j) positions.emplace_back(j, i);  // generation order: row by row
     }
     std::shuffle(positions.begin(), positions.end(), rng);
-    const auto edges = disk_graph_edges(positions, 1.0);
-    EXPECT_EQ(graph_bandwidth(edges, lexicographic_labels(positions)), k);
+    const auto edges = centralized::disk_graph_edges(positions, 1.0);
+    EXPECT_EQ(centralized::graph_bandwidth(edges, centralized::lexicographic_labels(positions)), k);
   }
 }
 
 TEST(Relabeling, InverseLabelsRejectsNonPermutation) {
-  EXPECT_THROW(inverse_labels({0, 2, 2}), std::invalid_argument);
-  EXPECT_THROW(inverse_labels({0, 3, 1}), std::invalid_argument);
+  EXPECT_THROW(centralized::inverse_labels({0, 2, 2}), std::invalid_argument);
+  EXPECT_THROW(centralized::inverse_labels({0, 3, 1}), std::invalid_argument);
 }
 
 TEST(Relabeling, ReverseCuthillMcKeeRecoversAShuffledPath) {
-  std::vector<int> order = identity_labels(20);
+  std::vector<int> order = centralized::identity_labels(20);
   std::mt19937_64 rng(3);
   std::shuffle(order.begin(), order.end(), rng);
-  std::vector<Edge> edges;
+  std::vector<centralized::Edge> edges;
   for (int i = 0; i + 1 < 20; ++i) edges.emplace_back(order[i], order[i + 1]);
-  EXPECT_GT(graph_bandwidth(edges, identity_labels(20)), 1);
-  const auto labels = reverse_cuthill_mckee_labels(20, edges);
-  EXPECT_NO_THROW(inverse_labels(labels));
-  EXPECT_EQ(graph_bandwidth(edges, labels), 1);
+  EXPECT_GT(centralized::graph_bandwidth(edges, centralized::identity_labels(20)), 1);
+  const auto labels = centralized::reverse_cuthill_mckee_labels(20, edges);
+  EXPECT_NO_THROW(centralized::inverse_labels(labels));
+  EXPECT_EQ(centralized::graph_bandwidth(edges, labels), 1);
 }
 
 // Lemma 1 / eq. (18) with: Bandwidth(S_k) = d(β + 1) − 1 under any labeling.
@@ -62,19 +63,20 @@ TEST(Relabeling, MeasurementInformationBandwidthFollowsLemma1) {
   std::mt19937_64 rng(4);
   for (int trial = 0; trial < 10; ++trial) {
     const auto positions = random_positions(40, 60.0, rng);
-    const auto edges = disk_graph_edges(positions, 15.0);
+    const auto edges = centralized::disk_graph_edges(positions, 15.0);
     ASSERT_FALSE(edges.empty());
-    CentralizedMeasurements m;
+    centralized::CentralizedMeasurements m;
     for (int b = 0; b < 40; b += 5) m.beacon_fixes.emplace_back(b, positions[static_cast<std::size_t>(b)]);
     for (const auto& [i, j] : edges) m.ranges.push_back({i, j, 1.0});
     VecX x(80);
     for (int a = 0; a < 40; ++a) x.segment<2>(2 * a) = positions[static_cast<std::size_t>(a)];
-    std::vector<int> random = identity_labels(40);
+    std::vector<int> random = centralized::identity_labels(40);
     std::shuffle(random.begin(), random.end(), rng);
-    for (const auto& labels : {identity_labels(40), lexicographic_labels(positions), random,
-                               reverse_cuthill_mckee_labels(40, edges)}) {
-      const MatX s = assemble_measurement_information(m, x, labels).information;
-      EXPECT_EQ(matrix_bandwidth(s), measurement_bandwidth(graph_bandwidth(edges, labels)));
+    for (const auto& labels : {centralized::identity_labels(40), centralized::lexicographic_labels(positions),
+                               random, centralized::reverse_cuthill_mckee_labels(40, edges)}) {
+      const MatX s = centralized::assemble_measurement_information(m, x, labels).information;
+      EXPECT_EQ(centralized::matrix_bandwidth(s),
+                centralized::measurement_bandwidth(centralized::graph_bandwidth(edges, labels)));
     }
   }
 }
@@ -84,11 +86,12 @@ TEST(Relabeling, VertexRelabelingBandwidthObeysTheorem1) {
   std::mt19937_64 rng(5);
   for (int trial = 0; trial < 20; ++trial) {
     const auto positions = random_positions(30 + 10 * trial, 40.0 + 5.0 * trial, rng);
-    const auto edges = disk_graph_edges(positions, 15.0);
+    const auto edges = centralized::disk_graph_edges(positions, 15.0);
     std::vector<double> xs;
     for (const Vec2& p : positions) xs.push_back(p.x());
     std::sort(xs.begin(), xs.end());
-    EXPECT_LE(graph_bandwidth(edges, lexicographic_labels(positions)), max_strip_count(xs, 15.0) - 1);
+    EXPECT_LE(centralized::graph_bandwidth(edges, centralized::lexicographic_labels(positions)),
+              max_strip_count(xs, 15.0) - 1);
   }
 }
 
@@ -110,4 +113,4 @@ TEST(VrBandwidthBound, IsSublinearInTheNumberOfAgents) {
 }
 
 }  // namespace
-}  // namespace swarmloc::estimators::centralized
+}  // namespace swarmloc::research

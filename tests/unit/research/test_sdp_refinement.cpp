@@ -6,7 +6,7 @@
 
 #include "swarmloc/research/sdp_refinement.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 namespace {
 
 TEST(GeometricGraph, IsConnectedWithEnoughRangesPerUnknownAndNoisyRanges) {
@@ -104,4 +104,4 @@ TEST(SdpRefinementExperiment, AsynchronousStartConvergesCloseToTheSynchronousErr
 }
 
 }  // namespace
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

@@ -8,16 +8,16 @@
 
 #include "swarmloc/research/sdp_relaxation.hpp"
 
-namespace swarmloc::estimators::gradient {
+namespace swarmloc::research {
 namespace {
 
 struct Instance {
   std::vector<Vec2> truth;
-  RangeProblem problem;
+  gradient::RangeProblem problem;
 };
 
 // Anchors at the corners of [0, 1]², `sensors` unknowns drawn uniformly inside, every pair within `radius`
-// measured with std ν_d·d (004 eq. (16)); `radius` ≥ √2 gives the complete graph.
+// measured with std ν_d·d (Calafiore et al. eq. (16)); `radius` ≥ √2 gives the complete graph.
 Instance make_instance(int sensors, double radius, double noise_factor, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> uniform(0.05, 0.95);
@@ -128,7 +128,7 @@ TEST(SdpRelaxation, SolverPrintsNothing) {
 
 TEST(SdpRelaxation, MalformedProblemsThrowAndDegenerateOnesReturn) {
   Instance instance = make_instance(3, 2.0, 0.0, 2);
-  RangeProblem bad = instance.problem;
+  gradient::RangeProblem bad = instance.problem;
   bad.edges.push_back({4, 4, 1.0});
   EXPECT_THROW(solve_sdp_relaxation(bad), std::invalid_argument);
   bad = instance.problem;
@@ -140,7 +140,7 @@ TEST(SdpRelaxation, MalformedProblemsThrowAndDegenerateOnesReturn) {
   SdpRelaxationParams params;
   params.epsilon = 0.0;
   EXPECT_THROW(solve_sdp_relaxation(instance.problem, params), std::invalid_argument);
-  RangeProblem anchors_only;
+  gradient::RangeProblem anchors_only;
   anchors_only.anchor = {true, true};
   anchors_only.initial = {Vec2(0, 0), Vec2(1, 0)};
   anchors_only.edges = {{0, 1, 1.0}};
@@ -152,11 +152,12 @@ TEST(SdpRelaxation, MalformedProblemsThrowAndDegenerateOnesReturn) {
 // Unknowns without ranges, or with too few, leave the relaxation underdetermined: SDPA still returns (the
 // analytic centre of the optimal face), never exits the process.
 TEST(SdpRelaxation, UnderdeterminedProblemsReturnAStatus) {
-  RangeProblem problem;
+  gradient::RangeProblem problem;
   problem.anchor = {true, true, false};
   problem.initial = {Vec2(0, 0), Vec2(1, 0), Vec2(5, 5)};
-  for (const std::vector<RangeEdge>& edges :
-       {std::vector<RangeEdge>{}, std::vector<RangeEdge>{{0, 2, 0.5}}, std::vector<RangeEdge>{{0, 1, 1.0}}}) {
+  for (const std::vector<gradient::RangeEdge>& edges :
+       {std::vector<gradient::RangeEdge>{}, std::vector<gradient::RangeEdge>{{0, 2, 0.5}},
+        std::vector<gradient::RangeEdge>{{0, 1, 1.0}}}) {
     problem.edges = edges;
     const SdpRelaxationResult r = solve_sdp_relaxation(problem);
     EXPECT_TRUE(r.usable()) << r.solver_phase;
@@ -167,4 +168,4 @@ TEST(SdpRelaxation, UnderdeterminedProblemsReturnAStatus) {
 }
 
 }  // namespace
-}  // namespace swarmloc::estimators::gradient
+}  // namespace swarmloc::research

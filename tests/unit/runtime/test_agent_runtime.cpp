@@ -5,7 +5,7 @@
 
 #include "swarmloc/runtime/agent_runtime.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 namespace {
 
 AgentRuntime make_runtime(double loss = 0.0) {
@@ -122,4 +122,4 @@ TEST(AgentRuntime, BatchEntriesNoSensorCouldProduceAreDroppedAndCounted) {
 }
 
 }  // namespace
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

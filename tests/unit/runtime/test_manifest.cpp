@@ -13,7 +13,7 @@
 #include "sample_manifest.hpp"
 #include "swarmloc/runtime/manifest.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 namespace {
 
 AgentManifest sample_manifest() { return testing::sample_manifest(); }
@@ -144,4 +144,4 @@ TEST(AgentManifest, MissingOrHugeFileIsAManifestError) {
 }
 
 }  // namespace
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

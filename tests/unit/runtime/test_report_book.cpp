@@ -3,7 +3,7 @@
 
 #include "swarmloc/runtime/report_book.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 namespace {
 
 EstimateReport report_of(AgentId agent, std::uint32_t steps_run) {
@@ -49,4 +49,4 @@ TEST(ReportBook, ARestartedAgentIsHeardThoughTheDeadProcessReportedAfterItsKill)
 }
 
 }  // namespace
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -7,7 +7,7 @@
 #include "swarmloc/runtime/liveness.hpp"
 #include "swarmloc/runtime/run_health.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 namespace {
 
 AgentHealth ticks(std::uint32_t total, std::uint32_t late) {
@@ -262,4 +262,4 @@ TEST(Liveness, DescribesExits) {
 }
 
 }  // namespace
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -12,7 +12,7 @@
 namespace swarmloc::sim {
 namespace {
 
-const std::string kDefault = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kDefault = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 /// The default scenario shrunk to a fast size, with `overrides` on top.
 config::Scenario scenario(const std::vector<std::string>& overrides) {
@@ -28,7 +28,7 @@ config::Scenario agent_clock(std::vector<std::string> overrides) {
 
 /// Largest difference between two runs' per-step estimates (means and covariances), or +inf when they
 /// do not score the same agents at the same steps.
-double largest_estimate_difference(const RunRecord& a, const RunRecord& b) {
+double largest_estimate_difference(const rundir::RunRecord& a, const rundir::RunRecord& b) {
   if (a.estimates.size() != b.estimates.size()) return std::numeric_limits<double>::infinity();
   double largest = 0.0;
   for (std::size_t r = 0; r < a.estimates.size(); ++r) {
@@ -66,7 +66,7 @@ TEST(AgentClockSimulator, DriftFreeAlignedClocksWithLatencyUnderOnePeriodReprodu
       ASSERT_EQ(agents.metrics.size(), rounds.metrics.size());
       for (std::size_t k = 0; k < rounds.metrics.size(); ++k)
         EXPECT_NEAR(agents.metrics[k].errors.rmse_m, rounds.metrics[k].errors.rmse_m, 1e-12) << k;
-      EXPECT_EQ(link_totals(agents).dropped_injected, link_totals(rounds).dropped_injected);
+      EXPECT_EQ(rundir::link_totals(agents).dropped_injected, rundir::link_totals(rounds).dropped_injected);
       // 40 ticks in the world steps, 10 in the settle (run.settle_s = 1 s at 10 Hz).
       for (const auto& summary : agents.agent_summaries) EXPECT_EQ(summary.steps_run, 40U + 10U);
     }
@@ -84,10 +84,10 @@ TEST(AgentClockSimulator, SpreadTimersFireAtTheDdsAgentsPhasesAndLaterPhasesSeeT
   aligned.run.tick_phase = config::TickPhase::kAligned;
   std::vector<double> phases;
   for (AgentId i = 0; i < 30; ++i) {
-    phases.push_back(tick_phase_fraction(spread, i));
+    phases.push_back(runtime::tick_phase_fraction(spread, i));
     EXPECT_GE(phases.back(), 0.0);
     EXPECT_LT(phases.back(), 1.0);
-    EXPECT_EQ(tick_phase_fraction(aligned, i), 0.0);
+    EXPECT_EQ(runtime::tick_phase_fraction(aligned, i), 0.0);
   }
   EXPECT_EQ(phases[0], 0.0);
   EXPECT_NEAR(phases[1], 0.618034, 1e-6);
@@ -125,7 +125,7 @@ TEST(AgentClockSimulator, DriftingOffsetClocksAreDeterministicAndConverge) {
   const auto a = run_simulation(agent_clock(skewed));
   const auto b = run_simulation(agent_clock(skewed));
   EXPECT_EQ(largest_estimate_difference(a, b), 0.0);
-  EXPECT_EQ(link_totals(a).delivered, link_totals(b).delivered);
+  EXPECT_EQ(rundir::link_totals(a).delivered, rundir::link_totals(b).delivered);
   const auto rounds = run_simulation(scenario({"run.steps=150"}));
   const double final_agents = a.final_metrics()->errors.rmse_m;
   const double final_rounds = rounds.final_metrics()->errors.rmse_m;
@@ -140,15 +140,15 @@ TEST(AgentClockSimulator, DriftingOffsetClocksAreDeterministicAndConverge) {
 TEST(AgentClockSimulator, JitterBeyondOnePeriodLetsSamplesOvertakeAndTheOlderOneIsRejected) {
   // Deliveries are not kept FIFO: with up to 1.5 periods of jitter a newer sample often arrives first,
   // and the receiver's runtime rejects the older one as reordered (a best-effort DDS reader drops it).
-  auto reordered = [](const RunRecord& record) {
+  auto reordered = [](const rundir::RunRecord& record) {
     std::uint64_t count = 0;
     for (const auto& summary : record.agent_summaries)
-      count += summary.rejected_by_reason[static_cast<std::size_t>(RejectReason::kReordered)];
+      count += summary.rejected_by_reason[static_cast<std::size_t>(runtime::RejectReason::kReordered)];
     return count;
   };
   const auto jittery = run_simulation(agent_clock({"network.delay_ms=1", "network.jitter_ms=150"}));
   EXPECT_GT(reordered(jittery), 0U);
-  EXPECT_EQ(reordered(jittery), link_totals(jittery).rejected);  // nothing else is wrong with them
+  EXPECT_EQ(reordered(jittery), rundir::link_totals(jittery).rejected);  // nothing else is wrong with them
   const auto steady = run_simulation(agent_clock({"network.delay_ms=1", "network.jitter_ms=90"}));
   EXPECT_EQ(reordered(steady), 0U);
 }
@@ -158,11 +158,11 @@ TEST(AgentClockSimulator, StepCountsFollowEachAgentsDriftPhaseAndTimerStart) {
   // ⌊60·(1 + drift_i) − φ_i⌋ times in the run's 50 periods and the settle's 10 (run.settle_s = 1 s).
   const auto fast_and_slow = agent_clock({"run.steps=50", "clock.drift_ppm=100000", "network.delay_ms=1"});
   const auto record = run_simulation(fast_and_slow);
-  const World world = build_world(fast_and_slow);
+  const world::World world = world::build_world(fast_and_slow);
   int faster = 0, slower = 0;
   for (const auto& summary : record.agent_summaries) {
     const double drift = world.clocks[static_cast<std::size_t>(summary.agent)].drift_ppm * 1e-6;
-    const double phase = tick_phase_fraction(fast_and_slow, summary.agent);
+    const double phase = runtime::tick_phase_fraction(fast_and_slow, summary.agent);
     EXPECT_EQ(static_cast<double>(summary.steps_run), std::floor(60.0 * (1.0 + drift) - phase))
         << summary.agent;
     faster += summary.steps_run > 61 ? 1 : 0;
@@ -189,7 +189,7 @@ TEST(AgentClockSimulator, StepCountsFollowEachAgentsDriftPhaseAndTimerStart) {
 TEST(AgentClockSimulator, KilledAndPausedAgentsAreNotScoredAndTheRunRecovers) {
   const auto faulty = run_simulation(
       agent_clock({"run.steps=120", "network.delay_ms=5", "faults.kill=10@40-80", "faults.pause=11@40-80"}));
-  const World world = build_world(agent_clock({}));
+  const world::World world = world::build_world(agent_clock({}));
   ASSERT_FALSE(world.is_anchor[10]);
   ASSERT_FALSE(world.is_anchor[11]);
   const int non_anchors = world.size() - world.anchor_count();
@@ -223,7 +223,7 @@ TEST(AgentClockSimulator, CentralizedAlgorithmsAreRejectedNamingTheKey) {
 namespace swarmloc::sim {
 namespace {
 
-// Why scenarios/default.yaml iterates the IEIF update. In a free run an agent that steps after its
+// Why scenarios/ieif.yaml iterates the IEIF update. In a free run an agent that steps after its
 // neighbours in the first period ranges to their first estimates; one linearization from the diffuse start
 // can throw such an estimate tens of metres with a small covariance, and the cluster around it stays
 // confidently wrong for hundreds of steps. Trial 12 of the default scenario at 20 Hz is such a case; the

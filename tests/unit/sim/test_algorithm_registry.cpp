@@ -99,11 +99,11 @@ TEST(AlgorithmRegistry, ConfigAcceptsExactlyTheEntries) {
   for (const auto& spec : config::algorithm_registry()) {
     names.emplace_back(spec.name);
     EXPECT_EQ(&config::algorithm_spec(spec.name), &spec);
-    EXPECT_EQ(bound_data(std::string(spec.name)).algorithm, spec.name);
+    EXPECT_EQ(world::bound_data(std::string(spec.name)).algorithm, spec.name);
     EXPECT_EQ(config::runs_in_fusion_centre(spec.name), spec.placement == AlgorithmPlacement::kFusionCentre)
         << spec.name;
   }
-  EXPECT_EQ(bound_data_table().size(), names.size());
+  EXPECT_EQ(world::bound_data_table().size(), names.size());
   EXPECT_EQ(config::known_algorithm_list().find("no_such"), std::string::npos);
   EXPECT_THROW((void)config::algorithm_spec("no_such"), config::ScenarioError);
   EXPECT_FALSE(config::runs_in_fusion_centre("no_such"));
@@ -128,7 +128,7 @@ config::Scenario small_scenario(const AlgorithmSpec& spec, int steps = 3,
   if (!std::filesystem::exists(path)) {
     path = spec.family == AlgorithmFamily::kCentralized ? dir + "ea2.yaml"
            : spec.family == AlgorithmFamily::kGradient  ? dir + "dgbb.yaml"
-                                                        : dir + "default.yaml";
+                                                        : dir + "ieif.yaml";
   }
   std::vector<std::string> overrides{"algorithm.name=" + std::string(spec.name),
                                      "run.steps=" + std::to_string(steps)};
@@ -146,8 +146,8 @@ TEST(AlgorithmRegistry, EveryEntryBuildsAndRunsWhereItsPlacementSays) {
       continue;
     }
     const config::Scenario scenario = small_scenario(spec);
-    const World world = build_world(scenario);
-    const RunRecord record = run_simulation(scenario);
+    const world::World world = world::build_world(scenario);
+    const rundir::RunRecord record = run_simulation(scenario);
     ASSERT_EQ(record.metrics.size(), 3U);
     if (spec.placement == AlgorithmPlacement::kFusionCentre) {
       EXPECT_NE(make_fusion_filter(scenario, world), nullptr);
@@ -162,21 +162,21 @@ TEST(AlgorithmRegistry, EveryEntryBuildsAndRunsWhereItsPlacementSays) {
 
 /// Collects the sample families the agents of a run receive (the simulator delivers every published
 /// sample to each neighbour through the recorder, before loss).
-class FamilyRecorder final : public RunRecorder {
+class FamilyRecorder final : public rundir::RunRecorder {
  public:
-  void begin(const config::Scenario& /*scenario*/, const World& /*world*/) override {}
+  void begin(const config::Scenario& /*scenario*/, const world::World& /*world*/) override {}
   void world_step(std::int64_t /*step*/, const std::vector<Vec2>& /*truth*/,
                   const std::vector<estimators::MeasurementBatch>& /*batches*/) override {}
-  void sample(const ReceivedSample& sample) override { families.insert(sample.message.index()); }
+  void sample(const runtime::ReceivedSample& sample) override { families.insert(sample.message.index()); }
   std::set<std::size_t> families;
 };
 
 std::set<std::size_t> declared_families(const config::MessageFamilies& messages) {
   std::set<std::size_t> families;
-  if (messages.state) families.insert(static_cast<std::size_t>(SampleFamily::kState));
-  if (messages.information) families.insert(static_cast<std::size_t>(SampleFamily::kInformation));
-  if (messages.consensus) families.insert(static_cast<std::size_t>(SampleFamily::kConsensus));
-  if (messages.belief) families.insert(static_cast<std::size_t>(SampleFamily::kBelief));
+  if (messages.state) families.insert(static_cast<std::size_t>(runtime::SampleFamily::kState));
+  if (messages.information) families.insert(static_cast<std::size_t>(runtime::SampleFamily::kInformation));
+  if (messages.consensus) families.insert(static_cast<std::size_t>(runtime::SampleFamily::kConsensus));
+  if (messages.belief) families.insert(static_cast<std::size_t>(runtime::SampleFamily::kBelief));
   return families;
 }
 
@@ -221,7 +221,7 @@ std::vector<std::string> block_changes(config::ParamBlock block) {
 }
 
 /// Every estimate of the run, bit for bit.
-std::string estimates_fingerprint(const RunRecord& record) {
+std::string estimates_fingerprint(const rundir::RunRecord& record) {
   std::string out;
   const auto add = [&](double value) {
     std::array<char, 40> text{};

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "swarmloc/run/manifests.hpp"
+#include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
@@ -71,8 +73,9 @@ TEST(CentralizedRunner, RunSimulationDelegatesAndReportsTheTotalMse) {
 
 TEST(CentralizedRunner, AgentsOfACentralizedRunAreSensorsOnly) {
   const auto scenario = ea2();
-  const auto world = build_world(scenario);
-  auto estimator = make_agent_estimator(scenario, world, 3);
+  const auto world = world::build_world(scenario);
+  auto estimator = runtime::make_agent_estimator(
+      scenario, run::agent_manifest(run::shared_manifest(scenario, world), world, 3));
   EXPECT_FALSE(estimator->initial_outbox().state.has_value());
   EXPECT_FALSE(estimator->estimate().valid);
   EXPECT_TRUE(estimator->estimate().mean_m.isApprox(world.setup_of(3).initial_guess_m));
@@ -87,7 +90,7 @@ TEST(CentralizedRunner, FiltersImproveOnTheInitialGuess) {
   }
 }
 
-// E-A2 (000 Fig. 6): LB-EKF + VR's total MSE close to the dense EKF's. Averaged over a few seeds
+// E-A2 (Khan et al. Fig. 6): LB-EKF + VR's total MSE close to the dense EKF's. Averaged over a few seeds
 // (configurations) so one unlucky draw does not decide the comparison.
 TEST(CentralizedRunner, LbEkfWithRelabelingIsWithinFifteenPercentOfTheEkf) {
   double ekf_sum = 0.0;

@@ -6,12 +6,13 @@
 #include <map>
 
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/run/manifests.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::sim {
 namespace {
 
-const std::string kDefaultScenarioFile = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml";
+const std::string kDefaultScenarioFile = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml";
 
 config::Scenario faults_scenario(const std::vector<std::string>& overrides) {
   std::vector<std::string> all{"run.steps=200"};
@@ -50,7 +51,7 @@ TEST(FaultSchedule, BadSchedulesNameTheKey) {
   EXPECT_EQ(error_of({"faults.partition=10"}).rfind("faults.partition: '10' is not STEP-STEP", 0), 0U);
 }
 
-double rmse_at(const RunRecord& record, std::int64_t step) {
+double rmse_at(const rundir::RunRecord& record, std::int64_t step) {
   return record.metrics.at(static_cast<std::size_t>(step)).errors.rmse_m;
 }
 
@@ -59,7 +60,7 @@ TEST(SimulatedFaults, KilledAgentsAreNotScoredTheOthersHoldAndRestartedOnesRecov
   const auto faulty = run_simulation(
       faults_scenario({"faults.kill=1@100-150,2@100-150,3@100-150,4@100-150,5@100-150,6@100-150"}));
   const auto clean = run_simulation(faults_scenario({}));
-  const World world = build_world(faults_scenario({}));
+  const world::World world = world::build_world(faults_scenario({}));
   int killed_non_anchors = 0;
   for (int k = 1; k <= 6; ++k) killed_non_anchors += world.is_anchor[static_cast<std::size_t>(k)] ? 0 : 1;
   EXPECT_EQ(faulty.metrics[120].errors.scored, 22 - killed_non_anchors);
@@ -77,8 +78,8 @@ TEST(SimulatedFaults, KilledAgentsAreNotScoredTheOthersHoldAndRestartedOnesRecov
 TEST(SimulatedFaults, PartitionDropsOnlyCrossingSamplesAndTheErrorHealsWithinThirtySteps) {
   const auto parted = run_simulation(faults_scenario({"faults.partition=100-119"}));
   const auto clean = run_simulation(faults_scenario({}));
-  const World world = build_world(faults_scenario({}));
-  const auto group = partition_groups(world);
+  const world::World world = world::build_world(faults_scenario({}));
+  const auto group = run::partition_groups(world);
   std::uint64_t dropped = 0;
   for (const auto& [link, counters] : parted.links) {
     const bool crossing =
@@ -94,7 +95,7 @@ TEST(SimulatedFaults, PartitionDropsOnlyCrossingSamplesAndTheErrorHealsWithinThi
 
 TEST(SimulatedFaults, PausedAgentIsNotScoredAndResumesWithItsState) {
   const auto paused = run_simulation(faults_scenario({"faults.pause=10@100-120"}));
-  const World world = build_world(faults_scenario({}));
+  const world::World world = world::build_world(faults_scenario({}));
   const int expected = world.is_anchor[10] ? 22 : 21;
   EXPECT_EQ(paused.metrics[110].errors.scored, expected);
   EXPECT_EQ(paused.metrics[121].errors.scored, 22);
@@ -102,7 +103,7 @@ TEST(SimulatedFaults, PausedAgentIsNotScoredAndResumesWithItsState) {
 }
 
 /// Final-step error per agent, skipping `skip`.
-std::map<AgentId, double> final_errors(const RunRecord& record, AgentId skip) {
+std::map<AgentId, double> final_errors(const rundir::RunRecord& record, AgentId skip) {
   std::map<AgentId, double> errors;
   const std::int64_t last = record.metrics.back().step;
   for (const auto& row : record.estimates) {
@@ -126,7 +127,7 @@ TEST_P(HostileAgent, ChangesNoHonestAgentsFinalErrorByMoreThanTenPercent) {
   const HostileCase c = GetParam();
   const auto s = config::load_scenario(
       std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/" + c.scenario + ".yaml", {c.steps, c.schedule});
-  const World world = build_world(s);
+  const world::World world = world::build_world(s);
   AgentId hostile = 0;
   while (world.is_anchor[static_cast<std::size_t>(hostile)] ||
          world.neighbours[static_cast<std::size_t>(hostile)].size() < 3) {
@@ -151,8 +152,8 @@ TEST_P(HostileAgent, ChangesNoHonestAgentsFinalErrorByMoreThanTenPercent) {
   }
   std::uint64_t non_finite = 0, absurd = 0;
   for (const auto& summary : attacked.agent_summaries) {
-    non_finite += summary.rejected_by_reason[static_cast<std::size_t>(RejectReason::kNonFinite)];
-    absurd += summary.rejected_by_reason[static_cast<std::size_t>(RejectReason::kAbsurdMagnitude)];
+    non_finite += summary.rejected_by_reason[static_cast<std::size_t>(runtime::RejectReason::kNonFinite)];
+    absurd += summary.rejected_by_reason[static_cast<std::size_t>(runtime::RejectReason::kAbsurdMagnitude)];
   }
   EXPECT_GT(non_finite, 0U) << "the hostile samples must have reached (and been rejected by) neighbours";
   EXPECT_GT(absurd, 0U);
@@ -161,10 +162,10 @@ TEST_P(HostileAgent, ChangesNoHonestAgentsFinalErrorByMoreThanTenPercent) {
 
 INSTANTIATE_TEST_SUITE_P(
     EveryRuntimeAlgorithm, HostileAgent,
-    ::testing::Values(HostileCase{"default", "run.steps=100"}, HostileCase{"jacobi", "run.steps=60"},
+    ::testing::Values(HostileCase{"ieif", "run.steps=100"}, HostileCase{"jacobi", "run.steps=60"},
                       HostileCase{"dgbb", "run.steps=150"}, HostileCase{"multipath_bp", "run.steps=30"},
                       HostileCase{"multipath_bp", "run.steps=30", "algorithm.bp_messages=exact", "_exact"},
-                      HostileCase{"default", "run.steps=100", "run.sim_clock=agents", "_agent_clocks"}),
+                      HostileCase{"ieif", "run.steps=100", "run.sim_clock=agents", "_agent_clocks"}),
     [](const ::testing::TestParamInfo<HostileCase>& param_info) {
       return std::string(param_info.param.scenario) + param_info.param.label;
     });

@@ -13,10 +13,10 @@
 namespace swarmloc::sim {
 namespace {
 
-/// scenarios/default.yaml with `algorithm` and `seed`, run as Monte Carlo trial `trial`.
-RunRecord default_world_run(const std::string& algorithm, int seed, std::uint64_t trial) {
+/// scenarios/ieif.yaml with `algorithm` and `seed`, run as Monte Carlo trial `trial`.
+rundir::RunRecord default_world_run(const std::string& algorithm, int seed, std::uint64_t trial) {
   const auto scenario =
-      config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml",
+      config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml",
                             {"seed=" + std::to_string(seed), "algorithm.name=" + algorithm});
   SimOptions options;
   options.trial = trial;
@@ -29,15 +29,15 @@ RunRecord default_world_run(const std::string& algorithm, int seed, std::uint64_
 TEST(SelfCheckRuns, AFoldedSolutionIsFlaggedAndTheDefaultWorldIsNot) {
   for (const std::string algorithm : {"ieif", "ekf"}) {
     SCOPED_TRACE(algorithm);
-    const RunRecord folded = default_world_run(algorithm, 3, 1);
+    const rundir::RunRecord folded = default_world_run(algorithm, 3, 1);
     ASSERT_GT(folded.final_metrics()->errors.rmse_m, 0.3);
     EXPECT_GT(folded.final_metrics()->errors.flagged, 0);
-    EXPECT_GT(summary_json(folded)["final"]["flagged_agents"].get<int>(), 0);
+    EXPECT_GT(rundir::summary_json(folded)["final"]["flagged_agents"].get<int>(), 0);
 
-    const RunRecord healthy = default_world_run(algorithm, 1, 0);
+    const rundir::RunRecord healthy = default_world_run(algorithm, 1, 0);
     ASSERT_LT(healthy.final_metrics()->errors.rmse_m, 0.05);
     EXPECT_EQ(healthy.final_metrics()->errors.flagged, 0);
-    EXPECT_EQ(summary_json(healthy)["final"]["flagged_agents"].get<int>(), 0);
+    EXPECT_EQ(rundir::summary_json(healthy)["final"]["flagged_agents"].get<int>(), 0);
   }
 }
 
@@ -45,12 +45,12 @@ TEST(SelfCheckRuns, AFoldedSolutionIsFlaggedAndTheDefaultWorldIsNot) {
 // the fusion centre's graph test sees it (docs/algorithms.md §1.6, "Graph"): verified 7 agents flagged.
 // On ea2's moving world pairs come within range unranged, so the test is off: verified 0 flagged.
 TEST(SelfCheckRuns, TheFusionCentreFlagsAFlipOnlyTheGraphRevealsAndStaysQuietOnAMovingWorld) {
-  const RunRecord flipped = default_world_run("ekf", 3, 2);
+  const rundir::RunRecord flipped = default_world_run("ekf", 3, 2);
   ASSERT_GT(flipped.final_metrics()->errors.rmse_m, 3.0);
   EXPECT_GT(flipped.final_metrics()->errors.flagged, 0);
 
   const auto moving = config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ea2.yaml", {});
-  const RunRecord tracked = run_simulation(moving, SimOptions{});
+  const rundir::RunRecord tracked = run_simulation(moving, SimOptions{});
   EXPECT_EQ(tracked.final_metrics()->errors.flagged, 0);
 }
 
@@ -62,10 +62,10 @@ std::vector<std::string> lines_of(const std::filesystem::path& path) {
 }
 
 TEST(SelfCheckRuns, TheVerdictIsInEstimatesAndAgentsCsv) {
-  const RunRecord folded = default_world_run("ieif", 3, 1);
+  const rundir::RunRecord folded = default_world_run("ieif", 3, 1);
   const auto directory = std::filesystem::path(::testing::TempDir()) / "self_check_run";
   std::filesystem::remove_all(directory);
-  write_run_directory(directory, folded);
+  rundir::write_run_directory(directory, folded);
   const auto estimates = lines_of(directory / "estimates.csv");
   ASSERT_FALSE(estimates.empty());
   EXPECT_TRUE(estimates.front().ends_with(",error_m,inconsistent")) << estimates.front();

@@ -25,8 +25,8 @@ config::Scenario simulator_scenario() {
 
 TEST(World, SameSeedBuildsTheSameWorldAndEveryAgentReachesAnAnchor) {
   const auto s = simulator_scenario();
-  const auto a = build_world(s);
-  const auto b = build_world(s);
+  const auto a = world::build_world(s);
+  const auto b = world::build_world(s);
   ASSERT_EQ(a.size(), 30);
   EXPECT_EQ(a.anchor_count(), 8);
   for (int i = 0; i < a.size(); ++i) {
@@ -44,13 +44,13 @@ TEST(World, RangeScenariosRedrawFlexibleWorldsUntilEveryAgentIsLocalizable) {
   auto s = simulator_scenario();
   s.seed = 9;
   s.world.require_localizable = false;
-  const auto flexible = build_world(s);
-  EXPECT_FALSE(range_crlb(flexible, 0.1).localizable);
+  const auto flexible = world::build_world(s);
+  EXPECT_FALSE(world::range_crlb(flexible, 0.1).localizable);
   s.world.require_localizable = true;
-  const auto rigid = build_world(s);
-  EXPECT_TRUE(range_crlb(rigid, 0.1).localizable);
+  const auto rigid = world::build_world(s);
+  EXPECT_TRUE(world::range_crlb(rigid, 0.1).localizable);
   EXPECT_GT(rigid.placement_attempts, flexible.placement_attempts);
-  EXPECT_TRUE(std::isfinite(range_crlb(rigid, 0.1).single_snapshot_rmse_m));
+  EXPECT_TRUE(std::isfinite(world::range_crlb(rigid, 0.1).single_snapshot_rmse_m));
 }
 
 // build_world(s, trial, draw) rebuilds a world from its accepted placement draw without the
@@ -58,18 +58,18 @@ TEST(World, RangeScenariosRedrawFlexibleWorldsUntilEveryAgentIsLocalizable) {
 TEST(World, TheAcceptedDrawRebuildsTheSameWorldWithoutTheCheck) {
   auto s = simulator_scenario();
   s.seed = 9;  // its first draw is flexible: the accepted draw is a later one
-  const auto checked = build_world(s);
+  const auto checked = world::build_world(s);
   ASSERT_GT(checked.placement_attempts, 1);
-  const auto rebuilt = build_world(s, 0, checked.placement_attempts - 1);
+  const auto rebuilt = world::build_world(s, 0, checked.placement_attempts - 1);
   EXPECT_EQ(rebuilt.placement_attempts, checked.placement_attempts);
   EXPECT_EQ(rebuilt.truth, checked.truth);
   EXPECT_EQ(rebuilt.is_anchor, checked.is_anchor);
   EXPECT_EQ(rebuilt.neighbours, checked.neighbours);
   EXPECT_EQ(rebuilt.initial_guess, checked.initial_guess);
   // Draw 0 is connected but flexible: taken as given, it is the other (unchecked) world.
-  const auto unchecked = build_world(s, 0, 0);
+  const auto unchecked = world::build_world(s, 0, 0);
   EXPECT_NE(unchecked.truth, checked.truth);
-  EXPECT_THROW(build_world(s, 0, 1000), config::ScenarioError);
+  EXPECT_THROW(world::build_world(s, 0, 1000), config::ScenarioError);
 }
 
 TEST(Simulator, IeifConvergesBelowRangeNoiseAndNearTheCrlb) {
@@ -90,11 +90,11 @@ TEST(Simulator, RangeCrlbIsComputedUpToAThousandUnknownAgentsAndSkippedBeyond) {
   s.world.anchors = 10;
   s.world.area_m = 40.0 * std::sqrt(1010.0 / 30.0);  // the default density
   s.world.agents = 1010;
-  const RangeCrlb at_limit = scenario_crlb(build_world(s), s);
+  const world::RangeCrlb at_limit = world::scenario_crlb(world::build_world(s), s);
   EXPECT_TRUE(std::isfinite(at_limit.single_snapshot_rmse_m));
   EXPECT_GT(at_limit.single_snapshot_rmse_m, 0.0);
   s.world.agents = 1011;
-  EXPECT_TRUE(std::isnan(scenario_crlb(build_world(s), s).single_snapshot_rmse_m));
+  EXPECT_TRUE(std::isnan(world::scenario_crlb(world::build_world(s), s).single_snapshot_rmse_m));
 }
 
 TEST(Simulator, IsDeterministicInTheSeed) {
@@ -104,7 +104,7 @@ TEST(Simulator, IsDeterministicInTheSeed) {
   const auto a = run_simulation(s);
   const auto b = run_simulation(s);
   EXPECT_DOUBLE_EQ(a.final_metrics()->errors.rmse_m, b.final_metrics()->errors.rmse_m);
-  EXPECT_EQ(link_totals(a).dropped_injected, link_totals(b).dropped_injected);
+  EXPECT_EQ(rundir::link_totals(a).dropped_injected, rundir::link_totals(b).dropped_injected);
   s.seed = 8;
   const auto c = run_simulation(s);
   EXPECT_NE(a.final_metrics()->errors.rmse_m, c.final_metrics()->errors.rmse_m);
@@ -133,8 +133,8 @@ TEST(Simulator, ParallelRoundsGiveBitIdenticalResults) {
     ASSERT_EQ(a.estimates[k].estimate.mean_m, b.estimates[k].estimate.mean_m) << "row " << k;
     ASSERT_EQ(a.estimates[k].estimate.covariance, b.estimates[k].estimate.covariance) << "row " << k;
   }
-  EXPECT_EQ(link_totals(a).dropped_injected, link_totals(b).dropped_injected);
-  EXPECT_GT(link_totals(a).dropped_injected, 0);
+  EXPECT_EQ(rundir::link_totals(a).dropped_injected, rundir::link_totals(b).dropped_injected);
+  EXPECT_GT(rundir::link_totals(a).dropped_injected, 0);
   EXPECT_EQ(a.final_metrics()->errors.rmse_m, b.final_metrics()->errors.rmse_m);
 }
 
@@ -150,7 +150,7 @@ TEST(Simulator, InjectedLossDropsItsShareAndStillConverges) {
   auto s = simulator_scenario();
   s.network.loss = 0.3;
   const auto record = run_simulation(s);
-  const auto totals = link_totals(record);
+  const auto totals = rundir::link_totals(record);
   const double sigma = std::sqrt(static_cast<double>(totals.arrived) * 0.3 * 0.7);
   EXPECT_NEAR(static_cast<double>(totals.dropped_injected), 0.3 * static_cast<double>(totals.arrived),
               4.0 * sigma);

@@ -1,5 +1,5 @@
 // Progress and cancellation of long computations (world.hpp WorkControl): a set flag stops world
-// building and Monte Carlo with sim::Cancelled, and a simulation with the steps done marked interrupted —
+// building and Monte Carlo with world::Cancelled, and a simulation with the steps done marked interrupted —
 // the same steps, bit for bit, as an uninterrupted run. A prebuilt world runs like a built one.
 #include <gtest/gtest.h>
 
@@ -26,13 +26,13 @@ std::uint64_t bit_pattern(double v) { return std::bit_cast<std::uint64_t>(v); }
 
 TEST(WorkControl, ASetFlagStopsWorldBuildingAndMonteCarlo) {
   std::atomic<bool> cancel{true};
-  WorkControl control;
+  world::WorkControl control;
   control.cancel = &cancel;
-  EXPECT_THROW((void)build_world(scenario(), 0, -1, control), Cancelled);
-  EXPECT_THROW((void)run_monte_carlo(scenario(), 4, 2, {}, {}, &cancel), Cancelled);
+  EXPECT_THROW((void)world::build_world(scenario(), 0, -1, control), world::Cancelled);
+  EXPECT_THROW((void)run_monte_carlo(scenario(), 4, 2, {}, {}, &cancel), world::Cancelled);
   cancel = false;
-  const World built = build_world(scenario(), 0, -1, control);
-  EXPECT_EQ(built.neighbours, build_world(scenario()).neighbours);
+  const world::World built = world::build_world(scenario(), 0, -1, control);
+  EXPECT_EQ(built.neighbours, world::build_world(scenario()).neighbours);
 }
 
 TEST(WorkControl, AnInterruptedSimulationKeepsTheStepsDoneBitForBit) {
@@ -47,10 +47,10 @@ TEST(WorkControl, AnInterruptedSimulationKeepsTheStepsDoneBitForBit) {
     SimOptions options;
     options.round_threads = threads;
     options.control.cancel = &cancel;
-    options.on_step = [&](std::int64_t step, const ErrorStats&) {
+    options.on_step = [&](std::int64_t step, const world::ErrorStats&) {
       if (step == 11) cancel = true;  // as Ctrl-C would, between two steps
     };
-    const auto cut = run_simulation(s, build_world(s), options);
+    const auto cut = run_simulation(s, world::build_world(s), options);
     EXPECT_TRUE(cut.interrupted);
     ASSERT_EQ(cut.metrics.size(), 12u) << threads << " threads";
     for (std::size_t k = 0; k < cut.metrics.size(); ++k) {
@@ -67,7 +67,7 @@ TEST(WorkControl, AnInterruptedSimulationKeepsTheStepsDoneBitForBit) {
 TEST(WorkControl, APrebuiltWorldRunsLikeABuiltOne) {
   const auto s = scenario();
   const auto built = run_simulation(s);
-  const auto given = run_simulation(s, build_world(s), {});
+  const auto given = run_simulation(s, world::build_world(s), {});
   ASSERT_EQ(built.metrics.size(), given.metrics.size());
   for (std::size_t k = 0; k < built.metrics.size(); ++k)
     EXPECT_EQ(bit_pattern(built.metrics[k].errors.rmse_m), bit_pattern(given.metrics[k].errors.rmse_m));

@@ -51,7 +51,7 @@ void cholesky_rank1_update(Eigen::Ref<MatX> g, Eigen::Ref<VecX> x) {
 
 }  // namespace
 
-// 000 Alg. 1 with the inclusive windows (docs/algorithms.md §2.3), 0-based.
+// Khan et al. Alg. 1 with the inclusive windows (docs/algorithms.md §2.3), 0-based.
 BandMatrix band_inverse_windows(const BandMatrix& a, int bandwidth) {
   const int n = a.size();
   check_bandwidth(n, bandwidth);

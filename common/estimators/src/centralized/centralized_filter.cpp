@@ -127,7 +127,7 @@ MatX unpermute_dense(const MatX& internal, const std::vector<int>& labels) {
   return out;
 }
 
-// ---- EKF, 000 eqs. (10)–(12) with [A-2] ----
+// ---- EKF, Khan et al. eqs. (10)–(12) with [A-2] ----
 class Ekf final : public CentralizedFilter {
  public:
   Ekf(const VecX& mean, const std::vector<Mat2>& cov, const CentralizedFilterParams& params)
@@ -201,7 +201,7 @@ Mat2 band_block(const BandMatrix& band, int i) {
   return block;
 }
 
-// ---- LB-EKF, 000 Alg. 2 (banded covariance; docs/algorithms.md §2.4) ----
+// ---- LB-EKF, Khan et al. Alg. 2 (banded covariance; docs/algorithms.md §2.4) ----
 class LbEkf final : public CentralizedFilter {
  public:
   LbEkf(const VecX& mean, const std::vector<Mat2>& cov, const CentralizedFilterParams& params)

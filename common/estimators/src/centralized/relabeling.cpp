@@ -35,7 +35,7 @@ std::vector<int> identity_labels(int num_agents) {
   return labels;
 }
 
-// 000 Alg. 3.
+// Khan et al. Alg. 3.
 std::vector<int> lexicographic_labels(const std::vector<Vec2>& positions) {
   std::vector<int> order = identity_labels(static_cast<int>(positions.size()));
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {

@@ -1,6 +1,6 @@
 #pragma once
-// The consensus half of a DLE step (002 Algorithm 1, docs/algorithms.md §4.2, §4.5), shared by the DLE and
-// the joint localization + field estimator. Internal to the estimators library.
+// The consensus half of a DLE step (Atanasov et al. Algorithm 1, docs/algorithms.md §4.2, §4.5), shared by
+// the DLE and the joint localization + field estimator. Internal to the estimators library.
 #include <cstdint>
 #include <functional>
 

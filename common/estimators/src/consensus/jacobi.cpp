@@ -54,7 +54,7 @@ StepOutput JacobiLocalization::step(const StepInput& input) {
     out.outbox = published();
     return out;
   }
-  // 002 eq. (9) over the neighbours with both a measurement mean and a STATE (the newest:
+  // Atanasov et al. eq. (9) over the neighbours with both a measurement mean and a STATE (the newest:
   // docs/algorithms.md §4.5).
   Mat2 D = Mat2::Zero();
   Vec2 b = Vec2::Zero();

@@ -100,7 +100,8 @@ bool DgBb::direction_at(const Vec2& position, Vec2& D) const {
     if (!peer.has_range) continue;
     if (!peer.have_state) return false;
     const Vec2 delta = position - peer.position;
-    D += (delta.squaredNorm() - peer.range * peer.range) * delta;  // g_ij (p_i − p_j), 004 eq. (13) [E-1]
+    // g_ij (p_i − p_j), Calafiore et al. eq. (13) [E-1]
+    D += (delta.squaredNorm() - peer.range * peer.range) * delta;
   }
   D *= params_.grad_scale;
   return true;
@@ -125,7 +126,7 @@ double DgBb::capped_bb_step(double alpha, const Vec2& D) {
 
 void DgBb::apply_update(const Vec2& D, double alpha) {
   if (active_ && !setup_.anchor) {
-    const Vec2 next = p_ - alpha * D;  // 004 eq. (14)
+    const Vec2 next = p_ - alpha * D;  // Calafiore et al. eq. (14)
     const double correction = (next - p_).norm();
     p_prev_ = p_;
     p_ = next;
@@ -139,7 +140,8 @@ void DgBb::apply_update(const Vec2& D, double alpha) {
 }
 
 void DgBb::consensus_round() {
-  // 004 eqs. (10)–(11) with Metropolis weights (docs/algorithms.md §1.2); newest value per neighbour (§6.4).
+  // Calafiore et al. eqs. (10)–(11) with Metropolis weights (docs/algorithms.md §1.2); newest value per
+  // neighbour (§6.4).
   const int own_degree = range_count_;
   double rho = rho_;
   double psi = psi_;
@@ -212,7 +214,7 @@ double DgBb::local_step(const Vec2& D) {
     const Vec2 dD = D - D_before_own_move;
     const double rho = dp.squaredNorm();
     const double psi = dp.dot(dD);
-    alpha = rho / psi;  // 004 eq. (15)
+    alpha = rho / psi;  // Calafiore et al. eq. (15)
     if (params_.curvature_safeguard && !bb_step_valid(rho, psi, alpha)) {
       alpha = have_valid_alpha_ ? last_valid_alpha_ : params_.warmup_step;  // [E-4]
       if (active_) ++safeguard_count_;
@@ -233,7 +235,7 @@ double DgBb::local_step(const Vec2& D) {
 }
 
 void DgBb::consensus_step(StepOutput& out) {
-  if (round_ == 0) {  // 004 eqs. (8)–(9)
+  if (round_ == 0) {  // Calafiore et al. eqs. (8)–(9)
     Vec2 D;
     if (!direction(D)) D = D_prev_;
     D_cur_ = D;
@@ -250,7 +252,7 @@ void DgBb::consensus_step(StepOutput& out) {
     ++round_;
     return;
   }
-  // Round T: α_i = ρ_i(T)/ψ_i(T) (004 eq. (12)) with the [E-4] safeguard, then eq. (14).
+  // Round T: α_i = ρ_i(T)/ψ_i(T) (Calafiore et al. eq. (12)) with the [E-4] safeguard, then eq. (14).
   double alpha = rho_ / psi_;
   if (!bb_step_valid(rho_, psi_, alpha)) {
     if (params_.curvature_safeguard) {
@@ -352,7 +354,7 @@ double centralized_bb_step(const std::vector<Vec2>& dp, const std::vector<Vec2>&
     rho += dp[i].squaredNorm();
     psi += dp[i].dot(dD[i]);
   }
-  return rho / psi;  // 004 eq. (5)
+  return rho / psi;  // Calafiore et al. eq. (5)
 }
 
 CentralizedBbResult centralized_bb(const RangeProblem& problem, const DgBbParams& params) {

@@ -1,6 +1,6 @@
 #pragma once
-// The experiments of 000 Sec. 5 (docs/algorithms.md §2.8) as library functions: no I/O, the caller prints.
-// Randomness comes from caller-provided engines or seeds (filters themselves never draw).
+// The experiments of Khan et al. Sec. 5 (docs/algorithms.md §2.8) as library functions: no I/O, the caller
+// prints. Randomness comes from caller-provided engines or seeds (filters themselves never draw).
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -10,19 +10,22 @@
 #include "swarmloc/estimators/centralized/centralized_filter.hpp"
 #include "swarmloc/estimators/centralized/relabeling.hpp"
 
-namespace swarmloc::estimators::centralized {
+namespace swarmloc::research {
+
+namespace centralized = estimators::centralized;
 
 // ---- E-A1 (Sec. 5.1, Fig. 2) ----
 /// Random symmetric n×n matrix of bandwidth `bandwidth_of_a`: in-band off-diagonals U(−1, 1), diagonal
 /// 15, then divided by the largest absolute entry (docs/algorithms.md §2.8).
 MatX make_ea1_matrix(int n, int bandwidth_of_a, std::mt19937_64& rng);
 /// ‖A⁻¹ − BandInv_L(A)‖_F for one fresh matrix.
-double banded_inversion_error(int n, int bandwidth_of_a, int bandwidth, std::mt19937_64& rng,
-                              BandInversionMethod method = BandInversionMethod::kWindows);
+double banded_inversion_error(
+    int n, int bandwidth_of_a, int bandwidth, std::mt19937_64& rng,
+    centralized::BandInversionMethod method = centralized::BandInversionMethod::kWindows);
 /// The same error for several L on one matrix (A⁻¹ computed once).
-std::vector<double> banded_inversion_errors(int n, int bandwidth_of_a, const std::vector<int>& bandwidths,
-                                            std::mt19937_64& rng,
-                                            BandInversionMethod method = BandInversionMethod::kWindows);
+std::vector<double> banded_inversion_errors(
+    int n, int bandwidth_of_a, const std::vector<int>& bandwidths, std::mt19937_64& rng,
+    centralized::BandInversionMethod method = centralized::BandInversionMethod::kWindows);
 
 // ---- E-A3 (Sec. 5.3, Fig. 7) ----
 struct VrBoundSample {
@@ -48,7 +51,7 @@ struct Ea2Config {
   int bandwidth = 20;  ///< L for the LB-EKF variants
   std::uint64_t config_seed = 3;
   bool relabel_from_truth = false;  ///< [A-5]: relabel from x̂(0) by default, from x(0) as an oracle
-  BandInversionMethod inversion = BandInversionMethod::kWindows;
+  centralized::BandInversionMethod inversion = centralized::BandInversionMethod::kWindows;
   bool compute_crb = true;
   /// Reject configurations whose VR bandwidth at x(0) exceeds this (< 0: no limit). The paper's Fig. 3
   /// configuration has β = 8 (Bandwidth(S) = 17 < L = 20), but uniform draws give β ≈ 11–16 (none
@@ -62,7 +65,7 @@ struct Ea2Config {
 struct Ea2World {
   std::vector<Vec2> positions;
   std::vector<int> beacons;
-  std::vector<Edge> edges;
+  std::vector<centralized::Edge> edges;
   int natural_bandwidth = 0;  ///< β under the generation order
   int vr_bandwidth = 0;       ///< β under Alg. 3 applied to x(0)
   int attempts = 0;           ///< configurations drawn until one was accepted
@@ -95,4 +98,4 @@ Ea2TrialResult run_ea2_trial(const Ea2Config& config, const Ea2World& world, Ea2
 /// Convenience overload that builds the world from config.config_seed.
 Ea2TrialResult run_ea2_trial(const Ea2Config& config, Ea2Variant variant, std::uint64_t trial_seed);
 
-}  // namespace swarmloc::estimators::centralized
+}  // namespace swarmloc::research

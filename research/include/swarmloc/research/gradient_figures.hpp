@@ -1,7 +1,7 @@
 #pragma once
-// Reproduction experiments of 004 Figs. 4–7 (docs/algorithms.md §6.6 Example 2) on the anchored lattices of
-// Table I: Φ against τ (Fig. 4), the share of convergent runs against σ_I (Fig. 5), τ_end against T for
-// several network sizes (Fig. 6) and against n with T = 20 (Fig. 7). No I/O; each run's lattice comes
+// Reproduction experiments of Calafiore et al. Figs. 4–7 (docs/algorithms.md §6.6 Example 2) on the anchored
+// lattices of Table I: Φ against τ (Fig. 4), the share of convergent runs against σ_I (Fig. 5), τ_end against
+// T for several network sizes (Fig. 6) and against n with T = 20 (Fig. 7). No I/O; each run's lattice comes
 // from (seed, size, σ_I, run), so every method and every T of a cell sees the same draws, and the results
 // do not depend on the thread count.
 #include <cstdint>
@@ -10,10 +10,10 @@
 
 #include "swarmloc/research/gradient_localization.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 /// Figs. 4–5: local BB (T = 0; eq. (15) as printed, the reading that converges on this lattice, see
-/// Table I), DG-BB with `base.consensus_rounds`, and the fixed step 0.1, as 004 plots them.
+/// Table I), DG-BB with `base.consensus_rounds`, and the fixed step 0.1, as Calafiore et al. plots them.
 struct ConvergenceFiguresConfig {
   LatticeConfig lattice;  ///< side, diagonals, runs and seed; its initial_std is replaced per cell
   std::vector<double> initial_stds{0.01, 0.02, 0.05, 0.1, 0.15, 0.2};  ///< Fig. 5's x axis ([E-8])
@@ -30,7 +30,7 @@ struct ConvergenceCurve {
   /// Mean Φ over the runs after update τ = trace_taus[k]; a run that stopped earlier keeps its final Φ.
   /// NaN if some run diverged before that τ.
   std::vector<double> mean_error;
-  /// Updates per run at which Φ grew by more than 10 % (004: local steps "cause spikes").
+  /// Updates per run at which Φ grew by more than 10 % (Calafiore et al.: local steps "cause spikes").
   double spikes_per_run = 0.0;
 };
 
@@ -57,8 +57,8 @@ struct ScalingFiguresConfig {
   std::vector<int> sides{5, 7, 10, 15};  ///< Fig. 6: n = 25, 49, 100, 225
   std::vector<int> consensus_rounds{1, 2, 5, 10, 20, 50};  ///< Fig. 6's x axis (T)
   std::vector<int> sides_at_t20{20};                       ///< Fig. 7: more sizes, T = 20 only (n = 400)
-  /// σ_I in lattice spacings (004 does not say how σ_I scales with n): 0.45 is Table I's 0.05 on the
-  /// 10 × 10 lattice, and keeps a guess as likely to fold over on every size. 0: lattice.initial_std.
+  /// σ_I in lattice spacings (Calafiore et al. does not say how σ_I scales with n): 0.45 is Table I's 0.05 on
+  /// the 10 × 10 lattice, and keeps a guess as likely to fold over on every size. 0: lattice.initial_std.
   double initial_std_per_spacing = 0.45;
   /// η_abstol of each table (base.abs_tol is not used). Table I's 1e−10 stops large lattices early: Φ
   /// plateaus near 3e−3 where the cost is nearly flat (a soft bending mode held by the four corner
@@ -82,4 +82,4 @@ struct ScalingCell {
 std::vector<ScalingCell> run_scaling_figures(const ScalingFiguresConfig& config,
                                              const estimators::gradient::DgBbParams& base);
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

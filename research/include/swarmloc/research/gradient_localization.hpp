@@ -1,6 +1,6 @@
 #pragma once
-// Reproduction experiment of 004 Example 2 / Table I (docs/algorithms.md §6.6): DG-BB and its baselines on an
-// anchored lattice, run as DgBb estimators over an in-process synchronous bus. No I/O.
+// Reproduction experiment of Calafiore et al. Example 2 / Table I (docs/algorithms.md §6.6): DG-BB and its
+// baselines on an anchored lattice, run as DgBb estimators over an in-process synchronous bus. No I/O.
 #include <cstdint>
 #include <random>
 #include <string>
@@ -8,7 +8,7 @@
 
 #include "swarmloc/estimators/gradient/dgbb.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 struct LatticeConfig {
   int side = 10;                ///< side × side nodes on [0, 1]², anchors at the 4 corners
@@ -58,12 +58,12 @@ struct TableOneRow {
   double mean_trust_region_fires = 0.0;  ///< per run, summed over nodes
 };
 
-/// Table I of 004: DG-BB (T), local BB ([E-6]), fixed 0.1, fixed 0.01, step length 10/√τ, local BB with
-/// eq. (15) as printed (DgBbParams::own_move_curvature), each over config.runs lattices (the same draws for
-/// every method). `base` supplies T, η, τ_max, warm-up and the safeguard.
-/// With base.max_move_fraction = 0 (the source) two rows follow that are not in the source: DG-BB and local
-/// BB with the trust region at 1.
+/// Table I of Calafiore et al.: DG-BB (T), local BB ([E-6]), fixed 0.1, fixed 0.01, step length 10/√τ, local
+/// BB with eq. (15) as printed (DgBbParams::own_move_curvature), each over config.runs lattices (the same
+/// draws for every method). `base` supplies T, η, τ_max, warm-up and the safeguard. With
+/// base.max_move_fraction = 0 (the source) two rows follow that are not in the source: DG-BB and local BB
+/// with the trust region at 1.
 std::vector<TableOneRow> run_table_one(const LatticeConfig& config,
                                        const estimators::gradient::DgBbParams& base);
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

@@ -1,10 +1,11 @@
 #pragma once
-// Reproduction experiment of 003 Sec. 4 (docs/algorithms.md §5.4): 5 nodes, single anchor S_0 at the origin,
-// NLOS paths only, cooperative multipath BP vs pairwise localization. No I/O; randomness from the seed.
+// Reproduction experiment of Leng et al. Sec. 4 (docs/algorithms.md §5.4): 5 nodes, single anchor S_0 at the
+// origin, NLOS paths only, cooperative multipath BP vs pairwise localization. No I/O; randomness from the
+// seed.
 #include <cstdint>
 #include <vector>
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 struct MultipathExperimentConfig {
   int trials = 1000;
@@ -16,16 +17,16 @@ struct MultipathExperimentConfig {
                                       45.0};  ///< one reflected path per wall per linked pair (R = #walls)
   double wall_margin_m = 5.0;                 ///< walls lie this far beyond the square's circumscribed circle
   double algorithm_sigma2 = -1.0;             ///< σ² used by BP/pairwise; ≤ 0: range_std² ([D-6])
-  /// Not in 003: BP and pairwise also weight each path by what its angle errors do to eq. (1)
+  /// Not in Leng et al.: BP and pairwise also weight each path by what its angle errors do to eq. (1)
   /// (MultipathBpParams::doa_variance_rad2 = the uniform error's variance, doa_error² / 3).
   bool doa_aware_paths = false;
-  /// Not in 003: exact GaBP, cavity messages instead of full beliefs ([D-4] ablation,
+  /// Not in Leng et al.: exact GaBP, cavity messages instead of full beliefs ([D-4] ablation,
   /// MultipathBpParams::exact_messages).
   bool exact_messages = false;
   /// How a path's measured length is drawn. false (docs/algorithms.md §5.4): the image method's length plus
   /// N(0, range_std²), so the angle errors make eq. (1) wrong by what they move g. true (another reading of
-  /// 003 Sec. 4, whose theory takes eq. (1) as exact): the length eq. (1) predicts at the measured angles,
-  /// g(θ̃_ij, θ̃_ji)ᵀ(s_i − s_j), plus N(0, range_std²); the angle errors then enter only through G.
+  /// Leng et al. Sec. 4, whose theory takes eq. (1) as exact): the length eq. (1) predicts at the measured
+  /// angles, g(θ̃_ij, θ̃_ji)ᵀ(s_i − s_j), plus N(0, range_std²); the angle errors then enter only through G.
   bool lengths_from_measured_angles = false;
   std::uint64_t seed = 1;
 };
@@ -36,7 +37,7 @@ struct MultipathExperimentResult {
   std::vector<std::vector<double>> bp_y_error;
   std::vector<std::vector<double>> pairwise_x_error;
   std::vector<std::vector<double>> pairwise_y_error;
-  /// Centralized baseline (not in 003): weighted least squares on all five links' paths at once
+  /// Centralized baseline (not in Leng et al.): weighted least squares on all five links' paths at once
   /// (bp::centralized_from_paths), the best linear use of the same measurements.
   std::vector<std::vector<double>> centralized_x_error;
   std::vector<std::vector<double>> centralized_y_error;
@@ -53,4 +54,4 @@ MultipathExperimentResult run_multipath_experiment(const MultipathExperimentConf
 /// Quantile q ∈ [0, 1] of |values| (linear interpolation); NaN for an empty vector.
 double abs_quantile(std::vector<double> values, double q);
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

@@ -1,16 +1,16 @@
 #pragma once
-// Reproduction experiments of 002 (docs/algorithms.md §4.6): distributed Jacobi localization from relative
-// measurements against the centralized BLUE and its CRB, and the static-target DLE. Library functions
-// returning numbers (no I/O); all randomness from the seeds in the configs.
+// Reproduction experiments of Atanasov et al. (docs/algorithms.md §4.6): distributed Jacobi localization from
+// relative measurements against the centralized BLUE and its CRB, and the static-target DLE. Library
+// functions returning numbers (no I/O); all randomness from the seeds in the configs.
 #include <cstdint>
 #include <vector>
 
 #include "swarmloc/estimators/consensus/joint_field.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
-/// How the 002 localization graph is drawn ([C-5]: the source says only "randomly generated graphs with 300
-/// nodes and 1288 edges").
+/// How the Atanasov et al. localization graph is drawn ([C-5]: the source says only "randomly generated
+/// graphs with 300 nodes and 1288 edges").
 enum class RelativeGraphModel {
   kGeometric,  ///< docs/algorithms.md §4.6 default: uniform points, the radius giving exactly num_edges edges
   kGnm,        ///< Erdős–Rényi G(n, m): num_edges pairs drawn uniformly, whatever their distance
@@ -24,8 +24,8 @@ struct JacobiExperimentConfig {
   double prior_std_m = 5.0;        ///< x̂_i(0) = x_i + N(0, std² I)
   double measurement_std_m = 1.0;  ///< 𝓔_ij = std² I₂
   int steps = 50;
-  int sweeps_per_step = 1;          ///< eq. (9) exchanges per measurement step (1 = 002 as printed)
-  int runs = 50;                    ///< a fresh connected graph, priors and noise per run
+  int sweeps_per_step = 1;  ///< eq. (9) exchanges per measurement step (1 = Atanasov et al. as printed)
+  int runs = 50;            ///< a fresh connected graph, priors and noise per run
   bool shared_measurements = true;  ///< [C-7]: one draw per edge per step, s_ji = −s_ij
   std::uint64_t seed = 1;
   int max_graph_attempts = 10000;
@@ -41,7 +41,7 @@ struct JacobiExperimentResult {
   int graphs_rejected = 0;          ///< disconnected draws
 };
 
-/// 002 Figs. 2, 4: node 0 is the reference (fixed at 0); truth is expressed in its frame.
+/// Atanasov et al. Figs. 2, 4: node 0 is the reference (fixed at 0); truth is expressed in its frame.
 JacobiExperimentResult run_jacobi_experiment(const JacobiExperimentConfig& config);
 
 struct StaticDleExperimentConfig {
@@ -64,20 +64,20 @@ struct StaticDleExperimentResult {
   std::vector<double> fraction_with_estimate;
 };
 
-/// Static target (F = I, W = 0), 002 Algorithm 1 with Metropolis weights.
+/// Static target (F = I, W = 0), Atanasov et al. Algorithm 1 with Metropolis weights.
 StaticDleExperimentResult run_static_dle_experiment(const StaticDleExperimentConfig& config);
 
 /// Where the field experiment puts its sensors.
 enum class SensorPlacement {
   kUniform,  ///< uniform in the square
-  /// On cell boundaries (002 Fig. 5's "additional experiment"): sensor i on the left or bottom edge of
-  /// cell i mod cells², so every cell has sensors of its own
+  /// On cell boundaries (Atanasov et al. Fig. 5's "additional experiment"): sensor i on the left or bottom
+  /// edge of cell i mod cells², so every cell has sensors of its own
   kCellBoundaries,
 };
 
 struct JointFieldExperimentConfig {
-  /// 002 does not give Fig. 5's sensor count: the graph of Figs. 2, 4. (100 sensors leave the 10 × 10 field
-  /// poorly observed: the centralized filter with true positions stalls near 0.3.)
+  /// Atanasov et al. does not give Fig. 5's sensor count: the graph of Figs. 2, 4. (100 sensors leave the 10
+  /// × 10 field poorly observed: the centralized filter with true positions stalls near 0.3.)
   int num_nodes = 300;
   int num_edges = 1288;  ///< exactly this many edges: the radius is the num_edges-th smallest distance
   double side_m = 100.0;
@@ -112,7 +112,8 @@ struct JointFieldExperimentResult {
 };
 
 struct TrackingExperimentConfig {
-  int num_sensors = 40;  ///< sensor 0 at the origin, the others uniform in the square (002 Figs. 1, 3)
+  /// Sensor 0 at the origin, the others uniform in the square (Atanasov et al. Figs. 1, 3).
+  int num_sensors = 40;
   int num_targets = 10;
   double side_m = 100.0;
   double radius_m = 30.0;  ///< communication disk; the draw is repeated until connected
@@ -134,11 +135,12 @@ struct TrackingExperimentResult {
   std::vector<double> node0_velocity_rmse, others_velocity_rmse, centralized_velocity_rmse;
 };
 
-/// 002 Figs. 1, 3: every sensor runs one DLE per target (range–bearing, linearized at its prediction;
-/// known data association), against a centralized EKF on all sensors' readings.
+/// Atanasov et al. Figs. 1, 3: every sensor runs one DLE per target (range–bearing, linearized at its
+/// prediction; known data association), against a centralized EKF on all sensors' readings.
 TrackingExperimentResult run_tracking_experiment(const TrackingExperimentConfig& config);
 
-/// 002 Fig. 5: joint localization (Jacobi, node 0 the reference) and estimation of a static field.
+/// Atanasov et al. Fig. 5: joint localization (Jacobi, node 0 the reference) and estimation of a static
+/// field.
 JointFieldExperimentResult run_joint_field_experiment(const JointFieldExperimentConfig& config);
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

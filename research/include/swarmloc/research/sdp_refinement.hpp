@@ -1,7 +1,7 @@
 #pragma once
-// Reproduction experiment of 004 Example 3 / Tables II–III (docs/algorithms.md §6.6): random geometric
-// graphs, the SDP relaxation as initial guess, DG-BB refinement as DgBb agents over the in-process bus, with
-// a synchronous or an asynchronous (random start tick per node, §6.4) start. No I/O.
+// Reproduction experiment of Calafiore et al. Example 3 / Tables II–III (docs/algorithms.md §6.6): random
+// geometric graphs, the SDP relaxation as initial guess, DG-BB refinement as DgBb agents over the in-process
+// bus, with a synchronous or an asynchronous (random start tick per node, §6.4) start. No I/O.
 #include <cstdint>
 #include <random>
 #include <string>
@@ -11,7 +11,7 @@
 #include "swarmloc/research/gradient_localization.hpp"
 #include "swarmloc/research/sdp_relaxation.hpp"
 
-namespace swarmloc::sim::experiments {
+namespace swarmloc::research {
 
 struct GeometricGraphConfig {
   int nodes = 50;              ///< n ([E-8]: not stated in the source; default 50)
@@ -42,13 +42,13 @@ std::uint64_t run_seed(std::uint64_t seed, int run);
 /// One Example 3 instance with its SDP solution; `world.problem.initial` = the SDP positions when usable.
 struct SdpInstance {
   LatticeProblem world;
-  estimators::gradient::SdpRelaxationResult sdp;
+  SdpRelaxationResult sdp;
   double sdp_error = 0.0;  ///< Φ of the SDP positions (NaN when the SDP failed)
 };
 SdpInstance make_sdp_instance(const GeometricGraphConfig& config, std::mt19937_64& rng,
-                              const estimators::gradient::SdpRelaxationParams& sdp_params = {});
+                              const SdpRelaxationParams& sdp_params = {});
 
-/// DG-BB parameters of Example 3: T = 20, η_abstol = 1e−15, τ_max = 1e5 (004 Sec. V-C).
+/// DG-BB parameters of Example 3: T = 20, η_abstol = 1e−15, τ_max = 1e5 (Calafiore et al. Sec. V-C).
 estimators::gradient::DgBbParams example3_dgbb_params();
 
 // ---- Table II: Φ of SDP and SDP+DG for n_a × ν_d ----
@@ -106,4 +106,4 @@ struct TableThreeColumn {
 std::vector<TableThreeColumn> run_table_three(const TableThreeConfig& config,
                                               const estimators::gradient::DgBbParams& params);
 
-}  // namespace swarmloc::sim::experiments
+}  // namespace swarmloc::research

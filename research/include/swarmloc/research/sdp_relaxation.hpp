@@ -1,14 +1,16 @@
 #pragma once
-// Full SDP relaxation of range localization (Biswas–Ye form; 004 Sec. V-C, docs/algorithms.md §6.5 item 4),
-// solved with SDPA. Centralized, one shot: the initial guess of the SDP+DG refinement (Tables II–III).
-// Plain C++/Eigen in and out: no I/O, logging, RNG or clock; SDPA is seen only by the .cpp.
+// Full SDP relaxation of range localization (Biswas–Ye form; Calafiore et al. Sec. V-C, docs/algorithms.md
+// §6.5 item 4), solved with SDPA. Centralized, one shot: the initial guess of the SDP+DG refinement (Tables
+// II–III). Plain C++/Eigen in and out: no I/O, logging, RNG or clock; SDPA is seen only by the .cpp.
 #include <Eigen/Core>
 #include <string>
 #include <vector>
 
 #include "swarmloc/estimators/gradient/dgbb.hpp"
 
-namespace swarmloc::estimators::gradient {
+namespace swarmloc::research {
+
+namespace gradient = estimators::gradient;
 
 struct SdpRelaxationParams {
   double epsilon = 1e-7;     ///< SDPA epsilonStar (relative duality gap) and epsilonDash (feasibility)
@@ -68,16 +70,17 @@ struct SdpRelaxationResult {
 /// for a malformed problem (index out of range, self edge, non-finite range or anchor position); a solver
 /// that does not reach a solution is reported in `status`, never thrown. Thread-safe (SDPA calls are
 /// serialized).
-SdpRelaxationResult solve_sdp_relaxation(const RangeProblem& problem, const SdpRelaxationParams& params = {});
+SdpRelaxationResult solve_sdp_relaxation(const gradient::RangeProblem& problem,
+                                         const SdpRelaxationParams& params = {});
 
 /// The relaxation's objective at a given (X, Y) with the slacks at their best values:
 /// Σ_edges |residual of the edge's constraint| (anchor–anchor edges skipped). `positions` has one entry per
 /// node (anchors' entries ignored: problem.initial is used), `gram` is Y indexed by `unknown_index`.
 /// With Y = XᵀX the residuals are ‖p_i − p_j‖² − d̄_ij².
-double sdp_relaxation_objective(const RangeProblem& problem, const std::vector<Vec2>& positions,
+double sdp_relaxation_objective(const gradient::RangeProblem& problem, const std::vector<Vec2>& positions,
                                 const Eigen::MatrixXd& gram, const std::vector<int>& unknown_index);
 
 /// unknown_index for `problem` (the numbering used by solve_sdp_relaxation): non-anchors in node order.
-std::vector<int> sdp_unknown_index(const RangeProblem& problem);
+std::vector<int> sdp_unknown_index(const gradient::RangeProblem& problem);
 
-}  // namespace swarmloc::estimators::gradient
+}  // namespace swarmloc::research

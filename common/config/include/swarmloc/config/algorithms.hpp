@@ -25,9 +25,9 @@ enum class AlgorithmFamily {
   kCentralized,  ///< one filter over the whole network in the fusion centre (ekf, lbekf…; docs/algorithms.md
                  ///< §2.7)
   kPose,       ///< pose-state filters over range-bearing and odometry data (MRCLAM)
-  kConsensus,  ///< consensus localization / tracking (jacobi, dle, joint_field; 002)
-  kBp,         ///< belief propagation over reflected paths (multipath_bp; 003)
-  kGradient,   ///< distributed gradient descent over ranges (dgbb and its baselines; 004)
+  kConsensus,  ///< consensus localization / tracking (jacobi, dle, joint_field; Atanasov et al.)
+  kBp,         ///< belief propagation over reflected paths (multipath_bp; Leng et al.)
+  kGradient,   ///< distributed gradient descent over ranges (dgbb and its baselines; Calafiore et al.)
 };
 
 /// The parameter blocks of Scenario::Algorithm (scenario.hpp), one per family that has knobs.
@@ -79,9 +79,9 @@ enum class AlgorithmPlacement {
 };
 
 /// What the world measures for an algorithm: ranges (+ anchor fixes) for the Kalman and gradient
-/// families, relative positions for jacobi (002 eq. (3)), reflected paths for multipath_bp (003 eq. (1)),
-/// target readings for dle (002 eqs. (2), (4)), relative positions and field readings for joint_field
-/// (002 eqs. (3), (10)).
+/// families, relative positions for jacobi (Atanasov et al. eq. (3)), reflected paths for multipath_bp (Leng
+/// et al. eq. (1)), target readings for dle (Atanasov et al. eqs. (2), (4)), relative positions and field
+/// readings for joint_field (Atanasov et al. eqs. (3), (10)).
 struct MeasurementKinds {
   bool ranges = false;
   bool anchor_fixes = false;

@@ -23,13 +23,14 @@ enum class Placement { kUniform, kGrid, kFile };
 /// Where the world comes from: the seeded generator, or a real dataset (UTIAS MRCLAM, docs/real-data.md).
 enum class WorldSource { kGenerated, kMrclam };
 enum class Motion { kStatic, kRandomWalk };
-/// The target of algorithm dle (002 Sec. II): still, or a double integrator driven by white acceleration.
+/// The target of algorithm dle (Atanasov et al. Sec. II): still, or a double integrator driven by white
+/// acceleration.
 enum class TargetMotion { kStatic, kDoubleIntegrator };
 /// What a sensor reads of the target: its position plus noise (H = [I 0]), or range and bearing from the
-/// sensor (002 eq. (4)).
+/// sensor (Atanasov et al. eq. (4)).
 enum class TargetSensing { kLinear, kRangeBearing };
-/// How a sensor reads the field of algorithm joint_field (002 Fig. 5): tents around the cell centres,
-/// continuous in its position, or the value of the cell it is in, which jumps at cell boundaries.
+/// How a sensor reads the field of algorithm joint_field (Atanasov et al. Fig. 5): tents around the cell
+/// centres, continuous in its position, or the value of the cell it is in, which jumps at cell boundaries.
 enum class FieldSensing { kContinuous, kCellBased };
 enum class RunMode { kFreeRun, kLockstep };
 /// How `swarmloc sim` drives the agents: synchronous rounds, or each agent on its own clock over a
@@ -39,21 +40,23 @@ enum class SimClock { kRounds, kAgents };
 /// they do not all publish at once) or at the same instant for every agent.
 enum class TickPhase { kSpread, kAligned };
 enum class InitialGuess { kNoisyTruth, kUniform };
-/// local_bb's ΔD_i in 004 eq. (15): the change of D_i(p) between updates, neighbours' moves included
-/// (docs/algorithms.md [E-6]), or the change node i's own move made at the neighbours' newest positions (the
-/// equation as printed).
+/// local_bb's ΔD_i in Calafiore et al. eq. (15): the change of D_i(p) between updates, neighbours' moves
+/// included (docs/algorithms.md [E-6]), or the change node i's own move made at the neighbours' newest
+/// positions (the equation as printed).
 enum class LocalBbDifference { kGradientChange, kOwnMove };
-/// multipath_bp: each path's variance is σ² alone (003), or σ² plus what its angle-of-arrival errors do to
-/// eq. (1) (not in 003; estimators::bp::path_variances).
+/// multipath_bp: each path's variance is σ² alone (Leng et al.), or σ² plus what its angle-of-arrival errors
+/// do to eq. (1) (not in Leng et al.; estimators::bp::path_variances).
 enum class PathVariance { kRangeOnly, kWithDoa };
-/// multipath_bp: nodes exchange full beliefs (003 as printed, [D-4]), or exact GaBP's cavity messages (not
-/// in 003; estimators::bp::MultipathBpParams::exact_messages).
+/// multipath_bp: nodes exchange full beliefs (Leng et al. as printed, [D-4]), or exact GaBP's cavity messages
+/// (not in Leng et al.; estimators::bp::MultipathBpParams::exact_messages).
 enum class BpMessages { kBeliefs, kExact };
 enum class Reliability { kBestEffort, kReliable };
 enum class Durability { kVolatile, kTransientLocal };
-/// Range noise: additive N(0, range_std²), or proportional N(0, (range_factor·d)²) (004 eq. (16)).
+/// Range noise: additive N(0, range_std²), or proportional N(0, (range_factor·d)²) (Calafiore et al. eq.
+/// (16)).
 enum class RangeNoise { kAdditive, kProportional };
-/// Measurement noise drawn anew every world step, or once per run (a static snapshot, as in 003/004).
+/// Measurement noise drawn anew every world step, or once per run (a static snapshot, as in Leng et al. and
+/// Calafiore et al.).
 enum class NoiseDraw { kPerStep, kOnce };
 
 struct QosSettings {
@@ -75,7 +78,8 @@ struct KalmanParams {
   double initial_std_m = 8.66;
   bool inflate_stale = true;
   double range_gate_chi2 = 0.0;  ///< chi-square gate on range innovations (ieif, iekf); 0 = off
-  int update_iterations = 1;     ///< ieif, iekf: Gauss–Newton passes per update; 1 = 001 as printed
+  /// ieif, iekf: Gauss–Newton passes per update; 1 = Gasparri & Pascucci as printed
+  int update_iterations = 1;
 };
 
 /// The pose-state family (pose_ekf, pose_ieif, dead_reckoning), beside the Kalman block.
@@ -92,20 +96,20 @@ struct GradientParams {
   double max_step = 0.0;           ///< cap on any BB step; 0 = no cap (the source has none)
   double max_move_fraction = 1.0;  ///< BB trust region: move ≤ this × shortest range; 0 = off
   double abs_tol = 1e-10;          ///< η_abstol: a node stops when ‖α·D_i‖ falls below it
-  /// local_bb: ΔD_i of 004 eq. (15) (gradient_change = [E-6], own_move = as printed).
+  /// local_bb: ΔD_i of Calafiore et al. eq. (15) (gradient_change = [E-6], own_move = as printed).
   LocalBbDifference local_bb_difference = LocalBbDifference::kGradientChange;
 };
 
 /// joint_field.
 struct FieldParams {
-  int field_warmup_steps = 0;  ///< readings of each agent's first steps are left out; 0 = 002
+  int field_warmup_steps = 0;  ///< readings of each agent's first steps are left out; 0 = Atanasov et al.
 };
 
 /// multipath_bp.
 struct MultipathParams {
-  /// A path's variance is σ² (range_only, 003) or also carries its angle errors (with_doa).
+  /// A path's variance is σ² (range_only, Leng et al.) or also carries its angle errors (with_doa).
   PathVariance path_variance = PathVariance::kRangeOnly;
-  /// Full beliefs (beliefs, 003) or cavity messages (exact, not in 003).
+  /// Full beliefs (beliefs, Leng et al.) or cavity messages (exact, not in Leng et al.).
   BpMessages bp_messages = BpMessages::kBeliefs;
 };
 
@@ -143,23 +147,26 @@ struct Scenario {
     /// Range algorithms, ≤ 1000 unknown agents: also redraw until the range Fisher information at the
     /// truth is nonsingular (every agent localizable; a non-rigid world has no meaningful error).
     bool require_localizable = true;
-    // Reflecting walls for multipath (003, docs/algorithms.md §5.4): straight lines outside the area,
+    // Reflecting walls for multipath (Leng et al., docs/algorithms.md §5.4): straight lines outside the area,
     // at angles first + k·step (k = 0 … wall_count−1), wall_margin_m beyond its circumscribed circle.
     int wall_count = 2;
     double wall_first_angle_deg = 0.0;
     double wall_angle_step_deg = 45.0;
     double wall_margin_m = 5.0;
-    // The one target algorithm dle estimates (002 Sec. II): where it starts, how it moves, who sees it.
+    // The one target algorithm dle estimates (Atanasov et al. Sec. II): where it starts, how it moves, who
+    // sees it.
     TargetMotion target_motion = TargetMotion::kStatic;
     double target_x_m = 20.0;  ///< start (the default area's centre)
     double target_y_m = 20.0;
     double target_vx_mps = 0.0;  ///< start velocity (double_integrator)
     double target_vy_mps = 0.0;
-    double target_accel_psd = 0.01;  ///< q of the process covariance W (double_integrator, 002 eq. (1))
+    /// q of the process covariance W (double_integrator, Atanasov et al. eq. (1))
+    double target_accel_psd = 0.01;
     TargetSensing target_sensing = TargetSensing::kLinear;
     double target_sensing_radius_m = 0.0;  ///< sensors within this distance read the target; 0 = every one
-    // The static scalar field of algorithm joint_field (002 Sec. IV, Fig. 5) on cells_per_side² square cells
-    // covering the area: y ~ N(0, σ² C), C_kl = exp(−‖c_k − c_l‖² / (2ℓ²)) over the cell centres.
+    // The static scalar field of algorithm joint_field (Atanasov et al. Sec. IV, Fig. 5) on cells_per_side²
+    // square cells covering the area: y ~ N(0, σ² C), C_kl = exp(−‖c_k − c_l‖² / (2ℓ²)) over the cell
+    // centres.
     int field_cells_per_side = 5;  ///< ≤ 8: the INFO sample carries at most 64 values
     double field_std = 1.0;
     double field_correlation_m = 16.0;
@@ -171,10 +178,11 @@ struct Scenario {
     double range_std_m = 0.1;
     double anchor_fix_std_m = 0.0;  ///< 0 = anchors know their position exactly
     RangeNoise range_model = RangeNoise::kAdditive;
-    double range_factor = 0.0;        ///< ν_d of 004 eq. (16) when range_model = proportional
-    bool shared_range_draws = false;  ///< both ends of a link get the same range draw (004: d̄_ij = d̄_ji)
-    double relative_std_m = 0.1;      ///< std per axis of relative-position measurements (jacobi)
-    double doa_error_deg = 5.0;       ///< angle-of-arrival error, uniform in ±this (multipath_bp)
+    double range_factor = 0.0;  ///< ν_d of Calafiore et al. eq. (16) when range_model = proportional
+    /// Both ends of a link get the same range draw (Calafiore et al.: d̄_ij = d̄_ji).
+    bool shared_range_draws = false;
+    double relative_std_m = 0.1;  ///< std per axis of relative-position measurements (jacobi)
+    double doa_error_deg = 5.0;   ///< angle-of-arrival error, uniform in ±this (multipath_bp)
     NoiseDraw draw = NoiseDraw::kPerStep;
     // Pose-state algorithms on recorded data (world.source = mrclam): the filters' noise model.
     double bearing_std_rad = 0.05;         ///< robot-frame bearing std

@@ -3,7 +3,7 @@
 // containers, other hosts): the orchestrator offers each agent's manifest (runtime/manifest.hpp) and the
 // run's scenario.yaml as one reliable, transient-local sample on topic swarmloc_manifest, keyed by agent
 // id, in partition "<run_id>.manifest.<id>" (docs/design.md, "Agent manifests over DDS"). A received
-// sample passes exactly the checks of a manifest file: it is read through sim::parse_manifest.
+// sample passes exactly the checks of a manifest file: it is read through parse_manifest.
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -20,7 +20,7 @@ inline constexpr const char* kTopicManifest = "swarmloc_manifest";
 /// What an agent started elsewhere receives: its manifest and the run's scenario (YAML, as the run
 /// directory's scenario.yaml).
 struct ManifestOffer {
-  sim::AgentManifest manifest;
+  runtime::AgentManifest manifest;
   std::string scenario_yaml;
 };
 
@@ -54,9 +54,9 @@ struct ManifestFields {
 };
 
 /// The fields of `manifest` (only its own and its neighbours' partition groups, as in the file).
-ManifestFields manifest_fields(const sim::AgentManifest& manifest, const std::string& scenario_yaml);
-/// Checks and converts: the fields become the manifest file's JSON and go through sim::parse_manifest,
-/// so a sample is held to exactly the file's rules. Throws sim::ManifestError naming `source` and the
+ManifestFields manifest_fields(const runtime::AgentManifest& manifest, const std::string& scenario_yaml);
+/// Checks and converts: the fields become the manifest file's JSON and go through parse_manifest,
+/// so a sample is held to exactly the file's rules. Throws runtime::ManifestError naming `source` and the
 /// field; never anything else, whatever the fields hold.
 ManifestOffer read_manifest_fields(const ManifestFields& fields, const std::string& source);
 
@@ -70,7 +70,7 @@ class ManifestPublisher {
   ManifestPublisher& operator=(const ManifestPublisher&) = delete;
 
   /// Offers manifests[i] to agent manifests[i].id, each with `scenario_yaml`.
-  void publish(const std::vector<sim::AgentManifest>& manifests, const std::string& scenario_yaml);
+  void publish(const std::vector<runtime::AgentManifest>& manifests, const std::string& scenario_yaml);
   /// Offers `fields` as they are, unchecked, to agent fields.agent_id (tests of a hostile writer).
   void publish_fields(const ManifestFields& fields);
   /// Agents' manifest readers matched so far.
@@ -95,9 +95,9 @@ struct ManifestWaitStats {
 /// Agent side: waits up to timeout_s for agent `id`'s manifest, on a participant of its own made from
 /// `scenario`'s dds settings (domain, interface, discovery, security) at agent `id`'s discovery port,
 /// deleted before returning. With scenario.dds.run_id empty it takes the manifest of any run on the
-/// domain (and throws sim::ManifestError if two runs offer one at once). A rejected sample is counted
+/// domain (and throws runtime::ManifestError if two runs offer one at once). A rejected sample is counted
 /// and the wait goes on (the real orchestrator may still answer); at the deadline, throws
-/// sim::ManifestError with the last rejection if there was one, else ManifestTimeout.
+/// runtime::ManifestError with the last rejection if there was one, else ManifestTimeout.
 ManifestOffer receive_manifest(const config::Scenario& scenario, AgentId id, double timeout_s,
                                ManifestWaitStats* stats = nullptr);
 

@@ -87,7 +87,7 @@ SecurityFiles security_files(const std::string& dir, AgentId self);
 /// One inbound inter-agent sample before loss injection and validation (those belong to the runtime).
 template <typename Message>
 struct Inbound {
-  sim::Header header;
+  runtime::Header header;
   Message message;
   bool well_formed = true;  ///< false if the wire sample had wrong sizes / bad enums (message invalid)
   std::int64_t source_timestamp_ns = 0;  ///< the writer's DDS source timestamp (real-time clock)
@@ -100,8 +100,8 @@ struct AgentInbound {
   std::vector<Inbound<estimators::InformationMessage>> information;
   std::vector<Inbound<estimators::ConsensusMessage>> consensus;
   std::vector<Inbound<estimators::BeliefMessage>> beliefs;
-  std::vector<std::pair<sim::Header, estimators::MeasurementBatch>> batches;
-  std::vector<sim::ControlMessage> control;
+  std::vector<std::pair<runtime::Header, estimators::MeasurementBatch>> batches;
+  std::vector<runtime::ControlMessage> control;
 };
 
 /// Delivery latency of inter-agent samples: the writer's DDS source timestamp to our dds_take, both
@@ -121,13 +121,13 @@ class AgentTransport {
   AgentTransport(const AgentTransport&) = delete;
   AgentTransport& operator=(const AgentTransport&) = delete;
 
-  void publish_state(const sim::Header& header, const estimators::StateMessage& message);
-  void publish_information(const sim::Header& header, const estimators::InformationMessage& message);
-  void publish_consensus(const sim::Header& header, const estimators::ConsensusMessage& message);
-  void publish_belief(const sim::Header& header, const estimators::BeliefMessage& message);
+  void publish_state(const runtime::Header& header, const estimators::StateMessage& message);
+  void publish_information(const runtime::Header& header, const estimators::InformationMessage& message);
+  void publish_consensus(const runtime::Header& header, const estimators::ConsensusMessage& message);
+  void publish_belief(const runtime::Header& header, const estimators::BeliefMessage& message);
   /// Also, with scenario.dds.ros2, a valid estimate of a step run as a ROS 2 pose on
   /// rt/swarmloc/agent_<id>/pose (docs/ros2.md).
-  void publish_estimate(const sim::EstimateReport& report);
+  void publish_estimate(const runtime::EstimateReport& report);
 
   /// Blocks up to timeout_s or until a control sample (lockstep: also a measurement batch) arrives, then
   /// returns every batch, control sample and neighbour sample received since the last call. Neighbour
@@ -173,10 +173,11 @@ class OrchestratorTransport {
   OrchestratorTransport& operator=(const OrchestratorTransport&) = delete;
 
   /// One batch, sent alone (tests, single sends); a step's batches go through publish_batches.
-  void publish_batch(AgentId agent, const sim::Header& header, const estimators::MeasurementBatch& batch);
+  void publish_batch(AgentId agent, const runtime::Header& header, const estimators::MeasurementBatch& batch);
   /// One world step: batches[i] is agent i's (size = agent count); one sample per block of agents.
-  void publish_batches(const sim::Header& header, const std::vector<estimators::MeasurementBatch>& batches);
-  void publish_control(const sim::ControlMessage& message);
+  void publish_batches(const runtime::Header& header,
+                       const std::vector<estimators::MeasurementBatch>& batches);
+  void publish_control(const runtime::ControlMessage& message);
   /// With scenario.dds.ros2 (docs/ros2.md): the world step's truth (truth[i] = agent i) as
   /// geometry_msgs/PoseArray on rt/swarmloc/truth and its ranges (batches[i] = agent i's) as
   /// swarmloc_msgs/RangeArray on rt/swarmloc/ranges, both stamped with the world time. Otherwise nothing.
@@ -185,7 +186,7 @@ class OrchestratorTransport {
 
   /// Blocks up to timeout_s, then takes every estimate report available (well-formed ones only;
   /// malformed reports are counted in rejected_reports()).
-  std::vector<sim::EstimateReport> wait_and_take_estimates(double timeout_s);
+  std::vector<runtime::EstimateReport> wait_and_take_estimates(double timeout_s);
   [[nodiscard]] std::uint64_t rejected_reports() const;
 
   /// Agents whose estimate writer is matched.
@@ -202,13 +203,13 @@ class OrchestratorTransport {
 /// One agent's measurement batch as the fusion centre takes it.
 struct FusionBatch {
   AgentId agent = 0;  ///< the batch's recipient (its topic key)
-  sim::Header header;
+  runtime::Header header;
   estimators::MeasurementBatch batch;
 };
 
 struct FusionInbound {
   std::vector<FusionBatch> batches;
-  std::vector<sim::ControlMessage> control;
+  std::vector<runtime::ControlMessage> control;
 };
 
 /// Fusion-centre side (centralized algorithms, docs/algorithms.md §2.7): reads the measurement batches of
@@ -222,7 +223,7 @@ class FusionTransport {
   FusionTransport& operator=(const FusionTransport&) = delete;
 
   /// Also, with scenario.dds.ros2, as the agent's ROS 2 pose (as AgentTransport::publish_estimate).
-  void publish_estimate(const sim::EstimateReport& report);
+  void publish_estimate(const runtime::EstimateReport& report);
 
   /// Blocks up to timeout_s (or until data arrives), then takes everything available. Malformed
   /// batches and batches for agents outside [0, N) are dropped and counted.

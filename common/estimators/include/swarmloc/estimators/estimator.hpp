@@ -72,7 +72,7 @@ struct KalmanFamilyParams {
   double max_neighbour_variance_m2 = 1e6;  ///< neighbours with trace(P) above this are skipped
   double range_gate_chi2 = 0.0;            ///< drop a range if ν² > gate·s (1 dof); 0 = no gate
   /// IEIF, IEKF: Gauss–Newton passes of a step's range update from the same prior (the iterated
-  /// extended filter); 1 = 001's single linearization at x̂_{k|k−1}.
+  /// extended filter); 1 = Gasparri & Pascucci's single linearization at x̂_{k|k−1}.
   int update_iterations = 1;
   // Pose-state algorithms (pose_ekf, pose_ieif, dead_reckoning): prior around AgentSetup's pose.
   double initial_heading_std_rad = 0.1;

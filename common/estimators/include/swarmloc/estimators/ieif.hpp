@@ -1,5 +1,5 @@
 #pragma once
-// Interlaced Extended Information Filter at one agent (001, docs/algorithms.md §3.2–3.4).
+// Interlaced Extended Information Filter at one agent (Gasparri & Pascucci, docs/algorithms.md §3.2–3.4).
 #include <string_view>
 
 #include "swarmloc/estimators/estimator.hpp"

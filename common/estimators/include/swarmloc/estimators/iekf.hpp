@@ -1,5 +1,6 @@
 #pragma once
-// Interlaced EKF at one agent (001 Sec. IV-A specialized to the network, docs/algorithms.md §3.5).
+// Interlaced EKF at one agent (Gasparri & Pascucci Sec. IV-A specialized to the network, docs/algorithms.md
+// §3.5).
 #include <string_view>
 
 #include "swarmloc/estimators/estimator.hpp"

@@ -54,7 +54,8 @@ struct Linearization {
   [[nodiscard]] bool empty() const { return jacobian.rows() == 0 && !fix.has_value(); }
 };
 
-/// Builds J_i, ν and R̃ for `links` at the receiver's predicted position `x_i` (001 eqs. (44), (49)).
+/// Builds J_i, ν and R̃ for `links` at the receiver's predicted position `x_i` (Gasparri & Pascucci eqs. (44),
+/// (49)).
 Linearization linearize_ranges(const Vec2& x_i, const std::vector<RangeLink>& links);
 
 /// Chi-square innovation gate on the range rows (one degree of freedom per row): drops row m when
@@ -71,10 +72,11 @@ int gate_ranges(Linearization& rows, const Mat2& P_pred, double chi2_gate);
 /// finite and PSD (no estimate yet to test). The caller closes the step (RangeResidualCheck::end_step).
 void add_range_innovations(RangeResidualCheck& check, const Linearization& rows, const Mat2& P_pred);
 
-/// 001 eq. (48) with F = I in the singular-safe form Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ (docs/algorithms.md §3.2).
+/// Gasparri & Pascucci eq. (48) with F = I in the singular-safe form Ψ_{k|k−1} = (I + Ψ Q)⁻¹ Ψ
+/// (docs/algorithms.md §3.2).
 Mat2 predict_information(const Mat2& Psi, const Mat2& Q);
 
-/// Result of the information-form estimation step (001 eq. (49), docs/algorithms.md §3.2).
+/// Result of the information-form estimation step (Gasparri & Pascucci eq. (49), docs/algorithms.md §3.2).
 struct InformationUpdate {
   Mat2 Phi = Mat2::Zero();   ///< Φ = J_iᵀ R̃⁻¹ J_i (+ R_fix⁻¹)
   Vec2 iota = Vec2::Zero();  ///< ι = J_iᵀ R̃⁻¹ z′ (+ R_fix⁻¹ z_fix), z′ = ν + J_i x̂_i ([B-3])
@@ -85,7 +87,7 @@ struct InformationUpdate {
 };
 
 /// Information update from the predicted pair (x̂_{k|k−1}, Ψ_{k|k−1}); ŷ_{k|k−1} = Ψ_{k|k−1} x̂_{k|k−1}.
-/// `rows` are linearized at `linearized_at` (x̂_{k|k−1} in 001): z′ = ν + J_i·linearized_at.
+/// `rows` are linearized at `linearized_at` (x̂_{k|k−1} in Gasparri & Pascucci): z′ = ν + J_i·linearized_at.
 InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows);
 InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows,
                                      const Vec2& linearized_at);
@@ -106,12 +108,12 @@ struct KalmanUpdate {
   Mat2 covariance = Mat2::Zero();
 };
 
-/// Kalman-form update (001 eqs. (30)–(32), docs/algorithms.md §3.5) with the Joseph form
+/// Kalman-form update (Gasparri & Pascucci eqs. (30)–(32), docs/algorithms.md §3.5) with the Joseph form
 /// P = (I − K H) P (I − K H)ᵀ + K R Kᵀ, S = H P Hᵀ + R (M×M).
 KalmanUpdate kalman_update(const Vec2& x_pred, const Mat2& P_pred, const Linearization& rows);
 
-/// One step of the process model x_k = x_{k−1} + w, Q = process_noise_std_m²·I (001 eq. (37)); a
-/// MotionInput in the batch adds v·dt to the mean and its process covariance to Q.
+/// One step of the process model x_k = x_{k−1} + w, Q = process_noise_std_m²·I (Gasparri & Pascucci eq.
+/// (37)); a MotionInput in the batch adds v·dt to the mean and its process covariance to Q.
 struct ProcessStep {
   Vec2 shift = Vec2::Zero();
   Mat2 Q = Mat2::Zero();

@@ -34,15 +34,15 @@ struct BearingMeasurement {
   double std_rad = 0.0;
 };
 
-/// s = x_peer − x_self + ε, ε ~ N(0, covariance) (002 eq. (3)).
+/// s = x_peer − x_self + ε, ε ~ N(0, covariance) (Atanasov et al. eq. (3)).
 struct RelativeMeasurement {
   AgentId peer = 0;
   Vec2 delta_m = Vec2::Zero();
   Mat2 covariance = Mat2::Identity();
 };
 
-/// One single-bounce (or LOS) path between this agent and a peer (003 eq. (1), docs/algorithms.md §5.1):
-/// its length and the angles of arrival at both ends, matched across the pair by path_index.
+/// One single-bounce (or LOS) path between this agent and a peer (Leng et al. eq. (1), docs/algorithms.md
+/// §5.1): its length and the angles of arrival at both ends, matched across the pair by path_index.
 struct MultipathMeasurement {
   AgentId peer = 0;
   int path_index = 0;
@@ -51,7 +51,7 @@ struct MultipathMeasurement {
   double aoa_there_rad = 0.0;  ///< θ at the peer
 };
 
-/// An observation of target `target` (002 eq. (2)): linear (kind 0, value = H·y + v) or
+/// An observation of target `target` (Atanasov et al. eq. (2)): linear (kind 0, value = H·y + v) or
 /// range–bearing (kind 1, value = (range, bearing)).
 struct TargetObservation {
   std::int32_t target = 0;
@@ -144,8 +144,8 @@ struct ConsensusMessage {
 };
 
 /// One neighbour's message as the sender of a BELIEF added it to its belief, in information form (exact
-/// GaBP only, not in 003): the neighbour `from` subtracts it to get the sender's belief without its own
-/// contribution (the cavity).
+/// GaBP only, not in Leng et al.): the neighbour `from` subtracts it to get the sender's belief without its
+/// own contribution (the cavity).
 struct BeliefContribution {
   AgentId from = 0;
   Mat2 information = Mat2::Zero();
@@ -158,7 +158,7 @@ struct BeliefMessage {
   Vec2 mean_m = Vec2::Zero();
   Mat2 information = Mat2::Zero();
   bool infinite_information = false;
-  /// Exact GaBP: what each neighbour contributed to `information` (empty for 003 as printed).
+  /// Exact GaBP: what each neighbour contributed to `information` (empty for Leng et al. as printed).
   std::vector<BeliefContribution> contributions;
 };
 

@@ -16,7 +16,7 @@
 namespace swarmloc::estimators {
 
 /// The parameter block an algorithm's builder reads. runtime/agent_factory.cpp fills each from the
-/// scenario's own blocks (config::ParamBlock): kKalman from kalman and pose, kCooperative from gradient,
+/// scenario's own blocks (config's ParamBlock): kKalman from kalman and pose, kCooperative from gradient,
 /// field, multipath and (dle) kalman.initial_information.
 enum class ParamBlock {
   kKalman,       ///< KalmanFamilyParams (the Kalman, dml and pose families)
@@ -36,8 +36,8 @@ struct EstimatorBuilder {
   ParamBlock params = ParamBlock::kKalman;
   /// The agent's estimator (block kKalman or kCooperative); null for kFusion.
   std::unique_ptr<Estimator> (*agent)(const AgentSetup&, const EstimatorParams&) = nullptr;
-  /// kFusion: the fusion centre's filter and whether it relabels the agents once at start-up (000 Alg. 3
-  /// with ).
+  /// kFusion: the fusion centre's filter and whether it relabels the agents once at start-up (Khan et al.
+  /// Alg. 3 with ).
   std::optional<centralized::CentralizedKind> fusion;
   bool relabel = false;
 };

@@ -27,7 +27,8 @@ struct VectorEvaluation {
   Mat2 d_xj = Mat2::Zero();  ///< ∂h/∂x_j
 };
 
-/// Range ρ; ∂/∂x_i = u_ijᵀ, ∂/∂x_j = −u_ijᵀ (§1.1, 001 eq. (44)). nullopt if ρ < kMinDistanceM.
+/// Range ρ; ∂/∂x_i = u_ijᵀ, ∂/∂x_j = −u_ijᵀ (§1.1, Gasparri & Pascucci eq. (44)). nullopt if ρ <
+/// kMinDistanceM.
 std::optional<ScalarEvaluation> range(const Vec2& x_i, const Vec2& x_j);
 
 /// Squared range ρ²; ∂/∂x_i = 2Δᵀ, ∂/∂x_j = −2Δᵀ (§1.1). Defined everywhere.

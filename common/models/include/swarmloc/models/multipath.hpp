@@ -1,6 +1,6 @@
 #pragma once
-// Single-bounce (NLOS) and LOS path model of 003 (docs/algorithms.md §5.1): d = g(θ_ij, θ_ji)ᵀ(s_i − s_j)
-// (eq. (1)), and path simulation by the image method (§5.4). Pure functions, no state.
+// Single-bounce (NLOS) and LOS path model of Leng et al. (docs/algorithms.md §5.1): d = g(θ_ij, θ_ji)ᵀ(s_i −
+// s_j) (eq. (1)), and path simulation by the image method (§5.4). Pure functions, no state.
 #include <optional>
 
 #include "swarmloc/core/types.hpp"
@@ -13,7 +13,7 @@ inline constexpr double kLosSinThreshold = 1e-3;
 /// Unit vector u(θ) = (cos θ, sin θ).
 Vec2 unit_direction(double angle_rad);
 
-/// 003 eq. (1): g(α, β) = [(sin α + sin β), −(cos α + cos β)]ᵀ / sin(β − α), with α = θ_ij (angle at
+/// Leng et al. eq. (1): g(α, β) = [(sin α + sin β), −(cos α + cos β)]ᵀ / sin(β − α), with α = θ_ij (angle at
 /// S_j) and β = θ_ji (angle at S_i) so that d_ji = g(θ_ij, θ_ji)ᵀ(s_i − s_j) ([D-1]). LOS fallback [D-2]:
 /// if |sin(β − α)| < los_threshold and the rays are opposite (cos(β − α) < 0), g = u(α), the unit vector
 /// from S_j toward S_i. Parallel rays (a reflection with the pair perpendicular to the wall) keep eq. (1).

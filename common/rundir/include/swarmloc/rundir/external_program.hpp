@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 
 struct ProgramOptions {
   std::filesystem::path working_directory;  ///< empty: this process's
@@ -36,4 +36,4 @@ ProgramStatus run_program(const std::vector<std::string>& argv, const ProgramOpt
 /// The executable `name` on PATH, as a shell's `command -v` would find it; nullopt if there is none.
 std::optional<std::filesystem::path> find_program(std::string_view name);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

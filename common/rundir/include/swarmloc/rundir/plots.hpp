@@ -16,7 +16,7 @@
 
 #include "swarmloc/rundir/run_record.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 
 /// Chi-square 2-dof quantile at 95 %: the 95 % covariance ellipse is eᵀP⁻¹e = 5.991.
 inline constexpr double kChiSquare2Dof95 = 5.991;
@@ -60,4 +60,4 @@ enum class GnuplotResult { kDone, kNotInstalled, kFailed };
 GnuplotResult run_gnuplot(const std::filesystem::path& directory, const std::string& script,
                           const std::vector<std::string>& outputs);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

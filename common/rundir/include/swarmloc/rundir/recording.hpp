@@ -25,7 +25,7 @@
 #include "swarmloc/runtime/slrec_codec.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 
 // kRecordingVersion and the framing: runtime/slrec_codec.hpp.
 /// Names in a run directory.
@@ -47,9 +47,9 @@ struct RecordedWorld {
   std::vector<Vec2> initial_guess;
   std::vector<double> initial_heading;  ///< empty or one per agent
 
-  [[nodiscard]] static RecordedWorld of(const World& world);
+  [[nodiscard]] static RecordedWorld of(const world::World& world);
   /// Empty if `world` matches; else what differs first ("agent 3's neighbours differ").
-  [[nodiscard]] std::string difference(const World& world) const;
+  [[nodiscard]] std::string difference(const world::World& world) const;
 };
 
 /// Writes recording.slrec step by step. Steps must come in order 0, 1, 2, …; close() writes the end
@@ -58,7 +58,8 @@ class RecordingWriter {
  public:
   /// Creates `path` (and its parent directories) and writes the header. Throws OutputError (a
   /// std::runtime_error naming the file and the OS error) if it cannot.
-  RecordingWriter(const std::filesystem::path& path, const config::Scenario& scenario, const World& world);
+  RecordingWriter(const std::filesystem::path& path, const config::Scenario& scenario,
+                  const world::World& world);
   ~RecordingWriter();
   RecordingWriter(const RecordingWriter&) = delete;
   RecordingWriter& operator=(const RecordingWriter&) = delete;
@@ -75,7 +76,7 @@ class RecordingWriter {
 
  private:
   std::filesystem::path path_;
-  OutputFile out_;
+  runtime::OutputFile out_;
   int agents_ = 0;
   std::int64_t steps_ = 0;
   bool closed_ = false;
@@ -83,7 +84,7 @@ class RecordingWriter {
 
 /// A loaded recording. Batches are decoded on demand from the validated bytes (a decoded
 /// MeasurementBatch is several times larger than its encoding).
-class Recording final : public RecordedSteps {
+class Recording final : public world::RecordedSteps {
  public:
   [[nodiscard]] std::int64_t steps() const override { return static_cast<std::int64_t>(truth_.size()); }
   /// Throws std::out_of_range for a step outside [0, steps()).
@@ -130,7 +131,7 @@ struct SampleLog {
   std::uint64_t scenario_hash = 0;
   /// False: the writer never closed the file (a killed agent); samples are the records written in full.
   bool complete = true;
-  std::vector<ReceivedSample> samples;
+  std::vector<runtime::ReceivedSample> samples;
 };
 
 /// Reads and validates a sample log. `allow_unfinished`: a file without its end marker (a killed
@@ -148,20 +149,20 @@ SampleLog parse_sample_log(const std::vector<std::uint8_t>& bytes, const std::st
 class RunRecorder {
  public:
   virtual ~RunRecorder() = default;
-  virtual void begin(const config::Scenario& scenario, const World& world) = 0;
+  virtual void begin(const config::Scenario& scenario, const world::World& world) = 0;
   virtual void world_step(std::int64_t step, const std::vector<Vec2>& truth,
                           const std::vector<estimators::MeasurementBatch>& batches) = 0;
-  virtual void sample(const ReceivedSample& sample) = 0;
+  virtual void sample(const runtime::ReceivedSample& sample) = 0;
 };
 
 /// Writes <run_dir>/recording.slrec and <run_dir>/recording/samples.slrec.
 class DirectoryRecorder final : public RunRecorder {
  public:
   explicit DirectoryRecorder(std::filesystem::path run_dir) : run_dir_(std::move(run_dir)) {}
-  void begin(const config::Scenario& scenario, const World& world) override;
+  void begin(const config::Scenario& scenario, const world::World& world) override;
   void world_step(std::int64_t step, const std::vector<Vec2>& truth,
                   const std::vector<estimators::MeasurementBatch>& batches) override;
-  void sample(const ReceivedSample& sample) override;
+  void sample(const runtime::ReceivedSample& sample) override;
   /// Closes both files. Throws OutputError if a write failed.
   void close();
   [[nodiscard]] std::int64_t steps() const { return steps_ ? steps_->steps() : 0; }
@@ -170,7 +171,7 @@ class DirectoryRecorder final : public RunRecorder {
  private:
   std::filesystem::path run_dir_;
   std::unique_ptr<RecordingWriter> steps_;
-  std::unique_ptr<SampleLogWriter> samples_;
+  std::unique_ptr<runtime::SampleLogWriter> samples_;
 };
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

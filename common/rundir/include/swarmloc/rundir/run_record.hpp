@@ -19,12 +19,12 @@
 #include "swarmloc/world/optimum.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 
 struct StepMetrics {
   std::int64_t step = 0;
   double time_s = 0.0;
-  ErrorStats errors;
+  world::ErrorStats errors;
   /// The static all-draws CRLB at the initial truth, accumulated over step+1 snapshots (kept for older
   /// readers; the run's bound is bound_rmse_m).
   double crlb_rmse_m = 0.0;
@@ -49,7 +49,7 @@ struct AgentSummary {
   std::uint32_t samples_published = 0;
   std::uint32_t samples_published_in_steps = 0;  ///< not counting start-up announcements
   double cpu_s = 0.0;
-  std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason{};
+  std::array<std::uint32_t, runtime::kRejectReasonCount> rejected_by_reason{};
   std::optional<int> exit_code;  ///< DDS runs: the process's exit status
   /// DDS runs: "ok", or "died" / "stalled" (its last unscheduled loss, docs/robustness.md "Liveness").
   std::string fate = "ok";
@@ -63,15 +63,16 @@ struct RunRecord {
   int agents = 0;
   int anchors = 0;
   double mean_degree = 0.0;
-  RangeCrlb crlb;  ///< the static all-draws CRLB (summary.json "crlb", kept for older readers)
-  RunBound bound;  ///< the bound of the algorithm's data (summary.json "bound", docs/algorithms.md §1.3.1)
+  world::RangeCrlb crlb;  ///< the static all-draws CRLB (summary.json "crlb", kept for older readers)
+  world::RunBound
+      bound;  ///< the bound of the algorithm's data (summary.json "bound", docs/algorithms.md §1.3.1)
   /// The optimum of the run's own data (summary.json "optimum", docs/algorithms.md §1.3.2).
-  RunOptimum optimum;
+  world::RunOptimum optimum;
   /// During the run: the data the optimum is solved from (set by compute_run_bounds; released once final).
-  std::shared_ptr<OptimumAccumulator> optimum_data;
+  std::shared_ptr<world::OptimumAccumulator> optimum_data;
   std::vector<StepMetrics> metrics;
   std::vector<EstimateRow> estimates;
-  std::map<std::pair<AgentId, AgentId>, LinkCounters> links;  ///< (sender, receiver)
+  std::map<std::pair<AgentId, AgentId>, runtime::LinkCounters> links;  ///< (sender, receiver)
   std::vector<AgentSummary> agent_summaries;
   int processes = 0;
   double wall_s = 0.0;
@@ -93,7 +94,7 @@ LinkTotals link_totals(const RunRecord& record);
 
 /// Sets record.crlb (scenario_crlb) and record.bound (run_bound) from `world` at world step 0, and starts
 /// the run's optimum (record.optimum_data).
-void compute_run_bounds(RunRecord& record, const World& world);
+void compute_run_bounds(RunRecord& record, const world::World& world);
 /// Hands world step `step`'s truth and batches (index = agent id) to the run's optimum; every runtime calls
 /// it where it generates them (docs/algorithms.md §1.3.2).
 void observe_world_step(RunRecord& record, std::int64_t step, const std::vector<Vec2>& truth,
@@ -138,7 +139,7 @@ nlohmann::json summary_json(const RunRecord& record);
 /// `control.cancel` (Ctrl-C) is polled between files and per agent: once set, writing stops with
 /// Cancelled and no summary.json, so the directory reads as incomplete.
 void write_run_directory(const std::filesystem::path& directory, const RunRecord& record,
-                         const WorkControl& control = {});
+                         const world::WorkControl& control = {});
 
 /// create_directories, throwing OutputError (the directory and the OS error) on failure.
 void create_output_directories(const std::filesystem::path& directory);
@@ -155,4 +156,4 @@ void prepare_run_directory(const std::filesystem::path& directory, bool force);
 /// under runs/ (a name validate() would refuse is made path-safe first).
 std::filesystem::path default_run_directory(const config::Scenario& scenario);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

@@ -6,13 +6,13 @@
 
 #include "swarmloc/rundir/run_record.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 
 /// Writes trajectories/agent_<id>.tum and trajectories/agent_<id>_truth.tum under `directory` for every
 /// agent with recorded estimates. Does nothing (and creates nothing) if the record holds no estimates.
 /// Returns the number of agents written. Throws OutputError if a file did not make it to disk.
 /// `control.cancel` is polled per agent (Cancelled).
 int write_tum_trajectories(const std::filesystem::path& directory, const RunRecord& record,
-                           const WorkControl& control = {});
+                           const world::WorkControl& control = {});
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

@@ -5,23 +5,10 @@
 #include <memory>
 
 #include "swarmloc/config/scenario.hpp"
-#include "swarmloc/estimators/consensus/joint_field.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/runtime/manifest.hpp"
 
-namespace swarmloc::sim {
-
-/// The target's model at the world period 1 / run.rate_hz (002 eq. (1)): state dimension 2 (static, F and
-/// W empty) or 4 (double integrator: F = [I τI; 0 I], W = q [τ³/3 I, τ²/2 I; τ²/2 I, τ I]).
-struct TargetModel {
-  int dim = 2;
-  MatX F;
-  MatX W;
-};
-TargetModel target_model(const config::Scenario& scenario);
-
-/// The field's grid over the area (world.field_cells_per_side² cells) and the sensing model of its readings.
-estimators::consensus::FieldSensor field_sensor(const config::Scenario& scenario);
+namespace swarmloc::runtime {
 
 /// What an agent runs when the algorithm is centralized: nothing. It publishes no inter-agent
 /// samples and reports its prior (initial guess, initial_std_m² · I) as an invalid estimate; its
@@ -34,6 +21,12 @@ std::unique_ptr<estimators::Estimator> make_sensor_only_estimator(const estimato
 std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& scenario,
                                                             const AgentManifest& manifest);
 
+/// The agent `manifest` describes, ready to run: its estimator (make_agent_estimator), its setup and
+/// neighbours, and its runtime parameters for incarnation `incarnation` (make_runtime_params). The DDS agent
+/// process and the simulator both start their agents with this call.
+AgentRuntime make_agent_runtime(const config::Scenario& scenario, const AgentManifest& manifest,
+                                int incarnation = 0);
+
 /// The manifest's runtime parameters for incarnation `incarnation` (faults.kill restarts: each starts a
 /// new range of sample numbers).
 AgentRuntimeParams make_runtime_params(const AgentManifest& manifest, int incarnation = 0);
@@ -42,4 +35,4 @@ AgentRuntimeParams make_runtime_params(const AgentManifest& manifest, int incarn
 /// (run.tick_phase): spread over the ids by the golden ratio, or 0 for every agent when aligned.
 double tick_phase_fraction(const config::Scenario& scenario, AgentId id);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

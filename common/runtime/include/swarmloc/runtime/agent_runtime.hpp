@@ -14,7 +14,7 @@
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/runtime/envelope.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 struct AgentRuntimeParams {
   std::uint64_t seed = 1;
@@ -86,6 +86,8 @@ class AgentRuntime {
   [[nodiscard]] EstimateReport report(std::int64_t sender_stamp_ns, double cpu_s) const;
   [[nodiscard]] estimators::Estimate estimate() const { return estimator_->estimate(); }
   [[nodiscard]] AgentId id() const { return setup_.id; }
+  /// The agent's neighbours, sorted.
+  [[nodiscard]] const std::vector<AgentId>& neighbours() const { return neighbours_; }
   [[nodiscard]] std::int64_t steps_run() const { return local_step_; }
   [[nodiscard]] std::uint32_t samples_published() const { return samples_published_; }
   /// Samples written in a step (header.step >= 0), i.e. not the initial announcement(s).
@@ -161,4 +163,4 @@ class AgentRuntime {
   std::array<std::uint32_t, kRejectReasonCount> rejected_by_reason_{};
 };
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

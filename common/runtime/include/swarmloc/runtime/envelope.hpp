@@ -8,7 +8,7 @@
 #include "swarmloc/core/link_model.hpp"
 #include "swarmloc/estimators/messages.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 /// The common header of docs/design.md §3.
 struct Header {
@@ -90,4 +90,4 @@ struct ControlMessage {
   std::int64_t start_world_ns = 0;
 };
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

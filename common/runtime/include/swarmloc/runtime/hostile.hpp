@@ -6,7 +6,7 @@
 
 #include "swarmloc/estimators/messages.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 /// Replaces every family of `outbox` by broken samples of the same kind: NaN, non-PSD and absurd
 /// magnitudes in turn (by `step` mod 3).
@@ -16,4 +16,4 @@ void make_hostile(estimators::Outbox& outbox, std::int64_t step);
 void make_hostile_if_listed(const std::vector<AgentId>& hostile_agents, AgentId agent,
                             estimators::Outbox& outbox, std::int64_t step);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -11,7 +11,7 @@
 
 #include "swarmloc/core/types.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 struct LivenessEvent {
   enum class Kind { kDied, kStalled, kResumed };
@@ -97,4 +97,4 @@ class LivenessTracker {
 /// "exit status 1" / "killed by signal 9 (Killed)" from an exit code or 128 + signal.
 std::string describe_exit(int exit_status);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -15,7 +15,7 @@
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/runtime/agent_runtime.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 struct AgentManifest {
   AgentId id = 0;
@@ -52,4 +52,4 @@ void write_manifest(const std::filesystem::path& path, const AgentManifest& mani
 /// Reads and validates `path`; throws ManifestError.
 AgentManifest load_manifest(const std::filesystem::path& path);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

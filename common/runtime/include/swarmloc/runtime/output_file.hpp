@@ -8,7 +8,7 @@
 #include <string>
 #include <string_view>
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 /// A write that failed: names the file and the OS error (e.g. "No space left on device").
 class OutputError : public std::runtime_error {
@@ -45,4 +45,4 @@ void write_text_file(const std::filesystem::path& path, std::string_view text);
 /// one, never a part (summary.json, whose presence marks a complete run directory).
 void write_text_file_atomic(const std::filesystem::path& path, std::string_view text);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -10,7 +10,7 @@
 #include "swarmloc/core/types.hpp"
 #include "swarmloc/runtime/envelope.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 class ReportBook {
  public:
@@ -39,4 +39,4 @@ class ReportBook {
   std::vector<bool> killed_;
 };
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -10,7 +10,7 @@
 
 #include "swarmloc/runtime/envelope.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 /// An agent's timing figures, accumulated as its process runs (pure: the caller reads the clock).
 class HealthMeter {
@@ -65,4 +65,4 @@ RunHealth assess_health(const RunHealthInput& input);
 /// summary.json's `health` block: {verdict, reasons, figures}.
 nlohmann::json to_json(const RunHealth& health);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

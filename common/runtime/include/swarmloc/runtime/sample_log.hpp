@@ -10,7 +10,7 @@
 #include "swarmloc/runtime/envelope.hpp"
 #include "swarmloc/runtime/output_file.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 using SampleMessage = std::variant<estimators::StateMessage, estimators::InformationMessage,
                                    estimators::ConsensusMessage, estimators::BeliefMessage>;
@@ -56,4 +56,4 @@ class SampleLogWriter {
   bool closed_ = false;
 };
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

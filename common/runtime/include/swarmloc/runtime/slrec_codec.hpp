@@ -11,7 +11,7 @@
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/runtime/output_file.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::runtime {
 
 /// Format version written by this build (both file kinds). Version 2 added an information sample's world
 /// step, version 3 a belief sample's contributions (exact GaBP), version 4 checksummed records (a CRC-32
@@ -91,4 +91,4 @@ void encode(Encoder& out, const estimators::BeliefMessage& m);
 const std::filesystem::path& with_parent_directories(const std::filesystem::path& path);
 
 }  // namespace slrec
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::runtime

@@ -2,7 +2,7 @@
 // The centralized algorithms (ekf, lbekf, lbekf_vr, lbekf_i; docs/algorithms.md §2) as a fusion centre: one
 // filter holds the whole network state, consumes every agent's measurement batch of a world step and
 // yields every agent's estimate (docs/algorithms.md §2.7). The in-process runner below and the DDS
-// fusion-centre process (agent/fusion_center.cpp) share these functions, so both build the same filter
+// fusion-centre process (orchestrator/fusion_center.cpp) share these functions, so both build the same filter
 // from the same world and turn the same batches into the same measurements.
 #include <memory>
 #include <optional>
@@ -16,16 +16,16 @@
 
 namespace swarmloc::sim {
 
-/// The bandwidth L of the LB-EKF variants (000 Sec. 5.2: L = 20 for 30 agents in 2-D).
+/// The bandwidth L of the LB-EKF variants (Khan et al. Sec. 5.2: L = 20 for 30 agents in 2-D).
 inline constexpr int kCentralizedBandwidth = 20;
 
 /// Builds the fusion centre's filter for `world`: x̂(0) = the initial guesses, Σ_0 =
 /// algorithm.initial_std_m² · I per agent, σ_p = algorithm.process_noise_std_m², L =
-/// kCentralizedBandwidth. Labels: lexicographic order of the initial guesses (000 Alg. 3, [A-5]) for
+/// kCentralizedBandwidth. Labels: lexicographic order of the initial guesses (Khan et al. Alg. 3, [A-5]) for
 /// lbekf_vr and lbekf_i, identity for lbekf and ekf. Throws std::invalid_argument if the scenario's
 /// algorithm is not centralized.
 std::unique_ptr<estimators::centralized::CentralizedFilter> make_fusion_filter(
-    const config::Scenario& scenario, const World& world);
+    const config::Scenario& scenario, const world::World& world);
 
 /// One world step's batches (batches[i] = agent i's, nullptr if it did not arrive) as the fusion
 /// centre's input: each anchor's fix is a beacon fix; each undirected edge contributes one range, the
@@ -39,7 +39,7 @@ estimators::centralized::CentralizedMeasurements centralized_measurements(
 estimators::Estimate fusion_estimate(const estimators::centralized::CentralizedFilter& filter, AgentId agent);
 
 /// Σ over every agent with an estimate (anchors included) of ‖truth − mean‖²: the total MSE of one
-/// run at one step (000 Fig. 6, docs/algorithms.md §2.8).
+/// run at one step (Khan et al. Fig. 6, docs/algorithms.md §2.8).
 double total_squared_error(const std::vector<Vec2>& truth,
                            const std::vector<std::optional<estimators::Estimate>>& estimates);
 
@@ -47,7 +47,8 @@ double total_squared_error(const std::vector<Vec2>& truth,
 /// generate_batch, steps the fusion filter and scores every agent. Besides the usual metrics (over
 /// non-anchors), record.extra holds "final_total_mse_m2" (all agents, final step) and "total_mse_m2"
 /// (per step).
-RunRecord run_centralized_simulation(const config::Scenario& scenario, const SimOptions& options = {});
+rundir::RunRecord run_centralized_simulation(const config::Scenario& scenario,
+                                             const SimOptions& options = {});
 
 // make_sensor_only_estimator: runtime/agent_factory.hpp.
 

@@ -14,16 +14,16 @@ namespace swarmloc::sim {
 struct SimOptions {
   bool record_estimates = true;  ///< keep per-agent per-step rows (estimates.csv)
   /// Called after every step with (step, errors) — for progress lines. May be empty.
-  std::function<void(std::int64_t, const ErrorStats&)> on_step;
+  std::function<void(std::int64_t, const world::ErrorStats&)> on_step;
   std::uint64_t trial = 0;  ///< Monte Carlo trial (see World::trial)
-  /// Agents that publish garbage (sim::make_hostile) after their initial sample, like `swarmloc run
+  /// Agents that publish garbage (make_hostile) after their initial sample, like `swarmloc run
   /// --hostile`; they still estimate for themselves and are scored.
   std::vector<AgentId> hostile_agents;
   /// Replay: truth and batches come from here (World::recorded) instead of the seeded generator.
-  std::shared_ptr<const RecordedSteps> recorded;
+  std::shared_ptr<const world::RecordedSteps> recorded;
   /// --record: receives the world, every world step's truth and batches, and every inter-agent sample
   /// an agent receives (not owned; single runs only).
-  RunRecorder* recorder = nullptr;
+  rundir::RunRecorder* recorder = nullptr;
   /// run.sim_clock = rounds: threads that deliver, generate batches and step the agents of one round
   /// (each touches only its own agents, so the result is identical for any count); 1 = serial, 0 =
   /// auto_round_threads. Runs with a recorder or a replayed world are always serial (ordered side effects).
@@ -32,7 +32,7 @@ struct SimOptions {
   /// agent. Set before the first step: run_simulation throws Cancelled; later it returns the steps done
   /// with RunRecord::interrupted set (a step cut short is not scored; with a recorder, recording.slrec may
   /// hold its measurements). run.sim_clock = agents and centralized algorithms report per step only.
-  WorkControl control;
+  world::WorkControl control;
 };
 
 /// Below this many agents a round is too short (~4 µs per agent) to pay for starting threads.
@@ -46,11 +46,12 @@ int auto_round_threads(int agents);
 /// at round k every agent receives its world-step-k batch and the samples its neighbours published in
 /// round k−1, then steps. run.sim_clock = agents: run_agent_clock_simulation.
 /// Centralized algorithms (ekf, lbekf*) delegate to run_centralized_simulation (centralized_runner.hpp).
-RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options = {});
+rundir::RunRecord run_simulation(const config::Scenario& scenario, const SimOptions& options = {});
 /// The same on `world` = build_world(scenario, options.trial), e.g. the one a preflight check built (at
 /// 10^5 agents a dense world takes minutes to build). run.sim_clock = agents and centralized algorithms
 /// build their own.
-RunRecord run_simulation(const config::Scenario& scenario, World world, const SimOptions& options);
+rundir::RunRecord run_simulation(const config::Scenario& scenario, world::World world,
+                                 const SimOptions& options);
 
 /// Quiet rounds after the last world step in free run: round(run.settle_s · run.rate_hz ·
 /// run.agent_steps_per_world_step), as many exchanges as the DDS agents make while the orchestrator
@@ -66,7 +67,8 @@ std::int64_t settle_rounds(const config::Scenario& scenario);
 /// at (k+1)·T with each agent's newest estimate; in free run the last one again at run.steps·T +
 /// run.settle_s, the agents ticking on with no new batch (settle_rounds). Throws config::ScenarioError for a
 /// centralized algorithm (see require_supported_sim_clock).
-RunRecord run_agent_clock_simulation(const config::Scenario& scenario, const SimOptions& options = {});
+rundir::RunRecord run_agent_clock_simulation(const config::Scenario& scenario,
+                                             const SimOptions& options = {});
 
 /// Throws config::ScenarioError naming run.sim_clock when the scenario's schedule cannot be simulated:
 /// run.sim_clock = agents with a centralized algorithm (its fusion centre consumes whole world steps).
@@ -94,7 +96,7 @@ struct MonteCarloResult {
   std::vector<int> final_flagged_per_trial;
   /// Steps at which some agent's estimate was NaN or Inf, per trial (run_record.hpp NonFiniteEstimates).
   std::vector<std::size_t> non_finite_steps_per_trial;
-  RunRecord first_trial;  ///< trial 0 in full (estimates, links) for the run directory
+  rundir::RunRecord first_trial;  ///< trial 0 in full (estimates, links) for the run directory
   int trials = 0;
   int threads = 0;
   double wall_s = 0.0;
@@ -105,32 +107,17 @@ struct MonteCarloResult {
 /// `on_record`, if set, is called from the worker thread with every trial's full record (estimates
 /// included); it must only touch per-trial state. `cancel` (Ctrl-C), polled per agent: once set, the
 /// trials stop and run_monte_carlo throws Cancelled.
-MonteCarloResult run_monte_carlo(const config::Scenario& scenario, int trials, int threads = 0,
-                                 const std::function<void(int done, int total)>& on_trial = {},
-                                 const std::function<void(int trial, const RunRecord&)>& on_record = {},
-                                 const std::atomic<bool>* cancel = nullptr);
+MonteCarloResult run_monte_carlo(
+    const config::Scenario& scenario, int trials, int threads = 0,
+    const std::function<void(int done, int total)>& on_trial = {},
+    const std::function<void(int trial, const rundir::RunRecord&)>& on_record = {},
+    const std::atomic<bool>* cancel = nullptr);
 
 /// Writes montecarlo.csv (per-step mean and spread) and trials.csv into `directory`.
 void write_monte_carlo(const std::filesystem::path& directory, const MonteCarloResult& result);
 
-/// Builds the estimator for agent `id` of `world` from the scenario's algorithm settings: the runtime's
-/// make_agent_estimator (agent_factory.hpp) on the agent's setup, which is what the DDS agent calls on its
-/// manifest. For a centralized algorithm the agent is a sensor only.
-std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenario& scenario,
-                                                            const World& world, AgentId id);
-/// What each agent of `world` may know (runtime/manifest.hpp), in id order: the orchestrator writes these
-/// to the run directory; runtime params as make_runtime_params(scenario, world, trial).
-std::vector<AgentManifest> make_agent_manifests(const config::Scenario& scenario, const World& world,
-                                                std::uint64_t trial = 0);
-/// Runtime parameters (seed, loss, partition, plausibility bounds) for the scenario. `incarnation`
-/// counts restarts of the agent (faults.kill): each starts a new range of sample numbers.
-AgentRuntimeParams make_runtime_params(const config::Scenario& scenario, const World& world,
-                                       std::uint64_t trial = 0, int incarnation = 0);
-
 /// Fills record.links and record.agent_summaries from the runtimes at the end of an in-process run.
-void record_agents(RunRecord& record, const World& world, const std::vector<AgentRuntime>& agents);
-
-/// faults.partition's halves: 0 west of the median true x at step 0, 1 east (and on it).
-std::vector<std::uint8_t> partition_groups(const World& world);
+void record_agents(rundir::RunRecord& record, const world::World& world,
+                   const std::vector<const runtime::AgentRuntime*>& agents);
 
 }  // namespace swarmloc::sim

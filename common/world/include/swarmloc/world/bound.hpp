@@ -15,7 +15,7 @@
 #include "swarmloc/world/metrics.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 
 /// Which range draws, what anchor data and which bound model: declared per algorithm in the registry
 /// (config/algorithms.hpp).
@@ -86,4 +86,4 @@ double non_anchor_rmse(const MatX& covariance, const estimators::RangeNetwork& n
 /// process variance of each state entry.
 MatX pcrb_predict(const MatX& information, const VecX& process_variance);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

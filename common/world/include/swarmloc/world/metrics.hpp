@@ -7,7 +7,7 @@
 #include "swarmloc/estimators/messages.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 
 /// Error statistics over the non-anchor agents at one instant.
 struct ErrorStats {
@@ -64,4 +64,4 @@ Mat2 target_information(const World& world, const config::Scenario& scenario, co
 /// Anchors are known.
 RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

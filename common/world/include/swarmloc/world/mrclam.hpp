@@ -12,7 +12,7 @@
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 
 struct MrclamDataset {
   struct TimedPose {
@@ -104,4 +104,4 @@ struct MrclamBaselines {
 };
 MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

@@ -15,7 +15,7 @@
 #include "swarmloc/estimators/messages.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 
 // ---- The sparse least-squares problem and its solver ----
 
@@ -155,4 +155,4 @@ class OptimumAccumulator {
   std::vector<std::int64_t> pending_;  ///< checkpoints observed, not solved yet
 };
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

@@ -15,13 +15,13 @@
 
 #include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/config/scenario_models.hpp"
 #include "swarmloc/core/clock.hpp"
 #include "swarmloc/estimators/consensus/joint_field.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/models/multipath.hpp"
-#include "swarmloc/runtime/agent_factory.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 
 /// A world that comes from data instead of the seeded generator: a --record file or a real dataset
 /// (UTIAS MRCLAM). When World::recorded is set, advance_truth and generate_batch read it, so every
@@ -156,7 +156,7 @@ void advance_truth(World& world, const config::Scenario& scenario, std::int64_t 
 using MeasurementKinds = config::MeasurementKinds;
 MeasurementKinds measurement_kinds(const std::string& algorithm);
 
-// target_model and field_sensor: runtime/agent_factory.hpp (an agent needs them too).
+// target_model and field_sensor: config/scenario_models.hpp (an agent needs them too).
 
 /// y = σ L ξ with L Lᵀ = C, C_kl = exp(−‖c_k − c_l‖² / (2ℓ²)) over the cell centres (a discrete Gaussian
 /// random field; ξ standard normal from `rng`).
@@ -168,7 +168,7 @@ std::vector<models::Wall> make_walls(const config::Scenario& scenario);
 
 /// Agent `agent`'s noisy measurements for world step `step`, of the kinds its algorithm consumes:
 /// - ranges to each current neighbour, drawn per endpoint ([B-1]) or shared by both ends
-///   (noise.shared_range_draws), additive or proportional to the distance (004 eq. (16));
+///   (noise.shared_range_draws), additive or proportional to the distance (Calafiore et al. eq. (16));
 /// - for anchors (Kalman family), an absolute fix;
 /// - relative positions s_ij = x_j − x_i + ε, one draw per link shared by both ends (i gets s_ij, j gets
 ///   −s_ij, [C-7]);
@@ -194,4 +194,4 @@ std::uint64_t trial_seed(std::uint64_t seed, std::uint64_t trial);
 /// area's centre are rejected.
 double absurd_position_bound_m(const config::Scenario& scenario);
 
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

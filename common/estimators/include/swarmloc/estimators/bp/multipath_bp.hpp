@@ -1,6 +1,6 @@
 #pragma once
-// Cooperative Gaussian belief propagation with multipath range + DOA (003 Algorithm 1, docs/algorithms.md
-// §5), and the pairwise (non-cooperative) baseline of §5.4.
+// Cooperative Gaussian belief propagation with multipath range + DOA (Leng et al. Algorithm 1,
+// docs/algorithms.md §5), and the pairwise (non-cooperative) baseline of §5.4.
 #include <map>
 #include <optional>
 #include <string_view>
@@ -12,13 +12,13 @@ namespace swarmloc::estimators::bp {
 
 struct MultipathBpParams {
   double sigma2 = 9.0;  ///< σ² of eq. (1) (variance, m²); default: std 3 m reading of [D-5]
-  /// Variance of each measured angle of arrival (rad²). 0, as in 003: the angles in G_ji are taken as
-  /// exact and σ² is a path's only noise. > 0 (not in 003): a path's variance also carries what its two
-  /// angle errors do to eq. (1), see path_variances().
+  /// Variance of each measured angle of arrival (rad²). 0, as in Leng et al.: the angles in G_ji are taken as
+  /// exact and σ² is a path's only noise. > 0 (not in Leng et al.): a path's variance also carries what its
+  /// two angle errors do to eq. (1), see path_variances().
   double doa_variance_rad2 = 0.0;
-  /// Exact GaBP (not in 003, the ablation of [D-4]): a neighbour's message is built from its belief with
-  /// this node's own contribution divided out (the cavity), so no evidence comes back over the edge it
-  /// left by. false, as in 003: full beliefs are exchanged.
+  /// Exact GaBP (not in Leng et al., the ablation of [D-4]): a neighbour's message is built from its belief
+  /// with this node's own contribution divided out (the cavity), so no evidence comes back over the edge it
+  /// left by. false, as in Leng et al.: full beliefs are exchanged.
   bool exact_messages = false;
   double los_threshold = 1e-3;     ///< [D-2]
   double min_information = 1e-12;  ///< neighbours whose Λ_j has an eigenvalue below this are skipped (§5.2)
@@ -39,11 +39,11 @@ struct Gaussian2 {
 };
 
 /// Each path's noise variance v_r. With exact angles it is σ². With angle errors of variance σ_θ² at both
-/// ends (not in 003), eq. (1)'s prediction moves too: ∂d/∂θ_ij = a cot(Δ/2) and ∂d/∂θ_ji = b cot(Δ/2),
-/// where Δ = θ_ji − θ_ij, a and b are the scatter point's distances from S_j and S_i, and
-/// cot²(Δ/2) = ‖g‖² − 1. Hence v_r = σ² + σ_θ² (‖g_r‖² − 1)(a² + b²), with a = b = d_r/2 since the
-/// split of the path is unknown (it under-states a² + b² by at most a factor 2, when one end is at the wall).
-/// LOS paths (‖g‖ = 1) keep σ². Nearly parallel rays make ‖g‖ large: the angles then dominate.
+/// ends (not in Leng et al.), eq. (1)'s prediction moves too: ∂d/∂θ_ij = a cot(Δ/2) and ∂d/∂θ_ji = b
+/// cot(Δ/2), where Δ = θ_ji − θ_ij, a and b are the scatter point's distances from S_j and S_i, and cot²(Δ/2)
+/// = ‖g‖² − 1. Hence v_r = σ² + σ_θ² (‖g_r‖² − 1)(a² + b²), with a = b = d_r/2 since the split of the path is
+/// unknown (it under-states a² + b² by at most a factor 2, when one end is at the wall). LOS paths (‖g‖ = 1)
+/// keep σ². Nearly parallel rays make ‖g‖ large: the angles then dominate.
 VecX path_variances(const PathSet& paths, const MultipathBpParams& params);
 
 /// Pairwise baseline step (§5.4, eq. (2)): s_i = s_j + G_ji†d_ji with covariance P_j + σ²(G_jiᵀG_ji)⁻¹;
@@ -86,7 +86,7 @@ struct LinkPaths {
   PathSet paths;
 };
 
-/// Centralized baseline (not in 003): weighted least squares on every path length of eq. (1) at once,
+/// Centralized baseline (not in Leng et al.): weighted least squares on every path length of eq. (1) at once,
 /// d_ji − G_ji(s_i − s_j) with weights V⁻¹ (V = diag(path_variances())), over the nodes whose
 /// `anchor_positions` entry is empty; anchors are fixed. It is what exact GaBP's means converge to. Returns
 /// every node's mean and covariance (anchors: their position, zero covariance), or nullopt if the links do
@@ -95,16 +95,16 @@ std::optional<std::vector<Gaussian2>> centralized_from_paths(
     const std::vector<std::optional<Vec2>>& anchor_positions, const std::vector<LinkPaths>& links,
     const MultipathBpParams& params);
 
-/// One sensor of 003 Algorithm 1. Each step(): W_ji, ν_ji from every neighbour's newest BELIEF (§5.3), then
-/// Λ_i = Σ_j W_ji⁻¹ (eq. (3)) and μ_i = Λ_i⁻¹ Σ_j W_ji⁻¹ν_ji (eq. (4)). Beliefs, not cavity messages, are
-/// exchanged ([D-4], as printed). Paths come from MeasurementBatch::paths (newest set per peer kept;
-/// aoa_here = θ_ji, aoa_there = θ_ij). A neighbour never heard from counts as Λ = 0. If Σ W⁻¹ is
+/// One sensor of Leng et al. Algorithm 1. Each step(): W_ji, ν_ji from every neighbour's newest BELIEF
+/// (§5.3), then Λ_i = Σ_j W_ji⁻¹ (eq. (3)) and μ_i = Λ_i⁻¹ Σ_j W_ji⁻¹ν_ji (eq. (4)). Beliefs, not cavity
+/// messages, are exchanged ([D-4], as printed). Paths come from MeasurementBatch::paths (newest set per peer
+/// kept; aoa_here = θ_ji, aoa_there = θ_ij). A neighbour never heard from counts as Λ = 0. If Σ W⁻¹ is
 /// singular, μ_i keeps its previous value ("not yet localized").
 ///
 /// Publishes BELIEF {iteration l, μ_i, Λ_i}; the anchor S_0 publishes its known position with
-/// infinite_information = true. With exact_messages (not in 003) the belief also lists each neighbour's
-/// message (W_ji⁻¹, W_ji⁻¹ν_ji) as added, and a receiver S_j subtracts its own entry from (Λ_i, Λ_iμ_i)
-/// before it forms W_ij: Gaussian BP with cavity messages, exact on trees.
+/// infinite_information = true. With exact_messages (not in Leng et al.) the belief also lists each
+/// neighbour's message (W_ji⁻¹, W_ji⁻¹ν_ji) as added, and a receiver S_j subtracts its own entry from (Λ_i,
+/// Λ_iμ_i) before it forms W_ij: Gaussian BP with cavity messages, exact on trees.
 class MultipathBp final : public Estimator {
  public:
   MultipathBp(const AgentSetup& setup, const MultipathBpParams& params);

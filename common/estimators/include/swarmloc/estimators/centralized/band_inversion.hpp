@@ -1,16 +1,16 @@
 #pragma once
 // Z = BandInv_L(A): the L-banded matrix whose inverse agrees with A on the band |i − j| <= L
-// (the maximum-determinant completion). 000 Alg. 1; docs/algorithms.md §2.3.
+// (the maximum-determinant completion). Khan et al. Alg. 1; docs/algorithms.md §2.3.
 #include "swarmloc/estimators/centralized/band_matrix.hpp"
 
 namespace swarmloc::estimators::centralized {
 
 enum class BandInversionMethod {
-  kWindows,         ///< 000 Alg. 1 as listed: (L+1)×(L+1) and L×L window inverses, O(nL³)
+  kWindows,         ///< Khan et al. Alg. 1 as listed: (L+1)×(L+1) and L×L window inverses, O(nL³)
   kSlidingCholesky  ///< same output via a sliding window Cholesky factor, O(nL²)
 };
 
-/// 000 Alg. 1 with the window sizes. Reads only entries of `a` with |i − j| <= L (entries of
+/// Khan et al. Alg. 1 with the window sizes. Reads only entries of `a` with |i − j| <= L (entries of
 /// `a` outside its own band are zero). Returns Z in band storage of bandwidth L.
 /// Throws std::invalid_argument for L outside [0, n−1], std::domain_error if a window is not PD.
 BandMatrix band_inverse_windows(const BandMatrix& a, int bandwidth);

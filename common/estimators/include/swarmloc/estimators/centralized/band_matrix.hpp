@@ -1,5 +1,5 @@
 #pragma once
-// Symmetric band matrices and the banded kernels of the centralized family (000, docs/algorithms.md
+// Symmetric band matrices and the banded kernels of the centralized family (Khan et al., docs/algorithms.md
 // §2.3–§2.6). Storage is LAPACK "SB" lower: entry (i, j) with 0 <= i - j <= L lives at storage(i - j, j).
 #include "swarmloc/core/types.hpp"
 

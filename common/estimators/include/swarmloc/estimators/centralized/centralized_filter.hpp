@@ -1,5 +1,5 @@
 #pragma once
-// Centralized fusion-centre filters of 000: EKF (eqs. (10)–(12)), LB-EKF (Alg. 2, banded covariance)
+// Centralized fusion-centre filters of Khan et al.: EKF (eqs. (10)–(12)), LB-EKF (Alg. 2, banded covariance)
 // and LB-EKF-I (banded information, docs/algorithms.md §2.4 ). Not per-agent estimators: one object
 // holds the whole network state. No transport, clock, RNG, I/O or logging inside.
 #include <cstdint>
@@ -37,7 +37,7 @@ struct CentralizedFilterParams {
   double process_var = 0.02;  ///< σ_p, a variance (m²) per coordinate per step
   int bandwidth = 20;         ///< L in state (scalar) indices; clamped to n − 1; unused by the EKF
   BandInversionMethod inversion = BandInversionMethod::kWindows;
-  std::vector<int> labels;  ///< π(agent) used internally (000 Alg. 3); empty = identity
+  std::vector<int> labels;  ///< π(agent) used internally (Khan et al. Alg. 3); empty = identity
   /// > 0: every pair within this radius is ranged (a static disk graph), so the self-check also flags an
   /// agent placed well inside the radius of one it has never ranged with (docs/algorithms.md §1.6). 0 = off.
   double disk_radius_m = 0.0;

@@ -1,5 +1,5 @@
 #pragma once
-// Vertex relabeling and graph bandwidth (000 Alg. 3, Lemma 1, Theorem 1; docs/algorithms.md §2.5).
+// Vertex relabeling and graph bandwidth (Khan et al. Alg. 3, Lemma 1, Theorem 1; docs/algorithms.md §2.5).
 // A labeling is a vector `labels` with labels[agent] = π(agent) ∈ {0, …, N−1}.
 #include <utility>
 #include <vector>
@@ -12,7 +12,7 @@ using Edge = std::pair<int, int>;
 
 /// π(i) = i.
 std::vector<int> identity_labels(int num_agents);
-/// 000 Alg. 3: π(i) = rank of x̃_i in the lexicographic order (x, then y). Ties keep input order.
+/// Khan et al. Alg. 3: π(i) = rank of x̃_i in the lexicographic order (x, then y). Ties keep input order.
 std::vector<int> lexicographic_labels(const std::vector<Vec2>& positions);
 /// Reverse Cuthill–McKee (per component, starting at a minimum-degree vertex), as labels.
 std::vector<int> reverse_cuthill_mckee_labels(int num_agents, const std::vector<Edge>& edges);

@@ -1,6 +1,6 @@
 #pragma once
-// Factory for the cooperative (consensus / BP / gradient) estimators of 002, 003 and 004: the
-// CooperativeParams view of the registry's builders (registry.hpp).
+// Factory for the cooperative (consensus / BP / gradient) estimators of Atanasov et al., Leng et al. and
+// Calafiore et al.: the CooperativeParams view of the registry's builders (registry.hpp).
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,9 +20,10 @@ struct CooperativeParams {
   gradient::DgBbParams gradient;  ///< its `rule` is overridden by the algorithm name
 };
 
-/// "jacobi" (002 eq. (9)), "dle" (002 Alg. 1), "joint_field" (002 eq. (10)), "multipath_bp" (003 Alg. 1),
-/// "dgbb" (004 Alg. 1), "local_bb", "fixed_step", "step_length" (004 Sec. V-B baselines). Throws
-/// std::invalid_argument for an unknown name (the message lists the known ones).
+/// "jacobi" (Atanasov et al. eq. (9)), "dle" (Atanasov et al. Alg. 1), "joint_field" (Atanasov et al. eq.
+/// (10)), "multipath_bp" (Leng et al. Alg. 1), "dgbb" (Calafiore et al. Alg. 1), "local_bb", "fixed_step",
+/// "step_length" (Calafiore et al. Sec. V-B baselines). Throws std::invalid_argument for an unknown name (the
+/// message lists the known ones).
 std::unique_ptr<Estimator> make_cooperative_estimator(const std::string& algorithm, const AgentSetup& setup,
                                                       const CooperativeParams& params);
 

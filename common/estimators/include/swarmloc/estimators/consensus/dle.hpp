@@ -1,6 +1,6 @@
 #pragma once
-// Distributed linear estimator of a target by information consensus (002 Algorithm 1, eqs. (6)–(7),
-// docs/algorithms.md §4.2, §4.5).
+// Distributed linear estimator of a target by information consensus (Atanasov et al. Algorithm 1, eqs.
+// (6)–(7), docs/algorithms.md §4.2, §4.5).
 #include <cstdint>
 #include <string_view>
 
@@ -41,9 +41,9 @@ void validate(const DleParams& params);
 /// unchanged.
 ///
 /// Observations of kind 0 are linear (z = H y + v). Observations of kind 1 are range and bearing from this
-/// sensor (at AgentSetup::initial_guess_m) to the target's position y[0..1] (002 eq. (4), [C-1]: atan2):
-/// linearized at the sensor's predicted estimate ŷ_pred = F ŷ (ŷ before any prediction; initial_mean at
-/// first), as the pseudo-measurement z − h(ŷ_pred) + H ŷ_pred with the bearing residual wrapped (§4.2); a
+/// sensor (at AgentSetup::initial_guess_m) to the target's position y[0..1] (Atanasov et al. eq. (4), [C-1]:
+/// atan2): linearized at the sensor's predicted estimate ŷ_pred = F ŷ (ŷ before any prediction; initial_mean
+/// at first), as the pseudo-measurement z − h(ŷ_pred) + H ŷ_pred with the bearing residual wrapped (§4.2); a
 /// target predicted within 1 nm of the sensor makes the row undefined and the observation is skipped.
 ///
 /// Publishes INFO {target, ω_{i,t+1}, Ω_{i,t+1}} (the prior for the next step) and a STATE carrying the

@@ -1,5 +1,6 @@
 #pragma once
-// Distributed Jacobi localization from relative measurements (002 eq. (9), docs/algorithms.md §4.3, §4.5).
+// Distributed Jacobi localization from relative measurements (Atanasov et al. eq. (9), docs/algorithms.md
+// §4.3, §4.5).
 #include <cstdint>
 #include <map>
 #include <string_view>
@@ -8,9 +9,10 @@
 
 namespace swarmloc::estimators::consensus {
 
-/// Node i ≠ reference: x̂_i(t+1) = D_i⁻¹ (Σ_j 𝓔_ij⁻¹ x̂_j(t) − Σ_j 𝓔_ij⁻¹ s̄_ij(t)) (002 eq. (9)), with s̄_ij the
-/// running mean of all samples s_ij(0…t) ([C-3]) and x̂_j the newest STATE received from j (§4.5).
-/// The reference node (AgentSetup::anchor) never updates and publishes its initial guess (002: x_1 ≡ 0).
+/// Node i ≠ reference: x̂_i(t+1) = D_i⁻¹ (Σ_j 𝓔_ij⁻¹ x̂_j(t) − Σ_j 𝓔_ij⁻¹ s̄_ij(t)) (Atanasov et al. eq. (9)),
+/// with s̄_ij the running mean of all samples s_ij(0…t) ([C-3]) and x̂_j the newest STATE received from j
+/// (§4.5). The reference node (AgentSetup::anchor) never updates and publishes its initial guess (Atanasov et
+/// al.: x_1 ≡ 0).
 ///
 /// Measurements come from MeasurementBatch::relative (s = x_peer − x_self + ε). Under the shared-measurement
 /// default [C-7] the world gives j the sample −s_ij of the same draw; the estimator just averages what it

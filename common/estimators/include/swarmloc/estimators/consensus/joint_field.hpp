@@ -1,7 +1,7 @@
 #pragma once
-// Joint localization and field estimation (002 eq. (10), docs/algorithms.md §4.4, Fig. 5): each sensor
-// localizes itself by distributed Jacobi (§4.3) while it estimates a static scalar field on a grid by the DLE
-// (§4.2), using the observation model evaluated at its current position estimate.
+// Joint localization and field estimation (Atanasov et al. eq. (10), docs/algorithms.md §4.4, Fig. 5): each
+// sensor localizes itself by distributed Jacobi (§4.3) while it estimates a static scalar field on a grid by
+// the DLE (§4.2), using the observation model evaluated at its current position estimate.
 #include <cstdint>
 #include <optional>
 #include <string_view>
@@ -32,7 +32,8 @@ enum class FieldSensing {
   /// default).
   kContinuous,
   /// h = e_cell(x): the sensor reads the cell that contains it. The model depends only on which cell the
-  /// sensor is in, so it jumps at cell boundaries (002 Fig. 5, rightmost plot). (Tents around the containing
+  /// sensor is in, so it jumps at cell boundaries (Atanasov et al. Fig. 5, rightmost plot). (Tents around the
+  /// containing
   /// cell's centre would jump too, but with r_s = 1.5 cells their rows are nearly dependent — a checkerboard
   /// field is almost invisible — and the field is then poorly observed even with true positions.)
   kCellBased,
@@ -44,7 +45,8 @@ struct FieldSensor {
   double radius_m = 15.0;  ///< r_s (continuous model)
 };
 
-/// Row h(x) of the observation z = h(x)ᵀ y + v of a sensor at `position_m` (002 eq. (2) with d_z = 1).
+/// Row h(x) of the observation z = h(x)ᵀ y + v of a sensor at `position_m` (Atanasov et al. eq. (2) with d_z
+/// = 1).
 VecX field_observation_row(const FieldSensor& sensor, const Vec2& position_m);
 
 /// Throws std::invalid_argument naming the offending field.
@@ -57,13 +59,13 @@ inline constexpr std::uint8_t kFieldReading = 2;
 struct JointFieldParams {
   FieldSensor sensor;
   std::int32_t target = 0;  ///< only readings and InformationMessages of this target are used
-  /// Absolute position of the reference node: 002 localizes in node 1's frame, the field lives in the
-  /// world frame, so sensor i is at reference + x̂_i.
+  /// Absolute position of the reference node: Atanasov et al. localizes in node 1's frame, the field lives in
+  /// the world frame, so sensor i is at reference + x̂_i.
   Vec2 reference_position_m = Vec2::Zero();
-  double delta = 1e-3;  ///< δ of eq. (10) (unstated in 002; docs/algorithms.md §4.4 default)
-  /// Field readings of the sensor's first `warmup_steps` steps are left out (not in 002, whose value is 0).
-  /// Eq. (10) never revises a reading's model row Ĥ = h(x̂), so readings taken while x̂ is still in its
-  /// transient bias ŷ for the rest of the run, and how much depends on the timing of early steps.
+  double delta = 1e-3;  ///< δ of eq. (10) (unstated in Atanasov et al.; docs/algorithms.md §4.4 default)
+  /// Field readings of the sensor's first `warmup_steps` steps are left out (not in Atanasov et al., whose
+  /// value is 0). Eq. (10) never revises a reading's model row Ĥ = h(x̂), so readings taken while x̂ is still
+  /// in its transient bias ŷ for the rest of the run, and how much depends on the timing of early steps.
   int warmup_steps = 0;
   /// false: the sensor does not localize and uses AgentSetup::initial_guess_m as its (known) position —
   /// the "DLE with true sensor positions" baseline of §4.6.
@@ -74,7 +76,7 @@ struct JointFieldParams {
 /// Throws std::invalid_argument naming the offending field.
 void validate(const JointFieldParams& params);
 
-/// One sensor of 002's joint procedure. Each step():
+/// One sensor of Atanasov et al.'s joint procedure. Each step():
 ///   1. Ĥ_{i,t} = h(reference + x̂_i(t)) with the position estimate before this step's Jacobi update (eq.
 ///   (10));
 ///   2. (ω, Ω) ← Σ_{j∈N_i∪{i}} κ_ij (ω_j, Ω_j) + Σ Ĥᵀ V⁻¹ (z, Ĥ) (static field: no prediction), κ Metropolis

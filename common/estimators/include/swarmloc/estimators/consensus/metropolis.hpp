@@ -11,7 +11,7 @@ namespace swarmloc::estimators::consensus {
 
 enum class MetropolisRule {
   kPlusOne,  ///< W_ij = 1/(1 + max(|N_i|, |N_j|)) (default, [E-2]): W_ii > 0 always
-  kPrinted,  ///< W_ij = 1/max(|N_i|, |N_j|) as printed in 004 (W_ii can be 0)
+  kPrinted,  ///< W_ij = 1/max(|N_i|, |N_j|) as printed in Calafiore et al. (W_ii can be 0)
 };
 
 /// W_ij for an edge between nodes of degree `degree_i` and `degree_j` (both ≥ 1).

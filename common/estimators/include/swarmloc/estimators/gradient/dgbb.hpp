@@ -1,6 +1,7 @@
 #pragma once
-// Distributed gradient localization with a consensus Barzilai–Borwein step (004, docs/algorithms.md §6) and
-// its baselines: local BB (T = 0), fixed step, specified step length; centralized BB as a plain function.
+// Distributed gradient localization with a consensus Barzilai–Borwein step (Calafiore et al.,
+// docs/algorithms.md §6) and its baselines: local BB (T = 0), fixed step, specified step length; centralized
+// BB as a plain function.
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -13,8 +14,8 @@
 namespace swarmloc::estimators::gradient {
 
 enum class StepRule {
-  kConsensusBb,  ///< DG-BB: α_i = ρ_i(T)/ψ_i(T) after T consensus rounds (004 eq. (12))
-  kLocalBb,      ///< α_i = ‖Δp_i‖²/(Δp_iᵀΔD_i) (004 eq. (15), [E-6])
+  kConsensusBb,  ///< DG-BB: α_i = ρ_i(T)/ψ_i(T) after T consensus rounds (Calafiore et al. eq. (12))
+  kLocalBb,      ///< α_i = ‖Δp_i‖²/(Δp_iᵀΔD_i) (Calafiore et al. eq. (15), [E-6])
   kFixed,        ///< α = fixed_step
   kStepLength,   ///< α = k/‖D_i‖ with k = step_length·{1, 1/τ, 1/√τ}
 };
@@ -53,8 +54,8 @@ void validate(const DgBbParams& params);
 
 /// One agent of DG-BB or a baseline. ONE step() = ONE communication round. Per update τ the DG-BB node
 /// spends T + 1 rounds: round 0 uses the neighbours' STATE p_j^(τ) to form D_i(p^(τ)), ρ_i(0) = ‖Δp_i‖²,
-/// ψ_i(0) = Δp_iᵀΔD_i (004 eqs. (8)–(9)) and publishes them; rounds 1…T average the neighbours' newest
-/// (ρ_j, ψ_j) with Metropolis weights (eqs. (10)–(11), [E-3]); round T then updates p_i (eq. (14)) and
+/// ψ_i(0) = Δp_iᵀΔD_i (Calafiore et al. eqs. (8)–(9)) and publishes them; rounds 1…T average the neighbours'
+/// newest (ρ_j, ψ_j) with Metropolis weights (eqs. (10)–(11), [E-3]); round T then updates p_i (eq. (14)) and
 /// publishes the new STATE. The baselines update in every round (one STATE exchange per update).
 ///
 /// Publishes every round: STATE {p_i^(τ), covariance 0, anchor, active, degree}; DG-BB also publishes
@@ -107,7 +108,7 @@ class DgBb final : public Estimator {
   void absorb(const StepInput& input);
   /// α at direction D under the rules without consensus rounds (fixed, step length, local BB).
   double local_step(const Vec2& D);
-  /// One consensus round of DG-BB (004 eqs. (8)–(11)); at round T, eq. (12) and the update.
+  /// One consensus round of DG-BB (Calafiore et al. eqs. (8)–(11)); at round T, eq. (12) and the update.
   void consensus_step(StepOutput& out);
 
   AgentSetup setup_;
@@ -158,7 +159,7 @@ class DgBb final : public Estimator {
   int trust_region_count_ = 0;
 };
 
-// ---- Centralized reference (004 eqs. (3)–(5), docs/algorithms.md §6.5 item 5) ----
+// ---- Centralized reference (Calafiore et al. eqs. (3)–(5), docs/algorithms.md §6.5 item 5) ----
 struct RangeEdge {
   int i = 0;
   int j = 0;
@@ -172,9 +173,9 @@ struct RangeProblem {
 
 /// D(p) for every node (zero rows for anchors), docs/algorithms.md §6.1 [E-1].
 std::vector<Vec2> direction(const RangeProblem& problem, const std::vector<Vec2>& p, double grad_scale = 1.0);
-/// Objective f(p) = ½ Σ g_ij² (004 eq. (1)).
+/// Objective f(p) = ½ Σ g_ij² (Calafiore et al. eq. (1)).
 double objective(const RangeProblem& problem, const std::vector<Vec2>& p);
-/// Centralized BB step ‖Δp‖²/(ΔpᵀΔD) over all nodes (004 eq. (5)).
+/// Centralized BB step ‖Δp‖²/(ΔpᵀΔD) over all nodes (Calafiore et al. eq. (5)).
 double centralized_bb_step(const std::vector<Vec2>& dp, const std::vector<Vec2>& dD);
 
 struct CentralizedBbResult {

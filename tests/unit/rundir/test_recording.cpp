@@ -17,7 +17,7 @@
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 namespace {
 
 std::filesystem::path temp_dir(const std::string& name) {
@@ -251,7 +251,7 @@ config::Scenario recorded_scenario() {
 /// A 4-agent recording of `steps` full batches; returns its path.
 std::filesystem::path write_tiny_recording(const std::filesystem::path& dir, int steps) {
   const auto s = recorded_scenario();
-  auto world = build_world(s);
+  auto world = world::build_world(s);
   world.initial_heading = {0.1, -0.2, 0.3, -0.0};
   const auto path = dir / "tiny.slrec";
   RecordingWriter writer(path, s, world);
@@ -272,12 +272,12 @@ TEST(Recording, EveryBatchFieldRoundTripsBitExactly) {
   const auto dir = temp_dir("roundtrip");
   const auto path = write_tiny_recording(dir, 3);
   const auto recording = load_recording(path);
-  EXPECT_EQ(recording->version(), kRecordingVersion);
+  EXPECT_EQ(recording->version(), runtime::kRecordingVersion);
   EXPECT_EQ(recording->agents(), 4);
   ASSERT_EQ(recording->steps(), 3);
   EXPECT_TRUE(recording->has_pose_measurements());
   EXPECT_EQ(recording->scenario_yaml(), config::to_yaml(recorded_scenario()));
-  auto world = build_world(recorded_scenario());
+  auto world = world::build_world(recorded_scenario());
   world.initial_heading = {0.1, -0.2, 0.3, -0.0};
   EXPECT_EQ(recording->world().difference(world), "");
   world.initial_guess[2].x() += 1e-15;
@@ -298,7 +298,7 @@ TEST(Recording, EveryBatchFieldRoundTripsBitExactly) {
 TEST(Recording, WriterRejectsStepsOutOfOrderAndWrongAgentCounts) {
   const auto dir = temp_dir("writer");
   const auto s = recorded_scenario();
-  const auto world = build_world(s);
+  const auto world = world::build_world(s);
   RecordingWriter writer(dir / "w.slrec", s, world);
   const std::vector<Vec2> truth(4, Vec2::Zero());
   const std::vector<estimators::MeasurementBatch> batches(4);
@@ -407,19 +407,19 @@ TEST(Recording, HostileFilesGiveClearErrorsNamingFileAndOffset) {
   EXPECT_THROW((void)load_recording(dir / "missing.slrec"), RecordingError);
 }
 
-ReceivedSample sample_of(SampleMessage message, std::uint32_t seq) {
-  ReceivedSample s;
+runtime::ReceivedSample sample_of(runtime::SampleMessage message, std::uint32_t seq) {
+  runtime::ReceivedSample s;
   s.receiver = 2;
   s.receiver_steps = 17;
   s.source_timestamp_ns = 1'700'000'000'123'456'789;
   s.take_ns = 1'700'000'000'123'556'789;
   s.well_formed = seq % 2 == 0;
-  s.header = Header{1, seq, 16, -5, 1'600'000'000};
+  s.header = runtime::Header{1, seq, 16, -5, 1'600'000'000};
   s.message = std::move(message);
   return s;
 }
 
-std::vector<ReceivedSample> every_family() {
+std::vector<runtime::ReceivedSample> every_family() {
   estimators::StateMessage state;
   state.mean_m = Vec2(1.5, -0.0);
   state.covariance << 0.5, 0.1, 0.2, std::numeric_limits<double>::quiet_NaN();
@@ -442,7 +442,7 @@ std::vector<ReceivedSample> every_family() {
   return {sample_of(state, 0), sample_of(information, 1), sample_of(consensus, 2), sample_of(belief, 3)};
 }
 
-void expect_same(const ReceivedSample& a, const ReceivedSample& b) {
+void expect_same(const runtime::ReceivedSample& a, const runtime::ReceivedSample& b) {
   EXPECT_EQ(a.receiver, b.receiver);
   EXPECT_EQ(a.receiver_steps, b.receiver_steps);
   EXPECT_EQ(a.source_timestamp_ns, b.source_timestamp_ns);
@@ -455,7 +455,7 @@ void expect_same(const ReceivedSample& a, const ReceivedSample& b) {
   EXPECT_EQ(a.header.world_stamp_ns, b.header.world_stamp_ns);
   ASSERT_EQ(a.family(), b.family());
   switch (a.family()) {
-    case SampleFamily::kState: {
+    case runtime::SampleFamily::kState: {
       const auto& x = std::get<estimators::StateMessage>(a.message);
       const auto& y = std::get<estimators::StateMessage>(b.message);
       expect_same(x.mean_m, y.mean_m);
@@ -472,7 +472,7 @@ void expect_same(const ReceivedSample& a, const ReceivedSample& b) {
       }
       break;
     }
-    case SampleFamily::kInformation: {
+    case runtime::SampleFamily::kInformation: {
       const auto& x = std::get<estimators::InformationMessage>(a.message);
       const auto& y = std::get<estimators::InformationMessage>(b.message);
       EXPECT_EQ(x.target, y.target);
@@ -481,7 +481,7 @@ void expect_same(const ReceivedSample& a, const ReceivedSample& b) {
       EXPECT_EQ(x.world_step, y.world_step);
       break;
     }
-    case SampleFamily::kConsensus: {
+    case runtime::SampleFamily::kConsensus: {
       const auto& x = std::get<estimators::ConsensusMessage>(a.message);
       const auto& y = std::get<estimators::ConsensusMessage>(b.message);
       EXPECT_EQ(x.tau, y.tau);
@@ -489,7 +489,7 @@ void expect_same(const ReceivedSample& a, const ReceivedSample& b) {
       EXPECT_EQ(x.values, y.values);
       break;
     }
-    case SampleFamily::kBelief: {
+    case runtime::SampleFamily::kBelief: {
       const auto& x = std::get<estimators::BeliefMessage>(a.message);
       const auto& y = std::get<estimators::BeliefMessage>(b.message);
       EXPECT_EQ(x.iteration, y.iteration);
@@ -512,7 +512,7 @@ TEST(SampleLog, EveryFamilyRoundTripsAndAnUnfinishedLogIsReadOnRequest) {
   const auto path = dir / "agent_002.slrec";
   const auto samples = every_family();
   {
-    SampleLogWriter writer(path, 4, 0xABCDEF);
+    runtime::SampleLogWriter writer(path, 4, 0xABCDEF);
     for (const auto& s : samples) writer.append(s);
     EXPECT_EQ(writer.count(), 4u);
     writer.close();
@@ -569,14 +569,14 @@ TEST(SampleLog, EveryFamilyRoundTripsAndAnUnfinishedLogIsReadOnRequest) {
 TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep) {
   const auto dir = temp_dir("samples_v1");
   const auto path = dir / "agent_002.slrec";
-  const ReceivedSample information = every_family()[1];
+  const runtime::ReceivedSample information = every_family()[1];
   {
-    SampleLogWriter writer(path, 4, 7);
+    runtime::SampleLogWriter writer(path, 4, 7);
     writer.append(information);
     writer.close();
   }
   const auto bytes = read_bytes(path);
-  ASSERT_EQ(bytes[6], kRecordingVersion);
+  ASSERT_EQ(bytes[6], runtime::kRecordingVersion);
   const auto v3 = without_checksums(bytes, 3);
   // Version 1 is that log without the payload's last field (i64 world_step, before the 9-byte end marker).
   std::vector<std::uint8_t> v1(v3.begin(), v3.end() - 9 - 8);
@@ -589,7 +589,7 @@ TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep)
   std::get<estimators::InformationMessage>(expected.message).world_step = -1;
   expect_same(log.samples[0], expected);
   auto next = bytes;
-  next[6] = kRecordingVersion + 1;
+  next[6] = runtime::kRecordingVersion + 1;
   reseal(next);
   try {
     (void)parse_sample_log(next, "next.slrec");
@@ -605,10 +605,10 @@ TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep)
 TEST(SampleLog, AVersionTwoLogReadsWithItsBeliefsWithoutContributions) {
   const auto dir = temp_dir("samples_v2");
   const auto path = dir / "agent_002.slrec";
-  const ReceivedSample belief = every_family()[3];
+  const runtime::ReceivedSample belief = every_family()[3];
   const auto contributions = std::get<estimators::BeliefMessage>(belief.message).contributions.size();
   {
-    SampleLogWriter writer(path, 4, 7);
+    runtime::SampleLogWriter writer(path, 4, 7);
     writer.append(belief);
     writer.close();
   }
@@ -631,7 +631,7 @@ TEST(SampleLog, AVersionThreeLogReadsEveryFamilyAndItsUnfinishedFormToo) {
   const auto path = dir / "agent_002.slrec";
   const auto samples = every_family();
   {
-    SampleLogWriter writer(path, 4, 0xABCDEF);
+    runtime::SampleLogWriter writer(path, 4, 0xABCDEF);
     for (const auto& s : samples) writer.append(s);
     writer.close();
   }
@@ -695,7 +695,7 @@ TEST(SampleLog, EverySingleFlippedBitIsRefusedEvenWhereAnUnfinishedLogIsAccepted
   const auto dir = temp_dir("samples_bitflips");
   const auto path = dir / "agent_002.slrec";
   {
-    SampleLogWriter writer(path, 4, 0xABCDEF);
+    runtime::SampleLogWriter writer(path, 4, 0xABCDEF);
     for (const auto& s : every_family()) writer.append(s);
     writer.close();
   }
@@ -751,36 +751,36 @@ TEST(Recording, AVersionThreeRecordingReplaysLikeItsVersionFourOriginal) {
   const auto s = small_scenario();
   const auto dir = temp_dir("replay-v3");
   DirectoryRecorder recorder(dir);
-  SimOptions record_options;
+  sim::SimOptions record_options;
   record_options.recorder = &recorder;
-  const auto recorded_run = run_simulation(s, record_options);
+  const auto recorded_run = sim::run_simulation(s, record_options);
   recorder.close();
   const auto v3 = without_checksums(read_bytes(dir / kRecordingFile), 3);
-  SimOptions replay_options;
+  sim::SimOptions replay_options;
   replay_options.recorded = parse_recording(v3, "v3.slrec");
-  expect_same_metrics(recorded_run, run_simulation(s, replay_options));
+  expect_same_metrics(recorded_run, sim::run_simulation(s, replay_options));
 }
 
 TEST(Recording, WriteFailuresAndUnreadablePathsAreReported) {
   const auto s = recorded_scenario();
-  const auto world = build_world(s);
+  const auto world = world::build_world(s);
   // A full disk: /dev/full takes the buffered writes and refuses the flush.
   if (std::filesystem::exists("/dev/full")) {
     RecordingWriter writer("/dev/full", s, world);
     try {
       writer.close();
       ADD_FAILURE() << "closing a recording on a full disk did not throw";
-    } catch (const OutputError& error) {
+    } catch (const runtime::OutputError& error) {
       EXPECT_NE(std::string(error.what()).find("/dev/full: No space left on device"), std::string::npos)
           << error.what();
     }
-    SampleLogWriter samples("/dev/full", 4, 7);
+    runtime::SampleLogWriter samples("/dev/full", 4, 7);
     for (const auto& sample : every_family()) samples.append(sample);
-    EXPECT_THROW(samples.close(), OutputError);
+    EXPECT_THROW(samples.close(), runtime::OutputError);
   }
   const auto dir = temp_dir("unwritable");
   { std::ofstream(dir / "file") << "x"; }
-  EXPECT_THROW(RecordingWriter(dir / "file" / "recording.slrec", s, world), OutputError);
+  EXPECT_THROW(RecordingWriter(dir / "file" / "recording.slrec", s, world), runtime::OutputError);
   // A run directory instead of its recording: the error says which file to pass.
   try {
     (void)load_recording(dir);
@@ -828,18 +828,18 @@ TEST_P(SimulatorReplay, ReplayOfARecordedRunGivesTheSameMetricsEveryStep) {
   GetParam().configure(s);
   const auto dir = temp_dir(std::string("replay-") + GetParam().name);
   DirectoryRecorder recorder(dir);
-  SimOptions record_options;
+  sim::SimOptions record_options;
   record_options.recorder = &recorder;
-  const auto recorded_run = run_simulation(s, record_options);
+  const auto recorded_run = sim::run_simulation(s, record_options);
   recorder.close();
   EXPECT_EQ(recorder.steps(), s.run.steps);
 
   const auto recording = load_recording(dir / kRecordingFile);
   ASSERT_EQ(recording->steps(), s.run.steps);
-  EXPECT_EQ(recording->world().difference(build_world(s)), "");
-  SimOptions replay_options;
+  EXPECT_EQ(recording->world().difference(world::build_world(s)), "");
+  sim::SimOptions replay_options;
   replay_options.recorded = recording;
-  const auto replayed = run_simulation(s, replay_options);
+  const auto replayed = sim::run_simulation(s, replay_options);
   expect_same_metrics(recorded_run, replayed);
   std::printf("  %s: recorded final RMSE %.12f m, replayed %.12f m\n", GetParam().name,
               recorded_run.final_metrics()->errors.rmse_m, replayed.final_metrics()->errors.rmse_m);
@@ -852,7 +852,7 @@ TEST_P(SimulatorReplay, ReplayOfARecordedRunGivesTheSameMetricsEveryStep) {
     return;
   }
   ASSERT_FALSE(log.samples.empty());
-  const auto world = build_world(s);
+  const auto world = world::build_world(s);
   for (const auto& sample : log.samples) {
     const auto& neighbours = world.neighbours[static_cast<std::size_t>(sample.receiver)];
     ASSERT_TRUE(std::binary_search(neighbours.begin(), neighbours.end(), sample.header.agent_id));
@@ -889,17 +889,17 @@ TEST(SimulatorReplay, AnotherAlgorithmOnTheRecordedInputMatchesItsOwnRunAndDiffe
   s.world.motion_std_m = 0.05;
   const auto dir = temp_dir("other-algorithm");
   DirectoryRecorder recorder(dir);
-  SimOptions record_options;
+  sim::SimOptions record_options;
   record_options.recorder = &recorder;
-  const auto ieif = run_simulation(s, record_options);
+  const auto ieif = sim::run_simulation(s, record_options);
   recorder.close();
 
   auto other = s;
   other.algorithm.name = "iekf";
-  SimOptions replay_options;
+  sim::SimOptions replay_options;
   replay_options.recorded = load_recording(dir / kRecordingFile);
-  const auto replayed = run_simulation(other, replay_options);
-  const auto direct = run_simulation(other);
+  const auto replayed = sim::run_simulation(other, replay_options);
+  const auto direct = sim::run_simulation(other);
   expect_same_metrics(direct, replayed);
   EXPECT_NE(replayed.final_metrics()->errors.rmse_m, ieif.final_metrics()->errors.rmse_m);
   EXPECT_TRUE(std::isfinite(replayed.final_metrics()->errors.rmse_m));
@@ -908,17 +908,17 @@ TEST(SimulatorReplay, AnotherAlgorithmOnTheRecordedInputMatchesItsOwnRunAndDiffe
   // other ranges, the replay feeds the recorded ones (ieif takes each range's std from its batch).
   auto noisier = s;
   noisier.noise.range_std_m = 1.0;
-  EXPECT_EQ(run_simulation(noisier, replay_options).final_metrics()->errors.rmse_m,
+  EXPECT_EQ(sim::run_simulation(noisier, replay_options).final_metrics()->errors.rmse_m,
             ieif.final_metrics()->errors.rmse_m);
-  EXPECT_NE(run_simulation(noisier).final_metrics()->errors.rmse_m, ieif.final_metrics()->errors.rmse_m);
+  EXPECT_NE(sim::run_simulation(noisier).final_metrics()->errors.rmse_m, ieif.final_metrics()->errors.rmse_m);
 
   // A shorter replay is a prefix.
   auto shorter = s;
   shorter.run.steps = 10;
-  const auto prefix = run_simulation(shorter, replay_options);
+  const auto prefix = sim::run_simulation(shorter, replay_options);
   ASSERT_EQ(prefix.metrics.size(), 10u);
   EXPECT_EQ(prefix.metrics.back().errors.rmse_m, ieif.metrics[9].errors.rmse_m);
 }
 
 }  // namespace
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

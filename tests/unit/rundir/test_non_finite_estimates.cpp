@@ -20,19 +20,19 @@
 #include "swarmloc/world/metrics.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 namespace {
 
 constexpr double kNotANumber = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 config::Scenario eight_agent_scenario() {
-  return config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default.yaml",
+  return config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ieif.yaml",
                                {"run.steps=4", "world.agents=8", "world.anchors=3", "world.area_m=15"});
 }
 
 /// Every agent at its truth plus 0.1 m east, with a unit covariance.
-std::vector<std::optional<estimators::Estimate>> estimates_near_truth(const World& world) {
+std::vector<std::optional<estimators::Estimate>> estimates_near_truth(const world::World& world) {
   std::vector<std::optional<estimators::Estimate>> estimates(world.truth.size());
   for (std::size_t i = 0; i < world.truth.size(); ++i) {
     estimators::Estimate estimate;
@@ -44,21 +44,21 @@ std::vector<std::optional<estimators::Estimate>> estimates_near_truth(const Worl
   return estimates;
 }
 
-std::size_t first_non_anchor(const World& world) {
+std::size_t first_non_anchor(const world::World& world) {
   std::size_t i = 0;
   while (world.is_anchor[i]) ++i;
   return i;
 }
 
 TEST(NonFiniteEstimates, ABrokenMeanIsCountedAndMakesTheErrorInfinite) {
-  const World world = build_world(eight_agent_scenario());
+  const world::World world = world::build_world(eight_agent_scenario());
   auto estimates = estimates_near_truth(world);
-  const ErrorStats clean = score(world, estimates);
+  const world::ErrorStats clean = world::score(world, estimates);
   EXPECT_NEAR(clean.rmse_m, 0.1, 1e-12);
   EXPECT_EQ(clean.non_finite, 0);
 
   estimates[first_non_anchor(world)]->mean_m.x() = kNotANumber;
-  const ErrorStats broken = score(world, estimates);
+  const world::ErrorStats broken = world::score(world, estimates);
   EXPECT_EQ(broken.non_finite, 1);
   EXPECT_EQ(broken.missing, 0) << "a broken estimate is not a missing one";
   EXPECT_EQ(broken.scored, clean.scored - 1);
@@ -67,25 +67,25 @@ TEST(NonFiniteEstimates, ABrokenMeanIsCountedAndMakesTheErrorInfinite) {
   EXPECT_NEAR(broken.nees, 0.01, 1e-12) << "the NEES of the finite ones; their covariances are fine";
 
   estimates[first_non_anchor(world)].reset();
-  EXPECT_EQ(score(world, estimates).missing, 1) << "no report is still just missing";
+  EXPECT_EQ(world::score(world, estimates).missing, 1) << "no report is still just missing";
 }
 
 // Recorded data (MRCLAM) has instants without ground truth: nothing to score is not a broken estimate.
 TEST(NonFiniteEstimates, AnAgentWithoutGroundTruthIsMissingNotBroken) {
-  World world = build_world(eight_agent_scenario());
+  world::World world = world::build_world(eight_agent_scenario());
   const auto estimates = estimates_near_truth(world);
   world.truth[first_non_anchor(world)].x() = kNotANumber;
-  const ErrorStats stats = score(world, estimates);
+  const world::ErrorStats stats = world::score(world, estimates);
   EXPECT_EQ(stats.non_finite, 0);
   EXPECT_EQ(stats.missing, 1);
   EXPECT_NEAR(stats.rmse_m, 0.1, 1e-12);
 }
 
 TEST(NonFiniteEstimates, TheNeesSaysHowManyAgentsItCovers) {
-  const World world = build_world(eight_agent_scenario());
+  const world::World world = world::build_world(eight_agent_scenario());
   auto estimates = estimates_near_truth(world);
   estimates[first_non_anchor(world)]->valid = false;  // no covariance to judge (e.g. not yet localized)
-  const ErrorStats stats = score(world, estimates);
+  const world::ErrorStats stats = world::score(world, estimates);
   EXPECT_EQ(stats.nees_agents, stats.scored - 1);
   RunRecord record;
   record.agents = world.size();
@@ -100,37 +100,37 @@ TEST(NonFiniteEstimates, TheNeesSaysHowManyAgentsItCovers) {
 }
 
 TEST(NonFiniteEstimates, ABrokenCovarianceMakesTheNeesInfiniteButNotTheError) {
-  const World world = build_world(eight_agent_scenario());
+  const world::World world = world::build_world(eight_agent_scenario());
   auto estimates = estimates_near_truth(world);
   estimates[first_non_anchor(world)]->covariance(0, 1) = kInfinity;
-  const ErrorStats stats = score(world, estimates);
+  const world::ErrorStats stats = world::score(world, estimates);
   EXPECT_EQ(stats.non_finite, 1);
   EXPECT_NEAR(stats.rmse_m, 0.1, 1e-12);
   EXPECT_EQ(stats.nees, kInfinity);
   // Without a claim to a covariance (not yet localized), whatever it holds is not judged.
   estimates[first_non_anchor(world)]->valid = false;
-  EXPECT_EQ(score(world, estimates).non_finite, 0);
+  EXPECT_EQ(world::score(world, estimates).non_finite, 0);
 }
 
 TEST(NonFiniteEstimates, ABrokenFieldIsCountedOncePerAgent) {
   const auto scenario =
       config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/joint_field.yaml",
                             {"world.agents=4", "world.anchors=1", "world.comm_radius_m=100"});
-  const World world = build_world(scenario);
+  const world::World world = world::build_world(scenario);
   auto estimates = estimates_near_truth(world);
   for (auto& estimate : estimates) estimate->field = world.field;
-  EXPECT_NEAR(score(world, estimates).field_rmse, 0.0, 1e-12);
+  EXPECT_NEAR(world::score(world, estimates).field_rmse, 0.0, 1e-12);
   const std::size_t agent = first_non_anchor(world);
   estimates[agent]->field(0) = kNotANumber;
-  EXPECT_EQ(score(world, estimates).non_finite, 1);
-  EXPECT_EQ(score(world, estimates).field_rmse, kInfinity);
+  EXPECT_EQ(world::score(world, estimates).non_finite, 1);
+  EXPECT_EQ(world::score(world, estimates).field_rmse, kInfinity);
   estimates[agent]->mean_m.x() = kNotANumber;  // position and field broken: one broken agent
-  EXPECT_EQ(score(world, estimates).non_finite, 1);
+  EXPECT_EQ(world::score(world, estimates).non_finite, 1);
 }
 
 TEST(NonFiniteEstimates, TheRunRecordSaysTheResultsAreNotValid) {
   const auto scenario = eight_agent_scenario();
-  RunRecord record = run_simulation(scenario, SimOptions{});
+  RunRecord record = sim::run_simulation(scenario, sim::SimOptions{});
   ASSERT_EQ(record.metrics.size(), 4U);
   EXPECT_EQ(non_finite_estimates(record).steps, 0U);
   EXPECT_EQ(result_table(record).find("NOT VALID"), std::string::npos);
@@ -138,10 +138,10 @@ TEST(NonFiniteEstimates, TheRunRecordSaysTheResultsAreNotValid) {
   const double clean_whole = whole_run_error(record).rmse_m;
   ASSERT_TRUE(std::isfinite(clean_whole));
 
-  const World world = build_world(scenario);
+  const world::World world = world::build_world(scenario);
   auto estimates = estimates_near_truth(world);
   estimates[first_non_anchor(world)]->mean_m.y() = kInfinity;
-  record.metrics[1].errors = score(world, estimates);  // one agent diverged at step 1, then recovered
+  record.metrics[1].errors = world::score(world, estimates);  // one agent diverged at step 1, then recovered
   const auto broken = non_finite_estimates(record);
   EXPECT_EQ(broken.steps, 1U);
   EXPECT_EQ(broken.first_step, record.metrics[1].step);
@@ -155,7 +155,7 @@ TEST(NonFiniteEstimates, TheRunRecordSaysTheResultsAreNotValid) {
 }
 
 TEST(NonFiniteEstimates, TrialsCsvNamesTheTrialsThatBroke) {
-  MonteCarloResult result;
+  sim::MonteCarloResult result;
   result.trials = 2;
   result.final_rmse_per_trial = {0.1, kInfinity};
   result.final_flagged_per_trial = {0, 0};
@@ -164,7 +164,7 @@ TEST(NonFiniteEstimates, TrialsCsvNamesTheTrialsThatBroke) {
       std::filesystem::temp_directory_path() / ("swarmloc-non-finite-trials-" + std::to_string(::getpid()));
   std::filesystem::remove_all(directory);
   std::filesystem::create_directories(directory);
-  write_monte_carlo(directory, result);
+  sim::write_monte_carlo(directory, result);
   std::ifstream in(directory / "trials.csv");
   std::stringstream text;
   text << in.rdbuf();
@@ -175,4 +175,4 @@ TEST(NonFiniteEstimates, TrialsCsvNamesTheTrialsThatBroke) {
 }
 
 }  // namespace
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

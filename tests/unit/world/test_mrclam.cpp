@@ -14,7 +14,7 @@
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/mrclam.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 namespace {
 
 namespace fs = std::filesystem;
@@ -157,9 +157,9 @@ TEST(Mrclam, Dataset6DistributedAndCentralizedFiltersBeatDeadReckoningFiveTimes)
   const auto world = build_world(s);
   ASSERT_EQ(world.recorded->steps(), 9000);  // 900 s of data
   const auto baselines = mrclam_baselines(s, world);
-  SimOptions options;
+  sim::SimOptions options;
   options.record_estimates = false;
-  const auto record = run_simulation(s, options);
+  const auto record = sim::run_simulation(s, options);
   double squared = 0.0;
   int scored = 0;
   for (const auto& m : record.metrics) {
@@ -178,4 +178,4 @@ TEST(Mrclam, Dataset6DistributedAndCentralizedFiltersBeatDeadReckoningFiveTimes)
 }
 
 }  // namespace
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

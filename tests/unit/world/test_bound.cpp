@@ -18,7 +18,7 @@
 #include "swarmloc/world/bound.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::world {
 namespace {
 
 const std::string kBoundScenarios = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/";
@@ -158,7 +158,8 @@ std::vector<MlRange> ml_ranges(const World& world, const config::Scenario& s, st
     if (s.algorithm.name == "ekf") {
       std::vector<const estimators::MeasurementBatch*> pointers;
       for (const auto& b : batches) pointers.push_back(&b);
-      for (const auto& r : centralized_measurements(s, pointers).ranges) out.push_back({r.i, r.j, r.range_m});
+      for (const auto& r : sim::centralized_measurements(s, pointers).ranges)
+        out.push_back({r.i, r.j, r.range_m});
       continue;
     }
     for (AgentId i = 0; i < world.size(); ++i) {
@@ -290,7 +291,7 @@ TEST(PosteriorBound, AMovingTargetsBoundEqualsTheKalmanCovarianceOfItsLinearRead
   World world = build_world(s);
   const RunBound bound = run_bound(world, s, scenario_crlb(world, s));
   ASSERT_EQ(bound.kind, BoundKind::kPcrb) << bound.reason;
-  const TargetModel model = target_model(s);
+  const config::TargetModel model = config::target_model(s);
   MatX P = MatX::Identity(4, 4) * 1e6;  // the bound's diffuse start
   const double variance = s.noise.target_std_m * s.noise.target_std_m;
   for (std::int64_t step = 0; step < s.run.steps; ++step) {
@@ -312,8 +313,8 @@ TEST(PosteriorBound, AMovingTargetsBoundEqualsTheKalmanCovarianceOfItsLinearRead
 
 TEST(RunBoundReport, Ea2ReportsThePosteriorBoundOfItsMovingTruth) {
   const auto s = config::load_scenario(kBoundScenarios + "ea2.yaml", {});
-  const RunRecord record = run_simulation(s);
-  const auto summary = summary_json(record);
+  const rundir::RunRecord record = sim::run_simulation(s);
+  const auto summary = rundir::summary_json(record);
   const auto& bound = summary["bound"];
   EXPECT_EQ(bound["kind"], "pcrb");
   EXPECT_EQ(bound["data"], "one_per_edge");
@@ -331,17 +332,18 @@ TEST(RunBoundReport, MonteCarloComparesWithTheRootMeanSquareOfEachTrialsBound) {
   const auto s = config::load_scenario(kBoundScenarios + "ea2.yaml", {"run.steps=15"});
   constexpr int kTrials = 3;
   std::array<double, kTrials> final_bound{};
-  const auto result = run_monte_carlo(s, kTrials, 1, {}, [&](int trial, const RunRecord& record) {
-    final_bound[static_cast<std::size_t>(trial)] = record.final_metrics()->bound_rmse_m;
-  });
+  const auto result =
+      sim::run_monte_carlo(s, kTrials, 1, {}, [&](int trial, const rundir::RunRecord& record) {
+        final_bound[static_cast<std::size_t>(trial)] = record.final_metrics()->bound_rmse_m;
+      });
   double mean_square = 0.0;
   for (double b : final_bound) mean_square += b * b / kTrials;
   EXPECT_NE(final_bound[0], final_bound[1]);
   EXPECT_NEAR(result.steps.back().bound_rmse_m, std::sqrt(mean_square), 1e-12);
 }
 
-TEST(RunBoundReport, TheDefaultScenarioReportsTheStaticBoundOfIeifsOwnDraws) {
-  auto s = config::load_scenario(kBoundScenarios + "default.yaml", {"run.steps=20"});
+TEST(RunBoundReport, TheDefaultWorldReportsTheStaticBoundOfIeifsOwnDraws) {
+  auto s = config::load_scenario(kBoundScenarios + "ieif.yaml", {"run.steps=20"});
   const World world = build_world(s);
   const RangeCrlb legacy = scenario_crlb(world, s);
   const RunBound bound = run_bound(world, s, legacy);
@@ -360,4 +362,4 @@ TEST(RunBoundReport, TheDefaultScenarioReportsTheStaticBoundOfIeifsOwnDraws) {
 }
 
 }  // namespace
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::world

@@ -23,7 +23,7 @@
 #include "swarmloc/runtime/output_file.hpp"
 #include "swarmloc/sim/simulator.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 namespace {
 
 namespace fs = std::filesystem;
@@ -84,7 +84,7 @@ RunRecord small_record() {
   s.world.area_m = 20.0;
   s.world.comm_radius_m = 12.0;
   s.run.steps = 10;
-  return run_simulation(s);
+  return sim::run_simulation(s);
 }
 
 std::string scenario_error(const std::function<void()>& action) {
@@ -101,16 +101,16 @@ std::string scenario_error(const std::function<void()>& action) {
 
 TEST(OutputIntegrity, AWriteToAFullDeviceThrowsNamingTheFileAndTheOsError) {
   try {
-    write_text_file("/dev/full", "a line that cannot be stored\n");
+    runtime::write_text_file("/dev/full", "a line that cannot be stored\n");
     FAIL() << "a write to /dev/full succeeded";
-  } catch (const OutputError& error) {
+  } catch (const runtime::OutputError& error) {
     const std::string message = error.what();
     EXPECT_NE(message.find("/dev/full"), std::string::npos) << message;
     EXPECT_NE(message.find(std::strerror(ENOSPC)), std::string::npos) << message;
   }
-  OutputFile file("/dev/full");
+  runtime::OutputFile file("/dev/full");
   file.write(std::string(100, 'x'));  // buffered: the failure shows at close
-  EXPECT_THROW(file.close(), OutputError);
+  EXPECT_THROW(file.close(), runtime::OutputError);
 }
 
 TEST(OutputIntegrity, AnAtomicWriteThatFailsLeavesNoTarget) {
@@ -118,8 +118,8 @@ TEST(OutputIntegrity, AnAtomicWriteThatFailsLeavesNoTarget) {
   const auto target = dir.path() / "summary.json";
   const int code = with_file_size_limit(4096, [&] {
     try {
-      write_text_file_atomic(target, std::string(64 * 1024, 'j'));
-    } catch (const OutputError& error) {
+      runtime::write_text_file_atomic(target, std::string(64 * 1024, 'j'));
+    } catch (const runtime::OutputError& error) {
       const std::string message = error.what();
       return message.find(std::strerror(EFBIG)) != std::string::npos &&
                      message.find("summary.json") != std::string::npos
@@ -138,14 +138,14 @@ TEST(OutputIntegrity, AnUnwritableTargetFailsTheRunDirectoryAndLeavesNoSummary) 
     const TempDir dir("blocked");
     // A directory where a file goes (or a file where plots/ goes): the open fails even for root.
     if (blocked == "plots") {
-      write_text_file(dir.path() / blocked, "not a directory\n");
+      runtime::write_text_file(dir.path() / blocked, "not a directory\n");
     } else {
       fs::create_directories(dir.path() / blocked);
     }
     try {
       write_run_directory(dir.path(), record);
       ADD_FAILURE() << "write_run_directory succeeded with " << blocked << " blocked";
-    } catch (const OutputError& error) {
+    } catch (const runtime::OutputError& error) {
       EXPECT_NE(std::string(error.what()).find(blocked), std::string::npos) << error.what();
     }
     EXPECT_FALSE(fs::exists(dir.path() / "summary.json")) << blocked;
@@ -159,7 +159,7 @@ TEST(OutputIntegrity, LargeEstimatesPastAFileSizeLimitFailTheRunDirectory) {
   const int code = with_file_size_limit(4 * 1024, [&] {
     try {
       write_run_directory(dir.path(), record);
-    } catch (const OutputError& error) {
+    } catch (const runtime::OutputError& error) {
       return std::string(error.what()).find("estimates.csv") != std::string::npos ? 0 : 2;
     }
     return 1;
@@ -194,7 +194,7 @@ TEST(PrepareRunDirectory, CreatesAMissingDirectoryAndAcceptsAnEmptyOne) {
 
 TEST(PrepareRunDirectory, RefusesANonEmptyDirectoryWithoutForce) {
   const TempDir dir("prepare-earlier");
-  write_text_file(dir.path() / "scenario.yaml", "name: earlier\n");
+  runtime::write_text_file(dir.path() / "scenario.yaml", "name: earlier\n");
   const auto message = scenario_error([&] { prepare_run_directory(dir.path(), false); });
   EXPECT_NE(message.find("--out: " + dir.path().string() + " is not empty"), std::string::npos) << message;
   EXPECT_NE(message.find("--force"), std::string::npos) << message;
@@ -203,10 +203,10 @@ TEST(PrepareRunDirectory, RefusesANonEmptyDirectoryWithoutForce) {
 
 TEST(PrepareRunDirectory, ForceClearsAnEarlierRun) {
   const TempDir dir("prepare-force");
-  write_text_file(dir.path() / "summary.json", "{}\n");
+  runtime::write_text_file(dir.path() / "summary.json", "{}\n");
   fs::create_directories(dir.path() / "logs");
-  write_text_file(dir.path() / "logs" / "agent_0.log", "x\n");
-  write_text_file(dir.path() / ".hidden", "x\n");
+  runtime::write_text_file(dir.path() / "logs" / "agent_0.log", "x\n");
+  runtime::write_text_file(dir.path() / ".hidden", "x\n");
   prepare_run_directory(dir.path(), true);
   EXPECT_TRUE(fs::is_directory(dir.path()));
   EXPECT_TRUE(fs::is_empty(dir.path()));
@@ -214,7 +214,7 @@ TEST(PrepareRunDirectory, ForceClearsAnEarlierRun) {
 
 TEST(PrepareRunDirectory, ForceRefusesADirectoryThatIsNotARun) {
   const TempDir dir("prepare-other");
-  write_text_file(dir.path() / "thesis.tex", "precious\n");
+  runtime::write_text_file(dir.path() / "thesis.tex", "precious\n");
   const auto message = scenario_error([&] { prepare_run_directory(dir.path(), true); });
   EXPECT_NE(message.find("is not a swarmloc run directory; refusing to clear it"), std::string::npos)
       << message;
@@ -224,7 +224,7 @@ TEST(PrepareRunDirectory, ForceRefusesADirectoryThatIsNotARun) {
 TEST(PrepareRunDirectory, AnUnusablePathIsBadInputNamingIt) {
   const TempDir dir("prepare-bad");
   const auto file = dir.path() / "a-file";
-  write_text_file(file, "x\n");
+  runtime::write_text_file(file, "x\n");
   // Root ignores permission bits, so these fail for everyone: a file as the directory or its parent,
   // and places the kernel does not let anyone create directories in.
   const std::vector<fs::path> unusable{file, file / "run", "/proc/swarmloc-no-such/run",
@@ -329,7 +329,7 @@ TEST(Plots, APngThatDoesNotFitIsAFailedWrite) {
     std::string message;
     try {
       write_plots(dir.path(), record);
-    } catch (const OutputError& error) {
+    } catch (const runtime::OutputError& error) {
       message = error.what();
     }
     // No truncated PNG stays behind to pass for a plot.
@@ -347,7 +347,7 @@ TEST(Plots, APngThatDoesNotFitIsAFailedWrite) {
   const int code = with_file_size_limit(16 * 1024, [&] {
     try {
       write_plots(dir.path(), record);
-    } catch (const OutputError& error) {
+    } catch (const runtime::OutputError& error) {
       const std::string message = error.what();
       return message.find(".png") != std::string::npos &&
                      message.find(std::strerror(EFBIG)) != std::string::npos
@@ -360,4 +360,4 @@ TEST(Plots, APngThatDoesNotFitIsAFailedWrite) {
 }
 
 }  // namespace
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir

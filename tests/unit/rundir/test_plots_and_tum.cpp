@@ -16,7 +16,7 @@
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::sim {
+namespace swarmloc::rundir {
 namespace {
 
 namespace fs = std::filesystem;
@@ -138,7 +138,7 @@ TEST(CovarianceEllipse, PointsLieOnTheChiSquareContour) {
 
 TEST(RunDirectory, WritesTumTrajectoriesAndPlotData) {
   const auto scenario = tiny_scenario();
-  const auto record = run_simulation(scenario);
+  const auto record = sim::run_simulation(scenario);
   ASSERT_FALSE(record.estimates.empty());
   const PlotsTempDir dir("swarmloc-plots-tum");
   write_run_directory(dir.path(), record);
@@ -217,8 +217,8 @@ TEST(RunDirectory, WritesTumTrajectoriesAndPlotData) {
 // "mean nan m" in the title of `replay --mrclam`'s plot.
 TEST(RunDirectory, TheErrorHistogramBinsOnlyErrorsThatExist) {
   const auto scenario = tiny_scenario();
-  const World world = build_world(scenario);
-  auto record = run_simulation(scenario);
+  const world::World world = world::build_world(scenario);
+  auto record = sim::run_simulation(scenario);
   const auto last_step = record.estimates.back().step;
   int changed = 0;
   for (auto& row : record.estimates) {
@@ -255,4 +255,4 @@ TEST(TumExport, WritesNothingWithoutEstimates) {
 }
 
 }  // namespace
-}  // namespace swarmloc::sim
+}  // namespace swarmloc::rundir
