@@ -10,6 +10,7 @@
 
 #include "eigen_gtest.hpp"
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/estimators/consensus/cooperative.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/metrics.hpp"
 #include "swarmloc/world/world.hpp"
