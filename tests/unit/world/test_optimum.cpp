@@ -254,6 +254,8 @@ TEST(OptimumSolver, ASingularProblemIsReportedNotSolved) {
   const OptimumSolution solution = solve_optimum_problem(p, true);
   EXPECT_TRUE(solution.singular);
   EXPECT_FALSE(solution.singular_at_solution);
+  EXPECT_EQ(solution.iterations, 0) << "singular at the truth: not localizable, no iteration spent";
+  EXPECT_TRUE(solution.covariance.empty());
 }
 
 TEST(OptimumSolver, ADegenerateMlKeepsItsSolutionWithoutACovariance) {
