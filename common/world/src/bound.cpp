@@ -15,8 +15,6 @@ constexpr long kMaxDenseBoundUnknowns = 1000;
 /// The PCRB inverts two dense (2n)² matrices per step: beyond ~steps·(2n)³ of this it would delay the run
 /// start by more than a few seconds.
 constexpr double kMaxPcrbWork = 5e9;
-/// A noisy_truth start with initial_guess_std_m = 0 is exact; this keeps J_0 finite.
-constexpr double kMinPriorVariance = 1e-12;
 
 using enum config::RangeDraws;
 using enum config::AnchorData;
@@ -29,10 +27,6 @@ BoundData row_of(const config::AlgorithmSpec& spec) {
 
 bool anchors_in_state(const config::Scenario& s, AnchorData anchors) {
   return anchors == kFixes && s.noise.anchor_fix_std_m > 0.0;
-}
-
-bool truth_moves(const config::Scenario& s) {
-  return s.world.motion == config::Motion::kRandomWalk && s.world.motion_std_m > 0.0;
 }
 
 /// How many of an edge's draws the data holds: `at_lo`/`at_hi` say whether each end's draw is used.
@@ -70,11 +64,7 @@ double static_network_rmse(const estimators::RangeNetwork& network, const std::v
 /// J_0's prior: the spread of the world's initial guesses (noisy_truth: initial_guess_std_m² I; uniform:
 /// the placement's area_m²/12 I) for every agent in θ, the anchors with fixes included.
 std::vector<Mat2> prior_information(const World& world, const config::Scenario& s) {
-  const double variance =
-      s.world.initial_guess == config::InitialGuess::kUniform
-          ? s.world.area_m * s.world.area_m / 12.0
-          : std::max(kMinPriorVariance, s.world.initial_guess_std_m * s.world.initial_guess_std_m);
-  return std::vector<Mat2>(static_cast<std::size_t>(world.size()), Mat2::Identity() / variance);
+  return std::vector<Mat2>(static_cast<std::size_t>(world.size()), Mat2::Identity() / start_prior_variance(s));
 }
 
 /// The PCRB series along the truth `trajectory` (one position list per world step).
@@ -328,6 +318,19 @@ RunBound run_bound(const World& world, const config::Scenario& s, const RangeCrl
   if (world.size() - world.anchor_count() > kMaxDenseBoundUnknowns)
     return no_bound(bound, "more than 1000 unknown agents: the dense bound is not computed");
   return truth_moves(s) ? moving_range_bound(bound, world, s) : static_range_bound(bound, world, s, legacy);
+}
+
+bool truth_moves(const config::Scenario& scenario) {
+  return scenario.world.motion == config::Motion::kRandomWalk && scenario.world.motion_std_m > 0.0;
+}
+
+double start_prior_variance(const config::Scenario& scenario) {
+  /// A noisy_truth start with initial_guess_std_m = 0 is exact; this floor keeps J_0 finite.
+  constexpr double kMinPriorVariance = 1e-12;
+  const auto& w = scenario.world;
+  return w.initial_guess == config::InitialGuess::kUniform
+             ? w.area_m * w.area_m / 12.0
+             : std::max(kMinPriorVariance, w.initial_guess_std_m * w.initial_guess_std_m);
 }
 
 }  // namespace swarmloc::world

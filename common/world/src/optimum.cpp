@@ -16,8 +16,6 @@ using enum config::RangeDraws;
 using enum config::AnchorData;
 
 constexpr double kMinRangeStd = 1e-9;  ///< m: a noiseless range keeps a finite weight (as the bound does)
-/// A noisy_truth start with initial_guess_std_m = 0 is exact; this keeps the smoother's prior finite.
-constexpr double kMinPriorVariance = 1e-12;
 /// The smoother's unknown blocks (agents × steps): beyond this its sparse factor costs seconds per
 /// checkpoint.
 constexpr std::int64_t kMaxSmootherBlocks = 200000;
@@ -41,9 +39,11 @@ double thread_cpu_s() {
   return static_cast<double>(now.tv_sec) + 1e-9 * static_cast<double>(now.tv_nsec);
 }
 
+}  // namespace
+
 /// What the algorithm's data hold (config::BoundSpec, docs/algorithms.md §1.3.1) and the world's static
-/// facts.
-struct Selection {
+/// facts. Not in the anonymous namespace: OptimumAccumulator::Data, which has external linkage, holds one.
+struct OptimumSelection {
   config::RangeDraws draws = kAllDraws;
   bool anchors_in_state = false;  ///< anchors are unknowns with fixes (else their positions are known)
   bool shared = false;            ///< both ends hold one draw: it counts once
@@ -75,6 +75,10 @@ struct Selection {
     return edge_of[static_cast<std::size_t>(i)][static_cast<std::size_t>(it - list.begin())];
   }
 };
+
+namespace {
+
+using Selection = OptimumSelection;
 
 Selection make_selection(const World& world, const config::Scenario& s, const BoundData& data) {
   Selection sel;
@@ -301,10 +305,7 @@ class MovingData final : public OptimumAccumulator::Data {
   MovingData(Selection selection, const World& world, const config::Scenario& s)
       : Data(std::move(selection)),
         initial_guess_(world.initial_guess),
-        prior_variance_(
-            s.world.initial_guess == config::InitialGuess::kUniform
-                ? s.world.area_m * s.world.area_m / 12.0
-                : std::max(kMinPriorVariance, s.world.initial_guess_std_m * s.world.initial_guess_std_m)),
+        prior_variance_(start_prior_variance(s)),
         motion_variance_(s.world.motion_std_m * s.world.motion_std_m),
         scratch_(sel_.edges.size()) {}
 
@@ -446,10 +447,6 @@ OptimumEstimate MovingData::solve(std::int64_t step) const {
   }
   estimate.point = score_point(step, sel_, truth, estimate, solution);
   return estimate;
-}
-
-bool truth_moves(const config::Scenario& s) {
-  return s.world.motion == config::Motion::kRandomWalk && s.world.motion_std_m > 0.0;
 }
 
 /// The steps the run will observe (a recorded world holds its own number).

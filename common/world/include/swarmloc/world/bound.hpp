@@ -67,6 +67,14 @@ struct RunBound {
 /// replayed on a copy of the world (advance_truth is seeded, so it is the trajectory the run sees).
 RunBound run_bound(const World& world, const config::Scenario& scenario, const RangeCrlb& legacy);
 
+/// Whether the scenario's truth moves (a random walk with a nonzero step): its bound is then the PCRB and
+/// its optimum a smoother.
+[[nodiscard]] bool truth_moves(const config::Scenario& scenario);
+
+/// The per-axis variance of the world's initial guesses (noisy_truth: initial_guess_std_m², floored so an
+/// exact start keeps a finite prior; uniform: the placement's area_m²/12).
+[[nodiscard]] double start_prior_variance(const config::Scenario& scenario);
+
 // ---- The pieces, exposed for the tests ----
 
 /// One world step's measurement information as a RangeNetwork at the positions `truth`: the ranges of
