@@ -8,9 +8,9 @@
 #include "kalman_reference.hpp"
 #include "swarmloc/estimators/bp/multipath_bp.hpp"
 #include "swarmloc/estimators/crlb.hpp"
-#include "swarmloc/estimators/dml.hpp"
-#include "swarmloc/estimators/ieif.hpp"
-#include "swarmloc/estimators/iekf.hpp"
+#include "swarmloc/estimators/dml/dml.hpp"
+#include "swarmloc/estimators/kalman/ieif.hpp"
+#include "swarmloc/estimators/kalman/iekf.hpp"
 #include "swarmloc/models/multipath.hpp"
 
 namespace {

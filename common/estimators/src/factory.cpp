@@ -6,12 +6,14 @@
 #include <vector>
 
 #include "swarmloc/estimators/consensus/jacobi.hpp"
-#include "swarmloc/estimators/dml.hpp"
-#include "swarmloc/estimators/dml_tracking.hpp"
+#include "swarmloc/estimators/dml/dml.hpp"
+#include "swarmloc/estimators/dml/tracking.hpp"
 #include "swarmloc/estimators/estimator.hpp"
-#include "swarmloc/estimators/ieif.hpp"
-#include "swarmloc/estimators/iekf.hpp"
-#include "swarmloc/estimators/pose_filters.hpp"
+#include "swarmloc/estimators/kalman/ieif.hpp"
+#include "swarmloc/estimators/kalman/iekf.hpp"
+#include "swarmloc/estimators/pose/dead_reckoning.hpp"
+#include "swarmloc/estimators/pose/pose_ekf.hpp"
+#include "swarmloc/estimators/pose/pose_ieif.hpp"
 #include "swarmloc/estimators/registry.hpp"
 
 namespace swarmloc::estimators {
@@ -57,7 +59,7 @@ const std::vector<EstimatorBuilder>& builders() {
       {"iekf", kKalman, &kalman<Iekf>, {}, false},              // docs/algorithms.md §3.5
       {"dml", kKalman, &kalman<Dml>, {}, false},                // docs/algorithms.md §9
       {"dml_track", kKalman, &kalman<DmlTracking>, {}, false},  // §9.8: moving worlds
-      {"pose_ekf", kKalman, &kalman<PoseEkf>, {}, false},       // pose states (x, y, θ), pose_filters.hpp
+      {"pose_ekf", kKalman, &kalman<PoseEkf>, {}, false},       // pose states (x, y, θ), pose/pose_ekf.hpp
       {"pose_ieif", kKalman, &kalman<PoseIeif>, {}, false},     // its information form
       {"dead_reckoning", kKalman, &kalman<DeadReckoning>, {}, false},  // odometry only (baseline)
       {"jacobi", kCooperative, &jacobi, {}, false},                    // Atanasov et al. eq. (9)

@@ -9,7 +9,8 @@
 #include <sstream>
 #include <string>
 
-#include "swarmloc/estimators/pose_filters.hpp"
+#include "swarmloc/estimators/pose/centralized_pose_ekf.hpp"
+#include "swarmloc/estimators/pose/dead_reckoning.hpp"
 #include "swarmloc/models/measurement_models.hpp"
 
 namespace swarmloc::world {

@@ -12,8 +12,8 @@
 #include <utility>
 #include <vector>
 
-#include "swarmloc/estimators/dml.hpp"
-#include "swarmloc/estimators/dml_region.hpp"
+#include "swarmloc/estimators/dml/dml.hpp"
+#include "swarmloc/estimators/dml/region.hpp"
 
 namespace swarmloc::estimators {
 namespace {

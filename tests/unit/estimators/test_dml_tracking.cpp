@@ -9,7 +9,7 @@
 #include <memory>
 #include <vector>
 
-#include "swarmloc/estimators/dml_tracking.hpp"
+#include "swarmloc/estimators/dml/tracking.hpp"
 
 namespace swarmloc::estimators {
 namespace dml_tracking_test {  // named: the unity build joins this file with test_dml.cpp

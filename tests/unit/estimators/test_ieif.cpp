@@ -6,8 +6,8 @@
 
 #include "eigen_gtest.hpp"
 #include "swarmloc/core/gaussian.hpp"
-#include "swarmloc/estimators/ieif.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/ieif.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 namespace {

@@ -5,9 +5,9 @@
 
 #include "eigen_gtest.hpp"
 #include "kalman_reference.hpp"
-#include "swarmloc/estimators/ieif.hpp"
-#include "swarmloc/estimators/iekf.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/ieif.hpp"
+#include "swarmloc/estimators/kalman/iekf.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 namespace {

@@ -1,4 +1,4 @@
-// Pose-state filters (pose_filters.hpp): PoseEkf, PoseIeif, DeadReckoning, CentralizedPoseEkf.
+// Pose-state filters (pose/*.hpp): PoseEkf, PoseIeif, DeadReckoning, CentralizedPoseEkf.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,7 +12,11 @@
 #include "eigen_gtest.hpp"
 #include "swarmloc/core/gaussian.hpp"
 #include "swarmloc/estimators/estimator.hpp"
-#include "swarmloc/estimators/pose_filters.hpp"
+#include "swarmloc/estimators/pose/centralized_pose_ekf.hpp"
+#include "swarmloc/estimators/pose/dead_reckoning.hpp"
+#include "swarmloc/estimators/pose/kernels.hpp"
+#include "swarmloc/estimators/pose/pose_ekf.hpp"
+#include "swarmloc/estimators/pose/pose_ieif.hpp"
 #include "swarmloc/models/measurement_models.hpp"
 
 namespace swarmloc::estimators {

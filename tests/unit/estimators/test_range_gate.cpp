@@ -10,7 +10,7 @@
 
 #include "eigen_gtest.hpp"
 #include "swarmloc/estimators/estimator.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 namespace {

@@ -1,13 +1,13 @@
-#include "swarmloc/estimators/dml_tracking.hpp"
+#include "swarmloc/estimators/dml/tracking.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
 
-#include "rank_one_message.hpp"
+#include "dml/rank_one_message.hpp"
 #include "swarmloc/core/gaussian.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 namespace {

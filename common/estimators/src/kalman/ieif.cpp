@@ -1,4 +1,4 @@
-#include "swarmloc/estimators/ieif.hpp"
+#include "swarmloc/estimators/kalman/ieif.hpp"
 
 #include <stdexcept>
 #include <string>

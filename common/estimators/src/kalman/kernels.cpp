@@ -1,4 +1,4 @@
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>

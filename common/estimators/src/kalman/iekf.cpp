@@ -1,4 +1,4 @@
-#include "swarmloc/estimators/iekf.hpp"
+#include "swarmloc/estimators/kalman/iekf.hpp"
 
 #include <stdexcept>
 

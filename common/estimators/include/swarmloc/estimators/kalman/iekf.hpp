@@ -4,7 +4,7 @@
 #include <string_view>
 
 #include "swarmloc/estimators/estimator.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 

@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-#include "swarmloc/estimators/dml_connectivity.hpp"
+#include "swarmloc/estimators/dml/connectivity.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 
 namespace swarmloc::estimators {

@@ -1,14 +1,14 @@
-#include "swarmloc/estimators/dml.hpp"
+#include "swarmloc/estimators/dml/dml.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
-#include "rank_one_message.hpp"
+#include "dml/rank_one_message.hpp"
 #include "swarmloc/core/gaussian.hpp"
-#include "swarmloc/estimators/dml_region.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/dml/region.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 #include "swarmloc/estimators/self_check.hpp"
 
 namespace swarmloc::estimators {
