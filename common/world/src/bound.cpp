@@ -64,7 +64,8 @@ double static_network_rmse(const estimators::RangeNetwork& network, const std::v
 /// J_0's prior: the spread of the world's initial guesses (noisy_truth: initial_guess_std_m² I; uniform:
 /// the placement's area_m²/12 I) for every agent in θ, the anchors with fixes included.
 std::vector<Mat2> prior_information(const World& world, const config::Scenario& s) {
-  return std::vector<Mat2>(static_cast<std::size_t>(world.size()), Mat2::Identity() / start_prior_variance(s));
+  return std::vector<Mat2>(static_cast<std::size_t>(world.size()),
+                           Mat2::Identity() / start_prior_variance(s));
 }
 
 /// The PCRB series along the truth `trajectory` (one position list per world step).

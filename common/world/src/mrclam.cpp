@@ -256,7 +256,7 @@ World build_mrclam_world(const config::Scenario& scenario) {
 }
 
 MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world) {
-  estimators::KalmanFamilyParams params;
+  estimators::KalmanFilterParams params;
   params.process_noise_std_m = scenario.algorithm.kalman.process_noise_std_m;
   params.initial_std_m = scenario.algorithm.kalman.initial_std_m;
   params.initial_heading_std_rad = scenario.algorithm.pose.initial_heading_std_rad;

@@ -45,7 +45,7 @@ class DmlRounds {
       setup.initial_guess_m = net.anchor[i] ? net.truth[i] : guesses[i];
       setup.initial_guess_std_m = guess_std_m;
       setup.comm_radius_m = radius_m;
-      agents_.push_back(std::make_unique<Dml>(setup, KalmanFamilyParams{}));
+      agents_.push_back(std::make_unique<Dml>(setup, KalmanFilterParams{}));
       outboxes_.push_back(agents_.back()->initial_outbox());
     }
   }

@@ -118,7 +118,8 @@ void CentralizedFilter::check_graph(const ProjectedVariance& projected_variance)
       const Vec2 delta = x_.segment<2>(2 * li) - x_.segment<2>(2 * lj);
       const double inside_m = disk_radius_m_ - delta.norm();
       if (inside_m <= floor_m) continue;
-      const Vec2 u = delta.norm() > filter_kernels::kMinRange ? Vec2(delta.normalized()) : Vec2(Vec2::UnitX());
+      const Vec2 u =
+          delta.norm() > filter_kernels::kMinRange ? Vec2(delta.normalized()) : Vec2(Vec2::UnitX());
       const double spread_m = std::sqrt(std::max(0.0, projected_variance(li, lj, u)));
       if (!(inside_m > sigmas * spread_m)) continue;
       // Never ranged, yet placed well within range: one of the two is wrong (a flip or fold that fits

@@ -46,7 +46,7 @@ class Ekf final : public CentralizedFilter {
         },
         filter_kernels::kKeepAllEdges);
     m_ = filter_kernels::spd_inverse(y);  // (11)
-    x_ += m_ * b;         // (12)
+    x_ += m_ * b;                         // (12)
     last_measurement_bandwidth_ = bandwidth;
     last_truncated_entries_ = 0;
     store_velocity(meas);
@@ -55,7 +55,9 @@ class Ekf final : public CentralizedFilter {
   [[nodiscard]] Mat2 covariance_block(int agent) const override {
     return m_.block<2, 2>(index(agent), index(agent));
   }
-  [[nodiscard]] MatX covariance_dense() const override { return filter_kernels::unpermute_dense(m_, labels_); }
+  [[nodiscard]] MatX covariance_dense() const override {
+    return filter_kernels::unpermute_dense(m_, labels_);
+  }
 
  private:
   MatX m_;
@@ -64,7 +66,7 @@ class Ekf final : public CentralizedFilter {
 }  // namespace
 
 std::unique_ptr<CentralizedFilter> filter_kernels::make_ekf(const VecX& mean, const std::vector<Mat2>& cov,
-                                                        const CentralizedFilterParams& params) {
+                                                            const CentralizedFilterParams& params) {
   return std::make_unique<Ekf>(mean, cov, params);
 }
 

@@ -17,13 +17,12 @@ namespace swarmloc::estimators::centralized::filter_kernels {
 
 inline constexpr double kMinRange = 1e-9;  // docs/algorithms.md §1.1 guard
 
-
 // docs/algorithms.md §2.1: S_k and b_k without building H. `add_block(bi, bj, B)` means S[bi,bj] += B
 // (and S[bj,bi] += Bᵀ when bi != bj); block indices are internal (relabeled) agent indices.
 // `keep_edge(li, lj, S[li,lj])` may reject a range edge before any of its terms are added.
 template <typename AddBlock, typename KeepEdge>
 inline VecX assemble(const CentralizedMeasurements& meas, const VecX& x, const std::vector<int>& labels,
-              AddBlock&& add_block, KeepEdge&& keep_edge) {
+                     AddBlock&& add_block, KeepEdge&& keep_edge) {
   VecX b = VecX::Zero(x.size());
   const auto label = [&](int agent) {
     if (agent < 0 || static_cast<std::size_t>(agent) >= labels.size()) {

@@ -34,16 +34,21 @@ class LbEkf final : public CentralizedFilter {
     });
     BandMatrix y = band_inverse(p, bandwidth_, method_);  // line 3: P̆_k⁻¹ = BandInv_L(P_k)
     filter_kernels::BandSink sink{&y};
-    const VecX b = filter_kernels::assemble(meas, x_, labels_, sink, filter_kernels::kKeepAllEdges);  // line 4: Y_k = P̆⁻¹ + band(S_k)
-    m_ = band_inverse(y, bandwidth_, method_);                        // line 4: M̆_k = BandInv_L(Y_k)
-    x_ += m_.multiply(b);                                             // line 5, O(nL)
+    const VecX b = filter_kernels::assemble(meas, x_, labels_, sink,
+                                            filter_kernels::kKeepAllEdges);  // line 4: Y_k = P̆⁻¹ + band(S_k)
+    m_ = band_inverse(y, bandwidth_, method_);                               // line 4: M̆_k = BandInv_L(Y_k)
+    x_ += m_.multiply(b);                                                    // line 5, O(nL)
     last_measurement_bandwidth_ = sink.bandwidth;
     last_truncated_entries_ = sink.truncated;
     store_velocity(meas);
   }
 
-  [[nodiscard]] Mat2 covariance_block(int agent) const override { return filter_kernels::band_block(m_, index(agent)); }
-  [[nodiscard]] MatX covariance_dense() const override { return filter_kernels::unpermute_dense(m_.to_dense(), labels_); }
+  [[nodiscard]] Mat2 covariance_block(int agent) const override {
+    return filter_kernels::band_block(m_, index(agent));
+  }
+  [[nodiscard]] MatX covariance_dense() const override {
+    return filter_kernels::unpermute_dense(m_.to_dense(), labels_);
+  }
 
  private:
   int bandwidth_;
@@ -54,7 +59,7 @@ class LbEkf final : public CentralizedFilter {
 }  // namespace
 
 std::unique_ptr<CentralizedFilter> filter_kernels::make_lb_ekf(const VecX& mean, const std::vector<Mat2>& cov,
-                                                        const CentralizedFilterParams& params) {
+                                                               const CentralizedFilterParams& params) {
   return std::make_unique<LbEkf>(mean, cov, params);
 }
 

@@ -67,8 +67,9 @@ class LbEkfI final : public CentralizedFilter {
 
 }  // namespace
 
-std::unique_ptr<CentralizedFilter> filter_kernels::make_lb_ekf_i(const VecX& mean, const std::vector<Mat2>& cov,
-                                                        const CentralizedFilterParams& params) {
+std::unique_ptr<CentralizedFilter> filter_kernels::make_lb_ekf_i(const VecX& mean,
+                                                                 const std::vector<Mat2>& cov,
+                                                                 const CentralizedFilterParams& params) {
   return std::make_unique<LbEkfI>(mean, cov, params);
 }
 

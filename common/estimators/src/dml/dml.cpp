@@ -45,7 +45,7 @@ bool Dml::Edge::usable() const {
   return has_state && state.active && information() > 0.0 && state.mean_m.allFinite();
 }
 
-Dml::Dml(const AgentSetup& setup, const KalmanFamilyParams& /*params*/)
+Dml::Dml(const AgentSetup& setup, const KalmanFilterParams& /*params*/)
     : setup_(setup), x_(setup.initial_guess_m), localized_(setup.anchor), two_hop_(setup.comm_radius_m) {
   if (!setup.initial_guess_m.allFinite()) throw std::invalid_argument("dml: initial guess is not finite");
 }

@@ -18,7 +18,7 @@
 namespace swarmloc::estimators {
 
 CentralizedPoseEkf::CentralizedPoseEkf(const std::vector<AgentSetup>& setups,
-                                       const KalmanFamilyParams& params)
+                                       const KalmanFilterParams& params)
     : params_(params) {
   const auto n = static_cast<Eigen::Index>(setups.size());
   x_ = VecX::Zero(3 * n);
@@ -148,7 +148,8 @@ Estimate CentralizedPoseEkf::estimate(AgentId id) const {
   estimate.mean_m = x_.segment<2>(3 * *i);
   estimate.covariance = core::symmetrized(P_.block<2, 2>(3 * *i, 3 * *i));
   estimate.valid = true;
-  estimate.heading = pose_internal::pose_heading_estimate(x_.segment<3>(3 * *i), P_.block<3, 3>(3 * *i, 3 * *i));
+  estimate.heading =
+      pose_internal::pose_heading_estimate(x_.segment<3>(3 * *i), P_.block<3, 3>(3 * *i, 3 * *i));
   return estimate;
 }
 

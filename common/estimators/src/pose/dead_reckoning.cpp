@@ -17,18 +17,21 @@
 
 namespace swarmloc::estimators {
 
-DeadReckoning::DeadReckoning(const AgentSetup& setup, const KalmanFamilyParams& params)
+DeadReckoning::DeadReckoning(const AgentSetup& setup, const KalmanFilterParams& params)
     : setup_(setup), params_(params), x_(Pose::Zero()), P_(Mat3::Identity()) {
   pose_internal::validate(setup, params, "dead_reckoning");
   x_ = pose_internal::initial_pose(setup);
   P_ = pose_internal::initial_covariance(params);
 }
 
-Outbox DeadReckoning::initial_outbox() const { return pose_internal::publish(x_, P_.topLeftCorner<2, 2>(), 0); }
+Outbox DeadReckoning::initial_outbox() const {
+  return pose_internal::publish(x_, P_.topLeftCorner<2, 2>(), 0);
+}
 
 StepOutput DeadReckoning::step(const StepInput& input) {
   StepOutput out;
-  const pose_internal::Predicted predicted = pose_internal::predict_covariance(x_, P_, input.measurements, params_);
+  const pose_internal::Predicted predicted =
+      pose_internal::predict_covariance(x_, P_, input.measurements, params_);
   segments_skipped_ += predicted.propagation.segments_skipped;
   x_ = predicted.pose;
   P_ = predicted.P;

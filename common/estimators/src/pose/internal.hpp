@@ -17,7 +17,6 @@
 
 namespace swarmloc::estimators::pose_internal {
 
-
 inline bool finite_positive(double value) { return std::isfinite(value) && value > 0.0; }
 
 /// R = diag(σ_r², σ_β²) if the pair's values and stds are usable.
@@ -50,7 +49,7 @@ inline void wrap_headings(VecX& x) {
   for (Eigen::Index k = 2; k < x.size(); k += 3) x(k) = models::wrap_angle(x(k));
 }
 
-inline void validate(const AgentSetup& setup, const KalmanFamilyParams& params, const std::string& name) {
+inline void validate(const AgentSetup& setup, const KalmanFilterParams& params, const std::string& name) {
   if (!finite_positive(params.initial_std_m) || !finite_positive(params.initial_heading_std_rad)) {
     throw std::invalid_argument(name + ": initial_std_m and initial_heading_std_rad must be > 0");
   }
@@ -67,7 +66,7 @@ inline Pose initial_pose(const AgentSetup& setup) {
               models::wrap_angle(setup.initial_heading_rad));
 }
 
-inline Mat3 initial_covariance(const KalmanFamilyParams& params) {
+inline Mat3 initial_covariance(const KalmanFilterParams& params) {
   const double s = params.initial_std_m;
   const double h = params.initial_heading_std_rad;
   return Eigen::Vector3d(s * s, s * s, h * h).asDiagonal();
@@ -103,7 +102,7 @@ struct Predicted {
 };
 
 inline Predicted predict_covariance(const Pose& x, const Mat3& P, const MeasurementBatch* batch,
-                             const KalmanFamilyParams& params) {
+                                    const KalmanFilterParams& params) {
   Predicted out;
   out.propagation = propagate_pose(x, batch, params);
   const PosePropagation& prop = out.propagation;

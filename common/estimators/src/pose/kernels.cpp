@@ -17,13 +17,13 @@
 
 namespace swarmloc::estimators {
 
-Mat3 position_random_walk(const KalmanFamilyParams& params) {
+Mat3 position_random_walk(const KalmanFilterParams& params) {
   const double q = params.process_noise_std_m * params.process_noise_std_m;
   return Eigen::Vector3d(q, q, 0.0).asDiagonal();
 }
 
 PosePropagation propagate_pose(const Pose& pose, const MeasurementBatch* batch,
-                               const KalmanFamilyParams& params) {
+                               const KalmanFilterParams& params) {
   PosePropagation out;
   out.pose = pose;
   const OdometryInput* odometry = (batch != nullptr && batch->odometry) ? &*batch->odometry : nullptr;
@@ -69,7 +69,7 @@ std::int64_t pose_message_age_steps(std::int64_t local_step, std::int64_t sender
 }
 
 RangeBearingSelection collect_range_bearings(const StepInput& input, AgentId self,
-                                             const KalmanFamilyParams& params) {
+                                             const KalmanFilterParams& params) {
   RangeBearingSelection selection;
   if (input.measurements == nullptr) return selection;
   std::unordered_map<AgentId, const Received<StateMessage>*> newest;

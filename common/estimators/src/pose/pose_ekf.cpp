@@ -17,7 +17,7 @@
 
 namespace swarmloc::estimators {
 
-PoseEkf::PoseEkf(const AgentSetup& setup, const KalmanFamilyParams& params)
+PoseEkf::PoseEkf(const AgentSetup& setup, const KalmanFilterParams& params)
     : setup_(setup), params_(params), x_(Pose::Zero()), P_(Mat3::Identity()) {
   pose_internal::validate(setup, params, "pose_ekf");
   x_ = pose_internal::initial_pose(setup);
@@ -28,7 +28,8 @@ Outbox PoseEkf::initial_outbox() const { return pose_internal::publish(x_, P_.to
 
 StepOutput PoseEkf::step(const StepInput& input) {
   StepOutput out;
-  const pose_internal::Predicted predicted = pose_internal::predict_covariance(x_, P_, input.measurements, params_);
+  const pose_internal::Predicted predicted =
+      pose_internal::predict_covariance(x_, P_, input.measurements, params_);
   segments_skipped_ += predicted.propagation.segments_skipped;
 
   const RangeBearingSelection selection = collect_range_bearings(input, setup_.id, params_);

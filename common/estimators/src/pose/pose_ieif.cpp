@@ -17,7 +17,7 @@
 
 namespace swarmloc::estimators {
 
-PoseIeif::PoseIeif(const AgentSetup& setup, const KalmanFamilyParams& params)
+PoseIeif::PoseIeif(const AgentSetup& setup, const KalmanFilterParams& params)
     : setup_(setup), params_(params), x_(Pose::Zero()), Psi_(Mat3::Identity()) {
   pose_internal::validate(setup, params, "pose_ieif");
   x_ = pose_internal::initial_pose(setup);
@@ -30,7 +30,9 @@ Mat3 PoseIeif::covariance() const {
   return pose_internal::symmetrized3(llt.solve(Mat3::Identity()));
 }
 
-Outbox PoseIeif::initial_outbox() const { return pose_internal::publish(x_, covariance().topLeftCorner<2, 2>(), 0); }
+Outbox PoseIeif::initial_outbox() const {
+  return pose_internal::publish(x_, covariance().topLeftCorner<2, 2>(), 0);
+}
 
 StepOutput PoseIeif::step(const StepInput& input) {
   StepOutput out;

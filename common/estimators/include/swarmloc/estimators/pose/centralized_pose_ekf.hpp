@@ -2,8 +2,8 @@
 // The joint pose EKF of every robot at the fusion centre (the model: pose/kernels.hpp).
 #include <cstdint>
 #include <optional>
-#include <vector>
 #include <string_view>
+#include <vector>
 
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/estimators/pose/kernels.hpp"
@@ -17,7 +17,7 @@ namespace swarmloc::estimators {
 class CentralizedPoseEkf {
  public:
   /// Throws std::invalid_argument on duplicate ids, a non-finite prior or non-positive initial stds.
-  CentralizedPoseEkf(const std::vector<AgentSetup>& setups, const KalmanFamilyParams& params);
+  CentralizedPoseEkf(const std::vector<AgentSetup>& setups, const KalmanFilterParams& params);
 
   /// batches[i]: robot i's batch for this step, or nullptr. Throws std::invalid_argument if
   /// batches.size() differs from the number of robots. A pair to an unknown peer (or to itself) is skipped.
@@ -43,7 +43,7 @@ class CentralizedPoseEkf {
   RangeBearingRows joint_rows(const std::vector<const MeasurementBatch*>& batches);
 
   std::vector<AgentId> ids_;
-  KalmanFamilyParams params_;
+  KalmanFilterParams params_;
   VecX x_;
   MatX P_;
   StepDiagnostics diagnostics_;

@@ -11,7 +11,7 @@ namespace swarmloc::estimators {
 /// Odometry only (a baseline): the PoseEkf prediction, never an update. Publishes like PoseEkf.
 class DeadReckoning final : public Estimator {
  public:
-  DeadReckoning(const AgentSetup& setup, const KalmanFamilyParams& params);
+  DeadReckoning(const AgentSetup& setup, const KalmanFilterParams& params);
 
   [[nodiscard]] std::string_view name() const override { return "dead_reckoning"; }
   [[nodiscard]] Outbox initial_outbox() const override;
@@ -25,7 +25,7 @@ class DeadReckoning final : public Estimator {
 
  private:
   AgentSetup setup_;
-  KalmanFamilyParams params_;
+  KalmanFilterParams params_;
   Pose x_;
   Mat3 P_;
   int degree_ = 0;

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "swarmloc/estimators/estimator.hpp"
+#include "swarmloc/estimators/kalman/params.hpp"
 #include "swarmloc/estimators/messages.hpp"
 #include "swarmloc/models/pose_models.hpp"
 
@@ -42,10 +43,10 @@ struct PosePropagation {
 /// Q_pos = process_noise_std_m²·I on (x, y) is added once for the step. An OdometryInput with an
 /// unusable v_std/omega_std counts all its segments (at least one) as skipped.
 PosePropagation propagate_pose(const Pose& pose, const MeasurementBatch* batch,
-                               const KalmanFamilyParams& params);
+                               const KalmanFilterParams& params);
 
 /// Q_pos as a 3×3 matrix (no heading noise).
-Mat3 position_random_walk(const KalmanFamilyParams& params);
+Mat3 position_random_walk(const KalmanFilterParams& params);
 
 /// One usable range-bearing pair with its target resolved to a 2D Gaussian (per-agent filters).
 struct RangeBearingTarget {
@@ -73,7 +74,7 @@ std::int64_t pose_message_age_steps(std::int64_t local_step, std::int64_t sender
 /// covariance or trace(P) > params.max_neighbour_variance_m2 (after inflation). Non-anchor peer
 /// covariances are inflated by a·Q_pos (pose_message_age_steps) when params.inflate_stale.
 RangeBearingSelection collect_range_bearings(const StepInput& input, AgentId self,
-                                             const KalmanFamilyParams& params);
+                                             const KalmanFilterParams& params);
 
 /// Stacked measurement rows: pair m occupies rows 2m, 2m+1 of H and ν; its noise is noise[m].
 struct RangeBearingRows {

@@ -16,7 +16,7 @@ namespace swarmloc::estimators {
 /// robots), neighbours_skipped = pairs dropped, ranges_gated = pairs gated.
 class PoseEkf final : public Estimator {
  public:
-  PoseEkf(const AgentSetup& setup, const KalmanFamilyParams& params);
+  PoseEkf(const AgentSetup& setup, const KalmanFilterParams& params);
 
   [[nodiscard]] std::string_view name() const override { return "pose_ekf"; }
   [[nodiscard]] Outbox initial_outbox() const override;
@@ -31,7 +31,7 @@ class PoseEkf final : public Estimator {
 
  private:
   AgentSetup setup_;
-  KalmanFamilyParams params_;
+  KalmanFilterParams params_;
   Pose x_;
   Mat3 P_;
   int degree_ = 0;

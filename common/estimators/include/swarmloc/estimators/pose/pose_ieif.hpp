@@ -14,7 +14,7 @@ namespace swarmloc::estimators {
 /// of the step stacked, x̂ = Ψ⁻¹ ŷ. Agrees with PoseEkf up to rounding. Same inputs, rules and messages.
 class PoseIeif final : public Estimator {
  public:
-  PoseIeif(const AgentSetup& setup, const KalmanFamilyParams& params);
+  PoseIeif(const AgentSetup& setup, const KalmanFilterParams& params);
 
   [[nodiscard]] std::string_view name() const override { return "pose_ieif"; }
   [[nodiscard]] Outbox initial_outbox() const override;
@@ -31,7 +31,7 @@ class PoseIeif final : public Estimator {
 
  private:
   AgentSetup setup_;
-  KalmanFamilyParams params_;
+  KalmanFilterParams params_;
   Pose x_;
   Mat3 Psi_;
   int degree_ = 0;
