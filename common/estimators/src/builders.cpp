@@ -50,7 +50,7 @@ std::unique_ptr<Estimator> dml(const AgentSetup& setup, const EstimatorParams& p
 std::unique_ptr<Estimator> dml_track(const AgentSetup& setup, const EstimatorParams& params) {
   return kalman_filter<DmlTracking>(setup, params);
 }
-// pose states (x, y, θ), pose/pose_ekf.hpp; its information form; odometry only (baseline)
+// pose states (x, y, θ), estimators/pose/pose_ekf.hpp; its information form; odometry only (baseline)
 std::unique_ptr<Estimator> pose_ekf(const AgentSetup& setup, const EstimatorParams& params) {
   return kalman_filter<PoseEkf>(setup, params);
 }

@@ -1,4 +1,4 @@
-// CentralizedPoseEkf (pose/centralized_pose_ekf.hpp).
+// CentralizedPoseEkf (estimators/pose/centralized_pose_ekf.hpp).
 #include "swarmloc/estimators/pose/centralized_pose_ekf.hpp"
 
 #include <Eigen/Cholesky>

@@ -1,4 +1,4 @@
-// DeadReckoning (pose/dead_reckoning.hpp).
+// DeadReckoning (estimators/pose/dead_reckoning.hpp).
 #include "swarmloc/estimators/pose/dead_reckoning.hpp"
 
 #include <Eigen/Cholesky>

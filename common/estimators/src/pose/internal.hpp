@@ -1,5 +1,6 @@
 #pragma once
-// Helpers of the pose filters (src/pose/*.cpp) that are not part of the kernels pose/kernels.hpp exposes.
+// Helpers of the pose filters (src/pose/*.cpp) that are not part of the kernels estimators/pose/kernels.hpp
+// exposes.
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>

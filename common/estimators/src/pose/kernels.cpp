@@ -1,4 +1,4 @@
-// The kernels shared by the pose filters (pose/kernels.hpp).
+// The kernels shared by the pose filters (estimators/pose/kernels.hpp).
 #include "swarmloc/estimators/pose/kernels.hpp"
 
 #include <Eigen/Cholesky>

@@ -1,4 +1,4 @@
-// PoseEkf (pose/pose_ekf.hpp).
+// PoseEkf (estimators/pose/pose_ekf.hpp).
 #include "swarmloc/estimators/pose/pose_ekf.hpp"
 
 #include <Eigen/Cholesky>

@@ -1,4 +1,4 @@
-// PoseIeif (pose/pose_ieif.hpp).
+// PoseIeif (estimators/pose/pose_ieif.hpp).
 #include "swarmloc/estimators/pose/pose_ieif.hpp"
 
 #include <Eigen/Cholesky>
