@@ -8,9 +8,9 @@
 #include "kalman_reference.hpp"
 #include "swarmloc/estimators/bp/multipath_bp.hpp"
 #include "swarmloc/estimators/crlb.hpp"
-#include "swarmloc/estimators/dml.hpp"
-#include "swarmloc/estimators/ieif.hpp"
-#include "swarmloc/estimators/iekf.hpp"
+#include "swarmloc/estimators/dml/dml.hpp"
+#include "swarmloc/estimators/kalman/ieif.hpp"
+#include "swarmloc/estimators/kalman/iekf.hpp"
 #include "swarmloc/models/multipath.hpp"
 
 namespace {
@@ -43,7 +43,7 @@ void filter_step_8_neighbours(benchmark::State& state) {
   const Neighbourhood n = eight_neighbours();
   est::AgentSetup setup;
   setup.initial_guess_m = Vec2(10.3, 9.8);
-  Filter filter(setup, est::KalmanFamilyParams{});
+  Filter filter(setup, est::KalmanFilterParams{});
   std::int64_t k = 1;
   for (auto _ : state) {
     est::StepOutput out = filter.step(est::StepInput{k++, &n.batch, &n.inbox});
@@ -59,7 +59,7 @@ void ieif_step_8_neighbours_update_iterations(benchmark::State& state) {
   const Neighbourhood n = eight_neighbours();
   est::AgentSetup setup;
   setup.initial_guess_m = Vec2(10.3, 9.8);
-  est::KalmanFamilyParams params;
+  est::KalmanFilterParams params;
   params.update_iterations = static_cast<int>(state.range(0));
   est::Ieif filter(setup, params);
   std::int64_t k = 1;

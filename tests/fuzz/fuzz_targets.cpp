@@ -33,6 +33,7 @@
 #include <typeinfo>
 
 #include "convert.hpp"
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/core/gaussian.hpp"
 #include "swarmloc/core/random.hpp"
@@ -217,11 +218,10 @@ runtime::AgentRuntime make_runtime(std::uint64_t seed, const std::string& algori
   estimators::AgentSetup setup;
   setup.id = kSelf;
   setup.initial_guess_m = Vec2(5.0, 5.0);
-  estimators::KalmanFamilyParams params;
+  const estimators::EstimatorParams params;
   runtime::AgentRuntimeParams runtime;
   runtime.seed = seed;
-  return runtime::AgentRuntime(estimators::make_estimator(algorithm, setup, params), setup, kNeighbours,
-                               runtime);
+  return runtime::AgentRuntime(config::make_estimator(algorithm, setup, params), setup, kNeighbours, runtime);
 }
 
 estimators::MeasurementBatch plausible_batch(Rng& rng, std::int64_t step) {

@@ -2,7 +2,7 @@
 // The textbook innovation-covariance form of the IEKF update (Gasparri & Pascucci eqs. (30)–(32)): factors
 // the M×M S = H P Hᵀ + R. estimators::kalman_update computes the same result in O(M); the unit test checks
 // the two agree and bench/estimators_step.cpp measures the difference.
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::testing {
 

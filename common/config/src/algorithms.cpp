@@ -123,48 +123,62 @@ constexpr MessageFamilies kBeliefMessages{.belief = true};
 constexpr AlgorithmPlacement kAgent = AlgorithmPlacement::kAgent;
 constexpr AlgorithmPlacement kCentre = AlgorithmPlacement::kFusionCentre;
 
+// Builders (estimators/builders.hpp).
+namespace builders = estimators::builders;
+using estimators::centralized::CentralizedKind;
+constexpr estimators::EstimatorBuilder agent_build(estimators::AgentBuilder build) {
+  return estimators::agent_builder(build);
+}
+constexpr estimators::EstimatorBuilder fusion_build(CentralizedKind kind, bool relabel) {
+  return estimators::fusion_builder(kind, relabel);
+}
+
 }  // namespace
 
 const std::vector<AlgorithmSpec>& algorithm_registry() {
-  // name, family, placement, kinds, bound, exchange_only, validate, parameter blocks, messages
+  // name, family, placement, kinds, bound, exchange_only, validate, parameter blocks, messages, builder
   static const std::vector<AlgorithmSpec> registry{
-      {"ieif", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys,
-       kStateMessages},  // docs/algorithms.md §3.2
-      {"iekf", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys,
-       kStateMessages},  // docs/algorithms.md §3.5
-      {"ekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
-       kNoMessages},
+      {"ieif", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys, kStateMessages,
+       agent_build(&builders::ieif)},  // docs/algorithms.md §3.2
+      {"iekf", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys, kStateMessages,
+       agent_build(&builders::iekf)},  // docs/algorithms.md §3.5
+      {"ekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys, kNoMessages,
+       fusion_build(CentralizedKind::kEkf, false)},
       {"lbekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
-       kNoMessages},
+       kNoMessages, fusion_build(CentralizedKind::kLbEkf, false)},
       {"lbekf_vr", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
-       kNoMessages},
+       kNoMessages, fusion_build(CentralizedKind::kLbEkf, true)},
       {"lbekf_i", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
-       kNoMessages},
+       kNoMessages, fusion_build(CentralizedKind::kLbEkfI, true)},
       {"jacobi", kConsensus, kAgent, kRelative, kScenarioBound, true, &validate_jacobi, kNoKeys,
-       kStateMessages},  // Atanasov et al. (9)
+       kStateMessages, agent_build(&builders::jacobi)},  // Atanasov et al. (9)
       {"dle", kConsensus, kAgent, kTargets, kScenarioBound, true, &validate_dle, kKalmanKeys,
-       kStateAndInformation},  // Atanasov et al. Alg. 1
+       kStateAndInformation, agent_build(&builders::dle)},  // Atanasov et al. Alg. 1
       {"joint_field", kConsensus, kAgent, kRelativeAndField, kScenarioBound, true, &validate_joint_field,
-       kFieldKeys, kStateAndInformation},
+       kFieldKeys, kStateAndInformation, agent_build(&builders::joint_field)},
       {"multipath_bp", kBp, kAgent, kPaths, kScenarioBound, true, &validate_multipath_bp, kMultipathKeys,
-       kBeliefMessages},  // Leng et al. Alg. 1
-      {"dgbb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys,
-       kStateAndConsensus},  // Calafiore et al. Alg. 1
-      {"local_bb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys, kStateMessages},
-      {"fixed_step", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys,
-       kStateMessages},
+       kBeliefMessages, agent_build(&builders::multipath_bp)},  // Leng et al. Alg. 1
+      {"dgbb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys, kStateAndConsensus,
+       agent_build(&builders::dgbb)},  // Calafiore et al. Alg. 1
+      {"local_bb", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys, kStateMessages,
+       agent_build(&builders::local_bb)},
+      {"fixed_step", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys, kStateMessages,
+       agent_build(&builders::fixed_step)},
       {"step_length", kGradient, kAgent, kRangesOnly, kOwnRanges, true, nullptr, kGradientKeys,
-       kStateMessages},
-      {"pose_ekf", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys, kStateMessages},
-      {"pose_ieif", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys, kStateMessages},
+       kStateMessages, agent_build(&builders::step_length)},
+      {"pose_ekf", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys, kStateMessages,
+       agent_build(&builders::pose_ekf)},
+      {"pose_ieif", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys, kStateMessages,
+       agent_build(&builders::pose_ieif)},
       {"dead_reckoning", kPose, kAgent, kRangesAndFixes, kOdometryNone, false, nullptr, kPoseKeys,
-       kStateMessages},
+       kStateMessages, agent_build(&builders::dead_reckoning)},
       // docs/algorithms.md §9; a step without a batch is one more sweep (docs/algorithms.md §9.2).
-      {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, true, &validate_dml, kNoKeys, kStateMessages},
+      {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, true, &validate_dml, kNoKeys, kStateMessages,
+       agent_build(&builders::dml)},
       // docs/algorithms.md §9.8; reads process_noise_std_m and initial_std_m; a step without a batch
       // iterates its window again.
       {"dml_track", kDml, kAgent, kRangesAndFixes, kPooledRanges, true, &validate_dml_track, kKalmanKeys,
-       kBeliefMessages},
+       kBeliefMessages, agent_build(&builders::dml_track)},
   };
   return registry;
 }
@@ -213,6 +227,25 @@ const AlgorithmSpec& algorithm_spec(std::string_view name) {
   if (const AlgorithmSpec* spec = find_algorithm(name)) return *spec;
   reject_key("algorithm.name",
              "'" + std::string(name) + "' is not a known algorithm (known: " + known_algorithm_list() + ")");
+}
+
+std::vector<std::string> agent_algorithms() {
+  std::vector<std::string> names;
+  for (const auto& spec : algorithm_registry()) {
+    if (spec.build.agent != nullptr) names.emplace_back(spec.name);
+  }
+  return names;
+}
+
+std::unique_ptr<estimators::Estimator> make_estimator(std::string_view name,
+                                                      const estimators::AgentSetup& setup,
+                                                      const estimators::EstimatorParams& params) {
+  const AlgorithmSpec* spec = find_algorithm(name);
+  if (spec != nullptr && spec->build.agent != nullptr) return spec->build.agent(setup, params);
+  std::string known;
+  for (const auto& agent_name : agent_algorithms()) known += (known.empty() ? "" : ", ") + agent_name;
+  throw std::invalid_argument("estimator algorithm '" + std::string(name) +
+                              "' is not an agent's; known: " + known);
 }
 
 bool runs_in_fusion_centre(std::string_view name) {

@@ -7,7 +7,7 @@
 
 #include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario_models.hpp"
-#include "swarmloc/estimators/consensus/cooperative.hpp"
+#include "swarmloc/estimators/params.hpp"
 
 namespace swarmloc::runtime {
 namespace {
@@ -29,19 +29,22 @@ class SensorOnly final : public estimators::Estimator {
   estimators::Estimate estimate_;
 };
 
-/// The cooperative family's parameters from the scenario (the algorithm knows the noise, [D-6]).
-estimators::CooperativeParams cooperative_params(const config::Scenario& s) {
-  estimators::CooperativeParams params;
+/// Every family's parameters from the scenario (the cooperative families: the algorithm knows the noise,
+/// [D-6]); an algorithm's builder reads its own family's block only.
+estimators::EstimatorParams estimator_params(const config::Scenario& s) {
+  estimators::EstimatorParams params;
   params.bp.sigma2 = s.noise.range_std_m * s.noise.range_std_m;  // [D-6]: the algorithm knows the noise
   params.bp.exact_messages = s.algorithm.multipath.bp_messages == config::BpMessages::kExact;
   if (s.algorithm.multipath.path_variance == config::PathVariance::kWithDoa) {
     const double doa_max_rad = s.noise.doa_error_deg * std::numbers::pi / 180.0;
     params.bp.doa_variance_rad2 = doa_max_rad * doa_max_rad / 3.0;  // uniform on ±doa_max (world.cpp)
   }
-  const config::MeasurementKinds& kinds = config::algorithm_spec(s.algorithm.name).kinds;
+  const config::AlgorithmSpec* spec =
+      config::find_algorithm(s.algorithm.name);  // unknown: make_estimator throws
+  const config::MeasurementKinds kinds = spec != nullptr ? spec->kinds : config::MeasurementKinds{};
   if (kinds.targets) {  // dle
     const config::TargetModel model = config::target_model(s);
-    auto& dle = params.dle;
+    auto& dle = params.consensus.dle;
     dle.target = 0;
     dle.target_dim = model.dim;
     dle.F = model.F;
@@ -53,8 +56,8 @@ estimators::CooperativeParams cooperative_params(const config::Scenario& s) {
   }
   if (kinds.field) {  // joint_field
     // Anchors give Jacobi the world frame, which the field lives in: the reference is the origin.
-    params.joint_field.sensor = config::field_sensor(s);
-    params.joint_field.warmup_steps = s.algorithm.field.field_warmup_steps;
+    params.consensus.joint_field.sensor = config::field_sensor(s);
+    params.consensus.joint_field.warmup_steps = s.algorithm.field.field_warmup_steps;
   }
   const config::GradientParams& keys = s.algorithm.gradient;
   auto& gradient = params.gradient;
@@ -77,21 +80,17 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
   // Centralized algorithms run in the fusion centre; their agents are sensors only.
   if (config::runs_in_fusion_centre(s.algorithm.name))
     return make_sensor_only_estimator(manifest.setup, s.algorithm.kalman.initial_std_m);
-  const auto& cooperative = estimators::cooperative_algorithms();
-  if (std::find(cooperative.begin(), cooperative.end(), s.algorithm.name) != cooperative.end()) {
-    return estimators::make_cooperative_estimator(s.algorithm.name, manifest.setup, cooperative_params(s));
-  }
+  estimators::EstimatorParams params = estimator_params(s);
   const config::KalmanParams& kalman = s.algorithm.kalman;
-  estimators::KalmanFamilyParams params;
-  params.process_noise_std_m = kalman.process_noise_std_m;
-  params.initial_information = kalman.initial_information;
-  params.initial_std_m = kalman.initial_std_m;
-  params.inflate_stale = kalman.inflate_stale;
-  params.range_gate_chi2 = kalman.range_gate_chi2;
-  params.update_iterations = kalman.update_iterations;
-  params.initial_heading_std_rad = s.algorithm.pose.initial_heading_std_rad;
-  params.range_bearing_gate_chi2 = s.algorithm.pose.range_bearing_gate_chi2;
-  return estimators::make_estimator(s.algorithm.name, manifest.setup, params);
+  params.kalman.process_noise_std_m = kalman.process_noise_std_m;
+  params.kalman.initial_information = kalman.initial_information;
+  params.kalman.initial_std_m = kalman.initial_std_m;
+  params.kalman.inflate_stale = kalman.inflate_stale;
+  params.kalman.range_gate_chi2 = kalman.range_gate_chi2;
+  params.kalman.update_iterations = kalman.update_iterations;
+  params.kalman.initial_heading_std_rad = s.algorithm.pose.initial_heading_std_rad;
+  params.kalman.range_bearing_gate_chi2 = s.algorithm.pose.range_bearing_gate_chi2;
+  return config::make_estimator(s.algorithm.name, manifest.setup, params);
 }
 
 std::unique_ptr<estimators::Estimator> make_sensor_only_estimator(const estimators::AgentSetup& setup,

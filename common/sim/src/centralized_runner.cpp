@@ -6,8 +6,8 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "swarmloc/estimators/builders.hpp"
 #include "swarmloc/estimators/centralized/relabeling.hpp"
-#include "swarmloc/estimators/registry.hpp"
 
 namespace swarmloc::sim {
 namespace {
@@ -31,7 +31,8 @@ std::vector<centralized::Edge> graph_edges(const world::World& world) {
 std::unique_ptr<centralized::CentralizedFilter> make_fusion_filter(const config::Scenario& scenario,
                                                                    const world::World& world) {
   const std::string& algorithm = scenario.algorithm.name;
-  const estimators::EstimatorBuilder* builder = estimators::find_estimator_builder(algorithm);
+  const config::AlgorithmSpec* spec = config::find_algorithm(algorithm);
+  const estimators::EstimatorBuilder* builder = spec != nullptr ? &spec->build : nullptr;
   if (!config::runs_in_fusion_centre(algorithm) || builder == nullptr || !builder->fusion) {
     throw std::invalid_argument("make_fusion_filter: algorithm '" + algorithm + "' is not centralized");
   }

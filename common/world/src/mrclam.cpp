@@ -9,7 +9,8 @@
 #include <sstream>
 #include <string>
 
-#include "swarmloc/estimators/pose_filters.hpp"
+#include "swarmloc/estimators/pose/centralized_pose_ekf.hpp"
+#include "swarmloc/estimators/pose/dead_reckoning.hpp"
 #include "swarmloc/models/measurement_models.hpp"
 
 namespace swarmloc::world {
@@ -255,7 +256,7 @@ World build_mrclam_world(const config::Scenario& scenario) {
 }
 
 MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world) {
-  estimators::KalmanFamilyParams params;
+  estimators::KalmanFilterParams params;
   params.process_noise_std_m = scenario.algorithm.kalman.process_noise_std_m;
   params.initial_std_m = scenario.algorithm.kalman.initial_std_m;
   params.initial_heading_std_rad = scenario.algorithm.pose.initial_heading_std_rad;

@@ -1,11 +1,11 @@
 // Uses the installed estimators: the range CRLB of one agent at the centre of three anchors 120° apart
-// (J = 3/(2σ²)·I, so the RMSE bound is 2σ/√3) and an IEIF built by name. Exit 0 only if both hold.
+// (J = 3/(2σ²)·I, so the RMSE bound is 2σ/√3) and an IEIF from its builder. Exit 0 only if both hold.
 #include <cmath>
 #include <cstdio>
 #include <numbers>
 
+#include "swarmloc/estimators/builders.hpp"
 #include "swarmloc/estimators/crlb.hpp"
-#include "swarmloc/estimators/estimator.hpp"
 
 int main() {
   using namespace swarmloc;
@@ -22,7 +22,7 @@ int main() {
   const auto bound = estimators::range_network_crlb(truth, is_anchor, ranges);
   const double expected = 2.0 * kStdM / std::sqrt(3.0);
   estimators::AgentSetup setup;
-  const auto filter = estimators::make_estimator("ieif", setup, estimators::KalmanFamilyParams{});
+  const auto filter = estimators::builders::ieif(setup, estimators::EstimatorParams{});
   std::printf("crlb %.12f expected %.12f estimator %s\n", bound.network_rmse_m, expected,
               std::string(filter->name()).c_str());
   return std::abs(bound.network_rmse_m - expected) < 1e-12 && filter->name() == "ieif" ? 0 : 1;

@@ -6,6 +6,7 @@
 #include <random>
 #include <string>
 
+#include "named_estimators.hpp"
 #include "swarmloc/core/gaussian.hpp"
 #include "swarmloc/estimators/crlb.hpp"
 #include "swarmloc/estimators/estimator.hpp"
@@ -42,7 +43,7 @@ struct RunResult {
   int updates = 0;
 };
 
-RunResult run_network(const std::string& algorithm, const Network& net, const KalmanFamilyParams& params,
+RunResult run_network(const std::string& algorithm, const Network& net, const KalmanFilterParams& params,
                       std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -55,7 +56,7 @@ RunResult run_network(const std::string& algorithm, const Network& net, const Ka
     setup.anchor = net.is_anchor[i];
     setup.initial_guess_m = net.truth[i];
     if (!setup.anchor) setup.initial_guess_m += Vec2(normal(rng), normal(rng));  // truth + N(0, 1 m)
-    agents.push_back(make_estimator(algorithm, setup, params));
+    agents.push_back(testing::make_named_estimator(algorithm, setup, params));
     last.push_back(agents.back()->initial_outbox());
   }
   RunResult result;
@@ -103,7 +104,7 @@ struct MonteCarlo {
   bool all_covariances_psd = true;
 };
 
-MonteCarlo monte_carlo(const std::string& algorithm, const Network& net, const KalmanFamilyParams& params,
+MonteCarlo monte_carlo(const std::string& algorithm, const Network& net, const KalmanFilterParams& params,
                        int trials) {
   std::vector<double> sum(net.truth.size(), 0.0);
   MonteCarlo mc;
@@ -133,7 +134,7 @@ CrlbResult accumulated_crlb(const Network& net) {
 
 TEST(Ieif, ConvergesBelowRangeNoiseOnStaticNetwork) {
   const Network net = make_network(42);
-  const RunResult r = run_network("ieif", net, KalmanFamilyParams{}, 1);
+  const RunResult r = run_network("ieif", net, KalmanFilterParams{}, 1);
   std::printf("[ieif] final RMSE %.4f m (range std %.2f m, %d steps)\n", r.rmse_m, kRangeStd, kSteps);
   EXPECT_LT(r.rmse_m, 0.1);
   EXPECT_TRUE(r.all_covariances_psd);
@@ -141,13 +142,13 @@ TEST(Ieif, ConvergesBelowRangeNoiseOnStaticNetwork) {
 
 TEST(Iekf, ConvergesBelowRangeNoiseOnStaticNetwork) {
   const Network net = make_network(42);
-  const RunResult r = run_network("iekf", net, KalmanFamilyParams{}, 1);
+  const RunResult r = run_network("iekf", net, KalmanFilterParams{}, 1);
   std::printf("[iekf] final RMSE %.4f m (range std %.2f m, %d steps)\n", r.rmse_m, kRangeStd, kSteps);
   EXPECT_LT(r.rmse_m, 0.1);
   EXPECT_TRUE(r.all_covariances_psd);
 }
 
-void expect_within_factor_of_crlb(const std::string& algorithm, const KalmanFamilyParams& params,
+void expect_within_factor_of_crlb(const std::string& algorithm, const KalmanFilterParams& params,
                                   double factor) {
   const Network net = make_network(42);
   const MonteCarlo mc = monte_carlo(algorithm, net, params, 20);
@@ -172,22 +173,22 @@ void expect_within_factor_of_crlb(const std::string& algorithm, const KalmanFami
 // the IEIF uses only its own ranges (≥ √2 above it), treats neighbours' persistent errors as
 // noise and forgets through Q = (0.01 m)² I. Measured (20 trials): ratio ≈ 4.9, worst agent ≈ 5.9.
 TEST(Ieif, PerAgentRmseIsWithinSmallFactorOfAccumulatedCrlb) {
-  expect_within_factor_of_crlb("ieif", KalmanFamilyParams{}, 8.0);
+  expect_within_factor_of_crlb("ieif", KalmanFilterParams{}, 8.0);
 }
 
 TEST(Iekf, PerAgentRmseIsWithinSmallFactorOfAccumulatedCrlb) {
-  expect_within_factor_of_crlb("iekf", KalmanFamilyParams{}, 8.0);
+  expect_within_factor_of_crlb("iekf", KalmanFilterParams{}, 8.0);
 }
 
 TEST(Ieif, ApproachesAccumulatedCrlbWithSmallProcessNoise) {
   // With Q → 0 the filter stops forgetting. Measured: ratio ≈ 3.3, worst agent ≈ 3.6.
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.process_noise_std_m = 1e-4;
   expect_within_factor_of_crlb("ieif", params, 4.5);
 }
 
 TEST(Iekf, ApproachesAccumulatedCrlbWithSmallProcessNoise) {
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.process_noise_std_m = 1e-4;
   expect_within_factor_of_crlb("iekf", params, 4.5);
 }

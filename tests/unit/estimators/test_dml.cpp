@@ -12,8 +12,8 @@
 #include <utility>
 #include <vector>
 
-#include "swarmloc/estimators/dml.hpp"
-#include "swarmloc/estimators/dml_region.hpp"
+#include "swarmloc/estimators/dml/dml.hpp"
+#include "swarmloc/estimators/dml/region.hpp"
 
 namespace swarmloc::estimators {
 namespace {
@@ -45,7 +45,7 @@ class DmlRounds {
       setup.initial_guess_m = net.anchor[i] ? net.truth[i] : guesses[i];
       setup.initial_guess_std_m = guess_std_m;
       setup.comm_radius_m = radius_m;
-      agents_.push_back(std::make_unique<Dml>(setup, KalmanFamilyParams{}));
+      agents_.push_back(std::make_unique<Dml>(setup, KalmanFilterParams{}));
       outboxes_.push_back(agents_.back()->initial_outbox());
     }
   }

@@ -9,7 +9,7 @@
 #include <memory>
 #include <vector>
 
-#include "swarmloc/estimators/dml_tracking.hpp"
+#include "swarmloc/estimators/dml/tracking.hpp"
 
 namespace swarmloc::estimators {
 namespace dml_tracking_test {  // named: the unity build joins this file with test_dml.cpp
@@ -23,7 +23,7 @@ constexpr double kProcessStdM = 0.1;
 class Rounds {
  public:
   Rounds(const std::vector<Vec2>& guesses, const std::vector<bool>& anchor) {
-    KalmanFamilyParams params;
+    KalmanFilterParams params;
     params.process_noise_std_m = kProcessStdM;
     for (std::size_t i = 0; i < guesses.size(); ++i) {
       AgentSetup setup;

@@ -6,8 +6,8 @@
 
 #include "eigen_gtest.hpp"
 #include "swarmloc/core/gaussian.hpp"
-#include "swarmloc/estimators/ieif.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/ieif.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 namespace {
@@ -25,7 +25,7 @@ Received<StateMessage> state_from(AgentId sender, std::int64_t sender_step, cons
 
 // Node 0 at x̂ = (3, 4) with Ψ_0 = I, Q = I; anchors 1 at (0, 0) and 2 at (6, 0); σ_r = 0.5.
 struct HandCase {
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   AgentSetup setup;
   Inbox inbox;
   MeasurementBatch batch;
@@ -101,7 +101,7 @@ struct AnchorFix {
   }
   /// The position after one IEIF step from `guess` (Ψ_0 = 1e-6 I) with `iterations` update passes.
   [[nodiscard]] Vec2 after_one_step(const Vec2& guess, int iterations) const {
-    KalmanFamilyParams params;
+    KalmanFilterParams params;
     params.update_iterations = iterations;
     AgentSetup setup;
     setup.initial_guess_m = guess;
@@ -112,7 +112,7 @@ struct AnchorFix {
 };
 
 // From the diffuse start (Ψ_0 = 1e-6 I) one linearization at a guess 11 m off lands far from the position the
-// exact ranges give; the iterated update (Gauss–Newton with step halving, KalmanFamilyParams::
+// exact ranges give; the iterated update (Gauss–Newton with step halving, KalmanFilterParams::
 // update_iterations) reaches it. Anchors at three corners of a 20 m square, the agent at (12, 7).
 TEST(Ieif, IteratedUpdateFromADiffusePriorReachesTheExactFixWhereOneLinearizationDoesNot) {
   const Vec2 truth(12.0, 7.0);
@@ -171,7 +171,7 @@ TEST(Ieif, InterlacingTermAddsNeighbourVarianceAlongTheLineOfSight) {
 }
 
 TEST(Ieif, StaleNeighbourCovarianceIsInflatedByAgeTimesQ) {
-  KalmanFamilyParams params;  // Q = 0.01² I
+  KalmanFilterParams params;  // Q = 0.01² I
   Inbox inbox;
   // Receiver at step 10: a message from step 9 is fresh; one from step 5 is a = 4 steps old.
   inbox.states = {state_from(1, 9, Vec2(1.0, 0.0), 0.5 * Mat2::Identity()),
@@ -200,7 +200,7 @@ TEST(Ieif, NewestMessagePerSenderIsUsed) {
                   state_from(1, 7, Vec2(1.0, 2.0), Mat2::Identity())};
   MeasurementBatch batch;
   batch.ranges = {RangeMeasurement{1, 1.0, 0.1}};
-  const LinkSelection selection = collect_range_links(StepInput{8, &batch, &inbox}, 0, KalmanFamilyParams{});
+  const LinkSelection selection = collect_range_links(StepInput{8, &batch, &inbox}, 0, KalmanFilterParams{});
   ASSERT_EQ(selection.links.size(), 1U);
   EXPECT_MATRIX_NEAR(selection.links[0].neighbour_mean_m, Vec2(1.0, 2.0), 0.0);
 }
@@ -213,14 +213,14 @@ TEST(Ieif, NeighboursWithoutMessageRangeOrFiniteCovarianceAreSkipped) {
   MeasurementBatch batch;
   batch.ranges = {RangeMeasurement{1, 1.0, 0.1}, RangeMeasurement{3, 1.0, 0.1},  // 3: no message
                   RangeMeasurement{4, 3.0, 0.1}};
-  const LinkSelection selection = collect_range_links(StepInput{1, &batch, &inbox}, 0, KalmanFamilyParams{});
+  const LinkSelection selection = collect_range_links(StepInput{1, &batch, &inbox}, 0, KalmanFilterParams{});
   ASSERT_EQ(selection.links.size(), 1U);
   EXPECT_EQ(selection.links[0].peer, 4);
   EXPECT_EQ(selection.skipped, 3);
 }
 
 TEST(Ieif, WithoutMeasurementsOnlyPredicts) {
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_information = 2.0;
   params.process_noise_std_m = 0.5;
   AgentSetup setup;
@@ -236,7 +236,7 @@ TEST(Ieif, WithoutMeasurementsOnlyPredicts) {
 }
 
 TEST(Ieif, SingularInformationKeepsTheMeanAndReportsInvalid) {
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_information = 0.0;  // Ψ_0 = 0: the singular-safe prediction must cope
   AgentSetup setup;
   setup.initial_guess_m = Vec2(2.0, 0.0);
@@ -259,7 +259,7 @@ TEST(Ieif, AnchorsPublishTheirKnownPositionWithZeroCovariance) {
   setup.id = 3;
   setup.anchor = true;
   setup.initial_guess_m = Vec2(4.0, 5.0);
-  Ieif anchor(setup, KalmanFamilyParams{});
+  Ieif anchor(setup, KalmanFilterParams{});
   for (const Outbox& outbox : {anchor.initial_outbox(), anchor.step(StepInput{}).outbox}) {
     ASSERT_TRUE(outbox.state.has_value());
     EXPECT_TRUE(outbox.state->anchor);
@@ -274,7 +274,7 @@ TEST(Ieif, InitialOutboxOfANonAnchorIsSkippedByNeighbours) {
   AgentSetup setup;
   setup.id = 1;
   setup.initial_guess_m = Vec2(1.0, 1.0);
-  const KalmanFamilyParams params;
+  const KalmanFilterParams params;
   const Outbox first = Ieif(setup, params).initial_outbox();
   ASSERT_TRUE(first.state.has_value());
   EXPECT_GT(first.state->covariance.trace(), params.max_neighbour_variance_m2);  // 1/ε·I (+Q)
@@ -291,7 +291,7 @@ TEST(Ieif, InitialOutboxOfANonAnchorIsSkippedByNeighbours) {
 }
 
 TEST(Ieif, AbsoluteFixIsFusedAsALinearMeasurement) {
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_information = 1.0;
   params.process_noise_std_m = 0.0;
   AgentSetup setup;

@@ -5,9 +5,9 @@
 
 #include "eigen_gtest.hpp"
 #include "kalman_reference.hpp"
-#include "swarmloc/estimators/ieif.hpp"
-#include "swarmloc/estimators/iekf.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/ieif.hpp"
+#include "swarmloc/estimators/kalman/iekf.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 namespace {
@@ -52,7 +52,7 @@ TEST(InformationForm, IeifAndIekfAgreeWhenP0EqualsInversePsi0) {
   for (const int iterations : {1, 10}) {
     SCOPED_TRACE(iterations);
     // docs/algorithms.md §3.5: algebraically equivalent when P_0 = Ψ_0⁻¹. Ψ_0 = 0.04 I  <=>  σ_0 = 5 m.
-    KalmanFamilyParams params;
+    KalmanFilterParams params;
     params.update_iterations = iterations;
     params.initial_information = 0.04;
     params.initial_std_m = 5.0;
@@ -95,7 +95,7 @@ TEST(InformationForm, IeifAndIekfAgreeWhenP0EqualsInversePsi0) {
 }
 
 TEST(InformationForm, IeifAndIekfAgreeOnAGpsOnlyStep) {
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_information = 0.25;  // P_0 = 4 I
   params.initial_std_m = 2.0;
   AgentSetup setup;

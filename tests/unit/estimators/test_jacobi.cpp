@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "eigen_gtest.hpp"
-#include "swarmloc/estimators/consensus/cooperative.hpp"
+#include "named_estimators.hpp"
 #include "swarmloc/estimators/consensus/jacobi.hpp"
 
 namespace swarmloc::estimators::consensus {
@@ -170,12 +170,12 @@ TEST(Jacobi, ReferenceNodeNeverMoves) {
 
 TEST(CooperativeFactory, BuildsEveryNamedAlgorithmAndRejectsUnknownNames) {
   AgentSetup setup;
-  for (const auto& name : cooperative_algorithms()) {
-    const auto estimator = make_cooperative_estimator(name, setup, CooperativeParams{});
+  for (const auto& name : testing::cooperative_algorithms()) {
+    const auto estimator = config::make_estimator(name, setup, EstimatorParams{});
     ASSERT_NE(estimator, nullptr);
     EXPECT_EQ(estimator->name(), name);
   }
-  EXPECT_THROW(make_cooperative_estimator("nope", setup, CooperativeParams{}), std::invalid_argument);
+  EXPECT_THROW((void)config::make_estimator("nope", setup, EstimatorParams{}), std::invalid_argument);
 }
 
 }  // namespace

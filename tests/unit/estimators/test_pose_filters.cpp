@@ -1,4 +1,4 @@
-// Pose-state filters (pose_filters.hpp): PoseEkf, PoseIeif, DeadReckoning, CentralizedPoseEkf.
+// Pose-state filters (pose/*.hpp): PoseEkf, PoseIeif, DeadReckoning, CentralizedPoseEkf.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,9 +10,14 @@
 #include <vector>
 
 #include "eigen_gtest.hpp"
+#include "named_estimators.hpp"
 #include "swarmloc/core/gaussian.hpp"
 #include "swarmloc/estimators/estimator.hpp"
-#include "swarmloc/estimators/pose_filters.hpp"
+#include "swarmloc/estimators/pose/centralized_pose_ekf.hpp"
+#include "swarmloc/estimators/pose/dead_reckoning.hpp"
+#include "swarmloc/estimators/pose/kernels.hpp"
+#include "swarmloc/estimators/pose/pose_ekf.hpp"
+#include "swarmloc/estimators/pose/pose_ieif.hpp"
 #include "swarmloc/models/measurement_models.hpp"
 
 namespace swarmloc::estimators {
@@ -117,8 +122,8 @@ World simulate(const WorldConfig& c) {
   return world;
 }
 
-KalmanFamilyParams params_for(const WorldConfig& c) {
-  KalmanFamilyParams params;
+KalmanFilterParams params_for(const WorldConfig& c) {
+  KalmanFilterParams params;
   params.initial_std_m = c.initial_std_m;
   params.initial_heading_std_rad = c.initial_heading_std_rad;
   params.process_noise_std_m = 0.05;  // unknown motion of a peer over one step (~v·dt)
@@ -221,7 +226,7 @@ NeesCheck nees_check(const std::vector<RunStats>& runs) {
 /// robot-robot pairs from the batches (landmarks only).
 template <typename Filter>
 RunStats run_distributed(const WorldConfig& c, const World& world, bool use_peers = true) {
-  const KalmanFamilyParams params = params_for(c);
+  const KalmanFilterParams params = params_for(c);
   std::vector<std::unique_ptr<Filter>> filters;
   Inbox shared;
   for (const AgentSetup& setup : world.setups) {
@@ -350,7 +355,7 @@ TEST(PoseFilters, IeifEqualsEkfOnASequenceOfSteps) {
     WorldConfig c = landmark_rich(7);
     c.steps = 300;
     const World world = simulate(c);
-    KalmanFamilyParams params = params_for(c);
+    KalmanFilterParams params = params_for(c);
     params.range_bearing_gate_chi2 = gate;
     // Robot 0 twice, fed the same batches and the same peer messages (from a PoseEkf network).
     std::vector<std::unique_ptr<PoseEkf>> network;
@@ -403,7 +408,7 @@ TEST(PoseFilters, EstimateCarriesTheHeadingAndItsCovarianceRow) {
   WorldConfig c = landmark_rich(7);
   c.steps = 20;
   const World world = simulate(c);
-  const KalmanFamilyParams params = params_for(c);
+  const KalmanFilterParams params = params_for(c);
   PoseEkf ekf(world.setups[0], params);
   PoseIeif ieif(world.setups[0], params);
   DeadReckoning dead_reckoning(world.setups[0], params);
@@ -425,7 +430,7 @@ TEST(PoseFilters, EstimateCarriesTheHeadingAndItsCovarianceRow) {
   expect_heading(ekf.estimate(), ekf.pose(), ekf.covariance());
   expect_heading(ieif.estimate(), ieif.pose(), ieif.covariance());
   expect_heading(dead_reckoning.estimate(), dead_reckoning.pose(), dead_reckoning.covariance());
-  const auto position_only = make_estimator("ieif", world.setups[0], params);
+  const auto position_only = testing::make_named_estimator("ieif", world.setups[0], params);
   EXPECT_FALSE(position_only->estimate().heading.has_value());
 }
 
@@ -437,7 +442,7 @@ TEST(PoseFilters, ComposedOdometryEqualsSegmentBySegmentPrediction) {
   P(0, 2) = P(2, 0) = 0.003;
   MeasurementBatch batch;
   batch.odometry = OdometryInput{{{0.3, 0.5, 0.1}, {0.2, -1.0, 0.25}, {0.4, 0.0, 0.1}}, 0.05, 0.02};
-  const PosePropagation composed = propagate_pose(x0, &batch, KalmanFamilyParams{});
+  const PosePropagation composed = propagate_pose(x0, &batch, KalmanFilterParams{});
   Pose x = x0;
   Mat3 P_seq = P;
   for (const OdometrySegment& s : batch.odometry->segments) {
@@ -452,7 +457,7 @@ TEST(PoseFilters, ComposedOdometryEqualsSegmentBySegmentPrediction) {
   EXPECT_NEAR(composed.pose.z(), models::wrap_angle(3.0 + 0.05 - 0.25), 1e-15);  // wrapped past +π
 
   // No odometry: the pose stays, Q = Q_pos on (x, y) only.
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.process_noise_std_m = 0.1;
   const PosePropagation still = propagate_pose(x0, nullptr, params);
   EXPECT_MATRIX_NEAR(still.pose, x0, 0.0);
@@ -499,7 +504,7 @@ TEST(PoseFilters, GateDropsAnOutlierPairAndCountsIt) {
     batch.range_bearings.push_back(m);
   }
   for (const double gate : {0.0, 13.8}) {
-    KalmanFamilyParams params;
+    KalmanFilterParams params;
     params.initial_std_m = 0.05;
     params.initial_heading_std_rad = 0.02;
     params.range_bearing_gate_chi2 = gate;
@@ -580,7 +585,7 @@ constexpr int kHostileSegments = 5;  // all but the first and last
 
 template <typename Filter>
 void expect_survives_hostile_inputs() {
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_std_m = 1.0;
   Filter filter(AgentSetup{}, params);
   const MeasurementBatch batch = hostile_batch();
@@ -616,7 +621,7 @@ TEST(PoseFilters, HostileInputsAreSkippedCountedAndNeverPoisonTheState) {
 }
 
 TEST(PoseFilters, CentralizedSurvivesHostileInputs) {
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_std_m = 1.0;
   AgentSetup a;
   a.id = 3;
@@ -676,7 +681,7 @@ TEST(PoseFilters, PeerWithoutAUsableMessageIsSkippedAndCounted) {
                   peer_state(4, 2, Vec2(0.0, -3.0), 1e7 * Mat2::Identity()),  // trace above the limit
                   peer_state(0, 2, Vec2(0.0, 0.0), 0.01 * Mat2::Identity())};
   // Peer 2 has no message at all.
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_std_m = 0.5;
   PoseEkf ekf(AgentSetup{}, params);
   const StepOutput out = ekf.step(StepInput{3, &batch, &inbox});
@@ -703,7 +708,7 @@ TEST(PoseFilters, InterlacedPeerCovarianceWeakensTheUpdate) {
   const Pose truth(0.0, 0.0, 0.0);
   MeasurementBatch batch;
   batch.range_bearings = {peer_pair(1, truth, Vec2(3.0, 1.0))};
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_std_m = 1.0;
   params.inflate_stale = false;
   AgentSetup setup;
@@ -724,7 +729,7 @@ TEST(PoseFilters, CentralizedOfOneRobotEqualsPoseEkfWithLandmarks) {
   c.robots = 1;
   c.steps = 200;
   const World world = simulate(c);
-  const KalmanFamilyParams params = params_for(c);
+  const KalmanFilterParams params = params_for(c);
   PoseEkf ekf(world.setups[0], params);
   CentralizedPoseEkf central(world.setups, params);
   for (int k = 0; k < c.steps; ++k) {
@@ -740,7 +745,7 @@ TEST(PoseFilters, CentralizedOfOneRobotEqualsPoseEkfWithLandmarks) {
 TEST(PoseFilters, CentralizedRobotPairInformsBothRobots) {
   // Robot 0 knows its pose well, robot 1 badly; only robot 0 measures robot 1. The joint update moves
   // and shrinks robot 1 (a per-agent filter at robot 1 would learn nothing from robot 0's pair).
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_std_m = 1.0;
   params.initial_heading_std_rad = 0.01;
   AgentSetup a;
@@ -760,7 +765,7 @@ TEST(PoseFilters, CentralizedRobotPairInformsBothRobots) {
 }
 
 TEST(PoseFilters, PublishesPositionBlockAndDegree) {
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_std_m = 2.0;
   params.initial_heading_std_rad = 0.3;
   AgentSetup setup;
@@ -768,7 +773,7 @@ TEST(PoseFilters, PublishesPositionBlockAndDegree) {
   setup.initial_guess_m = Vec2(1.0, 2.0);
   setup.initial_heading_rad = 3.0 * kPi;  // wrapped to π
   for (const char* name : {"pose_ekf", "pose_ieif", "dead_reckoning"}) {
-    const auto estimator = make_estimator(name, setup, params);
+    const auto estimator = testing::make_named_estimator(name, setup, params);
     const Outbox initial = estimator->initial_outbox();
     ASSERT_TRUE(initial.state.has_value());
     EXPECT_MATRIX_NEAR(initial.state->mean_m, setup.initial_guess_m, 0.0);

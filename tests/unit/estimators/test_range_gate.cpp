@@ -1,4 +1,4 @@
-// Chi-square innovation gating of range updates (IEIF, IEKF; KalmanFamilyParams::range_gate_chi2).
+// Chi-square innovation gating of range updates (IEIF, IEKF; KalmanFilterParams::range_gate_chi2).
 #include <gtest/gtest.h>
 
 #include <array>
@@ -9,8 +9,9 @@
 #include <vector>
 
 #include "eigen_gtest.hpp"
+#include "named_estimators.hpp"
 #include "swarmloc/estimators/estimator.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 namespace {
@@ -30,11 +31,11 @@ Outcome outlier_step(const std::string& algorithm, double gate, int update_itera
   AgentSetup setup;
   setup.id = 0;
   setup.initial_guess_m = Vec2(12.0, 8.5);
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.range_gate_chi2 = gate;
   params.initial_std_m = 3.0;
   params.update_iterations = update_iterations;
-  const auto estimator = make_estimator(algorithm, setup, params);
+  const auto estimator = testing::make_named_estimator(algorithm, setup, params);
   Inbox inbox;
   for (AgentId j = 1; j <= 4; ++j) {
     Received<StateMessage> anchor;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "named_estimators.hpp"
 #include "swarmloc/core/random.hpp"
 #include "swarmloc/estimators/centralized/centralized_filter.hpp"
 #include "swarmloc/estimators/estimator.hpp"
@@ -105,9 +106,9 @@ bool flagged_beside_a_displaced_neighbour(const std::string& algorithm, double n
   AgentSetup setup;
   setup.id = 0;
   setup.initial_guess_m = Vec2(10.5, 9.5);
-  KalmanFamilyParams params;
+  KalmanFilterParams params;
   params.initial_std_m = 3.0;
-  const auto estimator = make_estimator(algorithm, setup, params);
+  const auto estimator = testing::make_named_estimator(algorithm, setup, params);
   Inbox inbox;
   for (AgentId j = 1; j <= 4; ++j) {
     Received<StateMessage> anchor;
@@ -151,7 +152,7 @@ TEST(FilterSelfCheck, AStartFarOffIsCoveredByTheAgentsOwnPrior) {
     SCOPED_TRACE(algorithm);
     AgentSetup setup;
     setup.initial_guess_m = Vec2(12.0, 11.5);
-    const auto estimator = make_estimator(algorithm, setup, KalmanFamilyParams{});
+    const auto estimator = testing::make_named_estimator(algorithm, setup, KalmanFilterParams{});
     Inbox inbox;
     MeasurementBatch batch;
     for (AgentId j = 1; j <= 4; ++j) {
@@ -171,7 +172,7 @@ TEST(FilterSelfCheck, AStartFarOffIsCoveredByTheAgentsOwnPrior) {
 TEST(FilterSelfCheck, AnAnchorIsNeverFlagged) {
   AgentSetup setup;
   setup.anchor = true;
-  const auto estimator = make_estimator("ieif", setup, KalmanFamilyParams{});
+  const auto estimator = testing::make_named_estimator("ieif", setup, KalmanFilterParams{});
   MeasurementBatch batch;
   batch.ranges.push_back({1, 100.0, 0.1});
   Inbox inbox;

@@ -3,6 +3,7 @@
 
 #include <limits>
 
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/runtime/agent_runtime.hpp"
 
 namespace swarmloc::runtime {
@@ -14,7 +15,7 @@ AgentRuntime make_runtime(double loss = 0.0) {
   params.seed = 42;
   params.loss.loss_probability = loss;
   params.absurd_position_bound_m = 1e5;
-  return AgentRuntime(estimators::make_estimator("ieif", setup, {}), setup, {1, 2, 3}, params);
+  return AgentRuntime(config::make_estimator("ieif", setup, {}), setup, {1, 2, 3}, params);
 }
 
 estimators::StateMessage anchor_state(Vec2 position) {

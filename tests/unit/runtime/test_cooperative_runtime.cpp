@@ -6,8 +6,8 @@
 #include <limits>
 
 #include "eigen_gtest.hpp"
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario.hpp"
-#include "swarmloc/estimators/consensus/cooperative.hpp"
 #include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/runtime/agent_runtime.hpp"
 #include "swarmloc/runtime/manifest.hpp"
@@ -123,7 +123,7 @@ TEST(CooperativeRuntime, ASupersededBatchKeepsItsRelativeSamples) {
   estimators::AgentSetup setup{0, false, Vec2(5.0, 5.0)};
   AgentRuntimeParams params;
   params.absurd_position_bound_m = 1e5;
-  AgentRuntime runtime(estimators::make_cooperative_estimator("jacobi", setup, {}), setup, {1}, params);
+  AgentRuntime runtime(config::make_estimator("jacobi", setup, {}), setup, {1}, params);
   estimators::StateMessage anchor;
   anchor.anchor = true;
   ASSERT_TRUE(runtime.on_state(Header{1, 0, 0, 0, 0}, anchor));
@@ -145,7 +145,7 @@ TEST(CooperativeRuntime, ASupersededBatchKeepsItsTargetReadings) {
   const estimators::AgentSetup setup{0, false, Vec2(5.0, 5.0)};
   AgentRuntimeParams params;
   params.absurd_position_bound_m = 1e5;
-  AgentRuntime runtime(estimators::make_cooperative_estimator("dle", setup, {}), setup, {}, params);
+  AgentRuntime runtime(config::make_estimator("dle", setup, {}), setup, {}, params);
   for (const double reading : {1.0, 3.0}) {
     estimators::MeasurementBatch batch;
     batch.world_step = reading > 2.0 ? 1 : 0;

@@ -1,19 +1,23 @@
-// The algorithm registry (config/algorithms.hpp) and its builders (estimators/registry.hpp) describe the
-// same algorithms, entry for entry; every entry is accepted by config, builds, and runs in the runner its
-// placement names. The consistency rules are one function so that mutated copies of the tables (an entry
-// removed, a placement flipped) can be shown to fail them.
+// The algorithm registry (config/algorithms.hpp) is the one table of algorithms: each entry names its
+// builder (estimators/builders.hpp). Every entry has exactly one builder (an agent's estimator or the fusion
+// centre's filter) that agrees with its placement, every builder serves exactly one entry, every entry is
+// accepted by config, builds, and runs in the runner its placement names. The consistency rules are one
+// function so that mutated copies of the table (an entry removed, a placement flipped, a builder doubled)
+// can be shown to fail them.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "named_estimators.hpp"
 #include "swarmloc/config/algorithms.hpp"
-#include "swarmloc/estimators/registry.hpp"
+#include "swarmloc/estimators/builders.hpp"
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -25,43 +29,64 @@ namespace {
 using config::AlgorithmFamily;
 using config::AlgorithmPlacement;
 using config::AlgorithmSpec;
-using estimators::EstimatorBuilder;
-using estimators::ParamBlock;
+using estimators::AgentBuilder;
 
-/// Every way the two tables can disagree, one line each (empty: consistent).
-std::vector<std::string> registry_problems(const std::vector<AlgorithmSpec>& specs,
-                                           const std::vector<EstimatorBuilder>& builders) {
+/// Every agent builder estimators/builders.hpp declares.
+const std::map<std::string, AgentBuilder>& agent_builders() {
+  namespace b = estimators::builders;
+  static const std::map<std::string, AgentBuilder> all{
+      {"ieif", &b::ieif},
+      {"iekf", &b::iekf},
+      {"dml", &b::dml},
+      {"dml_track", &b::dml_track},
+      {"pose_ekf", &b::pose_ekf},
+      {"pose_ieif", &b::pose_ieif},
+      {"dead_reckoning", &b::dead_reckoning},
+      {"jacobi", &b::jacobi},
+      {"dle", &b::dle},
+      {"joint_field", &b::joint_field},
+      {"multipath_bp", &b::multipath_bp},
+      {"dgbb", &b::dgbb},
+      {"local_bb", &b::local_bb},
+      {"fixed_step", &b::fixed_step},
+      {"step_length", &b::step_length},
+  };
+  return all;
+}
+
+/// Every way the table can be inconsistent, one line each (empty: consistent).
+std::vector<std::string> registry_problems(const std::vector<AlgorithmSpec>& specs) {
   std::vector<std::string> problems;
   std::set<std::string_view> names;
+  std::map<AgentBuilder, int> uses;
   for (const auto& spec : specs) {
     const std::string name(spec.name);
     if (!names.insert(spec.name).second) problems.push_back(name + ": two entries");
-    const auto builder = std::find_if(builders.begin(), builders.end(),
-                                      [&](const EstimatorBuilder& b) { return b.name == spec.name; });
-    if (builder == builders.end()) {
-      problems.push_back(name + ": no builder");
-      continue;
-    }
+    const bool agent = spec.build.agent != nullptr;
+    const bool fusion = spec.build.fusion.has_value();
+    if (agent == fusion) problems.push_back(name + ": not exactly one builder");
+    if (agent) ++uses[spec.build.agent];
     const bool centre = spec.placement == AlgorithmPlacement::kFusionCentre;
-    if (centre != (builder->params == ParamBlock::kFusion) || centre != builder->fusion.has_value() ||
-        centre == (builder->agent != nullptr)) {
+    if (centre != fusion || centre == agent)
       problems.push_back(name + ": placement disagrees with its builder");
-    }
     if (centre != (spec.family == AlgorithmFamily::kCentralized))
       problems.push_back(name + ": placement disagrees with its family");
     // The fusion centre takes one range per edge and every anchor's fix (centralized_measurements).
     if (centre && (spec.bound.draws != config::RangeDraws::kOnePerEdge || !spec.kinds.anchor_fixes))
       problems.push_back(name + ": fusion-centre bound data is not one range per edge with fixes");
-    if (builder->params == ParamBlock::kCooperative && !spec.exchange_only)
+    const bool cooperative = spec.family == AlgorithmFamily::kConsensus ||
+                             spec.family == AlgorithmFamily::kBp || spec.family == AlgorithmFamily::kGradient;
+    if (cooperative && !spec.exchange_only)
       problems.push_back(name + ": a cooperative algorithm that does not take extra exchanges");
     if (spec.bound.model == config::BoundModel::kRanges && !spec.kinds.ranges)
       problems.push_back(name + ": range bound without ranges");
     if (spec.bound.model == config::BoundModel::kNone && spec.bound.none_reason.empty())
       problems.push_back(name + ": no bound and no reason");
   }
-  for (const auto& builder : builders) {
-    if (!names.contains(builder.name))
-      problems.push_back(std::string(builder.name) + ": builder without entry");
+  for (const auto& [builder_name, builder] : agent_builders()) {
+    const int count = uses.contains(builder) ? uses.at(builder) : 0;
+    if (count != 1)
+      problems.push_back("builders::" + builder_name + ": serves " + std::to_string(count) + " entries");
   }
   return problems;
 }
@@ -72,26 +97,27 @@ std::string joined(const std::vector<std::string>& lines) {
   return out;
 }
 
-TEST(AlgorithmRegistry, EntriesAndBuildersAreConsistent) {
-  EXPECT_EQ(joined(registry_problems(config::algorithm_registry(), estimators::estimator_builders())), "");
+TEST(AlgorithmRegistry, EveryEntryHasExactlyOneBuilderAndEveryBuilderOneEntry) {
+  EXPECT_EQ(joined(registry_problems(config::algorithm_registry())), "");
 }
 
 TEST(AlgorithmRegistry, MutantsFailTheConsistencyCheck) {
   const auto& specs = config::algorithm_registry();
-  const auto& builders = estimators::estimator_builders();
   auto removed = specs;
-  removed.erase(
-      std::find_if(removed.begin(), removed.end(), [](const auto& s) { return s.name == "lbekf_i"; }));
-  EXPECT_NE(joined(registry_problems(removed, builders)).find("lbekf_i: builder without entry"),
-            std::string::npos);
-  auto no_builder = builders;
-  no_builder.erase(no_builder.begin());
-  EXPECT_FALSE(registry_problems(specs, no_builder).empty());
+  removed.erase(std::find_if(removed.begin(), removed.end(), [](const auto& s) { return s.name == "dgbb"; }));
+  EXPECT_NE(joined(registry_problems(removed)).find("builders::dgbb: serves 0 entries"), std::string::npos);
+  auto doubled = specs;
+  std::find_if(doubled.begin(), doubled.end(), [](const auto& s) { return s.name == "iekf"; })->build.agent =
+      &estimators::builders::ieif;
+  EXPECT_NE(joined(registry_problems(doubled)).find("builders::ieif: serves 2 entries"), std::string::npos);
+  auto none = specs;
+  std::find_if(none.begin(), none.end(), [](const auto& s) { return s.name == "lbekf"; })->build =
+      estimators::EstimatorBuilder{};
+  EXPECT_NE(joined(registry_problems(none)).find("lbekf: not exactly one builder"), std::string::npos);
   auto misplaced = specs;
   std::find_if(misplaced.begin(), misplaced.end(), [](const auto& s) { return s.name == "ekf"; })->placement =
       AlgorithmPlacement::kAgent;
-  EXPECT_NE(joined(registry_problems(misplaced, builders)).find("ekf: placement disagrees"),
-            std::string::npos);
+  EXPECT_NE(joined(registry_problems(misplaced)).find("ekf: placement disagrees"), std::string::npos);
 }
 
 TEST(AlgorithmRegistry, ConfigAcceptsExactlyTheEntries) {
@@ -112,7 +138,7 @@ TEST(AlgorithmRegistry, ConfigAcceptsExactlyTheEntries) {
     if (spec.exchange_only) exchange_only.emplace_back(spec.name);
   EXPECT_EQ(config::exchange_only_algorithms(), exchange_only);
   // The cooperative family, and dml and dml_track, whose step without a batch is one more sweep.
-  auto expected = estimators::cooperative_algorithms();
+  auto expected = testing::cooperative_algorithms();
   expected.emplace_back("dml");
   expected.emplace_back("dml_track");
   std::sort(expected.begin(), expected.end());
@@ -139,8 +165,7 @@ config::Scenario small_scenario(const AlgorithmSpec& spec, int steps = 3,
 TEST(AlgorithmRegistry, EveryEntryBuildsAndRunsWhereItsPlacementSays) {
   for (const auto& spec : config::algorithm_registry()) {
     SCOPED_TRACE(std::string(spec.name));
-    const EstimatorBuilder* builder = estimators::find_estimator_builder(spec.name);
-    ASSERT_NE(builder, nullptr);
+    const estimators::EstimatorBuilder* builder = &spec.build;
     if (spec.family == AlgorithmFamily::kPose) {  // needs the MRCLAM dataset to run: build only
       EXPECT_EQ(builder->agent(estimators::AgentSetup{}, {})->name(), spec.name);
       continue;

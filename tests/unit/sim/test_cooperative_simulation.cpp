@@ -9,8 +9,8 @@
 #include <limits>
 
 #include "eigen_gtest.hpp"
+#include "named_estimators.hpp"
 #include "swarmloc/config/scenario.hpp"
-#include "swarmloc/estimators/consensus/cooperative.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/metrics.hpp"
 #include "swarmloc/world/world.hpp"
@@ -45,7 +45,7 @@ TEST(CooperativeSimulation, JacobiApproachesTheBlueBoundOfItsRelativeMeasurement
 // agent steps; it must hold the estimators' cooperative family (and dml, test_algorithm_registry.cpp).
 TEST(CooperativeSimulation, TheExchangeOnlyAlgorithmsIncludeTheCooperativeFamily) {
   const auto& exchange_only = config::exchange_only_algorithms();
-  for (const auto& name : estimators::cooperative_algorithms())
+  for (const auto& name : testing::cooperative_algorithms())
     EXPECT_NE(std::find(exchange_only.begin(), exchange_only.end(), name), exchange_only.end()) << name;
 }
 

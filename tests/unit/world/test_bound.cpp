@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/rundir/run_record.hpp"
@@ -58,7 +59,7 @@ TEST(BoundData, EveryAlgorithmHasARowAndTheDeclaredDataMatchesItsCode) {
         "dgbb", "local_bb", "fixed_step", "step_length", "pose_ekf", "pose_ieif", "dead_reckoning", "dml"}) {
     EXPECT_EQ(bound_data(name).algorithm, name) << name << " has no row";
   }
-  for (const auto& name : estimators::known_algorithms()) EXPECT_EQ(bound_data(name).algorithm, name);
+  for (const auto& name : config::agent_algorithms()) EXPECT_EQ(bound_data(name).algorithm, name);
   EXPECT_EQ(bound_data("ieif").draws, RangeDraws::kOwnDraws);
   EXPECT_EQ(bound_data("ekf").draws, RangeDraws::kOnePerEdge);
   EXPECT_EQ(bound_data("ekf").anchors, AnchorData::kFixes);

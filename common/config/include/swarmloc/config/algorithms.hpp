@@ -2,17 +2,21 @@
 // The algorithm registry: one entry per algorithm that `run` and `sim` execute, saying what it is (name,
 // family), where it runs (every agent, or one fusion centre), which data the world generates for it, what
 // data its bound is computed from (docs/algorithms.md §1.3.1) and which scenario keys it additionally
-// requires, and which parameter blocks of Scenario::Algorithm it reads. Every layer that asks about an
-// algorithm asks this table; none tests a name itself. The builders live one layer up, in estimators
-// (estimators/registry.hpp): config cannot see estimator types, and a test
-// (tests/unit/sim/test_algorithm_registry.cpp) keeps the two tables entry for entry equal.
+// requires, which parameter blocks of Scenario::Algorithm it reads, and how it is built (its builder,
+// estimators/builders.hpp). Every layer that asks about an algorithm asks this table; none tests a name
+// itself. tests/unit/sim/test_algorithm_registry.cpp checks that every entry has exactly one builder and
+// every builder exactly one entry.
 //
-// Adding an algorithm: its estimator class, one entry here (its keys in an existing parameter block, or a
-// new block in scenario.hpp with its keys in config/src/scenario_keys.cpp and its ranges in
-// config/src/validate.cpp), one builder in estimators/src/factory.cpp, and its tests.
+// Adding an algorithm: its estimator class in its family's folder, its builder function in
+// estimators/builders.hpp, one entry here (its keys in an existing parameter block, or a new block in
+// scenario.hpp with its keys in config/src/scenario_keys.cpp and its ranges in config/src/validate.cpp),
+// and its tests.
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "swarmloc/estimators/builders.hpp"
 
 namespace swarmloc::config {
 
@@ -144,6 +148,8 @@ struct AlgorithmSpec {
   ParamBlocks blocks;
   /// What its agents exchange (none: a fusion-centre algorithm's agents only sense).
   MessageFamilies messages;
+  /// How it is built (estimators/builders.hpp): an agent's estimator, or the fusion centre's filter.
+  estimators::EstimatorBuilder build;
 };
 
 /// Every entry, in the order `known algorithms` lists them.
@@ -163,5 +169,14 @@ std::string known_algorithm_list();
 
 /// "dgbb, local_bb, …": the entries that read `block`.
 std::string algorithms_reading(ParamBlock block);
+
+/// The names of the entries an agent runs (those with an agent builder), in registry order.
+std::vector<std::string> agent_algorithms();
+
+/// Builds agent `setup`'s estimator for the entry `name` from every family's parameters. Throws
+/// std::invalid_argument for a name that is not an agent's algorithm (the message lists those).
+std::unique_ptr<estimators::Estimator> make_estimator(std::string_view name,
+                                                      const estimators::AgentSetup& setup,
+                                                      const estimators::EstimatorParams& params);
 
 }  // namespace swarmloc::config

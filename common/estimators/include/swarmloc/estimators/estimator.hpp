@@ -63,28 +63,4 @@ class Estimator {
   [[nodiscard]] virtual Estimate estimate() const = 0;
 };
 
-/// Algorithm parameters shared by the distributed Kalman family (docs/algorithms.md §3).
-struct KalmanFamilyParams {
-  double process_noise_std_m = 0.01;       ///< Q = std²·I per step ([B-6])
-  double initial_information = 1e-6;       ///< IEIF Ψ_0 = ε·I (m⁻²)
-  double initial_std_m = 8.66;             ///< IEKF P_0 = std²·I
-  bool inflate_stale = true;               ///< §3.4 rule (2)
-  double max_neighbour_variance_m2 = 1e6;  ///< neighbours with trace(P) above this are skipped
-  double range_gate_chi2 = 0.0;            ///< drop a range if ν² > gate·s (1 dof); 0 = no gate
-  /// IEIF, IEKF: Gauss–Newton passes of a step's range update from the same prior (the iterated
-  /// extended filter); 1 = Gasparri & Pascucci's single linearization at x̂_{k|k−1}.
-  int update_iterations = 1;
-  // Pose-state algorithms (pose_ekf, pose_ieif, dead_reckoning): prior around AgentSetup's pose.
-  double initial_heading_std_rad = 0.1;
-  double range_bearing_gate_chi2 = 0.0;  ///< drop a range-bearing pair if ν'S⁻¹ν > gate (2 dof); 0 = off
-};
-
-/// Builds the estimator named `algorithm` ("ieif", "iekf", …). Throws std::invalid_argument for an
-/// unknown name (the message lists the known ones).
-std::unique_ptr<Estimator> make_estimator(const std::string& algorithm, const AgentSetup& setup,
-                                          const KalmanFamilyParams& params);
-
-/// Names accepted by make_estimator.
-const std::vector<std::string>& known_algorithms();
-
 }  // namespace swarmloc::estimators

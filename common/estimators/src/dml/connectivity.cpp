@@ -1,4 +1,4 @@
-#include "swarmloc/estimators/dml_connectivity.hpp"
+#include "swarmloc/estimators/dml/connectivity.hpp"
 
 #include <algorithm>
 #include <cmath>

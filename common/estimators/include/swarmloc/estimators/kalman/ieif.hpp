@@ -3,7 +3,7 @@
 #include <string_view>
 
 #include "swarmloc/estimators/estimator.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 
@@ -17,7 +17,7 @@ namespace swarmloc::estimators {
 /// fused as a linear measurement (H = I₂).
 class Ieif final : public Estimator {
  public:
-  Ieif(const AgentSetup& setup, const KalmanFamilyParams& params);
+  Ieif(const AgentSetup& setup, const KalmanFilterParams& params);
 
   [[nodiscard]] std::string_view name() const override { return "ieif"; }
   [[nodiscard]] Outbox initial_outbox() const override;
@@ -33,7 +33,7 @@ class Ieif final : public Estimator {
   [[nodiscard]] Outbox published() const;
 
   AgentSetup setup_;
-  KalmanFamilyParams params_;
+  KalmanFilterParams params_;
   Mat2 Q_;  // process noise per step
   Vec2 x_;
   Mat2 Psi_;

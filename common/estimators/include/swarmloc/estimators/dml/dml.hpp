@@ -8,8 +8,9 @@
 #include <string_view>
 #include <vector>
 
-#include "swarmloc/estimators/dml_connectivity.hpp"
+#include "swarmloc/estimators/dml/connectivity.hpp"
 #include "swarmloc/estimators/estimator.hpp"
+#include "swarmloc/estimators/kalman/params.hpp"
 
 namespace swarmloc::estimators {
 
@@ -24,7 +25,7 @@ namespace swarmloc::estimators {
 /// used only if neither decides.
 class Dml final : public Estimator {
  public:
-  Dml(const AgentSetup& setup, const KalmanFamilyParams& params);
+  Dml(const AgentSetup& setup, const KalmanFilterParams& params);
 
   [[nodiscard]] std::string_view name() const override { return "dml"; }
   [[nodiscard]] Outbox initial_outbox() const override;

@@ -4,7 +4,7 @@
 #include <string_view>
 
 #include "swarmloc/estimators/estimator.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 
@@ -13,7 +13,7 @@ namespace swarmloc::estimators {
 /// Same extensions as Ieif (MotionInput, AbsoluteFix).
 class Iekf final : public Estimator {
  public:
-  Iekf(const AgentSetup& setup, const KalmanFamilyParams& params);
+  Iekf(const AgentSetup& setup, const KalmanFilterParams& params);
 
   [[nodiscard]] std::string_view name() const override { return "iekf"; }
   [[nodiscard]] Outbox initial_outbox() const override;
@@ -27,7 +27,7 @@ class Iekf final : public Estimator {
   [[nodiscard]] Outbox published() const;
 
   AgentSetup setup_;
-  KalmanFamilyParams params_;
+  KalmanFilterParams params_;
   Mat2 Q_;
   Vec2 x_;
   Mat2 P_;

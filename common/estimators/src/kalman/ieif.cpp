@@ -1,11 +1,11 @@
-#include "swarmloc/estimators/ieif.hpp"
+#include "swarmloc/estimators/kalman/ieif.hpp"
 
 #include <stdexcept>
 #include <string>
 
 namespace swarmloc::estimators {
 
-Ieif::Ieif(const AgentSetup& setup, const KalmanFamilyParams& params)
+Ieif::Ieif(const AgentSetup& setup, const KalmanFilterParams& params)
     : setup_(setup),
       params_(params),
       Q_(params.process_noise_std_m * params.process_noise_std_m * Mat2::Identity()),

@@ -1,4 +1,4 @@
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -14,7 +14,7 @@ std::int64_t staleness_steps(std::int64_t local_step, std::int64_t sender_step) 
   return std::max<std::int64_t>(0, local_step - sender_step - 1);
 }
 
-LinkSelection collect_range_links(const StepInput& input, AgentId self, const KalmanFamilyParams& params) {
+LinkSelection collect_range_links(const StepInput& input, AgentId self, const KalmanFilterParams& params) {
   LinkSelection selection;
   if (input.measurements == nullptr) return selection;  // §3.4 rule (4): prediction only
   const auto& ranges = input.measurements->ranges;
@@ -144,7 +144,7 @@ Mat2 predict_information(const Mat2& Psi, const Mat2& Q) {
   return core::symmetrized(L * Psi);
 }
 
-ProcessStep process_step(const StepInput& input, const KalmanFamilyParams& params) {
+ProcessStep process_step(const StepInput& input, const KalmanFilterParams& params) {
   ProcessStep step;
   step.Q = params.process_noise_std_m * params.process_noise_std_m * Mat2::Identity();
   if (input.measurements != nullptr && input.measurements->motion) {

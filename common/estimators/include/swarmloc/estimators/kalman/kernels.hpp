@@ -6,13 +6,14 @@
 #include <vector>
 
 #include "swarmloc/estimators/estimator.hpp"
+#include "swarmloc/estimators/kalman/params.hpp"
 #include "swarmloc/estimators/messages.hpp"
 #include "swarmloc/estimators/self_check.hpp"
 
 namespace swarmloc::estimators {
 
 /// Variance (m²) published for a position that is not yet defined (Ψ not PD). Finite so that it
-/// survives transport; far above KalmanFamilyParams::max_neighbour_variance_m2, so neighbours skip it.
+/// survives transport; far above KalmanFilterParams::max_neighbour_variance_m2, so neighbours skip it.
 inline constexpr double kUndefinedVarianceM2 = 1e12;
 
 /// One range z^(i,j) paired with neighbour j's predicted state (docs/algorithms.md §3.2 inputs).
@@ -38,7 +39,7 @@ std::int64_t staleness_steps(std::int64_t local_step, std::int64_t sender_step);
 /// Skips peers without a message, with a non-finite state, or with trace(P_j) above
 /// params.max_neighbour_variance_m2 (after inflation). Non-anchor P_j is inflated by a·Q when
 /// params.inflate_stale. Returns no links if the batch or inbox is missing.
-LinkSelection collect_range_links(const StepInput& input, AgentId self, const KalmanFamilyParams& params);
+LinkSelection collect_range_links(const StepInput& input, AgentId self, const KalmanFilterParams& params);
 
 /// The measurement rows of one step, linearized at x̂_{k|k−1}^(i) (docs/algorithms.md §3.2):
 /// row m is J_i(m, :) = u_ijᵀ, innovation ν_m = z − d̂_ij, variance r̃_m = σ_r² + u_ijᵀ P_j u_ij.
@@ -92,7 +93,7 @@ InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, c
 InformationUpdate information_update(const Vec2& x_pred, const Mat2& Psi_pred, const Linearization& rows,
                                      const Vec2& linearized_at);
 
-/// The iterated update (KalmanFamilyParams::update_iterations): up to `passes` Gauss–Newton steps on the
+/// The iterated update (KalmanFilterParams::update_iterations): up to `passes` Gauss–Newton steps on the
 /// step's cost — the prior term (x − x̂_{k|k−1})ᵀΨ_{k|k−1}(x − x̂_{k|k−1}) plus each range's squared residual
 /// over its interlaced variance (and the fix's) — as the iterated extended Kalman filter. `first` is the
 /// update linearized at x̂_{k|k−1} (after any gating: only the links of its rows are used again). Each step
@@ -118,7 +119,7 @@ struct ProcessStep {
   Vec2 shift = Vec2::Zero();
   Mat2 Q = Mat2::Zero();
 };
-ProcessStep process_step(const StepInput& input, const KalmanFamilyParams& params);
+ProcessStep process_step(const StepInput& input, const KalmanFilterParams& params);
 
 /// True if `m` is finite, symmetric and PD with det > 1e−13·tr² (rejects numerically rank-1 matrices).
 bool positive_definite(const Mat2& m);

@@ -1,4 +1,4 @@
-#include "swarmloc/estimators/iekf.hpp"
+#include "swarmloc/estimators/kalman/iekf.hpp"
 
 #include <stdexcept>
 
@@ -6,7 +6,7 @@
 
 namespace swarmloc::estimators {
 
-Iekf::Iekf(const AgentSetup& setup, const KalmanFamilyParams& params)
+Iekf::Iekf(const AgentSetup& setup, const KalmanFilterParams& params)
     : setup_(setup),
       params_(params),
       Q_(params.process_noise_std_m * params.process_noise_std_m * Mat2::Identity()),

@@ -1,13 +1,13 @@
-#include "swarmloc/estimators/dml_tracking.hpp"
+#include "swarmloc/estimators/dml/tracking.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
 
-#include "rank_one_message.hpp"
+#include "dml/rank_one_message.hpp"
 #include "swarmloc/core/gaussian.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators {
 namespace {
@@ -20,7 +20,7 @@ Mat2 isotropic(double variance) { return variance * Mat2::Identity(); }
 
 }  // namespace
 
-DmlTracking::DmlTracking(const AgentSetup& setup, const KalmanFamilyParams& params)
+DmlTracking::DmlTracking(const AgentSetup& setup, const KalmanFilterParams& params)
     : setup_(setup),
       params_process_variance_m2_(params.process_noise_std_m * params.process_noise_std_m),
       tail_mean_(setup.initial_guess_m) {

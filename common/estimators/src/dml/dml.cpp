@@ -1,14 +1,14 @@
-#include "swarmloc/estimators/dml.hpp"
+#include "swarmloc/estimators/dml/dml.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
-#include "rank_one_message.hpp"
+#include "dml/rank_one_message.hpp"
 #include "swarmloc/core/gaussian.hpp"
-#include "swarmloc/estimators/dml_region.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/dml/region.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 #include "swarmloc/estimators/self_check.hpp"
 
 namespace swarmloc::estimators {
@@ -45,7 +45,7 @@ bool Dml::Edge::usable() const {
   return has_state && state.active && information() > 0.0 && state.mean_m.allFinite();
 }
 
-Dml::Dml(const AgentSetup& setup, const KalmanFamilyParams& /*params*/)
+Dml::Dml(const AgentSetup& setup, const KalmanFilterParams& /*params*/)
     : setup_(setup), x_(setup.initial_guess_m), localized_(setup.anchor), two_hop_(setup.comm_radius_m) {
   if (!setup.initial_guess_m.allFinite()) throw std::invalid_argument("dml: initial guess is not finite");
 }

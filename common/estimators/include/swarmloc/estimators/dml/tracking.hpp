@@ -11,12 +11,13 @@
 #include <string_view>
 
 #include "swarmloc/estimators/estimator.hpp"
+#include "swarmloc/estimators/kalman/params.hpp"
 
 namespace swarmloc::estimators {
 
 class DmlTracking final : public Estimator {
  public:
-  DmlTracking(const AgentSetup& setup, const KalmanFamilyParams& params);
+  DmlTracking(const AgentSetup& setup, const KalmanFilterParams& params);
 
   [[nodiscard]] std::string_view name() const override { return "dml_track"; }
   [[nodiscard]] Outbox initial_outbox() const override;

@@ -1,13 +1,13 @@
-#include "swarmloc/estimators/dml_region.hpp"
+#include "swarmloc/estimators/dml/region.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 
-#include "rank_one_message.hpp"
+#include "dml/rank_one_message.hpp"
 #include "swarmloc/core/gaussian.hpp"
-#include "swarmloc/estimators/kalman_family.hpp"
+#include "swarmloc/estimators/kalman/kernels.hpp"
 
 namespace swarmloc::estimators::region {
 namespace {
