@@ -101,7 +101,9 @@ class LiveAgent {
   }
 
  private:
-  dds::Topology topology() const { return dds::Topology{manifest_.id, manifest_.agent_count, manifest_.neighbours}; }
+  dds::Topology topology() const {
+    return dds::Topology{manifest_.id, manifest_.agent_count, manifest_.neighbours};
+  }
 
   void feed_samples(const dds::AgentInbound& inbound) {
     const double now_s = live_mono_s();
@@ -146,7 +148,8 @@ class LiveAgent {
     batch.world_time_s = now_s - start_s_;
     for (std::size_t k = 0; k < sweep.ranges.size(); ++k) {
       const auto& range = sweep.ranges[k];
-      const bool known_peer = range.peer >= 0 && range.peer < manifest_.agent_count && range.peer != manifest_.id;
+      const bool known_peer =
+          range.peer >= 0 && range.peer < manifest_.agent_count && range.peer != manifest_.id;
       if (sweep.measured_by[k] != manifest_.id || !known_peer || !(range.range_m >= 0.0)) {
         ++foreign_ranges_;
         continue;
@@ -155,8 +158,10 @@ class LiveAgent {
       batch.neighbours.push_back(range.peer);
     }
     std::sort(batch.neighbours.begin(), batch.neighbours.end());
-    batch.neighbours.erase(std::unique(batch.neighbours.begin(), batch.neighbours.end()), batch.neighbours.end());
-    if (manifest_.setup.anchor) batch.fix = estimators::AbsoluteFix{manifest_.setup.initial_guess_m, Mat2::Zero()};
+    batch.neighbours.erase(std::unique(batch.neighbours.begin(), batch.neighbours.end()),
+                           batch.neighbours.end());
+    if (manifest_.setup.anchor)
+      batch.fix = estimators::AbsoluteFix{manifest_.setup.initial_guess_m, Mat2::Zero()};
     return batch;
   }
 
@@ -170,9 +175,9 @@ class LiveAgent {
 
   void write_stats() const {
     auto counters = [](const LiveStreamCounters& c) {
-      return nlohmann::json{{"accepted", c.accepted},       {"duplicates", c.duplicates},
-                            {"reordered", c.reordered},     {"clock_jumps", c.clock_jumps},
-                            {"silences", c.silences},       {"restarts", c.restarts}};
+      return nlohmann::json{{"accepted", c.accepted},   {"duplicates", c.duplicates},
+                            {"reordered", c.reordered}, {"clock_jumps", c.clock_jumps},
+                            {"silences", c.silences},   {"restarts", c.restarts}};
     };
     const auto estimate = loop_.runtime().estimate();
     const nlohmann::json stats{{"robot", options_.robot},

@@ -12,9 +12,9 @@ namespace swarmloc::agent {
 
 struct LiveOptions {
   std::string deployment_path;
-  std::string robot;       ///< the team member this process is
-  std::string log_path;    ///< empty: stderr
-  std::string stats_path;  ///< JSON of the input counters and steps, written at exit; empty: none
+  std::string robot;        ///< the team member this process is
+  std::string log_path;     ///< empty: stderr
+  std::string stats_path;   ///< JSON of the input counters and steps, written at exit; empty: none
   double duration_s = 0.0;  ///< > 0: stop after this long (tests); otherwise on SIGINT/SIGTERM
 };
 

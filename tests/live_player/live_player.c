@@ -1,9 +1,9 @@
-/* The live player of the live-agent acceptance tests (tests/integration/test_live*.cpp, docs/live.md):
- * an independent ROS 2-style node in plain Cyclone C with its own IDL (live_msgs.idl, from the ROS .msg
- * files). It plays a recorded world into the robots' driver topics, as a robot's UWB driver, wheel
- * odometry and a motion-capture system would, and prints what the live agents publish:
- *   in:  "name <id> <robot>", "range <step> <id> <peer> <range_m> <std_m>", "truth <step> <id> <x> <y>"
- *   out: "pose <robot> <sec> <nanosec> <frame> <x> <y>", "tf <parent> <child> <sec> <nanosec> <x> <y>",
+/* The live player of the live-agent acceptance tests (tests/integration/test_live.cpp and
+ * test_live_faults.cpp, docs/live.md): an independent ROS 2-style node in plain Cyclone C with its own IDL
+ * (live_msgs.idl, from the ROS .msg files). It plays a recorded world into the robots' driver topics, as a
+ * robot's UWB driver, wheel odometry and a motion-capture system would, and prints what the live agents
+ * publish: in:  "name <id> <robot>", "range <step> <id> <peer> <range_m> <std_m>", "truth <step> <id> <x>
+ * <y>" out: "pose <robot> <sec> <nanosec> <frame> <x> <y>", "tf <parent> <child> <sec> <nanosec> <x> <y>",
  *        "publication <topic> <type>"
  * Per step and robot it writes rt/<robot>/ranges (swarmloc_msgs/RangeArray), rt/<robot>/odom
  * (nav_msgs/Odometry, at rest) and rt/<robot>/truth (geometry_msgs/PoseStamped), stamped with the
@@ -52,12 +52,14 @@ static void lp_read_input(const char* path) {
     double a = 0.0, b = 0.0;
     if (strcmp(kind, "name") == 0) {
       char name[64];
-      if (fscanf(in, "%d %63s", &id, name) != 2 || id < 0 || id >= LP_MAX_ROBOTS) lp_fail("bad name line", path);
+      if (fscanf(in, "%d %63s", &id, name) != 2 || id < 0 || id >= LP_MAX_ROBOTS)
+        lp_fail("bad name line", path);
       snprintf(lp_robots[id].name, sizeof lp_robots[id].name, "%s", name);
       if (id + 1 > lp_count) lp_count = id + 1;
     } else if (strcmp(kind, "range") == 0) {
-      if (fscanf(in, "%d %d %d %lf %lf", &step, &id, &peer, &a, &b) != 5 || step < 0 || step >= LP_MAX_STEPS ||
-          id < 0 || id >= LP_MAX_ROBOTS || lp_robots[id].nranges[step] >= LP_MAX_RANGES)
+      if (fscanf(in, "%d %d %d %lf %lf", &step, &id, &peer, &a, &b) != 5 || step < 0 ||
+          step >= LP_MAX_STEPS || id < 0 || id >= LP_MAX_ROBOTS ||
+          lp_robots[id].nranges[step] >= LP_MAX_RANGES)
         lp_fail("bad range line", path);
       swarmloc_msgs_msg_dds__Range_* r = &lp_robots[id].ranges[step][lp_robots[id].nranges[step]++];
       r->agent = id;
@@ -66,8 +68,8 @@ static void lp_read_input(const char* path) {
       r->std_m = b;
       if (step + 1 > lp_steps) lp_steps = step + 1;
     } else if (strcmp(kind, "truth") == 0) {
-      if (fscanf(in, "%d %d %lf %lf", &step, &id, &a, &b) != 4 || step < 0 || step >= LP_MAX_STEPS || id < 0 ||
-          id >= LP_MAX_ROBOTS)
+      if (fscanf(in, "%d %d %lf %lf", &step, &id, &a, &b) != 4 || step < 0 || step >= LP_MAX_STEPS ||
+          id < 0 || id >= LP_MAX_ROBOTS)
         lp_fail("bad truth line", path);
       lp_robots[id].truth[step][0] = a;
       lp_robots[id].truth[step][1] = b;
@@ -158,8 +160,9 @@ static void lp_print_tf(const void* sample, const char* unused) {
   const tf2_msgs_msg_dds__TFMessage_* m = sample;
   for (uint32_t k = 0; k < m->transforms._length; k++) {
     const geometry_msgs_msg_dds__TransformStamped_* t = &m->transforms._buffer[k];
-    fprintf(lp_out, "tf %s %s %d %u %.17g %.17g\n", t->header.frame_id, t->child_frame_id, t->header.stamp.sec,
-            t->header.stamp.nanosec, t->transform.translation.x, t->transform.translation.y);
+    fprintf(lp_out, "tf %s %s %d %u %.17g %.17g\n", t->header.frame_id, t->child_frame_id,
+            t->header.stamp.sec, t->header.stamp.nanosec, t->transform.translation.x,
+            t->transform.translation.y);
   }
 }
 
@@ -199,7 +202,7 @@ static void lp_play_step(int id, int step, double rate_hz, int fault) {
     return;
   }
   const int stop_from = 80, stop_to = 80 + (int)(5.0 * rate_hz);
-  if (step >= 150) stamp_ns += 10000000000LL;   /* the robot's clock jumps by +10 s */
+  if (step >= 150) stamp_ns += 10000000000LL;      /* the robot's clock jumps by +10 s */
   if (step >= stop_from && step < stop_to) return; /* the driver stops for 5 s */
   if (step == 60) return;                          /* held back: sent after 61 */
   lp_publish(id, step, stamp_ns);
@@ -230,12 +233,13 @@ int main(int argc, char** argv) {
   for (int id = 0; id < lp_count; id++) {
     lp_robot* r = &lp_robots[id];
     if (r->name[0] == '\0') lp_fail("no name for a robot id", argv[2]);
-    snprintf(r->base, sizeof r->base, "%s/base_link", r->name);
-    snprintf(r->odom_frame, sizeof r->odom_frame, "%s/odom", r->name);
+    snprintf(r->base, sizeof r->base, "%.63s/base_link", r->name);
+    snprintf(r->odom_frame, sizeof r->odom_frame, "%.63s/odom", r->name);
     r->ranges_writer = lp_endpoint(pp, &swarmloc_msgs_msg_dds__RangeArray__desc, r->name, "ranges", 0);
     r->odom_writer = lp_endpoint(pp, &nav_msgs_msg_dds__Odometry__desc, r->name, "odom", 0);
     r->truth_writer = lp_endpoint(pp, &geometry_msgs_msg_dds__PoseStamped__desc, r->name, "truth", 0);
-    r->pose_reader = lp_endpoint(pp, &geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc, r->name, "pose", 1);
+    r->pose_reader =
+        lp_endpoint(pp, &geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc, r->name, "pose", 1);
   }
   const dds_entity_t tf = lp_endpoint(pp, &tf2_msgs_msg_dds__TFMessage__desc, NULL, "tf", 1);
   const dds_entity_t publications = dds_create_reader(pp, DDS_BUILTIN_TOPIC_DCPSPUBLICATION, NULL, NULL);
@@ -248,7 +252,8 @@ int main(int argc, char** argv) {
     for (int id = 0; id < lp_count; id++) lp_play_step(id, step, rate_hz, fault);
     lp_drain(tf, publications);
     next += period;
-    dds_sleepuntil(next);
+    const dds_time_t now = dds_time();
+    if (next > now) dds_sleepfor(next - now);
   }
   const dds_time_t end = dds_time() + (dds_duration_t)(linger_s * 1e9);
   while (dds_time() < end) {

@@ -12,7 +12,8 @@
 namespace swarmloc::config {
 namespace {
 
-[[noreturn]] void deployment_fail(const std::string& origin, const std::string& key, const std::string& what) {
+[[noreturn]] void deployment_fail(const std::string& origin, const std::string& key,
+                                  const std::string& what) {
   throw DeploymentError(origin + ": " + key + ": " + what);
 }
 
@@ -63,7 +64,8 @@ TeamMember deployment_member(const YAML::Node& node, const std::string& origin, 
   deployment_read(node, "name", member.name, origin, where + ".");
   deployment_read(node, "id", member.id, origin, where + ".");
   if (!deployment_ros_name(member.name))
-    deployment_fail(origin, where + ".name", "'" + member.name + "' is not a ROS name ([A-Za-z_][A-Za-z0-9_]*)");
+    deployment_fail(origin, where + ".name",
+                    "'" + member.name + "' is not a ROS name ([A-Za-z_][A-Za-z0-9_]*)");
   if (node["anchor"]) member.anchor = deployment_point(node["anchor"], origin, where + ".anchor");
   if (node["start"]) member.start = deployment_point(node["start"], origin, where + ".start");
   if (member.anchor && member.start) deployment_fail(origin, where + ".start", "an anchor has no start");
@@ -76,9 +78,11 @@ void deployment_check_team(const Deployment& deployment, const std::string& orig
   for (std::size_t k = 0; k < deployment.team.size(); ++k) {
     const TeamMember& member = deployment.team[k];
     if (member.id != static_cast<AgentId>(k))
-      deployment_fail(origin, "team", "ids must be 0 … " + std::to_string(deployment.team.size() - 1) +
-                                          ", each once (id " + std::to_string(k) + " is missing or repeated)");
-    if (!names.insert(member.name).second) deployment_fail(origin, "team", "name '" + member.name + "' repeats");
+      deployment_fail(origin, "team",
+                      "ids must be 0 … " + std::to_string(deployment.team.size() - 1) + ", each once (id " +
+                          std::to_string(k) + " is missing or repeated)");
+    if (!names.insert(member.name).second)
+      deployment_fail(origin, "team", "name '" + member.name + "' repeats");
   }
   const bool any_robot = std::any_of(deployment.team.begin(), deployment.team.end(),
                                      [](const TeamMember& member) { return !member.anchor; });
@@ -117,7 +121,8 @@ void deployment_check_values(const Deployment& d, const std::string& origin) {
 }  // namespace
 
 const TeamMember* Deployment::find(const std::string& robot) const {
-  const auto it = std::find_if(team.begin(), team.end(), [&robot](const TeamMember& m) { return m.name == robot; });
+  const auto it =
+      std::find_if(team.begin(), team.end(), [&robot](const TeamMember& m) { return m.name == robot; });
   return it == team.end() ? nullptr : &*it;
 }
 
@@ -149,7 +154,8 @@ Deployment parse_deployment(const std::string& yaml_text, const std::string& ori
   if (!team || !team.IsSequence()) deployment_fail(origin, "team", "must list the robots and anchors");
   for (std::size_t k = 0; k < team.size(); ++k)
     d.team.push_back(deployment_member(team[k], origin, "team[" + std::to_string(k) + "]"));
-  std::sort(d.team.begin(), d.team.end(), [](const TeamMember& a, const TeamMember& b) { return a.id < b.id; });
+  std::sort(d.team.begin(), d.team.end(),
+            [](const TeamMember& a, const TeamMember& b) { return a.id < b.id; });
   deployment_check_team(d, origin);
   deployment_check_values(d, origin);
   deployment_scenario(d);  // the algorithm and `set:` keys are checked here, not at an agent's start
@@ -165,7 +171,8 @@ Deployment load_deployment(const std::string& path) {
 }
 
 Scenario deployment_scenario(const Deployment& d) {
-  const auto anchors = std::count_if(d.team.begin(), d.team.end(), [](const TeamMember& m) { return m.anchor; });
+  const auto anchors =
+      std::count_if(d.team.begin(), d.team.end(), [](const TeamMember& m) { return m.anchor; });
   std::ostringstream number;
   number.precision(17);
   auto key = [&number](const std::string& name, double value) {

@@ -150,9 +150,9 @@ struct LiveMonitorIo::Impl {
                                           kLiveReaderDepth));
     }
     for (const auto& topic : truth_topics) {
-      truth.push_back(
-          topic.empty() ? 0
-                        : ros2::create_reader(pp, geometry_msgs_msg_dds__PoseStamped__desc, topic, kLiveReaderDepth));
+      truth.push_back(topic.empty() ? 0
+                                    : ros2::create_reader(pp, geometry_msgs_msg_dds__PoseStamped__desc, topic,
+                                                          kLiveReaderDepth));
     }
   }
 
@@ -177,8 +177,11 @@ std::vector<StampedPose> LiveMonitorIo::take_poses() {
     live_take_all<geometry_msgs_msg_dds__PoseWithCovarianceStamped_>(
         impl_->poses[robot], [&taken, robot](const auto& sample) {
           const auto& pose = sample.pose.pose;
+          const double* cov = sample.pose.covariance;  // row-major 6x6: x-y block at 0, 1, 6, 7
+          Mat2 covariance;
+          covariance << cov[0], cov[1], cov[6], cov[7];
           taken.push_back({robot, live_stamp_ns(sample.header.stamp), Vec2(pose.position.x, pose.position.y),
-                           live_yaw(pose.orientation)});
+                           live_yaw(pose.orientation), covariance});
         });
   }
   return taken;
@@ -188,10 +191,12 @@ std::vector<StampedPose> LiveMonitorIo::take_truth() {
   std::vector<StampedPose> taken;
   for (std::size_t robot = 0; robot < impl_->truth.size(); ++robot) {
     if (impl_->truth[robot] == 0) continue;
-    live_take_all<geometry_msgs_msg_dds__PoseStamped_>(impl_->truth[robot], [&taken, robot](const auto& sample) {
-      taken.push_back({robot, live_stamp_ns(sample.header.stamp),
-                       Vec2(sample.pose.position.x, sample.pose.position.y), live_yaw(sample.pose.orientation)});
-    });
+    live_take_all<geometry_msgs_msg_dds__PoseStamped_>(
+        impl_->truth[robot], [&taken, robot](const auto& sample) {
+          taken.push_back({robot, live_stamp_ns(sample.header.stamp),
+                           Vec2(sample.pose.position.x, sample.pose.position.y),
+                           live_yaw(sample.pose.orientation), Mat2::Zero()});
+        });
   }
   return taken;
 }

@@ -33,20 +33,21 @@ struct LiveLimits {
 };
 
 struct Deployment {
-  std::string name = "live";  ///< the run's name and dds.run_id
+  std::string name = "live";     ///< the run's name and dds.run_id
   std::vector<TeamMember> team;  ///< sorted by id; ids are 0 … N−1
   std::string algorithm = "dml";
-  double rate_hz = 10.0;          ///< estimator steps per second (run.rate_hz)
+  double rate_hz = 10.0;  ///< estimator steps per second (run.rate_hz)
   int domain_id = 0;
-  double start_std_m = 5.0;       ///< how far a robot's start may be off (world.initial_guess_std_m)
-  double comm_radius_m = 1.0e9;   ///< radio range, if known (world.comm_radius_m; default: unlimited)
-  std::vector<std::string> overrides;  ///< `set:` scenario keys (docs/scenario.md), e.g. noise.range_std_m=0.1
+  double start_std_m = 5.0;      ///< how far a robot's start may be off (world.initial_guess_std_m)
+  double comm_radius_m = 1.0e9;  ///< radio range, if known (world.comm_radius_m; default: unlimited)
+  std::vector<std::string>
+      overrides;  ///< `set:` scenario keys (docs/scenario.md), e.g. noise.range_std_m=0.1
   std::string map_frame = "map";
   std::string base_frame = "base_link";  ///< each robot's tf child frame is <name>/<base_frame>
   std::string ranges_topic = "ranges";   ///< relative to the robot's namespace
   std::string odom_topic = "odom";
   std::string pose_topic = "pose";
-  std::string truth_topic;               ///< ground truth (PoseStamped) per robot; empty: none
+  std::string truth_topic;  ///< ground truth (PoseStamped) per robot; empty: none
   LiveLimits limits;
 
   [[nodiscard]] const TeamMember* find(const std::string& robot) const;

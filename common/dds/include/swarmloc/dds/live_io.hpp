@@ -46,6 +46,7 @@ struct StampedPose {
   std::int64_t stamp_ns = 0;
   Vec2 position_m = Vec2::Zero();
   double yaw_rad = 0.0;
+  Mat2 covariance = Mat2::Zero();  ///< the x-y block (PoseWithCovarianceStamped; zero for PoseStamped)
 };
 
 /// A live agent's ROS 2 side: its driver topics in, its pose and tf out. Shares the process's Cyclone
@@ -75,8 +76,8 @@ class LiveRobotIo {
 /// (geometry_msgs/PoseStamped, e.g. motion capture).
 class LiveMonitorIo {
  public:
-  LiveMonitorIo(const config::Scenario& scenario, int agent_count, const std::vector<std::string>& pose_topics,
-                const std::vector<std::string>& truth_topics);
+  LiveMonitorIo(const config::Scenario& scenario, int agent_count,
+                const std::vector<std::string>& pose_topics, const std::vector<std::string>& truth_topics);
   ~LiveMonitorIo();
   LiveMonitorIo(const LiveMonitorIo&) = delete;
   LiveMonitorIo& operator=(const LiveMonitorIo&) = delete;
