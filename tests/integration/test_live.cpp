@@ -11,7 +11,16 @@
 
 namespace {
 
-using namespace swarmloc::testing;
+using swarmloc::testing::CommandResult;
+using swarmloc::testing::kLiveSteps;
+using swarmloc::testing::kLiveSwarmloc;
+using swarmloc::testing::live_rmse;
+using swarmloc::testing::LiveRun;
+using swarmloc::testing::LiveWorld;
+using swarmloc::testing::make_live_world;
+using swarmloc::testing::read_json;
+using swarmloc::testing::run_command;
+using swarmloc::testing::run_live;
 
 constexpr int kLiveDomain = 141;
 

@@ -7,7 +7,13 @@
 
 namespace {
 
-using namespace swarmloc::testing;
+using swarmloc::testing::kLiveRateHz;
+using swarmloc::testing::kLiveSteps;
+using swarmloc::testing::live_rmse;
+using swarmloc::testing::LiveRun;
+using swarmloc::testing::LiveWorld;
+using swarmloc::testing::make_live_world;
+using swarmloc::testing::run_live;
 
 constexpr int kFaultDomain = 142;
 

@@ -2,12 +2,15 @@
 // The live-agent acceptance tests (test_live.cpp, test_live_faults.cpp, docs/live.md): a recorded world
 // turned into a deployment file and the live player's input, and one live run — an agent process per
 // team member, `swarmloc monitor`, and tests/live_player playing the recording into the robots' topics.
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
