@@ -34,20 +34,32 @@ double live_mono_s() {
 class LivePort final : public DdsPort {
  public:
   LivePort(dds::AgentTransport& transport, dds::LiveRobotIo& io, const LiveStreamGate& ranges,
-           spdlog::logger& logger)
-      : DdsPort(transport, logger), io_(io), ranges_(ranges) {}
+           const LiveStreamGate& odom, spdlog::logger& logger)
+      : DdsPort(transport, logger), io_(io), ranges_(ranges), odom_(odom) {}
 
   void report(const runtime::EstimateReport& report) override {
     DdsPort::report(report);
     if (report.steps_run == 0 || !report.estimate.valid) return;
-    io_.publish_pose(report, ranges_.robot_now_ns(live_mono_s()));
+    io_.publish_pose(report, robot_now_ns());
     ++poses_;
   }
   [[nodiscard]] std::uint64_t poses() const { return poses_; }
 
  private:
+  /// The robot's clock as its sensors stamp it; before any sensor data (an anchor without a driver) the
+  /// host's system clock, which is ROS's default clock.
+  std::int64_t robot_now_ns() const {
+    const double now_s = live_mono_s();
+    if (ranges_.has_data()) return ranges_.robot_now_ns(now_s);
+    if (odom_.has_data()) return odom_.robot_now_ns(now_s);
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+               std::chrono::system_clock::now().time_since_epoch())
+        .count();
+  }
+
   dds::LiveRobotIo& io_;
   const LiveStreamGate& ranges_;
+  const LiveStreamGate& odom_;
   std::uint64_t poses_ = 0;
 };
 
@@ -74,7 +86,7 @@ class LiveAgent {
         io_(scenario, topology(), live_names(deployment, options.robot)),
         ranges_(deployment.limits),
         odom_(deployment.limits),
-        port_(transport_, io_, ranges_, logger),
+        port_(transport_, io_, ranges_, odom_, logger),
         loop_(runtime::make_agent_runtime(scenario, manifest), runtime::loop_settings(scenario, manifest),
               port_) {}
 

@@ -35,6 +35,8 @@ class LiveStreamGate {
   /// True from a silence until the next accepted message.
   [[nodiscard]] bool silent() const { return silent_; }
   [[nodiscard]] const LiveStreamCounters& counters() const { return counters_; }
+  /// True once a message was accepted.
+  [[nodiscard]] bool has_data() const { return any_; }
   /// The robot's clock at `now_s`, from the newest accepted stamp (0 before any).
   [[nodiscard]] std::int64_t robot_now_ns(double now_s) const;
 

@@ -25,7 +25,10 @@ void gate_play(LiveStreamGate& gate, int from, int to, double extra_s = 0.0) {
 
 TEST(LiveStreamGate, ACleanStreamCountsNothing) {
   LiveStreamGate gate(swarmloc::config::LiveLimits{});
+  gate.poll(1000.0);  // no data yet: nothing to fall silent
+  EXPECT_FALSE(gate.has_data());
   gate_play(gate, 0, 100);
+  EXPECT_TRUE(gate.has_data());
   const auto& c = gate.counters();
   EXPECT_EQ(c.accepted, 100U);
   EXPECT_EQ(c.duplicates + c.reordered + c.clock_jumps + c.silences + c.restarts, 0U);
