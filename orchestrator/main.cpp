@@ -346,6 +346,10 @@ void add_monitor_command(CLI::App& app, MonitorCommand& monitor) {
   command
       ->add_option("--idle", options.idle_s, "Stop once poses came and then none for S seconds (default 5)")
       ->check(CLI::PositiveNumber);
+  command
+      ->add_option("--view", options.view_port,
+                   "Serve the live view on http://127.0.0.1:PORT/ (0 = any free port; docs/live_view.md)")
+      ->check(CLI::Range(0, 65535));
   command->add_flag("-q,--quiet", options.quiet, "No progress line");
   add_force_flag(command, options.force);
 }

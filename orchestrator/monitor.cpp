@@ -6,8 +6,10 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <memory>
 #include <optional>
 
+#include "live_view.hpp"
 #include "swarmloc/config/deployment.hpp"
 #include "swarmloc/dds/live_io.hpp"
 #include "swarmloc/rundir/run_record.hpp"
@@ -80,6 +82,28 @@ class MonitorBook {
     metrics.time_s = time_s;
     metrics.errors = world::score(truth, is_anchor_, poses_);
     record.metrics.push_back(metrics);
+  }
+
+  /// The live view of the newest sample: every member's pose, scored against the truth where known (a
+  /// member without truth is drawn at its estimate).
+  [[nodiscard]] ViewSnapshot snapshot(const config::Scenario& scenario,
+                                      const rundir::RunRecord& record) const {
+    ViewSnapshot view;
+    view.name = scenario.name;
+    view.algorithm = scenario.algorithm.name;
+    view.mode = "live";
+    view.phase = "running";
+    view.step = samples_ - 1;
+    view.rate_hz = scenario.run.rate_hz;
+    view.area_m = 1.0;
+    for (std::size_t i = 0; i < poses_.size(); ++i) {
+      const Vec2 fallback = poses_[i] ? poses_[i]->mean_m : Vec2::Zero();
+      view.agents.push_back(
+          {static_cast<AgentId>(i), is_anchor_[i], truth_[i].value_or(fallback), poses_[i]});
+    }
+    if (const auto* metrics = record.final_metrics(); metrics != nullptr && metrics->step == view.step)
+      set_metrics(view, *metrics);
+    return view;
   }
 
   [[nodiscard]] std::uint64_t poses_taken() const { return poses_taken_; }
@@ -171,7 +195,7 @@ rundir::RunRecord monitor_record(const MonitorSetup& setup) {
 
 /// Samples the team once per period until stopped, the duration passes, or the poses stop.
 std::int64_t monitor_loop(const MonitorOptions& options, const MonitorSetup& setup, dds::LiveMonitorIo& io,
-                          MonitorBook& book, rundir::RunRecord& record) {
+                          MonitorBook& book, rundir::RunRecord& record, LiveView* view) {
   const double period_s = 1.0 / setup.deployment.rate_hz;
   const double started_s = monitor_mono_s();
   double last_pose_s = started_s;
@@ -187,6 +211,7 @@ std::int64_t monitor_loop(const MonitorOptions& options, const MonitorSetup& set
     if (seen) {
       book.sample(record, now_s - started_s);
       ++samples;
+      if (view != nullptr) view->publish(book.snapshot(setup.scenario, record));
     }
     if (options.duration_s > 0.0 && now_s - started_s > options.duration_s) break;
     if (seen && now_s - last_pose_s > options.idle_s) break;
@@ -221,7 +246,13 @@ int run_monitor(const MonitorOptions& options) {
     dds::LiveMonitorIo io(setup->scenario, static_cast<int>(pose_topics.size()), pose_topics, truth_topics);
     MonitorBook book(setup->deployment, !setup->truth_leaf.empty());
     rundir::RunRecord record = monitor_record(*setup);
-    const std::int64_t samples = monitor_loop(options, *setup, io, book, record);
+    std::unique_ptr<LiveView> view;
+    if (options.view_port >= 0) {
+      view = std::make_unique<LiveView>(options.view_port);
+      std::printf("monitor: live view on %s\n", view->url().c_str());
+      std::fflush(stdout);
+    }
+    const std::int64_t samples = monitor_loop(options, *setup, io, book, record, view.get());
     const runtime::RunHealth health =
         monitor_health(record, book, setup->deployment.rate_hz, samples, record.wall_s);
     record.extra["health"] = runtime::to_json(health);

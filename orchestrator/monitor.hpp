@@ -13,6 +13,7 @@ struct MonitorOptions {
   std::string truth_topic;  ///< overrides the deployment's topics.truth ("none": no truth)
   double duration_s = 0.0;  ///< > 0: stop after this long
   double idle_s = 5.0;      ///< stop once poses came and then none for this long
+  int view_port = -1;       ///< >= 0: serve the live view (live_view.hpp) on this port (0: any free one)
   bool force = false;
   bool quiet = false;
 };

@@ -124,3 +124,17 @@ TEST(Live, AgentsCountNoFaultsOnACleanStream) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Live, MonitorServesTheLiveView) {
+  const auto& data = live_data();
+  const auto& view = data.run.view;
+  ASSERT_TRUE(view.is_object()) << view;
+  EXPECT_EQ(view["mode"], "live");
+  ASSERT_EQ(view["agents"].size(), data.world.names.size()) << view.dump(2);
+  EXPECT_GT(view["scored"].get<int>(), 0) << view.dump(2);
+  EXPECT_LT(view["rmse_m"].get<double>(), 0.05) << view.dump(2);
+}
+
+}  // namespace

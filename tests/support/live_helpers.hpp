@@ -117,6 +117,7 @@ struct LiveRun {
   std::set<std::pair<std::string, std::string>> publications;  ///< (topic, type) of rt/ writers
   std::map<std::string, nlohmann::json> stats;                 ///< robot -> --stats JSON
   std::filesystem::path monitor_dir;
+  nlohmann::json view;  ///< the monitor's live view (/state.json) as the player finished
 };
 
 inline void read_live_player_output(const std::filesystem::path& path, LiveRun& run) {
@@ -159,20 +160,24 @@ inline LiveRun run_live(const LiveWorld& world, int domain, int fault) {
     script += kLiveAgent + " --live " + world.deployment.string() + " --robot " + name + " --stats " + name +
               ".json --log " + name + ".log --duration 180 & pids=\"$pids $!\"; ";
   }
+  const std::string port = std::to_string(free_port());
   script += kLiveSwarmloc + " monitor -q --deployment " + world.deployment.string() + " --out " +
-            run.monitor_dir.string() + " --idle 3 --duration 180 > monitor.log 2>&1 & mon=$!; ";
+            run.monitor_dir.string() + " --idle 3 --duration 180 --view " + port +
+            " > monitor.log 2>&1 & mon=$!; ";
   script += "CYCLONEDDS_URI=file://" + kLiveSource + "/deploy/ros2/cyclonedds.xml " + kLivePlayer + " " +
             std::to_string(domain) + " " + world.player_input.string() + " player.txt " +
             std::to_string(kLiveRateHz) + " --fault " + std::to_string(fault) +
             " --linger 0.5 > player.log 2>&1; ";
-  script +=
-      "echo player=$?; kill -TERM $pids; for p in $pids; do wait $p; echo agent=$?; done; wait $mon; "
-      "echo monitor=$?";
+  script += "echo player=$?; curl -s -m 5 http://127.0.0.1:" + port +
+            "/state.json > view.json; kill -TERM $pids; for p in $pids; do wait $p; echo agent=$?; done; "
+            "wait $mon; "
+            "echo monitor=$?";
   run.script = run_command("bash -c '" + script + "'");
   read_live_player_output(dir / "player.txt", run);
   for (const auto& name : world.names) {
     if (std::filesystem::exists(dir / (name + ".json"))) run.stats[name] = read_json(dir / (name + ".json"));
   }
+  run.view = nlohmann::json::parse(read_text(dir / "view.json"), nullptr, false);
   return run;
 }
 
