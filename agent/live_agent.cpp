@@ -91,10 +91,9 @@ class LiveAgent {
               port_) {}
 
   int run() {
-    const double started_s = live_mono_s();
-    start_s_ = started_s;
-    loop_.announce(started_s);
-    loop_.start(started_s);
+    start_s_ = live_mono_s();
+    loop_.announce(start_s_);
+    loop_.start(start_s_);
     logger_.info("live: {} (agent {}{}), {} team members, reading {}", options_.robot, manifest_.id,
                  manifest_.setup.anchor ? ", anchor" : "", manifest_.agent_count,
                  config::Deployment::dds_topic(options_.robot, deployment_.ranges_topic));
@@ -106,7 +105,7 @@ class LiveAgent {
       feed_sensors(now_s);
       loop_.set_cpu_s(runtime::process_cpu_s());
       loop_.advance(now_s);
-      if (options_.duration_s > 0.0 && now_s - started_s > options_.duration_s) break;
+      if (options_.duration_s > 0.0 && now_s - start_s_ > options_.duration_s) break;
     }
     finish();
     return 0;
