@@ -45,8 +45,7 @@ const LiveFixtureData& live_data() {
   return data;
 }
 
-TEST(Live, EveryProcessEndsCleanly) {
-  const auto& data = live_data();
+void expect_live_processes_end_cleanly(const LiveFixtureData& data) {
   const std::string& out = data.run.script.output;
   EXPECT_NE(out.find("player=0"), std::string::npos) << out;
   EXPECT_EQ(out.find("agent=1"), std::string::npos) << out;
@@ -55,8 +54,7 @@ TEST(Live, EveryProcessEndsCleanly) {
   EXPECT_EQ(data.run.stats.size(), data.world.names.size());
 }
 
-TEST(Live, PosesMatchReplayWithinFivePercent) {
-  const auto& data = live_data();
+void expect_live_poses_match_replay(const LiveFixtureData& data) {
   const double live = live_rmse(data.world, data.run);
   std::printf("live RMSE %.5f m, replay RMSE %.5f m (%+.1f %%)\n", live, data.replay_rmse,
               100.0 * (live / data.replay_rmse - 1.0));
@@ -64,8 +62,7 @@ TEST(Live, PosesMatchReplayWithinFivePercent) {
       << "live " << live << " m, replay " << data.replay_rmse << " m";
 }
 
-TEST(Live, TfCarriesEveryRobotAsItsPose) {
-  const auto& data = live_data();
+void expect_tf_carries_every_robot_as_its_pose(const LiveFixtureData& data) {
   for (const auto& name : data.world.names) {
     const auto transforms = data.run.tf.find(name + "/base_link");
     ASSERT_NE(transforms, data.run.tf.end()) << "no tf for " << name;
@@ -82,8 +79,7 @@ TEST(Live, TfCarriesEveryRobotAsItsPose) {
   }
 }
 
-TEST(Live, DcpsPublicationShowsExactlyTheRosTypes) {
-  const auto& data = live_data();
+void expect_exactly_the_ros_types(const LiveFixtureData& data) {
   std::set<std::pair<std::string, std::string>> expected = {{"rt/tf", "tf2_msgs::msg::dds_::TFMessage_"}};
   for (const auto& name : data.world.names) {
     expected.emplace("rt/" + name + "/pose", "geometry_msgs::msg::dds_::PoseWithCovarianceStamped_");
@@ -94,8 +90,7 @@ TEST(Live, DcpsPublicationShowsExactlyTheRosTypes) {
   EXPECT_EQ(data.run.publications, expected);
 }
 
-TEST(Live, MonitorWritesAScoredRunDirectory) {
-  const auto& data = live_data();
+void expect_monitor_run_directory_scored(const LiveFixtureData& data) {
   const auto dir = data.run.monitor_dir;
   for (const char* file : {"summary.json", "estimates.csv", "metrics.csv", "scenario.yaml"})
     EXPECT_TRUE(std::filesystem::exists(dir / file)) << file;
@@ -111,8 +106,7 @@ TEST(Live, MonitorWritesAScoredRunDirectory) {
     EXPECT_GT(summary["live"]["robots"][name]["poses"].get<int>(), 100) << name;
 }
 
-TEST(Live, AgentsCountNoFaultsOnACleanStream) {
-  const auto& data = live_data();
+void expect_no_faults_counted_on_clean_streams(const LiveFixtureData& data) {
   for (const auto& [name, stats] : data.run.stats) {
     for (const char* stream : {"ranges", "odom"}) {
       EXPECT_EQ(stats[stream]["duplicates"], 0) << name << " " << stream;
@@ -123,18 +117,33 @@ TEST(Live, AgentsCountNoFaultsOnACleanStream) {
   }
 }
 
-}  // namespace
-
-namespace {
-
-TEST(Live, MonitorServesTheLiveView) {
-  const auto& data = live_data();
+void expect_monitor_serves_the_view(const LiveFixtureData& data) {
   const auto& view = data.run.view;
   ASSERT_TRUE(view.is_object()) << view;
   EXPECT_EQ(view["mode"], "live");
   ASSERT_EQ(view["agents"].size(), data.world.names.size()) << view.dump(2);
   EXPECT_GT(view["scored"].get<int>(), 0) << view.dump(2);
   EXPECT_LT(view["rmse_m"].get<double>(), 0.05) << view.dump(2);
+}
+
+// One live run per test (about 30 s each): the checks are grouped by what a failure would point at.
+TEST(Live, PosesMatchReplayAndEveryProcessEndsCleanly) {
+  const auto& data = live_data();
+  expect_live_processes_end_cleanly(data);
+  expect_live_poses_match_replay(data);
+  expect_no_faults_counted_on_clean_streams(data);
+}
+
+TEST(Live, TfAndDcpsPublicationCarryEveryRobotUnderItsRosType) {
+  const auto& data = live_data();
+  expect_tf_carries_every_robot_as_its_pose(data);
+  expect_exactly_the_ros_types(data);
+}
+
+TEST(Live, MonitorWritesAScoredRunDirectoryAndServesTheView) {
+  const auto& data = live_data();
+  expect_monitor_run_directory_scored(data);
+  expect_monitor_serves_the_view(data);
 }
 
 }  // namespace
