@@ -11,8 +11,8 @@
 #include <csignal>
 #include <memory>
 #include <optional>
-#include <type_traits>
 
+#include "dds_port.hpp"
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/runtime/agent_loop.hpp"
@@ -46,38 +46,6 @@ std::shared_ptr<spdlog::logger> make_logger(const AgentOptions& options) {
 double mono_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
-
-/// The loop's outputs on this process's DDS topics.
-class DdsPort final : public runtime::AgentPort {
- public:
-  DdsPort(dds::AgentTransport& transport, spdlog::logger& logger) : transport_(transport), logger_(logger) {}
-
-  void publish(const runtime::AgentRuntime::Publication& publication) override {
-    runtime::AgentRuntime::for_each_sample(
-        publication, [this](const runtime::Header& header, const auto& message) {
-          using Message = std::decay_t<decltype(message)>;
-          if constexpr (std::is_same_v<Message, estimators::StateMessage>)
-            transport_.publish_state(header, message);
-          if constexpr (std::is_same_v<Message, estimators::InformationMessage>)
-            transport_.publish_information(header, message);
-          if constexpr (std::is_same_v<Message, estimators::ConsensusMessage>)
-            transport_.publish_consensus(header, message);
-          if constexpr (std::is_same_v<Message, estimators::BeliefMessage>)
-            transport_.publish_belief(header, message);
-        });
-  }
-  void flush() override {
-    if (!transport_.wait_for_acks(kAckTimeoutS))
-      logger_.warn("samples not acknowledged within {} s", kAckTimeoutS);
-  }
-  void report(const runtime::EstimateReport& report) override { transport_.publish_estimate(report); }
-
-  static constexpr double kAckTimeoutS = 5.0;
-
- private:
-  dds::AgentTransport& transport_;
-  spdlog::logger& logger_;
-};
 
 /// One agent process: the agent loop (runtime/agent_loop.hpp) on this process's clock and DDS topics,
 /// plus what only a process has: the start-up handshake with the orchestrator, its control commands,

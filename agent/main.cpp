@@ -9,6 +9,7 @@
 #include <string>
 
 #include "agent_node.hpp"
+#include "live_agent.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"swarmloc-agent: one agent process of a `swarmloc run` (docs/architecture.md)"};
@@ -42,6 +43,16 @@ int main(int argc, char** argv) {
   app.add_option("--security", security_dir, "DDS Security directory (dds.security_dir)");
   app.add_flag("--hostile", options.hostile, "Publish NaN / non-PSD / absurd states (robustness tests)");
   app.add_option("--record", options.record_path, "Log every inter-agent sample received to FILE");
+  swarmloc::agent::LiveOptions live;
+  auto* live_flag = app.add_option("--live", live.deployment_path,
+                                   "Live: take measurements from the robot's ROS 2 topics as deployment "
+                                   "FILE describes, no orchestrator (docs/live.md)");
+  app.add_option("--robot", live.robot, "Live: this robot's name in the deployment's team")->needs(live_flag);
+  app.add_option("--stats", live.stats_path, "Live: write the input counters as JSON to FILE at exit")
+      ->needs(live_flag);
+  app.add_option("--duration", live.duration_s, "Live: stop after S seconds (default: at SIGINT/SIGTERM)")
+      ->needs(live_flag)
+      ->check(CLI::PositiveNumber);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -49,6 +60,14 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
   std::signal(SIGXFSZ, SIG_IGN);  // a file size limit fails a write (EFBIG) instead of killing us
+  if (!live.deployment_path.empty()) {
+    if (live.robot.empty()) {
+      std::fprintf(stderr, "error: --live needs --robot NAME\n");
+      return 2;
+    }
+    live.log_path = options.log_path;
+    return swarmloc::agent::run_live_agent(live);
+  }
   if (options.manifest_path.empty() && options.id < 0) {
     std::fprintf(stderr, "error: --id (or --manifest with --scenario) is required\n");
     return 2;

@@ -19,6 +19,7 @@
 #include "agent_node.hpp"
 #include "cli_support.hpp"
 #include "fusion_center.hpp"
+#include "monitor.hpp"
 #include "orchestrator.hpp"
 #include "replay.hpp"
 #include "swarmloc/config/scenario.hpp"
@@ -321,6 +322,38 @@ int execute_replay(ReplayCommand& replay, const SharedFlags& shared, const char*
   return swarmloc::orchestrator::run_replay(options);
 }
 
+/// `swarmloc monitor`.
+struct MonitorCommand {
+  CLI::App* command = nullptr;
+  swarmloc::orchestrator::MonitorOptions options;
+};
+
+void add_monitor_command(CLI::App& app, MonitorCommand& monitor) {
+  auto* command = app.add_subcommand(
+      "monitor",
+      "Join a live deployment's domain, record every robot's pose (and ground truth, if published) and "
+      "write a run directory scored against the truth (docs/live.md).");
+  monitor.command = command;
+  auto& options = monitor.options;
+  command->add_option("--deployment", options.deployment_path, "The deployment file the agents run")
+      ->required();
+  command->add_option("--out", options.out_dir, "Run directory")->required();
+  command->add_option("--truth-topic", options.truth_topic,
+                      "Ground-truth topic in each robot's namespace (geometry_msgs/PoseStamped; default: the "
+                      "deployment's topics.truth; none: no truth)");
+  command->add_option("--duration", options.duration_s, "Stop after S seconds (default: at Ctrl-C or idle)")
+      ->check(CLI::PositiveNumber);
+  command
+      ->add_option("--idle", options.idle_s, "Stop once poses came and then none for S seconds (default 5)")
+      ->check(CLI::PositiveNumber);
+  command
+      ->add_option("--view", options.view_port,
+                   "Serve the live view on http://127.0.0.1:PORT/ (0 = any free port; docs/live_view.md)")
+      ->check(CLI::Range(0, 65535));
+  command->add_flag("-q,--quiet", options.quiet, "No progress line");
+  add_force_flag(command, options.force);
+}
+
 /// Parses the command line; returns the exit code when it is the end (help, errors), else nothing.
 std::optional<int> parse_command_line(CLI::App& app, int argc, char** argv) {
   if (reject_unknown_command(app, argc, argv)) return 2;
@@ -348,7 +381,8 @@ int main(int argc, char** argv) {
       "  swarmloc sim scenarios/default.yaml            # the same estimators in one process\n"
       "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n"
       "  swarmloc sim scenarios/default.yaml --record --out runs/a     # record every measurement\n"
-      "  swarmloc replay runs/a/recording.slrec --set algorithm.name=iekf  # another algorithm\n\n"
+      "  swarmloc replay runs/a/recording.slrec --set algorithm.name=iekf  # another algorithm\n"
+      "  swarmloc monitor --deployment lab.yaml --out runs/lab   # record live robots (docs/live.md)\n\n"
       "Paper reproductions and parameter campaigns: swarmloc-research (docs/reproduction.md).\n",
       "swarmloc"};
   app.require_subcommand(1);
@@ -363,6 +397,8 @@ int main(int argc, char** argv) {
   add_sim_command(app, shared, sim);
   add_agent_command(app, shared, agent);
   add_replay_command(app, shared, replay);
+  MonitorCommand monitor;
+  add_monitor_command(app, monitor);
 
   // A file size limit (ulimit -f) must fail a write with EFBIG, named like a full disk, not kill us.
   std::signal(SIGXFSZ, SIG_IGN);
@@ -378,5 +414,6 @@ int main(int argc, char** argv) {
   if (sim.command->parsed()) return execute_sim(sim, shared);
   if (agent.command->parsed()) return execute_agent(agent);
   if (replay.command->parsed()) return execute_replay(replay, shared, argv[0]);
+  if (monitor.command->parsed()) return swarmloc::orchestrator::run_monitor(monitor.options);
   return 2;
 }

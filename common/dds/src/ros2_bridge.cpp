@@ -130,19 +130,36 @@ WireRangeArray::WireRangeArray(std::int64_t step, std::int64_t world_stamp_ns,
   sample.ranges._release = false;
 }
 
+namespace {
+
+/// ROS 2's default profile (rmw_qos_profile_default): reliable, keep-last `depth`, volatile.
+QosPtr ros2_default_qos(int depth) {
+  config::QosSettings ros2_default;
+  ros2_default.reliability = config::Reliability::kReliable;
+  ros2_default.history_depth = depth;
+  ros2_default.durability = config::Durability::kVolatile;
+  ros2_default.deadline_s = 0.0;
+  ros2_default.liveliness_lease_s = 0.0;
+  return endpoint_qos(ros2_default);
+}
+
+}  // namespace
+
 dds_entity_t create_writer(dds_entity_t participant, const dds_topic_descriptor_t& descriptor,
                            const std::string& topic) {
   const dds_entity_t handle =
       dds::create_topic(participant, ros2_descriptor_without_type_information(descriptor), topic.c_str());
-  config::QosSettings ros2_default;  // ROS 2's default profile (rmw_qos_profile_default)
-  ros2_default.reliability = config::Reliability::kReliable;
-  ros2_default.history_depth = 10;
-  ros2_default.durability = config::Durability::kVolatile;
-  ros2_default.deadline_s = 0.0;
-  ros2_default.liveliness_lease_s = 0.0;
-  const auto qos = endpoint_qos(ros2_default);
+  const auto qos = ros2_default_qos(10);
   // No publisher QoS: the default partition, the one ROS 2 uses (not this run's "<run_id>.…" ones).
   return check(dds_create_writer(participant, handle, qos.get(), nullptr), "dds_create_writer", topic);
+}
+
+dds_entity_t create_reader(dds_entity_t participant, const dds_topic_descriptor_t& descriptor,
+                           const std::string& topic, int depth) {
+  const dds_entity_t handle =
+      dds::create_topic(participant, ros2_descriptor_without_type_information(descriptor), topic.c_str());
+  const auto qos = ros2_default_qos(depth);
+  return check(dds_create_reader(participant, handle, qos.get(), nullptr), "dds_create_reader", topic);
 }
 
 }  // namespace swarmloc::dds::ros2

@@ -45,4 +45,9 @@ struct WireRangeArray {
 dds_entity_t create_writer(dds_entity_t participant, const dds_topic_descriptor_t& descriptor,
                            const std::string& topic);
 
+/// A reader of ROS 2 topic `topic` in the default partition with ROS 2's default QoS, keep-last `depth`
+/// (live agents read their drivers' topics with it, docs/live.md).
+dds_entity_t create_reader(dds_entity_t participant, const dds_topic_descriptor_t& descriptor,
+                           const std::string& topic, int depth);
+
 }  // namespace swarmloc::dds::ros2
