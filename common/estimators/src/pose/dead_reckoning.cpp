@@ -40,13 +40,6 @@ StepOutput DeadReckoning::step(const StepInput& input) {
   return out;
 }
 
-Estimate DeadReckoning::estimate() const {
-  Estimate estimate;
-  estimate.mean_m = x_.head<2>();
-  estimate.covariance = P_.topLeftCorner<2, 2>();
-  estimate.valid = true;
-  estimate.heading = pose_internal::pose_heading_estimate(x_, P_);
-  return estimate;
-}
+Estimate DeadReckoning::estimate() const { return pose_internal::pose_estimate(x_, P_, true); }
 
 }  // namespace swarmloc::estimators

@@ -126,4 +126,14 @@ inline HeadingEstimate pose_heading_estimate(const Pose& x, const Mat3& P) {
   return HeadingEstimate{x.z(), P(2, 2), Vec2(P(0, 2), P(1, 2))};
 }
 
+/// The estimate of a pose (x, y, θ) with covariance P: position, its covariance block and the heading.
+inline Estimate pose_estimate(const Pose& x, const Mat3& P, bool valid) {
+  Estimate estimate;
+  estimate.mean_m = x.head<2>();
+  estimate.covariance = P.topLeftCorner<2, 2>();
+  estimate.valid = valid;
+  estimate.heading = pose_heading_estimate(x, P);
+  return estimate;
+}
+
 }  // namespace swarmloc::estimators::pose_internal

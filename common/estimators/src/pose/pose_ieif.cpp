@@ -90,14 +90,8 @@ StepOutput PoseIeif::step(const StepInput& input) {
 }
 
 Estimate PoseIeif::estimate() const {
-  Estimate estimate;
-  estimate.mean_m = x_.head<2>();
   const Eigen::LLT<Mat3> llt(Psi_);
-  estimate.valid = Psi_.allFinite() && llt.info() == Eigen::Success;
-  const Mat3 covariance_now = covariance();
-  estimate.covariance = covariance_now.topLeftCorner<2, 2>();
-  estimate.heading = pose_internal::pose_heading_estimate(x_, covariance_now);
-  return estimate;
+  return pose_internal::pose_estimate(x_, covariance(), Psi_.allFinite() && llt.info() == Eigen::Success);
 }
 
 }  // namespace swarmloc::estimators
