@@ -179,14 +179,7 @@ class AgentProcess {
     }
     if (sample_log_) record(inbound);
     for (const auto& [header, batch] : inbound.batches) loop_.on_batch(header, batch, now_s);
-    auto feed = [&](const auto& samples) {
-      for (const auto& sample : samples)
-        loop_.on_sample(runtime::InboundSample{sample.header, sample.message, sample.well_formed}, now_s);
-    };
-    feed(inbound.states);
-    feed(inbound.information);
-    feed(inbound.consensus);
-    feed(inbound.beliefs);
+    feed_samples(loop_, inbound, now_s);
     return Verdict::kContinue;
   }
 

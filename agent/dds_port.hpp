@@ -41,4 +41,16 @@ class DdsPort : public runtime::AgentPort {
   spdlog::logger& logger_;
 };
 
+/// Hands the estimator samples of one DDS read to the agent loop, family by family.
+inline void feed_samples(runtime::AgentLoop& loop, const dds::AgentInbound& inbound, double now_s) {
+  auto feed = [&](const auto& samples) {
+    for (const auto& sample : samples)
+      loop.on_sample(runtime::InboundSample{sample.header, sample.message, sample.well_formed}, now_s);
+  };
+  feed(inbound.states);
+  feed(inbound.information);
+  feed(inbound.consensus);
+  feed(inbound.beliefs);
+}
+
 }  // namespace swarmloc::agent

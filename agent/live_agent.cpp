@@ -116,17 +116,7 @@ class LiveAgent {
     return dds::Topology{manifest_.id, manifest_.agent_count, manifest_.neighbours};
   }
 
-  void feed_samples(const dds::AgentInbound& inbound) {
-    const double now_s = live_mono_s();
-    auto feed = [&](const auto& samples) {
-      for (const auto& sample : samples)
-        loop_.on_sample(runtime::InboundSample{sample.header, sample.message, sample.well_formed}, now_s);
-    };
-    feed(inbound.states);
-    feed(inbound.information);
-    feed(inbound.consensus);
-    feed(inbound.beliefs);
-  }
+  void feed_samples(const dds::AgentInbound& inbound) { agent::feed_samples(loop_, inbound, live_mono_s()); }
 
   /// A neighbour whose reader matched late missed our prior: announce it again.
   void reannounce(double now_s) {
