@@ -76,6 +76,7 @@ LinkTotals link_totals(const RunRecord& record) {
 void compute_run_bounds(RunRecord& record, const world::World& world) {
   record.crlb = world::scenario_crlb(world, record.scenario);
   record.bound = world::run_bound(world, record.scenario, record.crlb);
+  record.recorded = world.recorded;
   record.optimum_data = std::make_shared<world::OptimumAccumulator>(world, record.scenario);
   record.optimum = record.optimum_data->result();
 }
@@ -113,6 +114,14 @@ WholeRunError whole_run_error(const RunRecord& record) {
     ++whole.scored_steps;
   }
   if (whole.scored_steps > 0) whole.rmse_m = std::sqrt(squared_sum / static_cast<double>(whole.scored_steps));
+  if (record.recorded == nullptr) return whole;
+  world::MeanNees nees3;
+  for (const auto& row : record.estimates) {
+    if (!row.estimate.heading || !row.truth.allFinite()) continue;
+    nees3.add(world::pose_nees(row.estimate, row.truth, record.recorded->truth_heading(row.agent, row.step)));
+  }
+  whole.nees3 = nees3.mean();
+  whole.nees3_samples = nees3.count;
   return whole;
 }
 
@@ -153,6 +162,44 @@ nlohmann::json final_block(const RunRecord& record) {
   return final_json;
 }
 
+/// A baseline's whole-run RMSE from record.extra["baselines"] (replay --mrclam), NaN without one.
+double baseline_rmse(const RunRecord& record, const char* name) {
+  const auto baselines = record.extra.find("baselines");
+  if (baselines == record.extra.end() || !baselines->is_object()) return std::numeric_limits<double>::quiet_NaN();
+  const auto baseline = baselines->find(name);
+  if (baseline == baselines->end() || !baseline->contains("rmse_m") || !(*baseline)["rmse_m"].is_number())
+    return std::numeric_limits<double>::quiet_NaN();
+  return (*baseline)["rmse_m"].get<double>();
+}
+
+/// The baselines the run's whole-run RMSE is compared with: (summary.json key, baseline, table label).
+struct EfficiencyReference {
+  const char* key;
+  const char* baseline;
+  const char* label;
+};
+constexpr EfficiencyReference kEfficiencyReferences[] = {
+    {"efficiency_vs_centralized_ekf", "centralized_ekf", "RMSE / centralized EKF's (run)"},
+    {"efficiency_vs_batch_smoother", "batch_smoother", "RMSE / batch smoother's (run)"},
+};
+
+/// summary.json's "whole_run" block: rmse_m and scored_steps; nees3 and nees3_samples when some estimate
+/// has a heading to score; the efficiencies against the baselines a replay --mrclam computed.
+nlohmann::json whole_run_json(const RunRecord& record, const WholeRunError& whole) {
+  using nlohmann::json;
+  json block = {{"rmse_m", whole.scored_steps > 0 ? number_or_null(whole.rmse_m) : json()},
+                {"scored_steps", whole.scored_steps}};
+  if (whole.nees3_samples > 0) {
+    block["nees3"] = number_or_null(whole.nees3);
+    block["nees3_samples"] = whole.nees3_samples;
+  }
+  for (const auto& reference : kEfficiencyReferences) {
+    const double baseline = baseline_rmse(record, reference.baseline);
+    if (std::isfinite(baseline)) block[reference.key] = number_or_null(whole.rmse_m / baseline);
+  }
+  return block;
+}
+
 }  // namespace
 
 nlohmann::json summary_json(const RunRecord& record) {
@@ -169,8 +216,7 @@ nlohmann::json summary_json(const RunRecord& record) {
   const StepMetrics* last = record.final_metrics();
   summary["final"] = final_block(record);
   const auto whole = whole_run_error(record);
-  summary["whole_run"] = {{"rmse_m", whole.scored_steps > 0 ? number_or_null(whole.rmse_m) : json()},
-                          {"scored_steps", whole.scored_steps}};
+  summary["whole_run"] = whole_run_json(record, whole);
   const auto broken = non_finite_estimates(record);
   summary["non_finite_estimates"] = {{"steps", broken.steps},
                                      {"first_step", broken.steps > 0 ? json(broken.first_step) : json()},
@@ -478,7 +524,9 @@ std::string result_table(const RunRecord& record) {
     std::snprintf(line, sizeof line, "  %-34s %12s\n", "agents scored at the final step", covered.c_str());
     out << line;
     if (const auto broken = non_finite_estimates(record); broken.steps > 0) out << not_valid_line(broken);
-    row("RMSE over the whole run", whole_run_error(record).rmse_m, "m");
+    const WholeRunError whole = whole_run_error(record);
+    row("RMSE over the whole run", whole.rmse_m, "m");
+    if (whole.nees3_samples > 0) row("whole-run NEES3 (3 = consistent)", whole.nees3, "");
     if (world::measurement_kinds(record.scenario.algorithm.name).field)
       row("final field RMSE (per cell)", last->errors.field_rmse, "");
     bound_rows(out, record, *last);
@@ -490,7 +538,14 @@ std::string result_table(const RunRecord& record) {
         if (!figures.contains("rmse_m") || !figures["rmse_m"].is_number()) continue;
         std::string label = "baseline " + name;
         std::replace(label.begin(), label.end(), '_', ' ');
-        row(label.c_str(), figures["rmse_m"].get<double>(), "m");
+        char unit[64] = "m";
+        if (figures.contains("nees3") && figures["nees3"].is_number())
+          std::snprintf(unit, sizeof unit, "m  (NEES3 %.2f)", figures["nees3"].get<double>());
+        row(label.c_str(), figures["rmse_m"].get<double>(), unit);
+      }
+      for (const auto& reference : kEfficiencyReferences) {
+        const double baseline = baseline_rmse(record, reference.baseline);
+        if (std::isfinite(baseline)) row(reference.label, whole.rmse_m / baseline, "");
       }
     }
     // The noise of what the algorithm measures (multipath path lengths use the range std).

@@ -99,6 +99,29 @@ ErrorStats score(const World& world, const std::vector<std::optional<estimators:
   return stats;
 }
 
+std::optional<double> pose_nees(const models::Pose& estimate, const models::Mat3& covariance,
+                                const models::Pose& truth) {
+  models::Pose error;
+  error << estimate.head<2>() - truth.head<2>(), models::wrap_angle(estimate.z() - truth.z());
+  if (!error.allFinite() || !covariance.allFinite()) return std::nullopt;
+  const Eigen::LLT<models::Mat3> llt(0.5 * (covariance + covariance.transpose()));
+  if (llt.info() != Eigen::Success) return std::nullopt;
+  return error.dot(llt.solve(error));
+}
+
+std::optional<double> pose_nees(const estimators::Estimate& estimate, const Vec2& truth_m,
+                                double truth_heading_rad) {
+  if (!estimate.valid || !estimate.heading) return std::nullopt;
+  const auto& heading = *estimate.heading;
+  models::Mat3 covariance;
+  covariance.topLeftCorner<2, 2>() = estimate.covariance;
+  covariance.block<2, 1>(0, 2) = heading.position_cov_m_rad;
+  covariance.block<1, 2>(2, 0) = heading.position_cov_m_rad.transpose();
+  covariance(2, 2) = heading.variance_rad2;
+  const models::Pose estimated(estimate.mean_m.x(), estimate.mean_m.y(), heading.heading_rad);
+  return pose_nees(estimated, covariance, models::Pose(truth_m.x(), truth_m.y(), truth_heading_rad));
+}
+
 double RangeCrlb::accumulated_rmse_m(double snapshots) const {
   if (!fresh_draws_per_step) return single_snapshot_rmse_m;
   return snapshots > 0.0 ? single_snapshot_rmse_m / std::sqrt(snapshots) : single_snapshot_rmse_m;

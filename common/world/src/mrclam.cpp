@@ -3,6 +3,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -12,6 +13,8 @@
 #include "swarmloc/estimators/pose/centralized_pose_ekf.hpp"
 #include "swarmloc/estimators/pose/dead_reckoning.hpp"
 #include "swarmloc/models/measurement_models.hpp"
+#include "swarmloc/world/metrics.hpp"
+#include "swarmloc/world/pose_smoother.hpp"
 
 namespace swarmloc::world {
 namespace {
@@ -255,12 +258,101 @@ World build_mrclam_world(const config::Scenario& scenario) {
   return world;
 }
 
-MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world) {
+namespace {
+
+/// A baseline's error sums over the scored robot-steps of a MRCLAM run.
+struct BaselineScore {
+  double squared_sum = 0.0;  ///< Σ over scored steps of the step's mean squared error
+  double step_sum = 0.0;     ///< this step's Σ of squared errors
+  double last_mse = 0.0;
+  MeanNees nees;
+  MeanNees step_nees;
+  MeanNees last_nees;
+
+  void add(const Vec2& position_error, std::optional<double> nees3) {
+    step_sum += position_error.squaredNorm();
+    step_nees.add(nees3);
+  }
+  void end_step(int scored) {
+    last_mse = step_sum / scored;
+    squared_sum += last_mse;
+    nees.sum += step_nees.sum;
+    nees.count += step_nees.count;
+    last_nees = step_nees;
+    step_sum = 0.0;
+    step_nees = {};
+  }
+  [[nodiscard]] MrclamBaseline result(std::int64_t scored_steps) const {
+    const double n = static_cast<double>(std::max<std::int64_t>(1, scored_steps));
+    return {std::sqrt(squared_sum / n), std::sqrt(last_mse), nees.mean(), last_nees.mean()};
+  }
+};
+
+/// The filters' parameters from the scenario (as the pose_ekf agents read them).
+estimators::KalmanFilterParams pose_filter_params(const config::Scenario& scenario) {
   estimators::KalmanFilterParams params;
   params.process_noise_std_m = scenario.algorithm.kalman.process_noise_std_m;
   params.initial_std_m = scenario.algorithm.kalman.initial_std_m;
   params.initial_heading_std_rad = scenario.algorithm.pose.initial_heading_std_rad;
   params.range_bearing_gate_chi2 = scenario.algorithm.pose.range_bearing_gate_chi2;
+  return params;
+}
+
+/// A 3×3 covariance of an Estimate with a heading (the centralized EKF's marginal).
+Mat3 pose_covariance(const estimators::Estimate& estimate) {
+  Mat3 covariance = Mat3::Zero();
+  covariance.topLeftCorner<2, 2>() = estimate.covariance;
+  if (estimate.heading) {
+    covariance.block<2, 1>(0, 2) = estimate.heading->position_cov_m_rad;
+    covariance.block<1, 2>(2, 0) = estimate.heading->position_cov_m_rad.transpose();
+    covariance(2, 2) = estimate.heading->variance_rad2;
+  }
+  return covariance;
+}
+
+Pose pose_of(const estimators::Estimate& estimate) {
+  return {estimate.mean_m.x(), estimate.mean_m.y(), estimate.heading ? estimate.heading->heading_rad : 0.0};
+}
+
+/// The smoother solved from the centralized EKF's trajectory and scored like the filters.
+MrclamSmootherBaseline smoother_baseline(const PoseSmootherProblem& problem, const std::vector<Pose>& ekf_poses,
+                                         const std::vector<Mat3>& ekf_marginals, const World& world) {
+  const auto started = std::chrono::steady_clock::now();
+  const PoseSmootherSolution solution = solve_pose_smoother(problem, ekf_poses, ekf_marginals);
+  MrclamSmootherBaseline baseline;
+  baseline.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  BaselineScore score;
+  std::int64_t scored_steps = 0;
+  const auto robots = static_cast<std::size_t>(problem.robots);
+  for (std::int64_t step = 0; step < problem.steps; ++step) {
+    const auto truth = world.recorded->truth(step);
+    int scored = 0;
+    for (std::size_t i = 0; i < robots; ++i) {
+      if (!truth[i].allFinite()) continue;
+      ++scored;
+      const std::size_t k = static_cast<std::size_t>(step) * robots + i;
+      const Pose truth_pose(truth[i].x(), truth[i].y(), world.recorded->truth_heading(static_cast<AgentId>(i), step));
+      std::optional<double> nees3;
+      if (!solution.marginals.empty()) nees3 = pose_nees(solution.poses[k], solution.marginals[k], truth_pose);
+      score.add(solution.poses[k].head<2>() - truth[i], nees3);
+    }
+    if (scored == 0) continue;
+    score.end_step(scored);
+    ++scored_steps;
+  }
+  static_cast<MrclamBaseline&>(baseline) = score.result(scored_steps);
+  baseline.iterations = solution.iterations;
+  baseline.gating_rounds = solution.gating_rounds;
+  baseline.converged = solution.converged;
+  baseline.range_bearings_used = solution.range_bearings_used;
+  baseline.range_bearings_gated = solution.range_bearings_gated;
+  return baseline;
+}
+
+}  // namespace
+
+MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world, bool with_smoother) {
+  const estimators::KalmanFilterParams params = pose_filter_params(scenario);
   std::vector<estimators::AgentSetup> setups;
   std::vector<std::unique_ptr<estimators::DeadReckoning>> dead_reckoning;
   for (AgentId i = 0; i < world.size(); ++i) {
@@ -268,14 +360,11 @@ MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& 
     dead_reckoning.push_back(std::make_unique<estimators::DeadReckoning>(setups.back(), params));
   }
   estimators::CentralizedPoseEkf centralized(setups, params);
-  struct Accumulator {
-    double squared_sum = 0.0;
-    double last_mse = 0.0;
-    void add(double mse) {
-      squared_sum += mse;
-      last_mse = mse;
-    }
-  } dr, ekf;
+  PoseSmootherProblem problem = make_pose_smoother_problem(world.initial_guess, world.initial_heading, params);
+  std::vector<Pose> ekf_poses;
+  std::vector<Mat3> ekf_marginals;
+  BaselineScore dr;
+  BaselineScore ekf;
   const std::int64_t steps = scenario.run.steps;
   std::int64_t scored_steps = 0;
   for (std::int64_t step = 0; step < steps; ++step) {
@@ -286,9 +375,8 @@ MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& 
     for (AgentId i = 0; i < world.size(); ++i) batches.push_back(world.recorded->batch(i, step));
     for (const auto& batch : batches) pointers.push_back(&batch);
     centralized.step(pointers);
+    if (with_smoother) add_pose_smoother_step(problem, step, batches, params);
     const auto truth = world.recorded->truth(step);
-    double dr_sum = 0.0;
-    double ekf_sum = 0.0;
     int scored = 0;
     for (AgentId i = 0; i < world.size(); ++i) {
       const auto k = static_cast<std::size_t>(i);
@@ -296,20 +384,27 @@ MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& 
       input.local_step = step;
       input.measurements = &batches[k];
       (void)dead_reckoning[k]->step(input);
+      const estimators::Estimate ekf_estimate = centralized.estimate(i);
+      if (with_smoother) {
+        ekf_poses.push_back(pose_of(ekf_estimate));
+        ekf_marginals.push_back(pose_covariance(ekf_estimate));
+      }
       if (!truth[k].allFinite()) continue;  // no groundtruth: not scored (as in metrics' score())
       ++scored;
-      dr_sum += (dead_reckoning[k]->estimate().mean_m - truth[k]).squaredNorm();
-      ekf_sum += (centralized.estimate(i).mean_m - truth[k]).squaredNorm();
+      const double heading = world.recorded->truth_heading(i, step);
+      const estimators::Estimate dr_estimate = dead_reckoning[k]->estimate();
+      dr.add(dr_estimate.mean_m - truth[k], pose_nees(dr_estimate, truth[k], heading));
+      ekf.add(ekf_estimate.mean_m - truth[k], pose_nees(ekf_estimate, truth[k], heading));
     }
     if (scored == 0) continue;
-    dr.add(dr_sum / scored);
-    ekf.add(ekf_sum / scored);
+    dr.end_step(scored);
+    ekf.end_step(scored);
     ++scored_steps;
   }
-  const double n = static_cast<double>(std::max<std::int64_t>(1, scored_steps));
   MrclamBaselines baselines;
-  baselines.dead_reckoning = {std::sqrt(dr.squared_sum / n), std::sqrt(dr.last_mse)};
-  baselines.centralized_ekf = {std::sqrt(ekf.squared_sum / n), std::sqrt(ekf.last_mse)};
+  baselines.dead_reckoning = dr.result(scored_steps);
+  baselines.centralized_ekf = ekf.result(scored_steps);
+  if (with_smoother) baselines.batch_smoother = smoother_baseline(problem, ekf_poses, ekf_marginals, world);
   return baselines;
 }
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "selected_inversion.hpp"
 #include "swarmloc/world/optimum.hpp"
 
 namespace swarmloc::world {
@@ -187,72 +188,21 @@ double coordinate_scale(const std::vector<Vec2>& x) {
   return scale;
 }
 
-/// Each block's 2×2 marginal of H⁻¹ from H = Pᵀ L D Lᵀ P (Eigen's SimplicialLDLT: L unit lower, columns
-/// with ascending rows, no diagonal stored). Takahashi's recursion computes Z = H⁻¹ on L's pattern only:
-/// for j from the last column down, with R its rows, Z_Rj = −Z_RR L_Rj and Z_jj = 1/D_j − L_Rjᵀ Z_Rj. Every
-/// Z_ik it reads lies in the pattern (R is a clique of the filled graph: R's rows after k are in column k's
-/// pattern), so Z_RR L_Rj is a merge of column k = R_q with R, q by q.
+/// Each block's 2×2 marginal of H⁻¹ by selected inversion (selected_inversion.hpp). Column j needs only the
+/// columns after it: the recursion stops at the first column a wanted block uses.
 template <typename Factor>
 std::vector<Mat2> marginal_covariances(const Factor& factor, std::size_t blocks, std::size_t first_block) {
-  const SparseMatrix& L = factor.matrixL().nestedExpression();
-  const VecX& D = factor.vectorD();
-  const Eigen::Index n = L.cols();
-  const int* outer = L.outerIndexPtr();
-  const int* inner = L.innerIndexPtr();
-  const double* value = L.valuePtr();
   const auto& permutation = factor.permutationP().indices();  // empty: the identity
   auto permuted = [&](std::size_t k) {
     return permutation.size() == 0 ? static_cast<int>(k) : permutation(static_cast<Eigen::Index>(k));
   };
-  // Column j needs only the columns after it: the recursion stops at the first column a wanted block uses.
-  int first = static_cast<int>(n);
+  int first = static_cast<int>(factor.matrixL().nestedExpression().cols());
   for (std::size_t k = 2 * first_block; k < 2 * blocks; ++k) first = std::min(first, permuted(k));
-  std::vector<double> z_off(static_cast<std::size_t>(outer[n]), 0.0);
-  VecX z_diag = VecX::Zero(n);
-  std::vector<double> sum;
-  for (Eigen::Index j = n - 1; j >= first; --j) {
-    const int from = outer[j];
-    const int m = outer[j + 1] - from;
-    const int* rows = inner + from;
-    const double* l = value + from;
-    sum.assign(static_cast<std::size_t>(m), 0.0);  // sum[p] = Σ_q Z(R_p, R_q) l_q
-    for (int q = 0; q < m; ++q) {
-      const int k = rows[q];
-      sum[static_cast<std::size_t>(q)] += z_diag(k) * l[q];
-      int p = q + 1;
-      for (int c = outer[k]; c < outer[k + 1] && p < m; ++c) {
-        if (inner[c] < rows[p]) continue;
-        while (p < m && rows[p] < inner[c]) ++p;  // never in a chordal pattern; kept safe
-        if (p < m && rows[p] == inner[c]) {
-          const double z = z_off[static_cast<std::size_t>(c)];  // Z(R_p, k), R_p > k
-          sum[static_cast<std::size_t>(p)] += z * l[q];
-          sum[static_cast<std::size_t>(q)] += z * l[p];
-          ++p;
-        }
-      }
-    }
-    double diagonal = 1.0 / D(j);
-    for (int p = 0; p < m; ++p) {
-      z_off[static_cast<std::size_t>(from) + static_cast<std::size_t>(p)] = -sum[static_cast<std::size_t>(p)];
-      diagonal += l[p] * sum[static_cast<std::size_t>(p)];
-    }
-    z_diag(j) = diagonal;
-  }
-  // Z_rc, r != c: column min(r, c), found by bisection on its ascending rows.
-  auto z = [&](int r, int c) -> double {
-    const int row = std::max(r, c);
-    const int column = std::min(r, c);
-    const int* begin = inner + outer[column];
-    const int* end = inner + outer[column + 1];
-    const int* hit = std::lower_bound(begin, end, row);
-    return hit != end && *hit == row ? z_off[static_cast<std::size_t>(hit - inner)] : 0.0;
-  };
+  const SelectedInverse z(factor, first);
   std::vector<Mat2> out(blocks, Mat2::Zero());
   for (std::size_t b = first_block; b < blocks; ++b) {
-    const int x = permuted(2 * b);
-    const int y = permuted(2 * b + 1);
-    const double xy = z(x, y);
-    out[b] << z_diag(x), xy, xy, z_diag(y);
+    const double xy = z.inverse(2 * b, 2 * b + 1);
+    out[b] << z.inverse(2 * b, 2 * b), xy, xy, z.inverse(2 * b + 1, 2 * b + 1);
   }
   return out;
 }

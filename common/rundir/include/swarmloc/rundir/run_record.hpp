@@ -70,6 +70,9 @@ struct RunRecord {
   world::RunOptimum optimum;
   /// During the run: the data the optimum is solved from (set by compute_run_bounds; released once final).
   std::shared_ptr<world::OptimumAccumulator> optimum_data;
+  /// A dataset world's steps (World::recorded, set by compute_run_bounds): the truth headings the pose
+  /// estimators' 3-DOF NEES is scored against. Null for generated worlds.
+  std::shared_ptr<const world::RecordedSteps> recorded;
   std::vector<StepMetrics> metrics;
   std::vector<EstimateRow> estimates;
   std::map<std::pair<AgentId, AgentId>, runtime::LinkCounters> links;  ///< (sender, receiver)
@@ -115,9 +118,15 @@ nlohmann::json bound_json(const RunRecord& record);
 
 /// RMSE over the whole run: sqrt of the mean over scored steps of the per-step mean squared error (the
 /// figure that matters on a trajectory, where the final step is one sample among thousands).
+///
+/// Pose-state runs on data with a true heading (replay --mrclam, in-process): nees3 is the mean 3-DOF NEES
+/// (world::pose_nees, 3 = consistent) over every scored agent-step whose estimate carries a heading and a
+/// positive definite covariance; nees3_samples counts them (0: none, and nees3 is NaN).
 struct WholeRunError {
   double rmse_m = std::numeric_limits<double>::quiet_NaN();
   std::size_t scored_steps = 0;
+  double nees3 = std::numeric_limits<double>::quiet_NaN();
+  std::size_t nees3_samples = 0;
 };
 WholeRunError whole_run_error(const RunRecord& record);
 

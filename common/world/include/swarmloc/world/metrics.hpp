@@ -2,9 +2,11 @@
 // Scoring estimates against truth (docs/algorithms.md §1.4) and the CRLB reference (§1.3).
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "swarmloc/estimators/messages.hpp"
+#include "swarmloc/models/pose_models.hpp"
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::world {
@@ -38,6 +40,27 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
 /// positions, or every sensor's estimate of the target. In a field world it also scores every agent's
 /// (anchors' too) field estimate against World::field.
 ErrorStats score(const World& world, const std::vector<std::optional<estimators::Estimate>>& estimates);
+
+/// 3-DOF NEES of a pose estimate (pose-state algorithms, docs/real-data.md): eᵀ P⁻¹ e with
+/// e = (x − x_t, y − y_t, wrap(θ − θ_t)), the heading error wrapped to (−π, π], P the (x, y, θ) covariance
+/// (3 if consistent). nullopt if e or P is not finite or P is not positive definite.
+std::optional<double> pose_nees(const models::Pose& estimate, const models::Mat3& covariance,
+                                const models::Pose& truth);
+/// The same for an Estimate: nullopt without a heading, when not valid, or with a non-finite truth.
+std::optional<double> pose_nees(const estimators::Estimate& estimate, const Vec2& truth_m,
+                                double truth_heading_rad);
+
+/// Mean of NEES values over the samples that have one.
+struct MeanNees {
+  double sum = 0.0;
+  std::size_t count = 0;
+  void add(std::optional<double> nees) {
+    if (nees) sum += *nees, ++count;
+  }
+  [[nodiscard]] double mean() const {
+    return count > 0 ? sum / static_cast<double>(count) : std::numeric_limits<double>::quiet_NaN();
+  }
+};
 
 /// CRLB of the static range network of `world` (each endpoint measures each edge once per snapshot,
 /// anchors exactly known): network RMSE bound for one snapshot and per agent.

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
@@ -69,6 +70,9 @@ class MrclamSteps final : public RecordedSteps {
   [[nodiscard]] std::int64_t steps() const override { return steps_; }
   [[nodiscard]] std::vector<Vec2> truth(std::int64_t step) const override;
   [[nodiscard]] estimators::MeasurementBatch batch(AgentId agent, std::int64_t step) const override;
+  [[nodiscard]] double truth_heading(AgentId agent, std::int64_t step) const override {
+    return pose_at(agent, step).heading_rad;
+  }
   /// Groundtruth pose of robot `agent` at dataset time start + step·dt (linear interpolation).
   [[nodiscard]] MrclamDataset::TimedPose pose_at(AgentId agent, std::int64_t step) const;
   /// Dataset time of world step `step` (seconds since start_time_s).
@@ -94,14 +98,29 @@ World build_mrclam_world(const config::Scenario& scenario);
 /// only) and the centralized pose EKF (one joint filter over the five robots, full robot-robot
 /// Jacobians). RMSE over the five robots, whole run (same definition as summary.json's whole_run) and
 /// at the final step.
+///
+/// Each also has its 3-DOF NEES (world::pose_nees, 3 = consistent): the mean over every scored
+/// robot-step (whole run) and over the final step's robots. The batch smoother (pose_smoother.hpp) is
+/// solved from the centralized EKF's trajectory, with its iterations and wall time.
 struct MrclamBaseline {
   double rmse_m = 0.0;
   double final_rmse_m = 0.0;
+  double nees3 = 0.0;        ///< NaN: no robot-step with a usable covariance
+  double final_nees3 = 0.0;
+};
+struct MrclamSmootherBaseline : MrclamBaseline {
+  int iterations = 0;
+  int gating_rounds = 0;
+  bool converged = false;
+  int range_bearings_used = 0;
+  int range_bearings_gated = 0;
+  double solve_s = 0.0;  ///< wall time of the solve (with the marginals)
 };
 struct MrclamBaselines {
   MrclamBaseline dead_reckoning;
   MrclamBaseline centralized_ekf;
+  std::optional<MrclamSmootherBaseline> batch_smoother;  ///< with_smoother only
 };
-MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world);
+MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world, bool with_smoother = true);
 
 }  // namespace swarmloc::world

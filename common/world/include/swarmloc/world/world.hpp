@@ -35,6 +35,11 @@ class RecordedSteps {
   [[nodiscard]] virtual std::vector<Vec2> truth(std::int64_t step) const = 0;
   /// Agent `agent`'s measurement batch of world step `step` (world_step = -1 if it has none).
   [[nodiscard]] virtual estimators::MeasurementBatch batch(AgentId agent, std::int64_t step) const = 0;
+  /// True heading (rad) of agent `agent` at world step `step`: NaN when the data has none (a recording,
+  /// or a gap in a dataset's groundtruth). Scores the pose estimators' 3-DOF NEES.
+  [[nodiscard]] virtual double truth_heading(AgentId /*agent*/, std::int64_t /*step*/) const {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
 };
 
 /// Thrown by a long computation whose WorkControl flag was set (Ctrl-C).
