@@ -175,6 +175,12 @@ TEST(Mrclam, Dataset6DistributedAndCentralizedFiltersBeatDeadReckoningFiveTimes)
   EXPECT_LT(5.0 * baselines.centralized_ekf.rmse_m, baselines.dead_reckoning.rmse_m);
   EXPECT_LT(distributed, 0.4);
   EXPECT_LT(baselines.centralized_ekf.rmse_m, 0.3);
+  // The batch smoother (the non-causal optimum of the same data) converges and beats the causal filter.
+  ASSERT_TRUE(baselines.batch_smoother);
+  EXPECT_TRUE(baselines.batch_smoother->converged);
+  EXPECT_LT(baselines.batch_smoother->rmse_m, 0.9 * baselines.centralized_ekf.rmse_m);
+  EXPECT_TRUE(std::isfinite(baselines.batch_smoother->nees3));
+  EXPECT_TRUE(std::isfinite(baselines.centralized_ekf.nees3));
 }
 
 }  // namespace
