@@ -193,6 +193,32 @@ TEST(MrclamCalibration, AGroundtruthGapIsSkippedNotScored) {
   EXPECT_NEAR(window.v_std(), noise.v_std, 0.15 * noise.v_std);
 }
 
+TEST(MrclamCalibration, BearingsStraddlingTheRobotsBackAreWrapped) {
+  // Five robots standing still facing +x, robot 1 sighting a landmark straight behind it (bearing π):
+  // about half the noisy bearings read near −π. Unwrapped, those residuals would be ≈ −2π.
+  MrclamDataset data;
+  data.landmarks[6] = {Vec2(-3.0, 0.0), Vec2::Zero()};
+  data.robots.resize(kMrclamRobots);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> bearing_noise(0.0, 0.03);
+  for (int r = 0; r < kMrclamRobots; ++r) {
+    auto& robot = data.robots[static_cast<std::size_t>(r)];
+    for (int k = 0; k <= 3000; ++k) {
+      const double t = kStartS + k * kRowS;
+      robot.groundtruth.push_back({t, Vec2(0.0, 10.0 * r), 0.0});
+      robot.odometry.push_back({t, 0.0, 0.0});
+      if (r == 0 && k % 5 == 1) {
+        robot.measurements.push_back({t, 6, 3.0, models::wrap_angle(std::numbers::pi + bearing_noise(rng))});
+      }
+    }
+  }
+  const auto c = calibrate_mrclam(data).pooled.landmarks;
+  EXPECT_EQ(c.bearing_rad.samples, 600U);
+  EXPECT_NEAR(c.bearing_rad.bias, 0.0, 0.005);
+  EXPECT_NEAR(c.bearing_rad.std, 0.03, 0.004);
+  EXPECT_LT(c.bearing_rad.outlier_fraction(), 0.02);
+}
+
 TEST(MrclamCalibration, GroundtruthIsInterpolatedOnlyBetweenCloseRows) {
   const std::vector<MrclamDataset::TimedPose> track{
       {10.0, Vec2(0, 0), 3.1}, {10.05, Vec2(1, 0), -3.1}, {11.0, Vec2(2, 0), 0.0}};
