@@ -17,6 +17,7 @@
 
 #include "agent_command.hpp"
 #include "agent_node.hpp"
+#include "calibrate.hpp"
 #include "cli_support.hpp"
 #include "fusion_center.hpp"
 #include "monitor.hpp"
@@ -322,6 +323,22 @@ int execute_replay(ReplayCommand& replay, const SharedFlags& shared, const char*
   return swarmloc::orchestrator::run_replay(options);
 }
 
+/// `swarmloc calibrate`.
+struct CalibrateCommand {
+  CLI::App* command = nullptr;
+  swarmloc::orchestrator::CalibrateOptions options;
+};
+
+void add_calibrate_command(CLI::App& app, CalibrateCommand& calibrate) {
+  auto* command = app.add_subcommand(
+      "calibrate",
+      "Measure a UTIAS MRCLAM dataset's range, bearing and odometry noise (and biases) against its "
+      "groundtruth; print how each figure was measured and write them as scenario keys (docs/real-data.md).");
+  calibrate.command = command;
+  command->add_option("--mrclam", calibrate.options.mrclam_dir, "UTIAS MRCLAM dataset directory")->required();
+  command->add_option("--out", calibrate.options.out_path, "Write the noise.* scenario keys (YAML) to FILE");
+}
+
 /// `swarmloc monitor`.
 struct MonitorCommand {
   CLI::App* command = nullptr;
@@ -382,6 +399,7 @@ int main(int argc, char** argv) {
       "  swarmloc run scenarios/default.yaml --set network.loss=0.2 --set world.agents=40\n"
       "  swarmloc sim scenarios/default.yaml --record --out runs/a     # record every measurement\n"
       "  swarmloc replay runs/a/recording.slrec --set algorithm.name=iekf  # another algorithm\n"
+      "  swarmloc calibrate --mrclam DIR --out noise.yaml  # a dataset's noise from its groundtruth\n"
       "  swarmloc monitor --deployment lab.yaml --out runs/lab   # record live robots (docs/live.md)\n\n"
       "Paper reproductions and parameter campaigns: swarmloc-research (docs/reproduction.md).\n",
       "swarmloc"};
@@ -399,6 +417,8 @@ int main(int argc, char** argv) {
   add_replay_command(app, shared, replay);
   MonitorCommand monitor;
   add_monitor_command(app, monitor);
+  CalibrateCommand calibrate;
+  add_calibrate_command(app, calibrate);
 
   // A file size limit (ulimit -f) must fail a write with EFBIG, named like a full disk, not kill us.
   std::signal(SIGXFSZ, SIG_IGN);
@@ -415,5 +435,6 @@ int main(int argc, char** argv) {
   if (agent.command->parsed()) return execute_agent(agent);
   if (replay.command->parsed()) return execute_replay(replay, shared, argv[0]);
   if (monitor.command->parsed()) return swarmloc::orchestrator::run_monitor(monitor.options);
+  if (calibrate.command->parsed()) return swarmloc::orchestrator::run_calibrate(calibrate.options);
   return 2;
 }

@@ -1,0 +1,101 @@
+#pragma once
+// The noise model of a UTIAS MRCLAM dataset measured from its own groundtruth (`swarmloc calibrate`,
+// docs/real-data.md "Noise model"): range and bearing residuals of the sightings against the
+// groundtruth at the sighting's timestamp, and odometry-integrated motion against the groundtruth motion
+// over short windows. Transport-free and without I/O: it reads a loaded MrclamDataset.
+#include <array>
+#include <cstddef>
+#include <optional>
+#include <vector>
+
+#include "swarmloc/world/mrclam.hpp"
+
+namespace swarmloc::world {
+
+/// Bias (mean) and std of one residual channel after trimming outliers.
+struct RobustStats {
+  std::size_t samples = 0;   ///< residuals scored (gaps and unknown subjects already skipped)
+  std::size_t outliers = 0;  ///< of those, trimmed as outliers
+  double bias = 0.0;         ///< mean of the inliers
+  double std = 0.0;          ///< std of the inliers, corrected for the trimmed Gaussian tails
+  /// Std of every sample within 5 plain stds of the mean (one pass): gross errors such as groundtruth
+  /// glitches dropped, heavy tails kept. Odometry publishes this one: its tails are real motion error.
+  double all_std = 0.0;
+  [[nodiscard]] double outlier_fraction() const {
+    return samples == 0 ? 0.0 : static_cast<double>(outliers) / static_cast<double>(samples);
+  }
+};
+
+/// Two residual channels of the same samples (range and bearing of a sighting; distance and heading of
+/// an odometry window), trimmed together: a sample is an outlier when either channel is more than
+/// `trim_sigma` stds from its centre. Starts from the median and 1.4826·MAD, then iterates mean / std of
+/// the inliers until the inlier set is stable.
+std::array<RobustStats, 2> robust_pair_stats(const std::vector<std::array<double, 2>>& residuals,
+                                             double trim_sigma = 3.0);
+
+/// Range residual statistics of the inliers whose true range lies in [from_m, to_m).
+struct RangeBin {
+  double from_m = 0.0;
+  double to_m = 0.0;
+  std::size_t samples = 0;
+  double bias_m = 0.0;
+  double std_m = 0.0;
+};
+
+struct SightingCalibration {
+  RobustStats range_m;               ///< measured − true range
+  RobustStats bearing_rad;           ///< measured − true bearing, wrapped to (−π, π]
+  std::vector<RangeBin> range_bins;  ///< 1 m bins with at least kMinBinSamples inliers
+  /// Weighted least-squares line through the bins: range std ≈ intercept + slope · range.
+  double range_std_intercept_m = 0.0;
+  double range_std_slope = 0.0;
+  std::size_t skipped_gap = 0;  ///< sightings without groundtruth around their timestamp
+};
+
+/// Odometry over windows of one length, tiled along each robot's odometry.
+struct OdometryCalibration {
+  double window_s = 0.0;
+  RobustStats distance_m;   ///< groundtruth − odometry distance along the odometry chord
+  RobustStats heading_rad;  ///< groundtruth − odometry heading change
+  /// Σ groundtruth distance / Σ odometry distance over the inlier windows that moved (> 1 cm): the scale
+  /// bias of the odometry's speed.
+  double distance_ratio = 1.0;
+  std::size_t skipped_gap = 0;  ///< windows with a groundtruth gap inside
+  /// The unicycle model's densities: a window of W seconds adds variance v_std²·W (m/√s, rad/√s).
+  [[nodiscard]] double v_std() const;
+  [[nodiscard]] double omega_std() const;
+  /// The same from RobustStats::all_std (tails kept): the published odometry densities.
+  [[nodiscard]] double v_std_with_tails() const;
+  [[nodiscard]] double omega_std_with_tails() const;
+};
+
+struct RobotCalibration {
+  SightingCalibration landmarks;              ///< sightings of landmarks (subjects 6–20)
+  SightingCalibration robots;                 ///< sightings of other robots, against both robots' groundtruth
+  std::vector<OdometryCalibration> odometry;  ///< one per CalibrationOptions::windows_s
+};
+
+struct CalibrationOptions {
+  /// A groundtruth pose is interpolated only between rows at most this far apart (no gap), and a sighting
+  /// needs a row within this time on both sides.
+  double max_groundtruth_gap_s = 0.1;
+  std::vector<double> windows_s{0.5, 1.0, 2.0};
+  double trim_sigma = 3.0;
+};
+
+struct MrclamCalibration {
+  std::vector<RobotCalibration> robots;  ///< robots[i] = subject i + 1
+  RobotCalibration pooled;               ///< all robots' residuals together (the published figures)
+  CalibrationOptions options;
+};
+
+inline constexpr std::size_t kMinBinSamples = 30;
+
+MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationOptions& options = {});
+
+/// Groundtruth pose at `time_s`, linearly interpolated between the rows around it; nothing when the rows
+/// around it are more than `max_gap_s` apart, or `time_s` is outside the track.
+std::optional<MrclamDataset::TimedPose> groundtruth_at(const std::vector<MrclamDataset::TimedPose>& track,
+                                                       double time_s, double max_gap_s);
+
+}  // namespace swarmloc::world

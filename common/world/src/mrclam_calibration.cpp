@@ -1,0 +1,402 @@
+#include "swarmloc/world/mrclam_calibration.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "swarmloc/models/measurement_models.hpp"
+
+namespace swarmloc::world {
+namespace {
+
+using Pose = MrclamDataset::TimedPose;
+using Pair = std::array<double, 2>;
+
+double median_of(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
+/// Variance of a unit Gaussian truncated to ±k: the inliers' std underestimates σ by its square root.
+double truncated_variance_factor(double k) {
+  const double density = std::exp(-0.5 * k * k) / std::sqrt(2.0 * std::numbers::pi);
+  const double mass = std::erf(k / std::numbers::sqrt2);
+  return 1.0 - 2.0 * k * density / mass;
+}
+
+struct ChannelEstimate {
+  double centre = 0.0;
+  double scale = 0.0;
+};
+
+/// Median and 1.4826·MAD (the Gaussian-consistent MAD) of one channel; the plain std if the MAD is 0.
+ChannelEstimate median_mad(const std::vector<Pair>& residuals, std::size_t channel) {
+  std::vector<double> values;
+  values.reserve(residuals.size());
+  for (const auto& r : residuals) values.push_back(r[channel]);
+  const double centre = median_of(values);
+  for (auto& v : values) v = std::abs(v - centre);
+  double scale = 1.4826 * median_of(values);
+  if (!(scale > 0.0)) {
+    double sum = 0.0;
+    for (const auto& r : residuals) sum += (r[channel] - centre) * (r[channel] - centre);
+    scale = std::sqrt(sum / static_cast<double>(residuals.size()));
+  }
+  return {centre, scale};
+}
+
+std::vector<bool> inlier_mask(const std::vector<Pair>& residuals, const std::array<ChannelEstimate, 2>& est,
+                              double trim_sigma) {
+  std::vector<bool> mask(residuals.size());
+  for (std::size_t i = 0; i < residuals.size(); ++i) {
+    bool inside = true;
+    for (std::size_t c = 0; c < 2; ++c) {
+      inside = inside && std::abs(residuals[i][c] - est[c].centre) <= trim_sigma * est[c].scale;
+    }
+    mask[i] = inside;
+  }
+  return mask;
+}
+
+/// Mean and truncation-corrected std of the masked residuals, per channel.
+std::array<ChannelEstimate, 2> inlier_moments(const std::vector<Pair>& residuals,
+                                              const std::vector<bool>& mask, double variance_factor) {
+  std::array<ChannelEstimate, 2> est{};
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < residuals.size(); ++i) {
+    if (!mask[i]) continue;
+    ++n;
+    for (std::size_t c = 0; c < 2; ++c) est[c].centre += residuals[i][c];
+  }
+  if (n < 2) return est;
+  for (auto& e : est) e.centre /= static_cast<double>(n);
+  for (std::size_t i = 0; i < residuals.size(); ++i) {
+    if (!mask[i]) continue;
+    for (std::size_t c = 0; c < 2; ++c) {
+      const double d = residuals[i][c] - est[c].centre;
+      est[c].scale += d * d;
+    }
+  }
+  for (auto& e : est) e.scale = std::sqrt(e.scale / static_cast<double>(n - 1) / variance_factor);
+  return est;
+}
+
+/// Relative bearing of `target` from `pose` (robot frame), wrapped.
+double bearing_from(const Pose& pose, const Vec2& target) {
+  const Vec2 d = target - pose.position_m;
+  return models::wrap_angle(std::atan2(d.y(), d.x()) - pose.heading_rad);
+}
+
+/// One sighting's residual and its true range (for the range bins).
+struct SightingResidual {
+  Pair residual{};  ///< range (m), bearing (rad)
+  double true_range_m = 0.0;
+};
+
+struct SightingResiduals {
+  std::vector<SightingResidual> landmarks;
+  std::vector<SightingResidual> robots;
+  std::size_t landmark_gaps = 0;
+  std::size_t robot_gaps = 0;
+};
+
+SightingResiduals sighting_residuals(const MrclamDataset& data, std::size_t robot, double max_gap_s) {
+  SightingResiduals out;
+  const auto& self = data.robots[robot];
+  for (const auto& m : self.measurements) {
+    const bool landmark = m.subject > kMrclamRobots;
+    auto& gaps = landmark ? out.landmark_gaps : out.robot_gaps;
+    const auto pose = groundtruth_at(self.groundtruth, m.time_s, max_gap_s);
+    std::optional<Vec2> target;
+    if (landmark) {
+      const auto found = data.landmarks.find(m.subject);
+      if (found == data.landmarks.end()) continue;  // the loader already drops these
+      target = found->second.position_m;
+    } else {
+      const auto seen = groundtruth_at(data.robots.at(static_cast<std::size_t>(m.subject - 1)).groundtruth,
+                                       m.time_s, max_gap_s);
+      if (seen) target = seen->position_m;
+    }
+    if (!pose || !target) {
+      ++gaps;
+      continue;
+    }
+    const double true_range = (*target - pose->position_m).norm();
+    const SightingResidual r{
+        {m.range_m - true_range, models::wrap_angle(m.bearing_rad - bearing_from(*pose, *target))},
+        true_range};
+    (landmark ? out.landmarks : out.robots).push_back(r);
+  }
+  return out;
+}
+
+std::vector<RangeBin> range_bins(const std::vector<SightingResidual>& sightings, const RobustStats& range,
+                                 const RobustStats& bearing, double trim_sigma) {
+  std::vector<std::vector<double>> by_metre;
+  for (const auto& s : sightings) {
+    const bool inlier = std::abs(s.residual[0] - range.bias) <= trim_sigma * range.std &&
+                        std::abs(s.residual[1] - bearing.bias) <= trim_sigma * bearing.std;
+    if (!inlier) continue;
+    const auto bin = static_cast<std::size_t>(std::floor(s.true_range_m));
+    if (bin >= by_metre.size()) by_metre.resize(bin + 1);
+    by_metre[bin].push_back(s.residual[0]);
+  }
+  std::vector<RangeBin> bins;
+  for (std::size_t b = 0; b < by_metre.size(); ++b) {
+    const auto& values = by_metre[b];
+    if (values.size() < kMinBinSamples) continue;
+    double mean = 0.0;
+    for (double v : values) mean += v;
+    mean /= static_cast<double>(values.size());
+    double sum = 0.0;
+    for (double v : values) sum += (v - mean) * (v - mean);
+    bins.push_back({static_cast<double>(b), static_cast<double>(b + 1), values.size(), mean,
+                    std::sqrt(sum / static_cast<double>(values.size() - 1))});
+  }
+  return bins;
+}
+
+/// Count-weighted least squares std = a + b·(bin centre); a flat line through one bin.
+std::pair<double, double> fit_std_line(const std::vector<RangeBin>& bins) {
+  double w = 0.0, wx = 0.0, wy = 0.0, wxx = 0.0, wxy = 0.0;
+  for (const auto& bin : bins) {
+    const double n = static_cast<double>(bin.samples);
+    const double x = 0.5 * (bin.from_m + bin.to_m);
+    w += n, wx += n * x, wy += n * bin.std_m, wxx += n * x * x, wxy += n * x * bin.std_m;
+  }
+  if (w == 0.0) return {0.0, 0.0};
+  const double denominator = w * wxx - wx * wx;
+  if (bins.size() < 2 || denominator <= 0.0) return {wy / w, 0.0};
+  const double slope = (w * wxy - wx * wy) / denominator;
+  return {(wy - slope * wx) / w, slope};
+}
+
+SightingCalibration calibrate_sightings(const std::vector<SightingResidual>& sightings, std::size_t gaps,
+                                        double trim_sigma) {
+  SightingCalibration out;
+  out.skipped_gap = gaps;
+  std::vector<Pair> residuals;
+  residuals.reserve(sightings.size());
+  for (const auto& s : sightings) residuals.push_back(s.residual);
+  const auto stats = robust_pair_stats(residuals, trim_sigma);
+  out.range_m = stats[0];
+  out.bearing_rad = stats[1];
+  out.range_bins = range_bins(sightings, out.range_m, out.bearing_rad, trim_sigma);
+  std::tie(out.range_std_intercept_m, out.range_std_slope) = fit_std_line(out.range_bins);
+  return out;
+}
+
+/// True when the groundtruth rows from just before `from` to just after `to` are never more than
+/// `max_gap_s` apart.
+bool groundtruth_covers(const std::vector<Pose>& track, double from, double to, double max_gap_s) {
+  auto row = std::upper_bound(track.begin(), track.end(), from,
+                              [](double time, const Pose& pose) { return time < pose.time_s; });
+  if (row != track.begin()) --row;  // the row at or before `from`
+  const auto last = std::lower_bound(track.begin(), track.end(), to,
+                                     [](const Pose& pose, double time) { return pose.time_s < time; });
+  if (last == track.end()) return false;
+  for (; row != last; ++row) {
+    if (std::next(row)->time_s - row->time_s > max_gap_s) return false;
+  }
+  return true;
+}
+
+/// Pose change over [from, to] in the start frame, integrating each row's (v, ω) as an exact unicycle
+/// arc from its time to the next row's (the loader's rule).
+Pose integrate_odometry(const std::vector<MrclamDataset::OdometryRow>& rows, double from, double to) {
+  Pose p;
+  auto row =
+      std::upper_bound(rows.begin(), rows.end(), from,
+                       [](double time, const MrclamDataset::OdometryRow& r) { return time < r.time_s; });
+  if (row != rows.begin()) --row;
+  for (; row != rows.end() && row->time_s < to; ++row) {
+    const double begin = std::max(from, row->time_s);
+    const double end = std::next(row) == rows.end() ? to : std::min(to, std::next(row)->time_s);
+    const double dt = end - begin;
+    if (dt <= 0.0) continue;
+    const double turn = row->omega_radps * dt;
+    const double distance = row->v_mps * dt;
+    // Chord of the arc: length distance·sinc(turn/2), direction heading + turn/2.
+    const double half = 0.5 * turn;
+    const double chord = std::abs(half) < 1e-9 ? distance : distance * std::sin(half) / half;
+    p.position_m += chord * Vec2(std::cos(p.heading_rad + half), std::sin(p.heading_rad + half));
+    p.heading_rad += turn;
+  }
+  return p;
+}
+
+/// One window's residual and the odometry's distance along its chord (for the scale ratio).
+struct WindowResidual {
+  Pair residual{};  ///< distance (m), heading (rad): groundtruth − odometry
+  double odometry_distance_m = 0.0;
+  double true_distance_m = 0.0;
+};
+
+struct WindowResiduals {
+  std::vector<WindowResidual> windows;
+  std::size_t gaps = 0;
+};
+
+WindowResiduals odometry_residuals(const MrclamDataset::Robot& robot, double window_s, double max_gap_s) {
+  WindowResiduals out;
+  if (robot.odometry.empty()) return out;
+  const double first = robot.odometry.front().time_s;
+  const double last = robot.odometry.back().time_s;
+  for (double from = first; from + window_s <= last; from += window_s) {
+    const double to = from + window_s;
+    const auto start = groundtruth_at(robot.groundtruth, from, max_gap_s);
+    const auto end = groundtruth_at(robot.groundtruth, to, max_gap_s);
+    if (!start || !end || !groundtruth_covers(robot.groundtruth, from, to, max_gap_s)) {
+      ++out.gaps;
+      continue;
+    }
+    const Pose odometry = integrate_odometry(robot.odometry, from, to);
+    const Eigen::Rotation2Dd to_start_frame(-start->heading_rad);
+    const Vec2 true_motion = to_start_frame * (end->position_m - start->position_m);
+    const double true_turn = models::wrap_angle(end->heading_rad - start->heading_rad);
+    // Along the odometry's chord direction (half its turn), so a heading error does not count as distance.
+    const double half = 0.5 * odometry.heading_rad;
+    const Vec2 along(std::cos(half), std::sin(half));
+    const double odometry_distance = along.dot(odometry.position_m);
+    const double true_distance = along.dot(true_motion);
+    out.windows.push_back(
+        {{true_distance - odometry_distance, models::wrap_angle(true_turn - odometry.heading_rad)},
+         odometry_distance,
+         true_distance});
+  }
+  return out;
+}
+
+OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double window_s, double trim_sigma) {
+  OdometryCalibration out;
+  out.window_s = window_s;
+  out.skipped_gap = residuals.gaps;
+  std::vector<Pair> pairs;
+  pairs.reserve(residuals.windows.size());
+  for (const auto& w : residuals.windows) pairs.push_back(w.residual);
+  const auto stats = robust_pair_stats(pairs, trim_sigma);
+  out.distance_m = stats[0];
+  out.heading_rad = stats[1];
+  double odometry_sum = 0.0;
+  double true_sum = 0.0;
+  for (const auto& w : residuals.windows) {
+    const bool inlier = std::abs(w.residual[0] - out.distance_m.bias) <= trim_sigma * out.distance_m.std &&
+                        std::abs(w.residual[1] - out.heading_rad.bias) <= trim_sigma * out.heading_rad.std;
+    if (!inlier || std::abs(w.odometry_distance_m) < 0.01) continue;
+    odometry_sum += w.odometry_distance_m;
+    true_sum += w.true_distance_m;
+  }
+  out.distance_ratio = odometry_sum != 0.0 ? true_sum / odometry_sum : 1.0;
+  return out;
+}
+
+/// Every residual of one robot (or of all, appended), before the statistics.
+struct RawResiduals {
+  SightingResiduals sightings;
+  std::vector<WindowResiduals> windows;  ///< per options.windows_s
+};
+
+void append(RawResiduals& into, const RawResiduals& from) {
+  auto& s = into.sightings;
+  s.landmarks.insert(s.landmarks.end(), from.sightings.landmarks.begin(), from.sightings.landmarks.end());
+  s.robots.insert(s.robots.end(), from.sightings.robots.begin(), from.sightings.robots.end());
+  s.landmark_gaps += from.sightings.landmark_gaps;
+  s.robot_gaps += from.sightings.robot_gaps;
+  into.windows.resize(from.windows.size());
+  for (std::size_t k = 0; k < from.windows.size(); ++k) {
+    auto& w = into.windows[k];
+    w.windows.insert(w.windows.end(), from.windows[k].windows.begin(), from.windows[k].windows.end());
+    w.gaps += from.windows[k].gaps;
+  }
+}
+
+RobotCalibration calibrate_residuals(const RawResiduals& raw, const CalibrationOptions& options) {
+  RobotCalibration out;
+  out.landmarks =
+      calibrate_sightings(raw.sightings.landmarks, raw.sightings.landmark_gaps, options.trim_sigma);
+  out.robots = calibrate_sightings(raw.sightings.robots, raw.sightings.robot_gaps, options.trim_sigma);
+  for (std::size_t k = 0; k < options.windows_s.size(); ++k) {
+    out.odometry.push_back(calibrate_odometry(raw.windows[k], options.windows_s[k], options.trim_sigma));
+  }
+  return out;
+}
+
+}  // namespace
+
+std::array<RobustStats, 2> robust_pair_stats(const std::vector<Pair>& residuals, double trim_sigma) {
+  std::array<RobustStats, 2> out{};
+  for (auto& s : out) s.samples = residuals.size();
+  if (residuals.size() < 2) return out;
+  std::array<ChannelEstimate, 2> est{median_mad(residuals, 0), median_mad(residuals, 1)};
+  const double factor = truncated_variance_factor(trim_sigma);
+  std::vector<bool> mask = inlier_mask(residuals, est, trim_sigma);
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    est = inlier_moments(residuals, mask, factor);
+    auto next = inlier_mask(residuals, est, trim_sigma);
+    if (next == mask) break;
+    mask = std::move(next);
+  }
+  const auto outliers = static_cast<std::size_t>(std::count(mask.begin(), mask.end(), false));
+  const auto plain = inlier_moments(residuals, std::vector<bool>(residuals.size(), true), 1.0);
+  const auto all =
+      inlier_moments(residuals, inlier_mask(residuals, plain, 5.0), truncated_variance_factor(5.0));
+  for (std::size_t c = 0; c < 2; ++c) {
+    out[c].all_std = all[c].scale;
+    out[c].outliers = outliers;
+    out[c].bias = est[c].centre;
+    out[c].std = est[c].scale;
+  }
+  return out;
+}
+
+double OdometryCalibration::v_std() const {
+  return window_s > 0.0 ? distance_m.std / std::sqrt(window_s) : 0.0;
+}
+double OdometryCalibration::omega_std() const {
+  return window_s > 0.0 ? heading_rad.std / std::sqrt(window_s) : 0.0;
+}
+
+double OdometryCalibration::v_std_with_tails() const {
+  return window_s > 0.0 ? distance_m.all_std / std::sqrt(window_s) : 0.0;
+}
+double OdometryCalibration::omega_std_with_tails() const {
+  return window_s > 0.0 ? heading_rad.all_std / std::sqrt(window_s) : 0.0;
+}
+
+std::optional<MrclamDataset::TimedPose> groundtruth_at(const std::vector<Pose>& track, double time_s,
+                                                       double max_gap_s) {
+  const auto after = std::lower_bound(track.begin(), track.end(), time_s,
+                                      [](const Pose& pose, double time) { return pose.time_s < time; });
+  if (after == track.end()) return std::nullopt;
+  if (after->time_s == time_s) return *after;
+  if (after == track.begin()) return std::nullopt;
+  const auto before = std::prev(after);
+  const double span = after->time_s - before->time_s;
+  if (span > max_gap_s) return std::nullopt;
+  const double w = (time_s - before->time_s) / span;
+  const double turn = models::wrap_angle(after->heading_rad - before->heading_rad);
+  return Pose{time_s, (1.0 - w) * before->position_m + w * after->position_m,
+              models::wrap_angle(before->heading_rad + w * turn)};
+}
+
+MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationOptions& options) {
+  MrclamCalibration out;
+  out.options = options;
+  RawResiduals pooled;
+  pooled.windows.resize(options.windows_s.size());
+  for (std::size_t r = 0; r < data.robots.size(); ++r) {
+    RawResiduals raw;
+    raw.sightings = sighting_residuals(data, r, options.max_groundtruth_gap_s);
+    for (double window : options.windows_s) {
+      raw.windows.push_back(odometry_residuals(data.robots[r], window, options.max_groundtruth_gap_s));
+    }
+    out.robots.push_back(calibrate_residuals(raw, options));
+    append(pooled, raw);
+  }
+  out.pooled = calibrate_residuals(pooled, options);
+  return out;
+}
+
+}  // namespace swarmloc::world

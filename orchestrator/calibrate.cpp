@@ -1,0 +1,147 @@
+#include "calibrate.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/world/mrclam_calibration.hpp"
+
+namespace swarmloc::orchestrator {
+namespace {
+
+/// Fewer inlier samples than this and a figure says nothing: exit 2 rather than publish it.
+constexpr std::size_t kMinUsableSamples = 20;
+/// The odometry window whose densities are published (the others check the √s model).
+constexpr double kReferenceWindowS = 1.0;
+
+std::size_t inliers(const world::RobustStats& s) { return s.samples - s.outliers; }
+
+const world::OdometryCalibration& reference_window(const world::RobotCalibration& calibration) {
+  const auto* best = &calibration.odometry.front();
+  for (const auto& w : calibration.odometry) {
+    if (std::abs(w.window_s - kReferenceWindowS) < std::abs(best->window_s - kReferenceWindowS)) best = &w;
+  }
+  return *best;
+}
+
+void print_sightings(const char* what, const world::SightingCalibration& s) {
+  std::printf("  %-22s range   bias %+8.4f m    std %.4f m     n %6zu  outliers %5.1f %%  gaps %zu\n", what,
+              s.range_m.bias, s.range_m.std, s.range_m.samples, 100.0 * s.range_m.outlier_fraction(),
+              s.skipped_gap);
+  std::printf(
+      "  %-22s bearing bias %+8.4f rad  std %.4f rad   (tails kept: range %.3f m, bearing %.3f rad)\n", "",
+      s.bearing_rad.bias, s.bearing_rad.std, s.range_m.all_std, s.bearing_rad.all_std);
+}
+
+void print_range_bins(const world::SightingCalibration& s) {
+  std::printf("  range std by true range (landmarks, inliers):");
+  for (const auto& bin : s.range_bins) {
+    std::printf(" [%.0f,%.0f) m %.3f (bias %+.3f, n %zu);", bin.from_m, bin.to_m, bin.std_m, bin.bias_m,
+                bin.samples);
+  }
+  std::printf("\n  fitted: range std = %.4f m + %.4f x range\n", s.range_std_intercept_m, s.range_std_slope);
+}
+
+void print_odometry(const world::RobotCalibration& calibration) {
+  for (const auto& w : calibration.odometry) {
+    std::printf(
+        "  odometry %.1f s windows   v_std %.4f m/sqrt(s)  omega_std %.4f rad/sqrt(s)  distance bias %+.4f m "
+        " "
+        "turn bias %+.4f rad  distance ratio %.4f  n %zu  outliers %.1f %%  gaps %zu\n"
+        "      heavy tails kept (published; only > 5 std dropped): v_std %.4f  omega_std %.4f\n",
+        w.window_s, w.v_std(), w.omega_std(), w.distance_m.bias, w.heading_rad.bias, w.distance_ratio,
+        w.distance_m.samples, 100.0 * w.distance_m.outlier_fraction(), w.skipped_gap, w.v_std_with_tails(),
+        w.omega_std_with_tails());
+  }
+}
+
+void print_report(const std::string& dir, const world::MrclamCalibration& c) {
+  std::printf("Noise of %s measured against its groundtruth\n", dir.c_str());
+  std::printf(
+      "  sightings: measured - true range/bearing, groundtruth interpolated at the sighting's timestamp\n"
+      "  (skipped when the groundtruth rows around it are > %.2f s apart); outliers: either residual beyond\n"
+      "  %.0f robust std (iterated from median/MAD), std corrected for the trimmed tails.\n"
+      "  odometry: unicycle arcs of the odometry rows against the groundtruth pose change over tiled "
+      "windows\n"
+      "  (skipped across groundtruth gaps); distance along the odometry chord, heading change; "
+      "std/sqrt(window).\n\n",
+      c.options.max_groundtruth_gap_s, c.options.trim_sigma);
+  for (std::size_t r = 0; r < c.robots.size(); ++r) {
+    std::printf("Robot %zu\n", r + 1);
+    print_sightings("landmark sightings", c.robots[r].landmarks);
+    print_sightings("robot sightings", c.robots[r].robots);
+    print_odometry(c.robots[r]);
+  }
+  std::printf("\nPooled (all robots; the published figures)\n");
+  print_sightings("landmark sightings", c.pooled.landmarks);
+  print_sightings("robot sightings", c.pooled.robots);
+  print_range_bins(c.pooled.landmarks);
+  print_odometry(c.pooled);
+}
+
+/// The scenario keys of the pooled model. Range and bearing: the trimmed std of the landmark sightings
+/// (the outliers are misidentified barcodes, which the filters' gate drops; the robot sightings are
+/// reported, not published: the filters give both kinds one std). Odometry: the std with its heavy tails
+/// (commanded velocities against real motion: the tails are error the filter must carry).
+std::string scenario_fragment(const std::string& dir, const world::MrclamCalibration& c) {
+  const auto& odometry = reference_window(c.pooled);
+  std::ostringstream text;
+  text.precision(4);
+  text << "# swarmloc calibrate --mrclam " << dir << "\n"
+       << "# Pooled over " << c.robots.size() << " robots: " << c.pooled.landmarks.range_m.samples
+       << " landmark sightings (" << 100.0 * c.pooled.landmarks.range_m.outlier_fraction() << " % outliers), "
+       << odometry.distance_m.samples << " odometry windows of " << odometry.window_s
+       << " s (docs/real-data.md, \"Noise model\").\n"
+       << "# Measured biases (not applied by any key): range " << c.pooled.landmarks.range_m.bias
+       << " m, bearing " << c.pooled.landmarks.bearing_rad.bias << " rad, odometry distance ratio "
+       << odometry.distance_ratio << ".\n"
+       << "noise:\n"
+       << "  range_std_m: " << c.pooled.landmarks.range_m.std << "\n"
+       << "  bearing_std_rad: " << c.pooled.landmarks.bearing_rad.std << "\n"
+       << "  odometry_v_std: " << odometry.v_std_with_tails() << "\n"
+       << "  odometry_omega_std: " << odometry.omega_std_with_tails() << "\n";
+  return text.str();
+}
+
+void require_usable(const world::MrclamCalibration& c) {
+  if (inliers(c.pooled.landmarks.range_m) < kMinUsableSamples) {
+    throw config::ScenarioError("calibrate: fewer than " + std::to_string(kMinUsableSamples) +
+                                " landmark sightings with groundtruth around them");
+  }
+  if (c.pooled.odometry.empty() || inliers(reference_window(c.pooled).distance_m) < kMinUsableSamples) {
+    throw config::ScenarioError("calibrate: fewer than " + std::to_string(kMinUsableSamples) +
+                                " odometry windows with groundtruth at both ends");
+  }
+}
+
+}  // namespace
+
+int run_calibrate(const CalibrateOptions& options) {
+  try {
+    if (options.mrclam_dir.empty()) throw config::ScenarioError("calibrate: --mrclam DIR is required");
+    const auto data = world::load_mrclam(options.mrclam_dir);
+    const auto calibration = world::calibrate_mrclam(data);
+    require_usable(calibration);
+    print_report(options.mrclam_dir, calibration);
+    const auto fragment = scenario_fragment(options.mrclam_dir, calibration);
+    std::printf("\nScenario keys (replay --mrclam uses these as --set, or paste into a scenario):\n%s",
+                fragment.c_str());
+    if (!options.out_path.empty()) {
+      std::ofstream out(options.out_path);
+      out << fragment;
+      out.flush();
+      if (!out) throw config::ScenarioError("--out: cannot write '" + options.out_path + "'");
+      std::printf("written to %s\n", options.out_path.c_str());
+    }
+    return 0;
+  } catch (const std::exception& error) {
+    // A dataset that cannot be read or scored is bad input, like replay --mrclam's.
+    std::fprintf(stderr, "error: %s\n", error.what());
+    return 2;
+  }
+}
+
+}  // namespace swarmloc::orchestrator

@@ -1,0 +1,236 @@
+// The MRCLAM noise calibration (docs/real-data.md, "Noise model") on a synthetic five-robot dataset with
+// known noise: fixed seed, so every figure below is deterministic and the tolerances are several times
+// the estimators' sampling error (about 2 % for the stds here).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "swarmloc/models/measurement_models.hpp"
+#include "swarmloc/world/mrclam_calibration.hpp"
+
+namespace swarmloc::world {
+namespace {
+
+struct SyntheticNoise {
+  double range_std_m = 0.1;
+  double range_bias_m = 0.05;
+  double bearing_std_rad = 0.03;
+  double v_std = 0.04;         ///< m/√s
+  double omega_std = 0.08;     ///< rad/√s
+  double misidentified = 0.0;  ///< fraction of sightings labelled with another landmark
+};
+
+constexpr double kStartS = 1000.0;
+constexpr double kRowS = 0.02;      // odometry and groundtruth rows
+constexpr double kSightingS = 0.2;  // per robot
+constexpr double kDurationS = 300.0;
+constexpr int kLandmarks = 15;
+
+/// A robot's true track: pose and command at each row (the command holds until the next row).
+struct TrueTrack {
+  std::vector<MrclamDataset::TimedPose> poses;
+  std::vector<std::array<double, 2>> commands;  ///< v, ω
+  [[nodiscard]] MrclamDataset::TimedPose at(double t) const {
+    const auto i = std::min(poses.size() - 1, static_cast<std::size_t>(std::floor((t - kStartS) / kRowS)));
+    return advance(poses[i], commands[i], t - poses[i].time_s);
+  }
+  static MrclamDataset::TimedPose advance(MrclamDataset::TimedPose p, const std::array<double, 2>& c,
+                                          double dt) {
+    const double half = 0.5 * c[1] * dt;
+    const double chord = std::abs(half) < 1e-12 ? c[0] * dt : c[0] * dt * std::sin(half) / half;
+    p.position_m += chord * Vec2(std::cos(p.heading_rad + half), std::sin(p.heading_rad + half));
+    p.heading_rad = models::wrap_angle(p.heading_rad + 2.0 * half);
+    p.time_s += dt;
+    return p;
+  }
+};
+
+TrueTrack drive(std::mt19937& rng, Vec2 start) {
+  std::uniform_real_distribution<double> speed(0.05, 0.4), turn(-0.6, 0.6), heading(-3.0, 3.0);
+  TrueTrack track;
+  MrclamDataset::TimedPose pose{kStartS, start, heading(rng)};
+  std::array<double, 2> command{};
+  const auto rows = static_cast<int>(kDurationS / kRowS);
+  for (int k = 0; k <= rows; ++k) {
+    if (k % 50 == 0) command = {speed(rng), turn(rng)};  // a new command every second
+    pose.time_s = kStartS + k * kRowS;
+    track.poses.push_back(pose);
+    track.commands.push_back(command);
+    pose = TrueTrack::advance(pose, command, kRowS);
+  }
+  return track;
+}
+
+/// Odometry reports the true command plus white noise of density v_std, omega_std (variance σ²/dt per
+/// row, so a row adds σ²·dt to distance and turn).
+void add_odometry(MrclamDataset::Robot& robot, const TrueTrack& track, const SyntheticNoise& noise,
+                  std::mt19937& rng) {
+  std::normal_distribution<double> unit(0.0, 1.0);
+  const double per_row = 1.0 / std::sqrt(kRowS);
+  for (std::size_t k = 0; k < track.poses.size(); ++k) {
+    robot.groundtruth.push_back(track.poses[k]);
+    robot.odometry.push_back({track.poses[k].time_s, track.commands[k][0] + noise.v_std * per_row * unit(rng),
+                              track.commands[k][1] + noise.omega_std * per_row * unit(rng)});
+  }
+}
+
+MrclamDataset synthetic_dataset(const SyntheticNoise& noise, unsigned seed = 39) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> area(-5.0, 5.0), unit_interval(0.0, 1.0);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  MrclamDataset data;
+  for (int l = 0; l < kLandmarks; ++l) data.landmarks[6 + l] = {Vec2(area(rng), area(rng)), Vec2::Zero()};
+  std::vector<TrueTrack> tracks;
+  data.robots.resize(kMrclamRobots);
+  for (int r = 0; r < kMrclamRobots; ++r) {
+    tracks.push_back(drive(rng, Vec2(area(rng), area(rng))));
+    add_odometry(data.robots[static_cast<std::size_t>(r)], tracks.back(), noise, rng);
+  }
+  std::uniform_int_distribution<int> landmark(6, 5 + kLandmarks), robot(1, kMrclamRobots);
+  for (int r = 0; r < kMrclamRobots; ++r) {
+    // Mid-row timestamps, so the groundtruth is interpolated; every direction, bearings near ±π too.
+    for (double t = kStartS + 0.01; t < kStartS + kDurationS; t += kSightingS) {
+      const auto self = tracks[static_cast<std::size_t>(r)].at(t);
+      int subject = unit_interval(rng) < 0.8 ? landmark(rng) : robot(rng);
+      if (subject == r + 1) continue;
+      const Vec2 target = subject > kMrclamRobots
+                              ? data.landmarks.at(subject).position_m
+                              : tracks[static_cast<std::size_t>(subject - 1)].at(t).position_m;
+      const Vec2 d = target - self.position_m;
+      const double range = d.norm() + noise.range_bias_m + noise.range_std_m * unit(rng);
+      const double bearing =
+          models::wrap_angle(std::atan2(d.y(), d.x()) - self.heading_rad + noise.bearing_std_rad * unit(rng));
+      if (unit_interval(rng) < noise.misidentified) subject = 6 + (subject + 3) % kLandmarks;  // another one
+      data.robots[static_cast<std::size_t>(r)].measurements.push_back({t, subject, range, bearing});
+    }
+  }
+  return data;
+}
+
+const OdometryCalibration& window_of(const RobotCalibration& c, double window_s) {
+  for (const auto& w : c.odometry) {
+    if (w.window_s == window_s) return w;
+  }
+  throw std::out_of_range("no such window");
+}
+
+TEST(MrclamCalibration, RecoversTheKnownSightingNoiseAndBias) {
+  const SyntheticNoise noise;
+  const auto c = calibrate_mrclam(synthetic_dataset(noise));
+  const auto& landmarks = c.pooled.landmarks;
+  EXPECT_GT(landmarks.range_m.samples, 5000U);
+  EXPECT_NEAR(landmarks.range_m.bias, noise.range_bias_m, 0.01);
+  EXPECT_NEAR(landmarks.range_m.std, noise.range_std_m, 0.1 * noise.range_std_m);
+  EXPECT_NEAR(landmarks.bearing_rad.bias, 0.0, 0.003);
+  EXPECT_NEAR(landmarks.bearing_rad.std, noise.bearing_std_rad, 0.1 * noise.bearing_std_rad);
+  // Clean Gaussian data: a joint 3σ trim drops 0.54 %; a bearing residual not wrapped at ±π would add
+  // every sighting straddling the robot's back (about 2 % here).
+  EXPECT_LT(landmarks.range_m.outlier_fraction(), 0.012);
+  const auto& robots = c.pooled.robots;
+  EXPECT_GT(robots.range_m.samples, 1000U);
+  EXPECT_NEAR(robots.range_m.bias, noise.range_bias_m, 0.02);
+  EXPECT_NEAR(robots.range_m.std, noise.range_std_m, 0.15 * noise.range_std_m);
+  EXPECT_NEAR(robots.bearing_rad.std, noise.bearing_std_rad, 0.15 * noise.bearing_std_rad);
+  // The noise does not grow with range: the fitted slope is near zero.
+  EXPECT_NEAR(landmarks.range_std_slope, 0.0, 0.01);
+  EXPECT_NEAR(landmarks.range_std_intercept_m, noise.range_std_m, 0.02);
+}
+
+TEST(MrclamCalibration, RecoversTheOdometryDensitiesAtEveryWindowLength) {
+  const SyntheticNoise noise;
+  const auto c = calibrate_mrclam(synthetic_dataset(noise));
+  for (double window : {0.5, 1.0, 2.0}) {
+    SCOPED_TRACE(window);
+    const auto& w = window_of(c.pooled, window);
+    EXPECT_GT(w.distance_m.samples, static_cast<std::size_t>(4.0 * kDurationS / window));
+    // The √s model: the same density from every window length (a variance divided by window² would
+    // give 1/√window times the density).
+    EXPECT_NEAR(w.v_std(), noise.v_std, 0.1 * noise.v_std);
+    EXPECT_NEAR(w.omega_std(), noise.omega_std, 0.1 * noise.omega_std);
+    EXPECT_NEAR(w.v_std_with_tails(), noise.v_std, 0.1 * noise.v_std);  // the published figure
+    EXPECT_NEAR(w.omega_std_with_tails(), noise.omega_std, 0.1 * noise.omega_std);
+    EXPECT_NEAR(w.distance_ratio, 1.0, 0.01);
+    EXPECT_NEAR(w.distance_m.bias, 0.0, 0.005);
+  }
+}
+
+TEST(MrclamCalibration, MisidentifiedBarcodesAreTrimmedNotScored) {
+  SyntheticNoise noise;
+  const auto clean = calibrate_mrclam(synthetic_dataset(noise)).pooled.landmarks;
+  noise.misidentified = 0.05;
+  const auto dirty = calibrate_mrclam(synthetic_dataset(noise)).pooled.landmarks;
+  // Most misidentified sightings land metres off and are trimmed; the few that land near the true
+  // landmark's range and bearing stay, so the std moves by a few per cent at most (an untrimmed std is 20×).
+  EXPECT_NEAR(dirty.range_m.std, clean.range_m.std, 0.05 * clean.range_m.std);
+  EXPECT_NEAR(dirty.bearing_rad.std, clean.bearing_rad.std, 0.05 * clean.bearing_rad.std);
+  EXPECT_NEAR(dirty.range_m.bias, clean.range_m.bias, 0.01);
+  EXPECT_GT(dirty.range_m.outlier_fraction(), clean.range_m.outlier_fraction() + 0.035);
+  EXPECT_LT(dirty.range_m.outlier_fraction(), clean.range_m.outlier_fraction() + 0.055);
+}
+
+TEST(MrclamCalibration, AGroundtruthGapIsSkippedNotScored) {
+  const SyntheticNoise noise;
+  auto data = synthetic_dataset(noise);
+  const double gap_from = kStartS + 100.0;
+  const double gap_to = kStartS + 103.0;
+  auto& track = data.robots[0].groundtruth;
+  std::erase_if(track, [&](const auto& pose) { return pose.time_s > gap_from && pose.time_s < gap_to; });
+  std::size_t landmark_sightings_in_gap = 0;
+  for (const auto& m : data.robots[0].measurements) {
+    if (m.subject > kMrclamRobots && m.time_s > gap_from && m.time_s < gap_to) ++landmark_sightings_in_gap;
+  }
+  ASSERT_GT(landmark_sightings_in_gap, 5U);
+  const auto c = calibrate_mrclam(data);
+  EXPECT_EQ(c.robots[0].landmarks.skipped_gap, landmark_sightings_in_gap);
+  EXPECT_EQ(c.robots[1].landmarks.skipped_gap, 0U);
+  EXPECT_GT(c.robots[0].robots.skipped_gap + c.robots[1].robots.skipped_gap, 0U);  // robot 1 seen in its gap
+  // Windows of 1 s touching the 3 s gap: three or four, depending on where the tiling falls.
+  const auto& window = window_of(c.robots[0], 1.0);
+  EXPECT_GE(window.skipped_gap, 3U);
+  EXPECT_LE(window.skipped_gap, 4U);
+  EXPECT_NEAR(window.v_std(), noise.v_std, 0.15 * noise.v_std);
+}
+
+TEST(MrclamCalibration, BearingsStraddlingTheRobotsBackAreWrapped) {
+  // Five robots standing still facing +x, robot 1 sighting a landmark straight behind it (bearing π):
+  // about half the noisy bearings read near −π. Unwrapped, those residuals would be ≈ −2π.
+  MrclamDataset data;
+  data.landmarks[6] = {Vec2(-3.0, 0.0), Vec2::Zero()};
+  data.robots.resize(kMrclamRobots);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> bearing_noise(0.0, 0.03);
+  for (int r = 0; r < kMrclamRobots; ++r) {
+    auto& robot = data.robots[static_cast<std::size_t>(r)];
+    for (int k = 0; k <= 3000; ++k) {
+      const double t = kStartS + k * kRowS;
+      robot.groundtruth.push_back({t, Vec2(0.0, 10.0 * r), 0.0});
+      robot.odometry.push_back({t, 0.0, 0.0});
+      if (r == 0 && k % 5 == 1) {
+        robot.measurements.push_back({t, 6, 3.0, models::wrap_angle(std::numbers::pi + bearing_noise(rng))});
+      }
+    }
+  }
+  const auto c = calibrate_mrclam(data).pooled.landmarks;
+  EXPECT_EQ(c.bearing_rad.samples, 600U);
+  EXPECT_NEAR(c.bearing_rad.bias, 0.0, 0.005);
+  EXPECT_NEAR(c.bearing_rad.std, 0.03, 0.004);
+  EXPECT_LT(c.bearing_rad.outlier_fraction(), 0.02);
+}
+
+TEST(MrclamCalibration, GroundtruthIsInterpolatedOnlyBetweenCloseRows) {
+  const std::vector<MrclamDataset::TimedPose> track{
+      {10.0, Vec2(0, 0), 3.1}, {10.05, Vec2(1, 0), -3.1}, {11.0, Vec2(2, 0), 0.0}};
+  const auto middle = groundtruth_at(track, 10.025, 0.1);
+  ASSERT_TRUE(middle.has_value());
+  EXPECT_NEAR(middle->position_m.x(), 0.5, 1e-12);
+  EXPECT_NEAR(std::abs(middle->heading_rad), std::numbers::pi, 1e-9);  // through ±π, not through 0
+  EXPECT_FALSE(groundtruth_at(track, 10.5, 0.1).has_value());          // rows 0.95 s apart
+  EXPECT_FALSE(groundtruth_at(track, 9.9, 0.1).has_value());
+  EXPECT_FALSE(groundtruth_at(track, 11.1, 0.1).has_value());
+  EXPECT_TRUE(groundtruth_at(track, 11.0, 0.1).has_value());
+}
+
+}  // namespace
+}  // namespace swarmloc::world
