@@ -225,6 +225,7 @@ class AgentProcess {
     append(inbound.information);
     append(inbound.consensus);
     append(inbound.beliefs);
+    append(inbound.observations);
   }
 
   /// CPU seconds spent since START: the steady-state cost the scaling figures compare (start-up and

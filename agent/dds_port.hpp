@@ -26,6 +26,8 @@ class DdsPort : public runtime::AgentPort {
             transport_.publish_consensus(header, message);
           if constexpr (std::is_same_v<Message, estimators::BeliefMessage>)
             transport_.publish_belief(header, message);
+          if constexpr (std::is_same_v<Message, estimators::ObservationMessage>)
+            transport_.publish_observations(header, message);
         });
   }
   void flush() override {
@@ -51,6 +53,7 @@ inline void feed_samples(runtime::AgentLoop& loop, const dds::AgentInbound& inbo
   feed(inbound.information);
   feed(inbound.consensus);
   feed(inbound.beliefs);
+  feed(inbound.observations);
 }
 
 }  // namespace swarmloc::agent

@@ -119,6 +119,7 @@ constexpr MessageFamilies kStateMessages{.state = true};
 constexpr MessageFamilies kStateAndInformation{.state = true, .information = true};
 constexpr MessageFamilies kStateAndConsensus{.state = true, .consensus = true};
 constexpr MessageFamilies kBeliefMessages{.belief = true};
+constexpr MessageFamilies kObservationMessages{.observations = true};
 
 constexpr AlgorithmPlacement kAgent = AlgorithmPlacement::kAgent;
 constexpr AlgorithmPlacement kCentre = AlgorithmPlacement::kFusionCentre;
@@ -170,6 +171,9 @@ const std::vector<AlgorithmSpec>& algorithm_registry() {
        agent_build(&builders::pose_ekf)},
       {"pose_ieif", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys, kStateMessages,
        agent_build(&builders::pose_ieif)},
+      // docs/algorithms.md §10: the team's joint filter at every robot, from shared observations.
+      {"team_pose_ekf", kPose, kAgent, kRangesAndFixes, kPoseNone, false, nullptr, kPoseKeys,
+       kObservationMessages, agent_build(&builders::team_pose_ekf)},
       {"dead_reckoning", kPose, kAgent, kRangesAndFixes, kOdometryNone, false, nullptr, kPoseKeys,
        kStateMessages, agent_build(&builders::dead_reckoning)},
       // docs/algorithms.md §9; a step without a batch is one more sweep (docs/algorithms.md §9.2).

@@ -46,6 +46,16 @@ struct WireBelief {
   swarmloc_msg_Belief sample{};
 };
 
+struct WireObservations {
+  WireObservations(const runtime::Header& header, const estimators::ObservationMessage& message);
+  WireObservations(const WireObservations&) = delete;
+  WireObservations& operator=(const WireObservations&) = delete;
+  std::vector<std::vector<swarmloc_msg_OdometrySegment>> odometry;  ///< per span
+  std::vector<std::vector<swarmloc_msg_RangeBearing>> range_bearings;
+  std::vector<swarmloc_msg_ObservedSpan> spans;
+  swarmloc_msg_Observations sample{};
+};
+
 struct WireBatch {
   WireBatch(AgentId recipient, const runtime::Header& header, const estimators::MeasurementBatch& batch);
   WireBatch(const WireBatch&) = delete;
@@ -98,6 +108,7 @@ Inbound<estimators::StateMessage> decode(const swarmloc_msg_State& wire);
 Inbound<estimators::InformationMessage> decode(const swarmloc_msg_Information& wire);
 Inbound<estimators::ConsensusMessage> decode(const swarmloc_msg_Consensus& wire);
 Inbound<estimators::BeliefMessage> decode(const swarmloc_msg_Belief& wire);
+Inbound<estimators::ObservationMessage> decode(const swarmloc_msg_Observations& wire);
 codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire);
 /// Calls on_batch(DecodedBatch&&) for every batch of the block addressed to `recipient` (every batch if
 /// recipient is kAnyRecipient); returns the number of those that were malformed (not passed on).

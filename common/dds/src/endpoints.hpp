@@ -24,6 +24,7 @@ inline constexpr const char* kTopicState = "swarmloc_state";
 inline constexpr const char* kTopicInformation = "swarmloc_information";
 inline constexpr const char* kTopicConsensus = "swarmloc_consensus";
 inline constexpr const char* kTopicBelief = "swarmloc_belief";
+inline constexpr const char* kTopicObservations = "swarmloc_observations";
 inline constexpr const char* kTopicEstimate = "swarmloc_estimate";
 inline constexpr const char* kTopicControl = "swarmloc_control";
 

@@ -100,6 +100,8 @@ struct AgentTransport::Impl {
     const dds_entity_t t_consensus =
         topic_if(families.consensus, swarmloc_msg_Consensus_desc, kTopicConsensus);
     const dds_entity_t t_belief = topic_if(families.belief, swarmloc_msg_Belief_desc, kTopicBelief);
+    const dds_entity_t t_observations =
+        topic_if(families.observations, swarmloc_msg_Observations_desc, kTopicObservations);
     const dds_entity_t t_estimate = create_topic(pp, swarmloc_msg_Estimate_desc, kTopicEstimate);
     const dds_entity_t t_control = create_topic(pp, swarmloc_msg_Control_desc, kTopicControl);
 
@@ -111,6 +113,8 @@ struct AgentTransport::Impl {
     if (families.consensus)
       consensus_writer = create_writer(own, t_consensus, qos.consensus, kTopicConsensus);
     if (families.belief) belief_writer = create_writer(own, t_belief, qos.belief, kTopicBelief);
+    if (families.observations)
+      observations_writer = create_writer(own, t_observations, qos.state, kTopicObservations);
     const dds_entity_t estimates = create_publisher(pp, {partition_names.estimates()});
     estimate_writer = create_writer(estimates, t_estimate, qos.estimate, kTopicEstimate);
     reliable_reports = qos.estimate.reliability == config::Reliability::kReliable;
@@ -147,6 +151,11 @@ struct AgentTransport::Impl {
     if (families.belief) {
       belief_reader = create_reader(from_neighbours, t_belief, qos.belief, kTopicBelief,
                                     inbox_listener<swarmloc_msg_Belief, &AgentInbound::beliefs>().get());
+    }
+    if (families.observations) {
+      observations_reader =
+          create_reader(from_neighbours, t_observations, qos.state, kTopicObservations,
+                        inbox_listener<swarmloc_msg_Observations, &AgentInbound::observations>().get());
     }
     const dds_entity_t from_orchestrator = create_subscriber(
         pp, {partition_names.measurement(
@@ -196,9 +205,11 @@ struct AgentTransport::Impl {
   /// Called once the endpoints exist: the family writers and the first family reader, which the
   /// matching and acknowledgement checks below walk (lockstep: every step).
   void index_families() {
-    for (const dds_entity_t writer : {state_writer, information_writer, consensus_writer, belief_writer})
+    for (const dds_entity_t writer :
+         {state_writer, information_writer, consensus_writer, belief_writer, observations_writer})
       if (writer != 0) family_writers.push_back(writer);
-    for (const dds_entity_t reader : {state_reader, information_reader, consensus_reader, belief_reader}) {
+    for (const dds_entity_t reader :
+         {state_reader, information_reader, consensus_reader, belief_reader, observations_reader}) {
       if (reader != 0) {
         first_family_reader = reader;
         break;
@@ -229,11 +240,13 @@ struct AgentTransport::Impl {
   DomainLease domain;          // declared before the participant: released after it
   Entity participant;          // owns every entity below
   dds_entity_t state_writer = 0, information_writer = 0, consensus_writer = 0, belief_writer = 0;
+  dds_entity_t observations_writer = 0;
   dds_entity_t estimate_writer = 0;
   bool reliable_reports = false;          ///< the estimate writer is reliable (reports_acknowledged)
   bool report_written_to_reader = false;  ///< the last report was written with a reader matched
   dds_entity_t ros2_pose_writer = 0;      ///< dds.ros2 only (docs/ros2.md)
   dds_entity_t state_reader = 0, information_reader = 0, consensus_reader = 0, belief_reader = 0;
+  dds_entity_t observations_reader = 0;
   dds_entity_t measurement_reader = 0, control_reader = 0;
   dds_entity_t waitset = 0;
   std::uint64_t dropped_malformed = 0;  // malformed measurement batches / control samples (not exposed yet)
@@ -267,6 +280,12 @@ void AgentTransport::publish_consensus(const runtime::Header& header,
 void AgentTransport::publish_belief(const runtime::Header& header, const estimators::BeliefMessage& message) {
   const WireBelief wire(header, message);
   write(impl_->writer_for(impl_->belief_writer, "belief"), &wire.sample, kTopicBelief);
+}
+
+void AgentTransport::publish_observations(const runtime::Header& header,
+                                          const estimators::ObservationMessage& message) {
+  const WireObservations wire(header, message);
+  write(impl_->writer_for(impl_->observations_writer, "observations"), &wire.sample, kTopicObservations);
 }
 
 void AgentTransport::publish_estimate(const runtime::EstimateReport& report) {

@@ -24,6 +24,10 @@ inline constexpr std::size_t kMaxFieldValues = 64;
 /// Belief.contributions' bound: exact GaBP's messages, one per neighbour.
 inline constexpr std::size_t kMaxBeliefContributions = 1024;
 inline constexpr std::size_t kMaxEdgeRanges = 16;
+/// Observations' bounds (team_pose_ekf).
+inline constexpr std::size_t kMaxObservedSpans = 64;
+inline constexpr std::size_t kMaxSpanOdometry = 1024;
+inline constexpr std::size_t kMaxSpanRangeBearings = 256;
 
 inline constexpr std::uint8_t kStateFlagAnchor = 1;  // STATE_FLAG_ANCHOR
 inline constexpr std::uint8_t kStateFlagActive = 2;  // STATE_FLAG_ACTIVE
@@ -74,6 +78,8 @@ Inbound<estimators::ConsensusMessage> round_trip(const runtime::Header& header,
                                                  const estimators::ConsensusMessage& message);
 Inbound<estimators::BeliefMessage> round_trip(const runtime::Header& header,
                                               const estimators::BeliefMessage& message);
+Inbound<estimators::ObservationMessage> round_trip(const runtime::Header& header,
+                                                   const estimators::ObservationMessage& message);
 DecodedBatch round_trip(AgentId recipient, const runtime::Header& header,
                         const estimators::MeasurementBatch& batch);
 DecodedEstimate round_trip(const runtime::EstimateReport& report);

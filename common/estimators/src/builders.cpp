@@ -15,6 +15,7 @@
 #include "swarmloc/estimators/pose/dead_reckoning.hpp"
 #include "swarmloc/estimators/pose/pose_ekf.hpp"
 #include "swarmloc/estimators/pose/pose_ieif.hpp"
+#include "swarmloc/estimators/pose/team_pose_ekf.hpp"
 
 namespace swarmloc::estimators::builders {
 namespace {
@@ -56,6 +57,9 @@ std::unique_ptr<Estimator> pose_ekf(const AgentSetup& setup, const EstimatorPara
 }
 std::unique_ptr<Estimator> pose_ieif(const AgentSetup& setup, const EstimatorParams& params) {
   return kalman_filter<PoseIeif>(setup, params);
+}
+std::unique_ptr<Estimator> team_pose_ekf(const AgentSetup& setup, const EstimatorParams& params) {
+  return kalman_filter<TeamPoseEkf>(setup, params);
 }
 std::unique_ptr<Estimator> dead_reckoning(const AgentSetup& setup, const EstimatorParams& params) {
   return kalman_filter<DeadReckoning>(setup, params);

@@ -255,5 +255,28 @@ inline void decode_into(Decoder& in, estimators::BeliefMessage& m) {
   m.iteration = in.i64(), m.mean_m = in.vec2(), m.information = in.mat2();
   m.infinite_information = in.boolean();
 }
+template <>
+inline void decode_into(Decoder& in, estimators::ObservationMessage& m) {
+  m.origin_step = in.i64();
+  for (Eigen::Index k = 0; k < 3; ++k) m.origin_pose(k) = in.f64();
+  for (Eigen::Index r = 0; r < 3; ++r)
+    for (Eigen::Index c = 0; c < 3; ++c) m.origin_covariance(r, c) = in.f64();
+  m.spans.resize(in.count(2 * 8 + 1 + 4, "observed spans"));
+  for (auto& span : m.spans) {
+    span.first_world_step = in.i64(), span.world_step = in.i64();
+    if (in.boolean()) {
+      auto& odometry = span.odometry.emplace();
+      odometry.v_std = in.f64(), odometry.omega_std = in.f64();
+      odometry.segments.resize(in.count(3 * 8, "odometry segments"));
+      for (auto& segment : odometry.segments)
+        segment.v_mps = in.f64(), segment.omega_radps = in.f64(), segment.dt_s = in.f64();
+    }
+    span.range_bearings.resize(in.count(4 + 1 + 10 * 8, "range-bearings"));
+    for (auto& rb : span.range_bearings) {
+      rb.peer = in.i32(), rb.landmark = in.boolean(), rb.landmark_m = in.vec2(), rb.landmark_cov = in.mat2();
+      rb.range_m = in.f64(), rb.bearing_rad = in.f64(), rb.range_std_m = in.f64(), rb.bearing_std_rad = in.f64();
+    }
+  }
+}
 
 }  // namespace swarmloc::rundir::slrec

@@ -26,6 +26,7 @@ AgentRuntime::AgentRuntime(std::unique_ptr<estimators::Estimator> estimator, est
   init_mailbox(information_);
   init_mailbox(consensus_);
   init_mailbox(beliefs_);
+  init_mailbox(observations_);
 }
 
 int AgentRuntime::slot_of(AgentId id) const {
@@ -62,6 +63,32 @@ constexpr double kAbsurdScalar = 1e30;
 constexpr std::size_t kMaxBeliefContributions = 1024;
 /// State.edge_ranges' IDL bound (dml sends a few per sample).
 constexpr std::size_t kMaxEdgeRanges = 16;
+/// Observations' IDL bounds (team_pose_ekf: its newest spans of its own data).
+constexpr std::size_t kMaxObservedSpans = 64;
+constexpr std::size_t kMaxSpanOdometrySegments = 1024;
+constexpr std::size_t kMaxSpanRangeBearings = 256;
+
+bool finite_odometry(const estimators::OdometryInput& odometry) {
+  if (!std::isfinite(odometry.v_std) || !std::isfinite(odometry.omega_std)) return false;
+  return std::all_of(odometry.segments.begin(), odometry.segments.end(), [](const auto& segment) {
+    return std::isfinite(segment.v_mps) && std::isfinite(segment.omega_radps) && std::isfinite(segment.dt_s);
+  });
+}
+
+bool finite_range_bearing(const estimators::RangeBearingMeasurement& m) {
+  return std::isfinite(m.range_m) && std::isfinite(m.bearing_rad) && std::isfinite(m.range_std_m) &&
+         std::isfinite(m.bearing_std_rad) && m.landmark_m.allFinite() && m.landmark_cov.allFinite();
+}
+
+/// Spans oldest first, each starting right after the one before, the first right after the origin.
+bool well_ordered(const estimators::ObservationMessage& m) {
+  std::int64_t previous = m.origin_step;
+  for (const auto& span : m.spans) {
+    if (span.first_world_step != previous + 1 || span.world_step < span.first_world_step) return false;
+    previous = span.world_step;
+  }
+  return true;
+}
 
 }  // namespace
 
@@ -107,6 +134,27 @@ std::optional<RejectReason> AgentRuntime::check_content(const estimators::Consen
     if (!std::isfinite(v)) return RejectReason::kNonFinite;
     if (std::abs(v) > kAbsurdScalar) return RejectReason::kAbsurdMagnitude;
   }
+  return std::nullopt;
+}
+
+std::optional<RejectReason> AgentRuntime::check_content(const estimators::ObservationMessage& m) const {
+  if (m.origin_step < -1 || m.spans.size() > kMaxObservedSpans || !well_ordered(m)) return RejectReason::kMalformed;
+  for (const auto& span : m.spans) {
+    if (span.range_bearings.size() > kMaxSpanRangeBearings ||
+        (span.odometry && span.odometry->segments.size() > kMaxSpanOdometrySegments)) {
+      return RejectReason::kMalformed;
+    }
+    if ((span.odometry && !finite_odometry(*span.odometry)) ||
+        !std::all_of(span.range_bearings.begin(), span.range_bearings.end(), finite_range_bearing)) {
+      return RejectReason::kNonFinite;
+    }
+  }
+  if (!m.origin_pose.allFinite() || !m.origin_covariance.allFinite()) return RejectReason::kNonFinite;
+  if (m.origin_pose.head<2>().norm() > params_.absurd_position_bound_m ||
+      m.origin_covariance.cwiseAbs().maxCoeff() > params_.absurd_variance_m2) {
+    return RejectReason::kAbsurdMagnitude;
+  }
+  if (!core::is_symmetric_psd_dynamic(m.origin_covariance, 1e-9)) return RejectReason::kNotSymmetricPsd;
   return std::nullopt;
 }
 
@@ -223,6 +271,16 @@ bool AgentRuntime::on_information(const Header& header, const estimators::Inform
 bool AgentRuntime::on_consensus(const Header& header, const estimators::ConsensusMessage& message,
                                 bool well_formed) {
   return on_sample(core::TopicFamily::kConsensus, consensus_, header, message, well_formed) != nullptr;
+}
+
+bool AgentRuntime::on_observations(const Header& header, const estimators::ObservationMessage& message,
+                                   bool well_formed) {
+  auto* stored = on_sample(core::TopicFamily::kObservations, observations_, header, message, well_formed);
+  if (stored != nullptr) {
+    auto& covariance = stored->message.origin_covariance;
+    covariance = 0.5 * (covariance + covariance.transpose()).eval();
+  }
+  return stored != nullptr;
 }
 
 bool AgentRuntime::on_belief(const Header& header, const estimators::BeliefMessage& message,
@@ -352,6 +410,16 @@ void AgentRuntime::carry_over(const estimators::MeasurementBatch& superseded,
   // Kalman update does not count the neighbour's position uncertainty twice).
   batch.relative.insert(batch.relative.begin(), superseded.relative.begin(), superseded.relative.end());
   batch.targets.insert(batch.targets.begin(), superseded.targets.begin(), superseded.targets.end());
+  // Pose-state odometry: the superseded step's segments come first (the robot drove them first); its
+  // sightings are kept, applied with the newer step's.
+  if (superseded.odometry) {
+    if (!batch.odometry) batch.odometry = estimators::OdometryInput{{}, superseded.odometry->v_std,
+                                                                    superseded.odometry->omega_std};
+    auto& segments = batch.odometry->segments;
+    segments.insert(segments.begin(), superseded.odometry->segments.begin(), superseded.odometry->segments.end());
+  }
+  batch.range_bearings.insert(batch.range_bearings.begin(), superseded.range_bearings.begin(),
+                              superseded.range_bearings.end());
   for (auto& range : batch.ranges) {
     const auto old =
         std::find_if(superseded.ranges.begin(), superseded.ranges.end(),
@@ -381,7 +449,8 @@ AgentRuntime::Publication AgentRuntime::publish(estimators::Outbox outbox, std::
   publication.header = Header{setup_.id, next_seq_, step, sender_stamp_ns, world_stamp_ns};
   const auto& out = publication.outbox;
   const auto samples = static_cast<std::uint32_t>((out.state ? 1U : 0U) + (out.information ? 1U : 0U) +
-                                                  out.consensus.size() + (out.belief ? 1U : 0U));
+                                                  out.consensus.size() + (out.belief ? 1U : 0U) +
+                                                  (out.observations ? 1U : 0U));
   next_seq_ += samples;
   samples_published_ += samples;
   if (step >= 0) samples_published_in_steps_ += samples;
@@ -411,6 +480,7 @@ AgentRuntime::Publication AgentRuntime::step(std::int64_t sender_stamp_ns) {
   copy_newest(information_.newest, information_.has, inbox.information);
   copy_newest(consensus_.newest, consensus_.has, inbox.consensus);
   copy_newest(beliefs_.newest, beliefs_.has, inbox.beliefs);
+  copy_newest(observations_.newest, observations_.has, inbox.observations);
   estimators::StepInput input;
   input.local_step = local_step_;
   input.inbox = &inbox;

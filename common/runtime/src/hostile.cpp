@@ -45,6 +45,12 @@ void garble_information(estimators::InformationMessage& information, int variant
   if (variant == 2) information.info_mat.setConstant(1e300);
 }
 
+void garble_observations(estimators::ObservationMessage& observations, int variant) {
+  if (variant == 0) observations.origin_pose.x() = kNan;
+  if (variant == 1) observations.origin_covariance << 1.0, 5.0, 0.0, 5.0, 1.0, 0.0, 0.0, 0.0, 1.0;
+  if (variant == 2) observations.origin_step = -5;  // spans no longer follow the origin
+}
+
 }  // namespace
 
 void make_hostile(estimators::Outbox& outbox, std::int64_t step) {
@@ -53,6 +59,7 @@ void make_hostile(estimators::Outbox& outbox, std::int64_t step) {
   if (outbox.belief) garble_belief(*outbox.belief, variant);
   garble_consensus(outbox.consensus, variant);
   if (outbox.information) garble_information(*outbox.information, variant);
+  if (outbox.observations) garble_observations(*outbox.observations, variant);
 }
 
 void make_hostile_if_listed(const std::vector<AgentId>& hostile_agents, AgentId agent,

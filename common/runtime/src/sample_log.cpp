@@ -17,6 +17,8 @@ const char* to_string(SampleFamily family) {
       return "consensus";
     case SampleFamily::kBelief:
       return "belief";
+    case SampleFamily::kObservations:
+      return "observations";
   }
   return "unknown";
 }

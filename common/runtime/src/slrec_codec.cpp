@@ -84,6 +84,27 @@ void encode(Encoder& out, const estimators::BeliefMessage& m) {
   for (const auto& c : m.contributions) out.i32(c.from), out.mat2(c.information), out.vec2(c.info_vec);
 }
 
+void encode(Encoder& out, const estimators::ObservationMessage& m) {
+  out.i64(m.origin_step);
+  for (Eigen::Index k = 0; k < 3; ++k) out.f64(m.origin_pose(k));
+  for (Eigen::Index r = 0; r < 3; ++r)
+    for (Eigen::Index c = 0; c < 3; ++c) out.f64(m.origin_covariance(r, c));
+  out.count(m.spans.size());
+  for (const auto& span : m.spans) {
+    out.i64(span.first_world_step), out.i64(span.world_step), out.boolean(span.odometry.has_value());
+    if (span.odometry) {
+      out.f64(span.odometry->v_std), out.f64(span.odometry->omega_std);
+      out.count(span.odometry->segments.size());
+      for (const auto& s : span.odometry->segments) out.f64(s.v_mps), out.f64(s.omega_radps), out.f64(s.dt_s);
+    }
+    out.count(span.range_bearings.size());
+    for (const auto& rb : span.range_bearings) {
+      out.i32(rb.peer), out.boolean(rb.landmark), out.vec2(rb.landmark_m), out.mat2(rb.landmark_cov);
+      out.f64(rb.range_m), out.f64(rb.bearing_rad), out.f64(rb.range_std_m), out.f64(rb.bearing_std_rad);
+    }
+  }
+}
+
 /// `path` after creating its parent directories (OutputError naming the directory if that fails).
 const std::filesystem::path& with_parent_directories(const std::filesystem::path& path) {
   if (path.has_parent_path()) {

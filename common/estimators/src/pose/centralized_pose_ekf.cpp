@@ -35,6 +35,23 @@ CentralizedPoseEkf::CentralizedPoseEkf(const std::vector<AgentSetup>& setups,
   }
 }
 
+void CentralizedPoseEkf::add_robot(AgentId id, const Pose& pose, const Mat3& covariance) {
+  if (index_of(id)) throw std::invalid_argument("centralized_pose_ekf: robot " + std::to_string(id) + " is known");
+  if (!pose.allFinite() || !covariance.allFinite()) {
+    throw std::invalid_argument("centralized_pose_ekf: robot " + std::to_string(id) + ": non-finite pose");
+  }
+  const Eigen::Index n = x_.size();
+  VecX x(n + 3);
+  x << x_, pose;
+  x(n + 2) = models::wrap_angle(x(n + 2));
+  MatX P = MatX::Zero(n + 3, n + 3);
+  P.topLeftCorner(n, n) = P_;
+  P.bottomRightCorner<3, 3>() = pose_internal::symmetrized3(covariance);
+  x_ = std::move(x);
+  P_ = std::move(P);
+  ids_.push_back(id);
+}
+
 std::optional<int> CentralizedPoseEkf::index_of(AgentId id) const {
   const auto it = std::find(ids_.begin(), ids_.end(), id);
   if (it == ids_.end()) return std::nullopt;
@@ -151,6 +168,12 @@ Estimate CentralizedPoseEkf::estimate(AgentId id) const {
   estimate.heading =
       pose_internal::pose_heading_estimate(x_.segment<3>(3 * *i), P_.block<3, 3>(3 * *i, 3 * *i));
   return estimate;
+}
+
+Mat3 CentralizedPoseEkf::pose_covariance(AgentId id) const {
+  const std::optional<int> i = index_of(id);
+  if (!i) throw std::invalid_argument("centralized_pose_ekf: unknown agent id " + std::to_string(id));
+  return P_.block<3, 3>(3 * *i, 3 * *i);
 }
 
 Pose CentralizedPoseEkf::pose(AgentId id) const {

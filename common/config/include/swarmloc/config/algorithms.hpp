@@ -130,6 +130,7 @@ struct MessageFamilies {
   bool information = false;
   bool consensus = false;
   bool belief = false;
+  bool observations = false;  ///< uses qos.state
 };
 
 /// One algorithm.

@@ -32,7 +32,8 @@ enum class TopicFamily : std::uint8_t {
   kConsensus = 3,
   kBelief = 4,
   kEstimate = 5,
-  kControl = 6
+  kControl = 6,
+  kObservations = 7
 };
 
 struct LinkLossParams {

@@ -100,6 +100,7 @@ struct AgentInbound {
   std::vector<Inbound<estimators::InformationMessage>> information;
   std::vector<Inbound<estimators::ConsensusMessage>> consensus;
   std::vector<Inbound<estimators::BeliefMessage>> beliefs;
+  std::vector<Inbound<estimators::ObservationMessage>> observations;
   std::vector<std::pair<runtime::Header, estimators::MeasurementBatch>> batches;
   std::vector<runtime::ControlMessage> control;
 };
@@ -125,6 +126,8 @@ class AgentTransport {
   void publish_information(const runtime::Header& header, const estimators::InformationMessage& message);
   void publish_consensus(const runtime::Header& header, const estimators::ConsensusMessage& message);
   void publish_belief(const runtime::Header& header, const estimators::BeliefMessage& message);
+  /// With the state family's QoS (qos.state).
+  void publish_observations(const runtime::Header& header, const estimators::ObservationMessage& message);
   /// Also, with scenario.dds.ros2, a valid estimate of a step run as a ROS 2 pose on
   /// rt/swarmloc/agent_<id>/pose (docs/ros2.md).
   void publish_estimate(const runtime::EstimateReport& report);

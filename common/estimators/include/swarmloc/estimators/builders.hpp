@@ -39,6 +39,7 @@ std::unique_ptr<Estimator> dml(const AgentSetup& setup, const EstimatorParams& p
 std::unique_ptr<Estimator> dml_track(const AgentSetup& setup, const EstimatorParams& params);
 std::unique_ptr<Estimator> pose_ekf(const AgentSetup& setup, const EstimatorParams& params);
 std::unique_ptr<Estimator> pose_ieif(const AgentSetup& setup, const EstimatorParams& params);
+std::unique_ptr<Estimator> team_pose_ekf(const AgentSetup& setup, const EstimatorParams& params);
 std::unique_ptr<Estimator> dead_reckoning(const AgentSetup& setup, const EstimatorParams& params);
 std::unique_ptr<Estimator> jacobi(const AgentSetup& setup, const EstimatorParams& params);
 std::unique_ptr<Estimator> dle(const AgentSetup& setup, const EstimatorParams& params);

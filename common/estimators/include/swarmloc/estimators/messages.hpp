@@ -162,6 +162,25 @@ struct BeliefMessage {
   std::vector<BeliefContribution> contributions;
 };
 
+/// A span of world steps of one robot's own sensor data, as it shares it with its team (team_pose_ekf,
+/// docs/algorithms.md §10): normally one step (first_world_step = world_step); a free-run batch that
+/// superseded an earlier one covers both, its odometry and sightings belong to world_step.
+struct ObservedSteps {
+  std::int64_t first_world_step = 0;
+  std::int64_t world_step = 0;
+  std::optional<OdometryInput> odometry;
+  std::vector<RangeBearingMeasurement> range_bearings;
+};
+
+/// OBSERVATIONS: the sender's newest spans of its own data, oldest first and consecutive, and its own pose
+/// estimate (x, y, θ) just before the oldest span: at origin_step = −1 that is its prior.
+struct ObservationMessage {
+  std::int64_t origin_step = -1;
+  Eigen::Vector3d origin_pose = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d origin_covariance = Eigen::Matrix3d::Identity();
+  std::vector<ObservedSteps> spans;
+};
+
 /// A received message with the sender's identity and step (the mailbox keeps the newest per sender).
 /// `sender_step` is expressed in the RECEIVER's step frame: the step at which the message counts as
 /// sent (a message that arrives before the receiver's step k counts as sent at k − 1). Agents' own
@@ -179,6 +198,7 @@ struct Inbox {
   std::vector<Received<InformationMessage>> information;
   std::vector<Received<ConsensusMessage>> consensus;
   std::vector<Received<BeliefMessage>> beliefs;
+  std::vector<Received<ObservationMessage>> observations;
 };
 
 /// What an estimator wants published after a step (each family optional).
@@ -187,6 +207,7 @@ struct Outbox {
   std::optional<InformationMessage> information;
   std::vector<ConsensusMessage> consensus;
   std::optional<BeliefMessage> belief;
+  std::optional<ObservationMessage> observations;
 };
 
 /// The heading θ of a pose-state estimate, with the θ row of its (x, y, θ) covariance.

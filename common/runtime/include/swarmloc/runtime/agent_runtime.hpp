@@ -45,6 +45,8 @@ class AgentRuntime {
   bool on_consensus(const Header& header, const estimators::ConsensusMessage& message,
                     bool well_formed = true);
   bool on_belief(const Header& header, const estimators::BeliefMessage& message, bool well_formed = true);
+  bool on_observations(const Header& header, const estimators::ObservationMessage& message,
+                       bool well_formed = true);
   /// Routes one sample of any family to the matching on_* (for drivers that hold typed samples).
   bool on_sample(const Header& header, const estimators::StateMessage& m, bool well_formed = true) {
     return on_state(header, m, well_formed);
@@ -58,12 +60,16 @@ class AgentRuntime {
   bool on_sample(const Header& header, const estimators::BeliefMessage& m, bool well_formed = true) {
     return on_belief(header, m, well_formed);
   }
+  bool on_sample(const Header& header, const estimators::ObservationMessage& m, bool well_formed = true) {
+    return on_observations(header, m, well_formed);
+  }
   /// A measurement batch arrived (batches are not subject to injected loss: they model the sensor).
   /// Entries that cannot come from a real sensor are removed and counted by reason (see sanitize_batch).
   void on_batch(const Header& header, estimators::MeasurementBatch batch);
 
   /// Runs one local step with the newest data. Returns the messages to publish. Every sample an agent
-  /// writes takes the next number of one counter, in the order state, information, consensus…, belief;
+  /// writes takes the next number of one counter, in the order state, information, consensus…, belief,
+  /// observations;
   /// `header.seq` is the first of them (for_each_sample hands out each sample's own header).
   struct Publication {
     Header header;
@@ -78,6 +84,7 @@ class AgentRuntime {
     if (out.information) visit(header, *out.information), ++header.seq;
     for (const auto& consensus : out.consensus) visit(header, consensus), ++header.seq;
     if (out.belief) visit(header, *out.belief), ++header.seq;
+    if (out.observations) visit(header, *out.observations), ++header.seq;
   }
   Publication step(std::int64_t sender_stamp_ns);
   /// The message published before the first step (header.step = −1).
@@ -123,6 +130,7 @@ class AgentRuntime {
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::InformationMessage& m) const;
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::ConsensusMessage& m) const;
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::BeliefMessage& m) const;
+  [[nodiscard]] std::optional<RejectReason> check_content(const estimators::ObservationMessage& m) const;
   Publication publish(estimators::Outbox outbox, std::int64_t step, std::int64_t sender_stamp_ns,
                       std::int64_t world_stamp_ns);
   void reject(LinkCounters* link, RejectReason reason);
@@ -154,6 +162,7 @@ class AgentRuntime {
   Mailbox<estimators::InformationMessage> information_;
   Mailbox<estimators::ConsensusMessage> consensus_;
   Mailbox<estimators::BeliefMessage> beliefs_;
+  Mailbox<estimators::ObservationMessage> observations_;
   std::optional<estimators::MeasurementBatch> pending_batch_;
   std::int64_t newest_batch_step_ = -1;
   double batch_period_s_ = 0.0;

@@ -19,6 +19,10 @@ class CentralizedPoseEkf {
   /// Throws std::invalid_argument on duplicate ids, a non-finite prior or non-positive initial stds.
   CentralizedPoseEkf(const std::vector<AgentSetup>& setups, const KalmanFilterParams& params);
 
+  /// Appends a robot with this pose and covariance, uncorrelated with the others (a team member that joins
+  /// late, team_pose_ekf). Throws std::invalid_argument on a known id or a non-finite pose or covariance.
+  void add_robot(AgentId id, const Pose& pose, const Mat3& covariance);
+
   /// batches[i]: robot i's batch for this step, or nullptr. Throws std::invalid_argument if
   /// batches.size() differs from the number of robots. A pair to an unknown peer (or to itself) is skipped.
   void step(const std::vector<const MeasurementBatch*>& batches);
@@ -29,6 +33,10 @@ class CentralizedPoseEkf {
   [[nodiscard]] Pose pose(AgentId id) const;
 
   [[nodiscard]] int num_robots() const { return static_cast<int>(ids_.size()); }
+  /// The robots in state order.
+  [[nodiscard]] const std::vector<AgentId>& ids() const { return ids_; }
+  /// Robot `id`'s 3×3 (x, y, θ) covariance block; throws std::invalid_argument for an unknown id.
+  [[nodiscard]] Mat3 pose_covariance(AgentId id) const;
   [[nodiscard]] const VecX& state() const { return x_; }
   [[nodiscard]] const MatX& covariance() const { return P_; }
   /// Counters of the last step summed over robots (same meaning as PoseEkf's).

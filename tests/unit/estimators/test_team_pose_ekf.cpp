@@ -1,0 +1,186 @@
+// TeamPoseEkf (pose/team_pose_ekf.hpp): the team's joint pose EKF at every robot from shared observations.
+#include <gtest/gtest.h>
+
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "pose_world.hpp"
+#include "swarmloc/core/gaussian.hpp"
+#include "swarmloc/estimators/pose/centralized_pose_ekf.hpp"
+#include "swarmloc/estimators/pose/team_pose_ekf.hpp"
+
+namespace swarmloc::estimators {
+namespace {
+
+using pose_world::params_for;
+using pose_world::simulate;
+using pose_world::World;
+using pose_world::WorldConfig;
+
+/// Landmarks at one side only: the robots far from them localize through each other's sightings, so the
+/// joint filter's cross-covariances matter.
+WorldConfig team_world(unsigned seed, int steps) {
+  WorldConfig c;
+  c.robots = 4;
+  c.seed = seed;
+  c.steps = steps;
+  c.landmarks = {Vec2(4.0, 0.0), Vec2(4.0, 1.5)};
+  c.landmark_radius_m = 3.0;
+  c.robot_radius_m = 6.0;
+  return c;
+}
+
+/// Whether robot `to` receives what robot `from` published after world step k.
+using Delivery = std::function<bool(int from, int to, int k)>;
+
+/// Every robot runs TeamPoseEkf in lockstep: step k sees what the others published after step k − 1
+/// (the newest sample per sender that was delivered, as the runtime's mailbox keeps it).
+struct TeamRun {
+  TeamRun(const WorldConfig& config, const World& world, const TeamPoseParams& team = {}) : world_(world) {
+    for (const AgentSetup& setup : world.setups) {
+      robots.push_back(std::make_unique<TeamPoseEkf>(setup, params_for(config), team));
+      published.push_back(*robots.back()->initial_outbox().observations);
+    }
+    inboxes.resize(robots.size());
+  }
+
+  void run(int steps, const Delivery& delivered) {
+    const int n = static_cast<int>(robots.size());
+    for (int k = 0; k < steps; ++k) {
+      for (int to = 0; to < n; ++to) {
+        Inbox& inbox = inboxes[static_cast<std::size_t>(to)];
+        for (int from = 0; from < n; ++from) {
+          if (from == to || !delivered(from, to, k)) continue;
+          std::erase_if(inbox.observations, [&](const auto& r) { return r.sender == from; });
+          inbox.observations.push_back({from, k - 1, published[static_cast<std::size_t>(from)]});
+        }
+      }
+      for (int i = 0; i < n; ++i) {
+        const auto at = static_cast<std::size_t>(i);
+        const StepOutput out =
+            robots[at]->step(StepInput{k, &world_.batches[static_cast<std::size_t>(k)][at], &inboxes[at]});
+        published[at] = *out.outbox.observations;
+      }
+    }
+  }
+
+  const World& world_;
+  std::vector<std::unique_ptr<TeamPoseEkf>> robots;
+  std::vector<ObservationMessage> published;
+  std::vector<Inbox> inboxes;
+};
+
+/// The centralized filter after world steps 0..last.
+CentralizedPoseEkf centralized_through(const WorldConfig& config, const World& world, int last) {
+  CentralizedPoseEkf filter(world.setups, params_for(config));
+  for (int k = 0; k <= last; ++k) {
+    std::vector<const MeasurementBatch*> batches;
+    for (const auto& batch : world.batches[static_cast<std::size_t>(k)]) batches.push_back(&batch);
+    filter.step(batches);
+  }
+  return filter;
+}
+
+TEST(TeamPoseEkf, EveryRobotsSettledFilterIsTheCentralizedFilterStepForStep) {
+  const WorldConfig config = team_world(3, 120);
+  const World world = simulate(config);
+  TeamRun team(config, world);
+  team.run(config.steps, [](int, int, int) { return true; });
+  const CentralizedPoseEkf reference = centralized_through(config, world, config.steps - 2);
+  for (const auto& robot : team.robots) {
+    // Lockstep: the others' data of the last step arrive with the next one.
+    ASSERT_EQ(robot->settled_step(), config.steps - 2);
+    ASSERT_EQ(robot->settled().ids(), reference.ids());
+    EXPECT_EQ(robot->settled().state(), reference.state());
+    EXPECT_EQ(robot->settled().covariance(), reference.covariance());
+  }
+}
+
+TEST(TeamPoseEkf, SamplesLostInBurstsShorterThanTheShareWindowChangeNothing) {
+  const WorldConfig config = team_world(5, 150);
+  const World world = simulate(config);
+  TeamPoseParams team_params;
+  team_params.share_spans = 8;
+  team_params.wait_steps = 30;
+  TeamRun team(config, world, team_params);
+  // Each link loses runs of up to 6 samples in a row, a different pattern per link.
+  team.run(config.steps, [](int from, int to, int k) { return k < 2 || (k + 3 * from + 5 * to) % 13 > 5; });
+  // Every link delivers at least once in each 7 steps, so with 8 spans per sample nothing is missing.
+  const CentralizedPoseEkf reference = centralized_through(config, world, config.steps - 8);
+  for (const auto& robot : team.robots) {
+    ASSERT_GE(robot->settled_step(), config.steps - 8);
+    const CentralizedPoseEkf at = centralized_through(config, world, static_cast<int>(robot->settled_step()));
+    EXPECT_EQ(robot->settled().state(), at.state());
+  }
+}
+
+TEST(TeamPoseEkf, MatchesTheCentralizedEstimateAndStaysConsistentWithoutOnePeer) {
+  const WorldConfig config = team_world(7, 200);
+  const World world = simulate(config);
+  TeamPoseParams team_params;
+  team_params.wait_steps = 10;
+  TeamRun team(config, world, team_params);
+  // Robot 3 falls silent after step 50: the others wait wait_steps, then step without its data.
+  team.run(config.steps, [](int from, int, int k) { return from != 3 || k < 50; });
+  for (int i = 0; i < 3; ++i) {
+    const TeamPoseEkf& robot = *team.robots[static_cast<std::size_t>(i)];
+    EXPECT_EQ(robot.settled_step(), config.steps - 1 - team_params.wait_steps) << "robot " << i;
+    const Estimate estimate = robot.estimate();
+    ASSERT_TRUE(estimate.valid);
+    ASSERT_TRUE(estimate.heading.has_value());
+    EXPECT_TRUE(core::is_symmetric_psd_dynamic(robot.settled().covariance(), 1e-12));
+    const Vec2 error = estimate.mean_m - world.truth.back()[static_cast<std::size_t>(i)].head<2>();
+    // 3σ of its own covariance plus 1 cm: the estimate knows how good it is.
+    EXPECT_LT(error.norm(), 3.0 * std::sqrt(estimate.covariance.trace()) + 0.01) << "robot " << i;
+  }
+}
+
+TEST(TeamPoseEkf, APeerHeardLateJoinsAtItsOriginAndItsSightingsCount) {
+  const WorldConfig config = team_world(11, 160);
+  const World world = simulate(config);
+  TeamPoseParams team_params;
+  team_params.share_spans = 10;
+  team_params.wait_steps = 5;
+  TeamRun team(config, world, team_params);
+  // Nobody hears robot 2 before step 60: by then its samples start after its prior (origin_step > −1).
+  team.run(config.steps, [](int from, int, int k) { return from != 2 || k >= 60; });
+  const TeamPoseEkf& robot = *team.robots[0];
+  ASSERT_EQ(robot.settled().ids().size(), 4U);
+  EXPECT_EQ(robot.settled().ids().back(), 2);  // joined last, after the step-by-step start
+  const Pose truth = world.truth[static_cast<std::size_t>(robot.settled_step())][2];
+  const Vec2 error = robot.settled().pose(2).head<2>() - truth.head<2>();
+  const Mat3 covariance = robot.settled().pose_covariance(2);
+  EXPECT_LT(error.norm(), 3.0 * std::sqrt(covariance.topLeftCorner<2, 2>().trace()) + 0.01);
+}
+
+TEST(TeamPoseEkf, EachSampleCarriesItsNewestSpansAndTheEstimateJustBeforeThem) {
+  const WorldConfig config = team_world(13, 30);
+  const World world = simulate(config);
+  TeamPoseParams team_params;
+  team_params.share_spans = 4;
+  TeamRun team(config, world, team_params);
+  const ObservationMessage first = team.published[0];
+  EXPECT_EQ(first.origin_step, -1);
+  EXPECT_TRUE(first.spans.empty());
+  team.run(config.steps, [](int, int, int) { return true; });
+  const ObservationMessage& last = team.published[0];
+  ASSERT_EQ(last.spans.size(), 4U);
+  EXPECT_EQ(last.origin_step, config.steps - 5);
+  for (std::size_t k = 0; k < last.spans.size(); ++k) {
+    EXPECT_EQ(last.spans[k].first_world_step, config.steps - 4 + static_cast<int>(k));
+    EXPECT_EQ(last.spans[k].world_step, last.spans[k].first_world_step);
+  }
+  EXPECT_TRUE(core::is_symmetric_psd_dynamic(last.origin_covariance, 1e-12));
+}
+
+TEST(TeamPoseEkf, RejectsParametersThatCannotWork) {
+  const WorldConfig config = team_world(1, 1);
+  const World world = simulate(config);
+  TeamPoseParams no_spans;
+  no_spans.share_spans = 0;
+  EXPECT_THROW(TeamPoseEkf(world.setups[0], params_for(config), no_spans), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace swarmloc::estimators
