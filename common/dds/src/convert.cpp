@@ -407,6 +407,10 @@ WireEstimate::WireEstimate(const runtime::EstimateReport& report)
   point_at(sample.links, links);
   point_at(sample.rejected_by_reason, rejected_by_reason);
   point_at(sample.field, field);
+  if (const auto& pose = report.estimate.heading) {
+    heading = {pose->heading_rad, pose->variance_rad2, pose->position_cov_m_rad.x(), pose->position_cov_m_rad.y()};
+  }
+  point_at(sample.heading, heading);
 }
 
 WireControl::WireControl(const runtime::ControlMessage& message) {
@@ -652,6 +656,7 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
   const auto links = view(wire.links);
   const auto reasons = view(wire.rejected_by_reason);
   const auto field = view(wire.field);
+  const auto heading = view(wire.heading);
   // A sender may know fewer reasons (older build: the rest stay 0), never more than this build.
   // Health figures are durations and counts: anything else is a broken or hostile sender.
   const auto duration = [](double s) { return std::isfinite(s) && s >= 0.0 && s < 1e9; };
@@ -659,12 +664,19 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
                          duration(h.max_batch_wait_s) && duration(h.neighbour_age_mean_s) &&
                          duration(h.neighbour_age_max_s) && h.late_ticks <= h.ticks &&
                          h.batches_merged <= h.batches_received;
-  if (!links || !reasons || !field || reasons->size() > runtime::kRejectReasonCount ||
+  const bool heading_ok = heading && (heading->empty() || (heading->size() == 4 &&
+                                                            std::all_of(heading->begin(), heading->end(),
+                                                                        [](double v) { return std::isfinite(v); })));
+  if (!links || !reasons || !field || !heading_ok || reasons->size() > runtime::kRejectReasonCount ||
       field->size() > codec::kMaxFieldValues || wire.agent_id != wire.header.agent_id || !health_ok) {
     decoded.well_formed = false;
     return decoded;
   }
   report.estimate.field = Eigen::Map<const VecX>(field->data(), static_cast<Eigen::Index>(field->size()));
+  if (!heading->empty()) {
+    report.estimate.heading =
+        estimators::HeadingEstimate{(*heading)[0], (*heading)[1], Vec2((*heading)[2], (*heading)[3])};
+  }
   report.links.reserve(links->size());
   for (const auto& link : *links) {
     report.links.push_back(runtime::LinkCounters{link.sender, link.arrived, link.delivered,

@@ -94,6 +94,7 @@ struct WireEstimate {
   std::vector<swarmloc_msg_LinkCounters> links;
   std::vector<uint32_t> rejected_by_reason;
   std::vector<double> field;
+  std::vector<double> heading;
   swarmloc_msg_Estimate sample{};
 };
 

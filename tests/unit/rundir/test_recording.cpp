@@ -504,7 +504,81 @@ void expect_same(const runtime::ReceivedSample& a, const runtime::ReceivedSample
       }
       break;
     }
+    case runtime::SampleFamily::kObservations: {
+      const auto& x = std::get<estimators::ObservationMessage>(a.message);
+      const auto& y = std::get<estimators::ObservationMessage>(b.message);
+      EXPECT_EQ(x.origin_step, y.origin_step);
+      EXPECT_EQ(x.origin_pose, y.origin_pose);
+      EXPECT_EQ(x.origin_covariance, y.origin_covariance);
+      ASSERT_EQ(x.spans.size(), y.spans.size());
+      for (std::size_t k = 0; k < x.spans.size(); ++k) {
+        const auto& p = x.spans[k];
+        const auto& q = y.spans[k];
+        EXPECT_EQ(p.first_world_step, q.first_world_step);
+        EXPECT_EQ(p.world_step, q.world_step);
+        ASSERT_EQ(p.odometry.has_value(), q.odometry.has_value());
+        if (p.odometry) {
+          EXPECT_EQ(p.odometry->v_std, q.odometry->v_std);
+          EXPECT_EQ(p.odometry->omega_std, q.odometry->omega_std);
+          ASSERT_EQ(p.odometry->segments.size(), q.odometry->segments.size());
+          for (std::size_t s = 0; s < p.odometry->segments.size(); ++s) {
+            EXPECT_EQ(p.odometry->segments[s].v_mps, q.odometry->segments[s].v_mps);
+            EXPECT_EQ(p.odometry->segments[s].omega_radps, q.odometry->segments[s].omega_radps);
+            EXPECT_EQ(p.odometry->segments[s].dt_s, q.odometry->segments[s].dt_s);
+          }
+        }
+        ASSERT_EQ(p.range_bearings.size(), q.range_bearings.size());
+        for (std::size_t r = 0; r < p.range_bearings.size(); ++r) {
+          EXPECT_EQ(p.range_bearings[r].peer, q.range_bearings[r].peer);
+          EXPECT_EQ(p.range_bearings[r].landmark, q.range_bearings[r].landmark);
+          EXPECT_EQ(p.range_bearings[r].landmark_m, q.range_bearings[r].landmark_m);
+          EXPECT_EQ(p.range_bearings[r].landmark_cov, q.range_bearings[r].landmark_cov);
+          EXPECT_EQ(p.range_bearings[r].range_m, q.range_bearings[r].range_m);
+          EXPECT_EQ(p.range_bearings[r].bearing_rad, q.range_bearings[r].bearing_rad);
+          EXPECT_EQ(p.range_bearings[r].range_std_m, q.range_bearings[r].range_std_m);
+          EXPECT_EQ(p.range_bearings[r].bearing_std_rad, q.range_bearings[r].bearing_std_rad);
+        }
+      }
+      break;
+    }
   }
+}
+
+/// A team_pose_ekf sample: a span with odometry and two sightings, one without odometry.
+estimators::ObservationMessage observations_sample() {
+  estimators::ObservationMessage m;
+  m.origin_step = 41;
+  m.origin_pose = Eigen::Vector3d(1.0, -2.0, 3.1);
+  m.origin_covariance = Eigen::Matrix3d::Identity() * 0.25;
+  m.origin_covariance(0, 2) = m.origin_covariance(2, 0) = 0.01;
+  estimators::ObservedSteps first;
+  first.first_world_step = 42, first.world_step = 43;
+  first.odometry = estimators::OdometryInput{{{0.2, -0.1, 0.05}, {0.3, 0.0, 0.05}}, 0.011, 0.038};
+  estimators::RangeBearingMeasurement landmark;
+  landmark.landmark = true, landmark.landmark_m = Vec2(4.0, 5.0), landmark.landmark_cov = Mat2::Identity() * 1e-4;
+  landmark.range_m = 2.5, landmark.bearing_rad = -0.4, landmark.range_std_m = 0.16, landmark.bearing_std_rad = 0.01;
+  estimators::RangeBearingMeasurement robot;
+  robot.peer = 3, robot.range_m = 1.5, robot.bearing_rad = 2.9, robot.range_std_m = 0.1, robot.bearing_std_rad = 0.02;
+  first.range_bearings = {landmark, robot};
+  estimators::ObservedSteps second;
+  second.first_world_step = second.world_step = 44;
+  m.spans = {first, second};
+  return m;
+}
+
+TEST(SampleLog, ObservationSamplesRoundTripFromVersionSeven) {
+  const auto dir = temp_dir("observations");
+  const auto path = dir / "agent_001.slrec";
+  const runtime::ReceivedSample sample = sample_of(observations_sample(), 8);
+  {
+    runtime::SampleLogWriter writer(path, 4, 7);
+    writer.append(sample);
+    writer.close();
+  }
+  const auto log = load_sample_log(path);
+  ASSERT_EQ(log.samples.size(), 1u);
+  expect_same(log.samples[0], sample);
+  EXPECT_STREQ(to_string(log.samples[0].family()), "observations");
 }
 
 TEST(SampleLog, EveryFamilyRoundTripsAndAnUnfinishedLogIsReadOnRequest) {

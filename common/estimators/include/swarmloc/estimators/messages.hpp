@@ -228,7 +228,8 @@ struct Estimate {
   /// without a self-check.
   bool inconsistent = false;
   /// Pose-state algorithms (pose_ekf, pose_ieif, dead_reckoning): the heading and its covariance with the
-  /// position. Empty for position-only algorithms. Not on swarmloc's wire; the ROS 2 pose uses it.
+  /// position. Empty for position-only algorithms. On the wire in Estimate.heading (scoring: NEES3);
+  /// the ROS 2 pose uses it too.
   std::optional<HeadingEstimate> heading;
 };
 
