@@ -274,6 +274,7 @@ WireObservations::WireObservations(const runtime::Header& header, const estimato
     swarmloc_msg_ObservedSpan wire{};
     wire.first_world_step = span.first_world_step;
     wire.world_step = span.world_step;
+    wire.world_time_s = span.world_time_s;
     if (span.odometry) {
       wire.has_odometry = true;
       wire.odometry_v_std = span.odometry->v_std;
@@ -520,6 +521,7 @@ bool decode_span(const swarmloc_msg_ObservedSpan& wire, estimators::ObservedStep
   }
   span.first_world_step = wire.first_world_step;
   span.world_step = wire.world_step;
+  span.world_time_s = wire.world_time_s;
   if (wire.has_odometry) {
     estimators::OdometryInput input;
     input.v_std = wire.odometry_v_std;

@@ -261,9 +261,9 @@ inline void decode_into(Decoder& in, estimators::ObservationMessage& m) {
   for (Eigen::Index k = 0; k < 3; ++k) m.origin_pose(k) = in.f64();
   for (Eigen::Index r = 0; r < 3; ++r)
     for (Eigen::Index c = 0; c < 3; ++c) m.origin_covariance(r, c) = in.f64();
-  m.spans.resize(in.count(2 * 8 + 1 + 4, "observed spans"));
+  m.spans.resize(in.count(3 * 8 + 1 + 4, "observed spans"));
   for (auto& span : m.spans) {
-    span.first_world_step = in.i64(), span.world_step = in.i64();
+    span.first_world_step = in.i64(), span.world_step = in.i64(), span.world_time_s = in.f64();
     if (in.boolean()) {
       auto& odometry = span.odometry.emplace();
       odometry.v_std = in.f64(), odometry.omega_std = in.f64();

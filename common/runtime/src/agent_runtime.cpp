@@ -144,7 +144,7 @@ std::optional<RejectReason> AgentRuntime::check_content(const estimators::Observ
         (span.odometry && span.odometry->segments.size() > kMaxSpanOdometrySegments)) {
       return RejectReason::kMalformed;
     }
-    if ((span.odometry && !finite_odometry(*span.odometry)) ||
+    if (!std::isfinite(span.world_time_s) || (span.odometry && !finite_odometry(*span.odometry)) ||
         !std::all_of(span.range_bearings.begin(), span.range_bearings.end(), finite_range_bearing)) {
       return RejectReason::kNonFinite;
     }

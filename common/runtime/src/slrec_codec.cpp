@@ -91,7 +91,8 @@ void encode(Encoder& out, const estimators::ObservationMessage& m) {
     for (Eigen::Index c = 0; c < 3; ++c) out.f64(m.origin_covariance(r, c));
   out.count(m.spans.size());
   for (const auto& span : m.spans) {
-    out.i64(span.first_world_step), out.i64(span.world_step), out.boolean(span.odometry.has_value());
+    out.i64(span.first_world_step), out.i64(span.world_step), out.f64(span.world_time_s);
+    out.boolean(span.odometry.has_value());
     if (span.odometry) {
       out.f64(span.odometry->v_std), out.f64(span.odometry->omega_std);
       out.count(span.odometry->segments.size());

@@ -516,6 +516,7 @@ void expect_same(const runtime::ReceivedSample& a, const runtime::ReceivedSample
         const auto& q = y.spans[k];
         EXPECT_EQ(p.first_world_step, q.first_world_step);
         EXPECT_EQ(p.world_step, q.world_step);
+        EXPECT_EQ(p.world_time_s, q.world_time_s);
         ASSERT_EQ(p.odometry.has_value(), q.odometry.has_value());
         if (p.odometry) {
           EXPECT_EQ(p.odometry->v_std, q.odometry->v_std);
@@ -552,7 +553,7 @@ estimators::ObservationMessage observations_sample() {
   m.origin_covariance = Eigen::Matrix3d::Identity() * 0.25;
   m.origin_covariance(0, 2) = m.origin_covariance(2, 0) = 0.01;
   estimators::ObservedSteps first;
-  first.first_world_step = 42, first.world_step = 43;
+  first.first_world_step = 42, first.world_step = 43, first.world_time_s = 4.3;
   first.odometry = estimators::OdometryInput{{{0.2, -0.1, 0.05}, {0.3, 0.0, 0.05}}, 0.011, 0.038};
   estimators::RangeBearingMeasurement landmark;
   landmark.landmark = true, landmark.landmark_m = Vec2(4.0, 5.0), landmark.landmark_cov = Mat2::Identity() * 1e-4;

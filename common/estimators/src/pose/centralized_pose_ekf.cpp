@@ -30,6 +30,7 @@ CentralizedPoseEkf::CentralizedPoseEkf(const std::vector<AgentSetup>& setups,
       throw std::invalid_argument("centralized_pose_ekf: duplicate agent id " + std::to_string(setup.id));
     }
     ids_.push_back(setup.id);
+    sightings_.emplace_back();
     x_.segment<3>(3 * i) = pose_internal::initial_pose(setup);
     P_.block<3, 3>(3 * i, 3 * i) = pose_internal::initial_covariance(params);
   }
@@ -50,6 +51,7 @@ void CentralizedPoseEkf::add_robot(AgentId id, const Pose& pose, const Mat3& cov
   x_ = std::move(x);
   P_ = std::move(P);
   ids_.push_back(id);
+  sightings_.emplace_back();
 }
 
 std::optional<int> CentralizedPoseEkf::index_of(AgentId id) const {
@@ -118,6 +120,10 @@ RangeBearingRows CentralizedPoseEkf::joint_rows(const std::vector<const Measurem
         }
         H.middleCols<2>(3 * *j) = h->d_target;  // the peer's position is in the state
       }
+      const Vec2 factor = sightings_[static_cast<std::size_t>(i)].inflation(m.peer, m.landmark, m.landmark_m,
+                                                                             batch->world_time_s, params_);
+      noise(0, 0) += (factor.x() - 1.0) * (*R)(0, 0);
+      noise(1, 1) += (factor.y() - 1.0) * (*R)(1, 1);
       noise = core::symmetrized(noise);
       if (!pose_internal::invertible_noise(noise)) {
         ++diagnostics_.neighbours_skipped;

@@ -81,6 +81,11 @@ inline int batch_degree(const StepInput& input) {
                                                 std::numeric_limits<std::uint16_t>::max()));
 }
 
+/// The batch's world time (NaN without a batch: nothing to weigh).
+inline double batch_time_s(const StepInput& input) {
+  return input.measurements != nullptr ? input.measurements->world_time_s : std::numeric_limits<double>::quiet_NaN();
+}
+
 inline Outbox publish(const Pose& x, const Mat2& position_cov, int degree) {
   StateMessage state;
   state.mean_m = x.head<2>();

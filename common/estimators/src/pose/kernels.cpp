@@ -126,6 +126,32 @@ RangeBearingSelection collect_range_bearings(const StepInput& input, AgentId sel
   return selection;
 }
 
+Vec2 SightingHistory::inflation(AgentId peer, bool landmark, const Vec2& landmark_m, double time_s,
+                                 const KalmanFilterParams& params) {
+  const double tau = params.sighting_correlation_time_s;
+  if (!(tau > 0.0) || !std::isfinite(time_s)) return Vec2::Ones();
+  const Key key{landmark ? 0 : peer, landmark, landmark ? landmark_m.x() : 0.0, landmark ? landmark_m.y() : 0.0};
+  const auto [last, first] = last_time_s_.try_emplace(key, time_s);
+  if (first) return Vec2::Ones();
+  // Two sightings in one step (Δt = 0) are as good as one: ρ close to 1 all but drops the second.
+  const double gap_s = std::max(time_s - last->second, 1e-3 * tau);
+  last->second = time_s;
+  const double rho = std::exp(-gap_s / tau);
+  const double correlated = (1.0 + rho) / (1.0 - rho);
+  const auto factor = [correlated](double fraction) { return (1.0 - fraction) + fraction * correlated; };
+  return Vec2(factor(params.range_correlated_fraction), factor(params.bearing_correlated_fraction));
+}
+
+void weigh_correlated_sightings(std::vector<RangeBearingTarget>& targets, SightingHistory& history, double time_s,
+                                const KalmanFilterParams& params) {
+  if (!(params.sighting_correlation_time_s > 0.0)) return;
+  for (RangeBearingTarget& target : targets) {
+    const Vec2 factor = history.inflation(target.peer, target.landmark, target.target_m, time_s, params);
+    target.noise(0, 0) *= factor.x();
+    target.noise(1, 1) *= factor.y();
+  }
+}
+
 RangeBearingRows linearize_range_bearings(const Pose& pose, const std::vector<RangeBearingTarget>& targets) {
   RangeBearingRows rows;
   rows.H = MatX::Zero(2 * static_cast<Eigen::Index>(targets.size()), 3);

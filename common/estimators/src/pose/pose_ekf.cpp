@@ -32,7 +32,8 @@ StepOutput PoseEkf::step(const StepInput& input) {
       pose_internal::predict_covariance(x_, P_, input.measurements, params_);
   segments_skipped_ += predicted.propagation.segments_skipped;
 
-  const RangeBearingSelection selection = collect_range_bearings(input, setup_.id, params_);
+  RangeBearingSelection selection = collect_range_bearings(input, setup_.id, params_);
+  weigh_correlated_sightings(selection.targets, sightings_, pose_internal::batch_time_s(input), params_);
   RangeBearingRows rows = linearize_range_bearings(predicted.pose, selection.targets);
   out.diagnostics.ranges_gated = gate_range_bearings(rows, predicted.P, params_.range_bearing_gate_chi2);
   out.diagnostics.neighbours_used = rows.pairs();

@@ -55,7 +55,8 @@ StepOutput PoseIeif::step(const StepInput& input) {
   segments_skipped_ += prop.segments_skipped;
   const Pose x_pred = prop.pose;
 
-  const RangeBearingSelection selection = collect_range_bearings(input, setup_.id, params_);
+  RangeBearingSelection selection = collect_range_bearings(input, setup_.id, params_);
+  weigh_correlated_sightings(selection.targets, sightings_, pose_internal::batch_time_s(input), params_);
   RangeBearingRows rows = linearize_range_bearings(x_pred, selection.targets);
   const Eigen::LLT<Mat3> llt_pred(Psi_pred);
   if (params_.range_bearing_gate_chi2 > 0.0 && llt_pred.info() == Eigen::Success) {

@@ -19,6 +19,7 @@ constexpr std::int64_t kTeamHorizonSteps = 10'000;
 MeasurementBatch span_batch(const ObservedSteps& span) {
   MeasurementBatch batch;
   batch.world_step = span.world_step;
+  batch.world_time_s = span.world_time_s;
   batch.odometry = span.odometry;
   batch.range_bearings = span.range_bearings;
   return batch;
@@ -51,6 +52,7 @@ void TeamPoseEkf::record_own(const MeasurementBatch& batch) {
   ObservedSteps span;
   span.first_world_step = newest_step_ + 1;
   span.world_step = batch.world_step;
+  span.world_time_s = batch.world_time_s;
   span.odometry = batch.odometry;
   span.range_bearings = batch.range_bearings;
   for (const AgentId id : batch.neighbours) {
@@ -165,6 +167,32 @@ void TeamPoseEkf::prune_logs() {
   for (auto& [id, log] : logs_) log.erase(log.begin(), log.upper_bound(settled_step_));
 }
 
+bool TeamPoseEkf::has_span_at(AgentId id, std::int64_t world_step) const {
+  const auto log = logs_.find(id);
+  return log != logs_.end() && log->second.contains(world_step);
+}
+
+void TeamPoseEkf::bring_current() {
+  current_ = settled_;
+  for (std::int64_t step = settled_step_ + 1; step <= newest_step_; ++step) {
+    // A sighting of a robot whose data of this step has not arrived would be linearized where that robot
+    // was a step ago, as if known there: it waits for the settled filter.
+    const auto unsettled = [&](const RangeBearingMeasurement& m) { return !m.landmark && !has_span_at(m.peer, step); };
+    std::vector<const MeasurementBatch*> batches = batches_at(current_, step);
+    std::vector<MeasurementBatch> pruned;
+    pruned.reserve(batches.size());  // the pointers below stay valid
+    for (const MeasurementBatch*& batch : batches) {
+      if (batch == nullptr || std::none_of(batch->range_bearings.begin(), batch->range_bearings.end(), unsettled)) {
+        continue;
+      }
+      pruned.push_back(*batch);
+      std::erase_if(pruned.back().range_bearings, unsettled);
+      batch = &pruned.back();
+    }
+    current_.step(batches);
+  }
+}
+
 StepOutput TeamPoseEkf::step(const StepInput& input) {
   const bool own_data = input.measurements != nullptr && input.measurements->world_step > newest_step_;
   if (own_data) record_own(*input.measurements);
@@ -172,8 +200,7 @@ StepOutput TeamPoseEkf::step(const StepInput& input) {
     for (const auto& received : input.inbox->observations) absorb(received.sender, received.message);
   }
   advance_settled();
-  current_ = settled_;
-  for (std::int64_t step = settled_step_ + 1; step <= newest_step_; ++step) current_.step(batches_at(current_, step));
+  bring_current();
   if (own_data) {
     own_poses_.push_back(OwnPose{newest_step_, current_.pose(setup_.id), current_.pose_covariance(setup_.id)});
     while (own_poses_.size() > own_spans_.size() + 1) own_poses_.pop_front();

@@ -188,6 +188,11 @@ struct Scenario {
     double bearing_std_rad = 0.05;         ///< robot-frame bearing std
     double odometry_v_std = 0.05;          ///< m/√s on the travelled distance
     double odometry_omega_std = 0.1;       ///< rad/√s on the turned angle
+    /// Sightings' errors correlated in time: white + first-order Gauss–Markov parts (estimators'
+    /// KalmanFilterParams, docs/algorithms.md §10.3); τ = 0: independent.
+    double sighting_correlation_time_s = 0.0;
+    double range_correlated_fraction = 0.0;
+    double bearing_correlated_fraction = 0.0;
     double target_std_m = 1.0;             ///< dle target readings: std per axis (linear) or of the range
     double target_bearing_std_rad = 0.05;  ///< dle range–bearing readings: bearing std
     double field_std = 0.1;                ///< joint_field readings: std of each scalar reading

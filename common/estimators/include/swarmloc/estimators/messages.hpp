@@ -168,6 +168,7 @@ struct BeliefMessage {
 struct ObservedSteps {
   std::int64_t first_world_step = 0;
   std::int64_t world_step = 0;
+  double world_time_s = 0.0;  ///< of world_step (the sightings' time)
   std::optional<OdometryInput> odometry;
   std::vector<RangeBearingMeasurement> range_bearings;
 };

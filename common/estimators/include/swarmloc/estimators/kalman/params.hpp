@@ -17,6 +17,12 @@ struct KalmanFilterParams {
   // Pose-state algorithms (pose_ekf, pose_ieif, dead_reckoning): prior around AgentSetup's pose.
   double initial_heading_std_rad = 0.1;
   double range_bearing_gate_chi2 = 0.0;  ///< drop a range-bearing pair if ν'S⁻¹ν > gate (2 dof); 0 = off
+  /// Sightings whose errors are correlated in time (docs/algorithms.md §10.3): each channel's error is a
+  /// white part plus a first-order Gauss–Markov part (this fraction of its variance, correlation time τ).
+  /// 0 = independent sightings.
+  double sighting_correlation_time_s = 0.0;
+  double range_correlated_fraction = 0.0;
+  double bearing_correlated_fraction = 0.0;
 };
 
 }  // namespace swarmloc::estimators

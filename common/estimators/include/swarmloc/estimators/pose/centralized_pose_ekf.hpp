@@ -56,6 +56,7 @@ class CentralizedPoseEkf {
   MatX P_;
   StepDiagnostics diagnostics_;
   std::int64_t segments_skipped_ = 0;
+  std::vector<SightingHistory> sightings_;  ///< per robot, in state order
 };
 
 }  // namespace swarmloc::estimators

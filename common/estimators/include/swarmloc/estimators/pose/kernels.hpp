@@ -13,6 +13,8 @@
 // the per-agent filters fold the target's 2×2 covariance Σ_t into the noise, R̃ = R + H_t Σ_t H_tᵀ
 // ("interlaced", as Ieif/Iekf do for ranges), the centralized filter keeps robot targets in its state.
 #include <cstdint>
+#include <map>
+#include <tuple>
 #include <optional>
 #include <string_view>
 #include <vector>
@@ -75,6 +77,33 @@ std::int64_t pose_message_age_steps(std::int64_t local_step, std::int64_t sender
 /// covariances are inflated by a·Q_pos (pose_message_age_steps) when params.inflate_stale.
 RangeBearingSelection collect_range_bearings(const StepInput& input, AgentId self,
                                              const KalmanFilterParams& params);
+
+/// When each robot last sighted each target (a landmark, by its position, or a robot peer), so that a
+/// sighting of errors correlated with the last one's counts for what it adds (docs/algorithms.md §10.3):
+/// with ρ = exp(−Δt/τ) the correlated part's variance is inflated by (1 + ρ)/(1 − ρ), the asymptotic
+/// variance factor of a densely sampled first-order Gauss–Markov error. A first sighting is not inflated.
+class SightingHistory {
+ public:
+  /// Variance factors (range, bearing) for a sighting at `time_s`; records the sighting.
+  Vec2 inflation(AgentId peer, bool landmark, const Vec2& landmark_m, double time_s,
+                 const KalmanFilterParams& params);
+
+ private:
+  struct Key {
+    AgentId peer = 0;
+    bool landmark = false;
+    double x = 0.0;
+    double y = 0.0;
+    bool operator<(const Key& other) const {
+      return std::tie(landmark, peer, x, y) < std::tie(other.landmark, other.peer, other.x, other.y);
+    }
+  };
+  std::map<Key, double> last_time_s_;
+};
+
+/// Scales each target's R by its SightingHistory factors (nothing when params model independent sightings).
+void weigh_correlated_sightings(std::vector<RangeBearingTarget>& targets, SightingHistory& history, double time_s,
+                                const KalmanFilterParams& params);
 
 /// Stacked measurement rows: pair m occupies rows 2m, 2m+1 of H and ν; its noise is noise[m].
 struct RangeBearingRows {

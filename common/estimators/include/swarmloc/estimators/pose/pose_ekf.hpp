@@ -36,6 +36,7 @@ class PoseEkf final : public Estimator {
   Mat3 P_;
   int degree_ = 0;
   std::int64_t segments_skipped_ = 0;
+  SightingHistory sightings_;
 };
 
 }  // namespace swarmloc::estimators

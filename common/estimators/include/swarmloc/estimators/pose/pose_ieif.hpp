@@ -36,6 +36,7 @@ class PoseIeif final : public Estimator {
   Mat3 Psi_;
   int degree_ = 0;
   std::int64_t segments_skipped_ = 0;
+  SightingHistory sightings_;
 };
 
 }  // namespace swarmloc::estimators

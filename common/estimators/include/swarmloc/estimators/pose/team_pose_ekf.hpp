@@ -63,6 +63,9 @@ class TeamPoseEkf final : public Estimator {
   [[nodiscard]] std::vector<const MeasurementBatch*> batches_at(const CentralizedPoseEkf& filter,
                                                                 std::int64_t world_step) const;
   void advance_settled();
+  [[nodiscard]] bool has_span_at(AgentId id, std::int64_t world_step) const;
+  /// current_ = the settled filter stepped to the newest world step with what has arrived.
+  void bring_current();
   void prune_logs();
   [[nodiscard]] ObservationMessage observations() const;
 
