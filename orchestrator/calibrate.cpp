@@ -45,6 +45,25 @@ void print_range_bins(const world::SightingCalibration& s) {
   std::printf("\n  fitted: range std = %.4f m + %.4f x range\n", s.range_std_intercept_m, s.range_std_slope);
 }
 
+void print_correlation(const world::SightingCorrelation& c) {
+  std::printf(
+      "  correlation of consecutive sightings (same landmark, same robot, both inliers, gap <= %.0f s,\n"
+      "  residuals less their robot's mean; Pearson per gap bin; (fit) = the model below at the mean gap):\n"
+      "      gap (s)        pairs  mean gap   range rho (fit)   bearing rho (fit)\n",
+      world::kMaxCorrelationGapS);
+  for (const auto& bin : c.bins) {
+    const double decay = c.correlation_time_s > 0.0 ? std::exp(-bin.mean_gap_s / c.correlation_time_s) : 0.0;
+    std::printf("      [%5.2f, %6.2f)  %6zu  %7.2f s   %+6.3f (%+6.3f)   %+6.3f (%+6.3f)%s\n", bin.from_s,
+                bin.to_s, bin.pairs, bin.mean_gap_s, bin.range_rho, c.range_fraction * decay, bin.bearing_rho,
+                c.bearing_fraction * decay,
+                bin.pairs < world::kMinBinSamples ? "  (too few, not fitted)" : "");
+  }
+  std::printf(
+      "  fitted rho(gap) = c exp(-gap/tau), pair-weighted least squares over the bins, one tau for both:\n"
+      "      tau %.2f s   c_range %.3f   c_bearing %.3f   (alone: range tau %.2f s, bearing tau %.2f s)\n",
+      c.correlation_time_s, c.range_fraction, c.bearing_fraction, c.range_only_time_s, c.bearing_only_time_s);
+}
+
 void print_odometry(const world::RobotCalibration& calibration) {
   for (const auto& w : calibration.odometry) {
     std::printf(
@@ -79,15 +98,18 @@ void print_report(const std::string& dir, const world::MrclamCalibration& c) {
   print_sightings("landmark sightings", c.pooled.landmarks);
   print_sightings("robot sightings", c.pooled.robots);
   print_range_bins(c.pooled.landmarks);
+  print_correlation(c.pooled.landmarks.correlation);
   print_odometry(c.pooled);
 }
 
 /// The scenario keys of the pooled model. Range and bearing: the trimmed std of the landmark sightings
 /// (the outliers are misidentified barcodes, which the filters' gate drops; the robot sightings are
 /// reported, not published: the filters give both kinds one std). Odometry: the std with its heavy tails
-/// (commanded velocities against real motion: the tails are error the filter must carry).
+/// (commanded velocities against real motion: the tails are error the filter must carry). Sighting
+/// correlation: the white + Gauss–Markov fit of the landmark sightings.
 std::string scenario_fragment(const std::string& dir, const world::MrclamCalibration& c) {
   const auto& odometry = reference_window(c.pooled);
+  const auto& correlation = c.pooled.landmarks.correlation;
   std::ostringstream text;
   text.precision(4);
   text << "# swarmloc calibrate --mrclam " << dir << "\n"
@@ -98,11 +120,16 @@ std::string scenario_fragment(const std::string& dir, const world::MrclamCalibra
        << "# Measured biases (not applied by any key): range " << c.pooled.landmarks.range_m.bias
        << " m, bearing " << c.pooled.landmarks.bearing_rad.bias << " rad, odometry distance ratio "
        << odometry.distance_ratio << ".\n"
+       << "# Sighting errors: white + first-order Gauss-Markov, fitted to " << correlation.pairs
+       << " pairs of consecutive sightings of one landmark by one robot.\n"
        << "noise:\n"
        << "  range_std_m: " << c.pooled.landmarks.range_m.std << "\n"
        << "  bearing_std_rad: " << c.pooled.landmarks.bearing_rad.std << "\n"
        << "  odometry_v_std: " << odometry.v_std_with_tails() << "\n"
-       << "  odometry_omega_std: " << odometry.omega_std_with_tails() << "\n";
+       << "  odometry_omega_std: " << odometry.omega_std_with_tails() << "\n"
+       << "  sighting_correlation_time_s: " << correlation.correlation_time_s << "\n"
+       << "  range_correlated_fraction: " << correlation.range_fraction << "\n"
+       << "  bearing_correlated_fraction: " << correlation.bearing_fraction << "\n";
   return text.str();
 }
 

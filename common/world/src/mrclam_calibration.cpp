@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <limits>
 #include <numbers>
+#include <tuple>
 
 #include "swarmloc/models/measurement_models.hpp"
 
@@ -89,10 +92,14 @@ double bearing_from(const Pose& pose, const Vec2& target) {
   return models::wrap_angle(std::atan2(d.y(), d.x()) - pose.heading_rad);
 }
 
-/// One sighting's residual and its true range (for the range bins).
+/// One sighting's residual, its true range (for the range bins) and who saw what when (for the pairs of
+/// consecutive sightings).
 struct SightingResidual {
   Pair residual{};  ///< range (m), bearing (rad)
   double true_range_m = 0.0;
+  double time_s = 0.0;
+  std::size_t robot = 0;
+  int subject = 0;
 };
 
 struct SightingResiduals {
@@ -126,19 +133,27 @@ SightingResiduals sighting_residuals(const MrclamDataset& data, std::size_t robo
     const double true_range = (*target - pose->position_m).norm();
     const SightingResidual r{
         {m.range_m - true_range, models::wrap_angle(m.bearing_rad - bearing_from(*pose, *target))},
-        true_range};
+        true_range,
+        m.time_s,
+        robot,
+        m.subject};
     (landmark ? out.landmarks : out.robots).push_back(r);
   }
   return out;
+}
+
+/// The final trim of robust_pair_stats, applied to one sample.
+bool within_trim(const Pair& residual, const RobustStats& first, const RobustStats& second,
+                 double trim_sigma) {
+  return std::abs(residual[0] - first.bias) <= trim_sigma * first.std &&
+         std::abs(residual[1] - second.bias) <= trim_sigma * second.std;
 }
 
 std::vector<RangeBin> range_bins(const std::vector<SightingResidual>& sightings, const RobustStats& range,
                                  const RobustStats& bearing, double trim_sigma) {
   std::vector<std::vector<double>> by_metre;
   for (const auto& s : sightings) {
-    const bool inlier = std::abs(s.residual[0] - range.bias) <= trim_sigma * range.std &&
-                        std::abs(s.residual[1] - bearing.bias) <= trim_sigma * bearing.std;
-    if (!inlier) continue;
+    if (!within_trim(s.residual, range, bearing, trim_sigma)) continue;
     const auto bin = static_cast<std::size_t>(std::floor(s.true_range_m));
     if (bin >= by_metre.size()) by_metre.resize(bin + 1);
     by_metre[bin].push_back(s.residual[0]);
@@ -173,6 +188,168 @@ std::pair<double, double> fit_std_line(const std::vector<RangeBin>& bins) {
   return {(wy - slope * wx) / w, slope};
 }
 
+// ---- Correlation of consecutive sightings (docs/real-data.md, "Correlated sighting errors") ----
+
+/// Gap bins: fine where the correlation falls fast, coarse out to kMaxCorrelationGapS.
+constexpr std::array<double, 9> kCorrelationGapEdgesS{
+    0.0, 0.25, 0.5, 1.0, 2.0, 5.0, 10.0, 30.0, kMaxCorrelationGapS};
+/// τ candidates: a log grid over 0.1–300 s, about 3.4 % apart (far finer than the fit's uncertainty).
+constexpr double kMinCorrelationTimeS = 0.1;
+constexpr double kMaxCorrelationTimeS = 300.0;
+constexpr int kCorrelationTimeSteps = 240;
+
+/// Two consecutive inlier sightings of one subject by one robot, residuals less their robot's mean.
+struct ConsecutivePair {
+  double gap_s = 0.0;
+  Pair earlier{};
+  Pair later{};
+};
+
+/// Inlier mean of each robot's residuals: a robot's constant bias would otherwise read as a correlation
+/// that never decays.
+std::vector<Pair> per_robot_means(const std::vector<const SightingResidual*>& inliers) {
+  std::vector<Pair> sums;
+  std::vector<double> counts;
+  for (const auto* s : inliers) {
+    if (s->robot >= sums.size()) {
+      sums.resize(s->robot + 1, Pair{});
+      counts.resize(s->robot + 1, 0.0);
+    }
+    sums[s->robot][0] += s->residual[0];
+    sums[s->robot][1] += s->residual[1];
+    counts[s->robot] += 1.0;
+  }
+  for (std::size_t r = 0; r < sums.size(); ++r) {
+    if (counts[r] > 0.0) sums[r] = {sums[r][0] / counts[r], sums[r][1] / counts[r]};
+  }
+  return sums;
+}
+
+std::vector<ConsecutivePair> consecutive_pairs(const std::vector<SightingResidual>& sightings,
+                                               const RobustStats& range, const RobustStats& bearing,
+                                               double trim_sigma) {
+  std::vector<const SightingResidual*> inliers;
+  for (const auto& s : sightings) {
+    if (within_trim(s.residual, range, bearing, trim_sigma)) inliers.push_back(&s);
+  }
+  const auto means = per_robot_means(inliers);
+  std::stable_sort(inliers.begin(), inliers.end(), [](const auto* a, const auto* b) {
+    return std::tie(a->robot, a->subject, a->time_s) < std::tie(b->robot, b->subject, b->time_s);
+  });
+  std::vector<ConsecutivePair> pairs;
+  for (std::size_t i = 1; i < inliers.size(); ++i) {
+    const auto& earlier = *inliers[i - 1];
+    const auto& later = *inliers[i];
+    if (earlier.robot != later.robot || earlier.subject != later.subject) continue;
+    const double gap = later.time_s - earlier.time_s;
+    if (gap > kMaxCorrelationGapS) continue;
+    const auto& mean = means[later.robot];
+    pairs.push_back({gap,
+                     {earlier.residual[0] - mean[0], earlier.residual[1] - mean[1]},
+                     {later.residual[0] - mean[0], later.residual[1] - mean[1]}});
+  }
+  return pairs;
+}
+
+/// Pearson correlation of the earlier against the later residual of one channel; 0 when either is constant.
+double pair_correlation(const std::vector<ConsecutivePair>& pairs, std::size_t channel) {
+  if (pairs.size() < 2) return 0.0;
+  double mean_earlier = 0.0, mean_later = 0.0;
+  for (const auto& p : pairs) mean_earlier += p.earlier[channel], mean_later += p.later[channel];
+  mean_earlier /= static_cast<double>(pairs.size());
+  mean_later /= static_cast<double>(pairs.size());
+  double cross = 0.0, earlier_sq = 0.0, later_sq = 0.0;
+  for (const auto& p : pairs) {
+    const double a = p.earlier[channel] - mean_earlier;
+    const double b = p.later[channel] - mean_later;
+    cross += a * b, earlier_sq += a * a, later_sq += b * b;
+  }
+  return earlier_sq > 0.0 && later_sq > 0.0 ? cross / std::sqrt(earlier_sq * later_sq) : 0.0;
+}
+
+std::vector<CorrelationBin> correlation_bins(const std::vector<ConsecutivePair>& pairs) {
+  std::vector<CorrelationBin> bins;
+  for (std::size_t b = 0; b + 1 < kCorrelationGapEdgesS.size(); ++b) {
+    const double from = kCorrelationGapEdgesS[b];
+    const double to = kCorrelationGapEdgesS[b + 1];
+    std::vector<ConsecutivePair> in_bin;
+    // The last bin is closed: a gap of exactly kMaxCorrelationGapS was paired, so it is counted.
+    const bool last = b + 2 == kCorrelationGapEdgesS.size();
+    std::copy_if(pairs.begin(), pairs.end(), std::back_inserter(in_bin),
+                 [&](const auto& p) { return p.gap_s >= from && (p.gap_s < to || (last && p.gap_s == to)); });
+    double gap_sum = 0.0;
+    for (const auto& p : in_bin) gap_sum += p.gap_s;
+    const double mean_gap = in_bin.empty() ? 0.5 * (from + to) : gap_sum / static_cast<double>(in_bin.size());
+    bins.push_back(
+        {from, to, in_bin.size(), mean_gap, pair_correlation(in_bin, 0), pair_correlation(in_bin, 1)});
+  }
+  return bins;
+}
+
+double bin_rho(const CorrelationBin& bin, std::size_t channel) {
+  return channel == 0 ? bin.range_rho : bin.bearing_rho;
+}
+
+/// c of one channel at a given τ, and its pair-weighted squared misfit over the bins.
+struct FractionFit {
+  double fraction = 0.0;
+  double misfit = 0.0;
+};
+
+/// Weighted least squares of ρ_b ≈ c·exp(−Δt_b/τ): linear in c, so closed form, then clamped.
+FractionFit fit_fraction(const std::vector<CorrelationBin>& bins, double tau_s, std::size_t channel) {
+  double xx = 0.0, xy = 0.0;
+  for (const auto& bin : bins) {
+    if (bin.pairs < kMinBinSamples) continue;
+    const double w = static_cast<double>(bin.pairs);
+    const double x = std::exp(-bin.mean_gap_s / tau_s);
+    xx += w * x * x, xy += w * x * bin_rho(bin, channel);
+  }
+  FractionFit fit;
+  fit.fraction = xx > 0.0 ? std::clamp(xy / xx, 0.0, kMaxCorrelatedFraction) : 0.0;
+  for (const auto& bin : bins) {
+    if (bin.pairs < kMinBinSamples) continue;
+    const double miss = bin_rho(bin, channel) - fit.fraction * std::exp(-bin.mean_gap_s / tau_s);
+    fit.misfit += static_cast<double>(bin.pairs) * miss * miss;
+  }
+  return fit;
+}
+
+double correlation_time_candidate(int step) {
+  const double ratio = std::log(kMaxCorrelationTimeS / kMinCorrelationTimeS) / kCorrelationTimeSteps;
+  return kMinCorrelationTimeS * std::exp(ratio * step);
+}
+
+/// The τ of the grid minimising the summed misfit of the channels asked for (each with its own c).
+double best_correlation_time(const std::vector<CorrelationBin>& bins, bool range, bool bearing) {
+  double best_tau = 0.0;
+  double best_misfit = std::numeric_limits<double>::infinity();
+  for (int step = 0; step <= kCorrelationTimeSteps; ++step) {
+    const double tau = correlation_time_candidate(step);
+    const double misfit = (range ? fit_fraction(bins, tau, 0).misfit : 0.0) +
+                          (bearing ? fit_fraction(bins, tau, 1).misfit : 0.0);
+    if (misfit < best_misfit) best_misfit = misfit, best_tau = tau;
+  }
+  return best_tau;
+}
+
+SightingCorrelation fit_correlation(const std::vector<ConsecutivePair>& pairs) {
+  SightingCorrelation out;
+  out.pairs = pairs.size();
+  out.bins = correlation_bins(pairs);
+  const bool fittable = std::any_of(out.bins.begin(), out.bins.end(),
+                                    [](const auto& bin) { return bin.pairs >= kMinBinSamples; });
+  if (!fittable) return out;
+  out.range_only_time_s = best_correlation_time(out.bins, true, false);
+  out.bearing_only_time_s = best_correlation_time(out.bins, false, true);
+  const double tau = best_correlation_time(out.bins, true, true);
+  out.range_fraction = fit_fraction(out.bins, tau, 0).fraction;
+  out.bearing_fraction = fit_fraction(out.bins, tau, 1).fraction;
+  // Nothing correlated: independent sightings, which τ = 0 says to the filters.
+  out.correlation_time_s = out.range_fraction > 0.0 || out.bearing_fraction > 0.0 ? tau : 0.0;
+  return out;
+}
+
 SightingCalibration calibrate_sightings(const std::vector<SightingResidual>& sightings, std::size_t gaps,
                                         double trim_sigma) {
   SightingCalibration out;
@@ -185,6 +362,7 @@ SightingCalibration calibrate_sightings(const std::vector<SightingResidual>& sig
   out.bearing_rad = stats[1];
   out.range_bins = range_bins(sightings, out.range_m, out.bearing_rad, trim_sigma);
   std::tie(out.range_std_intercept_m, out.range_std_slope) = fit_std_line(out.range_bins);
+  out.correlation = fit_correlation(consecutive_pairs(sightings, out.range_m, out.bearing_rad, trim_sigma));
   return out;
 }
 
@@ -282,8 +460,7 @@ OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double 
   double odometry_sum = 0.0;
   double true_sum = 0.0;
   for (const auto& w : residuals.windows) {
-    const bool inlier = std::abs(w.residual[0] - out.distance_m.bias) <= trim_sigma * out.distance_m.std &&
-                        std::abs(w.residual[1] - out.heading_rad.bias) <= trim_sigma * out.heading_rad.std;
+    const bool inlier = within_trim(w.residual, out.distance_m, out.heading_rad, trim_sigma);
     if (!inlier || std::abs(w.odometry_distance_m) < 0.01) continue;
     odometry_sum += w.odometry_distance_m;
     true_sum += w.true_distance_m;

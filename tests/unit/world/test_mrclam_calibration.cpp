@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <random>
 
@@ -20,6 +21,12 @@ struct SyntheticNoise {
   double v_std = 0.04;         ///< m/√s
   double omega_std = 0.08;     ///< rad/√s
   double misidentified = 0.0;  ///< fraction of sightings labelled with another landmark
+  /// Sighting errors as white + first-order Gauss–Markov: this fraction of each channel's variance is a
+  /// process per (robot, subject) with correlation time correlation_time_s, the rest white. 0 s: all white.
+  double correlation_time_s = 0.0;
+  double range_correlated_fraction = 0.0;
+  double bearing_correlated_fraction = 0.0;
+  double robot_range_bias_step_m = 0.0;  ///< robot r (0-based) adds (r − 2) × this to range_bias_m
 };
 
 constexpr double kStartS = 1000.0;
@@ -76,10 +83,54 @@ void add_odometry(MrclamDataset::Robot& robot, const TrueTrack& track, const Syn
   }
 }
 
+/// One channel's Gauss–Markov error for one (robot, subject), sampled exactly at its sightings: over a gap
+/// Δt it keeps exp(−Δt/τ) of its value and draws the rest, so its variance stays std² and two sightings
+/// Δt apart correlate by exp(−Δt/τ). The first sighting draws from the stationary distribution.
+class GaussMarkovError {
+ public:
+  double at(double time_s, double tau_s, double std, std::mt19937& rng) {
+    const double keep = seen_ ? std::exp(-(time_s - last_s_) / tau_s) : 0.0;
+    value_ = keep * value_ + std::sqrt(1.0 - keep * keep) * std * unit_(rng);
+    last_s_ = time_s;
+    seen_ = true;
+    return value_;
+  }
+
+ private:
+  std::normal_distribution<double> unit_{0.0, 1.0};
+  double value_ = 0.0;
+  double last_s_ = 0.0;
+  bool seen_ = false;
+};
+
+/// The range and bearing errors of one sighting: white, plus the Gauss–Markov part when it is on (drawn
+/// after the white part, so all-white datasets keep the random sequence of the original generator).
+class SightingErrors {
+ public:
+  explicit SightingErrors(const SyntheticNoise& noise) : noise_(noise) {}
+  std::array<double, 2> draw(int robot, int subject, double time_s, std::mt19937& rng) {
+    const double range_white = std::sqrt(1.0 - noise_.range_correlated_fraction) * noise_.range_std_m;
+    const double bearing_white = std::sqrt(1.0 - noise_.bearing_correlated_fraction) * noise_.bearing_std_rad;
+    std::array<double, 2> error{range_white * unit_(rng), bearing_white * unit_(rng)};
+    if (noise_.correlation_time_s <= 0.0) return error;
+    auto& state = states_[{robot, subject}];
+    const double tau = noise_.correlation_time_s;
+    error[0] +=
+        state[0].at(time_s, tau, std::sqrt(noise_.range_correlated_fraction) * noise_.range_std_m, rng);
+    error[1] +=
+        state[1].at(time_s, tau, std::sqrt(noise_.bearing_correlated_fraction) * noise_.bearing_std_rad, rng);
+    return error;
+  }
+
+ private:
+  const SyntheticNoise& noise_;
+  std::normal_distribution<double> unit_{0.0, 1.0};
+  std::map<std::pair<int, int>, std::array<GaussMarkovError, 2>> states_;
+};
+
 MrclamDataset synthetic_dataset(const SyntheticNoise& noise, unsigned seed = 39) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> area(-5.0, 5.0), unit_interval(0.0, 1.0);
-  std::normal_distribution<double> unit(0.0, 1.0);
   MrclamDataset data;
   for (int l = 0; l < kLandmarks; ++l) data.landmarks[6 + l] = {Vec2(area(rng), area(rng)), Vec2::Zero()};
   std::vector<TrueTrack> tracks;
@@ -89,6 +140,7 @@ MrclamDataset synthetic_dataset(const SyntheticNoise& noise, unsigned seed = 39)
     add_odometry(data.robots[static_cast<std::size_t>(r)], tracks.back(), noise, rng);
   }
   std::uniform_int_distribution<int> landmark(6, 5 + kLandmarks), robot(1, kMrclamRobots);
+  SightingErrors errors(noise);
   for (int r = 0; r < kMrclamRobots; ++r) {
     // Mid-row timestamps, so the groundtruth is interpolated; every direction, bearings near ±π too.
     for (double t = kStartS + 0.01; t < kStartS + kDurationS; t += kSightingS) {
@@ -99,9 +151,10 @@ MrclamDataset synthetic_dataset(const SyntheticNoise& noise, unsigned seed = 39)
                               ? data.landmarks.at(subject).position_m
                               : tracks[static_cast<std::size_t>(subject - 1)].at(t).position_m;
       const Vec2 d = target - self.position_m;
-      const double range = d.norm() + noise.range_bias_m + noise.range_std_m * unit(rng);
-      const double bearing =
-          models::wrap_angle(std::atan2(d.y(), d.x()) - self.heading_rad + noise.bearing_std_rad * unit(rng));
+      const auto error = errors.draw(r, subject, t, rng);
+      const double bias = noise.range_bias_m + (r - 2) * noise.robot_range_bias_step_m;
+      const double range = d.norm() + bias + error[0];
+      const double bearing = models::wrap_angle(std::atan2(d.y(), d.x()) - self.heading_rad + error[1]);
       if (unit_interval(rng) < noise.misidentified) subject = 6 + (subject + 3) % kLandmarks;  // another one
       data.robots[static_cast<std::size_t>(r)].measurements.push_back({t, subject, range, bearing});
     }
@@ -136,6 +189,28 @@ TEST(MrclamCalibration, RecoversTheKnownSightingNoiseAndBias) {
   // The noise does not grow with range: the fitted slope is near zero.
   EXPECT_NEAR(landmarks.range_std_slope, 0.0, 0.01);
   EXPECT_NEAR(landmarks.range_std_intercept_m, noise.range_std_m, 0.02);
+}
+
+TEST(MrclamCalibration, RecoversTheGaussMarkovCorrelationOfConsecutiveSightings) {
+  SyntheticNoise noise;
+  noise.correlation_time_s = 4.0;
+  noise.range_correlated_fraction = 0.7;
+  noise.bearing_correlated_fraction = 0.4;
+  // Robots' range biases 0.1 m apart (σ 0.1 m): left in, they would read as a correlation that never decays.
+  noise.robot_range_bias_step_m = 0.05;
+  const auto correlated = calibrate_mrclam(synthetic_dataset(noise)).pooled.landmarks.correlation;
+  // Each landmark is seen every 3.75 s on average per robot: thousands of pairs, a few hundred per bin.
+  EXPECT_GT(correlated.pairs, 5000U);
+  EXPECT_NEAR(correlated.correlation_time_s, noise.correlation_time_s, 0.3 * noise.correlation_time_s);
+  EXPECT_NEAR(correlated.range_fraction, noise.range_correlated_fraction, 0.1);
+  EXPECT_NEAR(correlated.bearing_fraction, noise.bearing_correlated_fraction, 0.1);
+
+  // White errors with the same robot biases: nothing left to correlate.
+  noise.correlation_time_s = 0.0;
+  noise.range_correlated_fraction = noise.bearing_correlated_fraction = 0.0;
+  const auto white = calibrate_mrclam(synthetic_dataset(noise)).pooled.landmarks.correlation;
+  EXPECT_LT(white.range_fraction, 0.1);
+  EXPECT_LT(white.bearing_fraction, 0.1);
 }
 
 TEST(MrclamCalibration, RecoversTheOdometryDensitiesAtEveryWindowLength) {

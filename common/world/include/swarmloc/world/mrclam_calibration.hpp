@@ -42,6 +42,31 @@ struct RangeBin {
   double std_m = 0.0;
 };
 
+/// Correlation of the residuals of consecutive sightings of one subject by one robot, over the pairs
+/// whose gap lies in [from_s, to_s).
+struct CorrelationBin {
+  double from_s = 0.0;
+  double to_s = 0.0;
+  std::size_t pairs = 0;
+  double mean_gap_s = 0.0;  ///< where the fit evaluates the model for this bin
+  double range_rho = 0.0;
+  double bearing_rho = 0.0;
+};
+
+/// Sighting errors as white noise plus a first-order Gauss–Markov process (docs/real-data.md,
+/// "Correlated sighting errors"): two sightings Δt apart correlate by c·exp(−Δt/τ), one τ for both
+/// channels, each with its own correlated fraction c of the variance.
+struct SightingCorrelation {
+  std::vector<CorrelationBin> bins;  ///< every gap bin, also those too thin to fit
+  std::size_t pairs = 0;             ///< consecutive inlier pairs at most kMaxCorrelationGapS apart
+  double correlation_time_s = 0.0;   ///< τ; 0 when nothing correlates (or no bin could be fitted)
+  double range_fraction = 0.0;       ///< c of the range channel, in [0, kMaxCorrelatedFraction]
+  double bearing_fraction = 0.0;
+  /// Each channel's own best τ, before the common one (how well one τ fits both).
+  double range_only_time_s = 0.0;
+  double bearing_only_time_s = 0.0;
+};
+
 struct SightingCalibration {
   RobustStats range_m;               ///< measured − true range
   RobustStats bearing_rad;           ///< measured − true bearing, wrapped to (−π, π]
@@ -49,7 +74,8 @@ struct SightingCalibration {
   /// Weighted least-squares line through the bins: range std ≈ intercept + slope · range.
   double range_std_intercept_m = 0.0;
   double range_std_slope = 0.0;
-  std::size_t skipped_gap = 0;  ///< sightings without groundtruth around their timestamp
+  std::size_t skipped_gap = 0;      ///< sightings without groundtruth around their timestamp
+  SightingCorrelation correlation;  ///< of the inliers, per-robot mean removed
 };
 
 /// Odometry over windows of one length, tiled along each robot's odometry.
@@ -90,6 +116,10 @@ struct MrclamCalibration {
 };
 
 inline constexpr std::size_t kMinBinSamples = 30;
+/// Consecutive sightings further apart than this are not paired: the correlation has died out long before.
+inline constexpr double kMaxCorrelationGapS = 100.0;
+/// A fraction of 1 would leave no white noise, and a filter would treat repeated sightings as one.
+inline constexpr double kMaxCorrelatedFraction = 0.99;
 
 MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationOptions& options = {});
 
