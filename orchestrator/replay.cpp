@@ -110,7 +110,7 @@ ReplaySource recording_source(const std::string& path, const std::vector<std::st
 /// noise.* figures are Dataset 6's, measured by `swarmloc calibrate --mrclam DIR` (pooled, rounded).
 constexpr const char* kMrclamScenario = R"(name: mrclam
 algorithm:
-  name: pose_ekf
+  name: team_pose_ekf
   process_noise_std_m: 0.01
   initial_std_m: 0.05
   initial_heading_std_rad: 0.05
@@ -125,6 +125,9 @@ noise:
   bearing_std_rad: 0.010
   odometry_v_std: 0.011
   odometry_omega_std: 0.038
+  sighting_correlation_time_s: 7.9
+  range_correlated_fraction: 0.98
+  bearing_correlated_fraction: 0.54
 run:
   mode: free_run
 )";
@@ -161,8 +164,9 @@ void print_baselines(const world::MrclamBaselines& baselines) {
       baselines.dead_reckoning.rmse_m, baselines.dead_reckoning.nees3, baselines.centralized_ekf.rmse_m,
       baselines.centralized_ekf.nees3);
   if (const auto& smoother = baselines.batch_smoother) {
-    std::printf(", batch smoother %.4f m (%.2f; %d iterations, %s, %.2f s)", smoother->rmse_m, smoother->nees3,
-                smoother->iterations, smoother->converged ? "converged" : "NOT converged", smoother->solve_s);
+    std::printf(", batch smoother %.4f m (%.2f; %d iterations, %s, %.2f s)", smoother->rmse_m,
+                smoother->nees3, smoother->iterations, smoother->converged ? "converged" : "NOT converged",
+                smoother->solve_s);
   }
   std::printf("\n");
   std::fflush(stdout);

@@ -43,7 +43,8 @@ inline World simulate(const WorldConfig& c) {
   std::vector<Pose> pose(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double angle = 2.0 * std::numbers::pi * static_cast<double>(i) / static_cast<double>(n);
-    pose[i] = Pose(2.5 * std::cos(angle), 2.5 * std::sin(angle), models::wrap_angle(angle + std::numbers::pi / 2));
+    pose[i] =
+        Pose(2.5 * std::cos(angle), 2.5 * std::sin(angle), models::wrap_angle(angle + std::numbers::pi / 2));
     AgentSetup setup;
     setup.id = static_cast<AgentId>(i);
     setup.initial_guess_m = pose[i].head<2>() + c.initial_std_m * Vec2(normal(rng), normal(rng));

@@ -323,6 +323,8 @@ std::vector<KeySpec> algorithm_keys() {
       SWARMLOC_ALGORITHM_KEY(kalman, kKalman, update_iterations),
       SWARMLOC_ALGORITHM_KEY(pose, kPose, initial_heading_std_rad),
       SWARMLOC_ALGORITHM_KEY(pose, kPose, range_bearing_gate_chi2),
+      SWARMLOC_ALGORITHM_KEY(pose, kPose, team_share_spans),
+      SWARMLOC_ALGORITHM_KEY(pose, kPose, team_wait_steps),
       SWARMLOC_ALGORITHM_KEY(field, kField, field_warmup_steps),
       SWARMLOC_ALGORITHM_KEY(gradient, kGradient, local_bb_difference),
       SWARMLOC_ALGORITHM_KEY(multipath, kMultipath, path_variance),

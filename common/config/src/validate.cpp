@@ -325,6 +325,8 @@ void validate_pose_params(const Scenario& scenario) {
   const PoseParams& pose = scenario.algorithm.pose;
   require_positive(pose.initial_heading_std_rad, "algorithm.initial_heading_std_rad");
   require_non_negative(pose.range_bearing_gate_chi2, "algorithm.range_bearing_gate_chi2");
+  require_within(pose.team_share_spans, 1, 64, "algorithm.team_share_spans");
+  require_within(pose.team_wait_steps, 0, 1'000'000, "algorithm.team_wait_steps");
 }
 
 void validate_gradient_params(const Scenario& scenario) {

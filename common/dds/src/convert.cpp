@@ -257,7 +257,8 @@ WireBelief::WireBelief(const runtime::Header& header, const estimators::BeliefMe
   point_at(sample.contributions, contributions);
 }
 
-WireObservations::WireObservations(const runtime::Header& header, const estimators::ObservationMessage& message) {
+WireObservations::WireObservations(const runtime::Header& header,
+                                   const estimators::ObservationMessage& message) {
   sample.agent_id = header.agent_id;
   sample.header = encode_header(header);
   sample.origin_step = message.origin_step;
@@ -284,8 +285,10 @@ WireObservations::WireObservations(const runtime::Header& header, const estimato
       }
     }
     for (const auto& m : span.range_bearings) range_bearings[k].push_back(wire_range_bearing(m));
-    if (odometry[k].size() > codec::kMaxSpanOdometry || range_bearings[k].size() > codec::kMaxSpanRangeBearings) {
-      throw DdsError("publish_observations: a span over the IDL bounds (1024 odometry segments, 256 sightings)");
+    if (odometry[k].size() > codec::kMaxSpanOdometry ||
+        range_bearings[k].size() > codec::kMaxSpanRangeBearings) {
+      throw DdsError(
+          "publish_observations: a span over the IDL bounds (1024 odometry segments, 256 sightings)");
     }
     point_at(wire.odometry, odometry[k]);
     point_at(wire.range_bearings, range_bearings[k]);
@@ -353,6 +356,7 @@ WireBatch::WireBatch(AgentId recipient, const runtime::Header& header,
   point_at(sample.range_bearings, range_bearings);
   sample.agent_id = recipient;
   sample.header = encode_header(header);
+  sample.world_time_s = batch.world_time_s;
   point_at(sample.ranges, ranges);
   point_at(sample.bearings, bearings);
   point_at(sample.relative, relative);
@@ -409,7 +413,8 @@ WireEstimate::WireEstimate(const runtime::EstimateReport& report)
   point_at(sample.rejected_by_reason, rejected_by_reason);
   point_at(sample.field, field);
   if (const auto& pose = report.estimate.heading) {
-    heading = {pose->heading_rad, pose->variance_rad2, pose->position_cov_m_rad.x(), pose->position_cov_m_rad.y()};
+    heading = {pose->heading_rad, pose->variance_rad2, pose->position_cov_m_rad.x(),
+               pose->position_cov_m_rad.y()};
   }
   point_at(sample.heading, heading);
 }
@@ -526,7 +531,8 @@ bool decode_span(const swarmloc_msg_ObservedSpan& wire, estimators::ObservedStep
     estimators::OdometryInput input;
     input.v_std = wire.odometry_v_std;
     input.omega_std = wire.odometry_omega_std;
-    for (const auto& s : *odometry) input.segments.push_back(estimators::OdometrySegment{s.v_mps, s.omega_radps, s.dt_s});
+    for (const auto& s : *odometry)
+      input.segments.push_back(estimators::OdometrySegment{s.v_mps, s.omega_radps, s.dt_s});
     span.odometry = std::move(input);
   }
   for (const auto& m : *range_bearings) span.range_bearings.push_back(range_bearing_of(m));
@@ -568,7 +574,7 @@ codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire) {
   decoded.recipient = wire.agent_id;
   decoded.header = decode_header(wire.header);
   decoded.batch.world_step = wire.header.step;
-  decoded.batch.world_time_s = static_cast<double>(wire.header.world_stamp_ns) / 1e9;
+  decoded.batch.world_time_s = wire.world_time_s;
   const auto ranges = view(wire.ranges);
   const auto fixes = view(wire.fixes);
   const auto motion = view(wire.motion);
@@ -666,9 +672,10 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
                          duration(h.max_batch_wait_s) && duration(h.neighbour_age_mean_s) &&
                          duration(h.neighbour_age_max_s) && h.late_ticks <= h.ticks &&
                          h.batches_merged <= h.batches_received;
-  const bool heading_ok = heading && (heading->empty() || (heading->size() == 4 &&
-                                                            std::all_of(heading->begin(), heading->end(),
-                                                                        [](double v) { return std::isfinite(v); })));
+  const bool heading_ok =
+      heading &&
+      (heading->empty() || (heading->size() == 4 && std::all_of(heading->begin(), heading->end(),
+                                                                [](double v) { return std::isfinite(v); })));
   if (!links || !reasons || !field || !heading_ok || reasons->size() > runtime::kRejectReasonCount ||
       field->size() > codec::kMaxFieldValues || wire.agent_id != wire.header.agent_id || !health_ok) {
     decoded.well_formed = false;

@@ -165,7 +165,8 @@ nlohmann::json final_block(const RunRecord& record) {
 /// A baseline's whole-run RMSE from record.extra["baselines"] (replay --mrclam), NaN without one.
 double baseline_rmse(const RunRecord& record, const char* name) {
   const auto baselines = record.extra.find("baselines");
-  if (baselines == record.extra.end() || !baselines->is_object()) return std::numeric_limits<double>::quiet_NaN();
+  if (baselines == record.extra.end() || !baselines->is_object())
+    return std::numeric_limits<double>::quiet_NaN();
   const auto baseline = baselines->find(name);
   if (baseline == baselines->end() || !baseline->contains("rmse_m") || !(*baseline)["rmse_m"].is_number())
     return std::numeric_limits<double>::quiet_NaN();

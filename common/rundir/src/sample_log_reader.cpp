@@ -56,7 +56,8 @@ runtime::ReceivedSample decode_sample(Decoder& in, int agents, std::uint16_t ver
       break;
     }
     case 4:
-      if (version < 7) in.fail("an observations sample in a version " + std::to_string(version) + " log", family_at);
+      if (version < 7)
+        in.fail("an observations sample in a version " + std::to_string(version) + " log", family_at);
       decode_into(in, s.message.emplace<estimators::ObservationMessage>());
       break;
     default:

@@ -90,6 +90,8 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
   params.kalman.update_iterations = kalman.update_iterations;
   params.kalman.initial_heading_std_rad = s.algorithm.pose.initial_heading_std_rad;
   params.kalman.range_bearing_gate_chi2 = s.algorithm.pose.range_bearing_gate_chi2;
+  params.kalman.team_share_spans = s.algorithm.pose.team_share_spans;
+  params.kalman.team_wait_steps = s.algorithm.pose.team_wait_steps;
   params.kalman.sighting_correlation_time_s = s.noise.sighting_correlation_time_s;
   params.kalman.range_correlated_fraction = s.noise.range_correlated_fraction;
   params.kalman.bearing_correlated_fraction = s.noise.bearing_correlated_fraction;

@@ -138,7 +138,8 @@ std::optional<RejectReason> AgentRuntime::check_content(const estimators::Consen
 }
 
 std::optional<RejectReason> AgentRuntime::check_content(const estimators::ObservationMessage& m) const {
-  if (m.origin_step < -1 || m.spans.size() > kMaxObservedSpans || !well_ordered(m)) return RejectReason::kMalformed;
+  if (m.origin_step < -1 || m.spans.size() > kMaxObservedSpans || !well_ordered(m))
+    return RejectReason::kMalformed;
   for (const auto& span : m.spans) {
     if (span.range_bearings.size() > kMaxSpanRangeBearings ||
         (span.odometry && span.odometry->segments.size() > kMaxSpanOdometrySegments)) {
@@ -413,10 +414,12 @@ void AgentRuntime::carry_over(const estimators::MeasurementBatch& superseded,
   // Pose-state odometry: the superseded step's segments come first (the robot drove them first); its
   // sightings are kept, applied with the newer step's.
   if (superseded.odometry) {
-    if (!batch.odometry) batch.odometry = estimators::OdometryInput{{}, superseded.odometry->v_std,
-                                                                    superseded.odometry->omega_std};
+    if (!batch.odometry)
+      batch.odometry =
+          estimators::OdometryInput{{}, superseded.odometry->v_std, superseded.odometry->omega_std};
     auto& segments = batch.odometry->segments;
-    segments.insert(segments.begin(), superseded.odometry->segments.begin(), superseded.odometry->segments.end());
+    segments.insert(segments.begin(), superseded.odometry->segments.begin(),
+                    superseded.odometry->segments.end());
   }
   batch.range_bearings.insert(batch.range_bearings.begin(), superseded.range_bearings.begin(),
                               superseded.range_bearings.end());
@@ -448,9 +451,9 @@ AgentRuntime::Publication AgentRuntime::publish(estimators::Outbox outbox, std::
   publication.outbox = std::move(outbox);
   publication.header = Header{setup_.id, next_seq_, step, sender_stamp_ns, world_stamp_ns};
   const auto& out = publication.outbox;
-  const auto samples = static_cast<std::uint32_t>((out.state ? 1U : 0U) + (out.information ? 1U : 0U) +
-                                                  out.consensus.size() + (out.belief ? 1U : 0U) +
-                                                  (out.observations ? 1U : 0U));
+  const auto samples =
+      static_cast<std::uint32_t>((out.state ? 1U : 0U) + (out.information ? 1U : 0U) + out.consensus.size() +
+                                 (out.belief ? 1U : 0U) + (out.observations ? 1U : 0U));
   next_seq_ += samples;
   samples_published_ += samples;
   if (step >= 0) samples_published_in_steps_ += samples;

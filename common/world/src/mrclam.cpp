@@ -318,7 +318,8 @@ Pose pose_of(const estimators::Estimate& estimate) {
 }
 
 /// The smoother solved from the centralized EKF's trajectory and scored like the filters.
-MrclamSmootherBaseline smoother_baseline(const PoseSmootherProblem& problem, const std::vector<Pose>& ekf_poses,
+MrclamSmootherBaseline smoother_baseline(const PoseSmootherProblem& problem,
+                                         const std::vector<Pose>& ekf_poses,
                                          const std::vector<Mat3>& ekf_marginals, const World& world) {
   const auto started = std::chrono::steady_clock::now();
   const PoseSmootherSolution solution = solve_pose_smoother(problem, ekf_poses, ekf_marginals);
@@ -334,9 +335,11 @@ MrclamSmootherBaseline smoother_baseline(const PoseSmootherProblem& problem, con
       if (!truth[i].allFinite()) continue;
       ++scored;
       const std::size_t k = static_cast<std::size_t>(step) * robots + i;
-      const Pose truth_pose(truth[i].x(), truth[i].y(), world.recorded->truth_heading(static_cast<AgentId>(i), step));
+      const Pose truth_pose(truth[i].x(), truth[i].y(),
+                            world.recorded->truth_heading(static_cast<AgentId>(i), step));
       std::optional<double> nees3;
-      if (!solution.marginals.empty()) nees3 = pose_nees(solution.poses[k], solution.marginals[k], truth_pose);
+      if (!solution.marginals.empty())
+        nees3 = pose_nees(solution.poses[k], solution.marginals[k], truth_pose);
       score.add(solution.poses[k].head<2>() - truth[i], nees3);
     }
     if (scored == 0) continue;
@@ -363,7 +366,8 @@ MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& 
     dead_reckoning.push_back(std::make_unique<estimators::DeadReckoning>(setups.back(), params));
   }
   estimators::CentralizedPoseEkf centralized(setups, params);
-  PoseSmootherProblem problem = make_pose_smoother_problem(world.initial_guess, world.initial_heading, params);
+  PoseSmootherProblem problem =
+      make_pose_smoother_problem(world.initial_guess, world.initial_heading, params);
   std::vector<Pose> ekf_poses;
   std::vector<Mat3> ekf_marginals;
   BaselineScore dr;

@@ -143,7 +143,8 @@ NormalEquations assemble(const WeightedProblem& w, const std::vector<Pose>& x, c
   NormalEquations normal;
   normal.with_matrix = with_matrix;
   normal.b = VecX::Zero(static_cast<Eigen::Index>(3 * w.unknowns()));
-  if (with_matrix) normal.triplets.reserve(18 * w.problem.odometry.size() + 12 * w.problem.range_bearings.size());
+  if (with_matrix)
+    normal.triplets.reserve(18 * w.problem.odometry.size() + 12 * w.problem.range_bearings.size());
   for (int robot = 0; robot < w.problem.robots; ++robot) normal.add(start_rows(w, x, robot));
   for (std::size_t m = 0; m < w.problem.odometry.size(); ++m) normal.add(odometry_rows(w, x, m));
   for (std::size_t m = 0; m < w.problem.range_bearings.size(); ++m) {
@@ -183,8 +184,8 @@ struct LmResult {
 /// One accepted step: the damped system solved until the cost does not rise (λ adapted in place); false if
 /// no damping lowers it.
 bool damped_step(const WeightedProblem& w, std::vector<Pose>& x, const std::vector<bool>& used,
-                 const NormalEquations& normal, const SmootherMatrix& H, SmootherFactor& factor, double& lambda,
-                 double& largest_move) {
+                 const NormalEquations& normal, const SmootherMatrix& H, SmootherFactor& factor,
+                 double& lambda, double& largest_move) {
   for (int attempt = 0; attempt < kMaxDampingTries; ++attempt) {
     SmootherMatrix damped = H;
     if (lambda > 0.0) damped.diagonal() += lambda * H.diagonal();
@@ -228,19 +229,21 @@ LmResult levenberg_marquardt(const WeightedProblem& w, std::vector<Pose>& x, con
 
 /// Mahalanobis distance² of pair m's residual at `x` against R̃ + J P Jᵀ (P the poses' marginals; none:
 /// R̃ alone); +inf when it cannot be evaluated.
-double pair_distance2(const WeightedProblem& w, const std::vector<Pose>& x, const std::vector<Mat3>& marginals,
-                      std::size_t m) {
+double pair_distance2(const WeightedProblem& w, const std::vector<Pose>& x,
+                      const std::vector<Mat3>& marginals, std::size_t m) {
   const auto rows = range_bearing_rows(w, x, m);
   if (!rows) return std::numeric_limits<double>::infinity();
   Mat2 S = w.problem.range_bearings[m].noise;
   if (!marginals.empty()) {
-    for (std::size_t a = 0; a < rows->poses; ++a) S += rows->J[a] * marginals[rows->pose[a]] * rows->J[a].transpose();
+    for (std::size_t a = 0; a < rows->poses; ++a)
+      S += rows->J[a] * marginals[rows->pose[a]] * rows->J[a].transpose();
   }
   const Eigen::LDLT<Mat2> ldlt(S);
   return rows->r.dot(ldlt.solve(rows->r));
 }
 
-std::vector<bool> gate(const WeightedProblem& w, const std::vector<Pose>& x, const std::vector<Mat3>& marginals) {
+std::vector<bool> gate(const WeightedProblem& w, const std::vector<Pose>& x,
+                       const std::vector<Mat3>& marginals) {
   std::vector<bool> used(w.problem.range_bearings.size(), true);
   for (std::size_t m = 0; m < used.size(); ++m) {
     const double d2 = pair_distance2(w, x, marginals, m);
@@ -260,8 +263,9 @@ std::vector<Mat3> pose_marginals(const WeightedProblem& w, const std::vector<Pos
   std::vector<Mat3> marginals(w.unknowns());
   for (std::size_t k = 0; k < marginals.size(); ++k) {
     for (std::size_t i = 0; i < 3; ++i) {
-      for (std::size_t j = 0; j < 3; ++j) marginals[k](static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
-          z.inverse(3 * k + i, 3 * k + j);
+      for (std::size_t j = 0; j < 3; ++j)
+        marginals[k](static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
+            z.inverse(3 * k + i, 3 * k + j);
     }
   }
   return marginals;
@@ -307,8 +311,8 @@ PoseSmootherProblem make_pose_smoother_problem(const std::vector<Vec2>& start_m,
   for (std::size_t i = 0; i < start_m.size(); ++i) {
     const double heading = i < start_heading_rad.size() ? start_heading_rad[i] : 0.0;
     problem.start.emplace_back(start_m[i].x(), start_m[i].y(), heading);
-    problem.start_covariance.push_back(Eigen::Vector3d(position_variance, position_variance, heading_variance)
-                                           .asDiagonal());
+    problem.start_covariance.push_back(
+        Eigen::Vector3d(position_variance, position_variance, heading_variance).asDiagonal());
   }
   return problem;
 }
@@ -327,7 +331,8 @@ void add_range_bearings(PoseSmootherProblem& problem, int robot, std::int64_t st
     factor.robot = robot;
     factor.step = step;
     factor.measured = Vec2(rb.range_m, rb.bearing_rad);
-    factor.noise = Vec2(rb.range_std_m * rb.range_std_m, rb.bearing_std_rad * rb.bearing_std_rad).asDiagonal();
+    factor.noise =
+        Vec2(rb.range_std_m * rb.range_std_m, rb.bearing_std_rad * rb.bearing_std_rad).asDiagonal();
     if (rb.landmark) {
       if (!rb.landmark_m.allFinite() || !rb.landmark_cov.allFinite()) continue;
       const double landmark_variance = std::max(0.0, rb.landmark_cov.trace() / 2.0);

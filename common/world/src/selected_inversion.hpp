@@ -75,7 +75,8 @@ class SelectedInverse {
       }
       double diagonal = 1.0 / D(j);
       for (int p = 0; p < m; ++p) {
-        z_off_[static_cast<std::size_t>(from) + static_cast<std::size_t>(p)] = -sum[static_cast<std::size_t>(p)];
+        z_off_[static_cast<std::size_t>(from) + static_cast<std::size_t>(p)] =
+            -sum[static_cast<std::size_t>(p)];
         diagonal += l[p] * sum[static_cast<std::size_t>(p)];
       }
       z_diag_(j) = diagonal;

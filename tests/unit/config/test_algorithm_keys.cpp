@@ -96,7 +96,7 @@ TEST(AlgorithmKeys, TheBlockTableNamesEachBlockOnce) {
   }
   EXPECT_EQ(names, (std::vector<std::string>{"kalman", "pose", "gradient", "field", "multipath"}));
   EXPECT_EQ(algorithms_reading(ParamBlock::kGradient), "dgbb, local_bb, fixed_step, step_length");
-  EXPECT_EQ(algorithms_reading(ParamBlock::kPose), "pose_ekf, pose_ieif, dead_reckoning");
+  EXPECT_EQ(algorithms_reading(ParamBlock::kPose), "pose_ekf, pose_ieif, team_pose_ekf, dead_reckoning");
   EXPECT_EQ(algorithms_reading(ParamBlock::kField), "joint_field");
 }
 

@@ -85,7 +85,7 @@ inline estimators::BeliefMessage make_belief() {
 inline estimators::MeasurementBatch make_batch(std::int64_t world_step, std::int64_t world_stamp_ns) {
   estimators::MeasurementBatch b;
   b.world_step = world_step;
-  b.world_time_s = static_cast<double>(world_stamp_ns) / 1e9;
+  b.world_time_s = 10.0 * static_cast<double>(world_stamp_ns) / 1e9;  // a dataset's clock, not the run's
   b.ranges = {{2, 10.5, 0.1}, {5, 1.0 / 3.0, 0.25}};
   estimators::AbsoluteFix fix;
   fix.position_m = Vec2(1.5, -2.5);

@@ -236,5 +236,89 @@ TEST(Convert, EstimateCarriesTheSelfCheckVerdict) {
   }
 }
 
+/// A team_pose_ekf sample: a merged span with odometry and two sightings, and a span without odometry.
+estimators::ObservationMessage make_observations() {
+  estimators::ObservationMessage m;
+  m.origin_step = 9;
+  m.origin_pose = Eigen::Vector3d(1.25, -3.5, 3.1);
+  m.origin_covariance << 0.04, 0.001, -0.002, 0.001, 0.05, 0.003, -0.002, 0.003, 0.01;
+  estimators::ObservedSteps merged;
+  merged.first_world_step = 10, merged.world_step = 11, merged.world_time_s = 1.1;
+  merged.odometry = estimators::OdometryInput{{{0.2, -0.1, 0.015}, {0.25, 0.05, 0.085}}, 0.011, 0.038};
+  estimators::RangeBearingMeasurement landmark;
+  landmark.landmark = true, landmark.landmark_m = Vec2(4.5, -1.0);
+  landmark.landmark_cov << 1e-4, 2e-5, 2e-5, 3e-4;
+  landmark.range_m = 2.25, landmark.bearing_rad = -0.5, landmark.range_std_m = 0.16,
+  landmark.bearing_std_rad = 0.01;
+  estimators::RangeBearingMeasurement robot;
+  robot.peer = 4, robot.range_m = 1.5, robot.bearing_rad = 3.0, robot.range_std_m = 0.1,
+  robot.bearing_std_rad = 0.02;
+  merged.range_bearings = {landmark, robot};
+  estimators::ObservedSteps still;
+  still.first_world_step = still.world_step = 12, still.world_time_s = 1.2;
+  m.spans = {merged, still};
+  return m;
+}
+
+TEST(Convert, ObservationsRoundTripExactly) {
+  const auto header = test::make_header(3, 12);
+  const auto message = make_observations();
+  const auto back = codec::round_trip(header, message);
+  ASSERT_TRUE(back.well_formed);
+  expect_header_eq(back.header, header);
+  EXPECT_EQ(back.message.origin_step, message.origin_step);
+  EXPECT_MATRIX_NEAR(back.message.origin_pose, message.origin_pose, 0.0);
+  EXPECT_MATRIX_NEAR(back.message.origin_covariance, message.origin_covariance, 0.0);
+  ASSERT_EQ(back.message.spans.size(), 2U);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const auto& sent = message.spans[k];
+    const auto& got = back.message.spans[k];
+    EXPECT_EQ(got.first_world_step, sent.first_world_step);
+    EXPECT_EQ(got.world_step, sent.world_step);
+    EXPECT_EQ(got.world_time_s, sent.world_time_s);
+    ASSERT_EQ(got.odometry.has_value(), sent.odometry.has_value());
+    ASSERT_EQ(got.range_bearings.size(), sent.range_bearings.size());
+  }
+  const auto& odometry = *back.message.spans[0].odometry;
+  EXPECT_EQ(odometry.v_std, 0.011);
+  EXPECT_EQ(odometry.omega_std, 0.038);
+  ASSERT_EQ(odometry.segments.size(), 2U);
+  EXPECT_EQ(odometry.segments[1].v_mps, 0.25);
+  EXPECT_EQ(odometry.segments[1].omega_radps, 0.05);
+  EXPECT_EQ(odometry.segments[1].dt_s, 0.085);
+  const auto& landmark = back.message.spans[0].range_bearings[0];
+  EXPECT_TRUE(landmark.landmark);
+  EXPECT_MATRIX_NEAR(landmark.landmark_m, Vec2(4.5, -1.0), 0.0);
+  EXPECT_MATRIX_NEAR(landmark.landmark_cov, message.spans[0].range_bearings[0].landmark_cov, 0.0);
+  EXPECT_EQ(landmark.range_m, 2.25);
+  EXPECT_EQ(landmark.bearing_std_rad, 0.01);
+  const auto& robot = back.message.spans[0].range_bearings[1];
+  EXPECT_FALSE(robot.landmark);
+  EXPECT_EQ(robot.peer, 4);
+  EXPECT_EQ(robot.bearing_rad, 3.0);
+
+  auto too_many = message;
+  too_many.spans.resize(codec::kMaxObservedSpans + 1);
+  EXPECT_THROW(codec::round_trip(header, too_many), DdsError);
+}
+
+TEST(Convert, EstimateCarriesThePoseHeadingOrNone) {
+  runtime::EstimateReport report;
+  report.header = test::make_header(2, 5);
+  report.estimate.valid = true;
+  const auto without = codec::round_trip(report);
+  ASSERT_TRUE(without.well_formed);
+  EXPECT_FALSE(without.report.estimate.heading.has_value());
+  report.estimate.heading = estimators::HeadingEstimate{-3.0, 2.5e-4, Vec2(1e-5, -2e-5)};
+  const auto with = codec::round_trip(report);
+  ASSERT_TRUE(with.well_formed);
+  ASSERT_TRUE(with.report.estimate.heading.has_value());
+  EXPECT_EQ(with.report.estimate.heading->heading_rad, -3.0);
+  EXPECT_EQ(with.report.estimate.heading->variance_rad2, 2.5e-4);
+  EXPECT_MATRIX_NEAR(with.report.estimate.heading->position_cov_m_rad, Vec2(1e-5, -2e-5), 0.0);
+  report.estimate.heading->variance_rad2 = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(codec::round_trip(report).well_formed);
+}
+
 }  // namespace
 }  // namespace swarmloc::dds

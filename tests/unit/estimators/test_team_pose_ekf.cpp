@@ -1,6 +1,8 @@
-// TeamPoseEkf (pose/team_pose_ekf.hpp): the team's joint pose EKF at every robot from shared observations.
+// TeamPoseEkf (estimators/pose/team_pose_ekf.hpp): the team's joint pose EKF at every robot from shared
+// observations.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <functional>
 #include <memory>
 #include <vector>
@@ -37,9 +39,9 @@ using Delivery = std::function<bool(int from, int to, int k)>;
 /// Every robot runs TeamPoseEkf in lockstep: step k sees what the others published after step k − 1
 /// (the newest sample per sender that was delivered, as the runtime's mailbox keeps it).
 struct TeamRun {
-  TeamRun(const WorldConfig& config, const World& world, const TeamPoseParams& team = {}) : world_(world) {
+  TeamRun(const KalmanFilterParams& params, const World& world) : world_(world) {
     for (const AgentSetup& setup : world.setups) {
-      robots.push_back(std::make_unique<TeamPoseEkf>(setup, params_for(config), team));
+      robots.push_back(std::make_unique<TeamPoseEkf>(setup, params));
       published.push_back(*robots.back()->initial_outbox().observations);
     }
     inboxes.resize(robots.size());
@@ -72,8 +74,8 @@ struct TeamRun {
 };
 
 /// The centralized filter after world steps 0..last.
-CentralizedPoseEkf centralized_through(const WorldConfig& config, const World& world, int last) {
-  CentralizedPoseEkf filter(world.setups, params_for(config));
+CentralizedPoseEkf centralized_through(const KalmanFilterParams& params, const World& world, int last) {
+  CentralizedPoseEkf filter(world.setups, params);
   for (int k = 0; k <= last; ++k) {
     std::vector<const MeasurementBatch*> batches;
     for (const auto& batch : world.batches[static_cast<std::size_t>(k)]) batches.push_back(&batch);
@@ -85,9 +87,9 @@ CentralizedPoseEkf centralized_through(const WorldConfig& config, const World& w
 TEST(TeamPoseEkf, EveryRobotsSettledFilterIsTheCentralizedFilterStepForStep) {
   const WorldConfig config = team_world(3, 120);
   const World world = simulate(config);
-  TeamRun team(config, world);
+  TeamRun team(params_for(config), world);
   team.run(config.steps, [](int, int, int) { return true; });
-  const CentralizedPoseEkf reference = centralized_through(config, world, config.steps - 2);
+  const CentralizedPoseEkf reference = centralized_through(params_for(config), world, config.steps - 2);
   for (const auto& robot : team.robots) {
     // Lockstep: the others' data of the last step arrive with the next one.
     ASSERT_EQ(robot->settled_step(), config.steps - 2);
@@ -97,20 +99,68 @@ TEST(TeamPoseEkf, EveryRobotsSettledFilterIsTheCentralizedFilterStepForStep) {
   }
 }
 
+TEST(TeamPoseEkf, WithCorrelatedSightingsTooEveryRobotsSettledFilterIsTheCentralizedFilter) {
+  const WorldConfig config = team_world(17, 100);
+  const World world = simulate(config);
+  KalmanFilterParams params = params_for(config);
+  params.sighting_correlation_time_s = 2.0;
+  params.range_correlated_fraction = 0.9;
+  params.bearing_correlated_fraction = 0.5;
+  TeamRun team(params, world);
+  team.run(config.steps, [](int, int, int) { return true; });
+  const CentralizedPoseEkf reference = centralized_through(params, world, config.steps - 2);
+  // The inflation changes the filter (a mutant that ignores it on either side fails the equality).
+  ASSERT_GT(
+      (reference.state() - centralized_through(params_for(config), world, config.steps - 2).state()).norm(),
+      1e-6);
+  for (const auto& robot : team.robots) {
+    ASSERT_EQ(robot->settled_step(), config.steps - 2);
+    EXPECT_EQ(robot->settled().state(), reference.state());
+    EXPECT_EQ(robot->settled().covariance(), reference.covariance());
+  }
+}
+
+TEST(SightingHistory, InflatesTheCorrelatedPartByTheGapSinceTheLastSightingOfThatTarget) {
+  KalmanFilterParams params;
+  params.sighting_correlation_time_s = 4.0;
+  params.range_correlated_fraction = 0.9;
+  params.bearing_correlated_fraction = 0.5;
+  SightingHistory history;
+  const Vec2 landmark(3.0, -1.0);
+  const auto factor = [](double fraction, double gap_s) {
+    const double rho = std::exp(-gap_s / 4.0);
+    return (1.0 - fraction) + fraction * (1.0 + rho) / (1.0 - rho);
+  };
+  EXPECT_EQ(history.inflation(0, true, landmark, 10.0, params), Vec2(1.0, 1.0));  // first sighting
+  const Vec2 after_one = history.inflation(0, true, landmark, 11.0, params);
+  EXPECT_NEAR(after_one.x(), factor(0.9, 1.0), 1e-12);
+  EXPECT_NEAR(after_one.y(), factor(0.5, 1.0), 1e-12);
+  // The gap counts from the newest sighting of the same target, not the first.
+  EXPECT_NEAR(history.inflation(0, true, landmark, 11.5, params).x(), factor(0.9, 0.5), 1e-12);
+  // Another landmark, and a robot peer, have their own history.
+  EXPECT_EQ(history.inflation(0, true, Vec2(3.0, 1.0), 11.5, params), Vec2(1.0, 1.0));
+  EXPECT_EQ(history.inflation(2, false, Vec2::Zero(), 11.5, params), Vec2(1.0, 1.0));
+  EXPECT_NEAR(history.inflation(2, false, Vec2::Zero(), 15.5, params).y(), factor(0.5, 4.0), 1e-12);
+  // Independent sightings (τ = 0) are never inflated.
+  params.sighting_correlation_time_s = 0.0;
+  EXPECT_EQ(history.inflation(0, true, landmark, 11.6, params), Vec2(1.0, 1.0));
+}
+
 TEST(TeamPoseEkf, SamplesLostInBurstsShorterThanTheShareWindowChangeNothing) {
   const WorldConfig config = team_world(5, 150);
   const World world = simulate(config);
-  TeamPoseParams team_params;
-  team_params.share_spans = 8;
-  team_params.wait_steps = 30;
-  TeamRun team(config, world, team_params);
+  KalmanFilterParams team_params = params_for(config);
+  team_params.team_share_spans = 8;
+  team_params.team_wait_steps = 30;
+  TeamRun team(team_params, world);
   // Each link loses runs of up to 6 samples in a row, a different pattern per link.
   team.run(config.steps, [](int from, int to, int k) { return k < 2 || (k + 3 * from + 5 * to) % 13 > 5; });
   // Every link delivers at least once in each 7 steps, so with 8 spans per sample nothing is missing.
-  const CentralizedPoseEkf reference = centralized_through(config, world, config.steps - 8);
+  const CentralizedPoseEkf reference = centralized_through(params_for(config), world, config.steps - 8);
   for (const auto& robot : team.robots) {
     ASSERT_GE(robot->settled_step(), config.steps - 8);
-    const CentralizedPoseEkf at = centralized_through(config, world, static_cast<int>(robot->settled_step()));
+    const CentralizedPoseEkf at =
+        centralized_through(params_for(config), world, static_cast<int>(robot->settled_step()));
     EXPECT_EQ(robot->settled().state(), at.state());
   }
 }
@@ -118,14 +168,14 @@ TEST(TeamPoseEkf, SamplesLostInBurstsShorterThanTheShareWindowChangeNothing) {
 TEST(TeamPoseEkf, MatchesTheCentralizedEstimateAndStaysConsistentWithoutOnePeer) {
   const WorldConfig config = team_world(7, 200);
   const World world = simulate(config);
-  TeamPoseParams team_params;
-  team_params.wait_steps = 10;
-  TeamRun team(config, world, team_params);
+  KalmanFilterParams team_params = params_for(config);
+  team_params.team_wait_steps = 10;
+  TeamRun team(team_params, world);
   // Robot 3 falls silent after step 50: the others wait wait_steps, then step without its data.
   team.run(config.steps, [](int from, int, int k) { return from != 3 || k < 50; });
   for (int i = 0; i < 3; ++i) {
     const TeamPoseEkf& robot = *team.robots[static_cast<std::size_t>(i)];
-    EXPECT_EQ(robot.settled_step(), config.steps - 1 - team_params.wait_steps) << "robot " << i;
+    EXPECT_EQ(robot.settled_step(), config.steps - 1 - team_params.team_wait_steps) << "robot " << i;
     const Estimate estimate = robot.estimate();
     ASSERT_TRUE(estimate.valid);
     ASSERT_TRUE(estimate.heading.has_value());
@@ -139,10 +189,10 @@ TEST(TeamPoseEkf, MatchesTheCentralizedEstimateAndStaysConsistentWithoutOnePeer)
 TEST(TeamPoseEkf, APeerHeardLateJoinsAtItsOriginAndItsSightingsCount) {
   const WorldConfig config = team_world(11, 160);
   const World world = simulate(config);
-  TeamPoseParams team_params;
-  team_params.share_spans = 10;
-  team_params.wait_steps = 5;
-  TeamRun team(config, world, team_params);
+  KalmanFilterParams team_params = params_for(config);
+  team_params.team_share_spans = 10;
+  team_params.team_wait_steps = 5;
+  TeamRun team(team_params, world);
   // Nobody hears robot 2 before step 60: by then its samples start after its prior (origin_step > −1).
   team.run(config.steps, [](int from, int, int k) { return from != 2 || k >= 60; });
   const TeamPoseEkf& robot = *team.robots[0];
@@ -157,9 +207,9 @@ TEST(TeamPoseEkf, APeerHeardLateJoinsAtItsOriginAndItsSightingsCount) {
 TEST(TeamPoseEkf, EachSampleCarriesItsNewestSpansAndTheEstimateJustBeforeThem) {
   const WorldConfig config = team_world(13, 30);
   const World world = simulate(config);
-  TeamPoseParams team_params;
-  team_params.share_spans = 4;
-  TeamRun team(config, world, team_params);
+  KalmanFilterParams team_params = params_for(config);
+  team_params.team_share_spans = 4;
+  TeamRun team(team_params, world);
   const ObservationMessage first = team.published[0];
   EXPECT_EQ(first.origin_step, -1);
   EXPECT_TRUE(first.spans.empty());
@@ -177,9 +227,9 @@ TEST(TeamPoseEkf, EachSampleCarriesItsNewestSpansAndTheEstimateJustBeforeThem) {
 TEST(TeamPoseEkf, RejectsParametersThatCannotWork) {
   const WorldConfig config = team_world(1, 1);
   const World world = simulate(config);
-  TeamPoseParams no_spans;
-  no_spans.share_spans = 0;
-  EXPECT_THROW(TeamPoseEkf(world.setups[0], params_for(config), no_spans), std::invalid_argument);
+  KalmanFilterParams no_spans = params_for(config);
+  no_spans.team_share_spans = 0;
+  EXPECT_THROW(TeamPoseEkf(world.setups[0], no_spans), std::invalid_argument);
 }
 
 }  // namespace

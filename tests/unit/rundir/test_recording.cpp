@@ -556,10 +556,13 @@ estimators::ObservationMessage observations_sample() {
   first.first_world_step = 42, first.world_step = 43, first.world_time_s = 4.3;
   first.odometry = estimators::OdometryInput{{{0.2, -0.1, 0.05}, {0.3, 0.0, 0.05}}, 0.011, 0.038};
   estimators::RangeBearingMeasurement landmark;
-  landmark.landmark = true, landmark.landmark_m = Vec2(4.0, 5.0), landmark.landmark_cov = Mat2::Identity() * 1e-4;
-  landmark.range_m = 2.5, landmark.bearing_rad = -0.4, landmark.range_std_m = 0.16, landmark.bearing_std_rad = 0.01;
+  landmark.landmark = true, landmark.landmark_m = Vec2(4.0, 5.0),
+  landmark.landmark_cov = Mat2::Identity() * 1e-4;
+  landmark.range_m = 2.5, landmark.bearing_rad = -0.4, landmark.range_std_m = 0.16,
+  landmark.bearing_std_rad = 0.01;
   estimators::RangeBearingMeasurement robot;
-  robot.peer = 3, robot.range_m = 1.5, robot.bearing_rad = 2.9, robot.range_std_m = 0.1, robot.bearing_std_rad = 0.02;
+  robot.peer = 3, robot.range_m = 1.5, robot.bearing_rad = 2.9, robot.range_std_m = 0.1,
+  robot.bearing_std_rad = 0.02;
   first.range_bearings = {landmark, robot};
   estimators::ObservedSteps second;
   second.first_world_step = second.world_step = 44;
@@ -671,7 +674,7 @@ TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep)
     ADD_FAILURE() << "a version from the future was read";
   } catch (const RecordingError& e) {
     EXPECT_NE(
-        std::string(e.what()).find("format version 7 is not supported (this build reads versions 1 to 6)"),
+        std::string(e.what()).find("format version 8 is not supported (this build reads versions 1 to 7)"),
         std::string::npos)
         << e.what();
   }

@@ -156,5 +156,47 @@ TEST(CooperativeRuntime, ASupersededBatchKeepsItsTargetReadings) {
   EXPECT_NEAR(runtime.estimate().mean_m.x(), 2.0, 1e-12);
   EXPECT_NEAR(runtime.estimate().mean_m.y(), 0.0, 1e-12);
 }
+TEST(CooperativeRuntime, HostileObservationSamplesAreRejectedPerReasonAndGoodOnesKept) {
+  AgentRuntime runtime = bp_runtime();
+  std::uint32_t seq = 0;
+  auto header = [&](AgentId sender) { return Header{sender, seq++, 0, 0, 0}; };
+  estimators::ObservationMessage good;
+  good.origin_step = 4;
+  good.origin_pose = Eigen::Vector3d(1.0, 2.0, 0.5);
+  good.origin_covariance = Eigen::Matrix3d::Identity() * 0.01;
+  estimators::ObservedSteps span;
+  span.first_world_step = 5, span.world_step = 6, span.world_time_s = 0.6;
+  span.odometry = estimators::OdometryInput{{{0.2, 0.1, 0.1}}, 0.01, 0.04};
+  good.spans = {span};
+  EXPECT_TRUE(runtime.on_observations(header(1), good));
+  const auto rejected = [&](const estimators::ObservationMessage& m, RejectReason reason) {
+    const auto before = runtime.rejected_by_reason()[static_cast<std::size_t>(reason)];
+    const bool stored = runtime.on_observations(header(1), m);
+    return !stored && runtime.rejected_by_reason()[static_cast<std::size_t>(reason)] == before + 1;
+  };
+  auto gap = good;
+  gap.spans[0].first_world_step = 6;  // step 5 neither in the span nor before the origin
+  EXPECT_TRUE(rejected(gap, RejectReason::kMalformed));
+  auto nan_pose = good;
+  nan_pose.origin_pose.z() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(rejected(nan_pose, RejectReason::kNonFinite));
+  auto nan_odometry = good;
+  nan_odometry.spans[0].odometry->segments[0].dt_s = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(rejected(nan_odometry, RejectReason::kNonFinite));
+  auto non_psd = good;
+  non_psd.origin_covariance(0, 1) = non_psd.origin_covariance(1, 0) = 1.0;
+  EXPECT_TRUE(rejected(non_psd, RejectReason::kNotSymmetricPsd));
+  auto absurd = good;
+  absurd.origin_pose.x() = 1e9;
+  EXPECT_TRUE(rejected(absurd, RejectReason::kAbsurdMagnitude));
+  auto too_many = good;
+  too_many.spans.clear();
+  for (int k = 0; k < 65; ++k) {
+    too_many.spans.push_back(span);
+    too_many.spans.back().first_world_step = too_many.spans.back().world_step = 5 + k;
+  }
+  EXPECT_TRUE(rejected(too_many, RejectReason::kMalformed));
+}
+
 }  // namespace
 }  // namespace swarmloc::runtime

@@ -56,7 +56,8 @@ SmootherWorld make_smoother_world(int robots, std::int64_t steps, int outliers, 
       for (int s = 0; s < 2; ++s) {
         const double v = 0.6 + 0.1 * i;
         const double omega = 0.5 * std::sin(0.07 * static_cast<double>(k) + i);
-        pose[static_cast<std::size_t>(i)] = models::unicycle_step(pose[static_cast<std::size_t>(i)], v * dt, omega * dt).pose;
+        pose[static_cast<std::size_t>(i)] =
+            models::unicycle_step(pose[static_cast<std::size_t>(i)], v * dt, omega * dt).pose;
         odometry.segments.push_back(
             {v + v_std / std::sqrt(dt) * normal(rng), omega + omega_std / std::sqrt(dt) * normal(rng), dt});
       }
@@ -160,14 +161,17 @@ double position_rmse(const std::vector<Pose>& estimate, const std::vector<Pose>&
 // ---- The cost written out again, independently of the smoother's assembly (for the brute-force checks) ----
 
 /// Whitened residuals L⁻¹ r (W = Σ⁻¹ = L⁻ᵀ L⁻¹) of every factor, from their definitions.
-VecX whitened_residuals(const PoseSmootherProblem& p, const std::vector<Pose>& x, const std::vector<bool>& used) {
+VecX whitened_residuals(const PoseSmootherProblem& p, const std::vector<Pose>& x,
+                        const std::vector<bool>& used) {
   std::vector<double> out;
   auto push = [&](const VecX& r, const MatX& covariance) {
     const Eigen::LLT<MatX> llt(covariance);
     const VecX w = llt.matrixL().solve(r);
     out.insert(out.end(), w.data(), w.data() + w.size());
   };
-  auto at = [&](int robot, std::int64_t step) { return x[static_cast<std::size_t>(step * p.robots + robot)]; };
+  auto at = [&](int robot, std::int64_t step) {
+    return x[static_cast<std::size_t>(step * p.robots + robot)];
+  };
   for (int i = 0; i < p.robots; ++i) {
     const Pose& s = p.start[static_cast<std::size_t>(i)];
     const Pose d = at(i, 0);
@@ -203,7 +207,8 @@ std::vector<Pose> plus(const std::vector<Pose>& x, const VecX& delta) {
 }
 
 /// ∂(whitened residuals)/∂x by central differences.
-MatX numeric_jacobian(const PoseSmootherProblem& p, const std::vector<Pose>& x, const std::vector<bool>& used) {
+MatX numeric_jacobian(const PoseSmootherProblem& p, const std::vector<Pose>& x,
+                      const std::vector<bool>& used) {
   const VecX r0 = whitened_residuals(p, x, used);
   const auto n = static_cast<Eigen::Index>(3 * x.size());
   MatX J(r0.size(), n);
@@ -241,13 +246,15 @@ TEST(PoseSmoother, RangeBearingJacobiansMatchFiniteDifferences) {
   for (int c = 0; c < 3; ++c) {
     const Pose e = Pose::Unit(c) * h;
     const Vec2 d = (range_bearing_residual(pose + e, target, measured)->r -
-                    range_bearing_residual(pose - e, target, measured)->r) / (2 * h);
+                    range_bearing_residual(pose - e, target, measured)->r) /
+                   (2 * h);
     EXPECT_LT((d - analytic->d_pose.col(c)).norm(), 1e-7) << "pose column " << c;
   }
   for (int c = 0; c < 2; ++c) {
     const Vec2 e = Vec2::Unit(c) * h;
     const Vec2 d = (range_bearing_residual(pose, target + e, measured)->r -
-                    range_bearing_residual(pose, target - e, measured)->r) / (2 * h);
+                    range_bearing_residual(pose, target - e, measured)->r) /
+                   (2 * h);
     EXPECT_LT((d - analytic->d_target.col(c)).norm(), 1e-7) << "target column " << c;
   }
 }

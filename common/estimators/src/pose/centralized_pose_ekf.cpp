@@ -37,7 +37,8 @@ CentralizedPoseEkf::CentralizedPoseEkf(const std::vector<AgentSetup>& setups,
 }
 
 void CentralizedPoseEkf::add_robot(AgentId id, const Pose& pose, const Mat3& covariance) {
-  if (index_of(id)) throw std::invalid_argument("centralized_pose_ekf: robot " + std::to_string(id) + " is known");
+  if (index_of(id))
+    throw std::invalid_argument("centralized_pose_ekf: robot " + std::to_string(id) + " is known");
   if (!pose.allFinite() || !covariance.allFinite()) {
     throw std::invalid_argument("centralized_pose_ekf: robot " + std::to_string(id) + ": non-finite pose");
   }
@@ -121,7 +122,7 @@ RangeBearingRows CentralizedPoseEkf::joint_rows(const std::vector<const Measurem
         H.middleCols<2>(3 * *j) = h->d_target;  // the peer's position is in the state
       }
       const Vec2 factor = sightings_[static_cast<std::size_t>(i)].inflation(m.peer, m.landmark, m.landmark_m,
-                                                                             batch->world_time_s, params_);
+                                                                            batch->world_time_s, params_);
       noise(0, 0) += (factor.x() - 1.0) * (*R)(0, 0);
       noise(1, 1) += (factor.y() - 1.0) * (*R)(1, 1);
       noise = core::symmetrized(noise);

@@ -83,7 +83,8 @@ inline int batch_degree(const StepInput& input) {
 
 /// The batch's world time (NaN without a batch: nothing to weigh).
 inline double batch_time_s(const StepInput& input) {
-  return input.measurements != nullptr ? input.measurements->world_time_s : std::numeric_limits<double>::quiet_NaN();
+  return input.measurements != nullptr ? input.measurements->world_time_s
+                                       : std::numeric_limits<double>::quiet_NaN();
 }
 
 inline Outbox publish(const Pose& x, const Mat2& position_cov, int degree) {

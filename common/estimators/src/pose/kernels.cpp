@@ -127,10 +127,11 @@ RangeBearingSelection collect_range_bearings(const StepInput& input, AgentId sel
 }
 
 Vec2 SightingHistory::inflation(AgentId peer, bool landmark, const Vec2& landmark_m, double time_s,
-                                 const KalmanFilterParams& params) {
+                                const KalmanFilterParams& params) {
   const double tau = params.sighting_correlation_time_s;
   if (!(tau > 0.0) || !std::isfinite(time_s)) return Vec2::Ones();
-  const Key key{landmark ? 0 : peer, landmark, landmark ? landmark_m.x() : 0.0, landmark ? landmark_m.y() : 0.0};
+  const Key key{landmark ? 0 : peer, landmark, landmark ? landmark_m.x() : 0.0,
+                landmark ? landmark_m.y() : 0.0};
   const auto [last, first] = last_time_s_.try_emplace(key, time_s);
   if (first) return Vec2::Ones();
   // Two sightings in one step (Δt = 0) are as good as one: ρ close to 1 all but drops the second.
@@ -142,8 +143,8 @@ Vec2 SightingHistory::inflation(AgentId peer, bool landmark, const Vec2& landmar
   return Vec2(factor(params.range_correlated_fraction), factor(params.bearing_correlated_fraction));
 }
 
-void weigh_correlated_sightings(std::vector<RangeBearingTarget>& targets, SightingHistory& history, double time_s,
-                                const KalmanFilterParams& params) {
+void weigh_correlated_sightings(std::vector<RangeBearingTarget>& targets, SightingHistory& history,
+                                double time_s, const KalmanFilterParams& params) {
   if (!(params.sighting_correlation_time_s > 0.0)) return;
   for (RangeBearingTarget& target : targets) {
     const Vec2 factor = history.inflation(target.peer, target.landmark, target.target_m, time_s, params);

@@ -32,11 +32,11 @@ bool has_member(const CentralizedPoseEkf& filter, AgentId id) {
 
 }  // namespace
 
-TeamPoseEkf::TeamPoseEkf(const AgentSetup& setup, const KalmanFilterParams& params, const TeamPoseParams& team)
-    : setup_(setup), params_(params), team_(team), settled_({setup}, params), current_(settled_) {
+TeamPoseEkf::TeamPoseEkf(const AgentSetup& setup, const KalmanFilterParams& params)
+    : setup_(setup), params_(params), settled_({setup}, params), current_(settled_) {
   pose_internal::validate(setup, params, "team_pose_ekf");
-  if (team.share_spans < 1 || team.wait_steps < 0) {
-    throw std::invalid_argument("team_pose_ekf: share_spans must be >= 1 and wait_steps >= 0");
+  if (params.team_share_spans < 1 || params.team_share_spans > 64 || params.team_wait_steps < 0) {
+    throw std::invalid_argument("team_pose_ekf: team_share_spans must be in [1, 64], team_wait_steps >= 0");
   }
   own_poses_.push_back(OwnPose{-1, settled_.pose(setup.id), settled_.pose_covariance(setup.id)});
 }
@@ -60,7 +60,7 @@ void TeamPoseEkf::record_own(const MeasurementBatch& batch) {
   }
   store(logs_[setup_.id], span);
   own_spans_.push_back(std::move(span));
-  while (own_spans_.size() > static_cast<std::size_t>(team_.share_spans)) own_spans_.pop_front();
+  while (own_spans_.size() > static_cast<std::size_t>(params_.team_share_spans)) own_spans_.pop_front();
   newest_step_ = batch.world_step;
 }
 
@@ -104,7 +104,8 @@ void TeamPoseEkf::try_join(AgentId sender) {
   if (settled_step_ < 0) {
     // Before the first step: rebuild in id order, the order the centralized filter keeps its robots in.
     std::vector<std::pair<AgentId, std::pair<Pose, Mat3>>> members;
-    for (const AgentId id : settled_.ids()) members.push_back({id, {settled_.pose(id), settled_.pose_covariance(id)}});
+    for (const AgentId id : settled_.ids())
+      members.push_back({id, {settled_.pose(id), settled_.pose_covariance(id)}});
     members.push_back({sender, {pose, covariance}});
     std::sort(members.begin(), members.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     settled_ = CentralizedPoseEkf({}, params_);
@@ -134,13 +135,14 @@ bool TeamPoseEkf::complete(std::int64_t world_step) const {
 }
 
 std::vector<const MeasurementBatch*> TeamPoseEkf::batches_at(const CentralizedPoseEkf& filter,
-                                                              std::int64_t world_step) const {
+                                                             std::int64_t world_step) const {
   std::vector<const MeasurementBatch*> batches;
   batches.reserve(filter.ids().size());
   for (const AgentId id : filter.ids()) {
     const MeasurementBatch* batch = nullptr;
     if (const auto log = logs_.find(id); log != logs_.end()) {
-      if (const auto span = log->second.find(world_step); span != log->second.end()) batch = &span->second.batch;
+      if (const auto span = log->second.find(world_step); span != log->second.end())
+        batch = &span->second.batch;
     }
     batches.push_back(batch);
   }
@@ -150,7 +152,7 @@ std::vector<const MeasurementBatch*> TeamPoseEkf::batches_at(const CentralizedPo
 void TeamPoseEkf::advance_settled() {
   while (settled_step_ < newest_step_) {
     const std::int64_t next = settled_step_ + 1;
-    const bool overdue = newest_step_ - next >= team_.wait_steps;
+    const bool overdue = newest_step_ - next >= params_.team_wait_steps;
     if (!overdue && !complete(next)) break;
     settled_.step(batches_at(settled_, next));
     settled_step_ = next;
@@ -177,12 +179,15 @@ void TeamPoseEkf::bring_current() {
   for (std::int64_t step = settled_step_ + 1; step <= newest_step_; ++step) {
     // A sighting of a robot whose data of this step has not arrived would be linearized where that robot
     // was a step ago, as if known there: it waits for the settled filter.
-    const auto unsettled = [&](const RangeBearingMeasurement& m) { return !m.landmark && !has_span_at(m.peer, step); };
+    const auto unsettled = [&](const RangeBearingMeasurement& m) {
+      return !m.landmark && !has_span_at(m.peer, step);
+    };
     std::vector<const MeasurementBatch*> batches = batches_at(current_, step);
     std::vector<MeasurementBatch> pruned;
     pruned.reserve(batches.size());  // the pointers below stay valid
     for (const MeasurementBatch*& batch : batches) {
-      if (batch == nullptr || std::none_of(batch->range_bearings.begin(), batch->range_bearings.end(), unsettled)) {
+      if (batch == nullptr ||
+          std::none_of(batch->range_bearings.begin(), batch->range_bearings.end(), unsettled)) {
         continue;
       }
       pruned.push_back(*batch);
@@ -202,7 +207,8 @@ StepOutput TeamPoseEkf::step(const StepInput& input) {
   advance_settled();
   bring_current();
   if (own_data) {
-    own_poses_.push_back(OwnPose{newest_step_, current_.pose(setup_.id), current_.pose_covariance(setup_.id)});
+    own_poses_.push_back(
+        OwnPose{newest_step_, current_.pose(setup_.id), current_.pose_covariance(setup_.id)});
     while (own_poses_.size() > own_spans_.size() + 1) own_poses_.pop_front();
   }
   StepOutput out;
@@ -214,7 +220,8 @@ StepOutput TeamPoseEkf::step(const StepInput& input) {
 ObservationMessage TeamPoseEkf::observations() const {
   ObservationMessage message;
   message.spans.assign(own_spans_.begin(), own_spans_.end());
-  const std::int64_t origin_step = own_spans_.empty() ? newest_step_ : own_spans_.front().first_world_step - 1;
+  const std::int64_t origin_step =
+      own_spans_.empty() ? newest_step_ : own_spans_.front().first_world_step - 1;
   const auto origin = std::find_if(own_poses_.begin(), own_poses_.end(),
                                    [&](const OwnPose& pose) { return pose.world_step == origin_step; });
   const OwnPose& pose = origin != own_poses_.end() ? *origin : own_poses_.front();

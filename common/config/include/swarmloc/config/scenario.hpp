@@ -86,6 +86,8 @@ struct KalmanParams {
 struct PoseParams {
   double initial_heading_std_rad = 0.1;  ///< heading prior std
   double range_bearing_gate_chi2 = 0.0;  ///< 2-dof gate; 0 = off
+  int team_share_spans = 50;             ///< team_pose_ekf: spans each sample repeats, [1, 64]
+  int team_wait_steps = 50;              ///< team_pose_ekf: world steps the settled filter waits for a member
 };
 
 /// The distributed gradient family (dgbb, local_bb, fixed_step, step_length; docs/algorithms.md §6).
@@ -185,9 +187,9 @@ struct Scenario {
     double doa_error_deg = 5.0;   ///< angle-of-arrival error, uniform in ±this (multipath_bp)
     NoiseDraw draw = NoiseDraw::kPerStep;
     // Pose-state algorithms on recorded data (world.source = mrclam): the filters' noise model.
-    double bearing_std_rad = 0.05;         ///< robot-frame bearing std
-    double odometry_v_std = 0.05;          ///< m/√s on the travelled distance
-    double odometry_omega_std = 0.1;       ///< rad/√s on the turned angle
+    double bearing_std_rad = 0.05;    ///< robot-frame bearing std
+    double odometry_v_std = 0.05;     ///< m/√s on the travelled distance
+    double odometry_omega_std = 0.1;  ///< rad/√s on the turned angle
     /// Sightings' errors correlated in time: white + first-order Gauss–Markov parts (estimators'
     /// KalmanFilterParams, docs/algorithms.md §10.3); τ = 0: independent.
     double sighting_correlation_time_s = 0.0;

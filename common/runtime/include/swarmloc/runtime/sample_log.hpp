@@ -12,11 +12,17 @@
 
 namespace swarmloc::runtime {
 
-using SampleMessage = std::variant<estimators::StateMessage, estimators::InformationMessage,
-                                   estimators::ConsensusMessage, estimators::BeliefMessage,
-                                   estimators::ObservationMessage>;
+using SampleMessage =
+    std::variant<estimators::StateMessage, estimators::InformationMessage, estimators::ConsensusMessage,
+                 estimators::BeliefMessage, estimators::ObservationMessage>;
 /// The family of a SampleMessage (its variant index).
-enum class SampleFamily : std::uint8_t { kState = 0, kInformation = 1, kConsensus = 2, kBelief = 3, kObservations = 4 };
+enum class SampleFamily : std::uint8_t {
+  kState = 0,
+  kInformation = 1,
+  kConsensus = 2,
+  kBelief = 3,
+  kObservations = 4
+};
 const char* to_string(SampleFamily family);
 
 /// One inter-agent sample as an agent received it (before loss injection and validation).

@@ -105,7 +105,7 @@ World build_mrclam_world(const config::Scenario& scenario);
 struct MrclamBaseline {
   double rmse_m = 0.0;
   double final_rmse_m = 0.0;
-  double nees3 = 0.0;        ///< NaN: no robot-step with a usable covariance
+  double nees3 = 0.0;  ///< NaN: no robot-step with a usable covariance
   double final_nees3 = 0.0;
 };
 struct MrclamSmootherBaseline : MrclamBaseline {
@@ -121,6 +121,7 @@ struct MrclamBaselines {
   MrclamBaseline centralized_ekf;
   std::optional<MrclamSmootherBaseline> batch_smoother;  ///< with_smoother only
 };
-MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world, bool with_smoother = true);
+MrclamBaselines mrclam_baselines(const config::Scenario& scenario, const World& world,
+                                 bool with_smoother = true);
 
 }  // namespace swarmloc::world

@@ -77,10 +77,10 @@ void add_pose_smoother_step(PoseSmootherProblem& problem, std::int64_t step,
                             const estimators::KalmanFilterParams& params);
 
 struct PoseSmootherSolution {
-  std::vector<Pose> poses;         ///< index step · robots + robot
-  std::vector<Mat3> marginals;     ///< the same index; empty unless asked for
-  std::vector<bool> used;          ///< per range-bearing factor: used in the final solve
-  int iterations = 0;              ///< Levenberg–Marquardt iterations, all gating rounds
+  std::vector<Pose> poses;      ///< index step · robots + robot
+  std::vector<Mat3> marginals;  ///< the same index; empty unless asked for
+  std::vector<bool> used;       ///< per range-bearing factor: used in the final solve
+  int iterations = 0;           ///< Levenberg–Marquardt iterations, all gating rounds
   int gating_rounds = 0;
   bool converged = false;
   int range_bearings_used = 0;

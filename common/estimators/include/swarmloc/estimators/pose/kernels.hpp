@@ -14,9 +14,9 @@
 // ("interlaced", as Ieif/Iekf do for ranges), the centralized filter keeps robot targets in its state.
 #include <cstdint>
 #include <map>
-#include <tuple>
 #include <optional>
 #include <string_view>
+#include <tuple>
 #include <vector>
 
 #include "swarmloc/estimators/estimator.hpp"
@@ -102,8 +102,8 @@ class SightingHistory {
 };
 
 /// Scales each target's R by its SightingHistory factors (nothing when params model independent sightings).
-void weigh_correlated_sightings(std::vector<RangeBearingTarget>& targets, SightingHistory& history, double time_s,
-                                const KalmanFilterParams& params);
+void weigh_correlated_sightings(std::vector<RangeBearingTarget>& targets, SightingHistory& history,
+                                double time_s, const KalmanFilterParams& params);
 
 /// Stacked measurement rows: pair m occupies rows 2m, 2m+1 of H and ν; its noise is noise[m].
 struct RangeBearingRows {

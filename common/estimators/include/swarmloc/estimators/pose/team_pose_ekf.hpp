@@ -12,23 +12,16 @@
 
 namespace swarmloc::estimators {
 
-struct TeamPoseParams {
-  /// Spans of its own data each OBSERVATIONS sample repeats: a peer that lost up to share_spans − 1
-  /// samples in a row still gets every span.
-  int share_spans = 20;
-  /// World steps the settled filter waits for a team member's data before it steps without it.
-  int wait_steps = 20;
-};
-
 /// Every robot runs the team's joint pose EKF (CentralizedPoseEkf: the same prediction, rows and gate) on
 /// its own data and on the data its team mates share: each OBSERVATIONS sample carries the sender's newest
 /// spans of odometry and range-bearing sightings. A settled copy of the joint filter steps world step by
-/// world step once every member's data for the step is in (or wait_steps have passed); the estimate is
+/// world step once every member's data for the step is in (or team_wait_steps have passed); the estimate is
 /// that copy brought to the newest world step with whatever has arrived. With every sample delivered, the
 /// settled filter is the centralized filter, step for step.
 class TeamPoseEkf final : public Estimator {
  public:
-  TeamPoseEkf(const AgentSetup& setup, const KalmanFilterParams& params, const TeamPoseParams& team = {});
+  /// params.team_share_spans and team_wait_steps set the sharing and the wait (KalmanFilterParams).
+  TeamPoseEkf(const AgentSetup& setup, const KalmanFilterParams& params);
 
   [[nodiscard]] std::string_view name() const override { return "team_pose_ekf"; }
   [[nodiscard]] Outbox initial_outbox() const override;
@@ -71,7 +64,6 @@ class TeamPoseEkf final : public Estimator {
 
   AgentSetup setup_;
   KalmanFilterParams params_;
-  TeamPoseParams team_;
   CentralizedPoseEkf settled_;
   std::int64_t settled_step_ = -1;
   CentralizedPoseEkf current_;
