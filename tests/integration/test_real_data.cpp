@@ -1,6 +1,7 @@
 // `swarmloc replay --mrclam DIR` end to end: UTIAS MRCLAM Dataset 6 as five agent processes over DDS,
 // with both baselines and the TUM trajectories in the run directory. The full 900 s are a command in
-// docs/real-data.md; this test replays the first 150 s at 50× in lockstep (about 10 s of run). Skipped, with
+// docs/real-data.md; this test replays the first 150 s at 50× in lockstep (about 10 s of run), and again
+// in the simulator, which it must equal. Skipped, with
 // a message, when the dataset is absent (it is never part of the project; tests/support/dataset_paths.hpp).
 // Domain 45.
 #include <gtest/gtest.h>
@@ -57,6 +58,26 @@ TEST(RealData, MrclamOverDdsScoresFiveRobotsAgainstBothBaselines) {
   EXPECT_LT(2.0 * centralized, dead_reckoning);
   EXPECT_LT(distributed, 0.5);
   EXPECT_LT(centralized, 0.5);
+  // The default estimator runs the team's joint filter at every robot (docs/algorithms.md §10): within 10 %
+  // of the centralized filter of the same run (lockstep: its estimate lacks only the others' newest step).
+  EXPECT_EQ(summary["algorithm"], "team_pose_ekf");
+  EXPECT_LT(distributed, 1.10 * centralized);
+  EXPECT_NEAR(summary["whole_run"]["efficiency_vs_centralized_ekf"].get<double>(), distributed / centralized,
+              1e-12);
+  // The heading travels with each estimate, so the DDS run is scored over (x, y, heading) too.
+  ASSERT_TRUE(summary["whole_run"].contains("nees3"));
+  EXPECT_GT(summary["whole_run"]["nees3"].get<double>(), 0.0);
+
+  // Lockstep over DDS equals the in-process simulator (the data's own time travels with each batch).
+  const auto sim_out = fresh_directory("mrclam-sim");
+  const auto sim =
+      run_command(kBinary + " replay --mrclam " + data.string() +
+                  " --sim -q --set run.steps=1500 --set run.mode=lockstep --out " + sim_out.string());
+  ASSERT_TRUE(swarmloc::testing::completed_run(sim.exit_code)) << sim.output;
+  const auto sim_summary = read_json(sim_out / "summary.json");
+  EXPECT_NEAR(sim_summary["whole_run"]["rmse_m"].get<double>(), distributed, 1e-9);
+  EXPECT_NEAR(sim_summary["whole_run"]["nees3"].get<double>(), summary["whole_run"]["nees3"].get<double>(),
+              1e-9);
 
   // One TUM file per robot in dataset seconds: 8 columns, increasing timestamps up to ~150 s.
   for (int robot = 0; robot < 5; ++robot) {
