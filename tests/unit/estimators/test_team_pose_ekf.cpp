@@ -186,20 +186,23 @@ TEST(TeamPoseEkf, MatchesTheCentralizedEstimateAndStaysConsistentWithoutOnePeer)
   }
 }
 
-TEST(TeamPoseEkf, APeerHeardLateJoinsAtItsOriginAndItsSightingsCount) {
-  const WorldConfig config = team_world(11, 160);
+TEST(TeamPoseEkf, APeerHeardLateJoinsWithItsOwnEstimateBroughtForwardThroughItsSpans) {
+  const WorldConfig config = team_world(11, 102);
   const World world = simulate(config);
   KalmanFilterParams team_params = params_for(config);
-  team_params.team_share_spans = 10;
+  team_params.team_share_spans = 40;
   team_params.team_wait_steps = 5;
   TeamRun team(team_params, world);
-  // Nobody hears robot 2 before step 60: by then its samples start after its prior (origin_step > −1).
-  team.run(config.steps, [](int from, int, int k) { return from != 2 || k >= 60; });
+  // Nobody hears robot 2 before step 100: its first sample starts at its estimate of step 59, and the
+  // others' settled filters are near step 94 by then. It must enter where it is at step 94, not at 59.
+  team.run(config.steps, [](int from, int, int k) { return from != 2 || k >= 100; });
   const TeamPoseEkf& robot = *team.robots[0];
   ASSERT_EQ(robot.settled().ids().size(), 4U);
   EXPECT_EQ(robot.settled().ids().back(), 2);  // joined last, after the step-by-step start
-  const Pose truth = world.truth[static_cast<std::size_t>(robot.settled_step())][2];
-  const Vec2 error = robot.settled().pose(2).head<2>() - truth.head<2>();
+  const auto step = static_cast<std::size_t>(robot.settled_step());
+  const Vec2 moved = world.truth[step][2].head<2>() - world.truth[59][2].head<2>();
+  ASSERT_GT(moved.norm(), 1.0);  // the test world: far enough for a wrong join to show
+  const Vec2 error = robot.settled().pose(2).head<2>() - world.truth[step][2].head<2>();
   const Mat3 covariance = robot.settled().pose_covariance(2);
   EXPECT_LT(error.norm(), 3.0 * std::sqrt(covariance.topLeftCorner<2, 2>().trace()) + 0.01);
 }
