@@ -13,6 +13,7 @@
 #include <limits>
 #include <random>
 
+#include "observation_sample.hpp"
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -545,35 +546,10 @@ void expect_same(const runtime::ReceivedSample& a, const runtime::ReceivedSample
   }
 }
 
-/// A team_pose_ekf sample: a span with odometry and two sightings, one without odometry.
-estimators::ObservationMessage observations_sample() {
-  estimators::ObservationMessage m;
-  m.origin_step = 41;
-  m.origin_pose = Eigen::Vector3d(1.0, -2.0, 3.1);
-  m.origin_covariance = Eigen::Matrix3d::Identity() * 0.25;
-  m.origin_covariance(0, 2) = m.origin_covariance(2, 0) = 0.01;
-  estimators::ObservedSteps first;
-  first.first_world_step = 42, first.world_step = 43, first.world_time_s = 4.3;
-  first.odometry = estimators::OdometryInput{{{0.2, -0.1, 0.05}, {0.3, 0.0, 0.05}}, 0.011, 0.038};
-  estimators::RangeBearingMeasurement landmark;
-  landmark.landmark = true, landmark.landmark_m = Vec2(4.0, 5.0),
-  landmark.landmark_cov = Mat2::Identity() * 1e-4;
-  landmark.range_m = 2.5, landmark.bearing_rad = -0.4, landmark.range_std_m = 0.16,
-  landmark.bearing_std_rad = 0.01;
-  estimators::RangeBearingMeasurement robot;
-  robot.peer = 3, robot.range_m = 1.5, robot.bearing_rad = 2.9, robot.range_std_m = 0.1,
-  robot.bearing_std_rad = 0.02;
-  first.range_bearings = {landmark, robot};
-  estimators::ObservedSteps second;
-  second.first_world_step = second.world_step = 44;
-  m.spans = {first, second};
-  return m;
-}
-
 TEST(SampleLog, ObservationSamplesRoundTripFromVersionSeven) {
   const auto dir = temp_dir("observations");
   const auto path = dir / "agent_001.slrec";
-  const runtime::ReceivedSample sample = sample_of(observations_sample(), 8);
+  const runtime::ReceivedSample sample = sample_of(swarmloc::test::observation_sample(), 8);
   {
     runtime::SampleLogWriter writer(path, 4, 7);
     writer.append(sample);
