@@ -126,24 +126,25 @@ void expect_monitor_serves_the_view(const LiveFixtureData& data) {
   EXPECT_LT(view["rmse_m"].get<double>(), 0.05) << view.dump(2);
 }
 
-// One live run per test (about 30 s each): the checks are grouped by what a failure would point at.
-TEST(Live, PosesMatchReplayAndEveryProcessEndsCleanly) {
+// One live run (about 30 s) for every check: a run per check cost CI a minute. Each group's failures name it.
+TEST(Live, OneRunPosesMatchReplayTfAndRosTypesMonitorAndViewAreRight) {
   const auto& data = live_data();
-  expect_live_processes_end_cleanly(data);
-  expect_live_poses_match_replay(data);
-  expect_no_faults_counted_on_clean_streams(data);
-}
-
-TEST(Live, TfAndDcpsPublicationCarryEveryRobotUnderItsRosType) {
-  const auto& data = live_data();
-  expect_tf_carries_every_robot_as_its_pose(data);
-  expect_exactly_the_ros_types(data);
-}
-
-TEST(Live, MonitorWritesAScoredRunDirectoryAndServesTheView) {
-  const auto& data = live_data();
-  expect_monitor_run_directory_scored(data);
-  expect_monitor_serves_the_view(data);
+  {
+    SCOPED_TRACE("processes, poses against the replay, clean streams");
+    expect_live_processes_end_cleanly(data);
+    expect_live_poses_match_replay(data);
+    expect_no_faults_counted_on_clean_streams(data);
+  }
+  {
+    SCOPED_TRACE("tf and the DCPS publications' ROS 2 types");
+    expect_tf_carries_every_robot_as_its_pose(data);
+    expect_exactly_the_ros_types(data);
+  }
+  {
+    SCOPED_TRACE("the monitor's run directory and view");
+    expect_monitor_run_directory_scored(data);
+    expect_monitor_serves_the_view(data);
+  }
 }
 
 }  // namespace
