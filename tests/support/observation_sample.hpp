@@ -18,6 +18,7 @@ inline estimators::ObservationMessage observation_sample() {
   landmark.landmark_cov << 1e-4, 2e-5, 2e-5, 3e-4;
   landmark.range_m = 2.25, landmark.bearing_rad = -0.5, landmark.range_std_m = 0.16,
   landmark.bearing_std_rad = 0.01;
+  landmark.age_s = 0.035;
   estimators::RangeBearingMeasurement robot;
   robot.peer = 4, robot.range_m = 1.5, robot.bearing_rad = 3.0, robot.range_std_m = 0.1,
   robot.bearing_std_rad = 0.02;

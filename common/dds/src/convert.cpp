@@ -43,6 +43,7 @@ swarmloc_msg_RangeBearing wire_range_bearing(const estimators::RangeBearingMeasu
   wire.bearing_rad = m.bearing_rad;
   wire.range_std_m = m.range_std_m;
   wire.bearing_std_rad = m.bearing_std_rad;
+  wire.age_s = m.age_s;
   return wire;
 }
 
@@ -56,6 +57,7 @@ estimators::RangeBearingMeasurement range_bearing_of(const swarmloc_msg_RangeBea
   measurement.bearing_rad = m.bearing_rad;
   measurement.range_std_m = m.range_std_m;
   measurement.bearing_std_rad = m.bearing_std_rad;
+  measurement.age_s = m.age_s;
   return measurement;
 }
 

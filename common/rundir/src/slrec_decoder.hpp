@@ -271,11 +271,11 @@ inline void decode_into(Decoder& in, estimators::ObservationMessage& m) {
       for (auto& segment : odometry.segments)
         segment.v_mps = in.f64(), segment.omega_radps = in.f64(), segment.dt_s = in.f64();
     }
-    span.range_bearings.resize(in.count(4 + 1 + 10 * 8, "range-bearings"));
+    span.range_bearings.resize(in.count(4 + 1 + 11 * 8, "range-bearings"));
     for (auto& rb : span.range_bearings) {
       rb.peer = in.i32(), rb.landmark = in.boolean(), rb.landmark_m = in.vec2(), rb.landmark_cov = in.mat2();
       rb.range_m = in.f64(), rb.bearing_rad = in.f64(), rb.range_std_m = in.f64(),
-      rb.bearing_std_rad = in.f64();
+      rb.bearing_std_rad = in.f64(), rb.age_s = in.f64();
     }
   }
 }

@@ -77,7 +77,8 @@ bool finite_odometry(const estimators::OdometryInput& odometry) {
 
 bool finite_range_bearing(const estimators::RangeBearingMeasurement& m) {
   return std::isfinite(m.range_m) && std::isfinite(m.bearing_rad) && std::isfinite(m.range_std_m) &&
-         std::isfinite(m.bearing_std_rad) && m.landmark_m.allFinite() && m.landmark_cov.allFinite();
+         std::isfinite(m.age_s) && std::isfinite(m.bearing_std_rad) && m.landmark_m.allFinite() &&
+         m.landmark_cov.allFinite();
 }
 
 /// Spans oldest first, each starting right after the one before, the first right after the origin.
@@ -421,8 +422,17 @@ void AgentRuntime::carry_over(const estimators::MeasurementBatch& superseded,
     segments.insert(segments.begin(), superseded.odometry->segments.begin(),
                     superseded.odometry->segments.end());
   }
-  batch.range_bearings.insert(batch.range_bearings.begin(), superseded.range_bearings.begin(),
+  // Their age counts to the end of the newer step.
+  const double later_s = batch.world_time_s - superseded.world_time_s;
+  const auto first_new = batch.range_bearings.size();
+  batch.range_bearings.insert(batch.range_bearings.end(), superseded.range_bearings.begin(),
                               superseded.range_bearings.end());
+  std::rotate(batch.range_bearings.begin(),
+              batch.range_bearings.begin() + static_cast<std::ptrdiff_t>(first_new),
+              batch.range_bearings.end());
+  for (std::size_t k = 0; k < superseded.range_bearings.size(); ++k) {
+    if (std::isfinite(later_s) && later_s > 0.0) batch.range_bearings[k].age_s += later_s;
+  }
   for (auto& range : batch.ranges) {
     const auto old =
         std::find_if(superseded.ranges.begin(), superseded.ranges.end(),

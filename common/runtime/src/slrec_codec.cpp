@@ -102,6 +102,7 @@ void encode(Encoder& out, const estimators::ObservationMessage& m) {
     for (const auto& rb : span.range_bearings) {
       out.i32(rb.peer), out.boolean(rb.landmark), out.vec2(rb.landmark_m), out.mat2(rb.landmark_cov);
       out.f64(rb.range_m), out.f64(rb.bearing_rad), out.f64(rb.range_std_m), out.f64(rb.bearing_std_rad);
+      out.f64(rb.age_s);
     }
   }
 }

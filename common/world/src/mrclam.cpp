@@ -215,6 +215,7 @@ estimators::MeasurementBatch MrclamSteps::batch(AgentId agent, std::int64_t step
     measurement.bearing_rad = m->bearing_rad;
     measurement.range_std_m = range_std_m_;
     measurement.bearing_std_rad = bearing_std_rad_;
+    measurement.age_s = to - m->time_s;
     if (m->subject <= kMrclamRobots) {
       measurement.peer = m->subject - 1;
     } else {

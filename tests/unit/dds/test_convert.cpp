@@ -269,6 +269,7 @@ TEST(Convert, ObservationsRoundTripExactly) {
   EXPECT_MATRIX_NEAR(landmark.landmark_cov, message.spans[0].range_bearings[0].landmark_cov, 0.0);
   EXPECT_EQ(landmark.range_m, 2.25);
   EXPECT_EQ(landmark.bearing_std_rad, 0.01);
+  EXPECT_EQ(landmark.age_s, 0.035);
   const auto& robot = back.message.spans[0].range_bearings[1];
   EXPECT_FALSE(robot.landmark);
   EXPECT_EQ(robot.peer, 4);

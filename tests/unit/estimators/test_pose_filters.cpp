@@ -389,6 +389,60 @@ TEST(PoseFilters, LinearizationFoldsTheTargetCovarianceAndWrapsTheBearing) {
   EXPECT_GT(rows.noise[0](1, 1), 2.0 * target.noise(1, 1));  // the landmark's uncertainty matters here
 }
 
+// ---- sightings taken before the end of their step (RangeBearingMeasurement::age_s) ----
+
+OdometryInput turning_tail() {
+  return OdometryInput{{{0.3, 1.0, 0.04}, {0.25, 1.5, 0.03}, {0.2, 0.5, 0.03}}, 0.01, 0.04};
+}
+
+TEST(PoseFilters, ARewoundPoseDrivenThroughTheTailIsTheStepsEndAndItsJacobianIsRight) {
+  const OdometryInput odometry = turning_tail();
+  const Pose end(1.0, -2.0, 3.0);
+  const double age_s = 0.05;  // the last segment and 0.02 s of the one before
+  const RewoundPose at = rewind_pose(end, &odometry, age_s);
+  Pose forward = at.pose;
+  forward = models::unicycle_step(forward, 0.25 * 0.02, 1.5 * 0.02).pose;
+  forward = models::unicycle_step(forward, 0.2 * 0.03, 0.5 * 0.03).pose;
+  EXPECT_LT((forward.head<2>() - end.head<2>()).norm(), 1e-12);
+  EXPECT_NEAR(models::wrap_angle(forward.z() - end.z()), 0.0, 1e-12);
+  for (int k = 0; k < 3; ++k) {
+    const double eps = 1e-6;
+    Pose plus = end;
+    Pose minus = end;
+    plus(k) += eps;
+    minus(k) -= eps;
+    Pose diff = rewind_pose(plus, &odometry, age_s).pose - rewind_pose(minus, &odometry, age_s).pose;
+    diff.z() = models::wrap_angle(diff.z());
+    EXPECT_LT((diff / (2 * eps) - at.d_end.col(k)).norm(), 1e-7) << "column " << k;
+  }
+  // Older than the step: the whole step is undone; no odometry or no age: the end itself.
+  const RewoundPose whole = rewind_pose(end, &odometry, 1.0);
+  EXPECT_LT((whole.pose - rewind_pose(end, &odometry, 0.1).pose).norm(), 1e-12);
+  EXPECT_EQ(rewind_pose(end, nullptr, age_s).pose, end);
+  EXPECT_EQ(rewind_pose(end, &odometry, 0.0).pose, end);
+}
+
+TEST(PoseFilters, ASightingIsSeenFromWhereTheRobotWasWhenItWasTaken) {
+  const OdometryInput odometry = turning_tail();
+  const Pose end(0.5, 0.5, 0.7);
+  const double age_s = 0.06;
+  const Pose then = rewind_pose(end, &odometry, age_s).pose;
+  const Vec2 landmark(3.0, 2.0);
+  const auto h = models::range_bearing(then, landmark);
+  ASSERT_TRUE(h.has_value());
+  RangeBearingTarget target;
+  target.landmark = true;
+  target.target_m = landmark;
+  target.measured = h->value;
+  target.noise = Vec2(0.01, 1e-4).asDiagonal();
+  target.age_s = age_s;
+  const RangeBearingRows rows = linearize_range_bearings(end, {target}, &odometry);
+  ASSERT_EQ(rows.pairs(), 1);
+  EXPECT_LT(rows.innovation.norm(), 1e-12);  // the exact sighting fits exactly
+  target.age_s = 0.0;                        // as if taken at the step's end: the turn shows as error
+  EXPECT_GT(std::abs(linearize_range_bearings(end, {target}, &odometry).innovation(1)), 0.02);
+}
+
 TEST(PoseFilters, GateDropsAnOutlierPairAndCountsIt) {
   // A robot at the origin facing +x sees four landmarks; one bearing is off by 0.5 rad (σ = 0.02).
   const std::vector<Vec2> landmarks = {Vec2(3.0, 0.0), Vec2(0.0, 3.0), Vec2(-3.0, 0.0), Vec2(0.0, -3.0)};

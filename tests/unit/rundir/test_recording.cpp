@@ -539,6 +539,7 @@ void expect_same(const runtime::ReceivedSample& a, const runtime::ReceivedSample
           EXPECT_EQ(p.range_bearings[r].bearing_rad, q.range_bearings[r].bearing_rad);
           EXPECT_EQ(p.range_bearings[r].range_std_m, q.range_bearings[r].range_std_m);
           EXPECT_EQ(p.range_bearings[r].bearing_std_rad, q.range_bearings[r].bearing_std_rad);
+          EXPECT_EQ(p.range_bearings[r].age_s, q.range_bearings[r].age_s);
         }
       }
       break;

@@ -95,6 +95,7 @@ RangeBearingRows CentralizedPoseEkf::joint_rows(const std::vector<const Measurem
     const MeasurementBatch* batch = batches[static_cast<std::size_t>(i)];
     if (batch == nullptr) continue;
     const Pose x_i = x_.segment<3>(3 * i);
+    const OdometryInput* odometry = batch->odometry ? &*batch->odometry : nullptr;
     for (const RangeBearingMeasurement& m : batch->range_bearings) {
       const std::optional<Mat2> R = pose_internal::measurement_noise(m);
       if (!R) {
@@ -103,10 +104,11 @@ RangeBearingRows CentralizedPoseEkf::joint_rows(const std::vector<const Measurem
       }
       Eigen::Matrix<double, 2, Eigen::Dynamic> H = Eigen::Matrix<double, 2, Eigen::Dynamic>::Zero(2, 3 * n);
       Mat2 noise = *R;
+      const RewoundPose at = rewind_pose(x_i, odometry, m.age_s);
       std::optional<models::RangeBearingEvaluation> h;
       if (m.landmark) {
         const std::optional<Mat2> cov = pose_internal::landmark_covariance(m);
-        if (cov) h = models::range_bearing(x_i, m.landmark_m);
+        if (cov) h = models::range_bearing(at.pose, m.landmark_m);
         if (!cov || !h) {
           ++diagnostics_.neighbours_skipped;
           continue;
@@ -114,7 +116,7 @@ RangeBearingRows CentralizedPoseEkf::joint_rows(const std::vector<const Measurem
         noise += h->d_target * *cov * h->d_target.transpose();
       } else {
         const std::optional<int> j = index_of(m.peer);
-        if (j && *j != i) h = models::range_bearing(x_i, x_.segment<2>(3 * *j));
+        if (j && *j != i) h = models::range_bearing(at.pose, x_.segment<2>(3 * *j));
         if (!j || *j == i || !h) {
           ++diagnostics_.neighbours_skipped;
           continue;
@@ -130,7 +132,7 @@ RangeBearingRows CentralizedPoseEkf::joint_rows(const std::vector<const Measurem
         ++diagnostics_.neighbours_skipped;
         continue;
       }
-      H.middleCols<3>(3 * i) = h->d_pose;
+      H.middleCols<3>(3 * i) = h->d_pose * at.d_end;
       blocks.push_back(H);
       innovations.emplace_back(m.range_m - h->value.x(),
                                models::bearing_residual(m.bearing_rad, h->value.y()));

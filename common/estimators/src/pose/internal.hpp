@@ -23,6 +23,7 @@ inline bool finite_positive(double value) { return std::isfinite(value) && value
 /// R = diag(σ_r², σ_β²) if the pair's values and stds are usable.
 inline std::optional<Mat2> measurement_noise(const RangeBearingMeasurement& m) {
   if (!std::isfinite(m.range_m) || !(m.range_m >= 0.0) || !std::isfinite(m.bearing_rad)) return std::nullopt;
+  if (!std::isfinite(m.age_s) || !(m.age_s >= 0.0)) return std::nullopt;
   if (!finite_positive(m.range_std_m) || !finite_positive(m.bearing_std_rad)) return std::nullopt;
   Mat2 R = Mat2::Zero();
   R(0, 0) = m.range_std_m * m.range_std_m;
@@ -79,6 +80,12 @@ inline int batch_degree(const StepInput& input) {
   if (input.measurements == nullptr) return 0;
   return static_cast<int>(std::min<std::size_t>(input.measurements->neighbours.size(),
                                                 std::numeric_limits<std::uint16_t>::max()));
+}
+
+/// The batch's odometry (nullptr without one): the sightings' poses are rewound through it.
+inline const OdometryInput* batch_odometry(const StepInput& input) {
+  return input.measurements != nullptr && input.measurements->odometry ? &*input.measurements->odometry
+                                                                       : nullptr;
 }
 
 /// The batch's world time (NaN without a batch: nothing to weigh).

@@ -92,6 +92,7 @@ RangeBearingSelection collect_range_bearings(const StepInput& input, AgentId sel
     target.landmark = m.landmark;
     target.measured = Vec2(m.range_m, m.bearing_rad);
     target.noise = *R;
+    target.age_s = m.age_s;
     if (m.landmark) {
       const std::optional<Mat2> cov = pose_internal::landmark_covariance(m);
       if (!cov) {
@@ -153,12 +154,46 @@ void weigh_correlated_sightings(std::vector<RangeBearingTarget>& targets, Sighti
   }
 }
 
-RangeBearingRows linearize_range_bearings(const Pose& pose, const std::vector<RangeBearingTarget>& targets) {
+RewoundPose rewind_pose(const Pose& end, const OdometryInput* odometry, double age_s) {
+  RewoundPose out;
+  out.pose = end;
+  if (odometry == nullptr || !(age_s > 0.0)) return out;
+  // The tail of the step, newest segment first (the earliest one cut at the sighting), skipping the
+  // segments propagate_pose skips.
+  std::vector<OdometrySegment> tail;
+  double left = age_s;
+  for (auto it = odometry->segments.rbegin(); it != odometry->segments.rend() && left > 0.0; ++it) {
+    if (!std::isfinite(it->v_mps) || !std::isfinite(it->omega_radps) || !std::isfinite(it->dt_s) ||
+        it->dt_s < 0.0)
+      continue;
+    const double dt = std::min(it->dt_s, left);
+    tail.push_back({it->v_mps, it->omega_radps, dt});
+    left -= dt;
+  }
+  Pose delta = Pose::Zero();  // the motion from the sighting to the step's end, in the sighting's frame
+  for (auto it = tail.rbegin(); it != tail.rend(); ++it) {
+    delta = models::unicycle_step(delta, it->v_mps * it->dt_s, it->omega_radps * it->dt_s).pose;
+  }
+  if (!delta.allFinite()) return out;
+  // end = sighting ⊕ delta: θ_s = θ_end − δθ, p_s = p_end − R(θ_s) δ_xy.
+  const double theta = models::wrap_angle(end.z() - delta.z());
+  const double c = std::cos(theta);
+  const double s = std::sin(theta);
+  out.pose =
+      Pose(end.x() - (c * delta.x() - s * delta.y()), end.y() - (s * delta.x() + c * delta.y()), theta);
+  out.d_end(0, 2) = s * delta.x() + c * delta.y();
+  out.d_end(1, 2) = -(c * delta.x() - s * delta.y());
+  return out;
+}
+
+RangeBearingRows linearize_range_bearings(const Pose& pose, const std::vector<RangeBearingTarget>& targets,
+                                          const OdometryInput* odometry) {
   RangeBearingRows rows;
   rows.H = MatX::Zero(2 * static_cast<Eigen::Index>(targets.size()), 3);
   rows.innovation = VecX::Zero(rows.H.rows());
   for (const RangeBearingTarget& target : targets) {
-    const auto h = models::range_bearing(pose, target.target_m);
+    const RewoundPose at = rewind_pose(pose, odometry, target.age_s);
+    const auto h = models::range_bearing(at.pose, target.target_m);
     if (!h) {
       ++rows.skipped;  // target at the robot: no direction
       continue;
@@ -171,7 +206,7 @@ RangeBearingRows linearize_range_bearings(const Pose& pose, const std::vector<Ra
       continue;
     }
     const Eigen::Index r = 2 * rows.pairs();
-    rows.H.block<2, 3>(r, 0) = h->d_pose;
+    rows.H.block<2, 3>(r, 0) = h->d_pose * at.d_end;
     rows.innovation(r) = target.measured.x() - h->value.x();
     rows.innovation(r + 1) = models::bearing_residual(target.measured.y(), h->value.y());
     rows.noise.push_back(noise);

@@ -34,7 +34,8 @@ StepOutput PoseEkf::step(const StepInput& input) {
 
   RangeBearingSelection selection = collect_range_bearings(input, setup_.id, params_);
   weigh_correlated_sightings(selection.targets, sightings_, pose_internal::batch_time_s(input), params_);
-  RangeBearingRows rows = linearize_range_bearings(predicted.pose, selection.targets);
+  RangeBearingRows rows =
+      linearize_range_bearings(predicted.pose, selection.targets, pose_internal::batch_odometry(input));
   out.diagnostics.ranges_gated = gate_range_bearings(rows, predicted.P, params_.range_bearing_gate_chi2);
   out.diagnostics.neighbours_used = rows.pairs();
   out.diagnostics.neighbours_skipped = selection.skipped + rows.skipped;

@@ -57,7 +57,8 @@ StepOutput PoseIeif::step(const StepInput& input) {
 
   RangeBearingSelection selection = collect_range_bearings(input, setup_.id, params_);
   weigh_correlated_sightings(selection.targets, sightings_, pose_internal::batch_time_s(input), params_);
-  RangeBearingRows rows = linearize_range_bearings(x_pred, selection.targets);
+  RangeBearingRows rows =
+      linearize_range_bearings(x_pred, selection.targets, pose_internal::batch_odometry(input));
   const Eigen::LLT<Mat3> llt_pred(Psi_pred);
   if (params_.range_bearing_gate_chi2 > 0.0 && llt_pred.info() == Eigen::Success) {
     out.diagnostics.ranges_gated =

@@ -87,6 +87,9 @@ struct RangeBearingMeasurement {
   double bearing_rad = 0.0;
   double range_std_m = 0.0;
   double bearing_std_rad = 0.0;
+  /// Time from the sighting to the end of its world step (≥ 0): the filters evaluate it at the pose the robot
+  /// had then, the step's end with the tail of its odometry undone (docs/algorithms.md §10.4).
+  double age_s = 0.0;
 };
 
 struct MeasurementBatch {

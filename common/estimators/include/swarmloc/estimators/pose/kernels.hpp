@@ -58,7 +58,17 @@ struct RangeBearingTarget {
   Mat2 target_cov = Mat2::Zero();  ///< landmark_cov, or the peer's covariance (after inflation)
   Vec2 measured = Vec2::Zero();    ///< (range, bearing)
   Mat2 noise = Mat2::Zero();       ///< R = diag(σ_r², σ_β²)
+  double age_s = 0.0;              ///< RangeBearingMeasurement::age_s
 };
+
+/// The pose a sighting `age_s` before the end of its step was taken from: `end` with the tail of the step's
+/// odometry undone (the segments are the step's, in order, the last one ending at the step's end), and its
+/// Jacobian with respect to `end`. Without odometry, or with age_s = 0, the pose is `end`.
+struct RewoundPose {
+  Pose pose = Pose::Zero();
+  Mat3 d_end = Mat3::Identity();
+};
+RewoundPose rewind_pose(const Pose& end, const OdometryInput* odometry, double age_s);
 
 struct RangeBearingSelection {
   std::vector<RangeBearingTarget> targets;
@@ -116,7 +126,8 @@ struct RangeBearingRows {
 };
 
 /// H (2M×3), ν and R̃ = R + H_t Σ_t H_tᵀ of `targets` at the predicted pose.
-RangeBearingRows linearize_range_bearings(const Pose& pose, const std::vector<RangeBearingTarget>& targets);
+RangeBearingRows linearize_range_bearings(const Pose& pose, const std::vector<RangeBearingTarget>& targets,
+                                          const OdometryInput* odometry = nullptr);
 
 /// 2-dof chi-square gate: drops pair m when νᵀ S⁻¹ ν > chi2_gate, S = H_m P_pred H_mᵀ + R̃_m. Keeps every
 /// pair when chi2_gate <= 0, P_pred is not finite, or more than half of the pairs are outside (the same
