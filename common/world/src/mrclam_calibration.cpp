@@ -12,7 +12,7 @@
 namespace swarmloc::world {
 namespace {
 
-using Pose = MrclamDataset::TimedPose;
+using GroundtruthPose = MrclamDataset::TimedPose;
 using Pair = std::array<double, 2>;
 
 double median_of(std::vector<double> values) {
@@ -87,7 +87,7 @@ std::array<ChannelEstimate, 2> inlier_moments(const std::vector<Pair>& residuals
 }
 
 /// Relative bearing of `target` from `pose` (robot frame), wrapped.
-double bearing_from(const Pose& pose, const Vec2& target) {
+double bearing_from(const GroundtruthPose& pose, const Vec2& target) {
   const Vec2 d = target - pose.position_m;
   return models::wrap_angle(std::atan2(d.y(), d.x()) - pose.heading_rad);
 }
@@ -368,12 +368,12 @@ SightingCalibration calibrate_sightings(const std::vector<SightingResidual>& sig
 
 /// True when the groundtruth rows from just before `from` to just after `to` are never more than
 /// `max_gap_s` apart.
-bool groundtruth_covers(const std::vector<Pose>& track, double from, double to, double max_gap_s) {
+bool groundtruth_covers(const std::vector<GroundtruthPose>& track, double from, double to, double max_gap_s) {
   auto row = std::upper_bound(track.begin(), track.end(), from,
-                              [](double time, const Pose& pose) { return time < pose.time_s; });
+                              [](double time, const GroundtruthPose& pose) { return time < pose.time_s; });
   if (row != track.begin()) --row;  // the row at or before `from`
   const auto last = std::lower_bound(track.begin(), track.end(), to,
-                                     [](const Pose& pose, double time) { return pose.time_s < time; });
+                                     [](const GroundtruthPose& pose, double time) { return pose.time_s < time; });
   if (last == track.end()) return false;
   for (; row != last; ++row) {
     if (std::next(row)->time_s - row->time_s > max_gap_s) return false;
@@ -381,10 +381,10 @@ bool groundtruth_covers(const std::vector<Pose>& track, double from, double to, 
   return true;
 }
 
-/// Pose change over [from, to] in the start frame, integrating each row's (v, ω) as an exact unicycle
+/// GroundtruthPose change over [from, to] in the start frame, integrating each row's (v, ω) as an exact unicycle
 /// arc from its time to the next row's (the loader's rule).
-Pose integrate_odometry(const std::vector<MrclamDataset::OdometryRow>& rows, double from, double to) {
-  Pose p;
+GroundtruthPose integrate_odometry(const std::vector<MrclamDataset::OdometryRow>& rows, double from, double to) {
+  GroundtruthPose p;
   auto row =
       std::upper_bound(rows.begin(), rows.end(), from,
                        [](double time, const MrclamDataset::OdometryRow& r) { return time < r.time_s; });
@@ -430,7 +430,7 @@ WindowResiduals odometry_residuals(const MrclamDataset::Robot& robot, double win
       ++out.gaps;
       continue;
     }
-    const Pose odometry = integrate_odometry(robot.odometry, from, to);
+    const GroundtruthPose odometry = integrate_odometry(robot.odometry, from, to);
     const Eigen::Rotation2Dd to_start_frame(-start->heading_rad);
     const Vec2 true_motion = to_start_frame * (end->position_m - start->position_m);
     const double true_turn = models::wrap_angle(end->heading_rad - start->heading_rad);
@@ -542,10 +542,10 @@ double OdometryCalibration::omega_std_with_tails() const {
   return window_s > 0.0 ? heading_rad.all_std / std::sqrt(window_s) : 0.0;
 }
 
-std::optional<MrclamDataset::TimedPose> groundtruth_at(const std::vector<Pose>& track, double time_s,
+std::optional<MrclamDataset::TimedPose> groundtruth_at(const std::vector<GroundtruthPose>& track, double time_s,
                                                        double max_gap_s) {
   const auto after = std::lower_bound(track.begin(), track.end(), time_s,
-                                      [](const Pose& pose, double time) { return pose.time_s < time; });
+                                      [](const GroundtruthPose& pose, double time) { return pose.time_s < time; });
   if (after == track.end()) return std::nullopt;
   if (after->time_s == time_s) return *after;
   if (after == track.begin()) return std::nullopt;
@@ -554,7 +554,7 @@ std::optional<MrclamDataset::TimedPose> groundtruth_at(const std::vector<Pose>& 
   if (span > max_gap_s) return std::nullopt;
   const double w = (time_s - before->time_s) / span;
   const double turn = models::wrap_angle(after->heading_rad - before->heading_rad);
-  return Pose{time_s, (1.0 - w) * before->position_m + w * after->position_m,
+  return GroundtruthPose{time_s, (1.0 - w) * before->position_m + w * after->position_m,
               models::wrap_angle(before->heading_rad + w * turn)};
 }
 

@@ -24,8 +24,8 @@ using SmootherFactor = Eigen::SimplicialLDLT<SmootherMatrix, Eigen::Lower, Eigen
 using Mat32 = models::Mat32;
 
 /// A step that moves no unknown by more than this (m or rad) is the last.
-constexpr double kStepTolerance = 1e-8;
-constexpr int kMaxDampingTries = 30;
+constexpr double kSmootherStepTolerance = 1e-8;
+constexpr int kSmootherDampingTries = 30;
 
 /// Rows of the normal equations one factor adds: its residual, its weight and the Jacobian block of each
 /// of its (at most two) poses. Range-bearings are 2 rows with the peer's θ column zero.
@@ -55,12 +55,12 @@ struct NormalEquations {
       for (std::size_t c = 0; c < f.poses; ++c) {
         if (f.pose[a] < f.pose[c]) continue;  // the lower triangle only
         const Mat3 block = f.J[a].transpose() * f.weight * f.J[c];
-        add_block(f.pose[a], f.pose[c], block);
+        add_pose_block(f.pose[a], f.pose[c], block);
       }
     }
   }
 
-  void add_block(std::size_t row_pose, std::size_t column_pose, const Mat3& block) {
+  void add_pose_block(std::size_t row_pose, std::size_t column_pose, const Mat3& block) {
     for (int i = 0; i < 3; ++i) {
       for (int j = 0; j < 3; ++j) {
         const auto row = static_cast<int>(3 * row_pose) + i;
@@ -138,7 +138,7 @@ std::optional<FactorRows<2>> range_bearing_rows(const WeightedProblem& w, const 
   return f;
 }
 
-NormalEquations assemble(const WeightedProblem& w, const std::vector<Pose>& x, const std::vector<bool>& used,
+NormalEquations assemble_pose_system(const WeightedProblem& w, const std::vector<Pose>& x, const std::vector<bool>& used,
                          bool with_matrix) {
   NormalEquations normal;
   normal.with_matrix = with_matrix;
@@ -155,7 +155,7 @@ NormalEquations assemble(const WeightedProblem& w, const std::vector<Pose>& x, c
 }
 
 double cost_at(const WeightedProblem& w, const std::vector<Pose>& x, const std::vector<bool>& used) {
-  return assemble(w, x, used, false).cost;
+  return assemble_pose_system(w, x, used, false).cost;
 }
 
 SmootherMatrix matrix_of(const WeightedProblem& w, const NormalEquations& normal) {
@@ -176,7 +176,7 @@ std::vector<Pose> moved(const std::vector<Pose>& x, const VecX& delta) {
 
 /// Levenberg–Marquardt from `x` with the pairs `used`: Gauss–Newton steps (λ = 0) while they lower the
 /// cost, damped by λ·diag(H) when one does not. Converged once an accepted step moves nothing by more
-/// than kStepTolerance.
+/// than kSmootherStepTolerance.
 struct LmResult {
   int iterations = 0;
   bool converged = false;
@@ -186,7 +186,7 @@ struct LmResult {
 bool damped_step(const WeightedProblem& w, std::vector<Pose>& x, const std::vector<bool>& used,
                  const NormalEquations& normal, const SmootherMatrix& H, SmootherFactor& factor,
                  double& lambda, double& largest_move) {
-  for (int attempt = 0; attempt < kMaxDampingTries; ++attempt) {
+  for (int attempt = 0; attempt < kSmootherDampingTries; ++attempt) {
     SmootherMatrix damped = H;
     if (lambda > 0.0) damped.diagonal() += lambda * H.diagonal();
     factor.factorize(damped);
@@ -210,18 +210,18 @@ LmResult levenberg_marquardt(const WeightedProblem& w, std::vector<Pose>& x, con
   LmResult result;
   SmootherFactor factor;
   double lambda = 0.0;
-  NormalEquations normal = assemble(w, x, used, true);
+  NormalEquations normal = assemble_pose_system(w, x, used, true);
   SmootherMatrix H = matrix_of(w, normal);
   factor.analyzePattern(H);  // the pattern is the same at every iterate
   while (result.iterations < max_iterations) {
     double largest_move = 0.0;
     if (!damped_step(w, x, used, normal, H, factor, lambda, largest_move)) break;  // stuck
     ++result.iterations;
-    if (largest_move < kStepTolerance) {
+    if (largest_move < kSmootherStepTolerance) {
       result.converged = true;
       break;
     }
-    normal = assemble(w, x, used, true);
+    normal = assemble_pose_system(w, x, used, true);
     H = matrix_of(w, normal);
   }
   return result;
@@ -256,7 +256,7 @@ std::vector<bool> gate(const WeightedProblem& w, const std::vector<Pose>& x,
 /// definite.
 std::vector<Mat3> pose_marginals(const WeightedProblem& w, const std::vector<Pose>& x,
                                  const std::vector<bool>& used) {
-  const SmootherMatrix H = matrix_of(w, assemble(w, x, used, true));
+  const SmootherMatrix H = matrix_of(w, assemble_pose_system(w, x, used, true));
   SmootherFactor factor(H);
   if (factor.info() != Eigen::Success || !(factor.vectorD().minCoeff() > 0.0)) return {};
   const SelectedInverse z(factor, 0);
@@ -400,7 +400,7 @@ PoseSmootherSolution solve_pose_smoother(const PoseSmootherProblem& problem, con
 VecX pose_smoother_gradient(const PoseSmootherProblem& problem, const std::vector<Pose>& poses,
                             const std::vector<bool>& used) {
   const WeightedProblem weighted(problem);
-  return -assemble(weighted, poses, used, false).b;
+  return -assemble_pose_system(weighted, poses, used, false).b;
 }
 
 }  // namespace swarmloc::world
