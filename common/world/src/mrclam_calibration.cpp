@@ -372,8 +372,9 @@ bool groundtruth_covers(const std::vector<GroundtruthPose>& track, double from, 
   auto row = std::upper_bound(track.begin(), track.end(), from,
                               [](double time, const GroundtruthPose& pose) { return time < pose.time_s; });
   if (row != track.begin()) --row;  // the row at or before `from`
-  const auto last = std::lower_bound(track.begin(), track.end(), to,
-                                     [](const GroundtruthPose& pose, double time) { return pose.time_s < time; });
+  const auto last =
+      std::lower_bound(track.begin(), track.end(), to,
+                       [](const GroundtruthPose& pose, double time) { return pose.time_s < time; });
   if (last == track.end()) return false;
   for (; row != last; ++row) {
     if (std::next(row)->time_s - row->time_s > max_gap_s) return false;
@@ -381,9 +382,10 @@ bool groundtruth_covers(const std::vector<GroundtruthPose>& track, double from, 
   return true;
 }
 
-/// GroundtruthPose change over [from, to] in the start frame, integrating each row's (v, ω) as an exact unicycle
-/// arc from its time to the next row's (the loader's rule).
-GroundtruthPose integrate_odometry(const std::vector<MrclamDataset::OdometryRow>& rows, double from, double to) {
+/// GroundtruthPose change over [from, to] in the start frame, integrating each row's (v, ω) as an exact
+/// unicycle arc from its time to the next row's (the loader's rule).
+GroundtruthPose integrate_odometry(const std::vector<MrclamDataset::OdometryRow>& rows, double from,
+                                   double to) {
   GroundtruthPose p;
   auto row =
       std::upper_bound(rows.begin(), rows.end(), from,
@@ -542,10 +544,11 @@ double OdometryCalibration::omega_std_with_tails() const {
   return window_s > 0.0 ? heading_rad.all_std / std::sqrt(window_s) : 0.0;
 }
 
-std::optional<MrclamDataset::TimedPose> groundtruth_at(const std::vector<GroundtruthPose>& track, double time_s,
-                                                       double max_gap_s) {
-  const auto after = std::lower_bound(track.begin(), track.end(), time_s,
-                                      [](const GroundtruthPose& pose, double time) { return pose.time_s < time; });
+std::optional<MrclamDataset::TimedPose> groundtruth_at(const std::vector<GroundtruthPose>& track,
+                                                       double time_s, double max_gap_s) {
+  const auto after =
+      std::lower_bound(track.begin(), track.end(), time_s,
+                       [](const GroundtruthPose& pose, double time) { return pose.time_s < time; });
   if (after == track.end()) return std::nullopt;
   if (after->time_s == time_s) return *after;
   if (after == track.begin()) return std::nullopt;
@@ -555,7 +558,7 @@ std::optional<MrclamDataset::TimedPose> groundtruth_at(const std::vector<Groundt
   const double w = (time_s - before->time_s) / span;
   const double turn = models::wrap_angle(after->heading_rad - before->heading_rad);
   return GroundtruthPose{time_s, (1.0 - w) * before->position_m + w * after->position_m,
-              models::wrap_angle(before->heading_rad + w * turn)};
+                         models::wrap_angle(before->heading_rad + w * turn)};
 }
 
 MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationOptions& options) {

@@ -138,8 +138,8 @@ std::optional<FactorRows<2>> range_bearing_rows(const WeightedProblem& w, const 
   return f;
 }
 
-NormalEquations assemble_pose_system(const WeightedProblem& w, const std::vector<Pose>& x, const std::vector<bool>& used,
-                         bool with_matrix) {
+NormalEquations assemble_pose_system(const WeightedProblem& w, const std::vector<Pose>& x,
+                                     const std::vector<bool>& used, bool with_matrix) {
   NormalEquations normal;
   normal.with_matrix = with_matrix;
   normal.b = VecX::Zero(static_cast<Eigen::Index>(3 * w.unknowns()));
