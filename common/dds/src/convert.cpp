@@ -1,90 +1,23 @@
-// The one file converting IDL samples (swarmloc.h) <-> swarmloc types.
+// IDL samples (swarmloc.h) <-> swarmloc types (convert.hpp); OBSERVATIONS in convert_observations.cpp.
 #include "convert.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <string>
 
+#include "convert_support.hpp"
+
 namespace swarmloc::dds {
 
-namespace {
-
-swarmloc_msg_Header encode_header(const runtime::Header& header) {
-  swarmloc_msg_Header wire{};
-  wire.agent_id = header.agent_id;
-  wire.seq = header.seq;
-  wire.step = header.step;
-  wire.sender_stamp_ns = header.sender_stamp_ns;
-  wire.world_stamp_ns = header.world_stamp_ns;
-  return wire;
-}
-
-void put_vec2(const Vec2& value, double (&out)[2]) {
-  out[0] = value.x();
-  out[1] = value.y();
-}
-
-Vec2 get_vec2(const double (&in)[2]) { return Vec2(in[0], in[1]); }
-
-void put_sym2(const Mat2& value, double (&out)[3]) {
-  const auto packed = codec::pack_sym2(value);
-  std::copy(packed.begin(), packed.end(), out);
-}
-
-Mat2 get_sym2(const double (&in)[3]) { return codec::unpack_sym2(std::span<const double, 3>(in)); }
-
-swarmloc_msg_RangeBearing wire_range_bearing(const estimators::RangeBearingMeasurement& m) {
-  swarmloc_msg_RangeBearing wire{};
-  wire.peer = m.peer;
-  wire.landmark = m.landmark;
-  put_vec2(m.landmark_m, wire.landmark_m);
-  put_sym2(m.landmark_cov, wire.landmark_cov);
-  wire.range_m = m.range_m;
-  wire.bearing_rad = m.bearing_rad;
-  wire.range_std_m = m.range_std_m;
-  wire.bearing_std_rad = m.bearing_std_rad;
-  wire.age_s = m.age_s;
-  return wire;
-}
-
-estimators::RangeBearingMeasurement range_bearing_of(const swarmloc_msg_RangeBearing& m) {
-  estimators::RangeBearingMeasurement measurement;
-  measurement.peer = m.peer;
-  measurement.landmark = m.landmark;
-  measurement.landmark_m = get_vec2(m.landmark_m);
-  measurement.landmark_cov = get_sym2(m.landmark_cov);
-  measurement.range_m = m.range_m;
-  measurement.bearing_rad = m.bearing_rad;
-  measurement.range_std_m = m.range_std_m;
-  measurement.bearing_std_rad = m.bearing_std_rad;
-  measurement.age_s = m.age_s;
-  return measurement;
-}
-
-/// Points an IDL sequence at a vector's storage for a write (Cyclone does not free it: _release=false).
-template <typename Sequence, typename Element>
-void point_at(Sequence& sequence, std::vector<Element>& storage) {
-  sequence._maximum = static_cast<uint32_t>(storage.size());
-  sequence._length = static_cast<uint32_t>(storage.size());
-  sequence._buffer = storage.empty() ? nullptr : storage.data();
-  sequence._release = false;
-}
-
-/// A received sequence as a span; nullopt if it claims elements but has no buffer.
-template <typename Sequence>
-auto view(const Sequence& sequence)
-    -> std::optional<std::span<const std::remove_pointer_t<decltype(sequence._buffer)>>> {
-  using Element = std::remove_pointer_t<decltype(sequence._buffer)>;
-  if (sequence._length == 0) {
-    return std::span<const Element>();
-  }
-  if (sequence._buffer == nullptr) {
-    return std::nullopt;
-  }
-  return std::span<const Element>(sequence._buffer, sequence._length);
-}
-
-}  // namespace
+using wire::encode_header;
+using wire::get_sym2;
+using wire::get_vec2;
+using wire::point_at;
+using wire::put_sym2;
+using wire::put_vec2;
+using wire::range_bearing_of;
+using wire::view;
+using wire::wire_range_bearing;
 
 // ---------------------------------------------------------------------------------------------------
 // Field-level rules (wire_codec.hpp)
@@ -257,46 +190,6 @@ WireBelief::WireBelief(const runtime::Header& header, const estimators::BeliefMe
     contributions.push_back(wire);
   }
   point_at(sample.contributions, contributions);
-}
-
-WireObservations::WireObservations(const runtime::Header& header,
-                                   const estimators::ObservationMessage& message) {
-  sample.agent_id = header.agent_id;
-  sample.header = encode_header(header);
-  sample.origin_step = message.origin_step;
-  for (int k = 0; k < 3; ++k) sample.origin_pose[k] = message.origin_pose(k);
-  for (int r = 0, at = 0; r < 3; ++r)
-    for (int c = r; c < 3; ++c) sample.origin_covariance[at++] = message.origin_covariance(r, c);
-  if (message.spans.size() > codec::kMaxObservedSpans) {
-    throw DdsError("publish_observations: " + std::to_string(message.spans.size()) + " spans (IDL bound 64)");
-  }
-  odometry.resize(message.spans.size());
-  range_bearings.resize(message.spans.size());
-  for (std::size_t k = 0; k < message.spans.size(); ++k) {
-    const estimators::ObservedSteps& span = message.spans[k];
-    swarmloc_msg_ObservedSpan wire{};
-    wire.first_world_step = span.first_world_step;
-    wire.world_step = span.world_step;
-    wire.world_time_s = span.world_time_s;
-    if (span.odometry) {
-      wire.has_odometry = true;
-      wire.odometry_v_std = span.odometry->v_std;
-      wire.odometry_omega_std = span.odometry->omega_std;
-      for (const auto& s : span.odometry->segments) {
-        odometry[k].push_back(swarmloc_msg_OdometrySegment{s.v_mps, s.omega_radps, s.dt_s});
-      }
-    }
-    for (const auto& m : span.range_bearings) range_bearings[k].push_back(wire_range_bearing(m));
-    if (odometry[k].size() > codec::kMaxSpanOdometry ||
-        range_bearings[k].size() > codec::kMaxSpanRangeBearings) {
-      throw DdsError(
-          "publish_observations: a span over the IDL bounds (1024 odometry segments, 256 sightings)");
-    }
-    point_at(wire.odometry, odometry[k]);
-    point_at(wire.range_bearings, range_bearings[k]);
-    spans.push_back(wire);
-  }
-  point_at(sample.spans, spans);
 }
 
 WireBatch::WireBatch(AgentId recipient, const runtime::Header& header,
@@ -516,61 +409,6 @@ Inbound<estimators::BeliefMessage> decode(const swarmloc_msg_Belief& wire) {
   return inbound;
 }
 
-namespace {
-
-/// One span of a received Observations sample; false if a sequence is broken or over its bound.
-bool decode_span(const swarmloc_msg_ObservedSpan& wire, estimators::ObservedSteps& span) {
-  const auto odometry = view(wire.odometry);
-  const auto range_bearings = view(wire.range_bearings);
-  if (!odometry || !range_bearings || odometry->size() > codec::kMaxSpanOdometry ||
-      range_bearings->size() > codec::kMaxSpanRangeBearings || (!wire.has_odometry && !odometry->empty())) {
-    return false;
-  }
-  span.first_world_step = wire.first_world_step;
-  span.world_step = wire.world_step;
-  span.world_time_s = wire.world_time_s;
-  if (wire.has_odometry) {
-    estimators::OdometryInput input;
-    input.v_std = wire.odometry_v_std;
-    input.omega_std = wire.odometry_omega_std;
-    for (const auto& s : *odometry)
-      input.segments.push_back(estimators::OdometrySegment{s.v_mps, s.omega_radps, s.dt_s});
-    span.odometry = std::move(input);
-  }
-  for (const auto& m : *range_bearings) span.range_bearings.push_back(range_bearing_of(m));
-  return true;
-}
-
-}  // namespace
-
-Inbound<estimators::ObservationMessage> decode(const swarmloc_msg_Observations& wire) {
-  Inbound<estimators::ObservationMessage> inbound;
-  inbound.header = decode_header(wire.header);
-  auto& message = inbound.message;
-  message.origin_step = wire.origin_step;
-  for (int k = 0; k < 3; ++k) message.origin_pose(k) = wire.origin_pose[k];
-  for (int r = 0, at = 0; r < 3; ++r) {
-    for (int c = r; c < 3; ++c, ++at) {
-      message.origin_covariance(r, c) = wire.origin_covariance[at];
-      message.origin_covariance(c, r) = wire.origin_covariance[at];
-    }
-  }
-  const auto spans = view(wire.spans);
-  if (!spans || spans->size() > codec::kMaxObservedSpans || wire.agent_id != wire.header.agent_id) {
-    inbound.well_formed = false;
-    return inbound;
-  }
-  message.spans.resize(spans->size());
-  for (std::size_t k = 0; k < spans->size(); ++k) {
-    if (!decode_span((*spans)[k], message.spans[k])) {
-      inbound.well_formed = false;
-      message.spans.clear();
-      return inbound;
-    }
-  }
-  return inbound;
-}
-
 codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire) {
   codec::DecodedBatch decoded;
   decoded.recipient = wire.agent_id;
@@ -739,12 +577,6 @@ Inbound<estimators::ConsensusMessage> round_trip(const runtime::Header& header,
 Inbound<estimators::BeliefMessage> round_trip(const runtime::Header& header,
                                               const estimators::BeliefMessage& message) {
   const WireBelief wire(header, message);
-  return decode(wire.sample);
-}
-
-Inbound<estimators::ObservationMessage> round_trip(const runtime::Header& header,
-                                                   const estimators::ObservationMessage& message) {
-  const WireObservations wire(header, message);
   return decode(wire.sample);
 }
 

@@ -1,6 +1,6 @@
 #pragma once
 // Transport-free message and measurement types. The DDS layer converts IDL samples to and from these
-// in one file (common/dds/src/convert.cpp); estimators never see a wire type.
+// in common/dds/src/convert.cpp (and convert_observations.cpp); estimators never see a wire type.
 #include <cstdint>
 #include <optional>
 #include <vector>
