@@ -69,7 +69,10 @@ void TeamPoseEkf::store(Log& log, const ObservedSteps& span) const {
       span.world_step > std::max<std::int64_t>(newest_step_, 0) + kTeamHorizonSteps) {
     return;
   }
-  log.try_emplace(span.world_step, LoggedSpan{span.first_world_step, span_batch(span)});
+  // Every sample repeats the sender's recent spans: most are known already, and copying them is the step's
+  // main cost.
+  if (log.contains(span.world_step)) return;
+  log.emplace(span.world_step, LoggedSpan{span.first_world_step, span_batch(span)});
 }
 
 void TeamPoseEkf::absorb(AgentId sender, const ObservationMessage& message) {
