@@ -475,6 +475,41 @@ TEST(PoseFilters, GateDropsAnOutlierPairAndCountsIt) {
   }
 }
 
+TEST(PoseFilters, GateDropsALoneMisreadSightingButTrustsTwoThatAgree) {
+  // A robot at the origin facing +x, σ = (0.05 m, 0.02 rad). A misread barcode: a sighting 0.5 rad off
+  // its landmark, alone in its step. Then two sightings that both say the heading is off by 0.5 rad:
+  // the prediction is what is off, and both are kept.
+  const auto sighting = [](const Vec2& landmark, double bearing_error_rad) {
+    RangeBearingMeasurement m;
+    m.landmark = true;
+    m.landmark_m = landmark;
+    const auto h = models::range_bearing(Pose::Zero(), landmark);
+    m.range_m = h->value.x();
+    m.bearing_rad = h->value.y() + bearing_error_rad;
+    m.range_std_m = 0.05;
+    m.bearing_std_rad = 0.02;
+    return m;
+  };
+  KalmanFilterParams params;
+  params.initial_std_m = 0.05;
+  params.initial_heading_std_rad = 0.02;
+  params.range_bearing_gate_chi2 = 13.8;
+
+  MeasurementBatch lone;
+  lone.range_bearings = {sighting(Vec2(3.0, 0.0), 0.5)};
+  PoseEkf first(AgentSetup{}, params);
+  const StepOutput dropped = first.step(StepInput{0, &lone, nullptr});
+  EXPECT_EQ(dropped.diagnostics.ranges_gated, 1);
+  EXPECT_NEAR(first.heading_rad(), 0.0, 1e-12);
+
+  MeasurementBatch agreeing;
+  agreeing.range_bearings = {sighting(Vec2(3.0, 0.0), 0.5), sighting(Vec2(0.0, 3.0), 0.5)};
+  PoseEkf second(AgentSetup{}, params);
+  const StepOutput kept = second.step(StepInput{0, &agreeing, nullptr});
+  EXPECT_EQ(kept.diagnostics.ranges_gated, 0);
+  EXPECT_EQ(kept.diagnostics.neighbours_used, 2);
+  EXPECT_LT(second.heading_rad(), -0.1);  // both pull the heading toward the turn they agree on
+}
 // ---- (c) covariances stay symmetric PSD (also checked after every step in (a)) ----
 
 TEST(PoseFilters, CovariancesSymmetricPositiveAfterEveryStep) {

@@ -233,7 +233,9 @@ int gate_range_bearings(RangeBearingRows& rows, const MatX& P_pred, double chi2_
       ++rejected;
     }
   }
-  if (2 * rejected > count) return 0;  // the prediction is off, not the measurements (gate_ranges)
+  // Two or more sightings outside, and most of them: the prediction is off, not the measurements
+  // (gate_ranges). One lone sighting outside is a misread barcode as often as not (docs/real-data.md).
+  if (rejected >= 2 && 2 * rejected > count) return 0;
   int kept = 0;
   for (int m = 0; m < count; ++m) {
     if (outside[static_cast<std::size_t>(m)]) continue;

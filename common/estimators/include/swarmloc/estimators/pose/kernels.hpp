@@ -130,8 +130,9 @@ RangeBearingRows linearize_range_bearings(const Pose& pose, const std::vector<Ra
                                           const OdometryInput* odometry = nullptr);
 
 /// 2-dof chi-square gate: drops pair m when νᵀ S⁻¹ ν > chi2_gate, S = H_m P_pred H_mᵀ + R̃_m. Keeps every
-/// pair when chi2_gate <= 0, P_pred is not finite, or more than half of the pairs are outside (the same
-/// rule as gate_ranges: then the prediction is what is off). Returns the number of pairs dropped.
+/// pair when chi2_gate <= 0, P_pred is not finite, or at least two pairs and more than half of them are
+/// outside (then the prediction is what is off, as in gate_ranges). A lone pair outside is dropped.
+/// Returns the number of pairs dropped.
 int gate_range_bearings(RangeBearingRows& rows, const MatX& P_pred, double chi2_gate);
 
 /// A = Hᵀ R̃⁻¹ H and b = Hᵀ R̃⁻¹ ν: the information of the stacked rows.
