@@ -53,8 +53,10 @@ constexpr EnumNames<Reliability> kReliabilityNames{
 constexpr EnumNames<Durability> kDurabilityNames{
     {{Durability::kVolatile, "volatile"}, {Durability::kTransientLocal, "transient_local"}}};
 
-constexpr EnumNames<RangeNoise> kRangeNoiseNames{
-    {{RangeNoise::kAdditive, "additive"}, {RangeNoise::kProportional, "proportional"}}};
+constexpr std::array<std::pair<RangeNoise, std::string_view>, 3> kRangeNoiseNames{
+    {{RangeNoise::kAdditive, "additive"},
+     {RangeNoise::kProportional, "proportional"},
+     {RangeNoise::kAffine, "affine"}}};
 constexpr EnumNames<NoiseDraw> kNoiseDrawNames{
     {{NoiseDraw::kPerStep, "per_step"}, {NoiseDraw::kOnce, "once"}}};
 

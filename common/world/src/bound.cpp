@@ -254,9 +254,7 @@ estimators::RangeNetwork snapshot_network(const World& world, const config::Scen
       const double distance =
           (truth[static_cast<std::size_t>(lo)] - truth[static_cast<std::size_t>(hi)]).norm();
       if (distance > s.world.comm_radius_m) continue;  // moved out of range: not measured (generate_batch)
-      const double std_m = s.noise.range_model == config::RangeNoise::kProportional
-                               ? std::max(1e-9, s.noise.range_factor * distance)
-                               : std::max(1e-9, s.noise.range_std_m);
+      const double std_m = std::max(1e-9, s.noise.range_std_at(distance));
       const bool at_lo = draws != kOwnDraws || !world.is_anchor[static_cast<std::size_t>(lo)];
       const bool at_hi =
           draws == kAllDraws || (draws == kOwnDraws && !world.is_anchor[static_cast<std::size_t>(hi)]);

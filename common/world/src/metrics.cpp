@@ -317,13 +317,13 @@ RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario) {
     crlb = relative_crlb(world, scenario.noise.relative_std_m);
   } else if (kinds.paths) {
     crlb = multipath_crlb(world, scenario);
-  } else if (kinds.ranges && scenario.noise.range_model == config::RangeNoise::kProportional) {
+  } else if (kinds.ranges && scenario.noise.range_model != config::RangeNoise::kAdditive) {
     std::vector<estimators::RangeObservation> observations;
     for (int i = 0; i < world.size(); ++i) {
       for (AgentId j : world.neighbours[static_cast<std::size_t>(i)]) {
         const double distance =
             (world.truth[static_cast<std::size_t>(i)] - world.truth[static_cast<std::size_t>(j)]).norm();
-        observations.push_back({i, j, std::max(1e-9, scenario.noise.range_factor * distance)});
+        observations.push_back({i, j, std::max(1e-9, scenario.noise.range_std_at(distance))});
       }
     }
     const auto result = estimators::range_network_crlb(world.truth, world.is_anchor, observations, 1.0);

@@ -140,7 +140,7 @@ MrclamSteps::MrclamSteps(std::shared_ptr<const MrclamDataset> data, const config
     : data_(std::move(data)),
       step_s_(scenario.world.data_step_s),
       steps_(static_cast<std::int64_t>(std::floor((data_->end_time_s - data_->start_time_s) / step_s_)) + 1),
-      range_std_m_(scenario.noise.range_std_m),
+      range_noise_(scenario.noise),
       bearing_std_rad_(scenario.noise.bearing_std_rad),
       odometry_v_std_(scenario.noise.odometry_v_std),
       odometry_omega_std_(scenario.noise.odometry_omega_std) {}
@@ -213,7 +213,7 @@ estimators::MeasurementBatch MrclamSteps::batch(AgentId agent, std::int64_t step
     estimators::RangeBearingMeasurement measurement;
     measurement.range_m = m->range_m;
     measurement.bearing_rad = m->bearing_rad;
-    measurement.range_std_m = range_std_m_;
+    measurement.range_std_m = range_noise_.range_std_at(m->range_m);
     measurement.bearing_std_rad = bearing_std_rad_;
     measurement.age_s = to - m->time_s;
     if (m->subject <= kMrclamRobots) {

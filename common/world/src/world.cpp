@@ -489,9 +489,7 @@ estimators::MeasurementBatch generate_batch(const World& world, const Scenario& 
     const AgentId lo = std::min(agent, j);
     const AgentId hi = std::max(agent, j);
     if (kinds.ranges) {
-      const double std_m = s.noise.range_model == config::RangeNoise::kProportional
-                               ? s.noise.range_factor * distance
-                               : s.noise.range_std_m;
+      const double std_m = s.noise.range_std_at(distance);
       const std::uint64_t key = s.noise.shared_range_draws ? noise_key(world, s, step, lo, hi, -2)
                                                            : noise_key(world, s, step, agent, j);
       batch.ranges.push_back({j, std::abs(distance + std_m * core::standard_normal(key)), std_m});

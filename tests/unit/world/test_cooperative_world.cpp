@@ -86,6 +86,22 @@ TEST(CooperativeWorld, SharedProportionalRangesAreEqualAtBothEnds) {
     EXPECT_NEAR(r.std_m, 0.01 * distance, 1e-15);
   }
 }
+TEST(CooperativeWorld, AffineRangesCarryTheStdOfTheirDistance) {
+  const auto scenario = scenario_named(
+      "default.yaml", {"noise.range_model=affine", "noise.range_std_m=0.05", "noise.range_factor=0.02"});
+  const World world = build_world(scenario);
+  int ranges = 0;
+  for (AgentId i = 0; i < world.size(); ++i) {
+    for (const auto& r : generate_batch(world, scenario, i, 0).ranges) {
+      const double distance =
+          (world.truth[static_cast<std::size_t>(i)] - world.truth[static_cast<std::size_t>(r.peer)]).norm();
+      EXPECT_NEAR(r.std_m, 0.05 + 0.02 * distance, 1e-12);
+      ++ranges;
+    }
+  }
+  EXPECT_GT(ranges, world.size());
+}
+
 TEST(CooperativeWorld, TargetReadingsAreTheTargetPlusNoiseForTheSensorsInRange) {
   const auto scenario =
       scenario_named("dle.yaml", {"world.target_sensing_radius_m=15", "noise.target_std_m=0.5"});

@@ -120,6 +120,29 @@ TEST(Mrclam, StepsCarryTheirOdometryAndMeasurementsAndTruthEndsWithTheGroundtrut
   EXPECT_TRUE(world.recorded->truth(15)[3].allFinite());
 }
 
+TEST(Mrclam, EachSightingGetsTheRangeStdOfTheNoiseModelAtItsMeasuredRange) {
+  const TinyDataset data;
+  auto scenario = mrclam_scenario(data.dir(), 20);
+  scenario.noise.range_std_m = 0.05;
+  scenario.noise.range_factor = 0.03;
+  const double landmark_range = 10.0 - 1 - 0.035;  // robot 1's sighting of the landmark (step 2)
+  const double robot_range = 1.0;                  // its sighting of robot 2 (step 4)
+  const std::vector<std::pair<config::RangeNoise, std::array<double, 2>>> models{
+      {config::RangeNoise::kAdditive, {0.05, 0.05}},
+      {config::RangeNoise::kProportional, {0.03 * landmark_range, 0.03 * robot_range}},
+      {config::RangeNoise::kAffine, {0.05 + 0.03 * landmark_range, 0.05 + 0.03 * robot_range}}};
+  for (const auto& [model, expected] : models) {
+    scenario.noise.range_model = model;
+    const auto world = build_world(scenario);
+    const auto landmark = world.recorded->batch(0, 2).range_bearings;
+    const auto robot = world.recorded->batch(0, 4).range_bearings;
+    ASSERT_EQ(landmark.size(), 1U);
+    ASSERT_EQ(robot.size(), 1U);
+    EXPECT_NEAR(landmark[0].range_std_m, expected[0], 1e-9);
+    EXPECT_NEAR(robot[0].range_std_m, expected[1], 1e-9);
+  }
+}
+
 TEST(Mrclam, BadDataIsAClearErrorNamingTheFileAndLine) {
   const TinyDataset data;
   data.write("Robot3_Odometry", "100.05 0.5 0\n101.0 nan 0\n");

@@ -52,9 +52,9 @@ enum class PathVariance { kRangeOnly, kWithDoa };
 enum class BpMessages { kBeliefs, kExact };
 enum class Reliability { kBestEffort, kReliable };
 enum class Durability { kVolatile, kTransientLocal };
-/// Range noise: additive N(0, range_std²), or proportional N(0, (range_factor·d)²) (Calafiore et al. eq.
-/// (16)).
-enum class RangeNoise { kAdditive, kProportional };
+/// Range noise: additive N(0, range_std²), proportional N(0, (range_factor·d)²) (Calafiore et al. eq.
+/// (16)), or affine N(0, (range_std + range_factor·d)²) (a camera's range error, docs/real-data.md).
+enum class RangeNoise { kAdditive, kProportional, kAffine };
 /// Measurement noise drawn anew every world step, or once per run (a static snapshot, as in Leng et al. and
 /// Calafiore et al.).
 enum class NoiseDraw { kPerStep, kOnce };
@@ -180,7 +180,19 @@ struct Scenario {
     double range_std_m = 0.1;
     double anchor_fix_std_m = 0.0;  ///< 0 = anchors know their position exactly
     RangeNoise range_model = RangeNoise::kAdditive;
-    double range_factor = 0.0;  ///< ν_d of Calafiore et al. eq. (16) when range_model = proportional
+    double range_factor = 0.0;  ///< ν_d of Calafiore et al. eq. (16); the slope of the affine model
+    /// The range std of a link `distance_m` long under range_model.
+    [[nodiscard]] double range_std_at(double distance_m) const {
+      switch (range_model) {
+        case RangeNoise::kProportional:
+          return range_factor * distance_m;
+        case RangeNoise::kAffine:
+          return range_std_m + range_factor * distance_m;
+        case RangeNoise::kAdditive:
+          break;
+      }
+      return range_std_m;
+    }
     /// Both ends of a link get the same range draw (Calafiore et al.: d̄_ij = d̄_ji).
     bool shared_range_draws = false;
     double relative_std_m = 0.1;  ///< std per axis of relative-position measurements (jacobi)

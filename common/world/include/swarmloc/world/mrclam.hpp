@@ -62,7 +62,8 @@ MrclamDataset load_mrclam(const std::filesystem::path& directory);
 /// The dataset cut into world steps of scenario.world.data_step_s seconds from start_time_s:
 /// step k covers dataset time (t_{k−1}, t_k], t_k = start + k·dt. Its batch carries the odometry
 /// segments of that interval and the measurements timestamped in it (step 0: none), with the noise of
-/// scenario.noise (range_std_m, bearing_std_rad, odometry_v_std, odometry_omega_std); the truth is the
+/// scenario.noise (the range std of noise.range_model at the measured range, bearing_std_rad,
+/// odometry_v_std, odometry_omega_std); the truth is the
 /// groundtruth interpolated at t_k.
 class MrclamSteps final : public RecordedSteps {
  public:
@@ -82,7 +83,7 @@ class MrclamSteps final : public RecordedSteps {
   std::shared_ptr<const MrclamDataset> data_;
   double step_s_;
   std::int64_t steps_;
-  double range_std_m_;
+  config::Scenario::Noise range_noise_;  ///< its range_std_at(measured range)
   double bearing_std_rad_;
   double odometry_v_std_;
   double odometry_omega_std_;
