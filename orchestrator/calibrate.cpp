@@ -14,17 +14,11 @@ namespace {
 
 /// Fewer inlier samples than this and a figure says nothing: exit 2 rather than publish it.
 constexpr std::size_t kMinUsableSamples = 20;
-/// The odometry window whose densities are published (the others check the √s model).
-constexpr double kReferenceWindowS = 1.0;
-
 std::size_t inliers(const world::RobustStats& s) { return s.samples - s.outliers; }
 
-const world::OdometryCalibration& reference_window(const world::RobotCalibration& calibration) {
-  const auto* best = &calibration.odometry.front();
-  for (const auto& w : calibration.odometry) {
-    if (std::abs(w.window_s - kReferenceWindowS) < std::abs(best->window_s - kReferenceWindowS)) best = &w;
-  }
-  return *best;
+/// The affine range model is published when its fit is usable: a positive intercept and slope.
+bool affine_range(const world::SightingCalibration& s) {
+  return s.range_std_intercept_m > 0.0 && s.range_std_slope > 0.0;
 }
 
 void print_sightings(const char* what, const world::SightingCalibration& s) {
@@ -70,11 +64,18 @@ void print_odometry(const world::RobotCalibration& calibration) {
         "  odometry %.1f s windows   v_std %.4f m/sqrt(s)  omega_std %.4f rad/sqrt(s)  distance bias %+.4f m "
         " "
         "turn bias %+.4f rad  distance ratio %.4f  n %zu  outliers %.1f %%  gaps %zu\n"
-        "      heavy tails kept (published; only > 5 std dropped): v_std %.4f  omega_std %.4f\n",
+        "      heavy tails kept (only > 5 std dropped): v_std %.4f  omega_std %.4f\n",
         w.window_s, w.v_std(), w.omega_std(), w.distance_m.bias, w.heading_rad.bias, w.distance_ratio,
         w.distance_m.samples, 100.0 * w.distance_m.outlier_fraction(), w.skipped_gap, w.v_std_with_tails(),
         w.omega_std_with_tails());
   }
+  const auto& h = calibration.horizon;
+  std::printf(
+      "  odometry over the sightings' horizon (%.1f s windows, n %zu, gaps %zu; published): mean included,\n"
+      "      v_rms %.4f m/sqrt(s)  omega_rms %.4f rad/sqrt(s)  (distance mean %+.4f m, turn mean %+.4f "
+      "rad)\n",
+      h.window_s, h.distance_m.samples, h.skipped_gap, h.v_rms_with_tails(), h.omega_rms_with_tails(),
+      h.distance_m.all_mean, h.heading_rad.all_mean);
 }
 
 void print_report(const std::string& dir, const world::MrclamCalibration& c) {
@@ -102,14 +103,17 @@ void print_report(const std::string& dir, const world::MrclamCalibration& c) {
   print_odometry(c.pooled);
 }
 
-/// The scenario keys of the pooled model. Range and bearing: the trimmed std of the landmark sightings
-/// (the outliers are misidentified barcodes, which the filters' gate drops; the robot sightings are
-/// reported, not published: the filters give both kinds one std). Odometry: the std with its heavy tails
-/// (commanded velocities against real motion: the tails are error the filter must carry). Sighting
-/// correlation: the white + Gauss–Markov fit of the landmark sightings.
+/// The scenario keys of the pooled model. Range: the affine std fitted over range bins (the constant
+/// trimmed std when the fit is unusable); bearing: the trimmed std of the landmark sightings (the outliers
+/// are misidentified barcodes, which the filters' gate drops; the robot sightings are reported, not
+/// published: the filters give both kinds one model). Odometry: the RMS with heavy tails and mean over
+/// windows of the sightings' correlation time (commanded velocities against real motion, a speed scale
+/// error: error the filter must carry until sightings bring new information). Sighting correlation: the
+/// white + Gauss–Markov fit of the landmark sightings.
 std::string scenario_fragment(const std::string& dir, const world::MrclamCalibration& c) {
-  const auto& odometry = reference_window(c.pooled);
-  const auto& correlation = c.pooled.landmarks.correlation;
+  const auto& odometry = c.pooled.horizon;
+  const auto& landmarks = c.pooled.landmarks;
+  const auto& correlation = landmarks.correlation;
   std::ostringstream text;
   text.precision(4);
   text << "# swarmloc calibrate --mrclam " << dir << "\n"
@@ -117,16 +121,22 @@ std::string scenario_fragment(const std::string& dir, const world::MrclamCalibra
        << " landmark sightings (" << 100.0 * c.pooled.landmarks.range_m.outlier_fraction() << " % outliers), "
        << odometry.distance_m.samples << " odometry windows of " << odometry.window_s
        << " s (docs/real-data.md, \"Noise model\").\n"
-       << "# Measured biases (not applied by any key): range " << c.pooled.landmarks.range_m.bias
-       << " m, bearing " << c.pooled.landmarks.bearing_rad.bias << " rad, odometry distance ratio "
-       << odometry.distance_ratio << ".\n"
+       << "# Measured biases (no key applies them; the odometry densities include the windows' mean): range "
+       << c.pooled.landmarks.range_m.bias << " m, bearing " << c.pooled.landmarks.bearing_rad.bias
+       << " rad, odometry distance ratio " << odometry.distance_ratio << ".\n"
        << "# Sighting errors: white + first-order Gauss-Markov, fitted to " << correlation.pairs
        << " pairs of consecutive sightings of one landmark by one robot.\n"
-       << "noise:\n"
-       << "  range_std_m: " << c.pooled.landmarks.range_m.std << "\n"
-       << "  bearing_std_rad: " << c.pooled.landmarks.bearing_rad.std << "\n"
-       << "  odometry_v_std: " << odometry.v_std_with_tails() << "\n"
-       << "  odometry_omega_std: " << odometry.omega_std_with_tails() << "\n"
+       << "noise:\n";
+  if (affine_range(landmarks)) {
+    text << "  range_model: affine\n"
+         << "  range_std_m: " << landmarks.range_std_intercept_m << "\n"
+         << "  range_factor: " << landmarks.range_std_slope << "\n";
+  } else {
+    text << "  range_std_m: " << landmarks.range_m.std << "\n";
+  }
+  text << "  bearing_std_rad: " << c.pooled.landmarks.bearing_rad.std << "\n"
+       << "  odometry_v_std: " << odometry.v_rms_with_tails() << "\n"
+       << "  odometry_omega_std: " << odometry.omega_rms_with_tails() << "\n"
        << "  sighting_correlation_time_s: " << correlation.correlation_time_s << "\n"
        << "  range_correlated_fraction: " << correlation.range_fraction << "\n"
        << "  bearing_correlated_fraction: " << correlation.bearing_fraction << "\n";
@@ -138,7 +148,7 @@ void require_usable(const world::MrclamCalibration& c) {
     throw config::ScenarioError("calibrate: fewer than " + std::to_string(kMinUsableSamples) +
                                 " landmark sightings with groundtruth around them");
   }
-  if (c.pooled.odometry.empty() || inliers(reference_window(c.pooled).distance_m) < kMinUsableSamples) {
+  if (inliers(c.pooled.horizon.distance_m) < kMinUsableSamples) {
     throw config::ScenarioError("calibrate: fewer than " + std::to_string(kMinUsableSamples) +
                                 " odometry windows with groundtruth at both ends");
   }

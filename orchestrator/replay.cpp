@@ -121,10 +121,12 @@ world:
   agents: 5
   anchors: 0
 noise:
-  range_std_m: 0.16
+  range_model: affine
+  range_std_m: 0.047
+  range_factor: 0.027
   bearing_std_rad: 0.010
-  odometry_v_std: 0.011
-  odometry_omega_std: 0.038
+  odometry_v_std: 0.019
+  odometry_omega_std: 0.034
   sighting_correlation_time_s: 7.9
   range_correlated_fraction: 0.98
   bearing_correlated_fraction: 0.54

@@ -523,6 +523,7 @@ std::array<RobustStats, 2> robust_pair_stats(const std::vector<Pair>& residuals,
       inlier_moments(residuals, inlier_mask(residuals, plain, 5.0), truncated_variance_factor(5.0));
   for (std::size_t c = 0; c < 2; ++c) {
     out[c].all_std = all[c].scale;
+    out[c].all_mean = all[c].centre;
     out[c].outliers = outliers;
     out[c].bias = est[c].centre;
     out[c].std = est[c].scale;
@@ -542,6 +543,13 @@ double OdometryCalibration::v_std_with_tails() const {
 }
 double OdometryCalibration::omega_std_with_tails() const {
   return window_s > 0.0 ? heading_rad.all_std / std::sqrt(window_s) : 0.0;
+}
+
+double OdometryCalibration::v_rms_with_tails() const {
+  return window_s > 0.0 ? std::hypot(distance_m.all_std, distance_m.all_mean) / std::sqrt(window_s) : 0.0;
+}
+double OdometryCalibration::omega_rms_with_tails() const {
+  return window_s > 0.0 ? std::hypot(heading_rad.all_std, heading_rad.all_mean) / std::sqrt(window_s) : 0.0;
 }
 
 std::optional<MrclamDataset::TimedPose> groundtruth_at(const std::vector<GroundtruthPose>& track,
@@ -576,6 +584,18 @@ MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationO
     append(pooled, raw);
   }
   out.pooled = calibrate_residuals(pooled, options);
+
+  // The horizon needs the pooled correlation time, so its windows come second; on the data step's grid.
+  const double tau = out.pooled.landmarks.correlation.correlation_time_s;
+  const double horizon_s = std::max(options.min_horizon_s, 0.1 * std::round(tau / 0.1));
+  WindowResiduals pooled_horizon;
+  for (std::size_t r = 0; r < data.robots.size(); ++r) {
+    WindowResiduals raw = odometry_residuals(data.robots[r], horizon_s, options.max_groundtruth_gap_s);
+    out.robots[r].horizon = calibrate_odometry(raw, horizon_s, options.trim_sigma);
+    pooled_horizon.windows.insert(pooled_horizon.windows.end(), raw.windows.begin(), raw.windows.end());
+    pooled_horizon.gaps += raw.gaps;
+  }
+  out.pooled.horizon = calibrate_odometry(pooled_horizon, horizon_s, options.trim_sigma);
   return out;
 }
 

@@ -27,6 +27,7 @@ struct SyntheticNoise {
   double range_correlated_fraction = 0.0;
   double bearing_correlated_fraction = 0.0;
   double robot_range_bias_step_m = 0.0;  ///< robot r (0-based) adds (r − 2) × this to range_bias_m
+  double speed_scale = 1.0;              ///< true speed / the speed odometry reports
 };
 
 constexpr double kStartS = 1000.0;
@@ -78,7 +79,8 @@ void add_odometry(MrclamDataset::Robot& robot, const TrueTrack& track, const Syn
   const double per_row = 1.0 / std::sqrt(kRowS);
   for (std::size_t k = 0; k < track.poses.size(); ++k) {
     robot.groundtruth.push_back(track.poses[k]);
-    robot.odometry.push_back({track.poses[k].time_s, track.commands[k][0] + noise.v_std * per_row * unit(rng),
+    robot.odometry.push_back({track.poses[k].time_s,
+                              track.commands[k][0] / noise.speed_scale + noise.v_std * per_row * unit(rng),
                               track.commands[k][1] + noise.omega_std * per_row * unit(rng)});
   }
 }
@@ -229,6 +231,36 @@ TEST(MrclamCalibration, RecoversTheOdometryDensitiesAtEveryWindowLength) {
     EXPECT_NEAR(w.distance_ratio, 1.0, 0.01);
     EXPECT_NEAR(w.distance_m.bias, 0.0, 0.005);
   }
+}
+
+TEST(MrclamCalibration, PublishedOdometryCoversTheErrorOverTheSightingsCorrelationTime) {
+  // Odometry 10 % fast: over a window of W seconds the distance error has a mean −0.1·v·W besides the
+  // white part. Sightings correlated over τ = 4 s: the filters get news about once per τ, so the published
+  // density is the RMS (mean included) over windows of τ: √(v_std² + 0.1²·E[v²]·τ) for speeds uniform in
+  // [0.05, 0.4] m/s, E[v²] = 0.0609 m²/s².
+  SyntheticNoise noise;
+  noise.speed_scale = 0.9;
+  noise.correlation_time_s = 4.0;
+  noise.range_correlated_fraction = 0.7;
+  noise.bearing_correlated_fraction = 0.4;
+  const auto c = calibrate_mrclam(synthetic_dataset(noise));
+  const auto& horizon = c.pooled.horizon;
+  EXPECT_NEAR(horizon.window_s, c.pooled.landmarks.correlation.correlation_time_s, 0.05);
+  EXPECT_NEAR(horizon.window_s, noise.correlation_time_s, 0.3 * noise.correlation_time_s);
+  EXPECT_GT(horizon.distance_m.samples, 4.0 * kDurationS / horizon.window_s);
+  const double mean_square_speed = (0.4 * 0.4 * 0.4 - 0.05 * 0.05 * 0.05) / (3.0 * 0.35);
+  const double expected =
+      std::sqrt(noise.v_std * noise.v_std + 0.1 * 0.1 * mean_square_speed * horizon.window_s);
+  EXPECT_NEAR(horizon.v_rms_with_tails(), expected, 0.1 * expected);
+  // Its std alone (the mean left out) is well short of it: the scale error is error the filter carries.
+  EXPECT_LT(horizon.v_std_with_tails(), 0.8 * expected);
+  EXPECT_NEAR(horizon.omega_rms_with_tails(), noise.omega_std, 0.15 * noise.omega_std);
+  for (const auto& robot : c.robots) EXPECT_EQ(robot.horizon.window_s, horizon.window_s);
+
+  // Independent sightings: the horizon is the 1 s floor.
+  noise.correlation_time_s = 0.0;
+  noise.range_correlated_fraction = noise.bearing_correlated_fraction = 0.0;
+  EXPECT_EQ(calibrate_mrclam(synthetic_dataset(noise)).pooled.horizon.window_s, 1.0);
 }
 
 TEST(MrclamCalibration, MisidentifiedBarcodesAreTrimmedNotScored) {

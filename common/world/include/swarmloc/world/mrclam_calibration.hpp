@@ -21,6 +21,7 @@ struct RobustStats {
   /// Std of every sample within 5 plain stds of the mean (one pass): gross errors such as groundtruth
   /// glitches dropped, heavy tails kept. Odometry publishes this one: its tails are real motion error.
   double all_std = 0.0;
+  double all_mean = 0.0;  ///< mean of the same samples
   [[nodiscard]] double outlier_fraction() const {
     return samples == 0 ? 0.0 : static_cast<double>(outliers) / static_cast<double>(samples);
   }
@@ -93,19 +94,28 @@ struct OdometryCalibration {
   /// The same from RobustStats::all_std (tails kept): the published odometry densities.
   [[nodiscard]] double v_std_with_tails() const;
   [[nodiscard]] double omega_std_with_tails() const;
+  /// The root mean square with tails kept, the mean included, over √window: the densities a filter needs
+  /// when the window's mean (a speed scale error, a turn bias) is error it must carry too.
+  [[nodiscard]] double v_rms_with_tails() const;
+  [[nodiscard]] double omega_rms_with_tails() const;
 };
 
 struct RobotCalibration {
   SightingCalibration landmarks;              ///< sightings of landmarks (subjects 6–20)
   SightingCalibration robots;                 ///< sightings of other robots, against both robots' groundtruth
   std::vector<OdometryCalibration> odometry;  ///< one per CalibrationOptions::windows_s
+  /// Windows as long as the pooled sightings' correlation time (at least min_horizon_s): the interval over
+  /// which sightings bring new information, so the odometry error a filter must carry between them. The
+  /// published densities (docs/real-data.md, "Odometry over the sightings' horizon").
+  OdometryCalibration horizon;
 };
 
 struct CalibrationOptions {
   /// A groundtruth pose is interpolated only between rows at most this far apart (no gap), and a sighting
   /// needs a row within this time on both sides.
   double max_groundtruth_gap_s = 0.1;
-  std::vector<double> windows_s{0.5, 1.0, 2.0};
+  std::vector<double> windows_s{0.5, 1.0, 2.0, 4.0, 8.0, 16.0};
+  double min_horizon_s = 1.0;  ///< the horizon window when sightings are independent (τ = 0) or τ shorter
   double trim_sigma = 3.0;
 };
 
