@@ -1,5 +1,6 @@
 #include "calibrate.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -37,6 +38,22 @@ void print_range_bins(const world::SightingCalibration& s) {
                 bin.samples);
   }
   std::printf("\n  fitted: range std = %.4f m + %.4f x range\n", s.range_std_intercept_m, s.range_std_slope);
+}
+
+void print_same_frame(const world::SightingCalibration& s) {
+  std::printf(
+      "  sightings of two landmarks in one frame (same robot, <= %.2f s apart, both inliers, less the "
+      "robot's\n"
+      "  mean), by how far apart the landmarks are:\n"
+      "      separation (m)   pairs   range rho   bearing rho\n",
+      world::kSameFrameS);
+  for (const auto& bin : s.same_frame) {
+    std::printf("      [%4.2f, %6.2f)   %6zu    %+6.3f      %+6.3f%s\n", bin.from_m,
+                std::min(bin.to_m, 999.0), bin.pairs, bin.range_rho, bin.bearing_rho,
+                bin.pairs < world::kMinBinSamples ? "   (too few)" : "");
+  }
+  std::printf("  landmarks closer than %.2f m share one error stream (range rho >= %.1f)\n",
+              s.cluster_radius_m, world::kClusterMinRho);
 }
 
 void print_correlation(const world::SightingCorrelation& c) {
@@ -100,6 +117,7 @@ void print_report(const std::string& dir, const world::MrclamCalibration& c) {
   print_sightings("robot sightings", c.pooled.robots);
   print_range_bins(c.pooled.landmarks);
   print_correlation(c.pooled.landmarks.correlation);
+  print_same_frame(c.pooled.landmarks);
   print_odometry(c.pooled);
 }
 
@@ -139,7 +157,8 @@ std::string scenario_fragment(const std::string& dir, const world::MrclamCalibra
        << "  odometry_omega_std: " << odometry.omega_rms_with_tails() << "\n"
        << "  sighting_correlation_time_s: " << correlation.correlation_time_s << "\n"
        << "  range_correlated_fraction: " << correlation.range_fraction << "\n"
-       << "  bearing_correlated_fraction: " << correlation.bearing_fraction << "\n";
+       << "  bearing_correlated_fraction: " << correlation.bearing_fraction << "\n"
+       << "  sighting_cluster_radius_m: " << landmarks.cluster_radius_m << "\n";
   return text.str();
 }
 

@@ -130,6 +130,7 @@ noise:
   sighting_correlation_time_s: 7.9
   range_correlated_fraction: 0.98
   bearing_correlated_fraction: 0.54
+  sighting_cluster_radius_m: 0.5
 run:
   mode: free_run
 )";

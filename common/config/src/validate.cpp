@@ -191,6 +191,7 @@ void validate_noise(const Scenario::Noise& noise) {
   require_within(noise.odometry_v_std, 0.0, 100.0, "noise.odometry_v_std");
   require_within(noise.odometry_omega_std, 0.0, 100.0, "noise.odometry_omega_std");
   require_within(noise.sighting_correlation_time_s, 0.0, 1e6, "noise.sighting_correlation_time_s");
+  require_within(noise.sighting_cluster_radius_m, 0.0, 1e6, "noise.sighting_cluster_radius_m");
   require_within(noise.range_correlated_fraction, 0.0, 0.99, "noise.range_correlated_fraction");
   require_within(noise.bearing_correlated_fraction, 0.0, 0.99, "noise.bearing_correlated_fraction");
   require_non_negative(noise.target_std_m, "noise.target_std_m");

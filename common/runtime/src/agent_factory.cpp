@@ -95,6 +95,7 @@ std::unique_ptr<estimators::Estimator> make_agent_estimator(const config::Scenar
   params.kalman.sighting_correlation_time_s = s.noise.sighting_correlation_time_s;
   params.kalman.range_correlated_fraction = s.noise.range_correlated_fraction;
   params.kalman.bearing_correlated_fraction = s.noise.bearing_correlated_fraction;
+  params.kalman.sighting_cluster_radius_m = s.noise.sighting_cluster_radius_m;
   return config::make_estimator(s.algorithm.name, manifest.setup, params);
 }
 

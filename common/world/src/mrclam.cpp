@@ -297,6 +297,7 @@ estimators::KalmanFilterParams pose_filter_params(const config::Scenario& scenar
   params.initial_heading_std_rad = scenario.algorithm.pose.initial_heading_std_rad;
   params.range_bearing_gate_chi2 = scenario.algorithm.pose.range_bearing_gate_chi2;
   params.sighting_correlation_time_s = scenario.noise.sighting_correlation_time_s;
+  params.sighting_cluster_radius_m = scenario.noise.sighting_cluster_radius_m;
   params.range_correlated_fraction = scenario.noise.range_correlated_fraction;
   params.bearing_correlated_fraction = scenario.noise.bearing_correlated_fraction;
   return params;

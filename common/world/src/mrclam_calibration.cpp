@@ -100,6 +100,7 @@ struct SightingResidual {
   double time_s = 0.0;
   std::size_t robot = 0;
   int subject = 0;
+  Vec2 target_m = Vec2::Zero();  ///< where the subject was (a landmark's surveyed position)
 };
 
 struct SightingResiduals {
@@ -136,7 +137,8 @@ SightingResiduals sighting_residuals(const MrclamDataset& data, std::size_t robo
         true_range,
         m.time_s,
         robot,
-        m.subject};
+        m.subject,
+        *target};
     (landmark ? out.landmarks : out.robots).push_back(r);
   }
   return out;
@@ -267,6 +269,56 @@ double pair_correlation(const std::vector<ConsecutivePair>& pairs, std::size_t c
   return earlier_sq > 0.0 && later_sq > 0.0 ? cross / std::sqrt(earlier_sq * later_sq) : 0.0;
 }
 
+/// Every pair of inlier sightings of two different subjects by one robot in one camera frame, binned by how
+/// far apart the subjects are; residuals less their robot's mean.
+std::vector<SeparationBin> same_frame_bins(const std::vector<SightingResidual>& sightings,
+                                           const RobustStats& range, const RobustStats& bearing,
+                                           double trim_sigma) {
+  std::vector<const SightingResidual*> inliers;
+  for (const auto& s : sightings) {
+    if (within_trim(s.residual, range, bearing, trim_sigma)) inliers.push_back(&s);
+  }
+  const auto means = per_robot_means(inliers);
+  std::stable_sort(inliers.begin(), inliers.end(), [](const auto* a, const auto* b) {
+    return std::tie(a->robot, a->time_s) < std::tie(b->robot, b->time_s);
+  });
+  constexpr std::array<double, 7> kEdgesM{0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 1e9};
+  std::array<std::vector<ConsecutivePair>, kEdgesM.size() - 1> pairs;
+  const auto centred = [&means](const SightingResidual& s) {
+    return Pair{s.residual[0] - means[s.robot][0], s.residual[1] - means[s.robot][1]};
+  };
+  for (std::size_t i = 1; i < inliers.size(); ++i) {
+    const auto& later = *inliers[i];
+    for (std::size_t k = i; k-- > 0;) {
+      const auto& earlier = *inliers[k];
+      if (earlier.robot != later.robot || later.time_s - earlier.time_s > kSameFrameS) break;
+      if (earlier.subject == later.subject) continue;
+      const double separation = (earlier.target_m - later.target_m).norm();
+      const auto bin = std::upper_bound(kEdgesM.begin(), kEdgesM.end(), separation) - kEdgesM.begin() - 1;
+      if (bin >= 0 && static_cast<std::size_t>(bin) < pairs.size()) {
+        pairs[static_cast<std::size_t>(bin)].push_back(
+            {later.time_s - earlier.time_s, centred(earlier), centred(later)});
+      }
+    }
+  }
+  std::vector<SeparationBin> bins;
+  for (std::size_t b = 0; b < pairs.size(); ++b) {
+    bins.push_back({kEdgesM[b], kEdgesM[b + 1], pairs[b].size(), pair_correlation(pairs[b], 0),
+                    pair_correlation(pairs[b], 1)});
+  }
+  return bins;
+}
+
+double cluster_radius(const std::vector<SeparationBin>& bins) {
+  double radius = 0.0;
+  for (const auto& bin : bins) {
+    if (bin.pairs < kMinBinSamples) continue;
+    if (bin.range_rho < kClusterMinRho) break;
+    radius = bin.to_m;
+  }
+  return radius;
+}
+
 std::vector<CorrelationBin> correlation_bins(const std::vector<ConsecutivePair>& pairs) {
   std::vector<CorrelationBin> bins;
   for (std::size_t b = 0; b + 1 < kCorrelationGapEdgesS.size(); ++b) {
@@ -363,6 +415,8 @@ SightingCalibration calibrate_sightings(const std::vector<SightingResidual>& sig
   out.range_bins = range_bins(sightings, out.range_m, out.bearing_rad, trim_sigma);
   std::tie(out.range_std_intercept_m, out.range_std_slope) = fit_std_line(out.range_bins);
   out.correlation = fit_correlation(consecutive_pairs(sightings, out.range_m, out.bearing_rad, trim_sigma));
+  out.same_frame = same_frame_bins(sightings, out.range_m, out.bearing_rad, trim_sigma);
+  out.cluster_radius_m = cluster_radius(out.same_frame);
   return out;
 }
 

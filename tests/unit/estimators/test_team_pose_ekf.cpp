@@ -146,6 +146,27 @@ TEST(SightingHistory, InflatesTheCorrelatedPartByTheGapSinceTheLastSightingOfTha
   EXPECT_EQ(history.inflation(0, true, landmark, 11.6, params), Vec2(1.0, 1.0));
 }
 
+TEST(SightingHistory, LandmarksWithinTheClusterRadiusAreOneStream) {
+  KalmanFilterParams params;
+  params.sighting_correlation_time_s = 4.0;
+  params.range_correlated_fraction = 0.9;
+  params.bearing_correlated_fraction = 0.5;
+  params.sighting_cluster_radius_m = 0.5;
+  const double rho = std::exp(-0.2 / 4.0);
+  const double repeat = 0.1 + 0.9 * (1.0 + rho) / (1.0 - rho);
+  SightingHistory history;
+  EXPECT_EQ(history.inflation(0, true, Vec2(3.0, -1.0), 10.0, params), Vec2(1.0, 1.0));
+  // 0.3 m from it, 0.2 s later: a repeat of the same stream.
+  EXPECT_NEAR(history.inflation(0, true, Vec2(3.3, -1.0), 10.2, params).x(), repeat, 1e-12);
+  // 2 m away: a stream of its own.
+  EXPECT_EQ(history.inflation(0, true, Vec2(5.0, -1.0), 10.4, params), Vec2(1.0, 1.0));
+  // Without a radius, the landmark 0.3 m away is its own stream.
+  params.sighting_cluster_radius_m = 0.0;
+  SightingHistory separate;
+  EXPECT_EQ(separate.inflation(0, true, Vec2(3.0, -1.0), 10.0, params), Vec2(1.0, 1.0));
+  EXPECT_EQ(separate.inflation(0, true, Vec2(3.3, -1.0), 10.2, params), Vec2(1.0, 1.0));
+}
+
 TEST(TeamPoseEkf, SamplesLostInBurstsShorterThanTheShareWindowChangeNothing) {
   const WorldConfig config = team_world(5, 150);
   const World world = simulate(config);

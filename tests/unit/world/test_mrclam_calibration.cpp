@@ -28,6 +28,10 @@ struct SyntheticNoise {
   double bearing_correlated_fraction = 0.0;
   double robot_range_bias_step_m = 0.0;  ///< robot r (0-based) adds (r − 2) × this to range_bias_m
   double speed_scale = 1.0;              ///< true speed / the speed odometry reports
+  /// Landmarks in pairs 0.3 m apart (subject 6 + 2k and 7 + 2k), both sighted in one frame; with
+  /// pairs_share_errors the pair has one Gauss–Markov error per robot, otherwise each landmark its own.
+  bool paired_landmarks = false;
+  bool pairs_share_errors = false;
 };
 
 constexpr double kStartS = 1000.0;
@@ -134,7 +138,12 @@ MrclamDataset synthetic_dataset(const SyntheticNoise& noise, unsigned seed = 39)
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> area(-5.0, 5.0), unit_interval(0.0, 1.0);
   MrclamDataset data;
-  for (int l = 0; l < kLandmarks; ++l) data.landmarks[6 + l] = {Vec2(area(rng), area(rng)), Vec2::Zero()};
+  for (int l = 0; l < kLandmarks; ++l) {
+    const bool partner = noise.paired_landmarks && l % 2 == 1;
+    const Vec2 at =
+        partner ? Vec2(data.landmarks.at(5 + l).position_m + Vec2(0.3, 0.0)) : Vec2(area(rng), area(rng));
+    data.landmarks[6 + l] = {at, Vec2::Zero()};
+  }
   std::vector<TrueTrack> tracks;
   data.robots.resize(kMrclamRobots);
   for (int r = 0; r < kMrclamRobots; ++r) {
@@ -153,10 +162,22 @@ MrclamDataset synthetic_dataset(const SyntheticNoise& noise, unsigned seed = 39)
                               ? data.landmarks.at(subject).position_m
                               : tracks[static_cast<std::size_t>(subject - 1)].at(t).position_m;
       const Vec2 d = target - self.position_m;
-      const auto error = errors.draw(r, subject, t, rng);
+      const bool pair = noise.paired_landmarks && subject > kMrclamRobots && subject - 6 + 1 < kLandmarks;
+      const int first = pair ? subject - (subject - 6) % 2 : subject;
+      const int stream = pair && noise.pairs_share_errors ? first : subject;
+      const auto error = errors.draw(r, stream, t, rng);
       const double bias = noise.range_bias_m + (r - 2) * noise.robot_range_bias_step_m;
       const double range = d.norm() + bias + error[0];
       const double bearing = models::wrap_angle(std::atan2(d.y(), d.x()) - self.heading_rad + error[1]);
+      if (pair) {  // the partner in the same frame, with the pair's error or its own
+        const int other = first == subject ? subject + 1 : first;
+        const Vec2 d_other = data.landmarks.at(other).position_m - self.position_m;
+        // Drawn at the same time: the same Gauss–Markov value when the stream is shared, a new white part.
+        const auto other_error = errors.draw(r, noise.pairs_share_errors ? first : other, t, rng);
+        data.robots[static_cast<std::size_t>(r)].measurements.push_back(
+            {t, other, d_other.norm() + bias + other_error[0],
+             models::wrap_angle(std::atan2(d_other.y(), d_other.x()) - self.heading_rad + other_error[1])});
+      }
       if (unit_interval(rng) < noise.misidentified) subject = 6 + (subject + 3) % kLandmarks;  // another one
       data.robots[static_cast<std::size_t>(r)].measurements.push_back({t, subject, range, bearing});
     }
@@ -261,6 +282,29 @@ TEST(MrclamCalibration, PublishedOdometryCoversTheErrorOverTheSightingsCorrelati
   noise.correlation_time_s = 0.0;
   noise.range_correlated_fraction = noise.bearing_correlated_fraction = 0.0;
   EXPECT_EQ(calibrate_mrclam(synthetic_dataset(noise)).pooled.horizon.window_s, 1.0);
+}
+
+TEST(MrclamCalibration, LandmarksWhoseErrorsMoveTogetherInOneFrameAreOneCluster) {
+  // Landmarks in pairs 0.3 m apart, sighted together. One Gauss–Markov error per pair (70 % of the range
+  // variance): the same-frame range correlation reads about 0.7 in the 0.25–0.5 m bin, so the cluster
+  // radius is that bin's upper edge. Each landmark with its own error: no correlation, no cluster.
+  SyntheticNoise noise;
+  noise.correlation_time_s = 4.0;
+  noise.range_correlated_fraction = 0.7;
+  noise.bearing_correlated_fraction = 0.4;
+  noise.paired_landmarks = true;
+  noise.pairs_share_errors = true;
+  const auto shared = calibrate_mrclam(synthetic_dataset(noise)).pooled.landmarks;
+  ASSERT_GE(shared.same_frame.size(), 2U);
+  EXPECT_GT(shared.same_frame[1].pairs, 1000U);
+  EXPECT_NEAR(shared.same_frame[1].range_rho, 0.7, 0.1);
+  EXPECT_NEAR(shared.same_frame[1].bearing_rho, 0.4, 0.1);
+  EXPECT_EQ(shared.cluster_radius_m, 0.5);
+
+  noise.pairs_share_errors = false;
+  const auto separate = calibrate_mrclam(synthetic_dataset(noise)).pooled.landmarks;
+  EXPECT_LT(std::abs(separate.same_frame[1].range_rho), 0.1);
+  EXPECT_EQ(separate.cluster_radius_m, 0.0);
 }
 
 TEST(MrclamCalibration, MisidentifiedBarcodesAreTrimmedNotScored) {

@@ -131,9 +131,7 @@ Vec2 SightingHistory::inflation(AgentId peer, bool landmark, const Vec2& landmar
                                 const KalmanFilterParams& params) {
   const double tau = params.sighting_correlation_time_s;
   if (!(tau > 0.0) || !std::isfinite(time_s)) return Vec2::Ones();
-  const Key key{landmark ? 0 : peer, landmark, landmark ? landmark_m.x() : 0.0,
-                landmark ? landmark_m.y() : 0.0};
-  const auto [last, first] = last_time_s_.try_emplace(key, time_s);
+  const auto [last, first] = last_time_s_.try_emplace(key_of(peer, landmark, landmark_m, params), time_s);
   if (first) return Vec2::Ones();
   // Two sightings in one step (Δt = 0) are as good as one: ρ close to 1 all but drops the second.
   const double gap_s = std::max(time_s - last->second, 1e-3 * tau);
@@ -142,6 +140,19 @@ Vec2 SightingHistory::inflation(AgentId peer, bool landmark, const Vec2& landmar
   const double correlated = (1.0 + rho) / (1.0 - rho);
   const auto factor = [correlated](double fraction) { return (1.0 - fraction) + fraction * correlated; };
   return Vec2(factor(params.range_correlated_fraction), factor(params.bearing_correlated_fraction));
+}
+
+SightingHistory::Key SightingHistory::key_of(AgentId peer, bool landmark, const Vec2& landmark_m,
+                                             const KalmanFilterParams& params) const {
+  if (!landmark) return Key{peer, false, 0.0, 0.0};
+  if (params.sighting_cluster_radius_m > 0.0) {
+    for (const auto& [seen, unused] : last_time_s_) {
+      if (seen.landmark && (Vec2(seen.x, seen.y) - landmark_m).norm() <= params.sighting_cluster_radius_m) {
+        return seen;
+      }
+    }
+  }
+  return Key{0, true, landmark_m.x(), landmark_m.y()};
 }
 
 void weigh_correlated_sightings(std::vector<RangeBearingTarget>& targets, SightingHistory& history,

@@ -207,6 +207,8 @@ struct Scenario {
     double sighting_correlation_time_s = 0.0;
     double range_correlated_fraction = 0.0;
     double bearing_correlated_fraction = 0.0;
+    /// Landmarks within this distance of one another share one correlated error stream (0 = each its own).
+    double sighting_cluster_radius_m = 0.0;
     double target_std_m = 1.0;             ///< dle target readings: std per axis (linear) or of the range
     double target_bearing_std_rad = 0.05;  ///< dle range–bearing readings: bearing std
     double field_std = 0.1;                ///< joint_field readings: std of each scalar reading

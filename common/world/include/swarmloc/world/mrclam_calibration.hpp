@@ -68,6 +68,16 @@ struct SightingCorrelation {
   double bearing_only_time_s = 0.0;
 };
 
+/// Correlation of the residuals of two subjects sighted by one robot in one camera frame (at most
+/// kSameFrameS apart), over the pairs whose subjects lie [from_m, to_m) apart.
+struct SeparationBin {
+  double from_m = 0.0;
+  double to_m = 0.0;
+  std::size_t pairs = 0;
+  double range_rho = 0.0;
+  double bearing_rho = 0.0;
+};
+
 struct SightingCalibration {
   RobustStats range_m;               ///< measured − true range
   RobustStats bearing_rad;           ///< measured − true bearing, wrapped to (−π, π]
@@ -75,8 +85,13 @@ struct SightingCalibration {
   /// Weighted least-squares line through the bins: range std ≈ intercept + slope · range.
   double range_std_intercept_m = 0.0;
   double range_std_slope = 0.0;
-  std::size_t skipped_gap = 0;      ///< sightings without groundtruth around their timestamp
-  SightingCorrelation correlation;  ///< of the inliers, per-robot mean removed
+  std::size_t skipped_gap = 0;            ///< sightings without groundtruth around their timestamp
+  SightingCorrelation correlation;        ///< of the inliers, per-robot mean removed
+  std::vector<SeparationBin> same_frame;  ///< every separation bin, also those too thin to read
+  /// Subjects closer than this share one error stream: the upper edge of the last separation bin, from
+  /// the nearest on, whose range residuals correlate by at least kClusterMinRho (bins with fewer than
+  /// kMinBinSamples pairs are passed over). 0 when the nearest readable bin does not.
+  double cluster_radius_m = 0.0;
 };
 
 /// Odometry over windows of one length, tiled along each robot's odometry.
@@ -126,6 +141,9 @@ struct MrclamCalibration {
 };
 
 inline constexpr std::size_t kMinBinSamples = 30;
+/// Two sightings at most this far apart in time are of one camera frame.
+inline constexpr double kSameFrameS = 0.05;
+inline constexpr double kClusterMinRho = 0.5;
 /// Consecutive sightings further apart than this are not paired: the correlation has died out long before.
 inline constexpr double kMaxCorrelationGapS = 100.0;
 /// A fraction of 1 would leave no white noise, and a filter would treat repeated sightings as one.

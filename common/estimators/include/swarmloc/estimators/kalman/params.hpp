@@ -23,6 +23,9 @@ struct KalmanFilterParams {
   double sighting_correlation_time_s = 0.0;
   double range_correlated_fraction = 0.0;
   double bearing_correlated_fraction = 0.0;
+  /// Landmarks this close to one another share one error stream (seen in one camera frame, their errors
+  /// are nearly the same): their sightings are weighed as repeats of one target. 0 = each its own.
+  double sighting_cluster_radius_m = 0.0;
   /// team_pose_ekf (docs/algorithms.md §10): spans of its own data each sample repeats (a peer that lost
   /// up to team_share_spans − 1 samples in a row still gets every span), and the world steps the settled
   /// filter waits for a member's data before it steps without it.

@@ -92,6 +92,7 @@ RangeBearingSelection collect_range_bearings(const StepInput& input, AgentId sel
 /// sighting of errors correlated with the last one's counts for what it adds (docs/algorithms.md §10.3):
 /// with ρ = exp(−Δt/τ) the correlated part's variance is inflated by (1 + ρ)/(1 − ρ), the asymptotic
 /// variance factor of a densely sampled first-order Gauss–Markov error. A first sighting is not inflated.
+/// A landmark within params.sighting_cluster_radius_m of one already seen is that landmark's stream.
 class SightingHistory {
  public:
   /// Variance factors (range, bearing) for a sighting at `time_s`; records the sighting.
@@ -108,6 +109,10 @@ class SightingHistory {
       return std::tie(landmark, peer, x, y) < std::tie(other.landmark, other.peer, other.x, other.y);
     }
   };
+  /// A robot peer's stream, or the stream of the landmark (or of the first one seen within the cluster
+  /// radius of it).
+  [[nodiscard]] Key key_of(AgentId peer, bool landmark, const Vec2& landmark_m,
+                           const KalmanFilterParams& params) const;
   std::map<Key, double> last_time_s_;
 };
 
