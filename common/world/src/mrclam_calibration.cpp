@@ -227,14 +227,29 @@ std::vector<Pair> per_robot_means(const std::vector<const SightingResidual*>& in
   return sums;
 }
 
+/// The sightings within the outlier trim, and each robot's mean over them.
+struct TrimmedSightings {
+  std::vector<const SightingResidual*> inliers;
+  std::vector<Pair> robot_means;
+
+  TrimmedSightings(const std::vector<SightingResidual>& sightings, const RobustStats& range,
+                   const RobustStats& bearing, double trim_sigma) {
+    for (const auto& s : sightings) {
+      if (within_trim(s.residual, range, bearing, trim_sigma)) inliers.push_back(&s);
+    }
+    robot_means = per_robot_means(inliers);
+  }
+  /// A sighting's residual less its robot's mean.
+  [[nodiscard]] Pair centred(const SightingResidual& s) const {
+    return {s.residual[0] - robot_means[s.robot][0], s.residual[1] - robot_means[s.robot][1]};
+  }
+};
+
 std::vector<ConsecutivePair> consecutive_pairs(const std::vector<SightingResidual>& sightings,
                                                const RobustStats& range, const RobustStats& bearing,
                                                double trim_sigma) {
-  std::vector<const SightingResidual*> inliers;
-  for (const auto& s : sightings) {
-    if (within_trim(s.residual, range, bearing, trim_sigma)) inliers.push_back(&s);
-  }
-  const auto means = per_robot_means(inliers);
+  TrimmedSightings trimmed(sightings, range, bearing, trim_sigma);
+  auto& inliers = trimmed.inliers;
   std::stable_sort(inliers.begin(), inliers.end(), [](const auto* a, const auto* b) {
     return std::tie(a->robot, a->subject, a->time_s) < std::tie(b->robot, b->subject, b->time_s);
   });
@@ -245,10 +260,7 @@ std::vector<ConsecutivePair> consecutive_pairs(const std::vector<SightingResidua
     if (earlier.robot != later.robot || earlier.subject != later.subject) continue;
     const double gap = later.time_s - earlier.time_s;
     if (gap > kMaxCorrelationGapS) continue;
-    const auto& mean = means[later.robot];
-    pairs.push_back({gap,
-                     {earlier.residual[0] - mean[0], earlier.residual[1] - mean[1]},
-                     {later.residual[0] - mean[0], later.residual[1] - mean[1]}});
+    pairs.push_back({gap, trimmed.centred(earlier), trimmed.centred(later)});
   }
   return pairs;
 }
@@ -274,19 +286,13 @@ double pair_correlation(const std::vector<ConsecutivePair>& pairs, std::size_t c
 std::vector<SeparationBin> same_frame_bins(const std::vector<SightingResidual>& sightings,
                                            const RobustStats& range, const RobustStats& bearing,
                                            double trim_sigma) {
-  std::vector<const SightingResidual*> inliers;
-  for (const auto& s : sightings) {
-    if (within_trim(s.residual, range, bearing, trim_sigma)) inliers.push_back(&s);
-  }
-  const auto means = per_robot_means(inliers);
+  TrimmedSightings trimmed(sightings, range, bearing, trim_sigma);
+  auto& inliers = trimmed.inliers;
   std::stable_sort(inliers.begin(), inliers.end(), [](const auto* a, const auto* b) {
     return std::tie(a->robot, a->time_s) < std::tie(b->robot, b->time_s);
   });
   constexpr std::array<double, 7> kEdgesM{0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 1e9};
   std::array<std::vector<ConsecutivePair>, kEdgesM.size() - 1> pairs;
-  const auto centred = [&means](const SightingResidual& s) {
-    return Pair{s.residual[0] - means[s.robot][0], s.residual[1] - means[s.robot][1]};
-  };
   for (std::size_t i = 1; i < inliers.size(); ++i) {
     const auto& later = *inliers[i];
     for (std::size_t k = i; k-- > 0;) {
@@ -297,7 +303,7 @@ std::vector<SeparationBin> same_frame_bins(const std::vector<SightingResidual>& 
       const auto bin = std::upper_bound(kEdgesM.begin(), kEdgesM.end(), separation) - kEdgesM.begin() - 1;
       if (bin >= 0 && static_cast<std::size_t>(bin) < pairs.size()) {
         pairs[static_cast<std::size_t>(bin)].push_back(
-            {later.time_s - earlier.time_s, centred(earlier), centred(later)});
+            {later.time_s - earlier.time_s, trimmed.centred(earlier), trimmed.centred(later)});
       }
     }
   }
