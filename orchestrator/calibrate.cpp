@@ -106,6 +106,13 @@ void print_report(const std::string& dir, const world::MrclamCalibration& c) {
       "  (skipped across groundtruth gaps); distance along the odometry chord, heading change; "
       "std/sqrt(window).\n\n",
       c.options.max_groundtruth_gap_s, c.options.trim_sigma);
+  const auto& b = c.range_bias;
+  std::printf(
+      "Range bias across the image (pooled inlier landmark sightings, n %zu; removed from every figure "
+      "below):\n"
+      "  b(bearing) = %+.4f m %+.4f m/rad * bearing %+.4f m/rad^2 * bearing^2   (range std %.4f m -> %.4f "
+      "m)\n\n",
+      b.samples, b.constant_m, b.per_rad, b.per_rad2, b.std_before_m, b.std_after_m);
   for (std::size_t r = 0; r < c.robots.size(); ++r) {
     std::printf("Robot %zu\n", r + 1);
     print_sightings("landmark sightings", c.robots[r].landmarks);
@@ -134,17 +141,23 @@ std::string scenario_fragment(const std::string& dir, const world::MrclamCalibra
   const auto& correlation = landmarks.correlation;
   std::ostringstream text;
   text.precision(4);
-  text << "# swarmloc calibrate --mrclam " << dir << "\n"
-       << "# Pooled over " << c.robots.size() << " robots: " << c.pooled.landmarks.range_m.samples
-       << " landmark sightings (" << 100.0 * c.pooled.landmarks.range_m.outlier_fraction() << " % outliers), "
-       << odometry.distance_m.samples << " odometry windows of " << odometry.window_s
-       << " s (docs/real-data.md, \"Noise model\").\n"
-       << "# Measured biases (no key applies them; the odometry densities include the windows' mean): range "
-       << c.pooled.landmarks.range_m.bias << " m, bearing " << c.pooled.landmarks.bearing_rad.bias
-       << " rad, odometry distance ratio " << odometry.distance_ratio << ".\n"
-       << "# Sighting errors: white + first-order Gauss-Markov, fitted to " << correlation.pairs
-       << " pairs of consecutive sightings of one landmark by one robot.\n"
-       << "noise:\n";
+  text
+      << "# swarmloc calibrate --mrclam " << dir << "\n"
+      << "# Pooled over " << c.robots.size() << " robots: " << c.pooled.landmarks.range_m.samples
+      << " landmark sightings (" << 100.0 * c.pooled.landmarks.range_m.outlier_fraction() << " % outliers), "
+      << odometry.distance_m.samples << " odometry windows of " << odometry.window_s
+      << " s (docs/real-data.md, \"Noise model\").\n"
+      << "# Biases left in (no key applies them; the odometry densities include the windows' mean): landmark "
+      << "range after the bias across the image " << c.pooled.landmarks.range_m.bias << " m, bearing "
+      << c.pooled.landmarks.bearing_rad.bias << " rad, odometry distance ratio " << odometry.distance_ratio
+      << ".\n"
+      << "# Sighting errors: white + first-order Gauss-Markov, fitted to " << correlation.pairs
+      << " pairs of consecutive sightings of one landmark by one robot.\n"
+      << "noise:\n"
+      << "  range_bias_m: " << c.range_bias.constant_m << "\n"
+      << "  range_bias_per_rad: " << c.range_bias.per_rad << "\n"
+      << "  range_bias_per_rad2: " << c.range_bias.per_rad2 << "\n"
+      << "  robot_range_bias_m: " << c.pooled.robots.range_m.bias << "\n";
   if (affine_range(landmarks)) {
     text << "  range_model: affine\n"
          << "  range_std_m: " << landmarks.range_std_intercept_m << "\n"

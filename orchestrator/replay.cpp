@@ -121,14 +121,18 @@ world:
   agents: 5
   anchors: 0
 noise:
+  range_bias_m: 0.115
+  range_bias_per_rad: 0.0047
+  range_bias_per_rad2: -1.63
+  robot_range_bias_m: 0.043
   range_model: affine
-  range_std_m: 0.047
-  range_factor: 0.027
+  range_std_m: 0.039
+  range_factor: 0.0066
   bearing_std_rad: 0.010
   odometry_v_std: 0.019
-  odometry_omega_std: 0.034
-  sighting_correlation_time_s: 7.9
-  range_correlated_fraction: 0.98
+  odometry_omega_std: 0.033
+  sighting_correlation_time_s: 7.6
+  range_correlated_fraction: 0.86
   bearing_correlated_fraction: 0.54
   sighting_cluster_radius_m: 0.5
 run:

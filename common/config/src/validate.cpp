@@ -143,6 +143,18 @@ void validate_data_source(const Scenario& scenario, const AlgorithmSpec& spec) {
   } else if (pose_algorithm) {
     fail("algorithm.name",
          "'" + algorithm.name + "' needs odometry and range-bearing data: set world.source: mrclam");
+  } else {
+    const auto& noise = scenario.noise;
+    for (const auto& [key, value] : {std::pair{"noise.range_bias_m", noise.range_bias_m},
+                                     std::pair{"noise.range_bias_per_rad", noise.range_bias_per_rad},
+                                     std::pair{"noise.range_bias_per_rad2", noise.range_bias_per_rad2},
+                                     std::pair{"noise.robot_range_bias_m", noise.robot_range_bias_m}}) {
+      if (value != 0.0) {
+        fail(key,
+             "a camera's range bias is removed from recorded sightings only (world.source: mrclam); "
+             "generated worlds draw unbiased ranges");
+      }
+    }
   }
 }
 
@@ -192,6 +204,10 @@ void validate_noise(const Scenario::Noise& noise) {
   require_within(noise.odometry_omega_std, 0.0, 100.0, "noise.odometry_omega_std");
   require_within(noise.sighting_correlation_time_s, 0.0, 1e6, "noise.sighting_correlation_time_s");
   require_within(noise.sighting_cluster_radius_m, 0.0, 1e6, "noise.sighting_cluster_radius_m");
+  require_within(noise.range_bias_m, -100.0, 100.0, "noise.range_bias_m");
+  require_within(noise.range_bias_per_rad, -100.0, 100.0, "noise.range_bias_per_rad");
+  require_within(noise.range_bias_per_rad2, -100.0, 100.0, "noise.range_bias_per_rad2");
+  require_within(noise.robot_range_bias_m, -100.0, 100.0, "noise.robot_range_bias_m");
   require_within(noise.range_correlated_fraction, 0.0, 0.99, "noise.range_correlated_fraction");
   require_within(noise.bearing_correlated_fraction, 0.0, 0.99, "noise.bearing_correlated_fraction");
   require_non_negative(noise.target_std_m, "noise.target_std_m");

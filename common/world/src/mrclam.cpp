@@ -211,12 +211,13 @@ estimators::MeasurementBatch MrclamSteps::batch(AgentId agent, std::int64_t step
                        [](double time, const MrclamDataset::MeasurementRow& r) { return time < r.time_s; });
   for (; m != measurements.end() && m->time_s <= to; ++m) {
     estimators::RangeBearingMeasurement measurement;
-    measurement.range_m = m->range_m;
+    measurement.range_m = m->range_m - range_bias_at(m->bearing_rad);
     measurement.bearing_rad = m->bearing_rad;
-    measurement.range_std_m = range_noise_.range_std_at(m->range_m);
+    measurement.range_std_m = range_noise_.range_std_at(measurement.range_m);
     measurement.bearing_std_rad = bearing_std_rad_;
     measurement.age_s = to - m->time_s;
     if (m->subject <= kMrclamRobots) {
+      measurement.range_m -= range_noise_.robot_range_bias_m;
       measurement.peer = m->subject - 1;
     } else {
       const auto& landmark = data_->landmarks.at(m->subject);

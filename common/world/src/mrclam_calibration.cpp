@@ -1,5 +1,6 @@
 #include "swarmloc/world/mrclam_calibration.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <iterator>
@@ -101,6 +102,7 @@ struct SightingResidual {
   std::size_t robot = 0;
   int subject = 0;
   Vec2 target_m = Vec2::Zero();  ///< where the subject was (a landmark's surveyed position)
+  double measured_bearing_rad = 0.0;
 };
 
 struct SightingResiduals {
@@ -138,7 +140,8 @@ SightingResiduals sighting_residuals(const MrclamDataset& data, std::size_t robo
         m.time_s,
         robot,
         m.subject,
-        *target};
+        *target,
+        m.bearing_rad};
     (landmark ? out.landmarks : out.robots).push_back(r);
   }
   return out;
@@ -531,6 +534,38 @@ OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double 
   return out;
 }
 
+/// Least squares of the inliers' range residual on (1, β, β²), the trim taken again once on what is left.
+BearingRangeBias fit_bearing_range_bias(const std::vector<SightingResidual>& sightings, double trim_sigma) {
+  BearingRangeBias bias;
+  std::vector<Pair> residuals;
+  for (const auto& s : sightings) residuals.push_back(s.residual);
+  auto stats = robust_pair_stats(residuals, trim_sigma);
+  bias.std_before_m = stats[0].std;
+  for (int pass = 0; pass < 2; ++pass) {
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+    std::size_t used = 0;
+    for (std::size_t k = 0; k < sightings.size(); ++k) {
+      if (!within_trim(residuals[k], stats[0], stats[1], trim_sigma)) continue;
+      const double beta = sightings[k].measured_bearing_rad;
+      const Eigen::Vector3d row(1.0, beta, beta * beta);
+      normal += row * row.transpose();
+      moment += row * (sightings[k].residual[0]);
+      ++used;
+    }
+    const Eigen::LDLT<Eigen::Matrix3d> solve(normal);
+    if (used < 3 * kMinBinSamples || solve.info() != Eigen::Success) return BearingRangeBias{};
+    const Eigen::Vector3d c = solve.solve(moment);
+    bias = {c[0], c[1], c[2], used, bias.std_before_m, 0.0};
+    for (std::size_t k = 0; k < sightings.size(); ++k) {
+      residuals[k][0] = sightings[k].residual[0] - bias.at(sightings[k].measured_bearing_rad);
+    }
+    stats = robust_pair_stats(residuals, trim_sigma);
+  }
+  bias.std_after_m = stats[0].std;
+  return bias;
+}
+
 /// Every residual of one robot (or of all, appended), before the statistics.
 struct RawResiduals {
   SightingResiduals sightings;
@@ -632,11 +667,22 @@ std::optional<MrclamDataset::TimedPose> groundtruth_at(const std::vector<Groundt
 MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationOptions& options) {
   MrclamCalibration out;
   out.options = options;
+  std::vector<SightingResiduals> sightings;
+  std::vector<SightingResidual> pooled_landmarks;
+  for (std::size_t r = 0; r < data.robots.size(); ++r) {
+    sightings.push_back(sighting_residuals(data, r, options.max_groundtruth_gap_s));
+    const auto& landmarks = sightings.back().landmarks;
+    pooled_landmarks.insert(pooled_landmarks.end(), landmarks.begin(), landmarks.end());
+  }
+  out.range_bias = fit_bearing_range_bias(pooled_landmarks, options.trim_sigma);
   RawResiduals pooled;
   pooled.windows.resize(options.windows_s.size());
   for (std::size_t r = 0; r < data.robots.size(); ++r) {
     RawResiduals raw;
-    raw.sightings = sighting_residuals(data, r, options.max_groundtruth_gap_s);
+    raw.sightings = std::move(sightings[r]);
+    for (auto* kind : {&raw.sightings.landmarks, &raw.sightings.robots}) {
+      for (auto& s : *kind) s.residual[0] -= out.range_bias.at(s.measured_bearing_rad);
+    }
     for (double window : options.windows_s) {
       raw.windows.push_back(odometry_residuals(data.robots[r], window, options.max_groundtruth_gap_s));
     }

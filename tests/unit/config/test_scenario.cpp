@@ -333,7 +333,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 19U + 34U + 18U + 4U + 2U + 9U + 7U * 5U + 3U + 7U);
+  EXPECT_EQ(keys.size(), 2U + 19U + 34U + 22U + 4U + 2U + 9U + 7U * 5U + 3U + 7U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -344,6 +344,17 @@ TEST(ScenarioErrors, NegativeRadiusNamesTheKey) {
             "world.comm_radius_m: -1 must be > 0 (from --set world.comm_radius_m=-1)");
   EXPECT_EQ(validate_error([](Scenario& s) { s.world.comm_radius_m = -1.0; }),
             "world.comm_radius_m: -1 must be > 0");
+}
+
+TEST(ScenarioErrors, ACamerasRangeBiasIsForRecordedDataOnly) {
+  const std::vector<std::pair<std::string, std::function<void(Scenario&)>>> cases{
+      {"noise.range_bias_m", [](Scenario& s) { s.noise.range_bias_m = 0.1; }},
+      {"noise.range_bias_per_rad2", [](Scenario& s) { s.noise.range_bias_per_rad2 = -1.6; }},
+      {"noise.robot_range_bias_m", [](Scenario& s) { s.noise.robot_range_bias_m = 0.04; }}};
+  for (const auto& [key, set] : cases) {
+    EXPECT_STARTS_WITH(validate_error(set),
+                       key + ": a camera's range bias is removed from recorded sightings");
+  }
 }
 
 TEST(ScenarioErrors, MoreAnchorsThanAgentsNamesTheAnchors) {

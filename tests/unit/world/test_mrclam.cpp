@@ -143,6 +143,29 @@ TEST(Mrclam, EachSightingGetsTheRangeStdOfTheNoiseModelAtItsMeasuredRange) {
   }
 }
 
+TEST(Mrclam, TheCamerasRangeBiasIsRemovedFromEverySighting) {
+  // The tiny dataset's sightings are straight ahead (bearing 0): only the constant term applies there, and
+  // the robot sighting loses the robots' offset too. The std is the model's at the corrected range.
+  const TinyDataset data;
+  auto scenario = mrclam_scenario(data.dir(), 20);
+  scenario.noise.range_bias_m = 0.1;
+  scenario.noise.range_bias_per_rad = 0.3;
+  scenario.noise.range_bias_per_rad2 = -1.5;
+  scenario.noise.robot_range_bias_m = 0.04;
+  scenario.noise.range_model = config::RangeNoise::kAffine;
+  scenario.noise.range_std_m = 0.05;
+  scenario.noise.range_factor = 0.01;
+  const auto world = build_world(scenario);
+  const auto landmark = world.recorded->batch(0, 2).range_bearings;
+  const auto robot = world.recorded->batch(0, 4).range_bearings;
+  ASSERT_EQ(landmark.size(), 1U);
+  ASSERT_EQ(robot.size(), 1U);
+  const double landmark_range = 10.0 - 1 - 0.035 - 0.1;
+  EXPECT_NEAR(landmark[0].range_m, landmark_range, 1e-6);
+  EXPECT_NEAR(landmark[0].range_std_m, 0.05 + 0.01 * landmark_range, 1e-6);
+  EXPECT_NEAR(robot[0].range_m, 1.0 - 0.1 - 0.04, 1e-6);
+}
+
 TEST(Mrclam, BadDataIsAClearErrorNamingTheFileAndLine) {
   const TinyDataset data;
   data.write("Robot3_Odometry", "100.05 0.5 0\n101.0 nan 0\n");

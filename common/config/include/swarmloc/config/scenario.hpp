@@ -199,6 +199,12 @@ struct Scenario {
     double doa_error_deg = 5.0;   ///< angle-of-arrival error, uniform in ±this (multipath_bp)
     NoiseDraw draw = NoiseDraw::kPerStep;
     // Pose-state algorithms on recorded data (world.source = mrclam): the filters' noise model.
+    /// The camera's range bias across its image, b(β) = range_bias_m + range_bias_per_rad·β +
+    /// range_bias_per_rad2·β² at measured bearing β: the loader removes it from every sighting.
+    double range_bias_m = 0.0;
+    double range_bias_per_rad = 0.0;
+    double range_bias_per_rad2 = 0.0;
+    double robot_range_bias_m = 0.0;  ///< and a sighting of a robot reads this much longer still
     double bearing_std_rad = 0.05;    ///< robot-frame bearing std
     double odometry_v_std = 0.05;     ///< m/√s on the travelled distance
     double odometry_omega_std = 0.1;  ///< rad/√s on the turned angle

@@ -62,7 +62,9 @@ MrclamDataset load_mrclam(const std::filesystem::path& directory);
 /// The dataset cut into world steps of scenario.world.data_step_s seconds from start_time_s:
 /// step k covers dataset time (t_{k−1}, t_k], t_k = start + k·dt. Its batch carries the odometry
 /// segments of that interval and the measurements timestamped in it (step 0: none), with the noise of
-/// scenario.noise (the range std of noise.range_model at the measured range, bearing_std_rad,
+/// scenario.noise (the range less the camera's bias at its bearing, noise.range_bias_*, and a robot
+/// sighting's less noise.robot_range_bias_m; the range std of
+/// noise.range_model at that range, bearing_std_rad,
 /// odometry_v_std, odometry_omega_std); the truth is the
 /// groundtruth interpolated at t_k.
 class MrclamSteps final : public RecordedSteps {
@@ -83,7 +85,12 @@ class MrclamSteps final : public RecordedSteps {
   std::shared_ptr<const MrclamDataset> data_;
   double step_s_;
   std::int64_t steps_;
-  config::Scenario::Noise range_noise_;  ///< its range_std_at(measured range)
+  /// The camera's range bias at a measured bearing (noise.range_bias_*), removed from every sighting.
+  [[nodiscard]] double range_bias_at(double bearing_rad) const {
+    return range_noise_.range_bias_m + range_noise_.range_bias_per_rad * bearing_rad +
+           range_noise_.range_bias_per_rad2 * bearing_rad * bearing_rad;
+  }
+  config::Scenario::Noise range_noise_;  ///< range_std_at(the range with its bias removed), the bias
   double bearing_std_rad_;
   double odometry_v_std_;
   double odometry_omega_std_;

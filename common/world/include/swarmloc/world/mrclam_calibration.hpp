@@ -134,7 +134,24 @@ struct CalibrationOptions {
   double trim_sigma = 3.0;
 };
 
+/// A range bias that depends on where the subject is in the camera's image: b(β) = constant_m +
+/// per_rad·β + per_rad2·β², β the measured bearing (docs/real-data.md, "Range bias across the image").
+/// Fitted by least squares to the pooled inlier landmark sightings; every sighting residual the other
+/// figures use has it removed.
+struct BearingRangeBias {
+  double constant_m = 0.0;
+  double per_rad = 0.0;
+  double per_rad2 = 0.0;
+  std::size_t samples = 0;    ///< inlier landmark sightings fitted
+  double std_before_m = 0.0;  ///< their range std with and without the bias
+  double std_after_m = 0.0;
+  [[nodiscard]] double at(double bearing_rad) const {
+    return constant_m + per_rad * bearing_rad + per_rad2 * bearing_rad * bearing_rad;
+  }
+};
+
 struct MrclamCalibration {
+  BearingRangeBias range_bias;           ///< removed before every sighting figure below
   std::vector<RobotCalibration> robots;  ///< robots[i] = subject i + 1
   RobotCalibration pooled;               ///< all robots' residuals together (the published figures)
   CalibrationOptions options;
