@@ -1,0 +1,41 @@
+// Odometry against groundtruth over tiled windows: the odometry half of calibrate_mrclam
+// (docs/real-data.md, "Noise model"). Private to common/world.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <vector>
+
+#include "swarmloc/world/mrclam_calibration.hpp"
+
+namespace swarmloc::world::detail {
+
+using Pair = std::array<double, 2>;
+
+/// The final trim of robust_pair_stats, applied to one sample.
+inline bool within_trim(const Pair& residual, const RobustStats& first, const RobustStats& second,
+                        double trim_sigma) {
+  return std::abs(residual[0] - first.bias) <= trim_sigma * first.std &&
+         std::abs(residual[1] - second.bias) <= trim_sigma * second.std;
+}
+
+/// One window's residual and the odometry's distance along its chord (for the scale ratio).
+struct WindowResidual {
+  Pair residual{};  ///< distance (m), heading (rad): groundtruth − odometry
+  double odometry_distance_m = 0.0;
+  double true_distance_m = 0.0;
+};
+
+struct WindowResiduals {
+  std::vector<WindowResidual> windows;
+  std::size_t gaps = 0;
+};
+
+/// Each window of `window_s` tiled along the robot's odometry, groundtruth − odometry (a window with a
+/// groundtruth gap inside is counted, not scored).
+WindowResiduals odometry_residuals(const MrclamDataset::Robot& robot, double window_s, double max_gap_s);
+
+/// The windows' robust statistics and distance ratio.
+OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double window_s, double trim_sigma);
+
+}  // namespace swarmloc::world::detail
