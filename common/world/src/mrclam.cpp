@@ -163,6 +163,11 @@ MrclamDataset::TimedPose MrclamSteps::pose_at(AgentId agent, std::int64_t step) 
   }
   const auto before = std::prev(after);
   const double span = after->time_s - before->time_s;
+  if (step > 0 && span > kMrclamMaxTruthGapS) {
+    // Inside a gap in the groundtruth (the motion capture lost the robot): unknown truth, not a guess.
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    return {t, Vec2(nan, nan), nan};
+  }
   const double w = span > 0.0 ? (t - before->time_s) / span : 0.0;
   const double turn = models::wrap_angle(after->heading_rad - before->heading_rad);
   return {t, (1.0 - w) * before->position_m + w * after->position_m,

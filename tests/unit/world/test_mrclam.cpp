@@ -20,7 +20,8 @@ namespace {
 namespace fs = std::filesystem;
 
 /// A five-robot dataset: robot r starts at (r, 0) facing +x, drives at 0.5 m/s from t = 100.05 on;
-/// landmark 6 (barcode 60) at (10, 0); robot 5's groundtruth ends early (at t = 101).
+/// landmark 6 (barcode 60) at (10, 0); robot 5's groundtruth ends early (at t = 101); robot 3's has a
+/// gap of 0.6 s (101.2 to 101.8) and robot 2's one of 0.3 s (101.2 to 101.5).
 class TinyDataset {
  public:
   TinyDataset() : dir_(fs::temp_directory_path() / ("mrclam-" + std::to_string(::getpid()))) {
@@ -33,6 +34,9 @@ class TinyDataset {
       std::string groundtruth;
       const double end = r == 5 ? 101.0 : 102.0;
       for (double t = 100.0; t <= end + 1e-9; t += 0.01) {
+        const bool lost = (r == 3 && t > 101.2 + 1e-9 && t < 101.8 - 1e-9) ||
+                          (r == 2 && t > 101.2 + 1e-9 && t < 101.5 - 1e-9);
+        if (lost) continue;
         const double x = r + 0.5 * std::max(0.0, t - 100.05);
         groundtruth += std::to_string(t) + " " + std::to_string(x) + " 0 0\n";
       }
@@ -118,6 +122,21 @@ TEST(Mrclam, StepsCarryTheirOdometryAndMeasurementsAndTruthEndsWithTheGroundtrut
   EXPECT_NEAR(world.recorded->truth(10)[0].x(), 1.0 + 0.5 * 0.95, 1e-6);
   EXPECT_FALSE(world.recorded->truth(15)[4].allFinite());  // robot 5's groundtruth ended at 101 s
   EXPECT_TRUE(world.recorded->truth(15)[3].allFinite());
+}
+
+TEST(Mrclam, TruthInsideALongGapInTheGroundtruthIsUnknownAndAShortGapIsInterpolated) {
+  const TinyDataset data;
+  const auto world = build_world(mrclam_scenario(data.dir(), 20));
+  ASSERT_TRUE(world.recorded);
+  // Robot 3 (agent 2) is lost from 101.2 to 101.8 s: steps 13 to 17 have no truth, steps 12 and 19 do.
+  EXPECT_TRUE(world.recorded->truth(12)[2].allFinite());
+  for (std::int64_t step = 13; step <= 17; ++step) {
+    EXPECT_FALSE(world.recorded->truth(step)[2].allFinite()) << step;
+    EXPECT_TRUE(std::isnan(world.recorded->truth_heading(2, step))) << step;
+  }
+  EXPECT_NEAR(world.recorded->truth(19)[2].x(), 3.0 + 0.5 * 1.85, 1e-6);
+  // Robot 2 (agent 1) is lost for 0.3 s: interpolated across the gap.
+  EXPECT_NEAR(world.recorded->truth(14)[1].x(), 2.0 + 0.5 * 1.35, 1e-6);
 }
 
 TEST(Mrclam, EachSightingGetsTheRangeStdOfTheNoiseModelAtItsMeasuredRange) {

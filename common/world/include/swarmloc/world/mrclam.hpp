@@ -53,6 +53,9 @@ struct MrclamDataset {
 };
 
 inline constexpr int kMrclamRobots = 5;
+/// Groundtruth rows further apart than this leave the truth between them unknown: steps inside are not
+/// scored (linear interpolation over 0.5 s errs by under a centimetre at MRCLAM's speeds and turn rates).
+inline constexpr double kMrclamMaxTruthGapS = 0.5;
 
 /// Reads Barcodes, Landmark_Groundtruth and Robot{1..5}_{Groundtruth,Odometry,Measurement} from
 /// `directory` (each file as NAME.dat or NAME.dat.gz). Throws config::ScenarioError naming the file and
@@ -76,7 +79,8 @@ class MrclamSteps final : public RecordedSteps {
   [[nodiscard]] double truth_heading(AgentId agent, std::int64_t step) const override {
     return pose_at(agent, step).heading_rad;
   }
-  /// Groundtruth pose of robot `agent` at dataset time start + step·dt (linear interpolation).
+  /// Groundtruth pose of robot `agent` at dataset time start + step·dt (linear interpolation); NaN past
+  /// the robot's groundtruth and, after step 0, inside a gap of more than kMrclamMaxTruthGapS.
   [[nodiscard]] MrclamDataset::TimedPose pose_at(AgentId agent, std::int64_t step) const;
   /// Dataset time of world step `step` (seconds since start_time_s).
   [[nodiscard]] double time_of(std::int64_t step) const { return static_cast<double>(step) * step_s_; }
