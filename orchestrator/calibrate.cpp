@@ -95,6 +95,17 @@ void print_odometry(const world::RobotCalibration& calibration) {
       h.distance_m.all_mean, h.heading_rad.all_mean);
 }
 
+void print_lag(const world::OdometryLag& lag) {
+  std::printf(
+      "Odometry command lag (the robots follow their commands late; every odometry figure below uses it):\n"
+      "  heading std over %.1f s windows, pooled, by the lag the commands are shifted by:\n   ",
+      world::kLagWindowS);
+  for (std::size_t k = 0; k < lag.curve.size(); k += 5) {
+    std::printf(" %.2f s: %.4f rad", lag.curve[k][0], lag.curve[k][1]);
+  }
+  std::printf("\n  least at %.2f s\n\n", lag.lag_s);
+}
+
 void print_report(const std::string& dir, const world::MrclamCalibration& c) {
   std::printf("Noise of %s measured against its groundtruth\n", dir.c_str());
   std::printf(
@@ -113,6 +124,7 @@ void print_report(const std::string& dir, const world::MrclamCalibration& c) {
       "  b(bearing) = %+.4f m %+.4f m/rad * bearing %+.4f m/rad^2 * bearing^2   (range std %.4f m -> %.4f "
       "m)\n\n",
       b.samples, b.constant_m, b.per_rad, b.per_rad2, b.std_before_m, b.std_after_m);
+  print_lag(c.odometry_lag);
   for (std::size_t r = 0; r < c.robots.size(); ++r) {
     std::printf("Robot %zu\n", r + 1);
     print_sightings("landmark sightings", c.robots[r].landmarks);
@@ -168,6 +180,7 @@ std::string scenario_fragment(const std::string& dir, const world::MrclamCalibra
   text << "  bearing_std_rad: " << c.pooled.landmarks.bearing_rad.std << "\n"
        << "  odometry_v_std: " << odometry.v_rms_with_tails() << "\n"
        << "  odometry_omega_std: " << odometry.omega_rms_with_tails() << "\n"
+       << "  odometry_lag_s: " << c.odometry_lag.lag_s << "\n"
        << "  sighting_correlation_time_s: " << correlation.correlation_time_s << "\n"
        << "  range_correlated_fraction: " << correlation.range_fraction << "\n"
        << "  bearing_correlated_fraction: " << correlation.bearing_fraction << "\n"

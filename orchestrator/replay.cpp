@@ -130,7 +130,8 @@ noise:
   range_factor: 0.0066
   bearing_std_rad: 0.010
   odometry_v_std: 0.019
-  odometry_omega_std: 0.033
+  odometry_omega_std: 0.031
+  odometry_lag_s: 0.16
   sighting_correlation_time_s: 7.6
   range_correlated_fraction: 0.86
   bearing_correlated_fraction: 0.54

@@ -388,6 +388,7 @@ std::vector<KeySpec> noise_keys() {
       SWARMLOC_KEY(noise.bearing_std_rad),
       SWARMLOC_KEY(noise.odometry_v_std),
       SWARMLOC_KEY(noise.odometry_omega_std),
+      SWARMLOC_KEY(noise.odometry_lag_s),
       SWARMLOC_KEY(noise.sighting_correlation_time_s),
       SWARMLOC_KEY(noise.sighting_cluster_radius_m),
       SWARMLOC_KEY(noise.range_bias_m),

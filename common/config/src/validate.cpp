@@ -155,6 +155,10 @@ void validate_data_source(const Scenario& scenario, const AlgorithmSpec& spec) {
              "generated worlds draw unbiased ranges");
       }
     }
+    if (noise.odometry_lag_s != 0.0) {
+      fail("noise.odometry_lag_s",
+           "the command lag is removed from recorded odometry only (world.source: mrclam)");
+    }
   }
 }
 
@@ -202,6 +206,7 @@ void validate_noise(const Scenario::Noise& noise) {
   require_within(noise.bearing_std_rad, 1e-6, 3.2, "noise.bearing_std_rad");
   require_within(noise.odometry_v_std, 0.0, 100.0, "noise.odometry_v_std");
   require_within(noise.odometry_omega_std, 0.0, 100.0, "noise.odometry_omega_std");
+  require_within(noise.odometry_lag_s, 0.0, 5.0, "noise.odometry_lag_s");
   require_within(noise.sighting_correlation_time_s, 0.0, 1e6, "noise.sighting_correlation_time_s");
   require_within(noise.sighting_cluster_radius_m, 0.0, 1e6, "noise.sighting_cluster_radius_m");
   require_within(noise.range_bias_m, -100.0, 100.0, "noise.range_bias_m");

@@ -143,7 +143,8 @@ MrclamSteps::MrclamSteps(std::shared_ptr<const MrclamDataset> data, const config
       range_noise_(scenario.noise),
       bearing_std_rad_(scenario.noise.bearing_std_rad),
       odometry_v_std_(scenario.noise.odometry_v_std),
-      odometry_omega_std_(scenario.noise.odometry_omega_std) {}
+      odometry_omega_std_(scenario.noise.odometry_omega_std),
+      odometry_lag_s_(scenario.noise.odometry_lag_s) {}
 
 MrclamDataset::TimedPose MrclamSteps::pose_at(AgentId agent, std::int64_t step) const {
   const auto& track = data_->robots.at(static_cast<std::size_t>(agent)).groundtruth;
@@ -194,18 +195,22 @@ estimators::MeasurementBatch MrclamSteps::batch(AgentId agent, std::int64_t step
   const double from = data_->start_time_s + time_of(step - 1);
   const double to = data_->start_time_s + time_of(step);
 
-  // Odometry: each row's command holds from its time until the next row's (the first row's from t_0).
+  // Odometry: each row's command holds from its time until the next row's (the first row's from t_0); the
+  // robot moves by it odometry_lag_s later.
   estimators::OdometryInput odometry;
   odometry.v_std = odometry_v_std_;
   odometry.omega_std = odometry_omega_std_;
   const auto& rows = robot.odometry;
+  const double command_from = from - odometry_lag_s_;
+  const double command_to = to - odometry_lag_s_;
   auto row =
-      std::upper_bound(rows.begin(), rows.end(), from,
+      std::upper_bound(rows.begin(), rows.end(), command_from,
                        [](double time, const MrclamDataset::OdometryRow& r) { return time < r.time_s; });
-  if (row != rows.begin()) --row;  // the command in force at `from`
-  for (; row != rows.end() && row->time_s < to; ++row) {
-    const double begin = std::max(from, row->time_s);
-    const double end = std::next(row) == rows.end() ? to : std::min(to, std::next(row)->time_s);
+  if (row != rows.begin()) --row;  // the command in force at `command_from`
+  for (; row != rows.end() && row->time_s < command_to; ++row) {
+    const double begin = std::max(command_from, row->time_s);
+    const double end =
+        std::next(row) == rows.end() ? command_to : std::min(command_to, std::next(row)->time_s);
     if (end > begin) odometry.segments.push_back({row->v_mps, row->omega_radps, end - begin});
   }
   batch.odometry = std::move(odometry);

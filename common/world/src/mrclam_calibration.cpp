@@ -432,6 +432,7 @@ SightingCalibration calibrate_sightings(const std::vector<SightingResidual>& sig
 BearingRangeBias fit_bearing_range_bias(const std::vector<SightingResidual>& sightings, double trim_sigma) {
   BearingRangeBias bias;
   std::vector<Pair> residuals;
+  residuals.reserve(sightings.size());
   for (const auto& s : sightings) residuals.push_back(s.residual);
   auto stats = robust_pair_stats(residuals, trim_sigma);
   bias.std_before_m = stats[0].std;
@@ -548,6 +549,8 @@ MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationO
     pooled_landmarks.insert(pooled_landmarks.end(), landmarks.begin(), landmarks.end());
   }
   out.range_bias = fit_bearing_range_bias(pooled_landmarks, options.trim_sigma);
+  out.odometry_lag = detail::measure_odometry_lag(data, options.max_groundtruth_gap_s, options.trim_sigma);
+  const double lag = out.odometry_lag.lag_s;
   RawResiduals pooled;
   pooled.windows.resize(options.windows_s.size());
   for (std::size_t r = 0; r < data.robots.size(); ++r) {
@@ -557,7 +560,7 @@ MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationO
       for (auto& s : *kind) s.residual[0] -= out.range_bias.at(s.measured_bearing_rad);
     }
     for (double window : options.windows_s) {
-      raw.windows.push_back(odometry_residuals(data.robots[r], window, options.max_groundtruth_gap_s));
+      raw.windows.push_back(odometry_residuals(data.robots[r], window, options.max_groundtruth_gap_s, lag));
     }
     out.robots.push_back(calibrate_residuals(raw, options));
     append(pooled, raw);
@@ -569,7 +572,7 @@ MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationO
   const double horizon_s = std::max(options.min_horizon_s, 0.1 * std::round(tau / 0.1));
   WindowResiduals pooled_horizon;
   for (std::size_t r = 0; r < data.robots.size(); ++r) {
-    WindowResiduals raw = odometry_residuals(data.robots[r], horizon_s, options.max_groundtruth_gap_s);
+    WindowResiduals raw = odometry_residuals(data.robots[r], horizon_s, options.max_groundtruth_gap_s, lag);
     out.robots[r].horizon = calibrate_odometry(raw, horizon_s, options.trim_sigma);
     pooled_horizon.windows.insert(pooled_horizon.windows.end(), raw.windows.begin(), raw.windows.end());
     pooled_horizon.gaps += raw.gaps;

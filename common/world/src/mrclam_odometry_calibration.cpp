@@ -1,6 +1,7 @@
 #include "mrclam_odometry_calibration.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include "swarmloc/models/measurement_models.hpp"
 
@@ -53,7 +54,8 @@ GroundtruthPose integrate_odometry(const std::vector<MrclamDataset::OdometryRow>
 
 }  // namespace
 
-WindowResiduals odometry_residuals(const MrclamDataset::Robot& robot, double window_s, double max_gap_s) {
+WindowResiduals odometry_residuals(const MrclamDataset::Robot& robot, double window_s, double max_gap_s,
+                                   double lag_s) {
   WindowResiduals out;
   if (robot.odometry.empty()) return out;
   const double first = robot.odometry.front().time_s;
@@ -66,7 +68,7 @@ WindowResiduals odometry_residuals(const MrclamDataset::Robot& robot, double win
       ++out.gaps;
       continue;
     }
-    const GroundtruthPose odometry = integrate_odometry(robot.odometry, from, to);
+    const GroundtruthPose odometry = integrate_odometry(robot.odometry, from - lag_s, to - lag_s);
     const Eigen::Rotation2Dd to_start_frame(-start->heading_rad);
     const Vec2 true_motion = to_start_frame * (end->position_m - start->position_m);
     const double true_turn = models::wrap_angle(end->heading_rad - start->heading_rad);
@@ -102,6 +104,29 @@ OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double 
     true_sum += w.true_distance_m;
   }
   out.distance_ratio = odometry_sum != 0.0 ? true_sum / odometry_sum : 1.0;
+  return out;
+}
+
+OdometryLag measure_odometry_lag(const MrclamDataset& data, double max_gap_s, double trim_sigma) {
+  OdometryLag out;
+  double best = std::numeric_limits<double>::infinity();
+  const int steps = static_cast<int>(std::lround(kMaxLagS / kLagStepS));
+  for (int k = 0; k <= steps; ++k) {
+    const double lag = k * kLagStepS;
+    std::vector<Pair> pairs;
+    for (const auto& robot : data.robots) {
+      for (const auto& w : odometry_residuals(robot, kLagWindowS, max_gap_s, lag).windows) {
+        pairs.push_back(w.residual);
+      }
+    }
+    if (pairs.empty()) continue;
+    const double heading_std = robust_pair_stats(pairs, trim_sigma)[1].std;
+    out.curve.push_back({lag, heading_std});
+    if (heading_std < best) {
+      best = heading_std;
+      out.lag_s = lag;
+    }
+  }
   return out;
 }
 

@@ -32,8 +32,15 @@ struct WindowResiduals {
 };
 
 /// Each window of `window_s` tiled along the robot's odometry, groundtruth − odometry (a window with a
-/// groundtruth gap inside is counted, not scored).
-WindowResiduals odometry_residuals(const MrclamDataset::Robot& robot, double window_s, double max_gap_s);
+/// groundtruth gap inside is counted, not scored). The motion over (t0, t1] is integrated from the commands
+/// in force over (t0 − lag_s, t1 − lag_s]: the robot follows its commands lag_s late.
+WindowResiduals odometry_residuals(const MrclamDataset::Robot& robot, double window_s, double max_gap_s,
+                                   double lag_s = 0.0);
+
+/// The command lag that makes the odometry's turn agree best with the groundtruth: the trimmed heading
+/// std over windows of kLagWindowS, pooled over every robot, for each lag on a grid of kLagStepS up to
+/// kMaxLagS; the lag where it is least.
+OdometryLag measure_odometry_lag(const MrclamDataset& data, double max_gap_s, double trim_sigma);
 
 /// The windows' robust statistics and distance ratio.
 OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double window_s, double trim_sigma);

@@ -333,7 +333,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 19U + 34U + 22U + 4U + 2U + 9U + 7U * 5U + 3U + 7U);
+  EXPECT_EQ(keys.size(), 2U + 19U + 34U + 23U + 4U + 2U + 9U + 7U * 5U + 3U + 7U);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -355,6 +355,8 @@ TEST(ScenarioErrors, ACamerasRangeBiasIsForRecordedDataOnly) {
     EXPECT_STARTS_WITH(validate_error(set),
                        key + ": a camera's range bias is removed from recorded sightings");
   }
+  EXPECT_STARTS_WITH(validate_error([](Scenario& s) { s.noise.odometry_lag_s = 0.16; }),
+                     "noise.odometry_lag_s: the command lag is removed from recorded odometry only");
 }
 
 TEST(ScenarioErrors, MoreAnchorsThanAgentsNamesTheAnchors) {

@@ -124,6 +124,27 @@ TEST(Mrclam, StepsCarryTheirOdometryAndMeasurementsAndTruthEndsWithTheGroundtrut
   EXPECT_TRUE(world.recorded->truth(15)[3].allFinite());
 }
 
+TEST(Mrclam, TheCommandLagShiftsTheOdometryOfEveryStep) {
+  const TinyDataset data;
+  auto scenario = mrclam_scenario(data.dir(), 20);
+  scenario.noise.odometry_lag_s = 0.1;
+  const auto world = build_world(scenario);
+  ASSERT_TRUE(world.recorded);
+  // Driving is commanded from 100.05 s, so the robot moves from 100.15 s: not at all in step 1
+  // (100.0, 100.1], for 0.05 s in step 2.
+  const auto driven = [&](std::int64_t step) {
+    double distance = 0.0;
+    const auto batch = world.recorded->batch(0, step);
+    for (const auto& segment : batch.odometry->segments) distance += segment.v_mps * segment.dt_s;
+    return distance;
+  };
+  EXPECT_NEAR(driven(1), 0.0, 1e-12);
+  EXPECT_NEAR(driven(2), 0.025, 1e-9);
+  EXPECT_NEAR(driven(3), 0.05, 1e-9);
+  // The sightings keep their own times: the landmark sighting at 100.12 s is still step 2's.
+  EXPECT_EQ(world.recorded->batch(0, 2).range_bearings.size(), 1U);
+}
+
 TEST(Mrclam, TruthInsideALongGapInTheGroundtruthIsUnknownAndAShortGapIsInterpolated) {
   const TinyDataset data;
   const auto world = build_world(mrclam_scenario(data.dir(), 20));

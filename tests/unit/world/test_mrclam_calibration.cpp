@@ -28,6 +28,7 @@ struct SyntheticNoise {
   double bearing_correlated_fraction = 0.0;
   double robot_range_bias_step_m = 0.0;  ///< robot r (0-based) adds (r − 2) × this to range_bias_m
   double speed_scale = 1.0;              ///< true speed / the speed odometry reports
+  double command_lag_s = 0.0;            ///< the robot follows each odometry row this much after its stamp
   /// Landmarks in pairs 0.3 m apart (subject 6 + 2k and 7 + 2k), both sighted in one frame; with
   /// pairs_share_errors the pair has one Gauss–Markov error per robot, otherwise each landmark its own.
   bool paired_landmarks = false;
@@ -85,7 +86,7 @@ void add_odometry(MrclamDataset::Robot& robot, const TrueTrack& track, const Syn
   const double per_row = 1.0 / std::sqrt(kRowS);
   for (std::size_t k = 0; k < track.poses.size(); ++k) {
     robot.groundtruth.push_back(track.poses[k]);
-    robot.odometry.push_back({track.poses[k].time_s,
+    robot.odometry.push_back({track.poses[k].time_s - noise.command_lag_s,
                               track.commands[k][0] / noise.speed_scale + noise.v_std * per_row * unit(rng),
                               track.commands[k][1] + noise.omega_std * per_row * unit(rng)});
   }
@@ -258,6 +259,22 @@ TEST(MrclamCalibration, RecoversTheOdometryDensitiesAtEveryWindowLength) {
     EXPECT_NEAR(w.distance_ratio, 1.0, 0.01);
     EXPECT_NEAR(w.distance_m.bias, 0.0, 0.005);
   }
+}
+
+TEST(MrclamCalibration, MeasuresTheCommandLagAndScoresTheOdometryWithIt) {
+  SyntheticNoise noise;
+  noise.command_lag_s = 0.2;
+  const auto c = calibrate_mrclam(synthetic_dataset(noise));
+  EXPECT_NEAR(c.odometry_lag.lag_s, noise.command_lag_s, 0.03);
+  ASSERT_FALSE(c.odometry_lag.curve.empty());
+  EXPECT_NEAR(c.odometry_lag.curve.back()[0], kMaxLagS, 1e-9);
+  // Scored with the lag, the windows see only the white noise again.
+  const auto& w = window_of(c.pooled, 1.0);
+  EXPECT_NEAR(w.omega_std(), noise.omega_std, 0.1 * noise.omega_std);
+  EXPECT_NEAR(w.v_std(), noise.v_std, 0.1 * noise.v_std);
+
+  const auto prompt = calibrate_mrclam(synthetic_dataset(SyntheticNoise{}));
+  EXPECT_LE(prompt.odometry_lag.lag_s, 0.03);
 }
 
 TEST(MrclamCalibration, PublishedOdometryCoversTheErrorOverTheSightingsCorrelationTime) {

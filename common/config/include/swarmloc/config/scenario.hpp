@@ -208,6 +208,9 @@ struct Scenario {
     double bearing_std_rad = 0.05;    ///< robot-frame bearing std
     double odometry_v_std = 0.05;     ///< m/√s on the travelled distance
     double odometry_omega_std = 0.1;  ///< rad/√s on the turned angle
+    /// The robots follow their velocity commands this late: the loader gives step (t_{k−1}, t_k] the
+    /// commands in force over (t_{k−1} − lag, t_k − lag].
+    double odometry_lag_s = 0.0;
     /// Sightings' errors correlated in time: white + first-order Gauss–Markov parts (estimators'
     /// KalmanFilterParams, docs/algorithms.md §10.3); τ = 0: independent.
     double sighting_correlation_time_s = 0.0;

@@ -65,8 +65,9 @@ MrclamDataset load_mrclam(const std::filesystem::path& directory);
 /// The dataset cut into world steps of scenario.world.data_step_s seconds from start_time_s:
 /// step k covers dataset time (t_{k−1}, t_k], t_k = start + k·dt. Its batch carries the odometry
 /// segments of that interval and the measurements timestamped in it (step 0: none), with the noise of
-/// scenario.noise (the range less the camera's bias at its bearing, noise.range_bias_*, and a robot
-/// sighting's less noise.robot_range_bias_m; the range std of
+/// scenario.noise (the odometry of the commands in force noise.odometry_lag_s earlier; the range less the
+/// camera's bias at its bearing, noise.range_bias_*, and a robot sighting's less noise.robot_range_bias_m;
+/// the range std of
 /// noise.range_model at that range, bearing_std_rad,
 /// odometry_v_std, odometry_omega_std); the truth is the
 /// groundtruth interpolated at t_k.
@@ -98,6 +99,7 @@ class MrclamSteps final : public RecordedSteps {
   double bearing_std_rad_;
   double odometry_v_std_;
   double odometry_omega_std_;
+  double odometry_lag_s_;
 };
 
 /// The world of a scenario with world.source = mrclam: five agents (no anchors), a complete

@@ -150,8 +150,20 @@ struct BearingRangeBias {
   }
 };
 
+/// How late the robots follow their velocity commands (docs/real-data.md, "Odometry command lag"): the lag
+/// that best aligns the commanded turn with the groundtruth's, and the trimmed heading std of
+/// kLagWindowS windows at each lag tried.
+struct OdometryLag {
+  double lag_s = 0.0;
+  std::vector<std::array<double, 2>> curve;  ///< (lag s, heading std rad) on the grid
+};
+inline constexpr double kLagWindowS = 1.0;
+inline constexpr double kLagStepS = 0.02;
+inline constexpr double kMaxLagS = 0.6;
+
 struct MrclamCalibration {
   BearingRangeBias range_bias;           ///< removed before every sighting figure below
+  OdometryLag odometry_lag;              ///< applied to every odometry figure below
   std::vector<RobotCalibration> robots;  ///< robots[i] = subject i + 1
   RobotCalibration pooled;               ///< all robots' residuals together (the published figures)
   CalibrationOptions options;
