@@ -25,7 +25,7 @@ using Clock = std::chrono::steady_clock;
 std::atomic<bool> g_stop_requested{false};
 
 // Only sets a flag: never call DDS from a signal handler.
-void on_signal(int /*signal*/) { g_stop_requested.store(true); }
+void on_stop_signal(int /*signal*/) { g_stop_requested.store(true); }
 
 using runtime::process_cpu_s;
 
@@ -231,9 +231,9 @@ class FusionProcess {
 }  // namespace
 
 int run_fusion_center(const FusionOptions& options) {
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  std::signal(SIGHUP, on_signal);
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+  std::signal(SIGHUP, on_stop_signal);
   std::signal(SIGPIPE, SIG_IGN);
   auto logger = make_logger(options);
   config::Scenario scenario;

@@ -12,12 +12,12 @@
 namespace swarmloc::orchestrator {
 namespace {
 
-nlohmann::json number_or_null(double value) {
+nlohmann::json view_number_or_null(double value) {
   return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json();
 }
 
 nlohmann::json point(const Vec2& p) {
-  return nlohmann::json::array({number_or_null(p.x()), number_or_null(p.y())});
+  return nlohmann::json::array({view_number_or_null(p.x()), view_number_or_null(p.y())});
 }
 
 }  // namespace
@@ -45,11 +45,13 @@ nlohmann::json snapshot_json(const ViewSnapshot& s) {
                        : std::min(1.0, static_cast<double>(link.delivered) / static_cast<double>(link.sent));
     links.push_back({{"a", link.a},
                      {"b", link.b},
-                     {"delivered_fraction", number_or_null(fraction)},
+                     {"delivered_fraction", view_number_or_null(fraction)},
                      {"delivered", link.delivered},
                      {"sent", link.sent}});
   }
-  const auto metric = [&](double value) { return s.has_metrics ? number_or_null(value) : nlohmann::json(); };
+  const auto metric = [&](double value) {
+    return s.has_metrics ? view_number_or_null(value) : nlohmann::json();
+  };
   return {{"name", s.name},
           {"algorithm", s.algorithm},
           {"mode", s.mode},
@@ -71,8 +73,8 @@ nlohmann::json snapshot_json(const ViewSnapshot& s) {
           {"bound_kind", s.bound_kind},
           {"optimum_kind", s.optimum_kind},
           {"optimum_step", s.optimum_step},
-          {"optimum_rmse_m", number_or_null(s.optimum_rmse_m)},
-          {"efficiency", number_or_null(s.efficiency)},
+          {"optimum_rmse_m", view_number_or_null(s.optimum_rmse_m)},
+          {"efficiency", view_number_or_null(s.efficiency)},
           {"scored", s.scored},
           {"done", s.done}};
 }
@@ -138,7 +140,7 @@ void set_optimum(ViewSnapshot& snapshot, const rundir::RunRecord& record, std::s
 
 void play_back(LiveView& view, const config::Scenario& scenario, const rundir::RunRecord& record,
                const std::atomic<bool>& interrupted) {
-  using Clock = std::chrono::steady_clock;
+  using SteadyClock = std::chrono::steady_clock;
   auto world = world::build_world(scenario);
   ViewSnapshot base = view_snapshot(scenario, world);
   base.mode = "sim";
@@ -147,9 +149,9 @@ void play_back(LiveView& view, const config::Scenario& scenario, const rundir::R
   std::map<std::int64_t, std::vector<const rundir::EstimateRow*>> rows;
   for (const auto& row : record.estimates) rows[row.step].push_back(&row);
   std::vector<std::optional<estimators::Estimate>> latest(base.agents.size());
-  const auto period =
-      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / scenario.run.rate_hz));
-  auto next = Clock::now();
+  const auto period = std::chrono::duration_cast<SteadyClock::duration>(
+      std::chrono::duration<double>(1.0 / scenario.run.rate_hz));
+  auto next = SteadyClock::now();
   for (std::size_t k = 0; k < record.metrics.size() && !interrupted.load(); ++k) {
     const auto& metrics = record.metrics[k];
     if (metrics.step > 0) world::advance_truth(world, scenario, metrics.step);
@@ -174,7 +176,7 @@ void play_back(LiveView& view, const config::Scenario& scenario, const rundir::R
     view.publish(std::move(s));
     if (done) break;
     next += period;
-    while (Clock::now() < next && !interrupted.load())
+    while (SteadyClock::now() < next && !interrupted.load())
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
 }
@@ -244,11 +246,12 @@ void LiveView::publish(ViewSnapshot snapshot) {
 }
 
 void LiveView::hold(double seconds, const std::atomic<bool>& interrupted) const {
-  using Clock = std::chrono::steady_clock;
+  using SteadyClock = std::chrono::steady_clock;
   const bool forever = !std::isfinite(seconds);
-  const auto until = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
-                                        forever ? 0.0 : std::max(0.0, seconds)));
-  while (!interrupted.load() && (forever || Clock::now() < until)) {
+  const auto until =
+      SteadyClock::now() + std::chrono::duration_cast<SteadyClock::duration>(
+                               std::chrono::duration<double>(forever ? 0.0 : std::max(0.0, seconds)));
+  while (!interrupted.load() && (forever || SteadyClock::now() < until)) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
 }

@@ -23,7 +23,7 @@ using detail::Graph;
 using detail::make_graph;
 using detail::normal2;
 using detail::uniform_points;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kNoRmse = std::numeric_limits<double>::quiet_NaN();
 
 /// The graph on `points` whose radius is the num_edges-th smallest pairwise distance (exactly num_edges
 /// edges, [C-5]).
@@ -238,8 +238,8 @@ JacobiExperimentResult run_jacobi_experiment(const JacobiExperimentConfig& c) {
   result.crb_rmse.resize(steps + 1);
   for (std::size_t t = 0; t <= steps; ++t) {
     result.rmse[t] = std::sqrt(sums.se[t] / denom);
-    result.blue_rmse[t] = t == 0 ? kNaN : std::sqrt(sums.blue_se[t] / denom);
-    result.crb_rmse[t] = t == 0 ? kNaN : std::sqrt(sums.crb[t] / denom);
+    result.blue_rmse[t] = t == 0 ? kNoRmse : std::sqrt(sums.blue_se[t] / denom);
+    result.crb_rmse[t] = t == 0 ? kNoRmse : std::sqrt(sums.crb[t] / denom);
   }
   return result;
 }
@@ -435,9 +435,9 @@ JointFieldExperimentResult run_joint_field_experiment(const JointFieldExperiment
   const double location_denom = static_cast<double>(c.runs) * (n - 1);
   const double field_denom = static_cast<double>(c.runs) * n * d;
   result.location_rmse.resize(steps + 1);
-  result.field_rmse.assign(steps + 1, kNaN);
-  result.known_position_field_rmse.assign(steps + 1, kNaN);
-  result.centralized_field_rmse.assign(steps + 1, kNaN);
+  result.field_rmse.assign(steps + 1, kNoRmse);
+  result.known_position_field_rmse.assign(steps + 1, kNoRmse);
+  result.centralized_field_rmse.assign(steps + 1, kNoRmse);
   for (std::size_t t = 0; t <= steps; ++t) {
     result.location_rmse[t] = std::sqrt(location_se[t] / location_denom);
     if (t == 0) continue;
