@@ -14,6 +14,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "swarmloc/runtime/world_pacing.hpp"
+
 namespace swarmloc::orchestrator {
 
 ProcessLauncher::~ProcessLauncher() { stop_all(0.5); }
@@ -39,7 +41,8 @@ int ProcessLauncher::launch(const std::vector<std::string>& argv, const std::str
   if (pid == 0) {
     // Child: die with the parent, even if the parent is SIGKILLed.
     prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (getppid() != parent) _exit(1);  // parent already gone
+    if (getppid() != parent) _exit(1);    // parent already gone
+    runtime::lower_to_normal_priority();  // the world loop may run at real-time priority; agents do not
     // Lower than the orchestrator (run.agent_nice); if the kernel refuses, the child keeps ours.
     if (nice_increment > 0) {
       setpriority(PRIO_PROCESS, 0, std::min(19, getpriority(PRIO_PROCESS, 0) + nice_increment));

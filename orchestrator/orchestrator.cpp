@@ -24,8 +24,10 @@
 #include "swarmloc/run/manifests.hpp"
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/runtime/liveness.hpp"
+#include "swarmloc/runtime/process_cpu.hpp"
 #include "swarmloc/runtime/report_book.hpp"
 #include "swarmloc/runtime/run_health.hpp"
+#include "swarmloc/runtime/world_pacing.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/world.hpp"
@@ -71,6 +73,7 @@ class Orchestrator {
     // Before our own participant binds its port: a busy block means another run on this domain.
     dds::require_ports_free(scenario_, options_.launch_agents);
     spdlog::info("run id {} (dds.run_id: every partition name starts with it)", scenario_.dds.run_id);
+    if (!lockstep_) priority_ = raise_world_priority();  // before the participant: its threads inherit it
     dds::OrchestratorTransport transport(scenario_, n);
     // Agents started elsewhere take their manifest over DDS: offered until the run ends.
     const auto offered = offer_manifests(scenario_, write_manifests(), options_.launch_agents);
@@ -88,10 +91,15 @@ class Orchestrator {
     const bool ready = wait_for_agents(transport, started);
     bool failed = !ready;
     const auto world_phase_start = Clock::now();
+    const double cpu_at_start = runtime::process_cpu_s();
     if (ready) failed = !drive(transport, started);
-    // The world's own rate: below run.rate_hz when the orchestrator cannot keep up (docs/scale.md).
-    if (ready) record_.extra["world_steps_s"] = seconds_since(world_phase_start);
+    if (ready) {  // the world's own rate, and where its time went (docs/scale.md, "The world loop")
+      record_.extra["world_steps_s"] = seconds_since(world_phase_start);
+      record_.extra["orchestrator"] = profile_.to_json(runtime::process_cpu_s() - cpu_at_start);
+      record_.extra["orchestrator"]["priority"] = priority_;
+    }
     settle_and_stop(transport, ready, failed, world_phase_start);
+    runtime::lower_to_normal_priority();  // the plots' gnuplot and the optimum's solve need no priority
     finish_scoring();
     rundir::update_run_optimum(record_, true);
     launcher_.stop_all(5.0);
@@ -335,10 +343,15 @@ class Orchestrator {
     const auto period = std::chrono::duration_cast<Clock::duration>(
         std::chrono::duration<double>(1.0 / scenario_.run.rate_hz));
     auto next = Clock::now();
+    using Phase = runtime::StepProfile::Phase;
+    const auto mark = [this](Phase phase) {
+      profile_.end_phase(phase, seconds_since(origin_), runtime::thread_cpu_s());
+    };
     for (std::int64_t step = 0; step < scenario_.run.steps; ++step) {
       if (interrupted().load()) return false;
       current_step_ = step;
-      if (!lockstep_) note_world_step_lateness(std::chrono::duration<double>(Clock::now() - next).count());
+      const double lateness_s = lockstep_ ? 0.0 : std::chrono::duration<double>(Clock::now() - next).count();
+      profile_.begin_step(seconds_since(origin_), runtime::thread_cpu_s(), lateness_s);
       if (step > 0) world::advance_truth(world_, scenario_, step);
       apply_faults(step);
       const auto stamp_ns =
@@ -349,18 +362,20 @@ class Orchestrator {
         batches.push_back(world::generate_batch(world_, scenario_, i, step));
       if (recording_) recording_->append_step(step, world_.truth, batches);
       rundir::observe_world_step(record_, step, world_.truth, batches);
+      mark(Phase::kGenerate);
       transport.publish_batches(
           runtime::Header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns},
           batches);
       transport.publish_ros2_world(step, stamp_ns, world_.truth, batches);  // dds.ros2 only (docs/ros2.md)
+      mark(Phase::kPublish);
       if (lockstep_) {
         wait_for_step(transport, step);
       } else {
         next += period;
-        while (Clock::now() < next && !interrupted().load()) {
-          collect(transport, std::chrono::duration<double>(next - Clock::now()).count());
-        }
+        runtime::take_when_due(
+            next, [&] { collect(transport, 0.0); }, interrupted());
       }
+      mark(Phase::kTake);
       watch_processes(step);
       score_step(step);
       // A checkpoint's optimum, for the live view; without one every solve waits until after STOP, so it
@@ -370,6 +385,7 @@ class Orchestrator {
       progress_.update(progress_line(step, scenario_.run.steps, record_.metrics.back().errors,
                                      current_agents_, world_.size(), seconds_since(started)),
                        step + 1 == scenario_.run.steps);
+      mark(Phase::kScore);
     }
     return true;
   }
@@ -490,12 +506,6 @@ class Orchestrator {
     return out;
   }
 
-  void note_world_step_lateness(double lateness_s) {
-    lateness_s = std::max(0.0, lateness_s);
-    if (lateness_s > 0.5 / scenario_.run.rate_hz) ++late_world_steps_;
-    max_world_step_lateness_s_ = std::max(max_world_step_lateness_s_, lateness_s);
-  }
-
   /// The run's verdict from the liveness events and everyone's timing (docs/robustness.md).
   [[nodiscard]] runtime::RunHealth assess_health(bool started) const {
     runtime::RunHealthInput input;
@@ -504,8 +514,8 @@ class Orchestrator {
     input.world_steps = started ? static_cast<std::int64_t>(record_.metrics.size()) : 0;
     if (record_.extra.contains("world_steps_s"))
       input.world_steps_s = record_.extra["world_steps_s"].get<double>();
-    input.late_world_steps = late_world_steps_;
-    input.max_world_step_lateness_s = max_world_step_lateness_s_;
+    input.late_world_steps = profile_.late_steps();
+    input.max_world_step_lateness_s = profile_.max_lateness_s();
     input.unscheduled_deaths = liveness_.deaths() + (fusion_exit_ ? 1 : 0);
     input.stalls = liveness_.stalls();
     input.lockstep_timeouts = lockstep_timeouts_;
@@ -639,8 +649,8 @@ class Orchestrator {
   std::size_t logged_events_ = 0;  ///< liveness events already logged
   double last_scored_at_s_ = 0.0;  ///< when the last world step was scored (the final re-score's time)
   int current_agents_ = 0;         ///< agents (anchors included) whose estimate was current at the last step
-  std::int64_t late_world_steps_ = 0;  ///< free run: world steps published > half a period late
-  double max_world_step_lateness_s_ = 0.0;
+  runtime::StepProfile profile_{1.0 / scenario_.run.rate_hz};  ///< the world loop: lateness, where time goes
+  std::string priority_ = "normal";  ///< the world loop's scheduling: "realtime" or "normal"
   ProcessLauncher launcher_;
   rundir::RunRecord record_;
   runtime::ReportBook reports_;

@@ -1,5 +1,7 @@
 #include "run_setup.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -10,6 +12,7 @@
 #include "preflight.hpp"
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/rundir/recording.hpp"
+#include "swarmloc/runtime/world_pacing.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 
 namespace swarmloc::orchestrator {
@@ -82,6 +85,14 @@ runtime::LivenessLimits liveness_limits(const config::Scenario& scenario, bool l
     limits.stall_s = std::max(2.0, 5.0 * period_s);
   }
   return limits;
+}
+
+std::string raise_world_priority() {
+  const std::string refused = runtime::raise_world_priority();
+  if (refused.empty()) return "realtime";
+  spdlog::info("world loop at normal priority (real-time refused: {}); a saturated machine can delay it",
+               refused);
+  return "normal";
 }
 
 }  // namespace swarmloc::orchestrator

@@ -36,4 +36,9 @@ std::unique_ptr<dds::ManifestPublisher> offer_manifests(const config::Scenario& 
 /// world periods; lockstep: the barrier decides, docs/robustness.md "Liveness").
 runtime::LivenessLimits liveness_limits(const config::Scenario& scenario, bool lockstep);
 
+/// Free run: the world loop, and the threads it creates from now on (Cyclone's), at real-time priority
+/// when the system allows it (docs/scale.md, "The world loop"); "realtime", or "normal" with a log line
+/// saying why not.
+std::string raise_world_priority();
+
 }  // namespace swarmloc::orchestrator
