@@ -13,8 +13,8 @@
 #include <optional>
 
 #include "swarmloc/dds/transport.hpp"
+#include "swarmloc/run/fusion_centre.hpp"
 #include "swarmloc/runtime/process_cpu.hpp"
-#include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
@@ -53,7 +53,7 @@ class FusionProcess {
       : scenario_(scenario),
         agent_count_(world.size()),
         logger_(std::move(logger)),
-        filter_(sim::make_fusion_filter(scenario, world)),
+        filter_(run::make_fusion_filter(scenario, world)),
         transport_(scenario, world.size()),
         period_s_(1.0 / scenario.run.rate_hz),
         started_(Clock::now()),
@@ -61,7 +61,7 @@ class FusionProcess {
 
   int run() {
     logger_->info("started: {} for {} agents, L = {}", filter_->name(), agent_count_,
-                  sim::kCentralizedBandwidth);
+                  run::kCentralizedBandwidth);
     auto last_hello = Clock::now() - std::chrono::seconds(10);
     auto last_batch_seen = Clock::now();
     bool matched_logged = false;
@@ -191,7 +191,7 @@ class FusionProcess {
       for (std::size_t i = 0; i < pointers.size(); ++i) {
         if (pending.batches[i]) pointers[i] = &*pending.batches[i];
       }
-      filter_->step(sim::centralized_measurements(scenario_, pointers));
+      filter_->step(run::centralized_measurements(scenario_, pointers));
       ++next_step_;
       publish_estimates(step, pending.world_time_s);
       pending_.erase(it);
@@ -204,7 +204,7 @@ class FusionProcess {
     for (AgentId i = 0; i < agent_count_; ++i) {
       runtime::EstimateReport report;
       report.header = runtime::Header{i, static_cast<std::uint32_t>(step), step, stamp_ns(), world_ns};
-      report.estimate = sim::fusion_estimate(*filter_, i);
+      report.estimate = run::fusion_estimate(*filter_, i);
       report.steps_run = static_cast<std::uint32_t>(next_step_);
       report.samples_published = static_cast<std::uint32_t>(next_step_);
       report.cpu_s = cpu_s;

@@ -21,6 +21,7 @@
 #include "live_view.hpp"
 #include "run_setup.hpp"
 #include "swarmloc/dds/transport.hpp"
+#include "swarmloc/run/fusion_centre.hpp"
 #include "swarmloc/run/manifests.hpp"
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/runtime/liveness.hpp"
@@ -28,8 +29,6 @@
 #include "swarmloc/runtime/report_book.hpp"
 #include "swarmloc/runtime/run_health.hpp"
 #include "swarmloc/runtime/world_pacing.hpp"
-#include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::orchestrator {
@@ -591,10 +590,10 @@ class Orchestrator {
           const bool current = liveness_.current(static_cast<AgentId>(i), last_scored_at_s_);
           if (reports_[i] && reports_[i]->steps_run > 0 && current) scored[i] = reports_[i]->estimate;
         }
-        record_.extra["final_total_mse_m2"] = sim::total_squared_error(world_.truth, scored);
+        record_.extra["final_total_mse_m2"] = run::total_squared_error(world_.truth, scored);
         record_.extra["fusion_center"] = {
             {"filter", scenario_.algorithm.name},
-            {"bandwidth", sim::kCentralizedBandwidth},
+            {"bandwidth", run::kCentralizedBandwidth},
             {"estimated_agents",
              std::count_if(scored.begin(), scored.end(), [](const auto& e) { return e.has_value(); })}};
       }

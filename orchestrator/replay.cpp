@@ -10,7 +10,6 @@
 
 #include "orchestrator.hpp"
 #include "swarmloc/rundir/recording.hpp"
-#include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/world/mrclam.hpp"
 #include "swarmloc/world/world.hpp"
 

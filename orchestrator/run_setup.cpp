@@ -12,8 +12,8 @@
 #include "preflight.hpp"
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/rundir/recording.hpp"
+#include "swarmloc/rundir/run_record.hpp"
 #include "swarmloc/runtime/world_pacing.hpp"
-#include "swarmloc/sim/centralized_runner.hpp"
 
 namespace swarmloc::orchestrator {
 namespace {

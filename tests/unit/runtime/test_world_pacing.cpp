@@ -1,4 +1,4 @@
-// The free-running world loop's pacing, step profile and priority (common/runtime/world_pacing.hpp).
+// The free-running world loop's pacing, step profile and priority (swarmloc/runtime/world_pacing.hpp).
 #include <gtest/gtest.h>
 #include <sched.h>
 #include <sys/wait.h>

@@ -18,6 +18,7 @@
 #include "named_estimators.hpp"
 #include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/estimators/builders.hpp"
+#include "swarmloc/run/fusion_centre.hpp"
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -71,7 +72,7 @@ std::vector<std::string> registry_problems(const std::vector<AlgorithmSpec>& spe
       problems.push_back(name + ": placement disagrees with its builder");
     if (centre != (spec.family == AlgorithmFamily::kCentralized))
       problems.push_back(name + ": placement disagrees with its family");
-    // The fusion centre takes one range per edge and every anchor's fix (centralized_measurements).
+    // The fusion centre takes one range per edge and every anchor's fix (run::centralized_measurements).
     if (centre && (spec.bound.draws != config::RangeDraws::kOnePerEdge || !spec.kinds.anchor_fixes))
       problems.push_back(name + ": fusion-centre bound data is not one range per edge with fixes");
     const bool cooperative = spec.family == AlgorithmFamily::kConsensus ||
@@ -175,11 +176,11 @@ TEST(AlgorithmRegistry, EveryEntryBuildsAndRunsWhereItsPlacementSays) {
     const rundir::RunRecord record = run_simulation(scenario);
     ASSERT_EQ(record.metrics.size(), 3U);
     if (spec.placement == AlgorithmPlacement::kFusionCentre) {
-      EXPECT_NE(make_fusion_filter(scenario, world), nullptr);
+      EXPECT_NE(run::make_fusion_filter(scenario, world), nullptr);
       EXPECT_TRUE(record.extra.contains("final_total_mse_m2")) << "not run by the fusion-centre runner";
     } else {
       EXPECT_EQ(builder->agent(world.setup_of(0), {})->name(), spec.name);
-      EXPECT_THROW((void)make_fusion_filter(scenario, world), std::invalid_argument);
+      EXPECT_THROW((void)run::make_fusion_filter(scenario, world), std::invalid_argument);
       EXPECT_FALSE(record.extra.contains("final_total_mse_m2")) << "run by the fusion-centre runner";
     }
   }

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "swarmloc/run/fusion_centre.hpp"
 #include "swarmloc/run/manifests.hpp"
 #include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
@@ -36,7 +37,7 @@ TEST(CentralizedRunner, OneRangePerEdgeFromTheLowerEndpointUnlessItsBatchIsMissi
   b2.ranges = {{0, 21.0, 2.0}, {1, 31.0, 2.0}};
   b0.fix = estimators::AbsoluteFix{Vec2(1.0, 2.0), Mat2::Zero()};
 
-  auto all = centralized_measurements(scenario, {&b0, &b1, &b2});
+  auto all = run::centralized_measurements(scenario, {&b0, &b1, &b2});
   ASSERT_EQ(all.ranges.size(), 3U);
   EXPECT_DOUBLE_EQ(all.ranges[0].range_m, 10.0);  // (0,1) by agent 0
   EXPECT_DOUBLE_EQ(all.ranges[1].range_m, 20.0);  // (0,2) by agent 0
@@ -46,7 +47,7 @@ TEST(CentralizedRunner, OneRangePerEdgeFromTheLowerEndpointUnlessItsBatchIsMissi
   EXPECT_EQ(all.beacon_fixes[0].first, 0);
   EXPECT_GT(all.beacon_var, 0.0);
 
-  auto without_0 = centralized_measurements(scenario, {nullptr, &b1, &b2});
+  auto without_0 = run::centralized_measurements(scenario, {nullptr, &b1, &b2});
   ASSERT_EQ(without_0.ranges.size(), 3U);  // agent 0's edges come from its neighbours instead
   for (const auto& range : without_0.ranges) EXPECT_LT(range.i, range.j);
   EXPECT_DOUBLE_EQ(without_0.ranges[0].range_m, 11.0);

@@ -13,6 +13,7 @@
 #include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/estimators/estimator.hpp"
+#include "swarmloc/run/fusion_centre.hpp"
 #include "swarmloc/rundir/run_record.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/sim/simulator.hpp"
@@ -150,7 +151,7 @@ struct MlRange {
 };
 
 /// The ranges each algorithm receives, from the world's own batches: ieif the non-anchors' batches, ekf
-/// what the fusion centre takes (centralized_measurements), dml every batch.
+/// what the fusion centre takes (run::centralized_measurements), dml every batch.
 std::vector<MlRange> ml_ranges(const World& world, const config::Scenario& s, std::int64_t steps) {
   std::vector<MlRange> out;
   for (std::int64_t step = 0; step < steps; ++step) {
@@ -159,7 +160,7 @@ std::vector<MlRange> ml_ranges(const World& world, const config::Scenario& s, st
     if (s.algorithm.name == "ekf") {
       std::vector<const estimators::MeasurementBatch*> pointers;
       for (const auto& b : batches) pointers.push_back(&b);
-      for (const auto& r : sim::centralized_measurements(s, pointers).ranges)
+      for (const auto& r : run::centralized_measurements(s, pointers).ranges)
         out.push_back({r.i, r.j, r.range_m});
       continue;
     }

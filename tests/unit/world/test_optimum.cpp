@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/run/fusion_centre.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/world/bound.hpp"
 #include "swarmloc/world/optimum.hpp"
@@ -328,8 +329,8 @@ TEST(OptimumBatchMl, ThreeUnknownsEqualTheBestOfManyRestartsOnTheRawDraws) {
 }
 
 /// The ranges each algorithm's agents receive, as test_bound.cpp reads them off the code: ieif the
-/// non-anchors' own batches, ekf the fusion centre's centralized_measurements (and the anchors' fixes), dml
-/// every batch.
+/// non-anchors' own batches, ekf the fusion centre's run::centralized_measurements (and the anchors' fixes),
+/// dml every batch.
 std::vector<RawTerm> algorithm_terms(const World& world, const config::Scenario& s,
                                      const std::vector<std::vector<estimators::MeasurementBatch>>& batches,
                                      const std::vector<int>& variable) {
@@ -343,7 +344,7 @@ std::vector<RawTerm> algorithm_terms(const World& world, const config::Scenario&
   for (const auto& step : batches) {
     std::vector<const estimators::MeasurementBatch*> pointers;
     for (const auto& b : step) pointers.push_back(&b);
-    const auto measured = sim::centralized_measurements(s, pointers);
+    const auto measured = run::centralized_measurements(s, pointers);
     for (const auto& r : measured.ranges)
       terms.push_back({RawTerm::kRange, variable[static_cast<std::size_t>(r.i)],
                        variable[static_cast<std::size_t>(r.j)], Vec2::Zero(), r.range_m,

@@ -1,9 +1,7 @@
 #pragma once
-// The centralized algorithms (ekf, lbekf, lbekf_vr, lbekf_i; docs/algorithms.md §2) as a fusion centre: one
-// filter holds the whole network state, consumes every agent's measurement batch of a world step and
-// yields every agent's estimate (docs/algorithms.md §2.7). The in-process runner below and the DDS
-// fusion-centre process (orchestrator/fusion_center.cpp) share these functions, so both build the same filter
-// from the same world and turn the same batches into the same measurements.
+// The centralized algorithms (ekf, lbekf, lbekf_vr, lbekf_i; docs/algorithms.md §2) in process: the fusion
+// centre of run/fusion_centre.hpp stepped over a generated world, as the DDS fusion-centre process steps it
+// over the batches it receives.
 #include <memory>
 #include <optional>
 #include <string>
@@ -11,37 +9,11 @@
 
 #include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/estimators/centralized/centralized_filter.hpp"
+#include "swarmloc/run/fusion_centre.hpp"
 #include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/world.hpp"
 
 namespace swarmloc::sim {
-
-/// The bandwidth L of the LB-EKF variants (Khan et al. Sec. 5.2: L = 20 for 30 agents in 2-D).
-inline constexpr int kCentralizedBandwidth = 20;
-
-/// Builds the fusion centre's filter for `world`: x̂(0) = the initial guesses, Σ_0 =
-/// algorithm.initial_std_m² · I per agent, σ_p = algorithm.process_noise_std_m², L =
-/// kCentralizedBandwidth. Labels: lexicographic order of the initial guesses (Khan et al. Alg. 3, [A-5]) for
-/// lbekf_vr and lbekf_i, identity for lbekf and ekf. Throws std::invalid_argument if the scenario's
-/// algorithm is not centralized.
-std::unique_ptr<estimators::centralized::CentralizedFilter> make_fusion_filter(
-    const config::Scenario& scenario, const world::World& world);
-
-/// One world step's batches (batches[i] = agent i's, nullptr if it did not arrive) as the fusion
-/// centre's input: each anchor's fix is a beacon fix; each undirected edge contributes one range, the
-/// one measured by its lower-id endpoint (the higher-id endpoint's if the lower one's batch is
-/// missing). Variances come from the scenario (noise.anchor_fix_std_m², noise.range_std_m²), floored
-/// at 1e-6 m² so exactly known anchors stay finite.
-estimators::centralized::CentralizedMeasurements centralized_measurements(
-    const config::Scenario& scenario, const std::vector<const estimators::MeasurementBatch*>& batches);
-
-/// Agent `agent`'s estimate from the filter (mean and 2×2 covariance block).
-estimators::Estimate fusion_estimate(const estimators::centralized::CentralizedFilter& filter, AgentId agent);
-
-/// Σ over every agent with an estimate (anchors included) of ‖truth − mean‖²: the total MSE of one
-/// run at one step (Khan et al. Fig. 6, docs/algorithms.md §2.8).
-double total_squared_error(const std::vector<Vec2>& truth,
-                           const std::vector<std::optional<estimators::Estimate>>& estimates);
 
 /// `swarmloc sim` for centralized algorithms: builds the world, generates every step's batches with
 /// generate_batch, steps the fusion filter and scores every agent. Besides the usual metrics (over
