@@ -46,9 +46,16 @@
 #                  "in steps": the same counting only samples written in a step (header step >= 0) on both
 #                  sides (links.csv delivered_in_steps, agents.csv samples_published_in_steps), i.e. without
 #                  the start-up announcements, which go out while neighbours are still being discovered.
-#   world rate     steps / summary.json world_steps_s (START to the last step): below the scenario's rate
-#                  when the orchestrator cannot keep up. CPU/agent is normalized by world_phase_s (START to
-#                  STOP, the span the agents report CPU over).
+#   world rate     summary.json health.figures.world_rate_hz (steps run / START to the last step; older
+#                  binaries: steps / world_steps_s): below the scenario's rate when the orchestrator cannot
+#                  keep up. CPU/agent is normalized by world_phase_s (START to STOP, the span the agents
+#                  report CPU over).
+#   health         summary.json health: verdict, late world steps (% of steps published more than half a
+#                  period late), late ticks (% of agent ticks late), stalls; the reasons of a run that is
+#                  not healthy are listed below the table ("N=400: ...").
+#   orchestrator   summary.json orchestrator (absent in older binaries: "–"): priority (realtime/normal),
+#                  world-thread CPU ms per step (step.cpu_ms_mean) and the whole process's CPU ms per step;
+#                  scale.csv also has the longest step (wall) and each phase's CPU ms per step.
 #   RMSE           summary.json final.rmse_m.
 #   other_cpu      machine CPU used by processes other than this run during the run (from /proc/stat
 #                  minus this run's processes), in cores: the machine is shared.
@@ -286,7 +293,22 @@ for r in runs:
         row["ratio_expected_steps"] = delivered_steps / expected_steps if expected_steps else None
         row["world_phase_s"] = s.get("world_phase_s")
         ws = s.get("world_steps_s")
-        row["world_hz"] = steps / ws if ws else None
+        health = s.get("health") or {}; hf = health.get("figures") or {}
+        # the health figure counts the steps actually run (an interrupted run ran fewer than STEPS)
+        row["world_hz"] = hf.get("world_rate_hz", steps / ws if ws else None)
+        row["verdict"] = health.get("verdict"); row["reasons"] = health.get("reasons") or []
+        row["health_reasons"] = "; ".join(row["reasons"])
+        row["late_world_steps"] = hf.get("late_world_steps"); row["world_steps"] = hf.get("world_steps")
+        row["late_world_step_frac"] = (hf["late_world_steps"] / hf["world_steps"]
+                                       if hf.get("world_steps") and hf.get("late_world_steps") is not None else None)
+        row["late_tick_frac"] = hf.get("late_tick_fraction"); row["stalls"] = hf.get("stalls")
+        orch = s.get("orchestrator") or {}  # absent in older binaries
+        row["orch_priority"] = orch.get("priority")
+        row["orch_process_cpu_ms"] = orch.get("process_cpu_ms_per_step")
+        row["orch_step_cpu_ms"] = (orch.get("step") or {}).get("cpu_ms_mean")
+        row["orch_step_wall_ms_max"] = (orch.get("step") or {}).get("wall_ms_max")
+        for ph in ("generate", "publish", "take", "score"):
+            row[f"orch_{ph}_cpu_ms"] = (orch.get(ph) or {}).get("cpu_ms_mean")
         dur = steps / rate
         row["links"] = nlinks; row["links_with_data"] = len(links)
         row["delivered"] = delivered; row["expected"] = expected
@@ -330,15 +352,17 @@ keys = ["n", "rc", "domain", "area_m", "anchors", "mean_degree", "agents_started
         "rss_max_mib", "rss_procs", "rx_per_agent_s", "links", "links_with_data", "delivered", "expected",
         "ratio_expected", "delivered_steps", "expected_steps", "ratio_expected_steps", "ratio_steps", "ratio_sent",
         "world_phase_s", "world_hz", "lat_p50_us", "lat_p99_us", "lat_p99_max_us", "rmse_m", "run_cores", "other_cores", "machine_busy_cores",
-        "elapsed_s"]
+        "elapsed_s", "verdict", "late_world_steps", "world_steps", "late_world_step_frac", "late_tick_frac", "stalls",
+        "orch_priority", "orch_step_cpu_ms", "orch_process_cpu_ms", "orch_step_wall_ms_max", "orch_generate_cpu_ms",
+        "orch_publish_cpu_ms", "orch_take_cpu_ms", "orch_score_cpu_ms", "health_reasons"]
 with open(f"{out}/scale.csv", "w", newline="") as f:
     w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore"); w.writeheader()
     for r in rows: w.writerow({k: ("" if r.get(k) is None else (round(r[k], 6) if isinstance(r[k], float) else r[k])) for k in keys})
 
 def fmt(v, spec, scale=1.0):
     return "–" if v is None else format(v * scale, spec)
-lines = ["| N | mean degree | agents that got START | launch spread (s) | discovery all (s) | per-agent disc. med / max (s) | START after (s) | CPU/agent (% core) | RSS/agent med / max (MiB) | samples rx/s/agent | delivered / expected | delivered / expected, in steps | delivered / sent (seq) | world rate (Hz) | final RMSE (m) | other load (cores) | rc |",
-         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+lines = ["| N | mean degree | agents that got START | launch spread (s) | discovery all (s) | per-agent disc. med / max (s) | START after (s) | CPU/agent (% core) | RSS/agent med / max (MiB) | samples rx/s/agent | delivered / expected | delivered / expected, in steps | delivered / sent (seq) | world rate (Hz) | final RMSE (m) | other load (cores) | rc | verdict | late world steps (%) | late ticks (%) | stalls | orch. priority | orch. world thread CPU/step (ms) | orch. process CPU/step (ms) |",
+         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 for r in rows:
     lines.append(f"| {r['n']} | {fmt(r.get('mean_degree'), '.2f')} | {r.get('agents_started', '–')}/{r['n']} | {fmt(r.get('launch_s'), '.1f')} | {fmt(r.get('disc_all_s'), '.2f')} | "
                  f"{fmt(r.get('disc_med_s'), '.2f')} / {fmt(r.get('disc_max_s'), '.2f')} | {fmt(r.get('start_s'), '.1f')} | "
@@ -346,8 +370,14 @@ for r in rows:
                  f"{fmt(r.get('rx_per_agent_s'), '.1f')} | {fmt(r.get('ratio_expected'), '.2f', 100)} % | "
                  f"{fmt(r.get('ratio_expected_steps'), '.2f', 100)} % | "
                  f"{fmt(r.get('ratio_sent'), '.2f', 100)} % | {fmt(r.get('world_hz'), '.2f')} | "
-                 f"{fmt(r.get('rmse_m'), '.4f')} | {fmt(r.get('other_cores'), '.2f')} | {r['rc']} |")
+                 f"{fmt(r.get('rmse_m'), '.4f')} | {fmt(r.get('other_cores'), '.2f')} | {r['rc']} | "
+                 f"{r.get('verdict') or '–'} | {fmt(r.get('late_world_step_frac'), '.1f', 100)} | {fmt(r.get('late_tick_frac'), '.1f', 100)} | "
+                 f"{fmt(r.get('stalls'), '.0f')} | {r.get('orch_priority') or '–'} | {fmt(r.get('orch_step_cpu_ms'), '.2f')} | "
+                 f"{fmt(r.get('orch_process_cpu_ms'), '.2f')} |")
 lines.append("")
+# why a run is not healthy (summary.json health.reasons)
+reasons = [f"- N={r['n']}: {x}" for r in rows for x in r.get("reasons", [])]
+lines += reasons + [""] if reasons else []
 for t, name in (("b2b", "back-to-back, 64 B"), ("100hz", "100 Hz, 64 B"), ("rate", f"{rate:g} Hz = the agents' rate, 64 B")):
     v = ref.get(t)
     lines.append(f"ddsperf ping/pong ({name}): " + ("not run" if not v else
