@@ -3,6 +3,7 @@
 // with summary.json marked `interrupted: true`.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sched.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -14,6 +15,7 @@
 #include <fstream>
 #include <iterator>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -65,25 +67,74 @@ std::optional<int> wait_until(pid_t pid, Clock::time_point deadline) {
   return std::nullopt;
 }
 
+/// Mid-run: the first progress line with a step number (the orchestrator prints one when the agents
+/// report, then every 5 s when stderr is not a terminal). False (and the run killed) after 60 s without.
+bool wait_until_stepping(pid_t pid, const std::filesystem::path& log) {
+  const auto give_up = Clock::now() + std::chrono::seconds(60);
+  while (Clock::now() < give_up) {
+    if (read_text(log).find(" step ") != std::string::npos) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ::kill(pid, SIGKILL);
+  ::waitpid(pid, nullptr, 0);
+  return false;
+}
+
+/// Field `field` (1-based, as proc(5) numbers them) of /proc/<pid>/stat, or -1.
+long proc_stat_field(pid_t pid, int field) {
+  const std::string stat = read_text("/proc/" + std::to_string(pid) + "/stat");
+  const auto comm_end = stat.rfind(')');
+  if (comm_end == std::string::npos) return -1;
+  std::istringstream rest(stat.substr(comm_end + 2));  // fields from 3 on
+  std::string value;
+  for (int i = 3; i <= field && rest >> value; ++i) {
+    if (i == field) return std::stol(value);
+  }
+  return -1;
+}
+
+/// The processes whose parent is `parent`.
+std::vector<pid_t> children_of(pid_t parent) {
+  std::vector<pid_t> children;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+    const std::string name = entry.path().filename().string();
+    if (name.empty() || !std::all_of(name.begin(), name.end(), ::isdigit)) continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(name));
+    if (proc_stat_field(pid, 4) == parent) children.push_back(pid);
+  }
+  return children;
+}
+
+// docs/scale.md, "The world loop": in free run the orchestrator's world loop runs at real-time priority
+// when the system grants it (root: CI), and the agents it launches run at the normal policy.
+TEST(WorldPriority, TheWorldLoopIsRealTimeAndTheAgentsItLaunchesAreNot) {
+  const auto dir = fresh_directory("priority");
+  const auto log = dir.parent_path() / (dir.filename().string() + ".log");
+  const pid_t pid = start_run(dir, log);
+  ASSERT_GT(pid, 0);
+  ASSERT_TRUE(wait_until_stepping(pid, log)) << "no progress line within 60 s:\n" << read_text(log);
+  constexpr int kPolicyField = 41;  // proc(5): the scheduling policy, SCHED_OTHER 0, SCHED_FIFO 1
+  const long world_policy = proc_stat_field(pid, kPolicyField);
+  std::vector<long> agent_policies;
+  for (const pid_t child : children_of(pid)) agent_policies.push_back(proc_stat_field(child, kPolicyField));
+  ::kill(pid, SIGTERM);
+  const auto status = wait_until(pid, Clock::now() + std::chrono::seconds(10));
+  if (!status) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, nullptr, 0);
+  }
+  EXPECT_EQ(world_policy, ::geteuid() == 0 ? SCHED_FIFO : SCHED_OTHER) << read_text(log);
+  EXPECT_EQ(agent_policies.size(), 8U);
+  for (const long policy : agent_policies) EXPECT_EQ(policy, SCHED_OTHER);
+  std::filesystem::remove(log);
+}
+
 TEST(Interrupt, SigtermMidRunExitsPromptlyWithACompleteRunDirectoryAndNoAgentLeft) {
   const auto dir = fresh_directory("sigterm");
   const auto log = dir.parent_path() / (dir.filename().string() + ".log");
   const pid_t pid = start_run(dir, log);
   ASSERT_GT(pid, 0);
-
-  // Mid-run: the first progress line with a step number (the orchestrator prints one when the agents
-  // report, then every 5 s when stderr is not a terminal).
-  const auto give_up = Clock::now() + std::chrono::seconds(60);
-  bool stepping = false;
-  while (!stepping && Clock::now() < give_up) {
-    stepping = read_text(log).find(" step ") != std::string::npos;
-    if (!stepping) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  if (!stepping) {
-    ::kill(pid, SIGKILL);
-    ::waitpid(pid, nullptr, 0);
-    FAIL() << "no progress line within 60 s:\n" << read_text(log);
-  }
+  ASSERT_TRUE(wait_until_stepping(pid, log)) << "no progress line within 60 s:\n" << read_text(log);
   EXPECT_GT(count_processes_matching(dir.string()), 0) << "agents should be running before the signal";
 
   const auto signalled = Clock::now();
