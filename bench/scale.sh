@@ -18,6 +18,7 @@
 #   RUN_TIMEOUT   timeout per run, s       (default 240)
 #   STARTUP_TIMEOUT  run.startup_timeout_s (default 120)
 #   DDSPERF       0 = skip the ddsperf reference (default 1)
+#   ALGORITHM     algorithm.name of every run (default: the scenario's, dml)
 #   AGENT_NICE    run.agent_nice (default 0): agents this much nicer than the orchestrator, which then
 #                 keeps the world's rate when the agents saturate the machine (N = 500 on 2 cores)
 #
@@ -70,6 +71,8 @@ domain_base=${DOMAIN_BASE:-215}
 run_timeout=${RUN_TIMEOUT:-240}
 startup_timeout=${STARTUP_TIMEOUT:-120}
 agent_nice=${AGENT_NICE:-0}
+algorithm_set=()
+[ -z "${ALGORITHM:-}" ] || algorithm_set=(--set "algorithm.name=$ALGORITHM")
 sizes=("$@")
 [ ${#sizes[@]} -gt 0 ] || sizes=(20 50 100 200)
 out=${OUT:-runs/scale-$(date -u +%Y%m%d-%H%M%S)}
@@ -206,7 +209,8 @@ for n in "${sizes[@]}"; do
   timeout --signal=INT --kill-after=20 "$run_timeout" "$bin" run scenarios/default.yaml -q --out "$dir" \
     --set world.agents="$n" --set world.anchors="$anchors" --set world.area_m="$area" \
     --set run.steps="$steps" --set run.rate_hz="$rate" --set dds.domain_id="$dom" \
-    --set run.startup_timeout_s="$startup_timeout" --set run.agent_nice="$agent_nice" > "$out/n$n.out" 2>&1 &
+    --set run.startup_timeout_s="$startup_timeout" --set run.agent_nice="$agent_nice" "${algorithm_set[@]}" \
+    > "$out/n$n.out" 2>&1 &
   rpid=$!
   sleep 0.3
   opid=$(pgrep -P "$rpid" -f "$bin" | head -1 || true)

@@ -57,8 +57,8 @@ static void raw_peer_sleep_until(int64_t monotonic_ns) {
 static double raw_peer_cpu_seconds(void) {
   struct rusage usage;
   getrusage(RUSAGE_SELF, &usage);
-  return (double)usage.ru_utime.tv_sec + (double)usage.ru_utime.tv_usec * 1e-6 + (double)usage.ru_stime.tv_sec +
-         (double)usage.ru_stime.tv_usec * 1e-6;
+  return (double)usage.ru_utime.tv_sec + (double)usage.ru_utime.tv_usec * 1e-6 +
+         (double)usage.ru_stime.tv_sec + (double)usage.ru_stime.tv_usec * 1e-6;
 }
 
 /* The listener: take everything available (loaned samples) and count the valid ones. */
@@ -152,8 +152,10 @@ int main(int argc, char** argv) {
   char** names = NULL;
   const uint32_t degree = raw_peer_partitions(neighbours, &names);
   qos = dds_create_qos();
-  if (degree > 0) dds_qset_partition(qos, degree, (const char**)names);
-  else dds_qset_partition1(qos, "none"); /* no neighbours: match no writer */
+  if (degree > 0)
+    dds_qset_partition(qos, degree, (const char**)names);
+  else
+    dds_qset_partition1(qos, "none"); /* no neighbours: match no writer */
   const dds_entity_t subscriber = dds_create_subscriber(participant, qos, NULL);
   dds_delete_qos(qos);
   if (subscriber < 0) raw_peer_fail("dds_create_subscriber", subscriber);
@@ -227,10 +229,11 @@ int main(int argc, char** argv) {
     }
   }
 
-  printf("raw_peer id=%d written=%llu received=%llu cpu_s=%.6f window_s=%.3f matched_writers=%d "
-         "matched_readers=%d neighbours=%u\n",
-         id, (unsigned long long)written_in, (unsigned long long)received_in, cpu_in,
-         (double)(ended_at - started_at) * 1e-9, (int)matched_writers, (int)matched_readers, degree);
+  printf(
+      "raw_peer id=%d written=%llu received=%llu cpu_s=%.6f window_s=%.3f matched_writers=%d "
+      "matched_readers=%d neighbours=%u\n",
+      id, (unsigned long long)written_in, (unsigned long long)received_in, cpu_in,
+      (double)(ended_at - started_at) * 1e-9, (int)matched_writers, (int)matched_readers, degree);
   fflush(stdout);
 
   dds_delete(participant);
