@@ -67,6 +67,12 @@ std::optional<int> wait_until(pid_t pid, Clock::time_point deadline) {
   return std::nullopt;
 }
 
+/// SIGKILL, then reap: a run the test gives up on leaves no process behind.
+void kill_and_reap(pid_t pid) {
+  ::kill(pid, SIGKILL);
+  ::waitpid(pid, nullptr, 0);
+}
+
 /// Mid-run: the first progress line with a step number (the orchestrator prints one when the agents
 /// report, then every 5 s when stderr is not a terminal). False (and the run killed) after 60 s without.
 bool wait_until_stepping(pid_t pid, const std::filesystem::path& log) {
@@ -75,9 +81,22 @@ bool wait_until_stepping(pid_t pid, const std::filesystem::path& log) {
     if (read_text(log).find(" step ") != std::string::npos) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
-  ::kill(pid, SIGKILL);
-  ::waitpid(pid, nullptr, 0);
+  kill_and_reap(pid);
   return false;
+}
+
+/// A run in a fresh directory `name` (its output in `<name>.log` beside it), started and stepping.
+struct SteppingRun {
+  std::filesystem::path dir, log;
+  pid_t pid = -1;  ///< -1: it did not start, or showed no step within 60 s (then killed)
+};
+SteppingRun start_stepping_run(const std::string& name) {
+  SteppingRun run;
+  run.dir = fresh_directory(name);
+  run.log = run.dir.parent_path() / (run.dir.filename().string() + ".log");
+  run.pid = start_run(run.dir, run.log);
+  if (run.pid > 0 && !wait_until_stepping(run.pid, run.log)) run.pid = -1;
+  return run;
 }
 
 /// Field `field` (1-based, as proc(5) numbers them) of /proc/<pid>/stat, or -1.
@@ -108,21 +127,14 @@ std::vector<pid_t> children_of(pid_t parent) {
 // docs/scale.md, "The world loop": in free run the orchestrator's world loop runs at real-time priority
 // when the system grants it (root: CI), and the agents it launches run at the normal policy.
 TEST(WorldPriority, TheWorldLoopIsRealTimeAndTheAgentsItLaunchesAreNot) {
-  const auto dir = fresh_directory("priority");
-  const auto log = dir.parent_path() / (dir.filename().string() + ".log");
-  const pid_t pid = start_run(dir, log);
-  ASSERT_GT(pid, 0);
-  ASSERT_TRUE(wait_until_stepping(pid, log)) << "no progress line within 60 s:\n" << read_text(log);
+  const auto [dir, log, pid] = start_stepping_run("priority");
+  ASSERT_GT(pid, 0) << "no progress line within 60 s:\n" << read_text(log);
   constexpr int kPolicyField = 41;  // proc(5): the scheduling policy, SCHED_OTHER 0, SCHED_FIFO 1
   const long world_policy = proc_stat_field(pid, kPolicyField);
   std::vector<long> agent_policies;
   for (const pid_t child : children_of(pid)) agent_policies.push_back(proc_stat_field(child, kPolicyField));
   ::kill(pid, SIGTERM);
-  const auto status = wait_until(pid, Clock::now() + std::chrono::seconds(10));
-  if (!status) {
-    ::kill(pid, SIGKILL);
-    ::waitpid(pid, nullptr, 0);
-  }
+  if (!wait_until(pid, Clock::now() + std::chrono::seconds(10))) kill_and_reap(pid);
   EXPECT_EQ(world_policy, ::geteuid() == 0 ? SCHED_FIFO : SCHED_OTHER) << read_text(log);
   EXPECT_EQ(agent_policies.size(), 8U);
   for (const long policy : agent_policies) EXPECT_EQ(policy, SCHED_OTHER);
@@ -130,11 +142,8 @@ TEST(WorldPriority, TheWorldLoopIsRealTimeAndTheAgentsItLaunchesAreNot) {
 }
 
 TEST(Interrupt, SigtermMidRunExitsPromptlyWithACompleteRunDirectoryAndNoAgentLeft) {
-  const auto dir = fresh_directory("sigterm");
-  const auto log = dir.parent_path() / (dir.filename().string() + ".log");
-  const pid_t pid = start_run(dir, log);
-  ASSERT_GT(pid, 0);
-  ASSERT_TRUE(wait_until_stepping(pid, log)) << "no progress line within 60 s:\n" << read_text(log);
+  const auto [dir, log, pid] = start_stepping_run("sigterm");
+  ASSERT_GT(pid, 0) << "no progress line within 60 s:\n" << read_text(log);
   EXPECT_GT(count_processes_matching(dir.string()), 0) << "agents should be running before the signal";
 
   const auto signalled = Clock::now();
@@ -143,8 +152,7 @@ TEST(Interrupt, SigtermMidRunExitsPromptlyWithACompleteRunDirectoryAndNoAgentLef
   const auto status = wait_until(pid, signalled + std::chrono::seconds(10));
   const double exit_s = std::chrono::duration<double>(Clock::now() - signalled).count();
   if (!status) {
-    ::kill(pid, SIGKILL);
-    ::waitpid(pid, nullptr, 0);
+    kill_and_reap(pid);
     FAIL() << "swarmloc run still running 10 s after SIGTERM:\n" << read_text(log);
   }
   std::printf("[ sigterm ] swarmloc run exited %.2f s after SIGTERM\n", exit_s);
