@@ -1,6 +1,7 @@
 #pragma once
-// The free-running world loop's pacing and its step profile (docs/scale.md, "The world loop"). Pure:
-// callers pass the clock readings in, so both are tested without DDS or real time.
+// The free-running world loop's priority, pacing and step profile (docs/scale.md, "The world loop"). The
+// pacing and the profile take the clock readings from the caller, so both are tested without DDS or real
+// time.
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -10,9 +11,6 @@
 #include <thread>
 
 namespace swarmloc::runtime {
-
-/// CPU seconds the calling thread has used (user + system).
-double thread_cpu_s();
 
 /// Runs the calling thread, and every thread it creates from now on, at a low real-time priority
 /// (SCHED_FIFO 10), so that a machine saturated by agent processes cannot make the world late. Needs root
