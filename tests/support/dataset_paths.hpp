@@ -2,8 +2,11 @@
 // Where the tests find the real datasets, which are never part of the project: $SWARMLOC_MRCLAM_DIR, or
 // shared/data/utias-mrclam/MRCLAM_Dataset6 beside the checkout or beside any of its parent directories
 // (a clone in /work/<x>/<y> finds /work/shared/data). Empty if none exists: the test skips and says so.
+// And the scenario that runs pose_ekf on an MRCLAM dataset directory.
 #include <cstdlib>
 #include <filesystem>
+
+#include "swarmloc/config/scenario.hpp"
 
 namespace swarmloc::testing {
 
@@ -21,6 +24,19 @@ inline std::filesystem::path mrclam_dataset6(const std::filesystem::path& source
     if (dir == dir.parent_path()) break;
   }
   return {};
+}
+
+/// pose_ekf on the five robots of the MRCLAM dataset in `dir`, for `steps` world steps (validated).
+inline config::Scenario mrclam_scenario(const std::filesystem::path& dir, int steps) {
+  config::Scenario s;
+  s.algorithm.name = "pose_ekf";
+  s.world.source = config::WorldSource::kMrclam;
+  s.world.data_dir = dir.string();
+  s.world.agents = 5;
+  s.world.anchors = 0;
+  s.run.steps = steps;
+  config::validate(s);
+  return s;
 }
 
 }  // namespace swarmloc::testing

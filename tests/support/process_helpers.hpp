@@ -1,19 +1,26 @@
 #pragma once
 // Helpers for tests that run the real `swarmloc` binary: run a command, capture its output and exit
-// code, read a run directory's summary.json, and look for leftover agent processes.
+// code, read a run directory's summary.json, and look for leftover agent processes; and the file helpers
+// the unit tests share: read a file, a temporary directory, a child process under a file size limit.
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <array>
+#include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <system_error>
+#include <vector>
 
 namespace swarmloc::testing {
 
@@ -49,6 +56,11 @@ inline std::string read_text(const std::filesystem::path& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+inline std::vector<std::uint8_t> read_bytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
 /// A port nobody listens on right now (bound to 0, read back, released).
 inline int free_port() {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
@@ -73,6 +85,38 @@ inline std::filesystem::path fresh_directory(const std::string& name) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+/// A fresh, empty temporary directory (as fresh_directory) removed at the end of the test.
+class TempDir {
+ public:
+  explicit TempDir(const std::string& name) : path_(fresh_directory(name)) {}
+  ~TempDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+/// Runs `body` in a child process under a file size limit of `limit` bytes (SIGXFSZ ignored, as in
+/// main()): a write past it fails with EFBIG, like a full disk, without touching this process.
+/// Returns the child's exit code.
+inline int with_file_size_limit(rlim_t limit, const std::function<int()>& body) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    std::signal(SIGXFSZ, SIG_IGN);
+    const rlimit rl{limit, limit};
+    if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(90);
+    ::_exit(body());
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
 /// Number of live processes (other than this one) whose command line contains `needle`.

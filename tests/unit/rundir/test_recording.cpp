@@ -1,25 +1,30 @@
 // --record files and replay (recording.hpp): bit-exact round trips of every batch and sample field,
 // clear errors (never crashes) on hostile files, every single flipped bit refused (version 4 checksums),
-// older versions still read, and simulator replays equal to the recorded run.
+// and older versions still read. The simulator's replays: tests/unit/sim/test_simulated_recording.cpp.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <bit>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <limits>
 #include <random>
 
 #include "observation_sample.hpp"
+#include "process_helpers.hpp"
+#include "recording_bytes.hpp"
 #include "swarmloc/rundir/recording.hpp"
-#include "swarmloc/sim/centralized_runner.hpp"
-#include "swarmloc/sim/simulator.hpp"
 
 namespace swarmloc::rundir {
 namespace {
+
+using testing::get_u32;
+using testing::put_u32;
+using testing::read_bytes;
+using testing::records_of;
+using testing::reseal;
+using testing::without_checksums;
 
 std::filesystem::path temp_dir(const std::string& name) {
   const auto dir = std::filesystem::temp_directory_path() /
@@ -29,97 +34,8 @@ std::filesystem::path temp_dir(const std::string& name) {
   return dir;
 }
 
-std::vector<std::uint8_t> read_bytes(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-// ---- Version 4 framing, written out independently of recording.cpp (docs/record-replay.md) ----
-
-/// CRC-32 (IEEE, reflected, as zlib's crc32), bit by bit.
-std::uint32_t crc32_ieee(const std::uint8_t* data, std::size_t size) {
-  std::uint32_t crc = 0xFFFFFFFFu;
-  for (std::size_t k = 0; k < size; ++k) {
-    crc ^= data[k];
-    for (int bit = 0; bit < 8; ++bit) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
-  }
-  return ~crc;
-}
-
-std::uint32_t get_u32(const std::vector<std::uint8_t>& bytes, std::size_t at) {
-  std::uint32_t v = 0;
-  for (int k = 0; k < 4; ++k)
-    v |= static_cast<std::uint32_t>(bytes[at + static_cast<std::size_t>(k)]) << (8 * k);
-  return v;
-}
-void put_u32(std::vector<std::uint8_t>& bytes, std::size_t at, std::uint32_t v) {
-  for (int k = 0; k < 4; ++k)
-    bytes[at + static_cast<std::size_t>(k)] = static_cast<std::uint8_t>(v >> (8 * k));
-}
-
-/// A version 4 record: tag, u32 length, u32 CRC of those 5 bytes, payload, u32 CRC of the payload.
-struct FramedRecord {
-  std::uint8_t tag = 0;
-  std::size_t at = 0;
-  std::size_t payload_at = 0;
-  std::size_t length = 0;
-  [[nodiscard]] std::size_t end() const { return payload_at + length + 4; }
-};
-
-/// The records of a whole version 4 file (after the 12-byte header), read by their lengths.
-std::vector<FramedRecord> records_of(const std::vector<std::uint8_t>& bytes) {
-  std::vector<FramedRecord> records;
-  for (std::size_t at = 12; at + 9 <= bytes.size();) {
-    FramedRecord r{bytes[at], at, at + 9, get_u32(bytes, at + 1)};
-    if (r.end() > bytes.size()) break;
-    records.push_back(r);
-    at = r.end();
-  }
-  return records;
-}
-
-/// Recomputes every checksum, so that a test can hand the reader a consistent file with a hostile field.
-void reseal(std::vector<std::uint8_t>& bytes) {
-  put_u32(bytes, 8, crc32_ieee(bytes.data(), 8));
-  for (const auto& r : records_of(bytes)) {
-    put_u32(bytes, r.at + 5, crc32_ieee(bytes.data() + r.at, 5));
-    put_u32(bytes, r.payload_at + r.length, crc32_ieee(bytes.data() + r.payload_at, r.length));
-  }
-}
-
-/// In a sample record's payload: the family byte, and where a state sample's edge summaries (version 5)
-/// start (receiver, steps, two stamps, well_formed, header; then family, mean, covariance, flags, degree).
-constexpr std::size_t kSampleFamilyAt = 4 + 8 + 8 + 8 + 1 + 32;
-constexpr std::size_t kStateEdgeRangesAt = kSampleFamilyAt + 1 + 16 + 32 + 1 + 1 + 2;
-
-/// The same content in the unchecksummed layout of versions 1 to 3: the 8-byte header, the header
-/// record's payload, then per record its tag and payload (a state sample without its edge summaries).
-std::vector<std::uint8_t> without_checksums(const std::vector<std::uint8_t>& bytes, std::uint8_t version) {
-  std::vector<std::uint8_t> old(bytes.begin(), bytes.begin() + 8);
-  old[6] = version;
-  for (const auto& r : records_of(bytes)) {
-    if (r.tag != 'H') old.push_back(r.tag);
-    const bool state = r.tag == 'R' && bytes[r.payload_at + kSampleFamilyAt] == 0;
-    const std::size_t length = state ? kStateEdgeRangesAt : r.length;
-    old.insert(old.end(), bytes.begin() + static_cast<std::ptrdiff_t>(r.payload_at),
-               bytes.begin() + static_cast<std::ptrdiff_t>(r.payload_at + length));
-  }
-  return old;
-}
-
-config::Scenario small_scenario() {
-  config::Scenario s;
-  s.seed = 11;
-  s.world.agents = 30;
-  s.world.anchors = 8;
-  s.run.steps = 40;
-  return s;
-}
-
 // ---- Bit-exact comparison ----
 
-std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
-#define EXPECT_BITS(a, b) EXPECT_EQ(bits(a), bits(b)) << #a
 void expect_same(const Vec2& a, const Vec2& b) {
   EXPECT_BITS(a.x(), b.x());
   EXPECT_BITS(a.y(), b.y());
@@ -706,8 +622,6 @@ TEST(SampleLog, AVersionThreeLogReadsEveryFamilyAndItsUnfinishedFormToo) {
 
 // ---- Checksums (version 4) ----
 
-void expect_same_metrics(const RunRecord& a, const RunRecord& b);  // below, with the replays
-
 /// Flips bit `bit` of `bytes`.
 std::vector<std::uint8_t> flipped(const std::vector<std::uint8_t>& bytes, std::size_t bit) {
   auto copy = bytes;
@@ -802,20 +716,6 @@ TEST(Recording, OldVersionsWithoutChecksumsStillReadBitExactly) {
   }
 }
 
-TEST(Recording, AVersionThreeRecordingReplaysLikeItsVersionFourOriginal) {
-  const auto s = small_scenario();
-  const auto dir = temp_dir("replay-v3");
-  DirectoryRecorder recorder(dir);
-  sim::SimOptions record_options;
-  record_options.recorder = &recorder;
-  const auto recorded_run = sim::run_simulation(s, record_options);
-  recorder.close();
-  const auto v3 = without_checksums(read_bytes(dir / kRecordingFile), 3);
-  sim::SimOptions replay_options;
-  replay_options.recorded = parse_recording(v3, "v3.slrec");
-  expect_same_metrics(recorded_run, sim::run_simulation(s, replay_options));
-}
-
 TEST(Recording, WriteFailuresAndUnreadablePathsAreReported) {
   const auto s = recorded_scenario();
   const auto world = world::build_world(s);
@@ -848,131 +748,6 @@ TEST(Recording, WriteFailuresAndUnreadablePathsAreReported) {
   { std::ofstream{empty}; }
   EXPECT_THROW((void)load_recording(empty), RecordingError);
   EXPECT_THROW((void)load_sample_log(empty), RecordingError);
-}
-
-// ---- Replays in the simulator ----
-
-void expect_same_metrics(const RunRecord& a, const RunRecord& b) {
-  ASSERT_EQ(a.metrics.size(), b.metrics.size());
-  for (std::size_t k = 0; k < a.metrics.size(); ++k) {
-    // Bit for bit (NEES is NaN where no agent has a covariance, e.g. dgbb).
-    EXPECT_BITS(a.metrics[k].errors.rmse_m, b.metrics[k].errors.rmse_m) << "step " << k;
-    EXPECT_BITS(a.metrics[k].errors.max_error_m, b.metrics[k].errors.max_error_m) << "step " << k;
-    EXPECT_BITS(a.metrics[k].errors.nees, b.metrics[k].errors.nees) << "step " << k;
-    EXPECT_BITS(a.metrics[k].crlb_rmse_m, b.metrics[k].crlb_rmse_m) << "step " << k;
-    // The optimum of the run's data (docs/algorithms.md §1.3.2): a replay holds the same data.
-    EXPECT_BITS(a.metrics[k].optimum_rmse_m, b.metrics[k].optimum_rmse_m) << "step " << k;
-  }
-  ASSERT_EQ(a.estimates.size(), b.estimates.size());
-  for (std::size_t k = 0; k < a.estimates.size(); ++k) {
-    EXPECT_EQ(a.estimates[k].estimate.mean_m, b.estimates[k].estimate.mean_m);
-    EXPECT_EQ(a.estimates[k].truth, b.estimates[k].truth);
-  }
-  EXPECT_EQ(link_totals(a).delivered, link_totals(b).delivered);
-}
-
-struct ReplayCase {
-  const char* name;
-  void (*configure)(config::Scenario&);
-};
-
-class SimulatorReplay : public ::testing::TestWithParam<ReplayCase> {};
-
-TEST_P(SimulatorReplay, ReplayOfARecordedRunGivesTheSameMetricsEveryStep) {
-  auto s = small_scenario();
-  GetParam().configure(s);
-  const auto dir = temp_dir(std::string("replay-") + GetParam().name);
-  DirectoryRecorder recorder(dir);
-  sim::SimOptions record_options;
-  record_options.recorder = &recorder;
-  const auto recorded_run = sim::run_simulation(s, record_options);
-  recorder.close();
-  EXPECT_EQ(recorder.steps(), s.run.steps);
-
-  const auto recording = load_recording(dir / kRecordingFile);
-  ASSERT_EQ(recording->steps(), s.run.steps);
-  EXPECT_EQ(recording->world().difference(world::build_world(s)), "");
-  sim::SimOptions replay_options;
-  replay_options.recorded = recording;
-  const auto replayed = sim::run_simulation(s, replay_options);
-  expect_same_metrics(recorded_run, replayed);
-  std::printf("  %s: recorded final RMSE %.12f m, replayed %.12f m\n", GetParam().name,
-              recorded_run.final_metrics()->errors.rmse_m, replayed.final_metrics()->errors.rmse_m);
-
-  // The sample log: every sample reached a neighbour of its sender.
-  const auto log = load_sample_log(dir / kSampleLogDirectory / kSimSampleLogFile);
-  EXPECT_EQ(log.samples.size(), recorder.samples());
-  if (config::runs_in_fusion_centre(s.algorithm.name)) {
-    EXPECT_TRUE(log.samples.empty());  // sensors only: nothing between agents
-    return;
-  }
-  ASSERT_FALSE(log.samples.empty());
-  const auto world = world::build_world(s);
-  for (const auto& sample : log.samples) {
-    const auto& neighbours = world.neighbours[static_cast<std::size_t>(sample.receiver)];
-    ASSERT_TRUE(std::binary_search(neighbours.begin(), neighbours.end(), sample.header.agent_id));
-    ASSERT_LE(sample.source_timestamp_ns, sample.take_ns);
-  }
-}
-
-INSTANTIATE_TEST_SUITE_P(
-    Runtimes, SimulatorReplay,
-    ::testing::Values(ReplayCase{"ieif_random_walk_loss",
-                                 [](config::Scenario& s) {
-                                   s.world.motion = config::Motion::kRandomWalk;
-                                   s.world.motion_std_m = 0.05;
-                                   s.network.loss = 0.2;
-                                 }},
-                      ReplayCase{"iekf_agent_clocks",
-                                 [](config::Scenario& s) {
-                                   s.algorithm.name = "iekf";
-                                   s.run.sim_clock = config::SimClock::kAgents;
-                                   s.network.delay_ms = 3.0;
-                                   s.network.jitter_ms = 20.0;
-                                   s.clock.drift_ppm = 500.0;
-                                 }},
-                      ReplayCase{"ekf_fusion_centre", [](config::Scenario& s) { s.algorithm.name = "ekf"; }},
-                      ReplayCase{"dgbb", [](config::Scenario& s) { s.algorithm.name = "dgbb"; }},
-                      ReplayCase{"jacobi", [](config::Scenario& s) { s.algorithm.name = "jacobi"; }}),
-    [](const ::testing::TestParamInfo<ReplayCase>& param) { return std::string(param.param.name); });
-
-TEST(SimulatorReplay, AnotherAlgorithmOnTheRecordedInputMatchesItsOwnRunAndDiffers) {
-  // ieif and iekf consume the same measurement kinds, so iekf replayed on ieif's recording sees
-  // exactly what an iekf run of the same seed generates — and ends somewhere else than ieif.
-  auto s = small_scenario();
-  s.world.motion = config::Motion::kRandomWalk;
-  s.world.motion_std_m = 0.05;
-  const auto dir = temp_dir("other-algorithm");
-  DirectoryRecorder recorder(dir);
-  sim::SimOptions record_options;
-  record_options.recorder = &recorder;
-  const auto ieif = sim::run_simulation(s, record_options);
-  recorder.close();
-
-  auto other = s;
-  other.algorithm.name = "iekf";
-  sim::SimOptions replay_options;
-  replay_options.recorded = load_recording(dir / kRecordingFile);
-  const auto replayed = sim::run_simulation(other, replay_options);
-  const auto direct = sim::run_simulation(other);
-  expect_same_metrics(direct, replayed);
-  EXPECT_NE(replayed.final_metrics()->errors.rmse_m, ieif.final_metrics()->errors.rmse_m);
-  EXPECT_TRUE(std::isfinite(replayed.final_metrics()->errors.rmse_m));
-
-  // The measurements really come from the file: with another noise level the generator would draw
-  // other ranges, the replay feeds the recorded ones (ieif takes each range's std from its batch).
-  auto noisier = s;
-  noisier.noise.range_std_m = 1.0;
-  EXPECT_EQ(sim::run_simulation(noisier, replay_options).final_metrics()->errors.rmse_m,
-            ieif.final_metrics()->errors.rmse_m);
-  EXPECT_NE(sim::run_simulation(noisier).final_metrics()->errors.rmse_m, ieif.final_metrics()->errors.rmse_m);
-
-  // A shorter replay is a prefix.
-  auto shorter = s;
-  shorter.run.steps = 10;
-  const auto prefix = sim::run_simulation(shorter, replay_options);
-  ASSERT_EQ(prefix.metrics.size(), 10u);
-  EXPECT_EQ(prefix.metrics.back().errors.rmse_m, ieif.metrics[9].errors.rmse_m);
 }
 
 }  // namespace

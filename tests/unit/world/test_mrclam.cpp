@@ -1,6 +1,5 @@
-// UTIAS MRCLAM as a recorded world: the loader on a small hand-made dataset (always runs), and the real
-// Dataset 6 in the simulator (skipped with a message when the dataset is absent;
-// tests/support/dataset_paths.hpp).
+// UTIAS MRCLAM as a recorded world: the loader on a small hand-made dataset. The real Dataset 6 in the
+// simulator: tests/unit/sim/test_simulated_mrclam.cpp.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -11,7 +10,6 @@
 #include <string>
 
 #include "dataset_paths.hpp"
-#include "swarmloc/sim/simulator.hpp"
 #include "swarmloc/world/mrclam.hpp"
 
 namespace swarmloc::world {
@@ -59,17 +57,7 @@ class TinyDataset {
   fs::path dir_;
 };
 
-config::Scenario mrclam_scenario(const fs::path& dir, int steps) {
-  config::Scenario s;
-  s.algorithm.name = "pose_ekf";
-  s.world.source = config::WorldSource::kMrclam;
-  s.world.data_dir = dir.string();
-  s.world.agents = 5;
-  s.world.anchors = 0;
-  s.run.steps = steps;
-  config::validate(s);
-  return s;
-}
+using testing::mrclam_scenario;
 
 TEST(Mrclam, LoaderMapsBarcodesCountsUnknownOnesAndFindsTheCommonWindow) {
   const TinyDataset data;
@@ -223,50 +211,6 @@ TEST(Mrclam, BadDataIsAClearErrorNamingTheFileAndLine) {
 TEST(Mrclam, RunningPastTheDataIsRefused) {
   const TinyDataset data;
   EXPECT_THROW((void)build_world(mrclam_scenario(data.dir(), 22)), config::ScenarioError);
-}
-
-/// The whole of Dataset 6 in the simulator with the `replay --mrclam` noise model: the distributed
-/// filter and the centralized EKF beat dead reckoning by at least 5×.
-TEST(Mrclam, Dataset6DistributedAndCentralizedFiltersBeatDeadReckoningFiveTimes) {
-  const auto dir = testing::mrclam_dataset6(SWARMLOC_SOURCE_DIR);
-  if (dir.empty() || !fs::exists(dir)) {
-    GTEST_SKIP()
-        << "UTIAS MRCLAM Dataset 6 not found (looked for shared/data/utias-mrclam/MRCLAM_Dataset6 beside "
-        << SWARMLOC_SOURCE_DIR << " and its parents; set SWARMLOC_MRCLAM_DIR to the dataset directory)";
-  }
-  auto s = mrclam_scenario(dir, 9000);
-  s.algorithm.kalman.initial_std_m = 0.05;
-  s.algorithm.pose.initial_heading_std_rad = 0.05;
-  s.algorithm.pose.range_bearing_gate_chi2 = 13.8;
-  s.noise.range_std_m = 0.3;
-  s.noise.bearing_std_rad = 0.1;
-  const auto world = build_world(s);
-  ASSERT_EQ(world.recorded->steps(), 9000);  // 900 s of data
-  const auto baselines = mrclam_baselines(s, world);
-  sim::SimOptions options;
-  options.record_estimates = false;
-  const auto record = sim::run_simulation(s, options);
-  double squared = 0.0;
-  int scored = 0;
-  for (const auto& m : record.metrics) {
-    if (m.errors.scored == 0) continue;
-    squared += m.errors.rmse_m * m.errors.rmse_m;
-    ++scored;
-  }
-  const double distributed = std::sqrt(squared / scored);
-  std::printf("Dataset 6 RMSE over the run: dead reckoning %.4f m, centralized EKF %.4f m, pose_ekf %.4f m\n",
-              baselines.dead_reckoning.rmse_m, baselines.centralized_ekf.rmse_m, distributed);
-  EXPECT_GT(baselines.dead_reckoning.rmse_m, 1.0);
-  EXPECT_LT(5.0 * distributed, baselines.dead_reckoning.rmse_m);
-  EXPECT_LT(5.0 * baselines.centralized_ekf.rmse_m, baselines.dead_reckoning.rmse_m);
-  EXPECT_LT(distributed, 0.4);
-  EXPECT_LT(baselines.centralized_ekf.rmse_m, 0.3);
-  // The batch smoother (the non-causal optimum of the same data) converges and beats the causal filter.
-  ASSERT_TRUE(baselines.batch_smoother);
-  EXPECT_TRUE(baselines.batch_smoother->converged);
-  EXPECT_LT(baselines.batch_smoother->rmse_m, 0.9 * baselines.centralized_ekf.rmse_m);
-  EXPECT_TRUE(std::isfinite(baselines.batch_smoother->nees3));
-  EXPECT_TRUE(std::isfinite(baselines.centralized_ekf.nees3));
 }
 
 }  // namespace

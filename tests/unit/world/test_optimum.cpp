@@ -1,8 +1,8 @@
 // The optimum of each run's own data (docs/algorithms.md §1.3.2): the sparse solver's covariance against the
 // dense inverse, the batch ML against brute force (a grid search, many restarts, and a dense solve on the raw
 // draws each algorithm receives), its RMSE over many trials against the CRLB, the MAP smoother against a
-// dense MAP of the raw draws and against the PCRB. What the run directory reports:
-// tests/unit/rundir/test_run_optimum.cpp.
+// dense MAP of the raw draws and against the PCRB. What a simulated run reports:
+// tests/unit/sim/test_simulated_optimum.cpp.
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
@@ -13,7 +13,6 @@
 
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/run/fusion_centre.hpp"
-#include "swarmloc/sim/centralized_runner.hpp"
 #include "swarmloc/world/bound.hpp"
 #include "swarmloc/world/optimum.hpp"
 #include "swarmloc/world/world.hpp"

@@ -1,5 +1,5 @@
-// What a run reports of its optimum (docs/algorithms.md §1.3.2): summary.json's `optimum` block and
-// `efficiency`, the result table's efficiency line, metrics.csv's checkpoints and trials.csv's columns,
+// What a simulated run reports of its optimum (docs/algorithms.md §1.3.2): summary.json's `optimum` block
+// and `efficiency`, the result table's efficiency line, metrics.csv's checkpoints and trials.csv's columns,
 // for static and moving worlds, and dml at its fixed point. The solver itself:
 // tests/unit/world/test_optimum.cpp.
 #include <gtest/gtest.h>
@@ -18,7 +18,7 @@
 #include "swarmloc/world/optimum.hpp"
 #include "swarmloc/world/world.hpp"
 
-namespace swarmloc::rundir {
+namespace swarmloc::sim {
 namespace {
 
 const std::string kOptimumScenarios = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/";
@@ -26,8 +26,8 @@ const std::string kOptimumScenarios = std::string(SWARMLOC_SOURCE_DIR) + "/scena
 TEST(OptimumReport, SummaryTableMetricsAndTrialsCarryTheOptimumAndTheEfficiency) {
   const auto s =
       config::load_scenario(kOptimumScenarios + "default.yaml", {"algorithm.name=dml", "run.steps=40"});
-  const RunRecord record = sim::run_simulation(s);
-  const auto summary = summary_json(record);
+  const rundir::RunRecord record = run_simulation(s);
+  const auto summary = rundir::summary_json(record);
   const auto& optimum = summary["optimum"];
   EXPECT_EQ(optimum["kind"], "batch_ml");
   EXPECT_EQ(optimum["data"], "all_draws");
@@ -40,18 +40,18 @@ TEST(OptimumReport, SummaryTableMetricsAndTrialsCarryTheOptimumAndTheEfficiency)
   // The optimum of the draws is near the bound of the draws (one world, one trial: within a factor 2).
   EXPECT_GT(optimum_rmse, 0.5 * summary["bound"]["rmse_m"].get<double>());
   EXPECT_LT(optimum_rmse, 2.0 * summary["bound"]["rmse_m"].get<double>());
-  EXPECT_NE(result_table(record).find("final RMSE / optimum (efficiency)"), std::string::npos);
+  EXPECT_NE(rundir::result_table(record).find("final RMSE / optimum (efficiency)"), std::string::npos);
   int solved_rows = 0;
   for (const auto& m : record.metrics) solved_rows += std::isfinite(m.optimum_rmse_m) ? 1 : 0;
   EXPECT_EQ(solved_rows, 20) << "every second step of 40 (25 checkpoints at most)";
 
-  sim::MonteCarloResult result = sim::run_monte_carlo(s, 3, 1);
+  MonteCarloResult result = run_monte_carlo(s, 3, 1);
   ASSERT_EQ(result.final_optimum_per_trial.size(), 3U);
   EXPECT_NE(result.final_optimum_per_trial[0], result.final_optimum_per_trial[1]) << "each trial's own draws";
   const auto directory =
       std::filesystem::temp_directory_path() / ("swarmloc-optimum-" + std::to_string(::getpid()));
   std::filesystem::create_directories(directory);
-  sim::write_monte_carlo(directory, result);
+  write_monte_carlo(directory, result);
   std::ifstream in(directory / "trials.csv");
   std::string header;
   std::getline(in, header);
@@ -71,11 +71,11 @@ TEST(OptimumReport, SummaryTableMetricsAndTrialsCarryTheOptimumAndTheEfficiency)
 
 TEST(OptimumReport, MovingWorldsReportTheSmootherAndOtherModelsSayWhyNone) {
   const auto ea2 = config::load_scenario(kOptimumScenarios + "ea2.yaml", {"run.steps=20"});
-  const RunRecord record = sim::run_simulation(ea2);
+  const rundir::RunRecord record = run_simulation(ea2);
   EXPECT_EQ(record.optimum.kind, world::OptimumKind::kMapSmoother);
   EXPECT_TRUE(std::isfinite(record.final_metrics()->optimum_rmse_m));
-  EXPECT_EQ(summary_json(record)["optimum"]["data"], "one_per_edge");
-  EXPECT_EQ(summary_json(record)["optimum"]["anchors"], "fixes");
+  EXPECT_EQ(rundir::summary_json(record)["optimum"]["data"], "one_per_edge");
+  EXPECT_EQ(rundir::summary_json(record)["optimum"]["anchors"], "fixes");
   for (const std::string name : {"jacobi.yaml", "dle.yaml", "multipath_bp.yaml"}) {
     const auto s = config::load_scenario(kOptimumScenarios + name, {"run.steps=3"});
     const world::OptimumAccumulator accumulator(world::build_world(s), s);
@@ -89,9 +89,9 @@ TEST(OptimumReport, DmlAtItsFixedPointIsTheOptimumOfItsDraws) {
   // every draw (docs/algorithms.md §9, docs/validation.md "How far one trial strays").
   const auto s = config::load_scenario(kOptimumScenarios + "default.yaml",
                                        {"algorithm.name=dml", "run.steps=60", "run.settle_s=200"});
-  const RunRecord record = sim::run_simulation(s);
-  EXPECT_NEAR(run_efficiency(record), 1.0, 0.01);
+  const rundir::RunRecord record = run_simulation(s);
+  EXPECT_NEAR(rundir::run_efficiency(record), 1.0, 0.01);
 }
 
 }  // namespace
-}  // namespace swarmloc::rundir
+}  // namespace swarmloc::sim
