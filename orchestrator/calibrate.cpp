@@ -110,13 +110,15 @@ void print_report(const std::string& dir, const world::MrclamCalibration& c) {
   std::printf("Noise of %s measured against its groundtruth\n", dir.c_str());
   std::printf(
       "  sightings: measured - true range/bearing, groundtruth interpolated at the sighting's timestamp\n"
-      "  (skipped when the groundtruth rows around it are > %.2f s apart); outliers: either residual beyond\n"
-      "  %.0f robust std (iterated from median/MAD), std corrected for the trimmed tails.\n"
+      "  (skipped when the groundtruth rows around it are > %.2f s apart); outliers: outside the pose\n"
+      "  filters' gate, chi-square %.1f of (range, bearing) in stds (iterated from median/MAD), std "
+      "corrected\n"
+      "  for the trimmed tails.\n"
       "  odometry: unicycle arcs of the odometry rows against the groundtruth pose change over tiled "
       "windows\n"
       "  (skipped across groundtruth gaps); distance along the odometry chord, heading change; "
       "std/sqrt(window).\n\n",
-      c.options.max_groundtruth_gap_s, c.options.trim_sigma);
+      c.options.max_groundtruth_gap_s, c.options.sighting_gate_chi2);
   const auto& b = c.range_bias;
   std::printf(
       "Range bias across the image (pooled inlier landmark sightings, n %zu; removed from every figure "

@@ -106,7 +106,7 @@ ReplaySource recording_source(const std::string& path, const std::vector<std::st
 }
 
 /// The scenario of `replay --mrclam` before --set overrides (docs/real-data.md explains each choice). The
-/// noise.* figures are Dataset 6's, measured by `swarmloc calibrate --mrclam DIR` (pooled, rounded).
+/// noise.* figures are Dataset 6's, as `swarmloc calibrate --mrclam DIR` writes them (pooled, 4 digits).
 constexpr const char* kMrclamScenario = R"(name: mrclam
 algorithm:
   name: team_pose_ekf
@@ -120,20 +120,20 @@ world:
   agents: 5
   anchors: 0
 noise:
-  range_bias_m: 0.115
-  range_bias_per_rad: 0.0047
-  range_bias_per_rad2: -1.63
-  robot_range_bias_m: 0.043
+  range_bias_m: 0.1177
+  range_bias_per_rad: -0.00009222
+  range_bias_per_rad2: -1.685
+  robot_range_bias_m: 0.04607
   range_model: affine
-  range_std_m: 0.039
-  range_factor: 0.0066
-  bearing_std_rad: 0.010
-  odometry_v_std: 0.019
-  odometry_omega_std: 0.031
+  range_std_m: 0.04113
+  range_factor: 0.007539
+  bearing_std_rad: 0.01119
+  odometry_v_std: 0.01986
+  odometry_omega_std: 0.03179
   odometry_lag_s: 0.16
-  sighting_correlation_time_s: 7.6
-  range_correlated_fraction: 0.86
-  bearing_correlated_fraction: 0.54
+  sighting_correlation_time_s: 9.657
+  range_correlated_fraction: 0.8802
+  bearing_correlated_fraction: 0.5728
   sighting_cluster_radius_m: 0.5
 run:
   mode: free_run

@@ -29,13 +29,6 @@ double median_of(std::vector<double> values) {
   return *middle;
 }
 
-/// Variance of a unit Gaussian truncated to ±k: the inliers' std underestimates σ by its square root.
-double truncated_variance_factor(double k) {
-  const double density = std::exp(-0.5 * k * k) / std::sqrt(2.0 * std::numbers::pi);
-  const double mass = std::erf(k / std::numbers::sqrt2);
-  return 1.0 - 2.0 * k * density / mass;
-}
-
 struct ChannelEstimate {
   double centre = 0.0;
   double scale = 0.0;
@@ -58,14 +51,11 @@ ChannelEstimate median_mad(const std::vector<Pair>& residuals, std::size_t chann
 }
 
 std::vector<bool> inlier_mask(const std::vector<Pair>& residuals, const std::array<ChannelEstimate, 2>& est,
-                              double trim_sigma) {
+                              PairTrim trim) {
   std::vector<bool> mask(residuals.size());
   for (std::size_t i = 0; i < residuals.size(); ++i) {
-    bool inside = true;
-    for (std::size_t c = 0; c < 2; ++c) {
-      inside = inside && std::abs(residuals[i][c] - est[c].centre) <= trim_sigma * est[c].scale;
-    }
-    mask[i] = inside;
+    mask[i] = trim.inside(PairTrim::standardized(residuals[i][0] - est[0].centre, est[0].scale),
+                          PairTrim::standardized(residuals[i][1] - est[1].centre, est[1].scale));
   }
   return mask;
 }
@@ -154,10 +144,10 @@ SightingResiduals sighting_residuals(const MrclamDataset& data, std::size_t robo
 }
 
 std::vector<RangeBin> range_bins(const std::vector<SightingResidual>& sightings, const RobustStats& range,
-                                 const RobustStats& bearing, double trim_sigma) {
+                                 const RobustStats& bearing, PairTrim trim) {
   std::vector<std::vector<double>> by_metre;
   for (const auto& s : sightings) {
-    if (!within_trim(s.residual, range, bearing, trim_sigma)) continue;
+    if (!within_trim(s.residual, range, bearing, trim)) continue;
     const auto bin = static_cast<std::size_t>(std::floor(s.true_range_m));
     if (bin >= by_metre.size()) by_metre.resize(bin + 1);
     by_metre[bin].push_back(s.residual[0]);
@@ -235,9 +225,9 @@ struct TrimmedSightings {
   std::vector<Pair> robot_means;
 
   TrimmedSightings(const std::vector<SightingResidual>& sightings, const RobustStats& range,
-                   const RobustStats& bearing, double trim_sigma) {
+                   const RobustStats& bearing, PairTrim trim) {
     for (const auto& s : sightings) {
-      if (within_trim(s.residual, range, bearing, trim_sigma)) inliers.push_back(&s);
+      if (within_trim(s.residual, range, bearing, trim)) inliers.push_back(&s);
     }
     robot_means = per_robot_means(inliers);
   }
@@ -249,8 +239,8 @@ struct TrimmedSightings {
 
 std::vector<ConsecutivePair> consecutive_pairs(const std::vector<SightingResidual>& sightings,
                                                const RobustStats& range, const RobustStats& bearing,
-                                               double trim_sigma) {
-  TrimmedSightings trimmed(sightings, range, bearing, trim_sigma);
+                                               PairTrim trim) {
+  TrimmedSightings trimmed(sightings, range, bearing, trim);
   auto& inliers = trimmed.inliers;
   std::stable_sort(inliers.begin(), inliers.end(), [](const auto* a, const auto* b) {
     return std::tie(a->robot, a->subject, a->time_s) < std::tie(b->robot, b->subject, b->time_s);
@@ -287,8 +277,8 @@ double pair_correlation(const std::vector<ConsecutivePair>& pairs, std::size_t c
 /// far apart the subjects are; residuals less their robot's mean.
 std::vector<SeparationBin> same_frame_bins(const std::vector<SightingResidual>& sightings,
                                            const RobustStats& range, const RobustStats& bearing,
-                                           double trim_sigma) {
-  TrimmedSightings trimmed(sightings, range, bearing, trim_sigma);
+                                           PairTrim trim) {
+  TrimmedSightings trimmed(sightings, range, bearing, trim);
   auto& inliers = trimmed.inliers;
   std::stable_sort(inliers.begin(), inliers.end(), [](const auto* a, const auto* b) {
     return std::tie(a->robot, a->time_s) < std::tie(b->robot, b->time_s);
@@ -411,37 +401,37 @@ SightingCorrelation fit_correlation(const std::vector<ConsecutivePair>& pairs) {
 }
 
 SightingCalibration calibrate_sightings(const std::vector<SightingResidual>& sightings, std::size_t gaps,
-                                        double trim_sigma) {
+                                        PairTrim trim) {
   SightingCalibration out;
   out.skipped_gap = gaps;
   std::vector<Pair> residuals;
   residuals.reserve(sightings.size());
   for (const auto& s : sightings) residuals.push_back(s.residual);
-  const auto stats = robust_pair_stats(residuals, trim_sigma);
+  const auto stats = robust_pair_stats(residuals, trim);
   out.range_m = stats[0];
   out.bearing_rad = stats[1];
-  out.range_bins = range_bins(sightings, out.range_m, out.bearing_rad, trim_sigma);
+  out.range_bins = range_bins(sightings, out.range_m, out.bearing_rad, trim);
   std::tie(out.range_std_intercept_m, out.range_std_slope) = fit_std_line(out.range_bins);
-  out.correlation = fit_correlation(consecutive_pairs(sightings, out.range_m, out.bearing_rad, trim_sigma));
-  out.same_frame = same_frame_bins(sightings, out.range_m, out.bearing_rad, trim_sigma);
+  out.correlation = fit_correlation(consecutive_pairs(sightings, out.range_m, out.bearing_rad, trim));
+  out.same_frame = same_frame_bins(sightings, out.range_m, out.bearing_rad, trim);
   out.cluster_radius_m = cluster_radius(out.same_frame);
   return out;
 }
 
 /// Least squares of the inliers' range residual on (1, β, β²), the trim taken again once on what is left.
-BearingRangeBias fit_bearing_range_bias(const std::vector<SightingResidual>& sightings, double trim_sigma) {
+BearingRangeBias fit_bearing_range_bias(const std::vector<SightingResidual>& sightings, PairTrim trim) {
   BearingRangeBias bias;
   std::vector<Pair> residuals;
   residuals.reserve(sightings.size());
   for (const auto& s : sightings) residuals.push_back(s.residual);
-  auto stats = robust_pair_stats(residuals, trim_sigma);
+  auto stats = robust_pair_stats(residuals, trim);
   bias.std_before_m = stats[0].std;
   for (int pass = 0; pass < 2; ++pass) {
     Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
     Eigen::Vector3d moment = Eigen::Vector3d::Zero();
     std::size_t used = 0;
     for (std::size_t k = 0; k < sightings.size(); ++k) {
-      if (!within_trim(residuals[k], stats[0], stats[1], trim_sigma)) continue;
+      if (!within_trim(residuals[k], stats[0], stats[1], trim)) continue;
       const double beta = sightings[k].measured_bearing_rad;
       const Eigen::Vector3d row(1.0, beta, beta * beta);
       normal += row * row.transpose();
@@ -455,7 +445,7 @@ BearingRangeBias fit_bearing_range_bias(const std::vector<SightingResidual>& sig
     for (std::size_t k = 0; k < sightings.size(); ++k) {
       residuals[k][0] = sightings[k].residual[0] - bias.at(sightings[k].measured_bearing_rad);
     }
-    stats = robust_pair_stats(residuals, trim_sigma);
+    stats = robust_pair_stats(residuals, trim);
   }
   bias.std_after_m = stats[0].std;
   return bias;
@@ -484,33 +474,56 @@ void append(RawResiduals& into, const RawResiduals& from) {
 RobotCalibration calibrate_residuals(const RawResiduals& raw, const CalibrationOptions& options) {
   RobotCalibration out;
   out.landmarks =
-      calibrate_sightings(raw.sightings.landmarks, raw.sightings.landmark_gaps, options.trim_sigma);
-  out.robots = calibrate_sightings(raw.sightings.robots, raw.sightings.robot_gaps, options.trim_sigma);
+      calibrate_sightings(raw.sightings.landmarks, raw.sightings.landmark_gaps, options.sighting_trim());
+  out.robots = calibrate_sightings(raw.sightings.robots, raw.sightings.robot_gaps, options.sighting_trim());
   for (std::size_t k = 0; k < options.windows_s.size(); ++k) {
-    out.odometry.push_back(calibrate_odometry(raw.windows[k], options.windows_s[k], options.trim_sigma));
+    out.odometry.push_back(calibrate_odometry(raw.windows[k], options.windows_s[k], options.odometry_trim()));
   }
   return out;
 }
 
 }  // namespace
 
-std::array<RobustStats, 2> robust_pair_stats(const std::vector<Pair>& residuals, double trim_sigma) {
+bool PairTrim::inside(double z0, double z1) const {
+  if (shape == Shape::joint) return z0 * z0 + z1 * z1 <= threshold;
+  return std::abs(z0) <= threshold && std::abs(z1) <= threshold;
+}
+
+double PairTrim::standardized(double deviation, double std) {
+  if (std > 0.0) return deviation / std;
+  return deviation == 0.0 ? 0.0 : std::numeric_limits<double>::infinity();
+}
+
+double PairTrim::variance_factor() const {
+  if (shape == Shape::joint) {
+    // The squared radius of a unit bivariate Gaussian is χ²(2), exponential with mean 2: E[r² | r² ≤ k] per
+    // channel, halved.
+    const double tail = std::exp(-0.5 * threshold);
+    return 1.0 - 0.5 * threshold * tail / (1.0 - tail);
+  }
+  // One channel truncated to ±k (the other channel's box does not change it: the channels are independent).
+  const double density = std::exp(-0.5 * threshold * threshold) / std::sqrt(2.0 * std::numbers::pi);
+  const double mass = std::erf(threshold / std::numbers::sqrt2);
+  return 1.0 - 2.0 * threshold * density / mass;
+}
+
+std::array<RobustStats, 2> robust_pair_stats(const std::vector<Pair>& residuals, PairTrim trim) {
   std::array<RobustStats, 2> out{};
   for (auto& s : out) s.samples = residuals.size();
   if (residuals.size() < 2) return out;
   std::array<ChannelEstimate, 2> est{median_mad(residuals, 0), median_mad(residuals, 1)};
-  const double factor = truncated_variance_factor(trim_sigma);
-  std::vector<bool> mask = inlier_mask(residuals, est, trim_sigma);
+  const double factor = trim.variance_factor();
+  std::vector<bool> mask = inlier_mask(residuals, est, trim);
   for (int iteration = 0; iteration < 100; ++iteration) {
     est = inlier_moments(residuals, mask, factor);
-    auto next = inlier_mask(residuals, est, trim_sigma);
+    auto next = inlier_mask(residuals, est, trim);
     if (next == mask) break;
     mask = std::move(next);
   }
   const auto outliers = static_cast<std::size_t>(std::count(mask.begin(), mask.end(), false));
   const auto plain = inlier_moments(residuals, std::vector<bool>(residuals.size(), true), 1.0);
-  const auto all =
-      inlier_moments(residuals, inlier_mask(residuals, plain, 5.0), truncated_variance_factor(5.0));
+  const auto all = inlier_moments(residuals, inlier_mask(residuals, plain, PairTrim::per_channel(5.0)),
+                                  PairTrim::per_channel(5.0).variance_factor());
   for (std::size_t c = 0; c < 2; ++c) {
     out[c].all_std = all[c].scale;
     out[c].all_mean = all[c].centre;
@@ -548,8 +561,9 @@ MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationO
     const auto& landmarks = sightings.back().landmarks;
     pooled_landmarks.insert(pooled_landmarks.end(), landmarks.begin(), landmarks.end());
   }
-  out.range_bias = fit_bearing_range_bias(pooled_landmarks, options.trim_sigma);
-  out.odometry_lag = detail::measure_odometry_lag(data, options.max_groundtruth_gap_s, options.trim_sigma);
+  out.range_bias = fit_bearing_range_bias(pooled_landmarks, options.sighting_trim());
+  out.odometry_lag =
+      detail::measure_odometry_lag(data, options.max_groundtruth_gap_s, options.odometry_trim());
   const double lag = out.odometry_lag.lag_s;
   RawResiduals pooled;
   pooled.windows.resize(options.windows_s.size());
@@ -573,11 +587,11 @@ MrclamCalibration calibrate_mrclam(const MrclamDataset& data, const CalibrationO
   WindowResiduals pooled_horizon;
   for (std::size_t r = 0; r < data.robots.size(); ++r) {
     WindowResiduals raw = odometry_residuals(data.robots[r], horizon_s, options.max_groundtruth_gap_s, lag);
-    out.robots[r].horizon = calibrate_odometry(raw, horizon_s, options.trim_sigma);
+    out.robots[r].horizon = calibrate_odometry(raw, horizon_s, options.odometry_trim());
     pooled_horizon.windows.insert(pooled_horizon.windows.end(), raw.windows.begin(), raw.windows.end());
     pooled_horizon.gaps += raw.gaps;
   }
-  out.pooled.horizon = calibrate_odometry(pooled_horizon, horizon_s, options.trim_sigma);
+  out.pooled.horizon = calibrate_odometry(pooled_horizon, horizon_s, options.odometry_trim());
   return out;
 }
 

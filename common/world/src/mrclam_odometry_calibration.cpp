@@ -85,20 +85,20 @@ WindowResiduals odometry_residuals(const MrclamDataset::Robot& robot, double win
   return out;
 }
 
-OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double window_s, double trim_sigma) {
+OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double window_s, PairTrim trim) {
   OdometryCalibration out;
   out.window_s = window_s;
   out.skipped_gap = residuals.gaps;
   std::vector<Pair> pairs;
   pairs.reserve(residuals.windows.size());
   for (const auto& w : residuals.windows) pairs.push_back(w.residual);
-  const auto stats = robust_pair_stats(pairs, trim_sigma);
+  const auto stats = robust_pair_stats(pairs, trim);
   out.distance_m = stats[0];
   out.heading_rad = stats[1];
   double odometry_sum = 0.0;
   double true_sum = 0.0;
   for (const auto& w : residuals.windows) {
-    const bool inlier = within_trim(w.residual, out.distance_m, out.heading_rad, trim_sigma);
+    const bool inlier = within_trim(w.residual, out.distance_m, out.heading_rad, trim);
     if (!inlier || std::abs(w.odometry_distance_m) < 0.01) continue;
     odometry_sum += w.odometry_distance_m;
     true_sum += w.true_distance_m;
@@ -107,7 +107,7 @@ OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double 
   return out;
 }
 
-OdometryLag measure_odometry_lag(const MrclamDataset& data, double max_gap_s, double trim_sigma) {
+OdometryLag measure_odometry_lag(const MrclamDataset& data, double max_gap_s, PairTrim trim) {
   OdometryLag out;
   double best = std::numeric_limits<double>::infinity();
   const int steps = static_cast<int>(std::lround(kMaxLagS / kLagStepS));
@@ -120,7 +120,7 @@ OdometryLag measure_odometry_lag(const MrclamDataset& data, double max_gap_s, do
       }
     }
     if (pairs.empty()) continue;
-    const double heading_std = robust_pair_stats(pairs, trim_sigma)[1].std;
+    const double heading_std = robust_pair_stats(pairs, trim)[1].std;
     out.curve.push_back({lag, heading_std});
     if (heading_std < best) {
       best = heading_std;

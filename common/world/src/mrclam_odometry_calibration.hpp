@@ -14,9 +14,9 @@ using Pair = std::array<double, 2>;
 
 /// The final trim of robust_pair_stats, applied to one sample.
 inline bool within_trim(const Pair& residual, const RobustStats& first, const RobustStats& second,
-                        double trim_sigma) {
-  return std::abs(residual[0] - first.bias) <= trim_sigma * first.std &&
-         std::abs(residual[1] - second.bias) <= trim_sigma * second.std;
+                        PairTrim trim) {
+  return trim.inside(PairTrim::standardized(residual[0] - first.bias, first.std),
+                     PairTrim::standardized(residual[1] - second.bias, second.std));
 }
 
 /// One window's residual and the odometry's distance along its chord (for the scale ratio).
@@ -40,9 +40,9 @@ WindowResiduals odometry_residuals(const MrclamDataset::Robot& robot, double win
 /// The command lag that makes the odometry's turn agree best with the groundtruth: the trimmed heading
 /// std over windows of kLagWindowS, pooled over every robot, for each lag on a grid of kLagStepS up to
 /// kMaxLagS; the lag where it is least.
-OdometryLag measure_odometry_lag(const MrclamDataset& data, double max_gap_s, double trim_sigma);
+OdometryLag measure_odometry_lag(const MrclamDataset& data, double max_gap_s, PairTrim trim);
 
 /// The windows' robust statistics and distance ratio.
-OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double window_s, double trim_sigma);
+OdometryCalibration calibrate_odometry(const WindowResiduals& residuals, double window_s, PairTrim trim);
 
 }  // namespace swarmloc::world::detail

@@ -208,9 +208,9 @@ TEST(MrclamCalibration, RecoversTheKnownSightingNoiseAndBias) {
   EXPECT_NEAR(landmarks.range_m.std, noise.range_std_m, 0.1 * noise.range_std_m);
   EXPECT_NEAR(landmarks.bearing_rad.bias, 0.0, 0.003);
   EXPECT_NEAR(landmarks.bearing_rad.std, noise.bearing_std_rad, 0.1 * noise.bearing_std_rad);
-  // Clean Gaussian data: a joint 3σ trim drops 0.54 %; a bearing residual not wrapped at ±π would add
-  // every sighting straddling the robot's back (about 2 % here).
-  EXPECT_LT(landmarks.range_m.outlier_fraction(), 0.012);
+  // Clean Gaussian data: the filters' gate (χ² 13.8) drops 0.1 %, a 3σ box per channel would drop 0.54 %;
+  // a bearing residual not wrapped at ±π would add every sighting straddling the robot's back (about 2 %).
+  EXPECT_LT(landmarks.range_m.outlier_fraction(), 0.003);
   const auto& robots = c.pooled.robots;
   EXPECT_GT(robots.range_m.samples, 1000U);
   EXPECT_NEAR(robots.range_m.bias, 0.0, 0.02);  // robots read as long as landmarks
@@ -219,6 +219,37 @@ TEST(MrclamCalibration, RecoversTheKnownSightingNoiseAndBias) {
   // The noise does not grow with range: the fitted slope is near zero.
   EXPECT_NEAR(landmarks.range_std_slope, 0.0, 0.01);
   EXPECT_NEAR(landmarks.range_std_intercept_m, noise.range_std_m, 0.02);
+}
+
+TEST(MrclamCalibration, SightingsAreTrimmedByThePoseFiltersGateNotByABoxPerChannel) {
+  // A sighting 3.2 σ off in range alone passes the gate (χ² 10.2 < 13.8), so a filter uses it and the
+  // figures must describe it; 2.9 σ off in both channels (χ² 16.8) is refused by the gate.
+  const auto gate = CalibrationOptions{}.sighting_trim();
+  EXPECT_EQ(gate.shape, PairTrim::Shape::joint);
+  EXPECT_EQ(gate.threshold, 13.8);
+  EXPECT_TRUE(gate.inside(3.2, 0.0));
+  EXPECT_TRUE(gate.inside(0.0, -3.2));
+  EXPECT_FALSE(gate.inside(2.9, -2.9));
+  const auto box = CalibrationOptions{}.odometry_trim();
+  EXPECT_FALSE(box.inside(3.2, 0.0));
+  EXPECT_TRUE(box.inside(2.9, -2.9));
+}
+
+TEST(MrclamCalibration, EitherTrimRecoversTheStdOfAGaussianPairFromItsInliers) {
+  // Tight trims, so that the correction for the cut tails is large: χ² 4 keeps 86 % of a Gaussian pair and
+  // its inliers' raw std is 0.83 σ; a ±1.5 σ box keeps 75 % and 0.74 σ.
+  std::mt19937 rng(11);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  std::vector<std::array<double, 2>> residuals;
+  for (int i = 0; i < 40000; ++i) residuals.push_back({0.02 + 0.05 * unit(rng), -0.003 + 0.01 * unit(rng)});
+  for (const auto trim : {PairTrim::joint(4.0), PairTrim::per_channel(1.5)}) {
+    const auto stats = robust_pair_stats(residuals, trim);
+    EXPECT_NEAR(stats[0].std, 0.05, 0.03 * 0.05);
+    EXPECT_NEAR(stats[1].std, 0.01, 0.03 * 0.01);
+    EXPECT_NEAR(stats[0].bias, 0.02, 0.002);
+    const double kept = trim.shape == PairTrim::Shape::joint ? 1.0 - std::exp(-2.0) : std::pow(0.8664, 2);
+    EXPECT_NEAR(stats[0].outlier_fraction(), 1.0 - kept, 0.01);
+  }
 }
 
 TEST(MrclamCalibration, RecoversTheGaussMarkovCorrelationOfConsecutiveSightings) {

@@ -27,12 +27,31 @@ struct RobustStats {
   }
 };
 
-/// Two residual channels of the same samples (range and bearing of a sighting; distance and heading of
-/// an odometry window), trimmed together: a sample is an outlier when either channel is more than
-/// `trim_sigma` stds from its centre. Starts from the median and 1.4826·MAD, then iterates mean / std of
-/// the inliers until the inlier set is stable.
+/// Which samples of a residual pair (range and bearing of a sighting; distance and heading of an odometry
+/// window) are inliers, from their residuals in stds from each channel's centre. `per_channel`: each
+/// channel within `threshold` stds (a box). `joint`: the pair's chi-square (2 degrees of freedom) within
+/// `threshold` (an ellipse): the pose filters' innovation gate, so that the sighting figures describe the
+/// sightings such a filter accepts (docs/real-data.md, "How each figure is measured").
+struct PairTrim {
+  enum class Shape { per_channel, joint };
+  Shape shape = Shape::per_channel;
+  double threshold = 3.0;
+
+  static PairTrim per_channel(double sigma) { return {Shape::per_channel, sigma}; }
+  static PairTrim joint(double chi2) { return {Shape::joint, chi2}; }
+  /// z0, z1: the pair's residuals in stds from their centres.
+  [[nodiscard]] bool inside(double z0, double z1) const;
+  /// A residual in stds from its centre; in a channel without spread only the centre itself is inside.
+  [[nodiscard]] static double standardized(double deviation, double std);
+  /// The variance of one channel of a unit bivariate Gaussian kept by this trim: the inliers' std
+  /// underestimates σ by its square root.
+  [[nodiscard]] double variance_factor() const;
+};
+
+/// Two residual channels of the same samples, trimmed together by `trim`. Starts from the median and
+/// 1.4826·MAD, then iterates mean / std of the inliers until the inlier set is stable.
 std::array<RobustStats, 2> robust_pair_stats(const std::vector<std::array<double, 2>>& residuals,
-                                             double trim_sigma = 3.0);
+                                             PairTrim trim = {});
 
 /// Range residual statistics of the inliers whose true range lies in [from_m, to_m).
 struct RangeBin {
@@ -131,7 +150,13 @@ struct CalibrationOptions {
   double max_groundtruth_gap_s = 0.1;
   std::vector<double> windows_s{0.5, 1.0, 2.0, 4.0, 8.0, 16.0};
   double min_horizon_s = 1.0;  ///< the horizon window when sightings are independent (τ = 0) or τ shorter
-  double trim_sigma = 3.0;
+  /// A sighting is an inlier when it passes the pose filters' gate at this chi-square (2 dof), the replay's
+  /// `algorithm.range_bearing_gate_chi2`: the figures then describe the sightings the filters use.
+  double sighting_gate_chi2 = 13.8;
+  double odometry_trim_sigma = 3.0;  ///< an odometry window is an outlier beyond this many stds per channel
+
+  [[nodiscard]] PairTrim sighting_trim() const { return PairTrim::joint(sighting_gate_chi2); }
+  [[nodiscard]] PairTrim odometry_trim() const { return PairTrim::per_channel(odometry_trim_sigma); }
 };
 
 /// A range bias that depends on where the subject is in the camera's image: b(β) = constant_m +
