@@ -142,14 +142,26 @@ void print_report(const std::string& dir, const world::MrclamCalibration& c) {
   print_odometry(c.pooled);
 }
 
-/// The scenario keys of the pooled model. Range: the affine std fitted over range bins (the constant
-/// trimmed std when the fit is unusable); bearing: the trimmed std of the landmark sightings (the outliers
-/// are misidentified barcodes, which the filters' gate drops; the robot sightings are reported, not
-/// published: the filters give both kinds one model). Odometry: the RMS with heavy tails and mean over
-/// windows of the sightings' correlation time (commanded velocities against real motion, a speed scale
-/// error: error the filter must carry until sightings bring new information). Sighting correlation: the
-/// white + Gauss–Markov fit of the landmark sightings.
-std::string scenario_fragment(const std::string& dir, const world::MrclamCalibration& c) {
+void require_usable(const world::MrclamCalibration& c) {
+  if (inliers(c.pooled.landmarks.range_m) < kMinUsableSamples) {
+    throw config::ScenarioError("calibrate: fewer than " + std::to_string(kMinUsableSamples) +
+                                " landmark sightings with groundtruth around them");
+  }
+  if (inliers(c.pooled.horizon.distance_m) < kMinUsableSamples) {
+    throw config::ScenarioError("calibrate: fewer than " + std::to_string(kMinUsableSamples) +
+                                " odometry windows with groundtruth at both ends");
+  }
+}
+
+}  // namespace
+
+/// The keys of the pooled model. Range: the affine std fitted over range bins (the constant std when the
+/// fit is unusable); bearing: the std of the landmark sightings inside the filters' gate (the robot
+/// sightings are reported, not published: the filters give both kinds one model). Odometry: the RMS with
+/// heavy tails and mean over windows of the sightings' correlation time (commanded velocities against real
+/// motion, a speed scale error: error the filter must carry until sightings bring new information).
+/// Sighting correlation: the white + Gauss–Markov fit of the landmark sightings.
+std::string noise_fragment(const std::string& dir, const world::MrclamCalibration& c) {
   const auto& odometry = c.pooled.horizon;
   const auto& landmarks = c.pooled.landmarks;
   const auto& correlation = landmarks.correlation;
@@ -190,29 +202,22 @@ std::string scenario_fragment(const std::string& dir, const world::MrclamCalibra
   return text.str();
 }
 
-void require_usable(const world::MrclamCalibration& c) {
-  if (inliers(c.pooled.landmarks.range_m) < kMinUsableSamples) {
-    throw config::ScenarioError("calibrate: fewer than " + std::to_string(kMinUsableSamples) +
-                                " landmark sightings with groundtruth around them");
-  }
-  if (inliers(c.pooled.horizon.distance_m) < kMinUsableSamples) {
-    throw config::ScenarioError("calibrate: fewer than " + std::to_string(kMinUsableSamples) +
-                                " odometry windows with groundtruth at both ends");
-  }
+world::MrclamCalibration measure_mrclam_noise(const std::string& dir) {
+  auto calibration = world::calibrate_mrclam(world::load_mrclam(dir));
+  require_usable(calibration);
+  return calibration;
 }
-
-}  // namespace
 
 int run_calibrate(const CalibrateOptions& options) {
   try {
     if (options.mrclam_dir.empty()) throw config::ScenarioError("calibrate: --mrclam DIR is required");
-    const auto data = world::load_mrclam(options.mrclam_dir);
-    const auto calibration = world::calibrate_mrclam(data);
-    require_usable(calibration);
+    const auto calibration = measure_mrclam_noise(options.mrclam_dir);
     print_report(options.mrclam_dir, calibration);
-    const auto fragment = scenario_fragment(options.mrclam_dir, calibration);
-    std::printf("\nScenario keys (replay --mrclam uses these as --set, or paste into a scenario):\n%s",
-                fragment.c_str());
+    const auto fragment = noise_fragment(options.mrclam_dir, calibration);
+    std::printf(
+        "\nScenario keys (replay --mrclam DIR measures them itself; --noise FILE replays with a saved "
+        "set):\n%s",
+        fragment.c_str());
     if (!options.out_path.empty()) {
       std::ofstream out(options.out_path);
       out << fragment;

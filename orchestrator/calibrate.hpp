@@ -4,12 +4,23 @@
 // and writes them as a scenario fragment (docs/real-data.md, "Noise model").
 #include <string>
 
+#include "swarmloc/world/mrclam_calibration.hpp"
+
 namespace swarmloc::orchestrator {
 
 struct CalibrateOptions {
   std::string mrclam_dir;
   std::string out_path;  ///< the YAML fragment; empty: none written
 };
+
+/// The noise model of the MRCLAM dataset in `dir`, measured against its own groundtruth. Throws
+/// config::ScenarioError when it has too few usable samples to measure one (and whatever load_mrclam throws
+/// for an unreadable dataset).
+world::MrclamCalibration measure_mrclam_noise(const std::string& dir);
+
+/// The pooled model as a scenario fragment: comment lines saying how it was measured, then a `noise:`
+/// block. What `calibrate --out` writes and `replay --mrclam` uses.
+std::string noise_fragment(const std::string& dir, const world::MrclamCalibration& calibration);
 
 /// Returns the process exit code (0 ok; 2 bad input: missing or unreadable dataset, no usable samples,
 /// unwritable --out).

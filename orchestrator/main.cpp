@@ -301,6 +301,9 @@ void add_replay_command(CLI::App& app, SharedFlags& shared, ReplayCommand& repla
   command->add_option("--speedup", options.speedup,
                       "--mrclam: dataset seconds per wall-clock second (default 10)");
   command->add_flag("--sim", options.in_process, "--mrclam: run in the in-process simulator, not over DDS");
+  command->add_option("--noise", options.noise_path,
+                      "--mrclam: replay with this noise model (a `swarmloc calibrate --out` file) instead of "
+                      "the dataset's own, measured from its groundtruth");
   command->add_option("--out", shared.out_dir, "Run directory (default: runs/<name>-<utc stamp>-seed<seed>)");
   command->add_option("--set", shared.overrides,
                       "Override a key of the recorded scenario (repeatable; not seed or world.*, which would "

@@ -6,8 +6,11 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <sstream>
 
+#include "calibrate.hpp"
 #include "orchestrator.hpp"
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/world/mrclam.hpp"
@@ -105,8 +108,9 @@ ReplaySource recording_source(const std::string& path, const std::vector<std::st
   return source;
 }
 
-/// The scenario of `replay --mrclam` before --set overrides (docs/real-data.md explains each choice). The
-/// noise.* figures are Dataset 6's, as `swarmloc calibrate --mrclam DIR` writes them (pooled, 4 digits).
+/// The scenario of `replay --mrclam` before its noise model and the --set overrides (docs/real-data.md
+/// explains each choice). The noise model is the dataset's own, measured as `swarmloc calibrate` does, or
+/// --noise FILE.
 constexpr const char* kMrclamScenario = R"(name: mrclam
 algorithm:
   name: team_pose_ekf
@@ -119,22 +123,6 @@ world:
   data_step_s: 0.1
   agents: 5
   anchors: 0
-noise:
-  range_bias_m: 0.1177
-  range_bias_per_rad: -0.00009222
-  range_bias_per_rad2: -1.685
-  robot_range_bias_m: 0.04607
-  range_model: affine
-  range_std_m: 0.04113
-  range_factor: 0.007539
-  bearing_std_rad: 0.01119
-  odometry_v_std: 0.01986
-  odometry_omega_std: 0.03179
-  odometry_lag_s: 0.16
-  sighting_correlation_time_s: 9.657
-  range_correlated_fraction: 0.8802
-  bearing_correlated_fraction: 0.5728
-  sighting_cluster_radius_m: 0.5
 run:
   mode: free_run
 )";
@@ -179,6 +167,43 @@ void print_baselines(const world::MrclamBaselines& baselines) {
   std::fflush(stdout);
 }
 
+/// --noise FILE: its text, which may hold comments and one top-level block, `noise:` (what `calibrate
+/// --out` writes); anything else would silently change the replay's other settings.
+std::string noise_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw config::ScenarioError("--noise: cannot read '" + path + "'");
+  std::ostringstream text;
+  text << in.rdbuf();
+  std::istringstream lines(text.str());
+  std::string line;
+  bool noise_block = false;
+  for (int number = 1; std::getline(lines, line); ++number) {
+    if (line.empty() || line[0] == ' ' || line[0] == '#') continue;
+    if (line.rfind("noise:", 0) != 0 || line.find_first_not_of(' ', 6) != std::string::npos) {
+      throw config::ScenarioError("--noise " + path + ":" + std::to_string(number) +
+                                  ": only a noise: block may be given (as `swarmloc calibrate --out` "
+                                  "writes it), found '" +
+                                  line + "'");
+    }
+    noise_block = true;
+  }
+  if (!noise_block) throw config::ScenarioError("--noise " + path + ": no noise: block");
+  return text.str();
+}
+
+/// The dataset's own noise model, measured against its groundtruth (`swarmloc calibrate`), as YAML.
+std::string measured_noise(const std::string& dir) {
+  const auto c = measure_mrclam_noise(dir);
+  const auto& landmarks = c.pooled.landmarks;
+  spdlog::info(
+      "noise measured from the dataset's groundtruth (swarmloc calibrate; --noise FILE replays with "
+      "another): landmark range std {:.4f} m, bearing std {:.4f} rad, odometry {:.4f} m/√s and {:.4f} "
+      "rad/√s over {:.1f} s, command lag {:.2f} s",
+      landmarks.range_m.std, landmarks.bearing_rad.std, c.pooled.horizon.v_rms_with_tails(),
+      c.pooled.horizon.omega_rms_with_tails(), c.pooled.horizon.window_s, c.odometry_lag.lag_s);
+  return noise_fragment(dir, c);
+}
+
 /// `replay --mrclam DIR`: the dataset as the world, every recorded step unless run.steps is set, the
 /// wall rate = speedup / data_step_s, and both baselines computed in-process on the same steps.
 ReplaySource mrclam_source(const ReplayOptions& options) {
@@ -193,7 +218,11 @@ ReplaySource mrclam_source(const ReplayOptions& options) {
     steps_set = steps_set || override_key(text) == "run.steps";
     overrides.push_back(text);
   }
-  auto scenario = config::parse_scenario(kMrclamScenario, overrides, "replay --mrclam");
+  const auto noise =
+      options.noise_path.empty() ? measured_noise(dir.string()) : noise_file(options.noise_path);
+  // The noise block comes first, so that an error in a --noise file names its own line.
+  const auto origin = options.noise_path.empty() ? std::string("replay --mrclam") : options.noise_path;
+  auto scenario = config::parse_scenario(noise + "\n" + kMrclamScenario, overrides, origin);
   if (!std::any_of(options.overrides.begin(), options.overrides.end(),
                    [](const std::string& text) { return override_key(text) == "run.rate_hz"; })) {
     scenario.run.rate_hz = options.speedup / scenario.world.data_step_s;
@@ -213,7 +242,10 @@ ReplaySource mrclam_source(const ReplayOptions& options) {
   ReplaySource source;
   source.scenario = scenario;
   source.provenance = {
-      {"mrclam", dir.string()}, {"speedup", options.speedup}, {"dataset_steps", dataset_steps}};
+      {"mrclam", dir.string()},
+      {"speedup", options.speedup},
+      {"dataset_steps", dataset_steps},
+      {"noise", options.noise_path.empty() ? std::string("measured from the dataset") : options.noise_path}};
   source.baselines = {{"dead_reckoning", baseline_json(baselines.dead_reckoning)},
                       {"centralized_ekf", baseline_json(baselines.centralized_ekf)}};
   if (baselines.batch_smoother) source.baselines["batch_smoother"] = smoother_json(*baselines.batch_smoother);
@@ -229,6 +261,10 @@ int run_replay(const ReplayOptions& options) {
   try {
     if (mrclam && !options.recording_path.empty()) {
       throw config::ScenarioError("replay: give a recording FILE or --mrclam DIR, not both");
+    }
+    if (!mrclam && !options.noise_path.empty()) {
+      throw config::ScenarioError(
+          "replay: --noise applies to --mrclam DIR (a recording keeps its own noise)");
     }
     if (!mrclam && options.recording_path.empty()) {
       throw config::ScenarioError("replay: a recording FILE (or --mrclam DIR) is required");

@@ -11,9 +11,12 @@ namespace swarmloc::orchestrator {
 struct ReplayOptions {
   /// The recording to replay, or (mrclam_dir) a UTIAS MRCLAM dataset directory.
   std::string recording_path;
-  std::string mrclam_dir;              ///< --mrclam DIR: five robots as five agents (DDS unless in_process)
-  double speedup = 10.0;               ///< --mrclam: dataset seconds per wall-clock second (free run)
-  bool in_process = false;             ///< --mrclam --sim: the in-process simulator instead of DDS
+  std::string mrclam_dir;   ///< --mrclam DIR: five robots as five agents (DDS unless in_process)
+  double speedup = 10.0;    ///< --mrclam: dataset seconds per wall-clock second (free run)
+  bool in_process = false;  ///< --mrclam --sim: the in-process simulator instead of DDS
+  /// --mrclam --noise FILE: the noise model to replay with, a `noise:` block as `swarmloc calibrate --out`
+  /// writes it. Empty: the dataset's own noise, measured from its groundtruth as calibrate does.
+  std::string noise_path;
   bool dds = false;                    ///< over DDS agent processes (default: the simulator)
   std::vector<std::string> overrides;  ///< --set on the recorded scenario (no world.* or seed)
   std::filesystem::path out_dir;       ///< empty: runs/<name>-<stamp>-seed<seed>

@@ -3,8 +3,8 @@
 // docs/real-data.md; this test replays the first 150 s at 50× in lockstep (about 10 s of run), and again
 // in the simulator, which it must equal. Skipped, with
 // a message, when the dataset is absent (it is never part of the project; tests/support/dataset_paths.hpp).
-// Also: the replay's noise defaults are what `swarmloc calibrate` measures on Dataset 6, and with them the
-// whole 900 s in the simulator meet issue 39's figures. Domain 45.
+// Also: the replay's noise model is what `swarmloc calibrate` measures on the dataset (or a --noise file),
+// and with it the whole 900 s in the simulator meet issue 39's figures. Domain 45.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -134,7 +134,7 @@ TEST(RealData, MrclamOverDdsScoresFiveRobotsAgainstBothBaselines) {
   EXPECT_EQ(count_processes_matching(out.string()), 0);
 }
 
-TEST(RealData, ReplayDefaultsAreTheCalibrationOfDataset6AndConsistentOverTheWholeRun) {
+TEST(RealData, ReplayUsesTheCalibrationOfItsDatasetAndIsConsistentOverTheWholeRun) {
   const auto data = dataset6();
   if (data.empty()) GTEST_SKIP() << kNoDataset6;
   const auto out = fresh_directory("mrclam-defaults");
@@ -145,7 +145,7 @@ TEST(RealData, ReplayDefaultsAreTheCalibrationOfDataset6AndConsistentOverTheWhol
                                   (out / "run").string());
   ASSERT_EQ(replay.exit_code, 0) << replay.output;
 
-  // Every figure calibrate writes is the replay's default, to the digits it writes.
+  // Every figure calibrate writes is the replay's, to the digits it writes.
   const auto measured = noise_block(out / "noise.yaml");
   const auto used = noise_block(out / "run" / "scenario.yaml");
   ASSERT_GE(measured.size(), 15U);
@@ -167,6 +167,33 @@ TEST(RealData, ReplayDefaultsAreTheCalibrationOfDataset6AndConsistentOverTheWhol
   EXPECT_LE(summary["whole_run"]["efficiency_vs_centralized_ekf"].get<double>(), 1.10);
   EXPECT_GE(summary["whole_run"]["nees3"].get<double>(), 2.0);
   EXPECT_LE(summary["whole_run"]["nees3"].get<double>(), 5.0);
+}
+
+TEST(RealData, ReplayWithANoiseFileUsesItAndRefusesAnythingButANoiseBlock) {
+  const auto data = dataset6();
+  if (data.empty()) GTEST_SKIP() << kNoDataset6;
+  const auto out = fresh_directory("mrclam-noise-file");
+  {
+    std::ofstream file(out / "noise.yaml");
+    file << "# a calibration of another dataset\nnoise:\n  odometry_v_std: 0.05\n  bearing_std_rad: 0.02\n";
+  }
+  const auto replay =
+      run_command(kBinary + " replay --mrclam " + data.string() + " --sim -q --noise " +
+                  (out / "noise.yaml").string() + " --set run.steps=50 --out " + (out / "run").string());
+  ASSERT_EQ(replay.exit_code, 0) << replay.output;
+  const auto used = noise_block(out / "run" / "scenario.yaml");
+  EXPECT_EQ(used.at("odometry_v_std"), "0.05");
+  EXPECT_EQ(used.at("bearing_std_rad"), "0.02");
+  EXPECT_EQ(read_json(out / "run" / "summary.json")["replay"]["noise"], (out / "noise.yaml").string());
+
+  {
+    std::ofstream file(out / "more.yaml");
+    file << "noise:\n  bearing_std_rad: 0.02\nalgorithm:\n  name: pose_ekf\n";
+  }
+  const auto refused = run_command(kBinary + " replay --mrclam " + data.string() + " --sim -q --noise " +
+                                   (out / "more.yaml").string() + " --out " + (out / "refused").string());
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("only a noise: block"), std::string::npos) << refused.output;
 }
 
 }  // namespace
