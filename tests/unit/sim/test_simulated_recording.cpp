@@ -48,6 +48,16 @@ void expect_same_metrics(const rundir::RunRecord& a, const rundir::RunRecord& b)
   EXPECT_EQ(rundir::link_totals(a).delivered, rundir::link_totals(b).delivered);
 }
 
+/// Runs `s` in the simulator, recording its measurements into `dir`.
+rundir::RunRecord record_run(const config::Scenario& s, const std::filesystem::path& dir) {
+  rundir::DirectoryRecorder recorder(dir);
+  SimOptions options;
+  options.recorder = &recorder;
+  auto run = run_simulation(s, options);
+  recorder.close();
+  return run;
+}
+
 struct ReplayCase {
   const char* name;
   void (*configure)(config::Scenario&);
@@ -120,11 +130,7 @@ TEST(SimulatorReplay, AnotherAlgorithmOnTheRecordedInputMatchesItsOwnRunAndDiffe
   s.world.motion = config::Motion::kRandomWalk;
   s.world.motion_std_m = 0.05;
   const auto dir = testing::fresh_directory("other-algorithm");
-  rundir::DirectoryRecorder recorder(dir);
-  SimOptions record_options;
-  record_options.recorder = &recorder;
-  const auto ieif = run_simulation(s, record_options);
-  recorder.close();
+  const auto ieif = record_run(s, dir);
 
   auto other = s;
   other.algorithm.name = "iekf";
@@ -155,11 +161,7 @@ TEST(SimulatorReplay, AnotherAlgorithmOnTheRecordedInputMatchesItsOwnRunAndDiffe
 TEST(Recording, AVersionThreeRecordingReplaysLikeItsVersionFourOriginal) {
   const auto s = replay_scenario();
   const auto dir = testing::fresh_directory("replay-v3");
-  rundir::DirectoryRecorder recorder(dir);
-  SimOptions record_options;
-  record_options.recorder = &recorder;
-  const auto recorded_run = run_simulation(s, record_options);
-  recorder.close();
+  const auto recorded_run = record_run(s, dir);
   const auto v3 = testing::without_checksums(testing::read_bytes(dir / rundir::kRecordingFile), 3);
   SimOptions replay_options;
   replay_options.recorded = rundir::parse_recording(v3, "v3.slrec");
