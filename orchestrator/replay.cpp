@@ -178,12 +178,14 @@ std::string noise_file(const std::string& path) {
   std::string line;
   bool noise_block = false;
   for (int number = 1; std::getline(lines, line); ++number) {
-    if (line.empty() || line[0] == ' ' || line[0] == '#') continue;
-    if (line.rfind("noise:", 0) != 0 || line.find_first_not_of(' ', 6) != std::string::npos) {
-      throw config::ScenarioError("--noise " + path + ":" + std::to_string(number) +
-                                  ": only a noise: block may be given (as `swarmloc calibrate --out` "
-                                  "writes it), found '" +
-                                  line + "'");
+    if (line.empty() || line[0] == ' ' || line[0] == '#' || line[0] == '\r') continue;
+    const auto rest = line.find_first_not_of(" \r", 6);
+    if (line.rfind("noise:", 0) != 0 || (rest != std::string::npos && line[rest] != '#')) {
+      std::ostringstream message;
+      message << "--noise " << path << ":" << number
+              << ": only a noise: block may be given (as `swarmloc calibrate --out` writes it), found '"
+              << line << "'";
+      throw config::ScenarioError(message.str());
     }
     noise_block = true;
   }
