@@ -1,10 +1,15 @@
 #include "console.hpp"
 
+#include <spdlog/sinks/base_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <memory>
+#include <mutex>
 
 namespace swarmloc::orchestrator {
 namespace {
@@ -16,7 +21,43 @@ void on_signal(int /*signal*/) {
   if (g_interrupted.exchange(true)) g_interrupted_again.store(true);
 }
 
+/// The progress line as it stands on the terminal (empty: none is open), shared by Progress and the log.
+struct OpenLine {
+  std::mutex mutex;
+  std::string text;
+};
+OpenLine& open_line() {
+  static OpenLine line;
+  return line;
+}
+
+/// stderr's log sink with the progress line kept below the log: it clears the open line, writes the log
+/// line (coloured as the default sink colours it), then draws the progress line again.
+class AboveProgressSink final : public spdlog::sinks::base_sink<std::mutex> {
+ protected:
+  void sink_it_(const spdlog::details::log_msg& message) override {
+    auto& line = open_line();
+    const std::lock_guard lock(line.mutex);
+    if (!line.text.empty()) std::fputs("\r\x1b[K", stderr);
+    stderr_->log(message);
+    if (!line.text.empty()) std::fputs(line.text.c_str(), stderr);
+    std::fflush(stderr);
+  }
+  void flush_() override { stderr_->flush(); }
+  void set_pattern_(const std::string& pattern) override { stderr_->set_pattern(pattern); }
+  void set_formatter_(std::unique_ptr<spdlog::formatter> formatter) override {
+    stderr_->set_formatter(std::move(formatter));
+  }
+
+ private:
+  std::shared_ptr<spdlog::sinks::sink> stderr_ = std::make_shared<spdlog::sinks::stderr_color_sink_st>();
+};
+
 }  // namespace
+
+void log_above_progress_line() {
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>("", std::make_shared<AboveProgressSink>()));
+}
 
 std::atomic<bool>& interrupted() { return g_interrupted; }
 std::atomic<bool>& interrupted_again() { return g_interrupted_again; }
@@ -42,12 +83,25 @@ void Progress::update(const std::string& line, bool force) {
   const auto now = Clock::now();
   if (!force && now - last_ < std::chrono::milliseconds(tty_ ? 250 : 5000)) return;
   last_ = now;
-  std::fprintf(stderr, tty_ ? "\r%-100s" : "%s\n", line.c_str());
+  if (!tty_) {
+    std::fprintf(stderr, "%s\n", line.c_str());
+    std::fflush(stderr);
+    return;
+  }
+  // Rewritten in place: back to the line's start, the new text, the rest of the old one erased.
+  auto& open = open_line();
+  const std::lock_guard lock(open.mutex);
+  std::fprintf(stderr, "\r%s\x1b[K", line.c_str());
   std::fflush(stderr);
+  open.text = line;
 }
 
 void Progress::finish() {
-  if (enabled_ && tty_) std::fprintf(stderr, "\n");
+  if (!enabled_ || !tty_) return;
+  auto& open = open_line();
+  const std::lock_guard lock(open.mutex);
+  std::fprintf(stderr, "\n");
+  open.text.clear();
 }
 
 std::string starting_line(const config::Scenario& scenario) {

@@ -29,7 +29,10 @@ inline double seconds_since(Clock::time_point start) {
 /// "for 10 s" / "until Ctrl-C" (--view-hold).
 std::string hold_text(double seconds);
 
-/// One progress line on stderr, rewritten in place on a terminal.
+/// Makes spdlog's default logger write above the open progress line on a terminal, not onto its end.
+void log_above_progress_line();
+
+/// One progress line on stderr, rewritten in place on a terminal (log lines go above it).
 class Progress {
  public:
   explicit Progress(bool enabled);

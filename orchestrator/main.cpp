@@ -19,6 +19,7 @@
 #include "agent_node.hpp"
 #include "calibrate.hpp"
 #include "cli_support.hpp"
+#include "console.hpp"
 #include "fusion_center.hpp"
 #include "monitor.hpp"
 #include "orchestrator.hpp"
@@ -427,6 +428,7 @@ int main(int argc, char** argv) {
   std::signal(SIGXFSZ, SIG_IGN);
   if (const auto exit_code = parse_command_line(app, argc, argv)) return *exit_code;
 
+  swarmloc::orchestrator::log_above_progress_line();
   spdlog::set_pattern("%H:%M:%S.%e %^%l%$ %v");
   if (!shared.security_dir.empty()) {
     // After the --set overrides, so the flag wins.
