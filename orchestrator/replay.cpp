@@ -195,7 +195,14 @@ std::string noise_file(const std::string& path) {
 
 /// The dataset's own noise model, measured against its groundtruth (`swarmloc calibrate`), as YAML.
 std::string measured_noise(const std::string& dir) {
-  const auto c = measure_mrclam_noise(dir);
+  const auto c = [&] {
+    try {
+      return measure_mrclam_noise(dir);
+    } catch (const config::ScenarioError& error) {
+      throw config::ScenarioError(std::string(error.what()) +
+                                  ": the dataset's noise cannot be measured; give a model with --noise FILE");
+    }
+  }();
   const auto& landmarks = c.pooled.landmarks;
   spdlog::info(
       "noise measured from the dataset's groundtruth (swarmloc calibrate; --noise FILE replays with "
