@@ -76,7 +76,9 @@ std::string hold_text(double seconds) {
   return text;
 }
 
-Progress::Progress(bool enabled) : enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0) {}
+Progress::Progress(bool enabled) : Progress(enabled, isatty(STDERR_FILENO) != 0) {}
+
+Progress::Progress(bool enabled, bool terminal) : enabled_(enabled), tty_(terminal) {}
 
 void Progress::update(const std::string& line, bool force) {
   if (!enabled_) return;

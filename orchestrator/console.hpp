@@ -35,7 +35,9 @@ void log_above_progress_line();
 /// One progress line on stderr, rewritten in place on a terminal (log lines go above it).
 class Progress {
  public:
+  /// On a terminal when stderr is one.
   explicit Progress(bool enabled);
+  Progress(bool enabled, bool terminal);
   void update(const std::string& line, bool force = false);
   void finish();
 
