@@ -10,6 +10,8 @@ inline constexpr AgentId kOrchestratorId = -1;
 
 using Vec2 = Eigen::Vector2d;
 using Mat2 = Eigen::Matrix2d;
+using Vec3 = Eigen::Vector3d;
+using Mat3 = Eigen::Matrix3d;
 using VecX = Eigen::VectorXd;
 using MatX = Eigen::MatrixXd;
 
