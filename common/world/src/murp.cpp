@@ -247,8 +247,8 @@ MurpTrial load_murp_trial(const std::filesystem::path& directory) {
 }
 
 Mat3 murp_rotation(const MurpPose& pose) {
-  return (Eigen::AngleAxisd(pose.yaw_rad, Vec3::UnitZ()) * Eigen::AngleAxisd(pose.pitch_rad, Vec3::UnitY()) *
-          Eigen::AngleAxisd(pose.roll_rad, Vec3::UnitX()))
+  return (Eigen::AngleAxisd(pose.roll_rad, Vec3::UnitX()) * Eigen::AngleAxisd(pose.pitch_rad, Vec3::UnitY()) *
+          Eigen::AngleAxisd(pose.yaw_rad, Vec3::UnitZ()))
       .toRotationMatrix();
 }
 

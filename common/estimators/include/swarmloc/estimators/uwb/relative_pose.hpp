@@ -40,8 +40,8 @@ struct RelativePose {
 /// first_angle_rad + i·2π/count.
 std::vector<Vec3> ring_lever_arms(int count, double radius_m, double first_angle_rad);
 
-/// A range's bias (measured − geometric), learned offline (docs/real-data.md §MURP): one offset per antenna of
-/// each vehicle (its delay as either end of a two-way exchange) plus a function of the geometry:
+/// A range's bias (measured − geometric), learned offline (docs/real-data.md §MURP): one offset per antenna
+/// of each vehicle (its delay as either end of a two-way exchange) plus a function of the geometry:
 /// coefficients_m · geometry_features(…).
 struct RangeBias {
   static constexpr int kFeatures = 5;
@@ -77,11 +77,13 @@ struct RelativePoseParams {
   double range_std_m = 0.08;  ///< one window's mean range about its bias-corrected model
   /// A range whose readings spread by s has std √(range_std_m² + (gain·s²)²) (measured: docs/real-data.md).
   double spread_noise_gain = 0.0;
-  double huber_threshold = 1.5;      ///< robust loss: residuals beyond this many stds weigh less
-  double altitude_std_m = 0.14;      ///< of altitude_difference_m
-  double position_walk_mps = 0.5;    ///< relative position random walk, m/√s
-  double heading_walk_radps = 0.15;  ///< relative heading random walk, rad/√s
-  int iterations = 6;                ///< Gauss–Newton iterations per update
+  double huber_threshold = 1.5;  ///< robust loss: residuals beyond this many stds weigh less
+  double altitude_std_m = 0.14;  ///< of altitude_difference_m
+  // The random walks of the relative pose between windows, once both vehicles' gyro turns are applied: ground
+  // vehicles that drive about 1–2 m/s make the position's walk wide (docs/real-data.md §MURP).
+  double position_walk_mps = 3.0;   ///< m/√s per axis
+  double heading_walk_radps = 0.2;  ///< rad/√s
+  int iterations = 6;               ///< Gauss–Newton iterations per update
 };
 
 /// The model's predicted ranges and their Jacobian for a pose (rows: the valid entries of `window`, column
