@@ -307,7 +307,7 @@ void add_replay_command(CLI::App& app, SharedFlags& shared, ReplayCommand& repla
   command->add_option(
       "--murp", replay.murp.trial_dir,
       "MURP UWB trial directory (its six NN_base-A_targ-B files): three vehicles as three DDS "
-      "agents estimating each other's relative pose (docs/real-data.md §MURP)");
+      "agents estimating each other's relative pose (docs/real-data.md: MURP)");
   command->add_option(
       "--bias", replay.murp.bias_path,
       "--murp: the range calibration to use (a `swarmloc calibrate --murp --out` file; default: "

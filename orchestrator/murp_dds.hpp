@@ -1,5 +1,5 @@
 #pragma once
-// A MURP trial over DDS (docs/real-data.md §MURP): one `swarmloc agent --uwb-team` process per vehicle, fed
+// A MURP trial over DDS (docs/real-data.md, "MURP"): one `swarmloc agent --uwb-team` process per vehicle, fed
 // window by window in lockstep by the orchestrator, the vehicles exchanging their IMU readings and their
 // estimates of each other on DDS topics.
 #include <filesystem>

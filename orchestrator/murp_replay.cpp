@@ -77,7 +77,7 @@ void print_table(const rundir::MurpRunInfo& info, const world::MurpScore& score,
     std::printf("  %lld pair-windows had no estimate (a vehicle had not localized that peer)\n",
                 static_cast<long long>(score.missing_estimates));
   }
-  std::printf("  truth: the window poses (docs/real-data.md §MURP)\n");
+  std::printf("  truth: the window poses (docs/real-data.md: MURP)\n");
 }
 
 }  // namespace

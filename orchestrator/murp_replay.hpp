@@ -1,7 +1,7 @@
 #pragma once
 // `swarmloc replay --murp TRIAL_DIR`: a MURP UWB trial (three vehicles ranging between their antennas)
 // replayed to one agent process per vehicle over DDS, or in process with --sim; each vehicle estimates the
-// others' relative poses (docs/real-data.md §MURP).
+// others' relative poses (docs/real-data.md, "MURP").
 #include <filesystem>
 #include <string>
 

@@ -27,13 +27,27 @@ RelativePoseParams ring_params() {
   return params;
 }
 
-/// Noise-free ranges of `truth` under the model (bias included), every antenna pair valid.
+/// Noise-free ranges of `truth`, computed here from the antennas' positions (not through predict_ranges):
+/// geometric range plus both antennas' offsets plus the coefficients times the geometry features.
 RangeWindow exact_window(const RelativePose& truth, const RelativePoseParams& params, Tilt mine, Tilt peer) {
   RangeWindow window{MatX::Ones(6, 6), {}, mine, peer, truth.position_m.z()};
-  const auto prediction = predict_ranges(truth, window, params);
-  Eigen::Index row = 0;
-  for (Eigen::Index j = 0; j < 6; ++j) {
-    for (Eigen::Index i = 0; i < 6; ++i) window.ranges_m(i, j) = prediction.predicted_m(row++);
+  const Mat3 my_attitude = level_rotation(mine);
+  const Mat3 peer_attitude = yaw_rotation(truth.heading_rad) * level_rotation(peer);
+  for (Eigen::Index i = 0; i < 6; ++i) {
+    for (Eigen::Index j = 0; j < 6; ++j) {
+      const Vec3& my_arm = params.my_lever_arms_m[static_cast<std::size_t>(i)];
+      const Vec3& peer_arm = params.peer_lever_arms_m[static_cast<std::size_t>(j)];
+      const Vec3 d = truth.position_m + peer_attitude * peer_arm - my_attitude * my_arm;
+      const Vec3 u = d.normalized();
+      const double facing_mine = (my_attitude * my_arm.normalized()).dot(u);
+      const double facing_peer = -(peer_attitude * peer_arm.normalized()).dot(u);
+      RangeBias::Features features;
+      features << std::abs(u.z()), u.z() * u.z(), u.z(), facing_mine + facing_peer,
+          facing_mine * facing_mine + facing_peer * facing_peer;
+      window.ranges_m(i, j) = d.norm() + params.bias.my_antenna_offsets_m(i) +
+                              params.bias.peer_antenna_offsets_m(j) +
+                              params.bias.coefficients_m.dot(features);
+    }
   }
   return window;
 }
@@ -76,6 +90,19 @@ TEST(UwbRelativePose, AWindowWithFewerThanFourRangesLeavesTheFilterAlone) {
   window.ranges_m(0, 0) = window.ranges_m(1, 1) = window.ranges_m(2, 2) = 4.0;
   EXPECT_FALSE(filter.update(window));
   EXPECT_FALSE(filter.initialized());
+}
+
+TEST(UwbRelativePose, AFilterThatLostThePeerRelocksOnTheWindowsOwnSolution) {
+  const auto params = ring_params();
+  const RelativePose before{Vec3(4.0, 1.0, 0.5), 0.3};
+  const RelativePose after{Vec3(-3.0, -2.5, 0.5), -2.0};
+  RelativePoseFilter filter(params);
+  for (int k = 0; k < 5; ++k) ASSERT_TRUE(filter.update(exact_window(before, params, {}, {})));
+  // Far less time than the jump would take: the prior alone would hold the filter near `before`.
+  filter.predict(0.01);
+  ASSERT_TRUE(filter.update(exact_window(after, params, {}, {})));
+  EXPECT_LT((filter.pose().position_m - after.position_m).norm(), 1e-6);
+  EXPECT_EQ(filter.relocks(), 1);
 }
 
 TEST(UwbRelativePose, MyTurnRotatesThePeerTheOtherWayAndItsTurnAddsToTheHeading) {

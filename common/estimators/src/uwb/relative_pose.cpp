@@ -206,7 +206,25 @@ bool RelativePoseFilter::update(const RangeWindow& window) {
   }
   const Vec4 prior = mean_;
   solve(window, prior, covariance_.inverse());
+  relock_if_lost(window);
   return true;
+}
+
+void RelativePoseFilter::relock_if_lost(const RangeWindow& window) {
+  // A filter that has followed a wrong solution explains its ranges badly: solve the window afresh from the
+  // grid and keep that if it explains them better.
+  const auto ranges = static_cast<double>(valid_count(window.ranges_m));
+  const double cost = range_equations(RelativePose::from(mean_), window, params_).cost;
+  if (cost / ranges <= params_.relock_cost_per_range) return;
+  const Vec4 kept_mean = mean_;
+  const Mat4 kept_covariance = covariance_;
+  initialize(window);
+  if (range_equations(RelativePose::from(mean_), window, params_).cost < cost) {
+    ++relocks_;
+    return;
+  }
+  mean_ = kept_mean;
+  covariance_ = kept_covariance;
 }
 
 void RelativePoseFilter::solve(const RangeWindow& window, const Vec4& prior_mean,

@@ -1,5 +1,5 @@
 #pragma once
-// The run directory of a MURP replay (`swarmloc replay --murp`, docs/real-data.md §MURP): summary.json with
+// The run directory of a MURP replay (`swarmloc replay --murp`, docs/real-data.md, "MURP"): summary.json with
 // the pooled and per-pair relative errors, relative.csv (every reported estimate beside its truth),
 // trajectories/ (TUM files of each vehicle's view of each peer, and the truth) and plots/ (error against time
 // and against distance).

@@ -1,5 +1,5 @@
 #pragma once
-// The UWB range calibration file (`swarmloc calibrate --murp --out`, docs/real-data.md §MURP) that the team
+// The UWB range calibration file (`swarmloc calibrate --murp --out`, docs/real-data.md, "MURP") that the team
 // runtimes read: JSON with each vehicle's antenna lever arms and range offsets, the geometric bias
 // coefficients and the noise model. The calibration of the MURP dataset fitted on its trials 01–12
 // (scenarios/murp-range-bias.json) is built into the binaries.

@@ -1,5 +1,5 @@
 #pragma once
-// MIT ACL MURP multi-agent UWB dataset (Fishberg, Quiter, How, RA-L 2024; docs/real-data.md §MURP): three
+// MIT ACL MURP multi-agent UWB dataset (Fishberg, Quiter, How, RA-L 2024; docs/real-data.md, "MURP"): three
 // vehicles with six UWB antennas each, one file per ordered pair (base A, target B) and trial, one row per
 // 1-s window: the 36 antenna-pair ranges averaged over the window, and both vehicles' motion-capture poses.
 // The data is read from the user's directory (plain .csv or gzip-compressed .csv.gz), never shipped.
@@ -79,7 +79,7 @@ MurpTrial load_murp_trial(const std::filesystem::path& directory);
 
 /// Rotation of a pose's attitude in the dataset authors' convention, R = Rx(roll)·Ry(pitch)·Rz(yaw): it
 /// reproduces their derived columns (I_J_t, the relative pose) to under 0.01 mm in every trial, where
-/// Rz(yaw)·Ry(pitch)·Rx(roll) leaves 1.3–3.3 mm RMS (docs/real-data.md §MURP). murp_team converts it to the
+/// Rz(yaw)·Ry(pitch)·Rx(roll) leaves 1.3–3.3 mm RMS (docs/real-data.md, "MURP"). murp_team converts it to the
 /// yaw, pitch, roll an IMU reports.
 Mat3 murp_rotation(const MurpPose& pose);
 

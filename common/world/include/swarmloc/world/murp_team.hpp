@@ -1,5 +1,5 @@
 #pragma once
-// A MURP trial as the team sees it, window by window (docs/real-data.md §MURP): what each vehicle's own
+// A MURP trial as the team sees it, window by window (docs/real-data.md, "MURP"): what each vehicle's own
 // sensors give it (its ranges to each peer from its own antennas, its IMU's tilt and turn, its altimeter),
 // and the truth a scorer compares relative estimates with. The IMU and altimeter readings are the
 // motion-capture window pose (roll, pitch, the yaw change since the previous window, z; the attitude turned
@@ -24,7 +24,7 @@ struct MurpTeamWindow {
   std::map<AgentId, estimators::uwb::VehicleSensing> sensing;
   std::map<AgentId, std::vector<estimators::uwb::PeerRanges>> ranges;
   /// Per ordered pair (base, target): the target's pose in the base's level frame, recomputed from the two
-  /// window poses (the files' own relative columns are window averages: docs/real-data.md §MURP).
+  /// window poses (the files' own relative columns are window averages: docs/real-data.md, "MURP").
   std::map<std::pair<AgentId, AgentId>, estimators::uwb::RelativePose> truth;
 };
 

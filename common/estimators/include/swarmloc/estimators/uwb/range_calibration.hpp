@@ -1,5 +1,5 @@
 #pragma once
-// What a team's UWB range model needs to know about its vehicles (docs/real-data.md §MURP): each vehicle's
+// What a team's UWB range model needs to know about its vehicles (docs/real-data.md, "MURP"): each vehicle's
 // antenna lever arms and per-antenna range offsets, the geometric bias coefficients and the noise model. It
 // is fitted offline (`swarmloc calibrate --murp`) and read from a file by the runtimes; here it is plain
 // data.
