@@ -16,6 +16,7 @@
 #include <stdexcept>
 
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/dds/transport.hpp"
 #include "swarmloc/dds/uwb_team_io.hpp"
 #include "swarmloc/runtime/range_calibration_file.hpp"
 #include "uwb_team_rounds.hpp"
@@ -53,6 +54,15 @@ std::string argument_problem(const UwbTeamAgentOptions& options) {
   }
   if (!std::binary_search(team.begin(), team.end(), options.vehicle)) return "--vehicle is not on --team";
   if (options.calibration_path.empty()) return "--uwb-team needs the range calibration file";
+  try {
+    // As `swarmloc replay --murp` checks: fixed DDS ports inside the ephemeral range make an agent fail to
+    // start at random.
+    const auto scenario = dds::uwb_team_scenario(options.domain_id, static_cast<int>(team.size()));
+    dds::require_ports_fit(scenario);
+    dds::require_ports_clear_of(scenario, dds::ephemeral_port_range());
+  } catch (const config::ScenarioError& error) {
+    return std::string("--domain: ") + error.what();
+  }
   return {};
 }
 
