@@ -240,10 +240,14 @@ MurpDdsRun run_murp_over_dds(const std::vector<world::MurpTeamWindow>& windows,
   install_interrupt_handlers();
   try {
     require_domain_usable(options.domain_id, static_cast<int>(murp_team(windows).size()));
+  } catch (const std::exception& error) {
+    return MurpDdsRun{{}, nlohmann::json::object(), true, true, error.what()};
+  }
+  try {
     MurpDdsDriver driver(windows, options);
     return driver.run();
-  } catch (const std::exception& error) {  // ports taken, no participant, a team beyond the IDL's bounds
-    return MurpDdsRun{{}, nlohmann::json::object(), true, error.what()};
+  } catch (const std::exception& error) {  // no participant, a team beyond the IDL's bounds
+    return MurpDdsRun{{}, nlohmann::json::object(), true, false, error.what()};
   }
 }
 

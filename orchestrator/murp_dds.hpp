@@ -25,6 +25,8 @@ struct MurpDdsRun {
   std::vector<world::RelativeEstimateRow> rows;
   nlohmann::json counters = nlohmann::json::object();  ///< samples sent, received, rejected; timeouts
   bool failed = false;  ///< an agent died, a window timed out, or the run was interrupted
+  /// The run never started for want of a usable domain (ports in the ephemeral range or taken): exit 2.
+  bool bad_input = false;
   std::string failure;
 };
 

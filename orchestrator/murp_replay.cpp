@@ -121,6 +121,10 @@ int run_murp_replay(const MurpReplayOptions& options) {
       MurpDdsOptions dds{options.agent_binary, out_dir,           model_path,
                          options.cooperate,    options.domain_id, options.progress};
       auto run = run_murp_over_dds(windows, dds);
+      if (run.bad_input) {
+        std::fprintf(stderr, "error: %s\n", run.failure.c_str());
+        return 2;
+      }
       rows = std::move(run.rows);
       info.extra = run.counters;
       if (run.failed) {

@@ -1,7 +1,7 @@
 // `swarmloc replay --murp DIR --sim` end to end on MURP trial 13 (skipped, with a message, when the dataset
 // is absent: tests/support/dataset_paths.hpp): the run directory, the summary's relative errors per pair, and
 // bad input — a missing pair file, a calibration that is not one, a vehicle the calibration does not know,
-// --murp with another source — rejected with exit 2 and no summary.
+// --murp with another source, a DDS domain in the ephemeral port range — rejected with exit 2 and no summary.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -126,6 +126,14 @@ TEST(MurpReplay, BadTrialsAndCalibrationsAreRejectedWithExitTwo) {
   expect_rejected("--murp " + dir.string() + " --bias " + negative.string(), "range_std_m");
 
   expect_rejected("--murp " + dir.string() + " --mrclam /tmp", "--murp");
+
+  // Over DDS, a domain whose fixed ports lie in the ephemeral range is bad input too (nothing is started).
+  const auto out = fresh_directory("murp-domain");
+  const auto run = run_command(kBinary + " replay --murp " + dir.string() +
+                               " --domain 150 -q --force --out " + out.string());
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_NE(run.output.find("ephemeral port range"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 #pragma once
 // The in-process runner of a MURP trial (`swarmloc replay --murp DIR --sim`): one TeamMember per vehicle,
-// each window in the two rounds the DDS agents run (docs/real-data.md, "MURP"): every vehicle observes its own
-// ranges with the others' published IMU and altimeter readings, then fuses its estimates with the others'
+// each window in the two rounds the DDS agents run (docs/real-data.md, "MURP"): every vehicle observes its
+// own ranges with the others' published IMU and altimeter readings, then fuses its estimates with the others'
 // published own-range estimates.
 #include <map>
 #include <utility>
