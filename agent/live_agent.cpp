@@ -258,8 +258,14 @@ int run_live_agent(const LiveOptions& options) {
     deployment = config::load_deployment(options.deployment_path);
     scenario = config::deployment_scenario(deployment);
     member = deployment.find(options.robot);
+    // As `swarmloc run` does: fixed DDS ports inside the ephemeral range make an agent fail to start at
+    // random.
+    dds::require_ports_clear_of(scenario, dds::ephemeral_port_range());
   } catch (const config::DeploymentError& error) {
     logger->error("{}", error.what());
+    return 2;
+  } catch (const config::ScenarioError& error) {
+    logger->error("{}: {}", options.deployment_path, error.what());
     return 2;
   }
   if (member == nullptr) {

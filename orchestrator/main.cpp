@@ -22,6 +22,7 @@
 #include "console.hpp"
 #include "fusion_center.hpp"
 #include "monitor.hpp"
+#include "murp_replay.hpp"
 #include "orchestrator.hpp"
 #include "replay.hpp"
 #include "swarmloc/config/scenario.hpp"
@@ -282,6 +283,8 @@ int execute_agent(AgentCommand& agent) {
 struct ReplayCommand {
   CLI::App* command = nullptr;
   swarmloc::orchestrator::ReplayOptions options;
+  swarmloc::orchestrator::MurpReplayOptions murp;
+  bool no_cooperation = false;
 };
 
 void add_replay_command(CLI::App& app, SharedFlags& shared, ReplayCommand& replay) {
@@ -301,7 +304,20 @@ void add_replay_command(CLI::App& app, SharedFlags& shared, ReplayCommand& repla
       "with dead-reckoning and centralized-EKF baselines (docs/real-data.md: where to get it)");
   command->add_option("--speedup", options.speedup,
                       "--mrclam: dataset seconds per wall-clock second (default 10)");
-  command->add_flag("--sim", options.in_process, "--mrclam: run in the in-process simulator, not over DDS");
+  command->add_option(
+      "--murp", replay.murp.trial_dir,
+      "MURP UWB trial directory (its six NN_base-A_targ-B files): three vehicles as three DDS "
+      "agents estimating each other's relative pose (docs/real-data.md: MURP)");
+  command->add_option(
+      "--bias", replay.murp.bias_path,
+      "--murp: the range calibration to use (a `swarmloc calibrate --murp --out` file; default: "
+      "the built-in one, fitted on trials 01-12)");
+  command->add_flag("--no-bias", replay.murp.no_bias, "--murp: no range-bias correction");
+  command->add_flag("--no-cooperation", replay.no_cooperation,
+                    "--murp: each vehicle on its own ranges (no loop closure with the others' estimates)");
+  command->add_option("--domain", replay.murp.domain_id, "--murp: the DDS domain (default 0)");
+  command->add_flag("--sim", options.in_process,
+                    "--mrclam, --murp: run in the in-process simulator, not over DDS");
   command->add_option("--noise", options.noise_path,
                       "--mrclam: replay with this noise model (a `swarmloc calibrate --out` file) instead of "
                       "the dataset's own, measured from its groundtruth");
@@ -316,7 +332,30 @@ void add_replay_command(CLI::App& app, SharedFlags& shared, ReplayCommand& repla
   command->footer(keys_help());
 }
 
+int execute_murp_replay(ReplayCommand& replay, const SharedFlags& shared, const char* argv0) {
+  const auto& options = replay.options;
+  if (!options.recording_path.empty() || !options.mrclam_dir.empty() || !options.noise_path.empty() ||
+      options.dds || !shared.overrides.empty() || shared.record) {
+    std::fprintf(stderr,
+                 "error: replay --murp takes no recording, --mrclam, --noise, --dds, --set or --record\n");
+    return 2;
+  }
+  auto& murp = replay.murp;
+  murp.cooperate = !replay.no_cooperation;
+  murp.in_process = options.in_process;
+  murp.out_dir = shared.out_dir;
+  murp.force = shared.force;
+  murp.progress = !shared.quiet;
+  murp.agent_binary = swarmloc::orchestrator::self_executable(argv0).string();
+  return swarmloc::orchestrator::run_murp_replay(murp);
+}
+
 int execute_replay(ReplayCommand& replay, const SharedFlags& shared, const char* argv0) {
+  if (!replay.murp.trial_dir.empty()) return execute_murp_replay(replay, shared, argv0);
+  if (!replay.murp.bias_path.empty() || replay.murp.no_bias || replay.no_cooperation) {
+    std::fprintf(stderr, "error: --bias, --no-bias and --no-cooperation apply to --murp DIR\n");
+    return 2;
+  }
   auto& options = replay.options;
   options.overrides = shared.overrides;
   options.out_dir = shared.out_dir;

@@ -1,6 +1,6 @@
 // The live path's fault handling (docs/robustness.md, "Live sensor input"): the player makes one robot's
 // drivers send a message twice, two out of order, stop for 5 s and jump the robot's clock by +10 s. The
-// agent counts each once, nothing crashes, and its estimate recovers. Domain 142 (no other test uses it).
+// agent counts each once, nothing crashes, and its estimate recovers. Domain 72 (no other test uses it).
 #include <gtest/gtest.h>
 
 #include "live_helpers.hpp"
@@ -15,7 +15,7 @@ using swarmloc::testing::LiveWorld;
 using swarmloc::testing::make_live_world;
 using swarmloc::testing::run_live;
 
-constexpr int kFaultDomain = 142;
+constexpr int kFaultDomain = 72;
 
 struct LiveFaultData {
   LiveWorld world;

@@ -577,13 +577,16 @@ std::string result_table(const RunRecord& record) {
 }
 
 std::filesystem::path default_run_directory(const config::Scenario& scenario) {
+  return fresh_run_directory(scenario.name, "-seed" + std::to_string(scenario.seed));
+}
+
+std::filesystem::path fresh_run_directory(const std::string& name, const std::string& suffix) {
   const auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
   std::tm utc{};
   gmtime_r(&now, &utc);
   char stamp[32];
   std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &utc);
-  const auto base = std::filesystem::path("runs") /
-                    (path_component(scenario.name) + "-" + stamp + "-seed" + std::to_string(scenario.seed));
+  const auto base = std::filesystem::path("runs") / (path_component(name) + "-" + stamp + suffix);
   auto candidate = base;
   std::error_code ec;
   for (int k = 2; std::filesystem::exists(candidate, ec); ++k)

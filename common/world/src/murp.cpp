@@ -40,13 +40,13 @@ struct Columns {
 
 /// Names a file and a line in errors.
 std::string file_line(const fs::path& file, int line) {
-  return "world.data_dir: '" + file.string() + "' line " + std::to_string(line);
+  return "MURP trial: '" + file.string() + "' line " + std::to_string(line);
 }
 
 /// The whole text of a plain or gzip-compressed file (zlib reads both).
 std::string read_text(const fs::path& path) {
   gzFile file = gzopen(path.c_str(), "rb");
-  if (file == nullptr) throw ScenarioError("world.data_dir: cannot open '" + path.string() + "'");
+  if (file == nullptr) throw ScenarioError("MURP trial: cannot open '" + path.string() + "'");
   std::string text;
   std::array<char, 1 << 16> buffer{};
   int got = 0;
@@ -54,14 +54,14 @@ std::string read_text(const fs::path& path) {
     text.append(buffer.data(), static_cast<std::size_t>(got));
   }
   gzclose(file);
-  if (got < 0) throw ScenarioError("world.data_dir: '" + path.string() + "' is not readable gzip or text");
+  if (got < 0) throw ScenarioError("MURP trial: '" + path.string() + "' is not readable gzip or text");
   return text;
 }
 
 /// The one trial number of the directory's MURP files: pairs of two trials must not be mixed up.
 std::string trial_number(const fs::path& directory) {
   if (!fs::is_directory(directory)) {
-    throw ScenarioError("world.data_dir: '" + directory.string() + "' is not a directory");
+    throw ScenarioError("MURP trial: '" + directory.string() + "' is not a directory");
   }
   static const std::regex kName(R"((\d+)_base-\d+_targ-\d+_win-1_step-1\.csv(\.gz)?)");
   std::set<std::string> trials;
@@ -71,13 +71,13 @@ std::string trial_number(const fs::path& directory) {
     if (std::regex_match(name, match, kName)) trials.insert(match[1].str());
   }
   if (trials.empty()) {
-    throw ScenarioError("world.data_dir: '" + directory.string() +
+    throw ScenarioError("MURP trial: '" + directory.string() +
                         "' holds no MURP file NN_base-A_targ-B_win-1_step-1.csv[.gz]");
   }
   if (trials.size() > 1) {
     std::string list;
     for (const auto& trial : trials) list += (list.empty() ? "" : ", ") + trial;
-    throw ScenarioError("world.data_dir: '" + directory.string() + "' holds files of trials " + list +
+    throw ScenarioError("MURP trial: '" + directory.string() + "' holds files of trials " + list +
                         ": one trial per directory");
   }
   return *trials.begin();
@@ -89,7 +89,7 @@ fs::path pair_file(const fs::path& directory, const std::string& trial, int base
   for (const auto* suffix : {"", ".gz"}) {
     if (fs::exists(directory / (stem + suffix))) return directory / (stem + suffix);
   }
-  throw ScenarioError("world.data_dir: '" + directory.string() + "' misses the pair base " +
+  throw ScenarioError("MURP trial: '" + directory.string() + "' misses the pair base " +
                       std::to_string(base) + ", target " + std::to_string(target) + " of trial " + trial +
                       " (" + stem + "[.gz])");
 }
@@ -220,7 +220,7 @@ MurpPairLog load_pair(const fs::path& file, int base, int target) {
       ++log.skipped_windows;
     }
   }
-  if (!columns) throw ScenarioError("world.data_dir: '" + file.string() + "' is empty");
+  if (!columns) throw ScenarioError("MURP trial: '" + file.string() + "' is empty");
   return log;
 }
 
@@ -247,8 +247,8 @@ MurpTrial load_murp_trial(const std::filesystem::path& directory) {
 }
 
 Mat3 murp_rotation(const MurpPose& pose) {
-  return (Eigen::AngleAxisd(pose.yaw_rad, Vec3::UnitZ()) * Eigen::AngleAxisd(pose.pitch_rad, Vec3::UnitY()) *
-          Eigen::AngleAxisd(pose.roll_rad, Vec3::UnitX()))
+  return (Eigen::AngleAxisd(pose.roll_rad, Vec3::UnitX()) * Eigen::AngleAxisd(pose.pitch_rad, Vec3::UnitY()) *
+          Eigen::AngleAxisd(pose.yaw_rad, Vec3::UnitZ()))
       .toRotationMatrix();
 }
 

@@ -91,13 +91,11 @@ TEST(MurpTrial13, LoadsSixPairsInOrderWithEveryRowAndTheFirstRowsValues) {
   EXPECT_THROW((void)trial.pair(1, 4), std::out_of_range);
 }
 
-/// The authors' ring model with R = Rz(yaw)·Ry(pitch)·Rx(roll) reproduces their truth ranges (I_J_t)
-/// from the window poses to millimetres: this checks the degree conversion, the yaw and which antenna index
-/// is the base's (each of them wrong costs decimetres). It does not pin the order of the rotations: roll
-/// and pitch stay under 1.4° in this trial (MurpRotation.* pins it; the authors' I_J_t and relative-pose
-/// columns are reproduced to under 0.01 mm by Rx(roll)·Ry(pitch)·Rz(yaw) instead). The measured ranges
-/// scatter about the model by decimetres.
-TEST(MurpTrial13, RingAntennaModelReproducesTheTruthRangesToMillimetres) {
+/// The authors' ring model with their R = Rx(roll)·Ry(pitch)·Rz(yaw) reproduces their truth ranges (I_J_t)
+/// from the window poses to a tenth of a millimetre: this checks the degree conversion, the yaw, which
+/// antenna index is the base's (each of them wrong costs decimetres) and the order of the rotations (the
+/// other order leaves 1.3 mm RMS here). The measured ranges scatter about the model by decimetres.
+TEST(MurpTrial13, RingAntennaModelReproducesTheTruthRangesToATenthOfAMillimetre) {
   const auto data = murp_dataset();
   SKIP_WITHOUT_MURP(data);
   const auto trial = load_murp_trial(data / "13");
@@ -117,7 +115,7 @@ TEST(MurpTrial13, RingAntennaModelReproducesTheTruthRangesToMillimetres) {
     }
   }
   ASSERT_EQ(count, 6 * 177 * 36);
-  EXPECT_LT(std::sqrt(squared / count), 0.005);
+  EXPECT_LT(std::sqrt(squared / count), 1e-4);
   std::nth_element(measured_errors.begin(), measured_errors.begin() + measured_errors.size() / 2,
                    measured_errors.end());
   EXPECT_LT(measured_errors[measured_errors.size() / 2], 0.3);
@@ -144,21 +142,21 @@ TEST(MurpTrials, AllSeventeenLoadWithTheirFewUnusableRangesAsNan) {
   }
 }
 
-TEST(MurpRotation, IsYawAfterPitchAfterRoll) {
+TEST(MurpRotation, IsRollAfterPitchAfterYawAsTheAuthorsHaveIt) {
   MurpPose pose;
   pose.yaw_rad = std::numbers::pi / 2;
   EXPECT_TRUE(
       murp_rotation(pose).isApprox(Eigen::AngleAxisd(pose.yaw_rad, Vec3::UnitZ()).toRotationMatrix()));
   EXPECT_TRUE((murp_rotation(pose) * Vec3::UnitX()).isApprox(Vec3::UnitY()));
   pose.roll_rad = std::numbers::pi / 2;
-  // Rz(90°)·Rx(90°) takes y to z (roll first); Rx(90°)·Rz(90°) would take it to -x.
-  EXPECT_TRUE((murp_rotation(pose) * Vec3::UnitY()).isApprox(Vec3::UnitZ(), 1e-12));
+  // Rx(90°)·Rz(90°) takes y to -x (yaw first); Rz(90°)·Rx(90°) would take it to z.
+  EXPECT_TRUE((murp_rotation(pose) * Vec3::UnitY()).isApprox(-Vec3::UnitX(), 1e-12));
   pose = {};
   pose.pitch_rad = std::numbers::pi / 2;
   EXPECT_TRUE((murp_rotation(pose) * Vec3::UnitX()).isApprox(-Vec3::UnitZ(), 1e-12));
   pose.roll_rad = std::numbers::pi / 2;
-  // Ry(90°)·Rx(90°) takes y to x (roll first); Rx(90°)·Ry(90°) would take it to z.
-  EXPECT_TRUE((murp_rotation(pose) * Vec3::UnitY()).isApprox(Vec3::UnitX(), 1e-12));
+  // Rx(90°)·Ry(90°) takes y to z (pitch first); Ry(90°)·Rx(90°) would take it to x.
+  EXPECT_TRUE((murp_rotation(pose) * Vec3::UnitY()).isApprox(Vec3::UnitZ(), 1e-12));
 }
 
 // --- Hand-made files ---------------------------------------------------------------------------------

@@ -99,8 +99,8 @@ std::vector<Vec3> ring_lever_arms(int count, double radius_m, double first_angle
 
 RangeBias::Features geometry_features(double sin_elevation, double facing_mine, double facing_peer) {
   RangeBias::Features features;
-  features << std::abs(sin_elevation), sin_elevation * sin_elevation, sin_elevation, facing_mine + facing_peer,
-      facing_mine * facing_mine + facing_peer * facing_peer;
+  features << std::abs(sin_elevation), sin_elevation * sin_elevation, sin_elevation,
+      facing_mine + facing_peer, facing_mine * facing_mine + facing_peer * facing_peer;
   return features;
 }
 
@@ -134,7 +134,9 @@ PairGeometry pair_geometry(const Vec3& position, const Vec3& my_arm, const Vec3&
   // du/dt = (I − u·uᵀ)/r; du/dψ = that · d(d)/dψ.
   const Mat3 projector = (Mat3::Identity() - u * u.transpose()) / g.range;
   const Vec3 du_yaw = projector * d_yaw;
-  const auto radial = [](const Vec3& arm) { return arm.norm() > 0.0 ? Vec3(arm / arm.norm()) : Vec3::Zero(); };
+  const auto radial = [](const Vec3& arm) {
+    return arm.norm() > 0.0 ? Vec3(arm / arm.norm()) : Vec3::Zero();
+  };
   const Vec3 m = mine * radial(my_arm);
   const Vec3 p = peer * radial(peer_arm);
   const double s = u.z();
@@ -173,7 +175,8 @@ RangePrediction predict_ranges(const RelativePose& pose, const RangeWindow& wind
       out.predicted_m(row) = g.range + params.bias.at(static_cast<int>(i), static_cast<int>(j), g.features);
       out.jacobian.row(row) = (g.d_range + g.d_features.transpose() * params.bias.coefficients_m).transpose();
       out.measured_m(row) = window.ranges_m(i, j);
-      const double spread = spread_known && std::isfinite(window.range_spread_m(i, j)) ? window.range_spread_m(i, j) : 0.0;
+      const double spread =
+          spread_known && std::isfinite(window.range_spread_m(i, j)) ? window.range_spread_m(i, j) : 0.0;
       out.std_m(row) = std::hypot(params.range_std_m, params.spread_noise_gain * spread * spread);
       ++row;
     }
@@ -203,10 +206,29 @@ bool RelativePoseFilter::update(const RangeWindow& window) {
   }
   const Vec4 prior = mean_;
   solve(window, prior, covariance_.inverse());
+  relock_if_lost(window);
   return true;
 }
 
-void RelativePoseFilter::solve(const RangeWindow& window, const Vec4& prior_mean, const Mat4& prior_information) {
+void RelativePoseFilter::relock_if_lost(const RangeWindow& window) {
+  // A filter that has followed a wrong solution explains its ranges badly: solve the window afresh from the
+  // grid and keep that if it explains them better.
+  const auto ranges = static_cast<double>(valid_count(window.ranges_m));
+  const double cost = range_equations(RelativePose::from(mean_), window, params_).cost;
+  if (cost / ranges <= params_.relock_cost_per_range) return;
+  const Vec4 kept_mean = mean_;
+  const Mat4 kept_covariance = covariance_;
+  initialize(window);
+  if (range_equations(RelativePose::from(mean_), window, params_).cost < cost) {
+    ++relocks_;
+    return;
+  }
+  mean_ = kept_mean;
+  covariance_ = kept_covariance;
+}
+
+void RelativePoseFilter::solve(const RangeWindow& window, const Vec4& prior_mean,
+                               const Mat4& prior_information) {
   Vec4 x = mean_;
   Mat4 information = prior_information;
   for (int iteration = 0; iteration < params_.iterations; ++iteration) {
@@ -271,7 +293,8 @@ void RelativePoseFilter::initialize(const RangeWindow& window) {
 }
 
 RelativePose compose_relative(const RelativePose& b, const RelativePose& c) {
-  return {yaw_rotation(-b.heading_rad) * (c.position_m - b.position_m), wrap_angle(c.heading_rad - b.heading_rad)};
+  return {yaw_rotation(-b.heading_rad) * (c.position_m - b.position_m),
+          wrap_angle(c.heading_rad - b.heading_rad)};
 }
 
 std::map<AgentId, PoseEstimate> fuse_team(const std::map<AgentId, PoseEstimate>& mine,
@@ -285,7 +308,8 @@ std::map<AgentId, PoseEstimate> fuse_team(const std::map<AgentId, PoseEstimate>&
     }
   }
   const auto both_ways = [&](const PeerRelation& r) {
-    return std::any_of(used.begin(), used.end(), [&](const PeerRelation* o) { return o->from == r.to && o->to == r.from; });
+    return std::any_of(used.begin(), used.end(),
+                       [&](const PeerRelation* o) { return o->from == r.to && o->to == r.from; });
   };
   const auto size = static_cast<Eigen::Index>(4 * block.size());
   VecX y(size);

@@ -1,5 +1,6 @@
 #include "swarmloc/estimators/uwb/team_member.hpp"
 
+#include <algorithm>
 #include <utility>
 
 namespace swarmloc::estimators::uwb {
@@ -22,7 +23,8 @@ std::map<AgentId, PoseEstimate> TeamMember::observe(double dt_s, const VehicleSe
     const auto filter = filters_.find(window.peer);
     if (filter == filters_.end()) continue;
     const auto sensed = peers.find(window.peer);
-    RangeWindow range_window{window.ranges_m, window.spread_m, mine.tilt, last_tilt_[window.peer], std::nullopt};
+    RangeWindow range_window{window.ranges_m, window.spread_m, mine.tilt, last_tilt_[window.peer],
+                             std::nullopt};
     if (sensed != peers.end() && mine.altitude_m && sensed->second.altitude_m) {
       range_window.altitude_difference_m = *sensed->second.altitude_m - *mine.altitude_m;
     }
@@ -44,6 +46,10 @@ std::map<AgentId, PoseEstimate> TeamMember::fuse(const std::vector<PeerRelation>
   for (const auto& relation : relations) {
     if (relation.from != me_ && relation.to != me_) among_peers.push_back(relation);
   }
+  // The same relations in any arrival order give the same floating-point result.
+  std::sort(among_peers.begin(), among_peers.end(), [](const PeerRelation& a, const PeerRelation& b) {
+    return std::pair(a.from, a.to) < std::pair(b.from, b.to);
+  });
   return fuse_team(own_estimates(), among_peers);
 }
 

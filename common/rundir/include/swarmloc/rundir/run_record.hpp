@@ -164,5 +164,7 @@ void prepare_run_directory(const std::filesystem::path& directory, bool force);
 /// A fresh run directory name: runs/<scenario name>-<UTC yyyymmdd-hhmmss>-seed<seed>, always directly
 /// under runs/ (a name validate() would refuse is made path-safe first).
 std::filesystem::path default_run_directory(const config::Scenario& scenario);
+/// runs/<name>-<UTC yyyymmdd-hhmmss><suffix>, made unique with -2, -3, … (name made path-safe).
+std::filesystem::path fresh_run_directory(const std::string& name, const std::string& suffix = "");
 
 }  // namespace swarmloc::rundir

@@ -1,5 +1,5 @@
 #pragma once
-// MIT ACL MURP multi-agent UWB dataset (Fishberg, Quiter, How, RA-L 2024; docs/real-data.md §MURP): three
+// MIT ACL MURP multi-agent UWB dataset (Fishberg, Quiter, How, RA-L 2024; docs/real-data.md, "MURP"): three
 // vehicles with six UWB antennas each, one file per ordered pair (base A, target B) and trial, one row per
 // 1-s window: the 36 antenna-pair ranges averaged over the window, and both vehicles' motion-capture poses.
 // The data is read from the user's directory (plain .csv or gzip-compressed .csv.gz), never shipped.
@@ -16,7 +16,7 @@ namespace swarmloc::world {
 inline constexpr int kMurpVehicles = 3;
 inline constexpr int kMurpAntennas = 6;
 
-/// A vehicle's pose: position (m) and roll, pitch, yaw (rad), rotation R = Rz(yaw)·Ry(pitch)·Rx(roll).
+/// A vehicle's pose: position (m) and roll, pitch, yaw (rad) as the files give them (murp_rotation).
 struct MurpPose {
   Vec3 position_m = Vec3::Zero();
   double roll_rad = 0.0;
@@ -77,9 +77,10 @@ struct MurpTrial {
 /// field or time, is skipped and counted in skipped_windows: one bad window need not cost the trial.
 MurpTrial load_murp_trial(const std::filesystem::path& directory);
 
-/// Rotation of a pose's attitude, R = Rz(yaw)·Ry(pitch)·Rx(roll). The dataset authors' own derived columns
-/// (I_J_t, the relative pose) follow R = Rx(roll)·Ry(pitch)·Rz(yaw) instead; with roll and pitch of a few
-/// degrees at most, the two differ by about 3 mm RMS (at most 3 cm) in a truth range.
+/// Rotation of a pose's attitude in the dataset authors' convention, R = Rx(roll)·Ry(pitch)·Rz(yaw): it
+/// reproduces their derived columns (I_J_t, the relative pose) to under 0.01 mm in every trial, where
+/// Rz(yaw)·Ry(pitch)·Rx(roll) leaves 1.3–3.3 mm RMS (docs/real-data.md, "MURP"). murp_team converts it to the
+/// yaw, pitch, roll an IMU reports.
 Mat3 murp_rotation(const MurpPose& pose);
 
 }  // namespace swarmloc::world

@@ -40,8 +40,8 @@ struct RelativePose {
 /// first_angle_rad + i·2π/count.
 std::vector<Vec3> ring_lever_arms(int count, double radius_m, double first_angle_rad);
 
-/// A range's bias (measured − geometric), learned offline (docs/real-data.md §MURP): one offset per antenna of
-/// each vehicle (its delay as either end of a two-way exchange) plus a function of the geometry:
+/// A range's bias (measured − geometric), learned offline (docs/real-data.md, "MURP"): one offset per antenna
+/// of each vehicle (its delay as either end of a two-way exchange) plus a function of the geometry:
 /// coefficients_m · geometry_features(…).
 struct RangeBias {
   static constexpr int kFeatures = 5;
@@ -77,11 +77,16 @@ struct RelativePoseParams {
   double range_std_m = 0.08;  ///< one window's mean range about its bias-corrected model
   /// A range whose readings spread by s has std √(range_std_m² + (gain·s²)²) (measured: docs/real-data.md).
   double spread_noise_gain = 0.0;
-  double huber_threshold = 1.5;      ///< robust loss: residuals beyond this many stds weigh less
-  double altitude_std_m = 0.14;      ///< of altitude_difference_m
-  double position_walk_mps = 0.5;    ///< relative position random walk, m/√s
-  double heading_walk_radps = 0.15;  ///< relative heading random walk, rad/√s
-  int iterations = 6;                ///< Gauss–Newton iterations per update
+  double huber_threshold = 1.5;  ///< robust loss: residuals beyond this many stds weigh less
+  double altitude_std_m = 0.14;  ///< of altitude_difference_m
+  // The random walks of the relative pose between windows, once both vehicles' gyro turns are applied: ground
+  // vehicles that drive about 1–2 m/s make the position's walk wide (docs/real-data.md, "MURP").
+  double position_walk_mps = 3.0;   ///< m/√s per axis
+  double heading_walk_radps = 0.2;  ///< rad/√s
+  int iterations = 6;               ///< Gauss–Newton iterations per update
+  /// Mean robust cost per range above which the filter takes itself for lost and solves the window afresh
+  /// (a standardized residual of 3 costs 3.4 with the default Huber threshold).
+  double relock_cost_per_range = 3.0;
 };
 
 /// The model's predicted ranges and their Jacobian for a pose (rows: the valid entries of `window`, column
@@ -111,9 +116,12 @@ class RelativePoseFilter {
   [[nodiscard]] bool initialized() const { return initialized_; }
   [[nodiscard]] RelativePose pose() const { return RelativePose::from(mean_); }
   [[nodiscard]] const Mat4& covariance() const { return covariance_; }
+  /// Windows after which the filter replaced its solution with a fresh one (relock_cost_per_range).
+  [[nodiscard]] int relocks() const { return relocks_; }
 
  private:
   void initialize(const RangeWindow& window);
+  void relock_if_lost(const RangeWindow& window);
   /// Robust Gauss–Newton on the ranges (and altitude) with prior (mean, information); updates mean_,
   /// covariance_.
   void solve(const RangeWindow& window, const Vec4& prior_mean, const Mat4& prior_information);
@@ -122,6 +130,7 @@ class RelativePoseFilter {
   bool initialized_ = false;
   Vec4 mean_ = Vec4::Zero();
   Mat4 covariance_ = Mat4::Identity();
+  int relocks_ = 0;
 };
 
 struct PoseEstimate {

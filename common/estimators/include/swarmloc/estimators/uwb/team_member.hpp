@@ -16,7 +16,7 @@ namespace swarmloc::estimators::uwb {
 /// What a vehicle's own IMU and altimeter give it for one window.
 struct VehicleSensing {
   Tilt tilt;
-  double turn_rad = 0.0;              ///< heading change since the previous window (gyro)
+  double turn_rad = 0.0;             ///< heading change since the previous window (gyro)
   std::optional<double> altitude_m;  ///< nullopt: no altimeter reading
 };
 
@@ -40,7 +40,7 @@ class TeamMember {
                                           const std::vector<PeerRanges>& ranges);
 
   /// Round 2. My own-range estimates fused with the peers' estimates of each other (fuse_team); relations
-  /// from me or to me are ignored.
+  /// from me or to me are ignored; the order they arrive in does not matter.
   [[nodiscard]] std::map<AgentId, PoseEstimate> fuse(const std::vector<PeerRelation>& relations) const;
 
   [[nodiscard]] AgentId id() const { return me_; }

@@ -1,0 +1,34 @@
+#pragma once
+// A MURP trial over DDS (docs/real-data.md, "MURP"): one `swarmloc agent --uwb-team` process per vehicle, fed
+// window by window in lockstep by the orchestrator, the vehicles exchanging their IMU readings and their
+// estimates of each other on DDS topics.
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "swarmloc/world/murp_team.hpp"
+
+namespace swarmloc::orchestrator {
+
+struct MurpDdsOptions {
+  std::string agent_binary;                ///< the swarmloc executable the agents run
+  std::filesystem::path run_dir;           ///< agents' logs go to run_dir/agents/
+  std::filesystem::path calibration_path;  ///< the range model file every agent reads
+  bool cooperate = true;
+  int domain_id = 0;
+  bool progress = true;
+  double window_timeout_s = 20.0;  ///< longest wait for every vehicle's estimates of one window
+};
+
+struct MurpDdsRun {
+  std::vector<world::RelativeEstimateRow> rows;
+  nlohmann::json counters = nlohmann::json::object();  ///< samples sent, received, rejected; timeouts
+  bool failed = false;  ///< an agent died, a window timed out, or the run was interrupted
+  std::string failure;
+};
+
+MurpDdsRun run_murp_over_dds(const std::vector<world::MurpTeamWindow>& windows,
+                             const MurpDdsOptions& options);
+
+}  // namespace swarmloc::orchestrator
