@@ -1,11 +1,14 @@
 #include "swarmloc/rundir/murp_calibration_file.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <vector>
 
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/runtime/output_file.hpp"
@@ -18,17 +21,17 @@ using nlohmann::ordered_json;  // written in the order a reader wants: what it m
 
 /// What the figures mean, written into the file for a reader without this code.
 constexpr const char* kModelDescription =
-    "range - ring-geometric range = antenna_offsets_m[base vehicle][i] + antenna_offsets_m[target "
-    "vehicle][j] + abs_sin_elevation * |s| + sin_elevation_sq * s^2 + sin_elevation * s + facing_sum * "
-    "(f_base + f_target) + facing_sq_sum * (f_base^2 + f_target^2) (coefficients_m), s = sine of the line "
-    "of sight's elevation, f = cosine between an antenna's lever arm and the line of sight to the other "
-    "vehicle; std = sqrt(range_std_m^2 + (spread_noise_gain * spread^2)^2), spread = the std of the "
-    "readings averaged into the window (I_J_std). Antennas on a ring of radius 0.32 m at 30 + 60 * (I - 1) "
-    "degrees in the body x-y plane; arrays hold vehicles 1-3 and antennas 1-6 in order.";
+    "range - ring-geometric range = vehicles[base].antenna_offsets_m[i] + "
+    "vehicles[target].antenna_offsets_m[j] + coefficients_m . (|s|, s^2, s, f_base + f_target, f_base^2 + "
+    "f_target^2), s = sine of the line of sight's elevation, f = cosine between an antenna's lever arm and "
+    "the line of sight to the other vehicle; std = sqrt(range_std_m^2 + (spread_noise_gain * spread^2)^2), "
+    "spread = the std of the readings averaged into the window (I_J_std). Fitted by Huber-weighted ridge "
+    "least squares against the motion-capture poses (swarmloc calibrate --murp).";
 
-/// The feature names of RangeBias::Features, in its order (estimators/uwb/relative_pose.hpp).
-constexpr std::array<const char*, estimators::uwb::RangeBias::kFeatures> kFeatureNames{
-    "abs_sin_elevation", "sin_elevation_sq", "sin_elevation", "facing_sum", "facing_sq_sum"};
+/// The vehicles' keys in "vehicles", in order.
+constexpr std::array<const char*, world::kMurpVehicles> kVehicleKeys{"1", "2", "3"};
+/// A lever arm read back must be the ring's to this (the file holds them at full precision).
+constexpr double kLeverArmToleranceM = 1e-6;
 
 /// A JSON object's fields, each read with its type checked; errors name the file and the field's path.
 class CalibrationFields {
@@ -74,17 +77,20 @@ class CalibrationFields {
   const std::string& source_;
 };
 
-ordered_json offsets_json(const world::MurpRangeCalibration& c) {
-  ordered_json vehicles = ordered_json::array();
-  for (const auto& offsets : c.antenna_offsets_m) vehicles.push_back(offsets);
+ordered_json vehicles_json(const world::MurpRangeCalibration& c) {
+  const auto arms = world::murp_lever_arms();
+  ordered_json vehicles = ordered_json::object();
+  for (std::size_t v = 0; v < kVehicleKeys.size(); ++v) {
+    ordered_json lever_arms = ordered_json::array();
+    for (const auto& arm : arms) lever_arms.push_back({arm.x(), arm.y(), arm.z()});
+    vehicles[kVehicleKeys[v]] = {{"lever_arms_m", lever_arms}, {"antenna_offsets_m", c.antenna_offsets_m[v]}};
+  }
   return vehicles;
 }
 
 ordered_json coefficients_json(const world::MurpRangeCalibration& c) {
-  ordered_json coefficients = ordered_json::object();
-  for (std::size_t f = 0; f < kFeatureNames.size(); ++f) {
-    coefficients[kFeatureNames[f]] = c.coefficients_m(static_cast<Eigen::Index>(f));
-  }
+  ordered_json coefficients = ordered_json::array();
+  for (Eigen::Index f = 0; f < c.coefficients_m.size(); ++f) coefficients.push_back(c.coefficients_m(f));
   return coefficients;
 }
 
@@ -100,30 +106,53 @@ ordered_json bins_json(const world::MurpRangeCalibration& c) {
   return bins;
 }
 
-void read_offsets(const CalibrationFields& fields, world::MurpRangeCalibration& c) {
-  const json& vehicles = fields.at("antenna_offsets_m");
-  if (!vehicles.is_array() || vehicles.size() != world::kMurpVehicles) {
-    fields.fail("antenna_offsets_m",
-                "must be an array of " + std::to_string(world::kMurpVehicles) + " vehicles' offsets");
+/// `value` as an array of `count` finite numbers; errors name `key` in `fields`.
+std::vector<double> finite_numbers(const CalibrationFields& fields, const json& value, const std::string& key,
+                                   std::size_t count, const std::string& what) {
+  if (!value.is_array() || value.size() != count) fields.fail(key, "must be an array of " + what);
+  std::vector<double> numbers;
+  for (std::size_t k = 0; k < value.size(); ++k) {
+    numbers.push_back(fields.finite_number(value[k], key + "[" + std::to_string(k) + "]"));
   }
-  for (std::size_t v = 0; v < c.antenna_offsets_m.size(); ++v) {
-    const std::string key = "antenna_offsets_m[" + std::to_string(v) + "]";
-    const json& offsets = vehicles[v];
-    if (!offsets.is_array() || offsets.size() != world::kMurpAntennas) {
-      fields.fail(key, "must be an array of " + std::to_string(world::kMurpAntennas) + " numbers (m)");
-    }
-    for (std::size_t i = 0; i < offsets.size(); ++i) {
-      c.antenna_offsets_m[v][i] = fields.finite_number(offsets[i], key + "[" + std::to_string(i) + "]");
+  return numbers;
+}
+
+/// The lever arms must be the ring: MurpRangeCalibration holds none of its own, so others would be lost.
+void check_lever_arms(const CalibrationFields& vehicle) {
+  const auto ring = world::murp_lever_arms();
+  const json& arms = vehicle.at("lever_arms_m");
+  if (!arms.is_array() || arms.size() != ring.size()) {
+    vehicle.fail("lever_arms_m", "must be an array of " + std::to_string(ring.size()) + " [x, y, z]");
+  }
+  for (std::size_t k = 0; k < ring.size(); ++k) {
+    const std::string key = "lever_arms_m[" + std::to_string(k) + "]";
+    const auto arm = finite_numbers(vehicle, arms[k], key, 3, "3 numbers [x, y, z] (m)");
+    if ((Vec3(arm[0], arm[1], arm[2]) - ring[k]).norm() > kLeverArmToleranceM) {
+      vehicle.fail(key,
+                   "is not antenna " + std::to_string(k + 1) + " of the MURP ring (world::murp_lever_arms)");
     }
   }
 }
 
-void read_coefficients(const CalibrationFields& fields, const std::string& source,
-                       world::MurpRangeCalibration& c) {
-  const CalibrationFields coefficients(fields.at("coefficients_m"), fields.path("coefficients_m"), source);
-  coefficients.only({kFeatureNames.begin(), kFeatureNames.end()});
-  for (std::size_t f = 0; f < kFeatureNames.size(); ++f) {
-    c.coefficients_m(static_cast<Eigen::Index>(f)) = coefficients.number(kFeatureNames[f]);
+void read_vehicles(const CalibrationFields& fields, const std::string& source,
+                   world::MurpRangeCalibration& c) {
+  const CalibrationFields vehicles(fields.at("vehicles"), fields.path("vehicles"), source);
+  vehicles.only({kVehicleKeys.begin(), kVehicleKeys.end()});
+  for (std::size_t v = 0; v < kVehicleKeys.size(); ++v) {
+    const CalibrationFields vehicle(vehicles.at(kVehicleKeys[v]), vehicles.path(kVehicleKeys[v]), source);
+    vehicle.only({"lever_arms_m", "antenna_offsets_m"});
+    check_lever_arms(vehicle);
+    const auto offsets = finite_numbers(vehicle, vehicle.at("antenna_offsets_m"), "antenna_offsets_m",
+                                        world::kMurpAntennas, "6 numbers (m)");
+    std::copy(offsets.begin(), offsets.end(), c.antenna_offsets_m[v].begin());
+  }
+}
+
+void read_coefficients(const CalibrationFields& fields, world::MurpRangeCalibration& c) {
+  const auto coefficients = finite_numbers(fields, fields.at("coefficients_m"), "coefficients_m",
+                                           estimators::uwb::RangeBias::kFeatures, "5 numbers (m)");
+  for (std::size_t f = 0; f < coefficients.size(); ++f) {
+    c.coefficients_m(static_cast<Eigen::Index>(f)) = coefficients[f];
   }
 }
 
@@ -170,13 +199,13 @@ void read_noise(const CalibrationFields& fields, world::MurpRangeCalibration& c)
 }
 
 world::MurpRangeCalibration read_document(const CalibrationFields& fields, const std::string& source) {
-  fields.only({"model", "fitted_on", "antenna_offsets_m", "coefficients_m", "range_std_m",
-               "spread_noise_gain", "ranges_used", "outlier_fraction", "spread_bins"});
+  fields.only({"model", "fitted_on", "vehicles", "coefficients_m", "range_std_m", "spread_noise_gain",
+               "ranges_used", "outlier_fraction", "spread_bins"});
   if (!fields.at("model").is_string()) fields.fail("model", "must be a string");
   world::MurpRangeCalibration c;
   read_trials(fields, c);
-  read_offsets(fields, c);
-  read_coefficients(fields, source, c);
+  read_vehicles(fields, source, c);
+  read_coefficients(fields, c);
   read_noise(fields, c);
   read_bins(fields, source, c);
   return c;
@@ -185,12 +214,11 @@ world::MurpRangeCalibration read_document(const CalibrationFields& fields, const
 }  // namespace
 
 std::string murp_calibration_json(const world::MurpRangeCalibration& c) {
-  const ordered_json document = {
-      {"model", kModelDescription},           {"fitted_on", c.trials},
-      {"antenna_offsets_m", offsets_json(c)}, {"coefficients_m", coefficients_json(c)},
-      {"range_std_m", c.range_std_m},         {"spread_noise_gain", c.spread_noise_gain},
-      {"ranges_used", c.ranges_used},         {"outlier_fraction", c.outlier_fraction},
-      {"spread_bins", bins_json(c)}};
+  const ordered_json document = {{"model", kModelDescription},   {"fitted_on", c.trials},
+                                 {"vehicles", vehicles_json(c)}, {"coefficients_m", coefficients_json(c)},
+                                 {"range_std_m", c.range_std_m}, {"spread_noise_gain", c.spread_noise_gain},
+                                 {"ranges_used", c.ranges_used}, {"outlier_fraction", c.outlier_fraction},
+                                 {"spread_bins", bins_json(c)}};
   return document.dump(2) + "\n";
 }
 

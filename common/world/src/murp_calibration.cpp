@@ -187,11 +187,6 @@ void check_vehicle(int vehicle, const char* role) {
   }
 }
 
-VecX offsets_of(const MurpRangeCalibration& calibration, int vehicle) {
-  const auto& offsets = calibration.antenna_offsets_m[static_cast<std::size_t>(vehicle - 1)];
-  return Eigen::Map<const VecX>(offsets.data(), kMurpAntennas);
-}
-
 }  // namespace
 
 std::vector<Vec3> murp_lever_arms() {
@@ -245,22 +240,33 @@ MurpRangeCalibration calibrate_murp_ranges(const std::vector<MurpTrial>& trials)
   return out;
 }
 
+estimators::uwb::RangeCalibration murp_range_calibration(const MurpRangeCalibration& calibration) {
+  estimators::uwb::RangeCalibration out;
+  for (int v = 0; v < kMurpVehicles; ++v) {
+    const auto& offsets = calibration.antenna_offsets_m[static_cast<std::size_t>(v)];
+    out.vehicles[v + 1] = {murp_lever_arms(), Eigen::Map<const VecX>(offsets.data(), kMurpAntennas)};
+  }
+  out.coefficients_m = calibration.coefficients_m;
+  out.range_std_m = calibration.range_std_m;
+  out.spread_noise_gain = calibration.spread_noise_gain;
+  out.fitted_on = calibration.trials;
+  return out;
+}
+
 estimators::uwb::RelativePoseParams murp_range_model(const MurpRangeCalibration* calibration, int base,
                                                      int target) {
   check_vehicle(base, "base");
   check_vehicle(target, "target");
   if (base == target) throw std::invalid_argument("murp_range_model: base and target are the same vehicle");
   estimators::uwb::RelativePoseParams params;
-  params.my_lever_arms_m = murp_lever_arms();
-  params.peer_lever_arms_m = murp_lever_arms();
+  if (calibration != nullptr) {
+    params = estimators::uwb::range_model(murp_range_calibration(*calibration), base, target);
+  } else {
+    params.my_lever_arms_m = murp_lever_arms();
+    params.peer_lever_arms_m = murp_lever_arms();
+  }
   params.heading_walk_radps = 0.2;
   params.position_walk_mps = 3.0;
-  if (calibration == nullptr) return params;
-  params.bias.my_antenna_offsets_m = offsets_of(*calibration, base);
-  params.bias.peer_antenna_offsets_m = offsets_of(*calibration, target);
-  params.bias.coefficients_m = calibration->coefficients_m;
-  params.range_std_m = calibration->range_std_m;
-  params.spread_noise_gain = calibration->spread_noise_gain;
   return params;
 }
 

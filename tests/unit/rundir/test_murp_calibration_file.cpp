@@ -14,6 +14,7 @@
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/rundir/murp_calibration_file.hpp"
 #include "swarmloc/runtime/output_file.hpp"
+#include "swarmloc/runtime/range_calibration_file.hpp"
 
 namespace swarmloc::rundir {
 namespace {
@@ -101,17 +102,17 @@ bool mentions(const std::string& message, const std::string& words) {
 }
 
 TEST_F(MurpCalibrationFile, RefusesAMissingField) {
-  for (const char* field : {"range_std_m", "spread_noise_gain", "antenna_offsets_m", "coefficients_m",
-                            "fitted_on", "spread_bins", "ranges_used", "outlier_fraction", "model"}) {
+  for (const char* field : {"range_std_m", "spread_noise_gain", "vehicles", "coefficients_m", "fitted_on",
+                            "spread_bins", "ranges_used", "outlier_fraction", "model"}) {
     auto document = sample_document();
     document.erase(field);
     const auto message = murp_file_error("missing.json", document.dump());
     EXPECT_TRUE(mentions(message, std::string(field) + " is missing")) << message;
   }
   auto document = sample_document();
-  document["coefficients_m"].erase("sin_elevation_sq");
-  EXPECT_TRUE(mentions(murp_file_error("missing.json", document.dump()),
-                       "coefficients_m.sin_elevation_sq is missing"));
+  document["vehicles"]["2"].erase("antenna_offsets_m");
+  EXPECT_TRUE(
+      mentions(murp_file_error("missing.json", document.dump()), "vehicles.2.antenna_offsets_m is missing"));
 }
 
 TEST_F(MurpCalibrationFile, RefusesANotANumberAndAWrongType) {
@@ -119,13 +120,13 @@ TEST_F(MurpCalibrationFile, RefusesANotANumberAndAWrongType) {
   document["range_std_m"] = std::numeric_limits<double>::quiet_NaN();  // JSON has no NaN: written as null
   EXPECT_TRUE(mentions(murp_file_error("nan.json", document.dump()), "range_std_m must be a number"));
   document = sample_document();
-  document["antenna_offsets_m"][2][4] = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_TRUE(
-      mentions(murp_file_error("nan.json", document.dump()), "antenna_offsets_m[2][4] must be a number"));
+  document["vehicles"]["3"]["antenna_offsets_m"][4] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(mentions(murp_file_error("nan.json", document.dump()),
+                       "vehicles.3.antenna_offsets_m[4] must be a number"));
   document = sample_document();
-  document["coefficients_m"]["facing_sum"] = "0.1";
-  EXPECT_TRUE(mentions(murp_file_error("string.json", document.dump()),
-                       "coefficients_m.facing_sum must be a number"));
+  document["coefficients_m"][3] = "0.1";
+  EXPECT_TRUE(
+      mentions(murp_file_error("string.json", document.dump()), "coefficients_m[3] must be a number"));
   document = sample_document();
   document["fitted_on"] = json::array({1, 2});
   EXPECT_TRUE(mentions(murp_file_error("trials.json", document.dump()), "fitted_on must hold trial names"));
@@ -135,15 +136,52 @@ TEST_F(MurpCalibrationFile, RefusesANotANumberAndAWrongType) {
       mentions(murp_file_error("count.json", document.dump()), "ranges_used must be a non-negative integer"));
 }
 
-TEST_F(MurpCalibrationFile, RefusesAWrongNumberOfVehiclesOrAntennas) {
+TEST_F(MurpCalibrationFile, RefusesAWrongNumberOfVehiclesAntennasOrCoefficients) {
   auto document = sample_document();
-  document["antenna_offsets_m"][1].erase(5);
-  EXPECT_TRUE(
-      mentions(murp_file_error("five.json", document.dump()), "antenna_offsets_m[1] must be an array of 6"));
+  document["vehicles"]["2"]["antenna_offsets_m"].erase(5);
+  EXPECT_TRUE(mentions(murp_file_error("five.json", document.dump()),
+                       "vehicles.2.antenna_offsets_m must be an array of 6"));
   document = sample_document();
-  document["antenna_offsets_m"].erase(2);
+  document["vehicles"].erase("3");
+  EXPECT_TRUE(mentions(murp_file_error("two.json", document.dump()), "vehicles.3 is missing"));
+  document = sample_document();
+  document["vehicles"]["4"] = document["vehicles"]["1"];
+  EXPECT_TRUE(mentions(murp_file_error("four.json", document.dump()), "vehicles.4 is not a field"));
+  document = sample_document();
+  document["coefficients_m"].erase(4);
   EXPECT_TRUE(
-      mentions(murp_file_error("two.json", document.dump()), "antenna_offsets_m must be an array of 3"));
+      mentions(murp_file_error("four.json", document.dump()), "coefficients_m must be an array of 5"));
+}
+
+TEST_F(MurpCalibrationFile, RefusesLeverArmsOtherThanTheRing) {
+  auto document = sample_document();
+  document["vehicles"]["1"]["lever_arms_m"][2] = json::array({0.3, 0.0, 0.0});
+  EXPECT_TRUE(mentions(murp_file_error("arms.json", document.dump()),
+                       "vehicles.1.lever_arms_m[2] is not antenna 3 of the MURP ring"));
+  document = sample_document();
+  document["vehicles"]["1"]["lever_arms_m"].erase(5);
+  EXPECT_TRUE(mentions(murp_file_error("arms.json", document.dump()),
+                       "vehicles.1.lever_arms_m must be an array of 6"));
+}
+
+/// The MURP replay reads the file with the team runtimes' parser: it must give what murp_range_calibration
+/// gives from the fit.
+TEST_F(MurpCalibrationFile, TheRuntimesReadTheSameCalibration) {
+  const auto written = sample_calibration();
+  const auto read = runtime::parse_range_calibration(murp_calibration_json(written), "written");
+  const auto expected = world::murp_range_calibration(written);
+  ASSERT_EQ(read.vehicles.size(), 3U);
+  for (const auto& [id, vehicle] : expected.vehicles) {
+    ASSERT_EQ(read.vehicles.count(id), 1U) << id;
+    EXPECT_EQ(read.vehicles.at(id).offsets_m, vehicle.offsets_m) << id;
+    ASSERT_EQ(read.vehicles.at(id).lever_arms_m.size(), 6U);
+    for (std::size_t k = 0; k < 6; ++k)
+      EXPECT_EQ(read.vehicles.at(id).lever_arms_m[k], vehicle.lever_arms_m[k]);
+  }
+  EXPECT_EQ(read.coefficients_m, expected.coefficients_m);
+  EXPECT_EQ(read.range_std_m, expected.range_std_m);
+  EXPECT_EQ(read.spread_noise_gain, expected.spread_noise_gain);
+  EXPECT_EQ(read.fitted_on, expected.fitted_on);
 }
 
 TEST_F(MurpCalibrationFile, RefusesANoiseOutsideItsRange) {

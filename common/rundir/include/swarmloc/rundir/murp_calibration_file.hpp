@@ -1,11 +1,11 @@
 #pragma once
-// The MURP range calibration as a JSON file (`swarmloc calibrate --murp … --out FILE`, read by the MURP
-// replay; docs/real-data.md "MURP range calibration"):
+// The MURP range calibration as a JSON file (`swarmloc calibrate --murp … --out FILE`; docs/real-data.md
+// "MURP range calibration"), in the schema of the team runtimes' range calibration
+// (runtime/range_calibration_file.hpp, which the MURP replay reads) with the fit's diagnostics added:
 //   {"model": "<how the figures are used>", "fitted_on": ["01", …],
-//    "antenna_offsets_m": [[6 numbers: vehicle 1], [vehicle 2], [vehicle 3]],
-//    "coefficients_m": {"abs_sin_elevation", "sin_elevation_sq", "sin_elevation", "facing_sum",
-//                       "facing_sq_sum"},
-//    "range_std_m", "spread_noise_gain", "ranges_used", "outlier_fraction",
+//    "vehicles": {"1": {"lever_arms_m": [[x, y, z] × 6], "antenna_offsets_m": [6 numbers]}, "2": …, "3": …},
+//    "coefficients_m": [5 numbers: RangeBias::Features order], "range_std_m", "spread_noise_gain",
+//    "ranges_used", "outlier_fraction",
 //    "spread_bins": [{"from_m", "to_m" (null: open), "ranges", "median_spread_m", "robust_std_m"}, …]}
 #include <filesystem>
 #include <string>
@@ -21,7 +21,8 @@ std::string murp_calibration_json(const world::MurpRangeCalibration& calibration
 void write_murp_calibration(const world::MurpRangeCalibration& calibration,
                             const std::filesystem::path& path);
 
-/// Reads and validates a file: every field present with its type, numbers finite, 3 vehicles of 6 offsets,
+/// Reads and validates a file: every field present with its type, numbers finite, vehicles "1"–"3" each
+/// with the MURP ring's lever arms (murp_lever_arms, to 1 µm) and 6 offsets, 5 coefficients,
 /// range_std_m > 0, spread_noise_gain >= 0, outlier_fraction in [0, 1], no unknown key. Throws
 /// config::ScenarioError naming the file and the field.
 world::MurpRangeCalibration read_murp_calibration(const std::filesystem::path& path);

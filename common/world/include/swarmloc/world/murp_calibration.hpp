@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "swarmloc/estimators/uwb/range_calibration.hpp"
 #include "swarmloc/estimators/uwb/relative_pose.hpp"
 #include "swarmloc/world/murp.hpp"
 
@@ -66,8 +67,13 @@ struct MurpPairGeometry {
 MurpPairGeometry murp_pair_geometry(const MurpPose& base, const MurpPose& target, int base_antenna,
                                     int target_antenna);
 
+/// The calibration as the team runtimes take it: vehicles 1–3, each with the ring (murp_lever_arms) and its
+/// offsets; the coefficients, noise and trials as fitted.
+estimators::uwb::RangeCalibration murp_range_calibration(const MurpRangeCalibration& calibration);
+
 /// The relative pose filter's parameters for `base` (me) ranging to `target` (the peer), vehicles 1–3:
-/// the ring's lever arms, the calibration's bias and noise, and random walks set for the dataset's vehicles
+/// the ring's lever arms, the calibration's bias and noise (estimators::uwb::range_model of
+/// murp_range_calibration), and random walks set for the dataset's vehicles
 /// (heading_walk_radps 0.2, position_walk_mps 3.0; set, not fitted: docs/real-data.md "MURP range
 /// calibration"). `calibration` nullptr: no bias and the RelativePoseParams defaults for the noise. Throws
 /// std::invalid_argument for a vehicle outside 1–3 or base == target.
