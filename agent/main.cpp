@@ -1,8 +1,9 @@
 // swarmloc-agent — one agent process: its scenario file and its manifest (written by `swarmloc run` into
 // <run>/manifests/), or with --id alone the manifest sample of `swarmloc run --no-launch` over DDS (which
 // carries the run's scenario); its estimator and the DDS transport. It links neither the world nor the
-// simulator (nor SDPA/BLAS): what it may know is the manifest. `swarmloc agent` runs the same code. Exit
-// codes: 0 ok, 2 bad input (scenario, manifest, flags), 1 runtime failure.
+// simulator (nor SDPA/BLAS): what it may know is the manifest. `swarmloc agent` runs the same code. With
+// --uwb-team, one vehicle of `swarmloc replay --murp` (uwb_team_agent.hpp) instead. Exit codes: 0 ok, 2 bad
+// input (scenario, manifest, flags), 1 runtime failure.
 #include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdio>
@@ -10,6 +11,36 @@
 
 #include "agent_node.hpp"
 #include "live_agent.hpp"
+#include "uwb_team_agent.hpp"
+
+namespace {
+
+/// `--uwb-team FILE --vehicle N --team 1,2,3 [--no-cooperation]`: a vehicle of `swarmloc replay --murp`.
+struct UwbTeamFlags {
+  swarmloc::agent::UwbTeamAgentOptions options;
+  bool no_cooperation = false;
+};
+
+void add_uwb_team_flags(CLI::App& app, UwbTeamFlags& uwb) {
+  auto* team = app.add_option("--uwb-team", uwb.options.calibration_path,
+                              "MURP UWB team: be one vehicle of `swarmloc replay --murp`, with the range "
+                              "model of calibration FILE (docs/real-data.md: MURP over DDS)");
+  app.add_option("--vehicle", uwb.options.vehicle, "UWB team: this vehicle's id")->needs(team);
+  app.add_option("--team", uwb.options.team, "UWB team: every vehicle's id, comma-separated (e.g. 1,2,3)")
+      ->delimiter(',')
+      ->needs(team);
+  app.add_flag("--no-cooperation", uwb.no_cooperation, "UWB team: report own-range estimates only")
+      ->needs(team);
+}
+
+int run_uwb_team(UwbTeamFlags& uwb, int domain, const std::string& log_path) {
+  uwb.options.cooperate = !uwb.no_cooperation;
+  uwb.options.domain_id = domain >= 0 ? domain : 0;
+  uwb.options.log_path = log_path;
+  return swarmloc::agent::run_uwb_team_agent(uwb.options);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"swarmloc-agent: one agent process of a `swarmloc run` (docs/architecture.md)"};
@@ -53,6 +84,8 @@ int main(int argc, char** argv) {
   app.add_option("--duration", live.duration_s, "Live: stop after S seconds (default: at SIGINT/SIGTERM)")
       ->needs(live_flag)
       ->check(CLI::PositiveNumber);
+  UwbTeamFlags uwb;
+  add_uwb_team_flags(app, uwb);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
@@ -60,6 +93,7 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
   std::signal(SIGXFSZ, SIG_IGN);  // a file size limit fails a write (EFBIG) instead of killing us
+  if (!uwb.options.calibration_path.empty()) return run_uwb_team(uwb, domain, options.log_path);
   if (!live.deployment_path.empty()) {
     if (live.robot.empty()) {
       std::fprintf(stderr, "error: --live needs --robot NAME\n");

@@ -7,17 +7,11 @@
 #include "swarmloc/runtime/manifest.hpp"
 
 namespace swarmloc::orchestrator {
-namespace {
-
-/// The lean agent executable beside ours (swarmloc-agent: no world, no simulator, no BLAS), else
-/// `<agent_binary> agent`, which runs the same code.
-std::vector<std::string> agent_executable(const LaunchPlan& plan) {
-  const auto lean = std::filesystem::path(plan.agent_binary).parent_path() / "swarmloc-agent";
+std::vector<std::string> agent_executable(const std::string& agent_binary) {
+  const auto lean = std::filesystem::path(agent_binary).parent_path() / "swarmloc-agent";
   if (std::filesystem::exists(lean)) return {lean.string()};
-  return {plan.agent_binary, "agent"};
+  return {agent_binary, "agent"};
 }
-
-}  // namespace
 
 ProcessCommand agent_process(const LaunchPlan& plan, AgentId id, int incarnation) {
   const auto scenario_file = (plan.run_dir / "scenario.yaml").string();
@@ -28,7 +22,7 @@ ProcessCommand agent_process(const LaunchPlan& plan, AgentId id, int incarnation
     std::snprintf(name, sizeof name, "agent_%03d.restart%d.log", id, incarnation);
   }
   const auto log = (plan.run_dir / "logs" / name).string();
-  std::vector<std::string> argv = agent_executable(plan);
+  std::vector<std::string> argv = agent_executable(plan.agent_binary);
   argv.insert(argv.end(), {"--scenario", scenario_file, "--id", std::to_string(id), "--manifest",
                            runtime::manifest_path(plan.run_dir, id).string(), "--log", log});
   if (incarnation > 0) argv.insert(argv.end(), {"--incarnation", std::to_string(incarnation)});

@@ -22,6 +22,10 @@ struct ProcessCommand {
   std::string output_path;
 };
 
+/// How to start an agent process: the lean swarmloc-agent beside `agent_binary` (the `swarmloc` binary) when
+/// it is there, else `<agent_binary> agent`, which runs the same code.
+std::vector<std::string> agent_executable(const std::string& agent_binary);
+
 /// Agent `id`'s process (incarnation > 0: a restart after faults.kill, with its own log). The agent learns
 /// what it may know from its manifest; it never builds the world.
 ProcessCommand agent_process(const LaunchPlan& plan, AgentId id, int incarnation);

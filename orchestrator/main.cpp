@@ -26,6 +26,7 @@
 #include "orchestrator.hpp"
 #include "replay.hpp"
 #include "swarmloc/config/scenario.hpp"
+#include "uwb_team_agent.hpp"
 
 namespace {
 
@@ -212,8 +213,10 @@ struct AgentCommand {
   swarmloc::agent::AgentOptions options;
   std::string role = "agent";
   CLI::Option* id = nullptr;
-  int domain = -1;     ///< --domain: dds.domain_id
-  std::string run_id;  ///< --run-id: dds.run_id
+  int domain = -1;                           ///< --domain: dds.domain_id
+  std::string run_id;                        ///< --run-id: dds.run_id
+  swarmloc::agent::UwbTeamAgentOptions uwb;  ///< --uwb-team: a vehicle of `replay --murp`
+  bool no_cooperation = false;
 };
 
 void add_agent_command(CLI::App& app, SharedFlags& shared, AgentCommand& agent) {
@@ -253,10 +256,25 @@ void add_agent_command(CLI::App& app, SharedFlags& shared, AgentCommand& agent) 
   command->add_option("--record", options.record_path,
                       "Log every inter-agent sample received to FILE (set by `run --record`; "
                       "docs/record-replay.md)");
+  auto* uwb = command->add_option("--uwb-team", agent.uwb.calibration_path,
+                                  "MURP UWB team: be one vehicle of `replay --murp`, with the range model of "
+                                  "calibration FILE (docs/real-data.md: MURP over DDS)");
+  command->add_option("--vehicle", agent.uwb.vehicle, "UWB team: this vehicle's id")->needs(uwb);
+  command->add_option("--team", agent.uwb.team, "UWB team: every vehicle's id, comma-separated (e.g. 1,2,3)")
+      ->delimiter(',')
+      ->needs(uwb);
+  command->add_flag("--no-cooperation", agent.no_cooperation, "UWB team: report own-range estimates only")
+      ->needs(uwb);
 }
 
 int execute_agent(AgentCommand& agent) {
   auto& options = agent.options;
+  if (!agent.uwb.calibration_path.empty()) {
+    agent.uwb.cooperate = !agent.no_cooperation;
+    agent.uwb.domain_id = agent.domain >= 0 ? agent.domain : 0;
+    agent.uwb.log_path = options.log_path;
+    return swarmloc::agent::run_uwb_team_agent(agent.uwb);
+  }
   // After the --set overrides, so the flags win.
   if (agent.domain >= 0) options.overrides.push_back("dds.domain_id=" + std::to_string(agent.domain));
   if (!agent.run_id.empty()) options.overrides.push_back("dds.run_id=" + agent.run_id);
