@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "calibrate_murp.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/world/mrclam_calibration.hpp"
 
@@ -209,8 +210,11 @@ world::MrclamCalibration measure_mrclam_noise(const std::string& dir) {
 }
 
 int run_calibrate(const CalibrateOptions& options) {
+  if (!options.murp_dirs.empty()) return run_calibrate_murp(options.murp_dirs, options.out_path);
   try {
-    if (options.mrclam_dir.empty()) throw config::ScenarioError("calibrate: --mrclam DIR is required");
+    if (options.mrclam_dir.empty()) {
+      throw config::ScenarioError("calibrate: --mrclam DIR or --murp DIR [DIR ...] is required");
+    }
     const auto calibration = measure_mrclam_noise(options.mrclam_dir);
     print_report(options.mrclam_dir, calibration);
     const auto fragment = noise_fragment(options.mrclam_dir, calibration);

@@ -1,8 +1,10 @@
 #pragma once
 // `swarmloc calibrate --mrclam DIR`: measures a UTIAS MRCLAM dataset's range, bearing and odometry noise
 // against its own groundtruth (world::calibrate_mrclam), prints the figures with how each was measured,
-// and writes them as a scenario fragment (docs/real-data.md, "Noise model").
+// and writes them as a scenario fragment (docs/real-data.md, "Noise model"). `--murp DIR...` fits the MURP
+// UWB dataset's range model instead (calibrate_murp.hpp).
 #include <string>
+#include <vector>
 
 #include "swarmloc/world/mrclam_calibration.hpp"
 
@@ -10,7 +12,8 @@ namespace swarmloc::orchestrator {
 
 struct CalibrateOptions {
   std::string mrclam_dir;
-  std::string out_path;  ///< the YAML fragment; empty: none written
+  std::vector<std::string> murp_dirs;  ///< MURP trial directories (parsed/NN); exclusive with mrclam_dir
+  std::string out_path;                ///< the YAML fragment (--mrclam), the JSON file (--murp); empty: none
 };
 
 /// The noise model of the MRCLAM dataset in `dir`, measured against its own groundtruth. Throws
@@ -23,7 +26,7 @@ world::MrclamCalibration measure_mrclam_noise(const std::string& dir);
 std::string noise_fragment(const std::string& dir, const world::MrclamCalibration& calibration);
 
 /// Returns the process exit code (0 ok; 2 bad input: missing or unreadable dataset, no usable samples,
-/// unwritable --out).
+/// unwritable --out). With murp_dirs, run_calibrate_murp's.
 int run_calibrate(const CalibrateOptions& options);
 
 }  // namespace swarmloc::orchestrator

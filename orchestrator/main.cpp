@@ -394,10 +394,21 @@ void add_calibrate_command(CLI::App& app, CalibrateCommand& calibrate) {
   auto* command = app.add_subcommand(
       "calibrate",
       "Measure a UTIAS MRCLAM dataset's range, bearing and odometry noise (and biases) against its "
-      "groundtruth; print how each figure was measured and write them as scenario keys (docs/real-data.md).");
+      "groundtruth, or fit the MURP UWB dataset's range model to its trials' motion capture; print how each "
+      "figure was measured and write them to a file (docs/real-data.md).");
   calibrate.command = command;
-  command->add_option("--mrclam", calibrate.options.mrclam_dir, "UTIAS MRCLAM dataset directory")->required();
-  command->add_option("--out", calibrate.options.out_path, "Write the noise.* scenario keys (YAML) to FILE");
+  auto* mrclam =
+      command->add_option("--mrclam", calibrate.options.mrclam_dir, "UTIAS MRCLAM dataset directory");
+  auto* murp = command
+                   ->add_option("--murp", calibrate.options.murp_dirs,
+                                "MURP UWB trial directories (parsed/NN; e.g. the calibration trials 01-12): "
+                                "fit the range bias and noise model")
+                   ->expected(1, -1);
+  mrclam->excludes(murp);
+  command->add_option(
+      "--out", calibrate.options.out_path,
+      "Write the figures to FILE: --mrclam the noise.* scenario keys (YAML), --murp the range "
+      "model (JSON)");
 }
 
 /// `swarmloc monitor`.
@@ -461,6 +472,7 @@ int main(int argc, char** argv) {
       "  swarmloc sim scenarios/default.yaml --record --out runs/a     # record every measurement\n"
       "  swarmloc replay runs/a/recording.slrec --set algorithm.name=iekf  # another algorithm\n"
       "  swarmloc calibrate --mrclam DIR --out noise.yaml  # a dataset's noise from its groundtruth\n"
+      "  swarmloc calibrate --murp parsed/01 ... parsed/12 --out murp.json  # MURP range bias and noise\n"
       "  swarmloc monitor --deployment lab.yaml --out runs/lab   # record live robots (docs/live.md)\n\n"
       "Paper reproductions and parameter campaigns: swarmloc-research (docs/reproduction.md).\n",
       "swarmloc"};
