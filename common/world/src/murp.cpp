@@ -7,7 +7,6 @@
 #include <cmath>
 #include <numbers>
 #include <optional>
-#include <regex>
 #include <set>
 #include <stdexcept>
 #include <string_view>
@@ -58,17 +57,36 @@ std::string read_text(const fs::path& path) {
   return text;
 }
 
+bool all_digits(std::string_view text) {
+  return !text.empty() && std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+/// NN of a file named NN_base-A_targ-B_win-1_step-1.csv[.gz] (digits for NN, A and B); nullopt otherwise.
+std::optional<std::string> trial_of_file(std::string_view name) {
+  if (name.ends_with(".gz")) name.remove_suffix(3);
+  constexpr std::string_view kTail = "_win-1_step-1.csv";
+  if (!name.ends_with(kTail)) return std::nullopt;
+  name.remove_suffix(kTail.size());
+  const auto base = name.find("_base-");
+  const auto target = name.find("_targ-");
+  if (base == std::string_view::npos || target == std::string_view::npos || target < base)
+    return std::nullopt;
+  const auto trial = name.substr(0, base);
+  if (!all_digits(trial) || !all_digits(name.substr(base + 6, target - base - 6)) ||
+      !all_digits(name.substr(target + 6))) {
+    return std::nullopt;
+  }
+  return std::string(trial);
+}
+
 /// The one trial number of the directory's MURP files: pairs of two trials must not be mixed up.
 std::string trial_number(const fs::path& directory) {
   if (!fs::is_directory(directory)) {
     throw ScenarioError("MURP trial: '" + directory.string() + "' is not a directory");
   }
-  static const std::regex kName(R"((\d+)_base-\d+_targ-\d+_win-1_step-1\.csv(\.gz)?)");
   std::set<std::string> trials;
   for (const auto& entry : fs::directory_iterator(directory)) {
-    const std::string name = entry.path().filename().string();
-    std::smatch match;
-    if (std::regex_match(name, match, kName)) trials.insert(match[1].str());
+    if (const auto trial = trial_of_file(entry.path().filename().string())) trials.insert(*trial);
   }
   if (trials.empty()) {
     throw ScenarioError("MURP trial: '" + directory.string() +

@@ -271,11 +271,8 @@ std::filesystem::path murp_calibration_dataset() {
 
 std::vector<MurpTrial> calibration_trials(const std::filesystem::path& parsed) {
   std::vector<MurpTrial> trials;
-  for (int n = 1; n <= 12; ++n) {
-    char name[4];
-    std::snprintf(name, sizeof name, "%02d", n);
-    trials.push_back(load_murp_trial(parsed / name));
-  }
+  for (int n = 1; n <= 12; ++n)
+    trials.push_back(load_murp_trial(parsed / ((n < 10 ? "0" : "") + std::to_string(n))));
   return trials;
 }
 
