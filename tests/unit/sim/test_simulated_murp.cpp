@@ -25,7 +25,8 @@ world::RelativeErrorStats validation_trials(const uwb::RangeCalibration& calibra
     sim::MurpTeamOptions options;
     options.cooperate = cooperate;
     for (const auto& pair : trial.pairs) {
-      options.models[std::make_pair(pair.base, pair.target)] = uwb::range_model(calibration, pair.base, pair.target);
+      options.models[std::make_pair(pair.base, pair.target)] =
+          uwb::range_model(calibration, pair.base, pair.target);
     }
     const auto windows = world::murp_team_windows(trial);
     const auto score = world::score_murp(windows, sim::run_murp_team(windows, options));
