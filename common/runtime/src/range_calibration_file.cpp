@@ -81,7 +81,9 @@ uwb::RangeCalibration parse_range_calibration(std::string_view text, const std::
   if (!vehicles.is_object() || vehicles.empty())
     throw ScenarioError(source + ".vehicles: expected {\"1\": {...}, ...}");
   for (const auto& [key, value] : vehicles.items()) {
-    const std::string where = source + ".vehicles." + key;
+    std::string where = source;
+    where += ".vehicles.";
+    where += key;
     calibration.vehicles[vehicle_id(key, where)] = vehicle(value, where);
   }
   const VecX coefficients = numbers(field(document, "coefficients_m", source), source + ".coefficients_m");

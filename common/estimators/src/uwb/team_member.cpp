@@ -5,9 +5,9 @@
 
 namespace swarmloc::estimators::uwb {
 
-TeamMember::TeamMember(AgentId me, std::map<AgentId, RelativePoseParams> models) : me_(me) {
-  for (auto& [peer, params] : models) {
-    if (peer != me) filters_.emplace(peer, RelativePoseFilter(std::move(params)));
+TeamMember::TeamMember(AgentId me, const std::map<AgentId, RelativePoseParams>& models) : me_(me) {
+  for (const auto& [peer, params] : models) {
+    if (peer != me) filters_.emplace(peer, RelativePoseFilter(params));
   }
 }
 

@@ -30,7 +30,7 @@ struct PeerRanges {
 class TeamMember {
  public:
   /// `models` holds the range model of each peer (lever arms of both vehicles, bias, noise).
-  TeamMember(AgentId me, std::map<AgentId, RelativePoseParams> models);
+  TeamMember(AgentId me, const std::map<AgentId, RelativePoseParams>& models);
 
   /// Round 1. Advances every peer's filter by dt_s and folds in this window's ranges to it; a peer whose
   /// sensing is missing is predicted with no turn and its last known tilt. Returns my own-range estimate of
