@@ -1,9 +1,13 @@
 #include "swarmloc/runtime/range_calibration_file.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <sstream>
+#include <vector>
 
 #include "swarmloc/config/scenario.hpp"
 
@@ -17,6 +21,23 @@ namespace {
 namespace uwb = estimators::uwb;
 using config::ScenarioError;
 using nlohmann::json;
+
+/// The keys of the document: the schema's, then the fit's diagnostics that `calibrate --murp` adds
+/// (rundir/murp_calibration_file.hpp), read for their types and otherwise ignored.
+constexpr std::array<std::string_view, 9> kDocumentKeys{
+    "model",       "fitted_on",        "vehicles",   "coefficients_m", "range_std_m", "spread_noise_gain",
+    "ranges_used", "outlier_fraction", "spread_bins"};
+constexpr std::array<std::string_view, 2> kVehicleKeys{"lever_arms_m", "antenna_offsets_m"};
+constexpr std::array<std::string_view, 5> kSpreadBinKeys{"from_m", "to_m", "ranges", "median_spread_m",
+                                                         "robust_std_m"};
+
+/// Refuses a key the format does not have: a misspelt one would otherwise be ignored silently.
+void only_known_keys(const json& object, std::span<const std::string_view> keys, const std::string& where) {
+  for (const auto& item : object.items()) {
+    if (std::find(keys.begin(), keys.end(), item.key()) == keys.end())
+      throw ScenarioError(where + ": unknown field '" + item.key() + "'");
+  }
+}
 
 double finite_number(const json& value, const std::string& where) {
   if (!value.is_number()) throw ScenarioError(where + ": expected a number");
@@ -40,7 +61,15 @@ VecX numbers(const json& array, const std::string& where) {
   return values;
 }
 
+std::size_t non_negative_count(const json& value, const std::string& where) {
+  if (!value.is_number_unsigned()) throw ScenarioError(where + ": expected a non-negative integer");
+  return value.get<std::size_t>();
+}
+
 uwb::VehicleAntennas vehicle(const json& object, const std::string& where) {
+  if (!object.is_object())
+    throw ScenarioError(where + ": expected {\"lever_arms_m\": [...], \"antenna_offsets_m\": [...]}");
+  only_known_keys(object, kVehicleKeys, where);
   uwb::VehicleAntennas antennas;
   const json& arms = field(object, "lever_arms_m", where);
   if (!arms.is_array() || arms.empty())
@@ -71,11 +100,56 @@ AgentId vehicle_id(const std::string& key, const std::string& where) {
   return id;
 }
 
+std::vector<std::string> trial_names(const json& document, const std::string& source) {
+  std::vector<std::string> names;
+  if (!document.contains("fitted_on")) return names;
+  const json& trials = document.at("fitted_on");
+  if (!trials.is_array()) throw ScenarioError(source + ".fitted_on: expected an array of trial names");
+  for (std::size_t k = 0; k < trials.size(); ++k) {
+    if (!trials[k].is_string())
+      throw ScenarioError(source + ".fitted_on[" + std::to_string(k) + "]: expected a trial name (a string)");
+    names.push_back(trials[k].get<std::string>());
+  }
+  return names;
+}
+
+void check_spread_bin(const json& bin, const std::string& where) {
+  if (!bin.is_object()) throw ScenarioError(where + ": expected {\"from_m\": ..., \"to_m\": ..., ...}");
+  only_known_keys(bin, kSpreadBinKeys, where);
+  for (const char* name : {"from_m", "median_spread_m", "robust_std_m"}) {
+    if (bin.contains(name)) (void)finite_number(bin.at(name), where + "." + name);
+  }
+  if (bin.contains("to_m") && !bin.at("to_m").is_null())  // null: the open last bin
+    (void)finite_number(bin.at("to_m"), where + ".to_m");
+  if (bin.contains("ranges")) (void)non_negative_count(bin.at("ranges"), where + ".ranges");
+}
+
+/// The fit's description and diagnostics, which the runtimes do not use: each present one must have its
+/// type (model a string, ranges_used a count, outlier_fraction in [0, 1], spread_bins bins).
+void check_diagnostics(const json& document, const std::string& source) {
+  if (document.contains("model") && !document.at("model").is_string())
+    throw ScenarioError(source + ".model: expected a string");
+  if (document.contains("ranges_used"))
+    (void)non_negative_count(document.at("ranges_used"), source + ".ranges_used");
+  if (document.contains("outlier_fraction")) {
+    const double fraction = finite_number(document.at("outlier_fraction"), source + ".outlier_fraction");
+    if (fraction < 0.0 || fraction > 1.0)
+      throw ScenarioError(source + ".outlier_fraction: must lie in [0, 1]");
+  }
+  if (document.contains("spread_bins")) {
+    const json& bins = document.at("spread_bins");
+    if (!bins.is_array()) throw ScenarioError(source + ".spread_bins: expected an array of bins");
+    for (std::size_t k = 0; k < bins.size(); ++k)
+      check_spread_bin(bins[k], source + ".spread_bins[" + std::to_string(k) + "]");
+  }
+}
+
 }  // namespace
 
 uwb::RangeCalibration parse_range_calibration(std::string_view text, const std::string& source) {
   const json document = json::parse(text, nullptr, false);
   if (document.is_discarded() || !document.is_object()) throw ScenarioError(source + ": not a JSON object");
+  only_known_keys(document, kDocumentKeys, source);
   uwb::RangeCalibration calibration;
   const json& vehicles = field(document, "vehicles", source);
   if (!vehicles.is_object() || vehicles.empty())
@@ -98,11 +172,8 @@ uwb::RangeCalibration parse_range_calibration(std::string_view text, const std::
       finite_number(field(document, "spread_noise_gain", source), source + ".spread_noise_gain");
   if (calibration.spread_noise_gain < 0.0)
     throw ScenarioError(source + ".spread_noise_gain: must not be negative");
-  if (document.contains("fitted_on") && document["fitted_on"].is_array()) {
-    for (const auto& name : document["fitted_on"]) {
-      if (name.is_string()) calibration.fitted_on.push_back(name.get<std::string>());
-    }
-  }
+  calibration.fitted_on = trial_names(document, source);
+  check_diagnostics(document, source);
   return calibration;
 }
 

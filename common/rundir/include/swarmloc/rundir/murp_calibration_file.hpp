@@ -7,6 +7,8 @@
 //    "coefficients_m": [5 numbers: RangeBias::Features order], "range_std_m", "spread_noise_gain",
 //    "ranges_used", "outlier_fraction",
 //    "spread_bins": [{"from_m", "to_m" (null: open), "ranges", "median_spread_m", "robust_std_m"}, …]}
+// Only written here: runtime::read_range_calibration reads it back (the MURP replay, the UWB team agents),
+// and it accepts the diagnostics as known keys.
 #include <filesystem>
 #include <string>
 
@@ -20,14 +22,5 @@ std::string murp_calibration_json(const world::MurpRangeCalibration& calibration
 /// Writes the file; throws runtime::OutputError when it did not make it to disk.
 void write_murp_calibration(const world::MurpRangeCalibration& calibration,
                             const std::filesystem::path& path);
-
-/// Reads and validates a file: every field present with its type, numbers finite, vehicles "1"–"3" each
-/// with the MURP ring's lever arms (murp_lever_arms, to 1 µm) and 6 offsets, 5 coefficients,
-/// range_std_m > 0, spread_noise_gain >= 0, outlier_fraction in [0, 1], no unknown key. Throws
-/// config::ScenarioError naming the file and the field.
-world::MurpRangeCalibration read_murp_calibration(const std::filesystem::path& path);
-
-/// The same from text; `source` names it in the errors.
-world::MurpRangeCalibration parse_murp_calibration(const std::string& text, const std::string& source);
 
 }  // namespace swarmloc::rundir

@@ -3,7 +3,8 @@
 // (`swarmloc calibrate --murp`, docs/real-data.md "MURP range calibration"): each range's bias as per-antenna
 // offsets plus a function of the line of sight (estimators::uwb::RangeBias), and its noise as a floor that
 // grows with the spread of the readings averaged into the window. Transport-free and without I/O: it reads
-// loaded MurpTrials; the file format is the run directory library's (rundir/murp_calibration_file.hpp).
+// loaded MurpTrials; the run directory library writes the file (rundir/murp_calibration_file.hpp) and the
+// runtimes read it (runtime/range_calibration_file.hpp).
 #include <array>
 #include <cstddef>
 #include <string>
