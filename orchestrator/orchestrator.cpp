@@ -554,6 +554,7 @@ class Orchestrator {
     metrics.step = step;
     metrics.time_s = world::reported_time_s(scenario_, step);
     metrics.errors = world::score(world_, scored);
+    rundir::note_scored_estimates(record_, scored);
     rundir::set_step_bounds(record_, metrics);
     record_.metrics.push_back(metrics);
     for (std::size_t i = 0; i < scored.size(); ++i) {

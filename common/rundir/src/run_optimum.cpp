@@ -28,9 +28,21 @@ void observe_world_step(RunRecord& record, std::int64_t step, const std::vector<
   if (record.optimum_data) record.optimum_data->observe(step, truth, batches);
 }
 
+void note_scored_estimates(RunRecord& record,
+                           const std::vector<std::optional<estimators::Estimate>>& estimates) {
+  if (!record.optimum_data) return;
+  const Vec2 none = Vec2::Constant(std::numeric_limits<double>::quiet_NaN());
+  record.scored_positions.resize(estimates.size());
+  for (std::size_t i = 0; i < estimates.size(); ++i) {
+    const auto& estimate = estimates[i];
+    record.scored_positions[i] = estimate && estimate->valid ? estimate->mean_m : none;
+  }
+}
+
 void update_run_optimum(RunRecord& record, bool final) {
   if (!record.optimum_data) return;
-  record.optimum_data->solve_pending(final);
+  record.optimum_data->solve_pending(
+      final, final && !record.scored_positions.empty() ? &record.scored_positions : nullptr);
   record.optimum = record.optimum_data->result();
   if (!final) {
     if (!record.metrics.empty()) {
@@ -44,6 +56,7 @@ void update_run_optimum(RunRecord& record, bool final) {
     m.optimum_rmse_m = point != nullptr ? point->rmse_m : std::numeric_limits<double>::quiet_NaN();
   }
   record.optimum_data.reset();
+  record.scored_positions = {};
 }
 
 double run_efficiency(const RunRecord& record) {
@@ -61,10 +74,12 @@ nlohmann::json optimum_json(const RunRecord& record) {
   }
   block["data"] = std::string(world::to_string(optimum.draws));
   block["anchors"] = std::string(world::to_string(optimum.anchors));
-  block["start"] = "truth";
   block["reference"] = std::string(reference_text(optimum.kind));
   const StepMetrics* last = record.final_metrics();
   const world::OptimumPoint* point = last != nullptr ? optimum.at(last->step) : nullptr;
+  // The truth, or the run's final estimates where the data fit them at least as well (docs/algorithms.md
+  // §1.3.2).
+  block["start"] = point != nullptr && point->from_estimates ? "estimates" : "truth";
   block["step"] = point != nullptr ? nlohmann::json(point->step) : nlohmann::json();
   block["rmse_m"] = point != nullptr ? finite_or_null(point->rmse_m) : nlohmann::json();
   block["nees"] = point != nullptr ? finite_or_null(point->nees) : nlohmann::json();

@@ -269,6 +269,7 @@ class AgentClockSimulation {
     metrics.step = score_step.step;
     metrics.time_s = world_time(score_step.step);
     metrics.errors = world::score(world_, estimates);
+    rundir::note_scored_estimates(record, estimates);
     rundir::set_step_bounds(record, metrics);
     record.metrics.push_back(metrics);
     if (options_.record_estimates) {

@@ -60,6 +60,7 @@ rundir::RunRecord run_centralized_simulation(const config::Scenario& scenario, c
     metrics.step = step;
     metrics.time_s = world::reported_time_s(scenario, step);
     metrics.errors = world::score(world, estimates);
+    rundir::note_scored_estimates(record, estimates);
     rundir::set_step_bounds(record, metrics);
     record.metrics.push_back(metrics);
     total_mse.push_back(run::total_squared_error(world.truth, estimates));

@@ -338,6 +338,7 @@ void LockstepSimulation::score_step(std::int64_t step, rundir::RunRecord& record
   metrics.step = step;
   metrics.time_s = world::reported_time_s(scenario_, step);
   metrics.errors = world::score(world_, estimates_);
+  rundir::note_scored_estimates(record, estimates_);
   rundir::set_step_bounds(record, metrics);
   record.metrics.push_back(metrics);
   if (options_.record_estimates) {

@@ -175,6 +175,14 @@ OptimumPoint score_point(std::int64_t step, const Selection& sel, const std::vec
   return point;
 }
 
+/// Both starts reached one solution (to well below any range noise).
+bool same_solution(const OptimumEstimate& a, const OptimumEstimate& b) {
+  constexpr double kSamePointM = 1e-6;
+  for (std::size_t i = 0; i < a.position.size(); ++i)
+    if ((a.position[i] - b.position[i]).norm() > kSamePointM) return false;
+  return true;
+}
+
 }  // namespace
 
 // ---- The data, static or moving ----
@@ -191,8 +199,10 @@ class OptimumAccumulator::Data {
                        const std::vector<estimators::MeasurementBatch>& batches) = 0;
   /// Keeps the data through `step` (the step just observed) for a later solve.
   virtual void checkpoint(std::int64_t step) = 0;
-  /// The optimum of the data through `step` (a kept checkpoint or the last observed step).
-  [[nodiscard]] virtual OptimumEstimate solve(std::int64_t step) const = 0;
+  /// The optimum of the data through `step` (a kept checkpoint or the last observed step); `estimates`: a
+  /// second start (static truth only).
+  [[nodiscard]] virtual OptimumEstimate solve(std::int64_t step,
+                                              const std::vector<Vec2>* estimates) const = 0;
   /// Drops what was kept for `step`'s checkpoint.
   virtual void release(std::int64_t /*step*/) {}
 
@@ -223,10 +233,23 @@ class StaticData final : public OptimumAccumulator::Data {
 
   void checkpoint(std::int64_t step) override { kept_[step] = current_; }
 
-  [[nodiscard]] OptimumEstimate solve(std::int64_t step) const override {
+  [[nodiscard]] OptimumEstimate solve(std::int64_t step, const std::vector<Vec2>* estimates) const override {
     const auto it = kept_.find(step);
     if (it == kept_.end() && step != last_step_) return {};
-    return solve_snapshot(step, it != kept_.end() ? it->second : current_);
+    const Snapshot& snap = it != kept_.end() ? it->second : current_;
+    OptimumEstimate from_truth = solve_snapshot(step, snap, snap.truth);
+    if (estimates == nullptr || estimates->size() != snap.truth.size()) return from_truth;
+    std::vector<Vec2> start = snap.truth;
+    for (std::size_t i = 0; i < start.size(); ++i)
+      if ((*estimates)[i].allFinite()) start[i] = (*estimates)[i];
+    OptimumEstimate from_estimates = solve_snapshot(step, snap, start);
+    // Within rounding the two fit equally (a mirror image the data cannot tell apart): both are the ML.
+    const double tie = 1e-9 * std::max(1.0, from_truth.cost);
+    if (!from_estimates.solved || from_estimates.cost > from_truth.cost + tie ||
+        same_solution(from_truth, from_estimates))
+      return from_truth;
+    from_estimates.point.from_estimates = true;
+    return from_estimates;
   }
 
   void release(std::int64_t step) override { kept_.erase(step); }
@@ -238,15 +261,16 @@ class StaticData final : public OptimumAccumulator::Data {
     std::vector<Vec2> truth;
   };
 
-  /// The problem of one snapshot: an unknown per non-anchor (and per anchor with fixes), from the truth.
-  OptimumEstimate solve_snapshot(std::int64_t step, const Snapshot& snap) const {
+  /// The problem of one snapshot: an unknown per non-anchor (and per anchor with fixes), from `start`.
+  OptimumEstimate solve_snapshot(std::int64_t step, const Snapshot& snap,
+                                 const std::vector<Vec2>& start) const {
     const std::size_t n = snap.truth.size();
     std::vector<int> block(n, -1);
     OptimumProblem problem;
     for (std::size_t i = 0; i < n; ++i) {
       if (sel_.is_anchor[i] && !sel_.anchors_in_state) continue;
       block[i] = static_cast<int>(problem.start.size());
-      problem.start.push_back(snap.truth[i]);
+      problem.start.push_back(start[i]);
     }
     add_range_factors(snap, block, problem);
     for (std::size_t i = 0; i < n; ++i) {
@@ -258,6 +282,7 @@ class StaticData final : public OptimumAccumulator::Data {
     OptimumEstimate estimate;
     estimate.step = step;
     estimate.solved = !solution.singular;
+    estimate.cost = solution.cost;
     estimate.position = snap.truth;
     estimate.covariance.assign(n, Mat2::Zero());
     estimate.in_state.assign(n, false);
@@ -328,7 +353,7 @@ class MovingData final : public OptimumAccumulator::Data {
 
   void checkpoint(std::int64_t /*step*/) override {}  // every step is kept
 
-  [[nodiscard]] OptimumEstimate solve(std::int64_t step) const override;
+  [[nodiscard]] OptimumEstimate solve(std::int64_t step, const std::vector<Vec2>* estimates) const override;
 
  private:
   /// Block indices: non-anchor i at step k, k·moving + slot(i); an anchor with fixes, one block after them.
@@ -409,7 +434,7 @@ void MovingData::add_step_factors(std::size_t k, const Layout& lay, OptimumProbl
   }
 }
 
-OptimumEstimate MovingData::solve(std::int64_t step) const {
+OptimumEstimate MovingData::solve(std::int64_t step, const std::vector<Vec2>* /*estimates*/) const {
   OptimumEstimate estimate;
   if (step < 0 || static_cast<std::size_t>(step) >= steps_.size()) return estimate;
   const auto steps = static_cast<std::size_t>(step) + 1;
@@ -538,7 +563,7 @@ void OptimumAccumulator::observe(std::int64_t step, const std::vector<Vec2>& tru
   result_.observe_cpu_s += thread_cpu_s() - started;
 }
 
-void OptimumAccumulator::solve_pending(bool final) {
+void OptimumAccumulator::solve_pending(bool final, const std::vector<Vec2>* estimates) {
   if (!data_) return;
   const double started = thread_cpu_s();
   const std::int64_t solved_to = result_.points.empty() ? -1 : result_.points.back().step;
@@ -546,7 +571,8 @@ void OptimumAccumulator::solve_pending(bool final) {
       std::find(pending_.begin(), pending_.end(), last_observed_) == pending_.end())
     pending_.push_back(last_observed_);
   for (const std::int64_t step : pending_) {
-    const OptimumEstimate estimate = data_->solve(step);
+    const OptimumEstimate estimate =
+        data_->solve(step, final && step == last_observed_ ? estimates : nullptr);
     data_->release(step);
     if (estimate.step >= 0) result_.points.push_back(estimate.point);
   }
@@ -558,7 +584,7 @@ const RunOptimum& OptimumAccumulator::result() const { return result_; }
 
 OptimumEstimate OptimumAccumulator::solve_now() const {
   if (!data_ || last_observed_ < 0) return {};
-  return data_->solve(last_observed_);
+  return data_->solve(last_observed_, nullptr);
 }
 
 }  // namespace swarmloc::world

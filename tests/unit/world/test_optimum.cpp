@@ -301,6 +301,49 @@ TEST(OptimumBatchMl, OneUnknownEqualsAGridSearchOfItsDraws) {
   EXPECT_GT((optimum.position[3] - world.truth[3]).norm(), 1e-4) << "the ML is not the truth it starts from";
 }
 
+/// Anchors 0 and 1 on the x axis and agent 3 at (4, 3) ranging to both: its mirror image (4, −3) fits the
+/// same ranges. With `third_anchor` agent 3 also ranges to anchor 2 at (40, 0.5), 36.09 m from it and
+/// 36.17 m from the mirror: the mirror stays a local minimum, but one that fits worse.
+World hinge_world(bool third_anchor) {
+  World world = optimum_world({{0.0, 0.0}, {10.0, 0.0}, {40.0, 0.5}, {4.0, 3.0}}, 3);
+  world.neighbours = {{3}, {3}, {}, {0, 1}};
+  if (third_anchor) world.neighbours = {{3}, {3}, {3}, {0, 1, 2}};
+  return world;
+}
+
+RunOptimum optimum_with_estimates(World world, const std::vector<Vec2>& estimates) {
+  const auto s = optimum_scenario("dml", 4, 3, 10);
+  OptimumAccumulator accumulator(world, s);
+  const auto batches = all_batches(world, s);
+  for (std::size_t k = 0; k < batches.size(); ++k)
+    accumulator.observe(static_cast<std::int64_t>(k), world.truth, batches[k]);
+  accumulator.solve_pending(true, &estimates);
+  return accumulator.result();
+}
+
+TEST(OptimumBatchMl, AMirrorImageTheDataCannotRuleOutIsTheOptimumWhereTheEstimateFoundIt) {
+  // The two members of a mirror pair fit every range equally: both are the ML of the draws, so an estimate
+  // in the mirror basin is compared with the ML there, not with the one the truth's start finds.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Vec2> mirrored = {{nan, nan}, {nan, nan}, {nan, nan}, {4.05, -2.95}};
+  const RunOptimum mirror = optimum_with_estimates(hinge_world(false), mirrored);
+  ASSERT_FALSE(mirror.points.empty());
+  EXPECT_TRUE(mirror.points.back().from_estimates);
+  EXPECT_NEAR(mirror.points.back().rmse_m, 6.0, 0.1) << "the optimum in the mirror basin, 6 m from the truth";
+
+  // An estimate in the truth's basin reaches the same solution: the truth's start is kept.
+  const RunOptimum near =
+      optimum_with_estimates(hinge_world(false), {{nan, nan}, {nan, nan}, {nan, nan}, {4.05, 3.05}});
+  EXPECT_FALSE(near.points.back().from_estimates);
+  EXPECT_LT(near.points.back().rmse_m, 0.1);
+
+  // A third anchor rules the mirror out: its basin fits worse, and the truth's solution stays the optimum.
+  // (The estimates' start does reach a solution of its own there, so the costs decide, not the basin.)
+  const RunOptimum ruled_out = optimum_with_estimates(hinge_world(true), mirrored);
+  EXPECT_FALSE(ruled_out.points.back().from_estimates);
+  EXPECT_LT(ruled_out.points.back().rmse_m, 0.1);
+}
+
 TEST(OptimumBatchMl, ThreeUnknownsEqualTheBestOfManyRestartsOnTheRawDraws) {
   World world = square_world();
   auto s = optimum_scenario("dml", 7, 4, 5);

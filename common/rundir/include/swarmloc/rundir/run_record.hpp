@@ -70,6 +70,9 @@ struct RunRecord {
   world::RunOptimum optimum;
   /// During the run: the data the optimum is solved from (set by compute_run_bounds; released once final).
   std::shared_ptr<world::OptimumAccumulator> optimum_data;
+  /// During the run: the last scored step's estimated positions (non-finite where none), the optimum's
+  /// second start at the final step (note_scored_estimates).
+  std::vector<Vec2> scored_positions;
   /// A dataset world's steps (World::recorded, set by compute_run_bounds): the truth headings the pose
   /// estimators' 3-DOF NEES is scored against. Null for generated worlds.
   std::shared_ptr<const world::RecordedSteps> recorded;
@@ -102,6 +105,9 @@ void compute_run_bounds(RunRecord& record, const world::World& world);
 /// it where it generates them (docs/algorithms.md §1.3.2).
 void observe_world_step(RunRecord& record, std::int64_t step, const std::vector<Vec2>& truth,
                         const std::vector<estimators::MeasurementBatch>& batches);
+/// Keeps a scored step's estimates as the optimum's second start; every runtime calls it where it scores.
+void note_scored_estimates(RunRecord& record,
+                           const std::vector<std::optional<estimators::Estimate>>& estimates);
 /// Solves the optimum's pending checkpoints and sets record.optimum and the last metrics row's
 /// optimum_rmse_m; `final`: the last observed step too, every metrics row, and the data are released.
 void update_run_optimum(RunRecord& record, bool final);

@@ -93,6 +93,10 @@ struct OptimumPoint {
   bool localizable = true;
   int iterations = 0;
   bool converged = false;
+  /// Solved from the run's own final estimates as well as from the truth, and that solution fits the data at
+  /// least as well (a static world's last step; docs/algorithms.md §1.3.2): the data prefer the estimate's
+  /// basin, or cannot tell the two apart.
+  bool from_estimates = false;
 };
 
 struct RunOptimum {
@@ -116,6 +120,7 @@ struct OptimumEstimate {
   std::vector<bool> in_state;    ///< the agent is an unknown of the problem
   OptimumPoint point;
   bool solved = false;  ///< false: kind kNone, nothing observed, or not localizable
+  double cost = 0.0;    ///< Σ weighted squared residuals at the solution
 };
 
 /// Takes each world step's batches as the runner generates them (every runtime delivers every batch; loss
@@ -139,8 +144,11 @@ class OptimumAccumulator {
   /// World step `step`'s truth and every agent's batch (index = agent id), in step order.
   void observe(std::int64_t step, const std::vector<Vec2>& truth,
                const std::vector<estimators::MeasurementBatch>& batches);
-  /// Solves the checkpoints observed and not solved yet; `final`: the last observed step as well.
-  void solve_pending(bool final);
+  /// Solves the checkpoints observed and not solved yet; `final`: the last observed step as well. With
+  /// `estimates` (per agent, non-finite where it has none), a static world's last observed step is solved
+  /// from them too and the solution that fits the data better is kept (the estimates' on a tie within
+  /// rounding).
+  void solve_pending(bool final, const std::vector<Vec2>* estimates = nullptr);
   [[nodiscard]] const RunOptimum& result() const;
   /// The optimum of every batch observed so far, with each agent's position and covariance.
   [[nodiscard]] OptimumEstimate solve_now() const;
