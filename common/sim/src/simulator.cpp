@@ -16,6 +16,7 @@
 #include "swarmloc/runtime/agent_factory.hpp"
 #include "swarmloc/runtime/agent_runtime.hpp"
 #include "swarmloc/runtime/hostile.hpp"
+#include "swarmloc/runtime/process_cpu.hpp"
 #include "swarmloc/sim/centralized_runner.hpp"
 
 namespace swarmloc::sim {
@@ -146,6 +147,8 @@ class LockstepSimulation {
   // incoming[r]: the agents whose samples reach r, ascending (the order a serial sender loop delivers in).
   std::vector<std::vector<AgentId>> incoming_;
   int threads_ = 1;
+  double agents_cpu_s_ = 0.0;  ///< this thread's CPU in the agents' receiving and stepping (run_step)
+  std::int64_t world_steps_run_ = 0;
   // A step of a large world takes seconds (a dense one: minutes), so the rounds report their progress and
   // stop at the next agent on Ctrl-C; the step cut short is not scored.
   world::WorkPhase step_phase_;
@@ -215,6 +218,14 @@ void LockstepSimulation::run_steps(rundir::RunRecord& record) {
       break;
     }
   }
+  if (threads_ == 1 && world_steps_run_ > 0) {
+    // Per agent and world step (the settle's quiet rounds not included): flat in N when every agent's work
+    // is neighbour-scoped (docs/scale.md, "Per-agent cost against N in the simulator").
+    record.extra["agents_cpu"] = {
+        {"us_per_agent_per_world_step",
+         agents_cpu_s_ * 1e6 / (static_cast<double>(n_) * static_cast<double>(world_steps_run_))},
+        {"world_steps", world_steps_run_}};
+  }
   if (!record.interrupted && !record.metrics.empty()) {
     try {
       settle(record);
@@ -229,14 +240,21 @@ void LockstepSimulation::run_step(std::int64_t step, rundir::RunRecord& record) 
   restart_killed(step);
   // Deliver round k−1's samples over the lossy bus, then the world-step-k batches. Each receiver takes
   // its senders in ascending id order, so its mailbox and loss draws do not depend on the threads.
+  // The agents' own CPU (receiving, stepping, publishing), without the world's: with one thread per round
+  // it is this thread's (summary.json agents_cpu).
+  const double delivering = runtime::thread_cpu_s();
   deliver_previous_round(step, stamp_ns(step));
+  agents_cpu_s_ += runtime::thread_cpu_s() - delivering;
   for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) {
     batches_[static_cast<std::size_t>(i)] = world::generate_batch(world_, scenario_, i, step);
   });
   if (options_.recorder) options_.recorder->world_step(step, world_.truth, batches_);
   rundir::observe_world_step(record, step, world_.truth, batches_);
+  const double stepping = runtime::thread_cpu_s();
   for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) { step_agent_with_batch(i, step); });
   run_extra_rounds(step);
+  agents_cpu_s_ += runtime::thread_cpu_s() - stepping;
+  ++world_steps_run_;
   score_step(step, record);
 }
 

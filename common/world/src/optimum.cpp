@@ -175,11 +175,14 @@ OptimumPoint score_point(std::int64_t step, const Selection& sel, const std::vec
   return point;
 }
 
-/// Both starts reached one solution (to well below any range noise).
+/// Both starts reached one solution: within 100 times the solver's stopping step (10⁻⁷ of the largest
+/// coordinate, at least of 1 m), far below any range noise or mirror distance.
 bool same_solution(const OptimumEstimate& a, const OptimumEstimate& b) {
-  constexpr double kSamePointM = 1e-6;
+  double scale = 1.0;
+  for (const Vec2& x : a.position) scale = std::max(scale, x.cwiseAbs().maxCoeff());
+  const double tolerance = 1e-5 * scale;
   for (std::size_t i = 0; i < a.position.size(); ++i)
-    if ((a.position[i] - b.position[i]).norm() > kSamePointM) return false;
+    if ((a.position[i] - b.position[i]).norm() > tolerance) return false;
   return true;
 }
 

@@ -136,6 +136,11 @@ TEST(Simulator, ParallelRoundsGiveBitIdenticalResults) {
   EXPECT_EQ(rundir::link_totals(a).dropped_injected, rundir::link_totals(b).dropped_injected);
   EXPECT_GT(rundir::link_totals(a).dropped_injected, 0);
   EXPECT_EQ(a.final_metrics()->errors.rmse_m, b.final_metrics()->errors.rmse_m);
+  // The agents' own CPU per agent and world step is this thread's only in the serial run.
+  ASSERT_TRUE(a.extra.contains("agents_cpu"));
+  EXPECT_GT(a.extra["agents_cpu"]["us_per_agent_per_world_step"].get<double>(), 0.0);
+  EXPECT_EQ(a.extra["agents_cpu"]["world_steps"].get<int>(), 25);
+  EXPECT_FALSE(b.extra.contains("agents_cpu"));
 }
 
 TEST(Simulator, UnaskedRoundThreadsAreEveryCoreFromAThousandAgentsAndOneBelow) {
