@@ -477,7 +477,10 @@ void optimum_rows(std::ostringstream& out, const RunRecord& record, const StepMe
     return;
   }
   const std::string label = "optimum of its data (" + std::string(world::to_string(optimum.draws)) + ")";
-  std::snprintf(line, sizeof line, "  %-34s %12.4f m\n", label.c_str(), last.optimum_rmse_m);
+  const world::OptimumPoint* point = optimum.at(last.step);
+  // Solved from the run's own estimates: the data cannot rule out the basin the estimator found.
+  const char* start = point != nullptr && point->from_estimates ? "  (in the estimates' basin)" : "";
+  std::snprintf(line, sizeof line, "  %-34s %12.4f m%s\n", label.c_str(), last.optimum_rmse_m, start);
   out << line;
   std::snprintf(line, sizeof line, "  %-34s %12.2f  (%s)\n", "final RMSE / optimum (efficiency)",
                 last.errors.rmse_m / last.optimum_rmse_m,
