@@ -2,6 +2,8 @@
 // the batches, solved at checkpoints, written to summary.json, metrics.csv and the result table.
 #include <cmath>
 #include <limits>
+#include <sstream>
+#include <string>
 
 #include "swarmloc/rundir/run_record.hpp"
 
@@ -57,6 +59,23 @@ void update_run_optimum(RunRecord& record, bool final) {
   }
   record.optimum_data.reset();
   record.scored_positions = {};
+}
+
+std::string optimum_csv(const RunRecord& record) {
+  const world::RunOptimum& optimum = record.optimum;
+  if (optimum.final_position.empty()) return {};
+  std::ostringstream out;
+  out.precision(9);
+  out << "agent,unknown,x_m,y_m,cov_xx,cov_xy,cov_yy,truth_x_m,truth_y_m,error_m\n";
+  for (std::size_t i = 0; i < optimum.final_position.size(); ++i) {
+    const Vec2& x = optimum.final_position[i];
+    const Mat2& p = optimum.final_covariance[i];
+    const Vec2& truth = optimum.final_truth[i];
+    out << i << ',' << (optimum.final_in_state[i] ? 1 : 0) << ',' << x.x() << ',' << x.y() << ',' << p(0, 0)
+        << ',' << p(0, 1) << ',' << p(1, 1) << ',' << truth.x() << ',' << truth.y() << ','
+        << (x - truth).norm() << '\n';
+  }
+  return out.str();
 }
 
 double run_efficiency(const RunRecord& record) {

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <functional>
 #include <iomanip>
 #include <numeric>
 #include <set>
@@ -341,6 +342,8 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
     }
     runtime::write_text_file(directory / "links.csv", out.str());
   }
+  if (const std::string optimum = optimum_csv(record); !optimum.empty())
+    runtime::write_text_file(directory / "optimum.csv", optimum);
   control.throw_if_cancelled();
   {
     std::ostringstream out;
@@ -488,6 +491,27 @@ void optimum_rows(std::ostringstream& out, const RunRecord& record, const StepMe
   out << line;
 }
 
+/// replay --mrclam: the baselines scored on the same steps (RMSE over the whole run), and the run's RMSE over
+/// theirs; `row` prints one table row (label, value, unit).
+void baseline_rows(const RunRecord& record, double whole_run_rmse_m,
+                   const std::function<void(const char*, double, const char*)>& row) {
+  const auto baselines = record.extra.find("baselines");
+  if (baselines == record.extra.end()) return;
+  for (const auto& [name, figures] : baselines->items()) {
+    if (!figures.contains("rmse_m") || !figures["rmse_m"].is_number()) continue;
+    std::string label = "baseline " + name;
+    std::replace(label.begin(), label.end(), '_', ' ');
+    char unit[64] = "m";
+    if (figures.contains("nees3") && figures["nees3"].is_number())
+      std::snprintf(unit, sizeof unit, "m  (NEES3 %.2f)", figures["nees3"].get<double>());
+    row(label.c_str(), figures["rmse_m"].get<double>(), unit);
+  }
+  for (const auto& reference : kEfficiencyReferences) {
+    const double baseline = baseline_rmse(record, reference.baseline);
+    if (std::isfinite(baseline)) row(reference.label, whole_run_rmse_m / baseline, "");
+  }
+}
+
 /// The table's verdict line on non-finite estimates.
 std::string not_valid_line(const NonFiniteEstimates& broken) {
   return "  NOT VALID: non-finite (NaN/Inf) estimates at " + std::to_string(broken.steps) +
@@ -535,23 +559,7 @@ std::string result_table(const RunRecord& record) {
       row("final field RMSE (per cell)", last->errors.field_rmse, "");
     bound_rows(out, record, *last);
     optimum_rows(out, record, *last);
-    // replay --mrclam: the baselines scored on the same steps (RMSE over the whole run).
-    const auto baselines = record.extra.find("baselines");
-    if (baselines != record.extra.end()) {
-      for (const auto& [name, figures] : baselines->items()) {
-        if (!figures.contains("rmse_m") || !figures["rmse_m"].is_number()) continue;
-        std::string label = "baseline " + name;
-        std::replace(label.begin(), label.end(), '_', ' ');
-        char unit[64] = "m";
-        if (figures.contains("nees3") && figures["nees3"].is_number())
-          std::snprintf(unit, sizeof unit, "m  (NEES3 %.2f)", figures["nees3"].get<double>());
-        row(label.c_str(), figures["rmse_m"].get<double>(), unit);
-      }
-      for (const auto& reference : kEfficiencyReferences) {
-        const double baseline = baseline_rmse(record, reference.baseline);
-        if (std::isfinite(baseline)) row(reference.label, whole.rmse_m / baseline, "");
-      }
-    }
+    baseline_rows(record, whole.rmse_m, row);
     // The noise of what the algorithm measures (multipath path lengths use the range std).
     const auto kinds = world::measurement_kinds(record.scenario.algorithm.name);
     if (kinds.relative) row("noise std (relative, per axis)", record.scenario.noise.relative_std_m, "m");

@@ -287,6 +287,7 @@ class StaticData final : public OptimumAccumulator::Data {
     estimate.solved = !solution.singular;
     estimate.cost = solution.cost;
     estimate.position = snap.truth;
+    estimate.truth = snap.truth;
     estimate.covariance.assign(n, Mat2::Zero());
     estimate.in_state.assign(n, false);
     for (std::size_t i = 0; i < n; ++i) {
@@ -463,6 +464,7 @@ OptimumEstimate MovingData::solve(std::int64_t step, const std::vector<Vec2>* /*
   estimate.step = step;
   estimate.solved = !solution.singular;
   estimate.position = truth;
+  estimate.truth = truth;
   estimate.covariance.assign(n, Mat2::Zero());
   estimate.in_state.assign(n, false);
   for (std::size_t i = 0; i < n; ++i) {
@@ -578,6 +580,12 @@ void OptimumAccumulator::solve_pending(bool final, const std::vector<Vec2>* esti
         data_->solve(step, final && step == last_observed_ ? estimates : nullptr);
     data_->release(step);
     if (estimate.step >= 0) result_.points.push_back(estimate.point);
+    if (final && step == last_observed_ && estimate.solved) {
+      result_.final_position = estimate.position;
+      result_.final_covariance = estimate.covariance;
+      result_.final_truth = estimate.truth;
+      result_.final_in_state = estimate.in_state;
+    }
   }
   pending_.clear();
   result_.solve_cpu_s += thread_cpu_s() - started;

@@ -246,6 +246,38 @@ TEST(RunDirectory, WritesTumTrajectoriesAndPlotData) {
   }
   EXPECT_EQ(final_rows, 12);
 
+  // optimum.csv: every agent's optimum at the final step; its unknowns' errors make the optimum's RMSE.
+  {
+    std::ifstream in(dir.path() / "optimum.csv");
+    std::string line;
+    std::getline(in, line);
+    EXPECT_EQ(line, "agent,unknown,x_m,y_m,cov_xx,cov_xy,cov_yy,truth_x_m,truth_y_m,error_m");
+    int rows = 0;
+    int unknowns = 0;
+    double squared = 0.0;
+    while (std::getline(in, line)) {
+      std::vector<double> cells;
+      std::stringstream fields(line);
+      for (std::string cell; std::getline(fields, cell, ',');) cells.push_back(std::stod(cell));
+      ASSERT_EQ(cells.size(), 10U) << line;
+      EXPECT_NEAR(cells[9], std::hypot(cells[2] - cells[7], cells[3] - cells[8]), 1e-6) << line;
+      for (const auto& row : record.estimates) {
+        if (row.step == last_step && row.agent == rows) {
+          EXPECT_NEAR(cells[7], row.truth.x(), 1e-6) << line;
+        }
+      }
+      if (cells[1] == 1.0) {
+        ++unknowns;
+        squared += cells[9] * cells[9];
+        EXPECT_GT(cells[4] * cells[6] - cells[5] * cells[5], 0.0) << "covariance PD: " << line;
+      }
+      ++rows;
+    }
+    EXPECT_EQ(rows, 12);
+    ASSERT_GT(unknowns, 0);
+    EXPECT_NEAR(std::sqrt(squared / unknowns), record.optimum.points.back().rmse_m, 1e-6);
+  }
+
   // Plot scripts and data files always exist.
   const auto plots = dir.path() / "plots";
   for (const char* name :

@@ -113,6 +113,8 @@ void note_scored_estimates(RunRecord& record,
 void update_run_optimum(RunRecord& record, bool final);
 /// Final RMSE / the optimum's RMSE at the final scored step (NaN without one).
 double run_efficiency(const RunRecord& record);
+/// optimum.csv: each agent's optimum at the final step beside its truth (empty text without one).
+std::string optimum_csv(const RunRecord& record);
 /// summary.json's "optimum" block: kind, data, anchors, start, step, rmse_m, nees, iterations, converged,
 /// interval, points, observe_cpu_s, solve_cpu_s, reference; reason when kind is none.
 nlohmann::json optimum_json(const RunRecord& record);

@@ -106,8 +106,14 @@ struct RunOptimum {
   std::string reason;                ///< kind kNone: why there is none
   std::vector<OptimumPoint> points;  ///< the solved steps, ascending
   std::int64_t interval = 1;         ///< a point every `interval` steps, and at the last step
-  double observe_cpu_s = 0.0;        ///< CPU time taking the batches in (the calling thread's)
-  double solve_cpu_s = 0.0;          ///< CPU time solving
+  /// Each agent's optimum at the last step (once solved as final): position, covariance (zero for a known
+  /// anchor) and the truth it is scored against, and whether the agent is an unknown of the problem.
+  std::vector<Vec2> final_position;
+  std::vector<Mat2> final_covariance;
+  std::vector<Vec2> final_truth;
+  std::vector<bool> final_in_state;
+  double observe_cpu_s = 0.0;  ///< CPU time taking the batches in (the calling thread's)
+  double solve_cpu_s = 0.0;    ///< CPU time solving
   /// The point at `step`, or nullptr.
   [[nodiscard]] const OptimumPoint* at(std::int64_t step) const;
 };
@@ -118,6 +124,7 @@ struct OptimumEstimate {
   std::vector<Vec2> position;    ///< per agent; a known anchor's known position
   std::vector<Mat2> covariance;  ///< per agent; zero for a known anchor
   std::vector<bool> in_state;    ///< the agent is an unknown of the problem
+  std::vector<Vec2> truth;       ///< per agent, at the step
   OptimumPoint point;
   bool solved = false;  ///< false: kind kNone, nothing observed, or not localizable
   double cost = 0.0;    ///< Σ weighted squared residuals at the solution
