@@ -3,7 +3,6 @@
 // files) reads back what is written bit for bit, diagnostics and all, as murp_range_calibration gives it;
 // the diagnostics are written as the fit gives them; the shipped scenarios/murp-range-bias.json reads.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -13,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "process_helpers.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/rundir/murp_calibration_file.hpp"
 #include "swarmloc/runtime/range_calibration_file.hpp"
@@ -22,17 +22,10 @@ namespace {
 
 using nlohmann::json;
 
-std::filesystem::path murp_file_dir() {
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("swarmloc-murp-calibration-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
-/// Removes the files a test wrote.
+/// Each test's own temporary directory, removed after it.
 class MurpCalibrationFile : public ::testing::Test {
  protected:
-  void TearDown() override { std::filesystem::remove_all(murp_file_dir()); }
+  const swarmloc::testing::TempDir dir_{"murp-calibration"};
 };
 
 world::MurpRangeCalibration sample_calibration() {
@@ -54,7 +47,7 @@ world::MurpRangeCalibration sample_calibration() {
 }
 
 TEST_F(MurpCalibrationFile, TheRuntimesReadBackEveryFieldOfTheirSchemaAsWritten) {
-  const auto path = murp_file_dir() / "round-trip.json";
+  const auto path = dir_.path() / "round-trip.json";
   const auto written = sample_calibration();
   write_murp_calibration(written, path);
   const auto read = runtime::read_range_calibration(path);

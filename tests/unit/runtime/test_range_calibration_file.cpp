@@ -3,7 +3,6 @@
 // `calibrate --murp` adds; the built-in MURP calibration parses; and a damaged file, or one with a key the
 // format does not have, is refused with its name and the field.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -12,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "process_helpers.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/runtime/range_calibration_file.hpp"
 
@@ -93,24 +93,17 @@ bool range_calibration_error_says(const nlohmann::json& document, const std::str
   return says;
 }
 
-std::filesystem::path range_calibration_dir() {
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("swarmloc-range-calibration-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
-/// Removes the files a test wrote.
+/// Each test's own temporary directory, removed after it.
 class RangeCalibrationFile : public ::testing::Test {
  protected:
-  void TearDown() override { std::filesystem::remove_all(range_calibration_dir()); }
+  const swarmloc::testing::TempDir dir_{"range-calibration"};
 };
 
 TEST_F(RangeCalibrationFile, ReadsBackWhatIsWrittenWithOrWithoutTheDiagnostics) {
   const auto written = sample_range_calibration();
   const auto plain = range_calibration_json(written, "a test model");
   expect_same_range_calibration(parse_range_calibration(plain, "plain"), written);
-  const auto path = range_calibration_dir() / "with-diagnostics.json";
+  const auto path = dir_.path() / "with-diagnostics.json";
   std::ofstream(path) << sample_range_calibration_document().dump(2);
   expect_same_range_calibration(read_range_calibration(path), written);
 }
@@ -147,7 +140,7 @@ TEST_F(RangeCalibrationFile, RefusesAnUnknownKeyNamingItAndTheSource) {
   document["spread_bins"][1]["robust_std"] = 0.7;
   EXPECT_TRUE(range_calibration_error_says(document, "spread_bins[1]: unknown field 'robust_std'"));
 
-  const auto path = range_calibration_dir() / "typo.json";
+  const auto path = dir_.path() / "typo.json";
   document = sample_range_calibration_document();
   document["range_sdt_m"] = 0.1;
   std::ofstream(path) << document.dump();
@@ -261,7 +254,7 @@ TEST_F(RangeCalibrationFile, RefusesTextThatIsNotAnObjectAndAMissingFile) {
       EXPECT_STREQ(error.what(), "text under test: not a JSON object");
     }
   }
-  const auto absent = range_calibration_dir() / "absent.json";
+  const auto absent = dir_.path() / "absent.json";
   try {
     (void)read_range_calibration(absent);
     ADD_FAILURE() << "a missing file was read";
