@@ -245,6 +245,7 @@ estimators::StateMessage random_state(Rng& rng) {
   estimators::StateMessage state;
   state.anchor = rng.chance(0.3);
   state.active = rng.chance(0.9);
+  state.inconsistent = rng.chance(0.1);
   state.mean_m = Vec2(rng.uniform(-50.0, 50.0), rng.uniform(-50.0, 50.0));
   state.covariance = state.anchor ? Mat2::Zero() : random_psd(rng, 2.0);
   state.degree = static_cast<std::uint16_t>(rng.below(20));
@@ -326,9 +327,9 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
     for (std::uint64_t m = 0; m < mutations; ++m) mutate(sample, rng);
 
     const auto decoded = dds::decode(sample);
-    const bool expect_well_formed =
-        (sample.flags & ~(dds::codec::kStateFlagAnchor | dds::codec::kStateFlagActive)) == 0 &&
-        sample.agent_id == sample.header.agent_id && edge_ranges_acceptable(sample);
+    const bool expect_well_formed = (sample.flags & ~dds::codec::kStateFlagsKnown) == 0 &&
+                                    sample.agent_id == sample.header.agent_id &&
+                                    edge_ranges_acceptable(sample);
     record.check(decoded.well_formed == expect_well_formed, i, "state: well_formed differs from the rule");
     if (decoded.well_formed) {
       record.check(same_bits(decoded.message.mean_m.x(), sample.mean_m[0]) &&

@@ -63,15 +63,17 @@ std::optional<MatX> unpack_upper(std::span<const double> packed, std::size_t n) 
 
 std::uint8_t state_flags(const estimators::StateMessage& message) {
   return static_cast<std::uint8_t>((message.anchor ? kStateFlagAnchor : 0) |
-                                   (message.active ? kStateFlagActive : 0));
+                                   (message.active ? kStateFlagActive : 0) |
+                                   (message.inconsistent ? kStateFlagInconsistent : 0));
 }
 
 bool apply_state_flags(std::uint8_t flags, estimators::StateMessage& message) {
-  if ((flags & ~(kStateFlagAnchor | kStateFlagActive)) != 0) {
+  if ((flags & ~kStateFlagsKnown) != 0) {
     return false;
   }
   message.anchor = (flags & kStateFlagAnchor) != 0;
   message.active = (flags & kStateFlagActive) != 0;
+  message.inconsistent = (flags & kStateFlagInconsistent) != 0;
   return true;
 }
 

@@ -29,8 +29,10 @@ inline constexpr std::size_t kMaxObservedSpans = 64;
 inline constexpr std::size_t kMaxSpanOdometry = 1024;
 inline constexpr std::size_t kMaxSpanRangeBearings = 256;
 
-inline constexpr std::uint8_t kStateFlagAnchor = 1;  // STATE_FLAG_ANCHOR
-inline constexpr std::uint8_t kStateFlagActive = 2;  // STATE_FLAG_ACTIVE
+inline constexpr std::uint8_t kStateFlagAnchor = 1;        // STATE_FLAG_ANCHOR
+inline constexpr std::uint8_t kStateFlagActive = 2;        // STATE_FLAG_ACTIVE
+inline constexpr std::uint8_t kStateFlagInconsistent = 4;  // STATE_FLAG_INCONSISTENT
+inline constexpr std::uint8_t kStateFlagsKnown = kStateFlagAnchor | kStateFlagActive | kStateFlagInconsistent;
 
 /// Sym2: the upper triangle xx, xy, yy. Unpacking yields an exactly symmetric matrix.
 std::array<double, 3> pack_sym2(const Mat2& matrix);
@@ -42,7 +44,7 @@ std::vector<double> pack_upper(const MatX& matrix);
 std::optional<MatX> unpack_upper(std::span<const double> packed, std::size_t n);
 
 std::uint8_t state_flags(const estimators::StateMessage& message);
-/// False if flags has bits other than ANCHOR | ACTIVE set (message left untouched then).
+/// False if flags has bits other than ANCHOR | ACTIVE | INCONSISTENT set (message left untouched then).
 bool apply_state_flags(std::uint8_t flags, estimators::StateMessage& message);
 std::optional<runtime::ControlCommand> control_command(std::uint8_t wire);
 

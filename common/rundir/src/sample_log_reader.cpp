@@ -34,6 +34,7 @@ runtime::ReceivedSample decode_sample(Decoder& in, int agents, std::uint16_t ver
           if (version >= 6) edge.peer_mean_m = in.vec2();
         }
       }
+      if (version >= 8) state.inconsistent = in.boolean();  // older logs predate dml's flag
       break;
     }
     case 1: {

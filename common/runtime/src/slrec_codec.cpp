@@ -62,6 +62,7 @@ void encode(Encoder& out, const estimators::StateMessage& m) {
   out.count(m.edge_ranges.size());        // version 5
   for (const auto& edge : m.edge_ranges)  // version 6: and the peer's mean
     out.i32(edge.peer), out.f64(edge.information), out.f64(edge.mean_range_m), out.vec2(edge.peer_mean_m);
+  out.boolean(m.inconsistent);  // version 8
 }
 void encode(Encoder& out, const estimators::InformationMessage& m) {
   out.i32(m.target);

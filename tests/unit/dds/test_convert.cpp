@@ -121,7 +121,12 @@ TEST(Convert, UnknownStateFlagBitsAreMalformed) {
   EXPECT_TRUE(codec::apply_state_flags(3, message));
   EXPECT_TRUE(message.anchor);
   EXPECT_TRUE(message.active);
-  EXPECT_FALSE(codec::apply_state_flags(4, message));
+  EXPECT_FALSE(message.inconsistent);
+  EXPECT_TRUE(codec::apply_state_flags(6, message));
+  EXPECT_FALSE(message.anchor);
+  EXPECT_TRUE(message.inconsistent);
+  EXPECT_EQ(codec::state_flags(message), 6);
+  EXPECT_FALSE(codec::apply_state_flags(8, message));
   EXPECT_FALSE(codec::apply_state_flags(0x83, message));
 }
 

@@ -416,6 +416,29 @@ TEST(Dml, SelfCheckFlagsRangesItsSolutionCannotExplain) {
   EXPECT_TRUE(biased.estimate(0).inconsistent);
 }
 
+TEST(Dml, AnAgentThatRestsOnAFlaggedNeighbourIsFlaggedToo) {
+  // Agent 5 hears only anchor 2 and agent 0, and its guess picks the side: two ranges, fitted exactly, so
+  // its own checks pass whatever agent 0 does. When one of agent 0's sensors reads 1 m long, agent 0 flags
+  // itself, and agent 5, with fewer than three unflagged references, is flagged with it.
+  DmlNetwork net;
+  net.truth = {{8, 7}, {0, 0}, {20, 0}, {0, 20}, {20, 20}, {26, 12}};
+  net.anchor = {false, true, true, true, true, false};
+  net.edges = {{0, 1}, {0, 2}, {0, 3}, {0, 4}, {0, 5}, {2, 5}};
+  const int data_steps = static_cast<int>(Dml::kInitializationPatienceSteps) + 10;
+  std::mt19937_64 rng(19);
+  DrawLog log;
+  DmlRounds honest(net, guesses_near_truth(net), 0.5);
+  honest.run(data_steps, 5, rng, log);
+  ASSERT_TRUE(honest.estimate(5).valid);
+  EXPECT_FALSE(honest.estimate(0).inconsistent);
+  EXPECT_FALSE(honest.estimate(5).inconsistent);
+  DmlRounds biased(net, guesses_near_truth(net), 0.5);
+  biased.run(data_steps, 5, rng, log, 1.0);
+  ASSERT_TRUE(biased.estimate(5).valid);
+  EXPECT_TRUE(biased.estimate(0).inconsistent);
+  EXPECT_TRUE(biased.estimate(5).inconsistent);
+}
+
 TEST(Dml, ARepeatedReadingCountsOnce) {
   const DmlNetwork net = loopy_network();
   std::mt19937_64 rng(16);

@@ -340,7 +340,7 @@ std::vector<runtime::ReceivedSample> every_family() {
   estimators::StateMessage state;
   state.mean_m = Vec2(1.5, -0.0);
   state.covariance << 0.5, 0.1, 0.2, std::numeric_limits<double>::quiet_NaN();
-  state.anchor = true, state.active = false, state.degree = 65535;
+  state.anchor = true, state.active = false, state.inconsistent = true, state.degree = 65535;
   state.edge_ranges = {{-4, 1e4, 12.25, Vec2(-3.5, 1e-300)},
                        {7, 5e-310, std::numeric_limits<double>::infinity(), Vec2(2.0, 0.25)}};
   estimators::InformationMessage information;
@@ -379,6 +379,7 @@ void expect_same(const runtime::ReceivedSample& a, const runtime::ReceivedSample
       expect_same(x.covariance, y.covariance);
       EXPECT_EQ(x.anchor, y.anchor);
       EXPECT_EQ(x.active, y.active);
+      EXPECT_EQ(x.inconsistent, y.inconsistent);
       EXPECT_EQ(x.degree, y.degree);
       ASSERT_EQ(x.edge_ranges.size(), y.edge_ranges.size());
       for (std::size_t k = 0; k < x.edge_ranges.size(); ++k) {
@@ -567,7 +568,7 @@ TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep)
     ADD_FAILURE() << "a version from the future was read";
   } catch (const RecordingError& e) {
     EXPECT_NE(
-        std::string(e.what()).find("format version 8 is not supported (this build reads versions 1 to 7)"),
+        std::string(e.what()).find("format version 9 is not supported (this build reads versions 1 to 8)"),
         std::string::npos)
         << e.what();
   }
@@ -613,7 +614,9 @@ TEST(SampleLog, AVersionThreeLogReadsEveryFamilyAndItsUnfinishedFormToo) {
   EXPECT_EQ(log.scenario_hash, 0xABCDEFu);
   ASSERT_EQ(log.samples.size(), samples.size());
   auto expected = samples;
-  std::get<estimators::StateMessage>(expected[0].message).edge_ranges.clear();  // new in version 5
+  auto& state = std::get<estimators::StateMessage>(expected[0].message);
+  state.edge_ranges.clear();   // new in version 5
+  state.inconsistent = false;  // new in version 8
   for (std::size_t k = 0; k < samples.size(); ++k) expect_same(log.samples[k], expected[k]);
   const std::vector<std::uint8_t> cut(v3.begin(), v3.end() - 9 - 20);
   EXPECT_THROW((void)parse_sample_log(cut, "v3-cut.slrec"), RecordingError);

@@ -323,6 +323,15 @@ double Dml::residual_statistic(int& degrees_of_freedom) const {
   return statistic;
 }
 
+bool Dml::leans_on_flagged_neighbours(const std::vector<Reference>& refs) const {
+  std::size_t flagged = 0;
+  for (const auto& ref : refs) {
+    if (edges_.at(ref.id).state.inconsistent) ++flagged;
+  }
+  // Three references fix a position in the plane; fewer unflagged ones leave it resting on the flagged.
+  return flagged > 0 && refs.size() - flagged < 3;
+}
+
 StepOutput Dml::step(const StepInput& input) {
   StepOutput out;
   ++steps_;
@@ -361,6 +370,7 @@ StepOutput Dml::step(const StepInput& input) {
         x_ = *restart;
       }
     }
+    doubtful_support_ = leans_on_flagged_neighbours(refs);
     out.diagnostics.updated = true;
   }
   out.diagnostics.neighbours_used = static_cast<int>(refs.size());
@@ -373,6 +383,7 @@ StateMessage Dml::state_message() const {
   state.mean_m = x_;
   state.anchor = setup_.anchor;
   state.active = localized_;
+  state.inconsistent = inconsistent_ || ambiguous_start_;
   if (exact_anchor()) {
     state.covariance = Mat2::Zero();
   } else if (localized_ && positive_definite(information_)) {
@@ -415,7 +426,7 @@ Estimate Dml::estimate() const {
   const StateMessage state = state_message();
   estimate.covariance = reported_covariance_.value_or(state.covariance);
   estimate.valid = exact_anchor() || (localized_ && positive_definite(information_));
-  estimate.inconsistent = inconsistent_ || ambiguous_start_;
+  estimate.inconsistent = inconsistent_ || ambiguous_start_ || doubtful_support_;
   return estimate;
 }
 

@@ -127,6 +127,9 @@ struct StateMessage {
   bool active = true;
   std::uint16_t degree = 0;
   std::vector<EdgeRangeSummary> edge_ranges;  ///< dml only: a few edges per message, in rotation
+  /// dml only: the sender's own self-check flags its position (docs/algorithms.md §9.5), so a neighbour
+  /// that leans on it knows its support is in doubt.
+  bool inconsistent = false;
 };
 
 /// INFO-VEC + INFO-MAT (DLE priors).

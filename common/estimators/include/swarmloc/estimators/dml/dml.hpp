@@ -80,6 +80,7 @@ class Dml final : public Estimator {
   void update_information();
   [[nodiscard]] std::optional<Mat2> region_covariance() const;
   [[nodiscard]] double residual_statistic(int& degrees_of_freedom) const;
+  [[nodiscard]] bool leans_on_flagged_neighbours(const std::vector<Reference>& refs) const;
   [[nodiscard]] bool exact_anchor() const;
   [[nodiscard]] StateMessage state_message() const;
   [[nodiscard]] Outbox published();
@@ -93,7 +94,8 @@ class Dml final : public Estimator {
   Vec2 fix_information_vector_ = Vec2::Zero();
   bool localized_ = false;
   bool inconsistent_ = false;
-  bool ambiguous_start_ = false;  // flagged until the graph confirms it: range-only data cannot
+  bool doubtful_support_ = false;  // a flagged neighbour, and too few unflagged ones to fix the position
+  bool ambiguous_start_ = false;   // flagged until the graph confirms it: range-only data cannot
   std::optional<std::pair<AgentId, AgentId>> hinge_;  // the mirror line of a start from two references
   TwoHopPositions two_hop_;
   RelayedRanges relays_;
