@@ -98,6 +98,20 @@ TEST(CooperativeSimulation, DmlTrackCountsARepeatedDrawOnceWithSeveralExchangesP
               once.nees, thrice.nees);
 }
 
+TEST(CooperativeSimulation, DmlGivesEveryAgentOfAWeaklyAnchoredWorldABelief) {
+  // 200 agents, 20 % anchors, mean degree about 9 (docs/validation.md, weakly anchored worlds), seed 2. Agent
+  // 119 has four neighbours that each heard it while its belief was undefined: taking its message out of
+  // beliefs that never held it left it nothing, and its belief alternated between defined and not.
+  const auto errors =
+      run_simulation(scenario_named("default.yaml", {"algorithm.name=dml", "seed=2", "world.agents=200",
+                                                     "world.anchors=40", "world.area_m=116.1"}))
+          .final_metrics()
+          ->errors;
+  EXPECT_EQ(errors.scored, 160);
+  EXPECT_EQ(errors.nees_agents, errors.scored);
+  EXPECT_LT(errors.nees, 3.0);
+}
+
 // algorithm.local_bb_difference on Calafiore et al.'s Table I lattice (10 × 10 with diagonals, noiseless, no
 // trust region): eq. (15) as printed (own_move) converges, the [E-6] reading (gradient_change) diverges.
 TEST(CooperativeSimulation, LocalBbAsPrintedConvergesWhereTheGradientChangeReadingDiverges) {

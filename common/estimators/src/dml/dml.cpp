@@ -19,6 +19,7 @@ constexpr double kSelfCheckFalseAlarm = 1e-6;    // per agent and step: a health
 constexpr double kMirrorSeparationSigmas = 6.0;  // a mirror pair the guess tells apart: 3σ on each side
 constexpr double kMultilaterationSpreadFraction = 0.1;  // its std, as a fraction of the shortest range
 constexpr int kSolveIterations = 5;
+constexpr double kMessageAbsentRatio = 2.0;  // s·q beyond this: the neighbour's belief lacks the message
 using rank_one::kCavityTolerance;
 using rank_one::kShortestDistanceM;
 using rank_one::message_scale;
@@ -30,6 +31,15 @@ double cavity_variance(const Mat2& covariance, const Vec2& a, double message_sca
   if (!std::isfinite(q)) return kInfinity;
   const double remaining = 1.0 - message_scale * q;
   return remaining > kCavityTolerance ? q / remaining : kInfinity;
+}
+
+/// The neighbour's variance along `a` without the message this agent sent it. A belief that holds s·aaᵀ has
+/// s·q < 1 (Sherman–Morrison); well above 1 the neighbour formed its belief without it (it heard this agent
+/// while this agent's belief was undefined): nothing of it is there to take out (docs/algorithms.md §9.3).
+double far_cavity_variance(const Mat2& covariance, const Vec2& a, double sent_scale) {
+  const double q = a.dot(covariance * a);
+  if (std::isfinite(q) && sent_scale * q > kMessageAbsentRatio) return q;
+  return cavity_variance(covariance, a, sent_scale);
 }
 
 bool exactly_known(const StateMessage& state) { return state.anchor && state.covariance.isZero(); }
@@ -262,7 +272,7 @@ void Dml::update_information() {
     const double sent_scale = message_scale(
         edge.information(), have_belief ? cavity_variance(covariance, a, edge.message_scale) : kInfinity);
     const double far_variance =
-        exactly_known(edge.state) ? 0.0 : cavity_variance(edge.state.covariance, a, sent_scale);
+        exactly_known(edge.state) ? 0.0 : far_cavity_variance(edge.state.covariance, a, sent_scale);
     edge.message_scale = message_scale(edge.information(), far_variance);
     edge.sent_scale = sent_scale;
     information += edge.message_scale * a * a.transpose();
