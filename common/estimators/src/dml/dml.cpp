@@ -33,13 +33,19 @@ double cavity_variance(const Mat2& covariance, const Vec2& a, double message_sca
   return remaining > kCavityTolerance ? q / remaining : kInfinity;
 }
 
-/// The neighbour's variance along `a` without the message this agent sent it. A belief that holds s·aaᵀ has
-/// s·q < 1 (Sherman–Morrison); well above 1 the neighbour formed its belief without it (it heard this agent
-/// while this agent's belief was undefined): nothing of it is there to take out (docs/algorithms.md §9.3).
-double far_cavity_variance(const Mat2& covariance, const Vec2& a, double sent_scale) {
+/// The neighbour's variance along `a` without the message this agent sent it (`sent_scale`, or the one of the
+/// step before, `previous_sent_scale`, which the neighbour's last belief may hold instead). A belief that
+/// holds s·aaᵀ has s·q < 1 (Sherman–Morrison); well above 1 for both, the neighbour formed its belief without
+/// either (it heard this agent while this agent's belief was undefined): nothing is there to take out
+/// (docs/algorithms.md §9.3).
+double far_cavity_variance(const Mat2& covariance, const Vec2& a, double sent_scale,
+                           double previous_sent_scale) {
   const double q = a.dot(covariance * a);
-  if (std::isfinite(q) && sent_scale * q > kMessageAbsentRatio) return q;
-  return cavity_variance(covariance, a, sent_scale);
+  if (!std::isfinite(q)) return kInfinity;
+  if (1.0 - sent_scale * q > kCavityTolerance) return cavity_variance(covariance, a, sent_scale);
+  if (1.0 - previous_sent_scale * q > kCavityTolerance)
+    return cavity_variance(covariance, a, previous_sent_scale);
+  return std::min(sent_scale, previous_sent_scale) * q > kMessageAbsentRatio ? q : kInfinity;
 }
 
 bool exactly_known(const StateMessage& state) { return state.anchor && state.covariance.isZero(); }
@@ -271,8 +277,9 @@ void Dml::update_information() {
     // neighbour's belief without that: the cavity, so no range is counted twice around the edge.
     const double sent_scale = message_scale(
         edge.information(), have_belief ? cavity_variance(covariance, a, edge.message_scale) : kInfinity);
-    const double far_variance =
-        exactly_known(edge.state) ? 0.0 : far_cavity_variance(edge.state.covariance, a, sent_scale);
+    const double far_variance = exactly_known(edge.state) ? 0.0
+                                                          : far_cavity_variance(edge.state.covariance, a,
+                                                                                sent_scale, edge.sent_scale);
     edge.message_scale = message_scale(edge.information(), far_variance);
     edge.sent_scale = sent_scale;
     information += edge.message_scale * a * a.transpose();
