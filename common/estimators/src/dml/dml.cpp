@@ -45,7 +45,8 @@ double far_cavity_variance(const Mat2& covariance, const Vec2& a, double sent_sc
   if (1.0 - sent_scale * q > kCavityTolerance) return cavity_variance(covariance, a, sent_scale);
   if (1.0 - previous_sent_scale * q > kCavityTolerance)
     return cavity_variance(covariance, a, previous_sent_scale);
-  return std::min(sent_scale, previous_sent_scale) * q > kMessageAbsentRatio ? q : kInfinity;
+  if (std::min(sent_scale, previous_sent_scale) * q > kMessageAbsentRatio) return q;
+  return kInfinity;
 }
 
 bool exactly_known(const StateMessage& state) { return state.anchor && state.covariance.isZero(); }
