@@ -42,9 +42,10 @@ double far_cavity_variance(const Mat2& covariance, const Vec2& a, double sent_sc
                            double previous_sent_scale) {
   const double q = a.dot(covariance * a);
   if (!std::isfinite(q)) return kInfinity;
-  if (1.0 - sent_scale * q > kCavityTolerance) return cavity_variance(covariance, a, sent_scale);
-  if (1.0 - previous_sent_scale * q > kCavityTolerance)
-    return cavity_variance(covariance, a, previous_sent_scale);
+  for (const double scale : {sent_scale, previous_sent_scale}) {
+    const double remaining = 1.0 - scale * q;
+    if (remaining > kCavityTolerance) return q / remaining;
+  }
   if (std::min(sent_scale, previous_sent_scale) * q > kMessageAbsentRatio) return q;
   return kInfinity;
 }
