@@ -286,6 +286,28 @@ TEST(Dml, NegativeConnectivityTellsAMirrorPairApart) {
   EXPECT_TRUE(graph_unknown.estimate(2).inconsistent);
 }
 
+TEST(Dml, APocketNoAgentOfWhichHearsThreeAnchorsPlacesItselfFromItsLocalMap) {
+  // Agents 3–5 each hear two anchors and each other: no one multilaterates, and with guesses that say
+  // nothing each would wait out its patience and start from a guess on a mirror pair. Their neighbourhood's
+  // map (the ranges the others relay, the third anchor's position through them) places each of them.
+  DmlNetwork net;
+  net.truth = {{0, 0}, {20, 0}, {10, 17}, {6, 5}, {14, 5}, {10, 11}};
+  net.anchor = {true, true, true, false, false, false};
+  net.edges = {{3, 0}, {3, 2}, {4, 1}, {4, 2}, {5, 0}, {5, 1}, {3, 4}, {4, 5}, {3, 5}};
+  const Vec2 centre(10.0, 6.0);
+  std::mt19937_64 rng(23);
+  DrawLog log;
+  DmlRounds pocket(net, {net.truth[0], net.truth[1], net.truth[2], centre, centre, centre},
+                   std::numeric_limits<double>::infinity());
+  pocket.run(static_cast<int>(Dml::kInitializationPatienceSteps) + 10, 0, rng, log);
+  for (int i = 3; i < 6; ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_TRUE(pocket.estimate(i).valid);
+    EXPECT_FALSE(pocket.estimate(i).inconsistent);
+    EXPECT_LT((pocket.estimate(i).mean_m - net.truth[static_cast<std::size_t>(i)]).norm(), 0.1);
+  }
+}
+
 TEST(Dml, SelfCheckFlagsASolutionTheGraphContradicts) {
   // Agent 3 multilaterates from three anchors, but anchor 4 (relayed by anchor 0, not heard by agent 3)
   // lies 13.2 m from it: with a declared radius of 15 m the graph says it is farther. Its ranges fit.

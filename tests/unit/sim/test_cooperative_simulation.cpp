@@ -112,6 +112,20 @@ TEST(CooperativeSimulation, DmlGivesEveryAgentOfAWeaklyAnchoredWorldABelief) {
   EXPECT_LT(errors.nees, 3.0);
 }
 
+TEST(CooperativeSimulation, DmlPlacesAGroupThatOnlyItsNeighbourhoodsMapFixes) {
+  // Seed 49 of the default world holds a group of agents that no agent's own localized neighbours fix: each
+  // waited out its patience and started from its guess, and every trial ended flagged, hundreds of times
+  // its optimum's error. Their local maps place them (docs/algorithms.md §9.4, "Local maps").
+  const auto result =
+      run_monte_carlo(scenario_named("default.yaml", {"algorithm.name=dml", "seed=49"}), 5, 1);
+  for (int trial = 0; trial < result.trials; ++trial) {
+    SCOPED_TRACE(trial);
+    const auto t = static_cast<std::size_t>(trial);
+    EXPECT_EQ(result.final_flagged_per_trial[t], 0);
+    EXPECT_LT(result.final_rmse_per_trial[t], 1.5 * result.final_optimum_per_trial[t]);
+  }
+}
+
 // algorithm.local_bb_difference on Calafiore et al.'s Table I lattice (10 × 10 with diagonals, noiseless, no
 // trust region): eq. (15) as printed (own_move) converges, the [E-6] reading (gradient_change) diverges.
 TEST(CooperativeSimulation, LocalBbAsPrintedConvergesWhereTheGradientChangeReadingDiverges) {

@@ -31,17 +31,24 @@ int TwoHopPositions::absorb(AgentId self, const Vec2& sender_mean_m,
 void RelayedRanges::absorb(AgentId self, AgentId sender, const Vec2& sender_mean_m,
                            const std::vector<EdgeRangeSummary>& summaries) {
   for (const auto& summary : summaries) {
-    if (summary.peer == self || summary.peer == sender || !summary.peer_mean_m.allFinite() ||
-        summary.peer_mean_m == sender_mean_m || !(summary.information > 0.0) ||
+    if (summary.peer == self || summary.peer == sender || !(summary.information > 0.0) ||
         !std::isfinite(summary.mean_range_m) || !(summary.mean_range_m >= 0.0)) {
       continue;
     }
-    const auto at = std::lower_bound(entries_.begin(), entries_.end(), std::pair{sender, summary.peer},
-                                     [](const Entry& entry, const std::pair<AgentId, AgentId>& key) {
-                                       return std::pair{entry.via, entry.peer} < key;
-                                     });
+    const Key key{sender, summary.peer};
+    const auto at =
+        std::lower_bound(entries_.begin(), entries_.end(), key, [](const Entry& entry, const Key& k) {
+          return Key{entry.via, entry.peer} < k;
+        });
+    const bool placed = at != entries_.end() && at->via == sender && at->peer == summary.peer;
+    if (!summary.peer_mean_m.allFinite() || summary.peer_mean_m == sender_mean_m) {
+      // No position of the peer: keep the range alone, unless a relay with the peer's position holds it.
+      if (!placed) unplaced_[key] = {summary.mean_range_m, summary.information};
+      continue;
+    }
+    if (!unplaced_.empty()) unplaced_.erase(key);
     const Entry fresh{sender, summary.peer, summary.peer_mean_m, summary.mean_range_m, summary.information};
-    if (at != entries_.end() && at->via == sender && at->peer == summary.peer) {
+    if (placed) {
       *at = fresh;
     } else {
       entries_.insert(at, fresh);

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <stdexcept>
+#include <utility>
 
 #include "dml/rank_one_message.hpp"
 #include "swarmloc/core/gaussian.hpp"
@@ -19,7 +21,8 @@ constexpr double kSelfCheckFalseAlarm = 1e-6;    // per agent and step: a health
 constexpr double kMirrorSeparationSigmas = 6.0;  // a mirror pair the guess tells apart: 3σ on each side
 constexpr double kMultilaterationSpreadFraction = 0.1;  // its std, as a fraction of the shortest range
 constexpr int kSolveIterations = 5;
-constexpr double kMessageAbsentRatio = 2.0;  // s·q beyond this: the neighbour's belief lacks the message
+constexpr double kMessageAbsentRatio = 2.0;   // s·q beyond this: the neighbour's belief lacks the message
+constexpr double kLocalMapFalseAlarm = 1e-3;  // a local map that fits its ranges worse is folded
 using rank_one::kCavityTolerance;
 using rank_one::kShortestDistanceM;
 using rank_one::message_scale;
@@ -218,6 +221,83 @@ std::optional<Dml::GuessedStart> Dml::start_from_guess(const std::vector<Referen
                       !distinguishable, hinge};
 }
 
+std::optional<local_map::Placement> Dml::place_in_local_map() const {
+  std::vector<local_map::Node> nodes{{false, x_}};
+  std::map<AgentId, int> index{{setup_.id, 0}};
+  const auto add_node = [&](AgentId id, bool known, const Vec2& position) {
+    const auto [at, added] = index.emplace(id, static_cast<int>(nodes.size()));
+    if (added) nodes.push_back({known, position});
+    return at->second;
+  };
+  std::map<std::pair<int, int>, std::pair<double, double>> pairs;  // information, Σ W·r
+  const auto add_range = [&pairs](int a, int b, double range_m, double information) {
+    auto& [total, weighted] = pairs[std::minmax(a, b)];
+    total += information;
+    weighted += information * range_m;
+  };
+  double shortest_range_m = kInfinity;
+  for (const auto& [id, edge] : edges_) {
+    if (!(edge.information() > 0.0)) continue;
+    // A neighbour's own flag puts its position in doubt: the map places it instead of holding it.
+    const bool known = edge.usable() && !edge.state.inconsistent;
+    add_range(0, add_node(id, known, edge.state.mean_m), edge.mean_range_m(), edge.information());
+    shortest_range_m = std::min(shortest_range_m, edge.mean_range_m());
+  }
+  // Agents two hops away enter only where a neighbour knows their position.
+  relays_.for_each_range([&](AgentId, AgentId peer, double, double, const Vec2* peer_mean) {
+    if (peer_mean != nullptr) add_node(peer, true, *peer_mean);
+  });
+  relays_.for_each_range([&](AgentId via, AgentId peer, double range_m, double information, const Vec2*) {
+    const auto from = index.find(via);
+    const auto to = index.find(peer);
+    if (from != index.end() && to != index.end()) add_range(from->second, to->second, range_m, information);
+  });
+  std::vector<local_map::Range> ranges;
+  for (const auto& [ends, sums] : pairs)
+    ranges.push_back({ends.first, ends.second, sums.second / sums.first, sums.first});
+  return local_map::place(nodes, ranges, kLocalMapFalseAlarm,
+                          kMultilaterationSpreadFraction * shortest_range_m);
+}
+
+std::optional<Vec2> Dml::start_from_local_map() const {
+  const auto mapped = place_in_local_map();
+  if (!mapped) return std::nullopt;
+  if (!mapped->alternative_m) return mapped->position_m;
+  // Two maps fit the ranges: the graph may rule one out, as it does for a start from two references.
+  const double margin = two_hop_.margin_m();
+  const double here = impossibility(mapped->position_m);
+  const double there = impossibility(*mapped->alternative_m);
+  if (here <= 0.0 && there > margin) return mapped->position_m;
+  if (there <= 0.0 && here > margin) return *mapped->alternative_m;
+  return std::nullopt;
+}
+
+void Dml::start(const std::vector<Reference>& refs) {
+  if (const auto multilaterated = multilaterate(refs)) {
+    x_ = *multilaterated;
+    localized_ = true;
+    return;
+  }
+  const auto guessed = start_from_guess(refs);
+  if (steps_ > kInitializationPatienceSteps && (!guessed || guessed->ambiguous)) {
+    // The wave has not reached this agent, or reached it from one side only: its neighbourhood's map may
+    // fix it where no single neighbour's ranges do.
+    if (const auto mapped = start_from_local_map()) {
+      x_ = solve_position(*mapped, refs);
+      ambiguous_start_ = false;
+      hinge_.reset();
+      localized_ = true;
+      return;
+    }
+  }
+  if (guessed) {
+    x_ = guessed->position_m;
+    ambiguous_start_ = guessed->ambiguous;
+    hinge_ = guessed->hinge;
+    localized_ = true;  // the self-check watches a start the ranges alone could not fix
+  }
+}
+
 double Dml::penetration(const Vec2& x) const {
   return two_hop_.penetration(x, [this](AgentId id) { return id == setup_.id || edges_.contains(id); });
 }
@@ -362,17 +442,7 @@ StepOutput Dml::step(const StepInput& input) {
     return out;
   }
   const auto refs = references();
-  if (!localized_) {
-    if (const auto start = multilaterate(refs)) {
-      x_ = *start;
-      localized_ = true;
-    } else if (const auto guessed = start_from_guess(refs)) {
-      x_ = guessed->position_m;
-      ambiguous_start_ = guessed->ambiguous;
-      hinge_ = guessed->hinge;
-      localized_ = true;  // the self-check watches a start the ranges alone could not fix
-    }
-  }
+  if (!localized_) start(refs);
   if (localized_) {
     if (hinge_) check_mirror();
     x_ = solve_position(x_, refs);

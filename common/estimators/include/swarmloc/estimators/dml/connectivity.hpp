@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <utility>
 #include <vector>
 
 #include "swarmloc/estimators/messages.hpp"
@@ -68,6 +69,15 @@ class RelayedRanges {
       }
     }
   }
+  /// Calls visit(via, peer, range_m, information, peer_mean) for every range a neighbour relayed, with
+  /// peer_mean nullptr where the neighbour did not know the peer's position (dml's local maps, §9.4).
+  template <typename Visit>
+  void for_each_range(const Visit& visit) const {
+    for (const auto& entry : entries_)
+      visit(entry.via, entry.peer, entry.range_m, entry.information, &entry.peer_mean_m);
+    for (const auto& [key, entry] : unplaced_)
+      visit(key.first, key.second, entry.range_m, entry.information, static_cast<const Vec2*>(nullptr));
+  }
   /// The worst violation at `x` of the bounds through the neighbours `own_range` gives a range to
   /// (> 0: x contradicts the data by that much); -inf if no bound is known. `own_range(c)` returns this
   /// agent's mean range to c, or a negative value if it has none.
@@ -94,7 +104,13 @@ class RelayedRanges {
     double range_m;
     double information;
   };
-  std::vector<Entry> entries_;  // newest per (via, peer), sorted by (via, peer): scanned every step
+  struct Unplaced {
+    double range_m;
+    double information;
+  };
+  using Key = std::pair<AgentId, AgentId>;
+  std::vector<Entry> entries_;        // newest per (via, peer), sorted by (via, peer): scanned every step
+  std::map<Key, Unplaced> unplaced_;  // ranges to peers the neighbour had no position of (not in entries_)
 };
 
 }  // namespace swarmloc::estimators

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "swarmloc/estimators/dml/connectivity.hpp"
+#include "swarmloc/estimators/dml/local_map.hpp"
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/estimators/kalman/params.hpp"
 
@@ -77,6 +78,11 @@ class Dml final : public Estimator {
   [[nodiscard]] std::optional<Vec2> mirror_of_current() const;
   void check_mirror();
   [[nodiscard]] std::optional<GuessedStart> start_from_guess(const std::vector<Reference>& refs) const;
+  [[nodiscard]] std::optional<local_map::Placement> place_in_local_map() const;
+  [[nodiscard]] std::optional<Vec2> start_from_local_map() const;
+  /// Localizes the agent if it can: multilateration, a start the guess or the graph decides, its local map,
+  /// and last an ambiguous start from the guess.
+  void start(const std::vector<Reference>& refs);
   void update_information();
   [[nodiscard]] std::optional<Mat2> region_covariance() const;
   [[nodiscard]] double residual_statistic(int& degrees_of_freedom) const;

@@ -1,0 +1,258 @@
+#include "swarmloc/estimators/dml/local_map.hpp"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "swarmloc/estimators/self_check.hpp"
+
+namespace swarmloc::estimators::local_map {
+namespace {
+
+constexpr double kUnreached = std::numeric_limits<double>::infinity();
+constexpr int kRefineIterations = 40;
+constexpr double kShortestRangeM = 1e-9;
+constexpr double kSeparationSigmas = 6.0;  // two fitting maps this far apart place the agent differently
+
+using Coordinates = std::vector<Vec2>;
+
+bool usable_range(const Range& range, const std::vector<Node>& nodes) {
+  const auto a = static_cast<std::size_t>(range.first);
+  const auto b = static_cast<std::size_t>(range.second);
+  return range.first >= 0 && range.second >= 0 && a < nodes.size() && b < nodes.size() && a != b &&
+         range.information > 0.0 && range.range_m > 0.0;
+}
+
+/// The nodes the map keeps: every known node, and the nodes to place that keep three ranges to kept nodes
+/// (one held by two ranges can flip across the line through their other ends, and the ranges cannot tell).
+std::vector<bool> redundantly_ranged(const std::vector<Node>& nodes, const std::vector<Range>& ranges) {
+  std::vector<bool> kept(nodes.size(), true);
+  for (bool changed = true; changed;) {
+    changed = false;
+    std::vector<int> degree(nodes.size(), 0);
+    for (const auto& range : ranges) {
+      if (!usable_range(range, nodes)) continue;
+      const auto a = static_cast<std::size_t>(range.first);
+      const auto b = static_cast<std::size_t>(range.second);
+      if (kept[a] && kept[b]) {
+        ++degree[a];
+        ++degree[b];
+      }
+    }
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      if (kept[i] && !nodes[i].known && degree[i] < 3) {
+        kept[i] = false;
+        changed = true;
+      }
+    }
+  }
+  return kept;
+}
+
+/// Every pair's distance: measured where ranged, exact between known nodes, else the shortest path
+/// through the ranges (an overestimate the refinement removes). Empty if a node is unreached.
+MatX completed_distances(const std::vector<Node>& nodes, const std::vector<Range>& ranges) {
+  const auto n = static_cast<Eigen::Index>(nodes.size());
+  MatX distance = MatX::Constant(n, n, kUnreached);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    distance(i, i) = 0.0;
+    const auto& a = nodes[static_cast<std::size_t>(i)];
+    for (Eigen::Index j = 0; j < i && a.known; ++j) {
+      const auto& b = nodes[static_cast<std::size_t>(j)];
+      if (b.known) distance(i, j) = distance(j, i) = (a.position_m - b.position_m).norm();
+    }
+  }
+  for (const auto& range : ranges)
+    distance(range.first, range.second) = distance(range.second, range.first) = range.range_m;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    for (Eigen::Index i = 0; i < n; ++i) {
+      for (Eigen::Index j = 0; j < n; ++j)
+        distance(i, j) = std::min(distance(i, j), distance(i, k) + distance(k, j));
+    }
+  }
+  return distance.allFinite() ? distance : MatX();
+}
+
+/// Classical scaling: the two leading eigenvectors of the double-centred squared distances.
+Coordinates scaled_coordinates(const MatX& distance) {
+  const Eigen::Index n = distance.rows();
+  const MatX centring = MatX::Identity(n, n) - MatX::Constant(n, n, 1.0 / static_cast<double>(n));
+  const MatX gram = -0.5 * centring * distance.cwiseProduct(distance) * centring;
+  const Eigen::SelfAdjointEigenSolver<MatX> eigen(gram);
+  Coordinates coordinates(static_cast<std::size_t>(n), Vec2::Zero());
+  for (int axis = 0; axis < 2; ++axis) {
+    const Eigen::Index column = n - 1 - axis;  // eigenvalues ascending
+    const double scale = std::sqrt(std::max(0.0, eigen.eigenvalues()(column)));
+    for (Eigen::Index i = 0; i < n; ++i)
+      coordinates[static_cast<std::size_t>(i)](axis) = scale * eigen.eigenvectors()(i, column);
+  }
+  return coordinates;
+}
+
+/// The map moved onto the known nodes by the best rotation (first) and the best reflection (second).
+std::pair<Coordinates, Coordinates> fitted_to_known(const Coordinates& map, const std::vector<Node>& nodes) {
+  Vec2 map_centre = Vec2::Zero();
+  Vec2 world_centre = Vec2::Zero();
+  double known = 0.0;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (!nodes[i].known) continue;
+    map_centre += map[i];
+    world_centre += nodes[i].position_m;
+    known += 1.0;
+  }
+  map_centre /= known;
+  world_centre /= known;
+  Mat2 cross = Mat2::Zero();
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (nodes[i].known) cross += (map[i] - map_centre) * (nodes[i].position_m - world_centre).transpose();
+  }
+  const Eigen::JacobiSVD<Mat2> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const double handedness = (svd.matrixV() * svd.matrixU().transpose()).determinant() > 0.0 ? 1.0 : -1.0;
+  const auto moved = [&](double sign) {
+    const Mat2 turn = svd.matrixV() * Eigen::Vector2d(1.0, sign).asDiagonal() * svd.matrixU().transpose();
+    Coordinates out(map.size());
+    for (std::size_t i = 0; i < map.size(); ++i)
+      out[i] = nodes[i].known ? nodes[i].position_m : Vec2(world_centre + turn * (map[i] - map_centre));
+    return out;
+  };
+  return {moved(handedness), moved(-handedness)};
+}
+
+/// Levenberg–Marquardt on the ranges with the known nodes held: the cost Σ W (r − ‖x_a − x_b‖)².
+struct Refined {
+  Coordinates x;
+  double cost;
+  MatX information;  // Gauss–Newton, over the unknown nodes' coordinates
+};
+
+double range_cost(const Coordinates& x, const std::vector<Range>& ranges) {
+  double cost = 0.0;
+  for (const auto& range : ranges) {
+    const double residual =
+        range.range_m -
+        (x[static_cast<std::size_t>(range.first)] - x[static_cast<std::size_t>(range.second)]).norm();
+    cost += range.information * residual * residual;
+  }
+  return cost;
+}
+
+Refined refined(Coordinates x, const std::vector<Node>& nodes, const std::vector<Range>& ranges,
+                const std::vector<int>& unknown_index) {
+  const auto size = static_cast<Eigen::Index>(
+      2 * std::count_if(nodes.begin(), nodes.end(), [](const Node& n) { return !n.known; }));
+  const auto normal_equations = [&](const Coordinates& at, MatX& hessian, VecX& gradient) {
+    hessian = MatX::Zero(size, size);
+    gradient = VecX::Zero(size);
+    for (const auto& range : ranges) {
+      const auto a = static_cast<std::size_t>(range.first);
+      const auto b = static_cast<std::size_t>(range.second);
+      const Vec2 offset = at[a] - at[b];
+      const double length = offset.norm();
+      if (length < kShortestRangeM) continue;
+      const Vec2 direction = offset / length;
+      const double residual = range.range_m - length;
+      const int ends[2] = {unknown_index[a], unknown_index[b]};
+      const double signs[2] = {1.0, -1.0};
+      for (int p = 0; p < 2; ++p) {
+        if (ends[p] < 0) continue;
+        gradient.segment<2>(2 * ends[p]) += signs[p] * range.information * residual * direction;
+        for (int q = 0; q < 2; ++q) {
+          if (ends[q] < 0) continue;
+          hessian.block<2, 2>(2 * ends[p], 2 * ends[q]) +=
+              signs[p] * signs[q] * range.information * direction * direction.transpose();
+        }
+      }
+    }
+  };
+  double cost = range_cost(x, ranges);
+  double damping = 1e-3;
+  MatX hessian;
+  VecX gradient;
+  for (int iteration = 0; iteration < kRefineIterations; ++iteration) {
+    normal_equations(x, hessian, gradient);
+    const MatX damped =
+        hessian + damping * MatX(hessian.diagonal().asDiagonal()) + 1e-12 * MatX::Identity(size, size);
+    const VecX step = damped.ldlt().solve(gradient);
+    Coordinates trial = x;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      if (unknown_index[i] >= 0) trial[i] += step.segment<2>(2 * unknown_index[i]);
+    }
+    const double trial_cost = range_cost(trial, ranges);
+    if (trial_cost < cost) {
+      const bool settled = cost - trial_cost < 1e-12 * (1.0 + cost);
+      x = std::move(trial);
+      cost = trial_cost;
+      damping = std::max(1e-9, damping / 10.0);
+      if (settled) break;
+    } else {
+      damping *= 10.0;
+      if (damping > 1e9) break;
+    }
+  }
+  normal_equations(x, hessian, gradient);
+  return {std::move(x), cost, std::move(hessian)};
+}
+
+}  // namespace
+
+std::optional<Placement> place(const std::vector<Node>& nodes, const std::vector<Range>& ranges,
+                               double false_alarm, double max_std_m) {
+  if (nodes.empty() || nodes.front().known) return std::nullopt;
+  const std::vector<bool> kept = redundantly_ranged(nodes, ranges);
+  if (!kept.front()) return std::nullopt;
+  std::vector<int> compact(nodes.size(), -1);
+  std::vector<Node> map;
+  std::vector<int> unknown_index;
+  int unknowns = 0;
+  int known = 0;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (!kept[i]) continue;
+    compact[i] = static_cast<int>(map.size());
+    map.push_back(nodes[i]);
+    unknown_index.push_back(nodes[i].known ? -1 : unknowns++);
+    known += nodes[i].known ? 1 : 0;
+  }
+  // Only ranges that touch a node to place test the map (those between known nodes are fixed data).
+  std::vector<Range> used;
+  for (const auto& range : ranges) {
+    if (!usable_range(range, nodes)) continue;
+    const int a = compact[static_cast<std::size_t>(range.first)];
+    const int b = compact[static_cast<std::size_t>(range.second)];
+    if (a < 0 || b < 0 || (map[static_cast<std::size_t>(a)].known && map[static_cast<std::size_t>(b)].known))
+      continue;
+    used.push_back({a, b, range.range_m, range.information});
+  }
+  const int dof = static_cast<int>(used.size()) - 2 * unknowns;
+  if (known < 2 || dof < 1) return std::nullopt;
+  const MatX distance = completed_distances(map, used);
+  if (distance.size() == 0) return std::nullopt;
+  const auto [rotated, reflected] = fitted_to_known(scaled_coordinates(distance), map);
+  Coordinates guessed(map.size());
+  for (std::size_t i = 0; i < map.size(); ++i) guessed[i] = map[i].position_m;
+  // Three starts: the scaled map both ways round, and the agents' own guesses. Each ends in a minimum;
+  // the best must fit the ranges, and no other that fits them may put this agent elsewhere.
+  std::vector<Refined> minima;
+  for (const Coordinates* start : {&rotated, &reflected, static_cast<const Coordinates*>(&guessed)})
+    minima.push_back(refined(*start, map, used, unknown_index));
+  std::sort(minima.begin(), minima.end(), [](const Refined& a, const Refined& b) { return a.cost < b.cost; });
+  const Refined& best = minima.front();
+  const double threshold = chi_square_upper_quantile(dof, false_alarm);
+  if (!(best.cost <= threshold)) return std::nullopt;
+  const Eigen::LDLT<MatX> factor(best.information);
+  if (factor.info() != Eigen::Success || !(factor.vectorD().minCoeff() > 0.0)) return std::nullopt;
+  const Mat2 covariance =
+      factor.solve(MatX::Identity(best.information.rows(), best.information.rows())).topLeftCorner<2, 2>();
+  const double largest_std = std::sqrt(Eigen::SelfAdjointEigenSolver<Mat2>(covariance).eigenvalues()(1));
+  if (!(largest_std <= max_std_m)) return std::nullopt;
+  Placement placement{best.x.front(), std::nullopt};
+  for (std::size_t k = 1; k < minima.size() && !placement.alternative_m; ++k) {
+    if (minima[k].cost <= threshold &&
+        (minima[k].x.front() - best.x.front()).norm() > kSeparationSigmas * largest_std) {
+      placement.alternative_m = minima[k].x.front();
+    }
+  }
+  return placement;
+}
+
+}  // namespace swarmloc::estimators::local_map

@@ -1,0 +1,82 @@
+// dml's local maps (docs/algorithms.md §9.4, "Local maps"): placing an agent from its neighbourhood's ranges
+// where no single neighbour's ranges do.
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "swarmloc/estimators/dml/local_map.hpp"
+
+namespace swarmloc::estimators::local_map {
+namespace {
+
+constexpr double kInformation = 100.0;  // σ = 0.1 m
+
+/// Three agents to place (nodes 0–2), each ranging to two of three known agents and to each other: no one
+/// of them is fixed by its own known neighbours, the three together are.
+struct Pocket {
+  std::vector<Vec2> truth{{6, 5}, {14, 5}, {10, 11}, {0, 0}, {20, 0}, {10, 17}};
+  std::vector<std::pair<int, int>> links{{0, 3}, {0, 5}, {1, 4}, {1, 5}, {2, 3},
+                                         {2, 4}, {0, 1}, {1, 2}, {0, 2}};
+
+  [[nodiscard]] std::vector<Node> nodes(const std::vector<Vec2>& guesses) const {
+    std::vector<Node> out;
+    for (std::size_t i = 0; i < truth.size(); ++i)
+      out.push_back(i < 3 ? Node{false, guesses[i]} : Node{true, truth[i]});
+    return out;
+  }
+  [[nodiscard]] std::vector<Range> ranges() const {
+    std::vector<Range> out;
+    for (const auto& [a, b] : links)
+      out.push_back({a, b, (truth[static_cast<std::size_t>(a)] - truth[static_cast<std::size_t>(b)]).norm(),
+                     kInformation});
+    return out;
+  }
+};
+
+/// The guesses of the agents to place: far off, and on the wrong side of every pair of known agents.
+std::vector<Vec2> bad_guesses() { return {{40, -30}, {-25, 40}, {10, -20}}; }
+
+TEST(DmlLocalMap, PlacesAnAgentOfAPocketFromAnyGuess) {
+  const Pocket pocket;
+  const auto placement = place(pocket.nodes(bad_guesses()), pocket.ranges(), 1e-3, 1.0);
+  ASSERT_TRUE(placement.has_value());
+  EXPECT_LT((placement->position_m - pocket.truth[0]).norm(), 1e-6);
+  EXPECT_FALSE(placement->alternative_m.has_value());
+}
+
+TEST(DmlLocalMap, RefusesAMapItsRangesContradict) {
+  Pocket pocket;
+  auto ranges = pocket.ranges();
+  ranges[6].range_m += 2.0;  // 20 σ off: no map fits
+  EXPECT_FALSE(place(pocket.nodes(bad_guesses()), ranges, 1e-3, 1.0).has_value());
+}
+
+TEST(DmlLocalMap, LeavesOutAnAgentHeldByTwoRanges) {
+  // Node 0 keeps only its ranges to nodes 1 and 2: it could sit on either side of their line.
+  Pocket pocket;
+  pocket.links = {{0, 1}, {0, 2}, {1, 4}, {1, 5}, {1, 3}, {2, 3}, {2, 4}, {1, 2}};
+  EXPECT_FALSE(place(pocket.nodes(bad_guesses()), pocket.ranges(), 1e-3, 1.0).has_value());
+}
+
+TEST(DmlLocalMap, GivesTheMirrorImageWhenTwoKnownAgentsHoldTheMap) {
+  // Without the third known agent the map fits both ways round across the line through the other two.
+  Pocket pocket;
+  pocket.truth.pop_back();
+  pocket.links = {{0, 3}, {1, 4}, {2, 3}, {2, 4}, {0, 1}, {1, 2}, {0, 2}};
+  const auto placement = place(pocket.nodes(bad_guesses()), pocket.ranges(), 1e-3, 1.0);
+  ASSERT_TRUE(placement.has_value());
+  ASSERT_TRUE(placement->alternative_m.has_value());
+  const Vec2 mirror(pocket.truth[0].x(), -pocket.truth[0].y());  // the known agents lie on the x axis
+  const bool truth_first = (placement->position_m - pocket.truth[0]).norm() < 1e-6;
+  EXPECT_LT(((truth_first ? *placement->alternative_m : placement->position_m) - mirror).norm(), 1e-6);
+  EXPECT_LT(((truth_first ? placement->position_m : *placement->alternative_m) - pocket.truth[0]).norm(),
+            1e-6);
+}
+
+TEST(DmlLocalMap, RefusesAPlaceLessCertainThanAsked) {
+  const Pocket pocket;
+  EXPECT_FALSE(place(pocket.nodes(bad_guesses()), pocket.ranges(), 1e-3, 1e-4).has_value());
+}
+
+}  // namespace
+}  // namespace swarmloc::estimators::local_map
