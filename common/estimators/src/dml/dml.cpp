@@ -253,6 +253,7 @@ std::optional<local_map::Placement> Dml::place_in_local_map() const {
     if (from != index.end() && to != index.end()) add_range(from->second, to->second, range_m, information);
   });
   std::vector<local_map::Range> ranges;
+  ranges.reserve(pairs.size());
   for (const auto& [ends, sums] : pairs)
     ranges.push_back({ends.first, ends.second, sums.second / sums.first, sums.first});
   return local_map::place(nodes, ranges, kLocalMapFalseAlarm,

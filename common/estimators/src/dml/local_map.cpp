@@ -137,40 +137,47 @@ double range_cost(const Coordinates& x, const std::vector<Range>& ranges) {
   return cost;
 }
 
+/// The Gauss–Newton normal equations of the range cost at `at`, over the unknown nodes' coordinates.
+void normal_equations(const Coordinates& at, const std::vector<Range>& ranges,
+                      const std::vector<int>& unknown_index, Eigen::Index size, MatX& hessian,
+                      VecX& gradient) {
+  hessian = MatX::Zero(size, size);
+  gradient = VecX::Zero(size);
+  for (const auto& range : ranges) {
+    const auto a = static_cast<std::size_t>(range.first);
+    const auto b = static_cast<std::size_t>(range.second);
+    const Vec2 offset = at[a] - at[b];
+    const double length = offset.norm();
+    if (length < kShortestRangeM) continue;
+    const Vec2 direction = offset / length;
+    const double residual = range.range_m - length;
+    const int ends[2] = {unknown_index[a], unknown_index[b]};
+    const double signs[2] = {1.0, -1.0};
+    for (int p = 0; p < 2; ++p) {
+      if (ends[p] < 0) continue;
+      gradient.segment<2>(2 * ends[p]) += signs[p] * range.information * residual * direction;
+      for (int q = 0; q < 2; ++q) {
+        if (ends[q] < 0) continue;
+        hessian.block<2, 2>(2 * ends[p], 2 * ends[q]) +=
+            signs[p] * signs[q] * range.information * direction * direction.transpose();
+      }
+    }
+  }
+}
+
 Refined refined(Coordinates x, const std::vector<Node>& nodes, const std::vector<Range>& ranges,
                 const std::vector<int>& unknown_index) {
   const auto size = static_cast<Eigen::Index>(
       2 * std::count_if(nodes.begin(), nodes.end(), [](const Node& n) { return !n.known; }));
-  const auto normal_equations = [&](const Coordinates& at, MatX& hessian, VecX& gradient) {
-    hessian = MatX::Zero(size, size);
-    gradient = VecX::Zero(size);
-    for (const auto& range : ranges) {
-      const auto a = static_cast<std::size_t>(range.first);
-      const auto b = static_cast<std::size_t>(range.second);
-      const Vec2 offset = at[a] - at[b];
-      const double length = offset.norm();
-      if (length < kShortestRangeM) continue;
-      const Vec2 direction = offset / length;
-      const double residual = range.range_m - length;
-      const int ends[2] = {unknown_index[a], unknown_index[b]};
-      const double signs[2] = {1.0, -1.0};
-      for (int p = 0; p < 2; ++p) {
-        if (ends[p] < 0) continue;
-        gradient.segment<2>(2 * ends[p]) += signs[p] * range.information * residual * direction;
-        for (int q = 0; q < 2; ++q) {
-          if (ends[q] < 0) continue;
-          hessian.block<2, 2>(2 * ends[p], 2 * ends[q]) +=
-              signs[p] * signs[q] * range.information * direction * direction.transpose();
-        }
-      }
-    }
+  const auto normal_equations_at = [&](const Coordinates& at, MatX& hessian, VecX& gradient) {
+    normal_equations(at, ranges, unknown_index, size, hessian, gradient);
   };
   double cost = range_cost(x, ranges);
   double damping = 1e-3;
   MatX hessian;
   VecX gradient;
   for (int iteration = 0; iteration < kRefineIterations; ++iteration) {
-    normal_equations(x, hessian, gradient);
+    normal_equations_at(x, hessian, gradient);
     const MatX damped =
         hessian + damping * MatX(hessian.diagonal().asDiagonal()) + 1e-12 * MatX::Identity(size, size);
     const VecX step = damped.ldlt().solve(gradient);
@@ -190,7 +197,7 @@ Refined refined(Coordinates x, const std::vector<Node>& nodes, const std::vector
       if (damping > 1e9) break;
     }
   }
-  normal_equations(x, hessian, gradient);
+  normal_equations_at(x, hessian, gradient);
   return {std::move(x), cost, std::move(hessian)};
 }
 
