@@ -51,7 +51,8 @@ class TwoHopPositions {
 /// plays no part).
 class RelayedRanges {
  public:
-  /// Keeps `sender`'s summaries that carry a peer's mean (not the sender's own mean, its "unknown").
+  /// Keeps `sender`'s summaries: with the peer's mean where they carry one (not the sender's own mean, its
+  /// "unknown"), else the range alone (for local maps only).
   void absorb(AgentId self, AgentId sender, const Vec2& sender_mean_m,
               const std::vector<EdgeRangeSummary>& summaries);
   /// Calls visit(p, q, information) for what agent ids[p] relayed of its own draws of its range to

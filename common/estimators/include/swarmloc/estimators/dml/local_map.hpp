@@ -31,10 +31,10 @@ struct Placement {
 };
 
 /// Node 0's place, or nothing if the map does not fix it. Nodes to place that keep fewer than three ranges
-/// are left out (they could flip); then node 0 must be in the map, with two known nodes (with two, every
-/// map has a mirror image across the line through them), every node
-/// reached by a range, more ranges than coordinates to fit, a fit that passes a χ² test at `false_alarm`
-/// and a standard deviation of node 0 of at most `max_std_m`.
+/// are left out (they could flip). Then node 0 must be in the map, the map must hold two known nodes (with
+/// two, every map has a mirror image across the line through them), reach every node by its ranges, have
+/// more ranges than coordinates to fit, fit them within a χ² test at `false_alarm`, and fix node 0 to a
+/// standard deviation of at most `max_std_m`.
 std::optional<Placement> place(const std::vector<Node>& nodes, const std::vector<Range>& ranges,
                                double false_alarm, double max_std_m);
 
