@@ -308,6 +308,30 @@ TEST(Dml, APocketNoAgentOfWhichHearsThreeAnchorsPlacesItselfFromItsLocalMap) {
   }
 }
 
+TEST(Dml, AnUndecidedPocketStartsFromTheMapPlaceNearerItsGuess) {
+  // Only two anchors hold the pocket (agents 2–4): its mirror image across their line fits every range, and
+  // without a radius the graph cannot rule it out. When the guesses must pick (after 150 steps), each agent
+  // takes the place its map gives nearer its guess, flagged as an ambiguous start. Agents 2 and 3 hear one
+  // anchor each: the point their guesses pick on that anchor's circle is 3.7 m off, and from there the pocket
+  // is still 0.8 m off ten steps later.
+  DmlNetwork net;
+  net.truth = {{0, 0}, {20, 0}, {6, 5}, {14, 5}, {10, 11}};
+  net.anchor = {true, true, false, false, false};
+  net.edges = {{2, 0}, {3, 1}, {4, 0}, {4, 1}, {2, 3}, {3, 4}, {2, 4}};
+  const std::vector<Vec2> guesses = {net.truth[0], net.truth[1], Vec2(9.0, 2.0), Vec2(11.0, 2.0),
+                                     Vec2(10.0, 8.0)};
+  std::mt19937_64 rng(29);
+  DrawLog log;
+  DmlRounds pocket(net, guesses, std::numeric_limits<double>::infinity());
+  pocket.run(3 * static_cast<int>(Dml::kInitializationPatienceSteps) + 10, 0, rng, log);
+  for (int i = 2; i < 5; ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_TRUE(pocket.estimate(i).valid);
+    EXPECT_TRUE(pocket.estimate(i).inconsistent);
+    EXPECT_LT((pocket.estimate(i).mean_m - net.truth[static_cast<std::size_t>(i)]).norm(), 0.1);
+  }
+}
+
 TEST(Dml, SelfCheckFlagsASolutionTheGraphContradicts) {
   // Agent 3 multilaterates from three anchors, but anchor 4 (relayed by anchor 0, not heard by agent 3)
   // lies 13.2 m from it: with a declared radius of 15 m the graph says it is farther. Its ranges fit.

@@ -260,17 +260,18 @@ std::optional<local_map::Placement> Dml::place_in_local_map() const {
                           kMultilaterationSpreadFraction * shortest_range_m);
 }
 
-std::optional<Vec2> Dml::start_from_local_map() const {
+std::optional<Dml::MapStart> Dml::start_from_local_map() const {
   const auto mapped = place_in_local_map();
   if (!mapped) return std::nullopt;
-  if (!mapped->alternative_m) return mapped->position_m;
+  if (!mapped->alternative_m) return MapStart{mapped->position_m, true};
   // Two maps fit the ranges: the graph may rule one out, as it does for a start from two references.
   const double margin = two_hop_.margin_m();
   const double here = impossibility(mapped->position_m);
   const double there = impossibility(*mapped->alternative_m);
-  if (here <= 0.0 && there > margin) return mapped->position_m;
-  if (there <= 0.0 && here > margin) return *mapped->alternative_m;
-  return std::nullopt;
+  if (here <= 0.0 && there > margin) return MapStart{mapped->position_m, true};
+  if (there <= 0.0 && here > margin) return MapStart{*mapped->alternative_m, true};
+  const bool first_nearer = (mapped->position_m - x_).norm() <= (*mapped->alternative_m - x_).norm();
+  return MapStart{first_nearer ? mapped->position_m : *mapped->alternative_m, false};
 }
 
 void Dml::start(const std::vector<Reference>& refs) {
@@ -282,10 +283,12 @@ void Dml::start(const std::vector<Reference>& refs) {
   const auto guessed = start_from_guess(refs);
   if (steps_ > kInitializationPatienceSteps && (!guessed || guessed->ambiguous)) {
     // The wave has not reached this agent, or reached it from one side only: its neighbourhood's map may
-    // fix it where no single neighbour's ranges do.
-    if (const auto mapped = start_from_local_map()) {
-      x_ = solve_position(*mapped, refs);
-      ambiguous_start_ = false;
+    // fix it where no single neighbour's ranges do. An undecided map still fits every range of the
+    // neighbourhood: when the guess has to pick now, it picks between the map's two places, not a point on
+    // one reference's circle.
+    if (const auto mapped = start_from_local_map(); mapped && (mapped->decided || guessed)) {
+      x_ = solve_position(mapped->position_m, refs);
+      ambiguous_start_ = !mapped->decided;
       hinge_.reset();
       localized_ = true;
       return;

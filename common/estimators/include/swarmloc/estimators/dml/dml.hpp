@@ -79,7 +79,12 @@ class Dml final : public Estimator {
   void check_mirror();
   [[nodiscard]] std::optional<GuessedStart> start_from_guess(const std::vector<Reference>& refs) const;
   [[nodiscard]] std::optional<local_map::Placement> place_in_local_map() const;
-  [[nodiscard]] std::optional<Vec2> start_from_local_map() const;
+  struct MapStart {
+    Vec2 position_m;
+    bool
+        decided;  // false: a mirror image fits too and the graph cannot rule it out (the nearer to the guess)
+  };
+  [[nodiscard]] std::optional<MapStart> start_from_local_map() const;
   /// Localizes the agent if it can: multilateration, a start the guess or the graph decides, its local map,
   /// and last an ambiguous start from the guess.
   void start(const std::vector<Reference>& refs);
