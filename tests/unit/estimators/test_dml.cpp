@@ -286,6 +286,16 @@ TEST(Dml, NegativeConnectivityTellsAMirrorPairApart) {
   EXPECT_TRUE(graph_unknown.estimate(2).inconsistent);
 }
 
+/// Agents `first` onward (the pocket) each hold a valid estimate within 0.1 m of the truth, flagged or not.
+void expect_pocket_placed(const DmlRounds& rounds, const DmlNetwork& net, int first, bool flagged) {
+  for (int i = first; i < static_cast<int>(net.truth.size()); ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_TRUE(rounds.estimate(i).valid);
+    EXPECT_EQ(rounds.estimate(i).inconsistent, flagged);
+    EXPECT_LT((rounds.estimate(i).mean_m - net.truth[static_cast<std::size_t>(i)]).norm(), 0.1);
+  }
+}
+
 TEST(Dml, APocketNoAgentOfWhichHearsThreeAnchorsPlacesItselfFromItsLocalMap) {
   // Agents 3–5 each hear two anchors and each other: no one multilaterates, and with guesses that say
   // nothing each would wait out its patience and start from a guess on a mirror pair. Their neighbourhood's
@@ -300,12 +310,7 @@ TEST(Dml, APocketNoAgentOfWhichHearsThreeAnchorsPlacesItselfFromItsLocalMap) {
   DmlRounds pocket(net, {net.truth[0], net.truth[1], net.truth[2], centre, centre, centre},
                    std::numeric_limits<double>::infinity());
   pocket.run(static_cast<int>(Dml::kInitializationPatienceSteps) + 10, 0, rng, log);
-  for (int i = 3; i < 6; ++i) {
-    SCOPED_TRACE(i);
-    ASSERT_TRUE(pocket.estimate(i).valid);
-    EXPECT_FALSE(pocket.estimate(i).inconsistent);
-    EXPECT_LT((pocket.estimate(i).mean_m - net.truth[static_cast<std::size_t>(i)]).norm(), 0.1);
-  }
+  expect_pocket_placed(pocket, net, 3, false);
 }
 
 TEST(Dml, AnUndecidedPocketStartsFromTheMapPlaceNearerItsGuess) {
@@ -324,12 +329,7 @@ TEST(Dml, AnUndecidedPocketStartsFromTheMapPlaceNearerItsGuess) {
   DrawLog log;
   DmlRounds pocket(net, guesses, std::numeric_limits<double>::infinity());
   pocket.run(3 * static_cast<int>(Dml::kInitializationPatienceSteps) + 10, 0, rng, log);
-  for (int i = 2; i < 5; ++i) {
-    SCOPED_TRACE(i);
-    ASSERT_TRUE(pocket.estimate(i).valid);
-    EXPECT_TRUE(pocket.estimate(i).inconsistent);
-    EXPECT_LT((pocket.estimate(i).mean_m - net.truth[static_cast<std::size_t>(i)]).norm(), 0.1);
-  }
+  expect_pocket_placed(pocket, net, 2, true);
 }
 
 TEST(Dml, SelfCheckFlagsASolutionTheGraphContradicts) {
