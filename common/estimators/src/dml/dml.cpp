@@ -208,13 +208,8 @@ std::optional<Dml::GuessedStart> Dml::start_from_guess(const std::vector<Referen
   const Vec2 right = foot - across * Vec2(-e.y(), e.x());
   const auto hinge = std::pair{first.id, second.id};
   // The graph: a member that lands within the radius of an agent this one does not hear is impossible.
-  const double margin = two_hop_.margin_m();
-  const double left_inside = impossibility(left);
-  const double right_inside = impossibility(right);
-  if (left_inside > margin && right_inside <= 0.0)
-    return GuessedStart{solve_position(right, refs), false, hinge};
-  if (right_inside > margin && left_inside <= 0.0)
-    return GuessedStart{solve_position(left, refs), false, hinge};
+  if (const auto allowed = allowed_by_graph(left, right))
+    return GuessedStart{solve_position(*allowed == 0 ? left : right, refs), false, hinge};
   const bool distinguishable = 2.0 * across > kMirrorSeparationSigmas * setup_.initial_guess_std_m;
   if (!distinguishable && !out_of_patience) return std::nullopt;
   return GuessedStart{solve_position((left - x_).norm() <= (right - x_).norm() ? left : right, refs),
@@ -265,11 +260,8 @@ std::optional<Dml::MapStart> Dml::start_from_local_map() const {
   if (!mapped) return std::nullopt;
   if (!mapped->alternative_m) return MapStart{mapped->position_m, true};
   // Two maps fit the ranges: the graph may rule one out, as it does for a start from two references.
-  const double margin = two_hop_.margin_m();
-  const double here = impossibility(mapped->position_m);
-  const double there = impossibility(*mapped->alternative_m);
-  if (here <= 0.0 && there > margin) return MapStart{mapped->position_m, true};
-  if (there <= 0.0 && here > margin) return MapStart{*mapped->alternative_m, true};
+  if (const auto allowed = allowed_by_graph(mapped->position_m, *mapped->alternative_m))
+    return MapStart{*allowed == 0 ? mapped->position_m : *mapped->alternative_m, true};
   const bool first_nearer = (mapped->position_m - x_).norm() <= (*mapped->alternative_m - x_).norm();
   return MapStart{first_nearer ? mapped->position_m : *mapped->alternative_m, false};
 }
@@ -306,6 +298,15 @@ double Dml::penetration(const Vec2& x) const {
   return two_hop_.penetration(x, [this](AgentId id) { return id == setup_.id || edges_.contains(id); });
 }
 
+std::optional<int> Dml::allowed_by_graph(const Vec2& first, const Vec2& second) const {
+  const double margin = two_hop_.margin_m();
+  const double first_inside = impossibility(first);
+  const double second_inside = impossibility(second);
+  if (first_inside <= 0.0 && second_inside > margin) return 0;
+  if (second_inside <= 0.0 && first_inside > margin) return 1;
+  return std::nullopt;
+}
+
 double Dml::impossibility(const Vec2& x) const {
   const double through_neighbours = relays_.violation(x, [this](AgentId via) {
     const auto edge = edges_.find(via);
@@ -335,17 +336,11 @@ void Dml::check_mirror() {
   // the start (the mirror image is impossible), or moves the agent to the mirror image (this one is).
   const auto mirror = mirror_of_current();
   if (!mirror) return;
-  const double margin = two_hop_.margin_m();
-  const double here = impossibility(x_);
-  const double there = impossibility(*mirror);
-  if (there > margin && here <= 0.0) {
-    ambiguous_start_ = false;
-    hinge_.reset();
-  } else if (here > margin && there <= 0.0) {
-    x_ = solve_position(*mirror, references());
-    ambiguous_start_ = false;
-    hinge_.reset();
-  }
+  const auto allowed = allowed_by_graph(x_, *mirror);
+  if (!allowed) return;
+  if (*allowed == 1) x_ = solve_position(*mirror, references());
+  ambiguous_start_ = false;
+  hinge_.reset();
 }
 
 void Dml::update_information() {

@@ -75,6 +75,9 @@ class Dml final : public Estimator {
   [[nodiscard]] double penetration(const Vec2& x) const;
   /// How far `x` contradicts the graph or the ranges through a neighbour (> margin: impossible).
   [[nodiscard]] double impossibility(const Vec2& x) const;
+  /// Of two places (a mirror pair), the one the graph allows when it rules the other out (0: first, 1:
+  /// second); nothing when it decides neither.
+  [[nodiscard]] std::optional<int> allowed_by_graph(const Vec2& first, const Vec2& second) const;
   [[nodiscard]] std::optional<Vec2> mirror_of_current() const;
   void check_mirror();
   [[nodiscard]] std::optional<GuessedStart> start_from_guess(const std::vector<Reference>& refs) const;
