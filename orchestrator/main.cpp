@@ -159,6 +159,7 @@ int execute_run(const RunCommand& run, const SharedFlags& shared, const char* ar
 struct SimCommand {
   CLI::App* command = nullptr;
   int trials = 1;
+  int trial = -1;
   int threads = 0;
   std::vector<int> hostile;
   int view_port = -1;
@@ -180,6 +181,13 @@ void add_sim_command(CLI::App& app, SharedFlags& shared, SimCommand& sim) {
                    "Monte Carlo trials (fixed configuration; noise, initial guesses and loss per trial)")
       ->check(kPositiveInteger);
   command
+      ->add_option(
+          "--trial", sim.trial,
+          "Run only trial K of a Monte Carlo set (0 = the first; its row in trials.csv) and write its "
+          "run directory in full")
+      ->check(CLI::NonNegativeNumber)
+      ->excludes("--trials");
+  command
       ->add_option("--threads", sim.threads,
                    "Worker threads: trials with --trials (default: every core), else the agents of one round "
                    "(default: every core from 1000 agents on, else 1; results do not depend on it)")
@@ -198,6 +206,7 @@ int execute_sim(const SimCommand& sim, const SharedFlags& shared) {
   options.out_dir = shared.out_dir;
   options.progress = !shared.quiet;
   options.trials = sim.trials;
+  if (sim.trial >= 0) options.trial = static_cast<std::uint64_t>(sim.trial);
   options.threads = sim.threads;
   options.view_port = sim.view_port;
   options.view_hold_s = sim.view_hold;

@@ -43,6 +43,8 @@ struct SimCommandOptions {
   std::filesystem::path out_dir;
   bool force = false;  ///< --force: a non-empty out_dir holding an earlier run is cleared
   bool progress = true;
+  /// A single run: which Monte Carlo trial it is (`--trial`; its row in trials.csv).
+  std::uint64_t trial = 0;
   int trials = 1;      ///< > 1: Monte Carlo over every core
   int threads = 0;     ///< trials (0 = every core), or one run's rounds (SimOptions::round_threads; 0 =
                        ///< auto_round_threads)

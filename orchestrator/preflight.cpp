@@ -32,8 +32,9 @@ void check_hostile_ids(const std::vector<AgentId>& hostile_agents, const config:
   }
 }
 
-world::World check_runnable(const config::Scenario& scenario, const world::WorkControl& control) {
-  auto world = world::build_world(scenario, 0, -1, control);
+world::World check_runnable(const config::Scenario& scenario, const world::WorkControl& control,
+                            std::uint64_t trial) {
+  auto world = world::build_world(scenario, trial, -1, control);
   try {
     (void)runtime::make_agent_estimator(scenario,
                                         run::agent_manifest(run::shared_manifest(scenario, world), world, 0));

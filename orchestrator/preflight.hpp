@@ -20,7 +20,8 @@ void check_hostile_ids(const std::vector<AgentId>& hostile_agents, const config:
 /// Builds the world and one agent's estimator, so that an unplaceable world or an algorithm this runtime
 /// cannot run yet is reported as bad input naming the key. Returns the world, for the run to use rather
 /// than build it again (minutes at 10^5 agents). `control`: progress and Ctrl-C while building (throws
-/// world::Cancelled).
-world::World check_runnable(const config::Scenario& scenario, const world::WorkControl& control = {});
+/// world::Cancelled). `trial`: the Monte Carlo trial whose world it is (World::trial).
+world::World check_runnable(const config::Scenario& scenario, const world::WorkControl& control = {},
+                            std::uint64_t trial = 0);
 
 }  // namespace swarmloc::orchestrator

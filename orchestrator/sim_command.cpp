@@ -89,6 +89,10 @@ int check_options(const config::Scenario& scenario, const SimCommandOptions& opt
     std::fprintf(stderr, "error: --hostile is for single runs; it cannot be combined with --trials\n");
     return 2;
   }
+  if (options.trial > 0 && options.trials > 1) {
+    std::fprintf(stderr, "error: --trial runs one trial; it cannot be combined with --trials\n");
+    return 2;
+  }
   if ((options.record || options.recorded) && options.trials > 1) {
     std::fprintf(stderr,
                  "error: --record and replay are single runs; they cannot be combined with --trials\n");
@@ -224,6 +228,7 @@ sim::SimOptions single_run_options(const SimCommand& command,
   sim::SimOptions sim_options;
   // Results are identical for any count; unasked, large worlds use every core (auto_round_threads).
   sim_options.round_threads = options.threads;
+  sim_options.trial = options.trial;
   sim_options.hostile_agents = options.hostile_agents;
   sim_options.recorded = options.recorded;
   sim_options.control = command.control;
@@ -291,6 +296,7 @@ int run_single(const SimCommand& command, world::World& world, LiveView* view) {
         {"sample_log", std::string(rundir::kSampleLogDirectory) + "/" + rundir::kSimSampleLogFile},
         {"samples", recorder->samples()}};
   }
+  if (options.trial > 0) record.extra["trial"] = options.trial;  // with the seed, what reproduces it
   for (const auto& [key, value] : options.summary_extra.items()) record.extra[key] = value;
   {
     const SlowPhaseNotice notice(options.progress, "writing the run directory");
@@ -332,7 +338,7 @@ int run_sim_command(config::Scenario scenario, const SimCommandOptions& options)
     rundir::prepare_run_directory(run_dir, options.force);
     // The world is built once (the check's world is the run's), after the run directory is known to be
     // writable: a bad --out is reported at once, not after minutes of work.
-    world::World world = check_runnable(scenario, control);
+    world::World world = check_runnable(scenario, control, options.trial);
     std::unique_ptr<LiveView> view;
     if (options.view_port >= 0) view = start_view(scenario, world, options);
     if (options.trials > 1) {

@@ -10,12 +10,15 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -230,7 +233,8 @@ TEST(Cli, BadNumbersAreBadInputNamingTheFlag) {
   const std::vector<std::vector<std::string>> bad{
       {"sim", kScenario, "--view-hold", "nan"},  {"sim", kScenario, "--view-hold", "-1"},
       {"run", kScenario, "--view-hold", "-inf"}, {"reproduce", "ea1", "--trials", "-3"},
-      {"reproduce", "ea1", "--trials", "0"},     {"sim", kScenario, "--trials", "0"}};
+      {"reproduce", "ea1", "--trials", "0"},     {"sim", kScenario, "--trials", "0"},
+      {"sim", kScenario, "--trial", "-1"}};
   for (const auto& args : bad) {
     // The paper reproductions live in swarmloc-research, with the same flag rules.
     const std::string binary = args[0] == "reproduce" ? SWARMLOC_RESEARCH_BINARY : kBinary;
@@ -238,6 +242,49 @@ TEST(Cli, BadNumbersAreBadInputNamingTheFlag) {
     EXPECT_EQ(outcome.exit_code, 2) << args[2] << " " << args[3] << "\n" << outcome.output;
     EXPECT_NE(outcome.output.find(args[2]), std::string::npos) << outcome.output;
   }
+}
+
+/// The column `column` of trials.csv's row for `trial` in `directory`.
+double trials_csv_value(const fs::path& directory, int trial, std::size_t column) {
+  std::ifstream in(directory / "trials.csv");
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::vector<std::string> fields;
+    std::stringstream row(line);
+    for (std::string field; std::getline(row, field, ',');) fields.push_back(field);
+    if (fields.size() > column && std::stoi(fields[0]) == trial) return std::stod(fields[column]);
+  }
+  return std::nan("");
+}
+
+TEST(Cli, OneTrialOfAMonteCarloSetIsItsRowRunInFull) {
+  const auto cwd = fresh_directory("cli-trial");
+  // Agent clocks and loss: the simulator that builds its own world and draws loss and latency per trial.
+  std::vector<std::string> common{"sim", kScenario, "-q"};
+  for (const char* key : {"run.steps=12", "run.sim_clock=agents", "network.loss=0.2", "network.jitter_ms=40"})
+    common.insert(common.end(), {"--set", key});
+  auto monte_carlo = common;
+  monte_carlo.insert(monte_carlo.end(), {"--trials", "3", "--out", (cwd / "mc").string()});
+  ASSERT_EQ(swarmloc(monte_carlo, cwd).exit_code, 0);
+  for (const int trial : {0, 2}) {
+    auto single = common;
+    const auto out = cwd / ("trial" + std::to_string(trial));
+    single.insert(single.end(), {"--trial", std::to_string(trial), "--out", out.string()});
+    const auto outcome = swarmloc(single, cwd);
+    ASSERT_EQ(outcome.exit_code, 0) << outcome.output;
+    const auto summary = nlohmann::json::parse(read_text(out / "summary.json"));
+    const double row_rmse = trials_csv_value(cwd / "mc", trial, 1);
+    EXPECT_NEAR(summary["final"]["rmse_m"].get<double>(), row_rmse, 1e-8 * row_rmse) << "trial " << trial;
+    EXPECT_EQ(summary.contains("trial"), trial > 0) << "the first trial is the plain run";
+    EXPECT_TRUE(fs::exists(out / "estimates.csv"));
+  }
+  EXPECT_NE(trials_csv_value(cwd / "mc", 0, 1), trials_csv_value(cwd / "mc", 2, 1)) << "trials differ";
+  auto both = common;
+  both.insert(both.end(), {"--trial", "1", "--trials", "3", "--out", (cwd / "both").string()});
+  const auto refused = swarmloc(both, cwd);
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("--trial"), std::string::npos) << refused.output;
 }
 
 }  // namespace
