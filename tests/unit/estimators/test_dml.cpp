@@ -332,6 +332,32 @@ TEST(Dml, AnUndecidedPocketStartsFromTheMapPlaceNearerItsGuess) {
   expect_pocket_placed(pocket, net, 2, true);
 }
 
+TEST(Dml, AGroupRigidOnlyWithItsNeighboursNeighboursReportsTheMarginalOfItsLocalMap) {
+  // Agents 2–4 range to each other; anchor 0 holds 2 and 3, anchor 1 holds 4. Each agent has one rank-one
+  // message from an anchor and none from the others (no one of them has a belief to send), so belief
+  // propagation never gives one of them a belief. Each one's local map holds the whole network (anchor 1
+  // through agent 4's relays): the covariance it reports is the exact marginal, linearized at its estimates
+  // (within 1 %; at the batch solution it would be equal).
+  DmlNetwork net;
+  net.truth = {{0, 0}, {30, 2}, {8, 6}, {12, 4}, {11, 10}};
+  net.anchor = {true, true, false, false, false};
+  net.edges = {{2, 0}, {3, 0}, {4, 1}, {2, 3}, {3, 4}, {2, 4}};
+  std::mt19937_64 rng(31);
+  DrawLog log;
+  DmlRounds rounds(net, guesses_near_truth(net), 0.5);
+  rounds.run(3 * static_cast<int>(Dml::kInitializationPatienceSteps) + 20, 60, rng, log);
+  const MatX exact = batch_ml(net, log).second.inverse();
+  for (int i = 2; i < 5; ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_GT(rounds.published_covariance(i).trace(), 1e6) << "belief propagation gives it no belief";
+    ASSERT_TRUE(rounds.estimate(i).valid);
+    const Mat2 expected = exact.block<2, 2>(2 * (i - 2), 2 * (i - 2));
+    EXPECT_LT((rounds.estimate(i).covariance - expected).norm(), 1e-2 * expected.norm())
+        << rounds.estimate(i).covariance << "\n"
+        << expected;
+  }
+}
+
 TEST(Dml, SelfCheckFlagsASolutionTheGraphContradicts) {
   // Agent 3 multilaterates from three anchors, but anchor 4 (relayed by anchor 0, not heard by agent 3)
   // lies 13.2 m from it: with a declared radius of 15 m the graph says it is farther. Its ranges fit.

@@ -78,5 +78,49 @@ TEST(DmlLocalMap, RefusesAPlaceLessCertainThanAsked) {
   EXPECT_FALSE(place(pocket.nodes(bad_guesses()), pocket.ranges(), 1e-3, 1e-4).has_value());
 }
 
+/// Σ W aaᵀ over the ranges, over the coordinates of the first `unknowns` nodes (the others held).
+MatX fisher_information(const std::vector<Vec2>& x, const std::vector<std::pair<int, int>>& links,
+                        int unknowns) {
+  MatX information = MatX::Zero(2 * unknowns, 2 * unknowns);
+  for (const auto& [a, b] : links) {
+    const Vec2 u = (x[static_cast<std::size_t>(a)] - x[static_cast<std::size_t>(b)]).normalized();
+    const Mat2 block = kInformation * u * u.transpose();
+    if (a < unknowns) information.block<2, 2>(2 * a, 2 * a) += block;
+    if (b < unknowns) information.block<2, 2>(2 * b, 2 * b) += block;
+    if (a < unknowns && b < unknowns) {
+      information.block<2, 2>(2 * a, 2 * b) -= block;
+      information.block<2, 2>(2 * b, 2 * a) -= block;
+    }
+  }
+  return information;
+}
+
+TEST(DmlLocalMap, CovarianceIsTheInverseFisherInformationOfTheAgentsToPlace) {
+  Pocket pocket;
+  const Mat2 expected = fisher_information(pocket.truth, pocket.links, 3).inverse().topLeftCorner<2, 2>();
+  // A fourth agent to place, held by one range to node 0 only: it turns freely about node 0 and tells no
+  // one anything, so it changes nothing (it is left out, not a singular block).
+  auto nodes = pocket.nodes({pocket.truth[0], pocket.truth[1], pocket.truth[2]});
+  nodes.push_back({false, Vec2(3.0, 9.0)});
+  auto ranges = pocket.ranges();
+  ranges.push_back({0, 6, 5.0, kInformation});
+  const auto covariance = covariance_at(nodes, ranges);
+  ASSERT_TRUE(covariance.has_value());
+  EXPECT_LT((*covariance - expected).norm(), 1e-9 * expected.norm());
+}
+
+TEST(DmlLocalMap, GivesNoCovarianceWhereTheMapTurnsAboutOneKnownAgent) {
+  // Only node 3 known: the pocket, rigid in itself, can turn about it.
+  Pocket pocket;
+  pocket.links = {{0, 3}, {1, 3}, {2, 3}, {0, 1}, {1, 2}, {0, 2}};
+  EXPECT_FALSE(
+      covariance_at(pocket.nodes({pocket.truth[0], pocket.truth[1], pocket.truth[2]}), pocket.ranges())
+          .has_value());
+  pocket.links.emplace_back(2, 4);  // a second known agent stops the turn
+  EXPECT_TRUE(
+      covariance_at(pocket.nodes({pocket.truth[0], pocket.truth[1], pocket.truth[2]}), pocket.ranges())
+          .has_value());
+}
+
 }  // namespace
 }  // namespace swarmloc::estimators::local_map

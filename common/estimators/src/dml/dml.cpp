@@ -55,6 +55,12 @@ double far_cavity_variance(const Mat2& covariance, const Vec2& a, double sent_sc
 
 bool exactly_known(const StateMessage& state) { return state.anchor && state.covariance.isZero(); }
 
+/// The sender published a covariance: exactly known, or a belief (not the undefined one).
+bool has_belief(const StateMessage& state) {
+  return exactly_known(state) ||
+         (positive_definite(state.covariance) && state.covariance.trace() < kUndefinedVarianceM2);
+}
+
 }  // namespace
 
 double Dml::Edge::mean_range_m() const {
@@ -216,27 +222,35 @@ std::optional<Dml::GuessedStart> Dml::start_from_guess(const std::vector<Referen
                       !distinguishable, hinge};
 }
 
-std::optional<local_map::Placement> Dml::place_in_local_map() const {
-  std::vector<local_map::Node> nodes{{false, x_}};
+Dml::LocalMap Dml::draw_local_map(bool beliefs_only) const {
+  LocalMap map;
+  map.nodes.push_back({false, x_});
   std::map<AgentId, int> index{{setup_.id, 0}};
   const auto add_node = [&](AgentId id, bool known, const Vec2& position) {
-    const auto [at, added] = index.emplace(id, static_cast<int>(nodes.size()));
-    if (added) nodes.push_back({known, position});
+    const auto [at, added] = index.emplace(id, static_cast<int>(map.nodes.size()));
+    if (added) map.nodes.push_back({known, position});
     return at->second;
   };
-  std::map<std::pair<int, int>, std::pair<double, double>> pairs;  // information, Σ W·r
-  const auto add_range = [&pairs](int a, int b, double range_m, double information) {
-    auto& [total, weighted] = pairs[std::minmax(a, b)];
-    total += information;
-    weighted += information * range_m;
+  struct Sums {
+    double information = 0.0;
+    double weighted_range = 0.0;  // Σ W·r
+    int halves = 0;               // the ends whose draws are in (each relays only its own)
   };
-  double shortest_range_m = kInfinity;
+  std::map<std::pair<int, int>, Sums> pairs;
+  const auto add_range = [&pairs](int a, int b, double range_m, double information, int halves) {
+    Sums& sums = pairs[std::minmax(a, b)];
+    sums.information += information;
+    sums.weighted_range += information * range_m;
+    sums.halves += halves;
+  };
   for (const auto& [id, edge] : edges_) {
     if (!(edge.information() > 0.0)) continue;
+    if (beliefs_only && !edge.usable()) continue;  // no place to linearize at
     // A neighbour's own flag puts its position in doubt: the map places it instead of holding it.
-    const bool known = edge.usable() && !edge.state.inconsistent;
-    add_range(0, add_node(id, known, edge.state.mean_m), edge.mean_range_m(), edge.information());
-    shortest_range_m = std::min(shortest_range_m, edge.mean_range_m());
+    const bool known = edge.usable() && !edge.state.inconsistent && (!beliefs_only || has_belief(edge.state));
+    add_range(0, add_node(id, known, edge.state.mean_m), edge.mean_range_m(), edge.information(),
+              edge.peer_information > 0.0 ? 2 : 1);
+    map.shortest_range_m = std::min(map.shortest_range_m, edge.mean_range_m());
   }
   // Agents two hops away enter only where a neighbour knows their position.
   relays_.for_each_range([&](AgentId, AgentId peer, double, double, const Vec2* peer_mean) {
@@ -245,14 +259,29 @@ std::optional<local_map::Placement> Dml::place_in_local_map() const {
   relays_.for_each_range([&](AgentId via, AgentId peer, double range_m, double information, const Vec2*) {
     const auto from = index.find(via);
     const auto to = index.find(peer);
-    if (from != index.end() && to != index.end()) add_range(from->second, to->second, range_m, information);
+    if (from != index.end() && to != index.end())
+      add_range(from->second, to->second, range_m, information, 1);
   });
-  std::vector<local_map::Range> ranges;
-  ranges.reserve(pairs.size());
-  for (const auto& [ends, sums] : pairs)
-    ranges.push_back({ends.first, ends.second, sums.second / sums.first, sums.first});
-  return local_map::place(nodes, ranges, kLocalMapFalseAlarm,
-                          kMultilaterationSpreadFraction * shortest_range_m);
+  map.ranges.reserve(pairs.size());
+  for (const auto& [ends, sums] : pairs) {
+    // For the covariance, one end's draws stand for both (the other end relays to its own neighbours only),
+    // as in the region correction (§9.3); the start's map keeps what it has.
+    const double scale = beliefs_only && sums.halves == 1 ? 2.0 : 1.0;
+    map.ranges.push_back(
+        {ends.first, ends.second, sums.weighted_range / sums.information, scale * sums.information});
+  }
+  return map;
+}
+
+std::optional<Mat2> Dml::map_covariance() const {
+  const LocalMap map = draw_local_map(true);
+  return local_map::covariance_at(map.nodes, map.ranges);
+}
+
+std::optional<local_map::Placement> Dml::place_in_local_map() const {
+  const LocalMap map = draw_local_map(false);
+  return local_map::place(map.nodes, map.ranges, kLocalMapFalseAlarm,
+                          kMultilaterationSpreadFraction * map.shortest_range_m);
 }
 
 std::optional<Dml::MapStart> Dml::start_from_local_map() const {
@@ -446,7 +475,9 @@ StepOutput Dml::step(const StepInput& input) {
     if (hinge_) check_mirror();
     x_ = solve_position(x_, refs);
     update_information();
-    reported_covariance_ = positive_definite(information_) ? region_covariance() : std::nullopt;
+    // Belief propagation leaves an agent without a belief where its neighbours have none either (a group
+    // rigid only with agents two hops away): its local map gives the covariance then.
+    reported_covariance_ = positive_definite(information_) ? region_covariance() : map_covariance();
     int dof = 0;
     const double statistic = residual_statistic(dof);
     inconsistent_ = (dof > 0 && statistic > chi_square_upper_quantile(dof, kSelfCheckFalseAlarm)) ||
@@ -513,7 +544,8 @@ Estimate Dml::estimate() const {
   estimate.mean_m = x_;
   const StateMessage state = state_message();
   estimate.covariance = reported_covariance_.value_or(state.covariance);
-  estimate.valid = exact_anchor() || (localized_ && positive_definite(information_));
+  estimate.valid =
+      exact_anchor() || (localized_ && (positive_definite(information_) || reported_covariance_));
   estimate.inconsistent = inconsistent_ || ambiguous_start_ || doubtful_support_;
   return estimate;
 }

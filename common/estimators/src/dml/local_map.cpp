@@ -14,6 +14,7 @@ constexpr double kUnreached = std::numeric_limits<double>::infinity();
 constexpr int kRefineIterations = 40;
 constexpr double kShortestRangeM = 1e-9;
 constexpr double kSeparationSigmas = 6.0;  // two fitting maps this far apart place the agent differently
+constexpr double kSingularPivot = 1e-12;   // relative to the largest: a map that does not fix a node
 
 using Coordinates = std::vector<Vec2>;
 
@@ -201,7 +202,66 @@ Refined refined(Coordinates x, const std::vector<Node>& nodes, const std::vector
   return {std::move(x), cost, std::move(hessian)};
 }
 
+/// The nodes a linearized map keeps: every known node, and the nodes to place that keep two ranges to kept
+/// nodes (one held by a single range turns freely about its other end and informs no one).
+std::vector<bool> held_by_two(const std::vector<Node>& nodes, const std::vector<Range>& ranges) {
+  std::vector<bool> kept(nodes.size(), true);
+  for (bool changed = true; changed;) {
+    changed = false;
+    std::vector<int> degree(nodes.size(), 0);
+    for (const auto& range : ranges) {
+      const auto a = static_cast<std::size_t>(range.first);
+      const auto b = static_cast<std::size_t>(range.second);
+      if (kept[a] && kept[b]) {
+        ++degree[a];
+        ++degree[b];
+      }
+    }
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      if (kept[i] && !nodes[i].known && degree[i] < 2) {
+        kept[i] = false;
+        changed = true;
+      }
+    }
+  }
+  return kept;
+}
+
 }  // namespace
+
+std::optional<Mat2> covariance_at(const std::vector<Node>& nodes, const std::vector<Range>& ranges) {
+  if (nodes.empty() || nodes.front().known) return std::nullopt;
+  std::vector<Range> usable;
+  for (const auto& range : ranges) {
+    if (usable_range(range, nodes)) usable.push_back(range);
+  }
+  const std::vector<bool> kept = held_by_two(nodes, usable);
+  if (!kept.front()) return std::nullopt;
+  std::vector<int> unknown_index(nodes.size(), -1);
+  int unknowns = 0;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (kept[i] && !nodes[i].known) unknown_index[i] = unknowns++;
+  }
+  Coordinates at(nodes.size());
+  for (std::size_t i = 0; i < nodes.size(); ++i) at[i] = nodes[i].position_m;
+  std::vector<Range> used;
+  for (const auto& range : usable) {
+    if (kept[static_cast<std::size_t>(range.first)] && kept[static_cast<std::size_t>(range.second)])
+      used.push_back(range);
+  }
+  MatX information;
+  VecX gradient;
+  normal_equations(at, used, unknown_index, 2 * unknowns, information, gradient);
+  const Eigen::LDLT<MatX> factor(information);
+  if (factor.info() != Eigen::Success) return std::nullopt;
+  const VecX pivots = factor.vectorD();
+  if (!(pivots.minCoeff() > kSingularPivot * pivots.maxCoeff())) return std::nullopt;
+  // Node 0 is unknown index 0: its marginal is the top-left block of the inverse.
+  MatX unit = MatX::Zero(information.rows(), 2);
+  unit.topRows<2>().setIdentity();
+  const Mat2 covariance = factor.solve(unit).topRows<2>();
+  return Mat2(0.5 * (covariance + covariance.transpose()));
+}
 
 std::optional<Placement> place(const std::vector<Node>& nodes, const std::vector<Range>& ranges,
                                double false_alarm, double max_std_m) {

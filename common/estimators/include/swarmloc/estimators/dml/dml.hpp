@@ -3,6 +3,7 @@
 // range draw, a nonlinear block-Jacobi solve toward the network's ML position, Gaussian belief
 // propagation for its covariance, a multilateration start from anchors outward and a residual self-check.
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string_view>
@@ -81,7 +82,17 @@ class Dml final : public Estimator {
   [[nodiscard]] std::optional<Vec2> mirror_of_current() const;
   void check_mirror();
   [[nodiscard]] std::optional<GuessedStart> start_from_guess(const std::vector<Reference>& refs) const;
+  struct LocalMap {  // the agent (node 0), its neighbours, the agents they relay, and the ranges among them
+    std::vector<local_map::Node> nodes;
+    std::vector<local_map::Range> ranges;
+    double shortest_range_m = std::numeric_limits<double>::infinity();  // of this agent's own
+  };
+  /// beliefs_only: hold only neighbours that publish a covariance (the others are placed), and leave out
+  /// neighbours not localized.
+  [[nodiscard]] LocalMap draw_local_map(bool beliefs_only) const;
   [[nodiscard]] std::optional<local_map::Placement> place_in_local_map() const;
+  /// This agent's covariance in its local map linearized at the current means (docs/algorithms.md §9.3).
+  [[nodiscard]] std::optional<Mat2> map_covariance() const;
   struct MapStart {
     Vec2 position_m;
     bool

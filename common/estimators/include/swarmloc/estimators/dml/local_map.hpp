@@ -38,4 +38,9 @@ struct Placement {
 std::optional<Placement> place(const std::vector<Node>& nodes, const std::vector<Range>& ranges,
                                double false_alarm, double max_std_m);
 
+/// Node 0's covariance in the map linearized where the nodes are (the inverse of the ranges' Fisher
+/// information over the nodes to place, the known nodes held), or nothing if the map does not fix it.
+/// Nodes to place held by a single range are left out (they inform no other node).
+std::optional<Mat2> covariance_at(const std::vector<Node>& nodes, const std::vector<Range>& ranges);
+
 }  // namespace swarmloc::estimators::local_map
