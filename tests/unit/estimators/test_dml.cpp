@@ -240,6 +240,33 @@ TEST(Dml, ReportsTheExactMarginalWhereItsNeighbourhoodHoldsTheLoops) {
   }
 }
 
+TEST(Dml, AGroupHangingOnTwoCloseAgentsReportsTheTurnItCanMake) {
+  // Agents 6–9 range to each other; only 6 and 7 reach out, to agents 4 and 5, which sit a metre apart: the
+  // group can turn about them, and belief propagation, counting the group's loops again and again, reports
+  // it fixed to a few millimetres. Agents 8 and 9 have no neighbour outside the neighbourhoods of 6 and 7, so
+  // those neighbourhoods hold everything that fixes 6 and 7: their covariance is the exact marginal.
+  DmlNetwork net;
+  net.truth = {{0, 0},     {30, 0},  {0, 30},  {30, 30}, {14, 12},
+               {15, 12.5}, {12, 18}, {17, 19}, {13, 23}, {18, 24}};
+  net.anchor = {true, true, true, true, false, false, false, false, false, false};
+  for (int anchor = 0; anchor < 4; ++anchor) net.edges.insert(net.edges.end(), {{4, anchor}, {5, anchor}});
+  net.edges.insert(net.edges.end(),
+                   {{4, 5}, {6, 4}, {6, 5}, {7, 4}, {7, 5}, {6, 7}, {6, 8}, {6, 9}, {7, 8}, {7, 9}, {8, 9}});
+  std::mt19937_64 rng(37);
+  DrawLog log;
+  DmlRounds rounds(net, guesses_near_truth(net), 0.5);
+  rounds.run(40, 80, rng, log);
+  const MatX exact = batch_ml(net, log).second.inverse();
+  for (int i = 6; i < 8; ++i) {
+    SCOPED_TRACE(i);
+    const Mat2 expected = exact.block<2, 2>(2 * (i - 4), 2 * (i - 4));
+    EXPECT_LT((rounds.estimate(i).covariance - expected).norm(), 0.05 * expected.norm())
+        << rounds.estimate(i).covariance << "\n"
+        << expected;
+    EXPECT_GT((rounds.published_covariance(i).inverse() * expected).trace(), 4.0) << "belief propagation's";
+  }
+}
+
 TEST(Dml, FlagsAnAgentItsRangesCannotPlaceUnambiguously) {
   // Agent 2 hears only two anchors: a mirror pair. An uninformed guess cannot pick; a good one can.
   DmlNetwork net;

@@ -406,7 +406,8 @@ std::optional<Mat2> Dml::region_covariance() const {
     if (exactly_known(edge.state)) {
       known.push_back({edge.state.mean_m, edge.information()});
     } else {
-      members.push_back({edge.state.mean_m, edge.state.covariance, edge.information(), edge.sent_scale});
+      members.push_back({edge.state.mean_m, edge.state.covariance, edge.information(), edge.sent_scale,
+                         edge.state.anchor ? std::size_t{0} : std::size_t{edge.state.degree}});
       member_ids.push_back(id);
     }
   }

@@ -84,6 +84,7 @@ std::optional<Mat2> centre_covariance(const Vec2& centre_m, const Mat2& prior_in
     outside[k] = member.covariance.inverse() - member.sent_scale * a * a.transpose();
     add_range(information, 0, slot[k], a, member.information);
   }
+  std::vector<std::size_t> inside_links(members.size(), 0);  // its links to other members
   for (const auto& link : links) {
     const Member& first = members[link.first];
     const Member& second = members[link.second];
@@ -97,9 +98,15 @@ std::optional<Mat2> centre_covariance(const Vec2& centre_m, const Mat2& prior_in
     outside[link.first] -= to_first * a * a.transpose();
     outside[link.second] -= to_second * a * a.transpose();
     add_range(information, slot[link.first], slot[link.second], a, link.information);
+    ++inside_links[link.first];
+    ++inside_links[link.second];
   }
+  // A member every one of whose neighbours is in the neighbourhood gets nothing from outside it: what its
+  // belief holds beyond the messages taken out is loops counted again.
   for (std::size_t k = 0; k < members.size(); ++k) {
-    if (slot[k] >= 0) information.block<2, 2>(2 * slot[k], 2 * slot[k]) += clamped_to_psd(outside[k]);
+    if (slot[k] < 0) continue;
+    const bool closed = members[k].degree > 0 && members[k].degree == 1 + inside_links[k];
+    if (!closed) information.block<2, 2>(2 * slot[k], 2 * slot[k]) += clamped_to_psd(outside[k]);
   }
   const Eigen::LLT<MatX> factor(information);
   if (factor.info() != Eigen::Success) return std::nullopt;

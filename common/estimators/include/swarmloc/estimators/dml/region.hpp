@@ -17,6 +17,9 @@ struct Member {
   Mat2 covariance;     // its published (belief propagation) covariance
   double information;  // of the range between it and the centre
   double sent_scale;   // the message s·aaᵀ the centre sent it
+  /// Its neighbours in all (its published degree), 0 if not known: when they are the centre and members it
+  /// has links to, it has no information from outside the neighbourhood.
+  std::size_t degree = 0;
 };
 /// A range between two members (indices into the members).
 struct Link {
