@@ -109,6 +109,61 @@ TEST(DmlTracking, OneAgentWithAnAnchorIsTheKalmanFilterOfBothDraws) {
   }
 }
 
+// A beacon with noisy fixes ranging to a moving agent: it keeps to its fixes. Its range messages would all
+// land on one position that does not move, where the agent's messages of every other window step come back
+// to the agent; so its estimate is the average of its prior and its fixes, whatever the ranges say.
+TEST(DmlTracking, ABeaconKeepsToItsFixes) {
+  KalmanFilterParams params;
+  params.process_noise_std_m = kProcessStdM;
+  AgentSetup beacon_setup;
+  beacon_setup.id = 0;
+  beacon_setup.anchor = true;
+  beacon_setup.initial_guess_m = Vec2(0.0, 0.0);
+  beacon_setup.initial_guess_std_m = kGuessStdM;
+  AgentSetup agent_setup = beacon_setup;
+  agent_setup.id = 1;
+  agent_setup.anchor = false;
+  agent_setup.initial_guess_m = Vec2(10.0, 0.0);
+  DmlTracking beacon(beacon_setup, params);
+  DmlTracking agent(agent_setup, params);
+  BeliefMessage from_beacon = *beacon.initial_outbox().belief;
+  BeliefMessage from_agent = *agent.initial_outbox().belief;
+  constexpr double kFixStdM = 1.0;
+  const double fixes[][2] = {{0.8, -0.3}, {-0.2, 0.6}, {0.5, 0.1}, {0.9, -0.7}, {0.1, 0.4}};
+  const double ranges[] = {12.0, 8.5, 11.7, 7.9, 12.4};  // far from the fixes' 10 m: they would pull
+  double information = 1.0 / variance(kGuessStdM);
+  Vec2 vector = Vec2::Zero();
+  for (std::int64_t k = 0; k < 5; ++k) {
+    MeasurementBatch beacon_batch;
+    beacon_batch.world_step = k;
+    beacon_batch.ranges.push_back({1, ranges[k], kRangeStdM});
+    beacon_batch.fix = AbsoluteFix{Vec2(fixes[k][0], fixes[k][1]), variance(kFixStdM) * Mat2::Identity()};
+    MeasurementBatch agent_batch;
+    agent_batch.world_step = k;
+    agent_batch.ranges.push_back({0, ranges[k], kRangeStdM});
+    for (int exchange = 0; exchange < 3; ++exchange) {
+      Inbox to_beacon;
+      to_beacon.beliefs.push_back({1, 0, from_agent});
+      Inbox to_agent;
+      to_agent.beliefs.push_back({0, 0, from_beacon});
+      StepInput beacon_input;
+      beacon_input.measurements = exchange == 0 ? &beacon_batch : nullptr;
+      beacon_input.inbox = &to_beacon;
+      StepInput agent_input;
+      agent_input.measurements = exchange == 0 ? &agent_batch : nullptr;
+      agent_input.inbox = &to_agent;
+      from_beacon = *beacon.step(beacon_input).outbox.belief;
+      from_agent = *agent.step(agent_input).outbox.belief;
+    }
+    information += 1.0 / variance(kFixStdM);
+    vector += Vec2(fixes[k][0], fixes[k][1]) / variance(kFixStdM);
+    const Estimate e = beacon.estimate();
+    ASSERT_TRUE(e.valid);
+    EXPECT_LT((e.mean_m - vector / information).norm(), 1e-9) << "step " << k;
+    EXPECT_LT((e.covariance - Mat2::Identity() / information).norm(), 1e-9) << "step " << k;
+  }
+}
+
 // Anchor — agent 1 — agent 2 on the x-axis, one world step iterated: belief propagation on this tree
 // reaches the centralized posterior of (x1, x2). Without the cavity agent 2's information would come
 // back to it through agent 1.

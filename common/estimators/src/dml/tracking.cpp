@@ -159,6 +159,13 @@ DmlTracking::RankOne DmlTracking::message_to_self(const Slot& slot, const SlotEd
 }
 
 void DmlTracking::update_window() {
+  // A beacon does not move: every range message of the window lands on the same position, where the
+  // neighbour's own messages of every other step come back to it (the cavity takes out one step's). It
+  // keeps to its fixes (docs/algorithms.md §9.8).
+  if (setup_.anchor) {
+    solve_chain();
+    return;
+  }
   // Every message from the current marginals first (the cavity needs the message each marginal holds).
   std::vector<std::vector<RankOne>> messages(window_.size());
   for (std::size_t t = 0; t < window_.size(); ++t) {
