@@ -155,6 +155,15 @@ std::vector<Vec2> guesses_near_truth(const DmlNetwork& net) {
   return guesses;
 }
 
+/// Runs `rounds` on `net` (40 data steps, then 80 quiet ones) and returns the inverse Fisher information of
+/// the batch solution of those draws: the exact marginal covariances, unknowns in agent order.
+MatX exact_covariance_after_run(DmlRounds& rounds, const DmlNetwork& net, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  DrawLog log;
+  rounds.run(40, 80, rng, log);
+  return batch_ml(net, log).second.inverse();
+}
+
 TEST(Dml, ReachesTheBatchMaximumLikelihoodOfEveryDraw) {
   const DmlNetwork net = loopy_network();
   std::mt19937_64 rng(11);
@@ -224,11 +233,8 @@ TEST(Dml, ReportsTheExactMarginalWhereItsNeighbourhoodHoldsTheLoops) {
   for (int i = 0; i < 5; ++i)
     for (int j = i + 1; j < 5; ++j) net.edges.emplace_back(i, j);
   net.edges.insert(net.edges.end(), {{0, 5}, {1, 5}, {2, 5}, {1, 6}, {3, 6}});
-  std::mt19937_64 rng(17);
-  DrawLog log;
   DmlRounds rounds(net, guesses_near_truth(net), 0.5);
-  rounds.run(40, 80, rng, log);
-  const MatX exact = batch_ml(net, log).second.inverse();
+  const MatX exact = exact_covariance_after_run(rounds, net, 17);
   for (int i = 0; i < 5; ++i) {
     const Mat2 expected = exact.block<2, 2>(2 * i, 2 * i);
     const Mat2 reported = rounds.estimate(i).covariance;
@@ -252,11 +258,8 @@ TEST(Dml, AGroupHangingOnTwoCloseAgentsReportsTheTurnItCanMake) {
   for (int anchor = 0; anchor < 4; ++anchor) net.edges.insert(net.edges.end(), {{4, anchor}, {5, anchor}});
   net.edges.insert(net.edges.end(),
                    {{4, 5}, {6, 4}, {6, 5}, {7, 4}, {7, 5}, {6, 7}, {6, 8}, {6, 9}, {7, 8}, {7, 9}, {8, 9}});
-  std::mt19937_64 rng(37);
-  DrawLog log;
   DmlRounds rounds(net, guesses_near_truth(net), 0.5);
-  rounds.run(40, 80, rng, log);
-  const MatX exact = batch_ml(net, log).second.inverse();
+  const MatX exact = exact_covariance_after_run(rounds, net, 37);
   for (int i = 6; i < 8; ++i) {
     SCOPED_TRACE(i);
     const Mat2 expected = exact.block<2, 2>(2 * (i - 4), 2 * (i - 4));

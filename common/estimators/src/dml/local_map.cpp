@@ -25,9 +25,9 @@ bool usable_range(const Range& range, const std::vector<Node>& nodes) {
          range.information > 0.0 && range.range_m > 0.0;
 }
 
-/// The nodes the map keeps: every known node, and the nodes to place that keep three ranges to kept nodes
-/// (one held by two ranges can flip across the line through their other ends, and the ranges cannot tell).
-std::vector<bool> redundantly_ranged(const std::vector<Node>& nodes, const std::vector<Range>& ranges) {
+/// The nodes a map keeps: every known node, and the nodes to place that keep `minimum` ranges to kept nodes.
+std::vector<bool> ranged_at_least(const std::vector<Node>& nodes, const std::vector<Range>& ranges,
+                                  int minimum) {
   std::vector<bool> kept(nodes.size(), true);
   for (bool changed = true; changed;) {
     changed = false;
@@ -42,7 +42,7 @@ std::vector<bool> redundantly_ranged(const std::vector<Node>& nodes, const std::
       }
     }
     for (std::size_t i = 0; i < nodes.size(); ++i) {
-      if (kept[i] && !nodes[i].known && degree[i] < 3) {
+      if (kept[i] && !nodes[i].known && degree[i] < minimum) {
         kept[i] = false;
         changed = true;
       }
@@ -202,31 +202,6 @@ Refined refined(Coordinates x, const std::vector<Node>& nodes, const std::vector
   return {std::move(x), cost, std::move(hessian)};
 }
 
-/// The nodes a linearized map keeps: every known node, and the nodes to place that keep two ranges to kept
-/// nodes (one held by a single range turns freely about its other end and informs no one).
-std::vector<bool> held_by_two(const std::vector<Node>& nodes, const std::vector<Range>& ranges) {
-  std::vector<bool> kept(nodes.size(), true);
-  for (bool changed = true; changed;) {
-    changed = false;
-    std::vector<int> degree(nodes.size(), 0);
-    for (const auto& range : ranges) {
-      const auto a = static_cast<std::size_t>(range.first);
-      const auto b = static_cast<std::size_t>(range.second);
-      if (kept[a] && kept[b]) {
-        ++degree[a];
-        ++degree[b];
-      }
-    }
-    for (std::size_t i = 0; i < nodes.size(); ++i) {
-      if (kept[i] && !nodes[i].known && degree[i] < 2) {
-        kept[i] = false;
-        changed = true;
-      }
-    }
-  }
-  return kept;
-}
-
 }  // namespace
 
 std::optional<Mat2> covariance_at(const std::vector<Node>& nodes, const std::vector<Range>& ranges) {
@@ -235,7 +210,8 @@ std::optional<Mat2> covariance_at(const std::vector<Node>& nodes, const std::vec
   for (const auto& range : ranges) {
     if (usable_range(range, nodes)) usable.push_back(range);
   }
-  const std::vector<bool> kept = held_by_two(nodes, usable);
+  // A node to place held by a single range turns freely about its other end and informs no one.
+  const std::vector<bool> kept = ranged_at_least(nodes, usable, 2);
   if (!kept.front()) return std::nullopt;
   std::vector<int> unknown_index(nodes.size(), -1);
   int unknowns = 0;
@@ -266,7 +242,8 @@ std::optional<Mat2> covariance_at(const std::vector<Node>& nodes, const std::vec
 std::optional<Placement> place(const std::vector<Node>& nodes, const std::vector<Range>& ranges,
                                double false_alarm, double max_std_m) {
   if (nodes.empty() || nodes.front().known) return std::nullopt;
-  const std::vector<bool> kept = redundantly_ranged(nodes, ranges);
+  // One held by two ranges can flip across the line through their other ends, and the ranges cannot tell.
+  const std::vector<bool> kept = ranged_at_least(nodes, ranges, 3);
   if (!kept.front()) return std::nullopt;
   std::vector<int> compact(nodes.size(), -1);
   std::vector<Node> map;
