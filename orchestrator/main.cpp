@@ -101,7 +101,18 @@ struct SharedFlags {
   bool record = false;
   bool force = false;
   std::string security_dir;
+  int trial = -1;  ///< --trial K; -1: not given (trial 0)
 };
+
+/// --trial K: the world of trial K of a Monte Carlo set (its guesses, motion, draws, loss).
+CLI::Option* add_trial_option(CLI::App* command, SharedFlags& shared) {
+  return command
+      ->add_option(
+          "--trial", shared.trial,
+          "Run only trial K of a Monte Carlo set (0 = the first; its row in trials.csv) and write its "
+          "run directory in full")
+      ->check(CLI::NonNegativeNumber);
+}
 
 const char* const kRecordHelp =
     "Write recording.slrec (truth and every measurement batch) and recording/ (the inter-agent samples "
@@ -134,6 +145,7 @@ void add_run_command(CLI::App& app, SharedFlags& shared, RunCommand& run) {
   command->add_flag("-q,--quiet", shared.quiet, "No progress line");
   command->add_flag("--record", shared.record, kRecordHelp);
   command->add_option("--security", shared.security_dir, kSecurityHelp);
+  add_trial_option(command, shared);
   add_view_options(command, run.view_port, run.view_hold);
   add_force_flag(command, shared.force);
   command->footer(keys_help());
@@ -152,6 +164,7 @@ int execute_run(const RunCommand& run, const SharedFlags& shared, const char* ar
   options.view_hold_s = run.view_hold;
   options.record = shared.record;
   options.force = shared.force;
+  if (shared.trial >= 0) options.trial = static_cast<std::uint64_t>(shared.trial);
   return swarmloc::orchestrator::run_orchestrator(options);
 }
 
@@ -159,7 +172,6 @@ int execute_run(const RunCommand& run, const SharedFlags& shared, const char* ar
 struct SimCommand {
   CLI::App* command = nullptr;
   int trials = 1;
-  int trial = -1;
   int threads = 0;
   std::vector<int> hostile;
   int view_port = -1;
@@ -180,13 +192,7 @@ void add_sim_command(CLI::App& app, SharedFlags& shared, SimCommand& sim) {
       ->add_option("--trials", sim.trials,
                    "Monte Carlo trials (fixed configuration; noise, initial guesses and loss per trial)")
       ->check(kPositiveInteger);
-  command
-      ->add_option(
-          "--trial", sim.trial,
-          "Run only trial K of a Monte Carlo set (0 = the first; its row in trials.csv) and write its "
-          "run directory in full")
-      ->check(CLI::NonNegativeNumber)
-      ->excludes("--trials");
+  add_trial_option(command, shared)->excludes("--trials");
   command
       ->add_option("--threads", sim.threads,
                    "Worker threads: trials with --trials (default: every core), else the agents of one round "
@@ -206,7 +212,7 @@ int execute_sim(const SimCommand& sim, const SharedFlags& shared) {
   options.out_dir = shared.out_dir;
   options.progress = !shared.quiet;
   options.trials = sim.trials;
-  if (sim.trial >= 0) options.trial = static_cast<std::uint64_t>(sim.trial);
+  if (shared.trial >= 0) options.trial = static_cast<std::uint64_t>(shared.trial);
   options.threads = sim.threads;
   options.view_port = sim.view_port;
   options.view_hold_s = sim.view_hold;

@@ -166,6 +166,7 @@ class Orchestrator {
     if (!start_failure_.empty()) record_.extra["health"]["verdict"] = "failed";
     if (lockstep_) record_.extra["lockstep_timeouts"] = lockstep_timeouts_;
     record_.extra["run_directory"] = run_dir_.string();
+    if (world_.trial > 0) record_.extra["trial"] = world_.trial;  // with the seed, what reproduces it
     if (recording_) {
       recording_->close();
       record_.extra["recording"] = {
@@ -237,7 +238,7 @@ class Orchestrator {
   /// <run>/manifests/agent_<id>.json: what each agent may know, computed once from our world. Written for
   /// agents started elsewhere too (containers that mount the run directory).
   std::vector<runtime::AgentManifest> write_manifests() const {
-    auto manifests = run::make_agent_manifests(scenario_, world_);
+    auto manifests = run::make_agent_manifests(scenario_, world_, world_.trial);
     for (const auto& manifest : manifests)
       runtime::write_manifest(runtime::manifest_path(run_dir_, manifest.id), manifest);
     return manifests;

@@ -22,6 +22,8 @@ struct RunOptions {
   bool launch_agents = true;            ///< false: wait for agents started elsewhere
   std::vector<AgentId> hostile_agents;  ///< agents started with --hostile
   bool progress = true;
+  /// Which Monte Carlo trial's world to run (`--trial`; as `sim --trial`).
+  std::uint64_t trial = 0;
   int view_port = -1;         ///< >= 0: live view on 127.0.0.1:view_port (0: any free port); -1: none
   double view_hold_s = 10.0;  ///< after the run, the live view keeps serving this long (inf: until Ctrl-C)
   /// --record: recording.slrec (truth + every published batch) and recording/agent_<id>.slrec (each

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "preflight.hpp"
+#include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/dds/transport.hpp"
 #include "swarmloc/rundir/recording.hpp"
 #include "swarmloc/rundir/run_record.hpp"
@@ -62,7 +63,11 @@ world::World prepare_run(config::Scenario& scenario, const RunOptions& options,
   rundir::prepare_run_directory(run_dir, options.force);
   // Placement and algorithm errors are bad input, found before anything starts; the world built for
   // the check is the run's.
-  return check_runnable(scenario, control);
+  if (options.trial > 0 && config::runs_in_fusion_centre(scenario.algorithm.name))
+    throw config::ScenarioError(
+        "--trial: the fusion centre of '" + scenario.algorithm.name +
+        "' builds the first trial's world; run other trials with `swarmloc sim --trial`");
+  return check_runnable(scenario, control, options.trial);
 }
 
 std::unique_ptr<dds::ManifestPublisher> offer_manifests(const config::Scenario& scenario,

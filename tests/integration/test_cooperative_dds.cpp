@@ -194,9 +194,11 @@ INSTANTIATE_TEST_SUITE_P(
     EveryRuntimeAlgorithm, LockstepOverDds,
     ::testing::Values(Case{"ieif", 37, " --set run.steps=60 --set network.loss=0.2"},
                       Case{"default", 79, " --set run.steps=60 --set network.loss=0.2", "dml"},
-                      // dml_track (docs/algorithms.md §9.8) on the moving world with noisy beacon fixes.
+                      // dml_track (docs/algorithms.md §9.8) on the moving world with noisy beacon fixes, in
+                      // trial 2's world (its guesses, motion, draws and loss: `--trial`).
                       Case{"ea2", 89,
-                           " --set run.steps=30 --set network.loss=0.2 --set algorithm.name=dml_track",
+                           " --set run.steps=30 --set network.loss=0.2 --set algorithm.name=dml_track"
+                           " --trial 2",
                            "dml_track"},
                       Case{"jacobi", 38, " --set run.steps=60 --set network.loss=0.2"},
                       Case{"dgbb", 39, " --set run.steps=150"},

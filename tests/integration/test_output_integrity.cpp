@@ -285,6 +285,12 @@ TEST(Cli, OneTrialOfAMonteCarloSetIsItsRowRunInFull) {
   const auto refused = swarmloc(both, cwd);
   EXPECT_EQ(refused.exit_code, 2) << refused.output;
   EXPECT_NE(refused.output.find("--trial"), std::string::npos) << refused.output;
+  // Over DDS a fusion centre builds the first trial's world: another trial is refused, not run wrong.
+  const auto centralized = swarmloc({"run", std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ea2.yaml", "-q",
+                                     "--trial", "1", "--out", (cwd / "centralized").string()},
+                                    cwd);
+  EXPECT_EQ(centralized.exit_code, 2) << centralized.output;
+  EXPECT_NE(centralized.output.find("--trial"), std::string::npos) << centralized.output;
 }
 
 }  // namespace
