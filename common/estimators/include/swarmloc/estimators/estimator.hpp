@@ -44,6 +44,9 @@ struct AgentSetup {
   /// The communication radius: a link exists exactly between agents within it at step 0 (a disk graph), so
   /// an agent that does not hear another is farther from it (dml, docs/algorithms.md §9.4); +inf: unknown.
   double comm_radius_m = std::numeric_limits<double>::infinity();
+  /// 2: a planar world; 3: positions have a z too (world.dimensions, docs/design.md §3.1).
+  int dimensions = 2;
+  double initial_altitude_m = 0.0;  ///< 3-D: the z of initial_guess_m
 };
 
 class Estimator {

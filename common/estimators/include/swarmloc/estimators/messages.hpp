@@ -5,6 +5,7 @@
 #include <optional>
 #include <vector>
 
+#include "swarmloc/core/altitude.hpp"
 #include "swarmloc/core/types.hpp"
 
 namespace swarmloc::estimators {
@@ -117,6 +118,7 @@ struct EdgeRangeSummary {
   /// The peer's published mean as the sender last heard it (dml's negative connectivity, §9.4); the sender's
   /// own mean when it has none (not localized yet, or not heard).
   Vec2 peer_mean_m = Vec2::Zero();
+  double peer_z_m = 0.0;  ///< 3-D worlds: the z of peer_mean_m (0 in planar worlds)
 };
 
 /// STATE + COV of the sender's own position.
@@ -130,6 +132,8 @@ struct StateMessage {
   /// dml only: the sender's own self-check flags its position (docs/algorithms.md §9.5), so a neighbour
   /// that leans on it knows its support is in doubt.
   bool inconsistent = false;
+  /// 3-D worlds: z and the z row of the covariance (core/altitude.hpp); empty in planar worlds.
+  std::optional<Altitude> altitude;
 };
 
 /// INFO-VEC + INFO-MAT (DLE priors).
@@ -238,6 +242,8 @@ struct Estimate {
   /// position. Empty for position-only algorithms. On the wire in Estimate.heading (scoring: NEES3);
   /// the ROS 2 pose uses it too.
   std::optional<HeadingEstimate> heading;
+  /// 3-D worlds: z and the z row of the (x, y, z) covariance (core/altitude.hpp); empty in planar worlds.
+  std::optional<Altitude> altitude;
 };
 
 }  // namespace swarmloc::estimators
