@@ -178,7 +178,7 @@ const std::vector<AlgorithmSpec>& algorithm_registry() {
        kStateMessages, agent_build(&builders::dead_reckoning)},
       // docs/algorithms.md §9; a step without a batch is one more sweep (docs/algorithms.md §9.2).
       {"dml", kDml, kAgent, kRangesAndFixes, kPooledRanges, true, &validate_dml, kNoKeys, kStateMessages,
-       agent_build(&builders::dml)},
+       agent_build(&builders::dml), true},
       // docs/algorithms.md §9.8; reads process_noise_std_m and initial_std_m; a step without a batch
       // iterates its window again.
       {"dml_track", kDml, kAgent, kRangesAndFixes, kPooledRanges, true, &validate_dml_track, kKalmanKeys,

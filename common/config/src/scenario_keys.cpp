@@ -341,6 +341,8 @@ std::vector<KeySpec> world_keys() {
       SWARMLOC_KEY(world.agents),
       SWARMLOC_KEY(world.anchors),
       SWARMLOC_KEY(world.area_m),
+      SWARMLOC_KEY(world.dimensions),
+      SWARMLOC_KEY(world.height_m),
       SWARMLOC_KEY(world.comm_radius_m),
       SWARMLOC_KEY(world.placement),
       SWARMLOC_KEY(world.positions_file),

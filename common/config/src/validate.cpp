@@ -190,8 +190,27 @@ void validate_target_and_field(const Scenario::World& world) {
   require_positive(world.field_sensing_radius_m, "world.field_sensing_radius_m");
 }
 
+/// world.dimensions: 3 is a static range world of generated positions, for the algorithms that run in 3-D.
+void validate_dimensions(const Scenario& scenario, const AlgorithmSpec& spec) {
+  const auto& world = scenario.world;
+  if (world.dimensions != 2 && world.dimensions != 3) fail("world.dimensions", "must be 2 or 3");
+  require_positive(world.height_m, "world.height_m");
+  if (world.dimensions == 2) return;
+  if (!spec.three_dimensional) {
+    fail("world.dimensions",
+         "3 needs an algorithm that runs in 3-D (dml); '" + scenario.algorithm.name + "' is planar");
+  }
+  if (world.source != WorldSource::kGenerated) fail("world.dimensions", "3 needs a generated world");
+  if (world.placement != Placement::kUniform)
+    fail("world.placement", "must be uniform when world.dimensions is 3");
+  if (world.motion != Motion::kStatic) fail("world.motion", "must be static when world.dimensions is 3");
+  if (scenario.dds.ros2)
+    fail("dds.ros2", "is planar only for now: set world.dimensions: 2 to publish ROS 2 topics");
+}
+
 void validate_world(const Scenario& scenario, const AlgorithmSpec& spec) {
   validate_agent_counts(scenario.world);
+  validate_dimensions(scenario, spec);
   validate_data_source(scenario, spec);
   validate_layout(scenario.world);
   validate_target_and_field(scenario.world);

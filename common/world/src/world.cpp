@@ -215,7 +215,19 @@ estimators::AgentSetup World::setup_of(AgentId id) const {
   if (i < initial_heading.size()) setup.initial_heading_rad = initial_heading[i];
   setup.initial_guess_std_m = initial_guess_std_m;
   setup.comm_radius_m = comm_radius_m;
+  setup.dimensions = dimensions;
+  if (dimensions == 3) setup.initial_altitude_m = is_anchor.at(i) ? altitude.at(i) : initial_altitude.at(i);
   return setup;
+}
+
+Vec3 World::position3(AgentId id) const {
+  const auto i = static_cast<std::size_t>(id);
+  return join(truth.at(i), dimensions == 3 ? altitude.at(i) : 0.0);
+}
+
+double World::distance(AgentId a, AgentId b) const {
+  if (dimensions == 3) return (position3(a) - position3(b)).norm();
+  return (truth.at(static_cast<std::size_t>(a)) - truth.at(static_cast<std::size_t>(b))).norm();
 }
 
 std::uint64_t trial_seed(std::uint64_t seed, std::uint64_t trial) {

@@ -151,6 +151,8 @@ struct AlgorithmSpec {
   MessageFamilies messages;
   /// How it is built (estimators/builders.hpp): an agent's estimator, or the fusion centre's filter.
   estimators::EstimatorBuilder build;
+  /// It runs in 3-D worlds too (world.dimensions: 3).
+  bool three_dimensional = false;
 };
 
 /// Every entry, in the order `known algorithms` lists them.

@@ -102,7 +102,11 @@ class WorkPhase {
 };
 
 struct World {
-  std::vector<Vec2> truth;  ///< current true positions
+  std::vector<Vec2> truth;  ///< current true positions (their planar part in a 3-D world)
+  /// 2: a planar world; 3 (world.dimensions): every position has a z too, in `altitude`.
+  int dimensions = 2;
+  std::vector<double> altitude;          ///< 3-D: each agent's true z (empty in a planar world)
+  std::vector<double> initial_altitude;  ///< 3-D: the z of each initial guess (anchors: the truth's)
   std::vector<bool> is_anchor;
   std::vector<std::vector<AgentId>> neighbours;  ///< communication graph at step 0 (sorted)
   std::vector<Vec2> initial_guess;               ///< prior each agent starts from (anchors: truth)
@@ -132,6 +136,10 @@ struct World {
   [[nodiscard]] int anchor_count() const;
   [[nodiscard]] double mean_degree() const;
   [[nodiscard]] estimators::AgentSetup setup_of(AgentId id) const;
+  /// Agent `id`'s true position with its z (0 in a planar world).
+  [[nodiscard]] Vec3 position3(AgentId id) const;
+  /// The true distance between agents `a` and `b`: planar, or in space in a 3-D world.
+  [[nodiscard]] double distance(AgentId a, AgentId b) const;
 };
 
 /// Builds the world of `scenario` (placement, anchors, graph, initial guesses, clocks).
