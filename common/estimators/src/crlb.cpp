@@ -4,6 +4,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -14,17 +15,38 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+template <int D>
+using CrlbVec = Eigen::Matrix<double, D, 1>;
+template <int D>
+using CrlbMat = Eigen::Matrix<double, D, D>;
+
 /// Column offset of each agent in θ, −1 for anchors.
-std::vector<Eigen::Index> unknown_offsets(const RangeNetwork& network) {
+template <int D>
+std::vector<Eigen::Index> unknown_offsets(const RangeNetworkOf<D>& network) {
   std::vector<Eigen::Index> offset(network.truth.size(), -1);
   Eigen::Index next = 0;
   for (std::size_t i = 0; i < network.truth.size(); ++i) {
     if (!network.is_anchor[i]) {
       offset[i] = next;
-      next += 2;
+      next += D;
     }
   }
   return offset;
+}
+
+/// ∂‖x_a − x_b‖/∂x_a, the unit vector from b to a; nullopt for (nearly) coincident points (§1.1).
+template <int D>
+std::optional<CrlbVec<D>> crlb_range_direction(const CrlbVec<D>& xa, const CrlbVec<D>& xb) {
+  if constexpr (D == 2) {
+    const auto h = models::range(xa, xb);
+    if (!h) return std::nullopt;
+    return Vec2(h->d_xi.transpose());
+  } else {
+    const CrlbVec<D> delta = xa - xb;
+    const double rho = delta.norm();
+    if (!(rho >= models::kMinDistanceM)) return std::nullopt;
+    return CrlbVec<D>(delta / rho);
+  }
 }
 
 void check_id(AgentId id, std::size_t n, const char* what) {
@@ -34,10 +56,9 @@ void check_id(AgentId id, std::size_t n, const char* what) {
   }
 }
 
-}  // namespace
-
-MatX range_network_fisher(const RangeNetwork& network, double snapshots,
-                          const std::vector<Mat2>* prior_information) {
+template <int D>
+MatX crlb_fisher_in(const RangeNetworkOf<D>& network, double snapshots,
+                    const std::vector<CrlbMat<D>>* prior_information) {
   const std::size_t n = network.truth.size();
   if (network.is_anchor.size() != n) throw std::invalid_argument("crlb: is_anchor and truth differ in size");
   if (prior_information != nullptr && prior_information->size() != n) {
@@ -46,7 +67,7 @@ MatX range_network_fisher(const RangeNetwork& network, double snapshots,
   if (!(snapshots >= 0.0)) throw std::invalid_argument("crlb: snapshots must be >= 0");
   const std::vector<Eigen::Index> offset = unknown_offsets(network);
   Eigen::Index dim = 0;
-  for (const auto o : offset) dim += (o >= 0 ? 2 : 0);
+  for (const auto o : offset) dim += (o >= 0 ? D : 0);
   MatX J = MatX::Zero(dim, dim);
 
   // docs/algorithms.md §1.3, range: ±u uᵀ/s² into blocks (i,i), (j,j), (i,j), (j,i).
@@ -56,17 +77,17 @@ MatX range_network_fisher(const RangeNetwork& network, double snapshots,
     if (!(obs.std_m > 0.0)) throw std::invalid_argument("crlb: range std_m must be > 0");
     const auto a = static_cast<std::size_t>(obs.a);
     const auto b = static_cast<std::size_t>(obs.b);
-    const auto h = models::range(network.truth[a], network.truth[b]);
-    if (!h) continue;  // coincident positions: no direction, no information
-    const Vec2 u = h->d_xi.transpose();
-    const Mat2 block = snapshots * u * u.transpose() / (obs.std_m * obs.std_m);
+    const auto direction = crlb_range_direction<D>(network.truth[a], network.truth[b]);
+    if (!direction) continue;  // coincident positions: no direction, no information
+    const CrlbVec<D> u = *direction;
+    const CrlbMat<D> block = snapshots * u * u.transpose() / (obs.std_m * obs.std_m);
     const Eigen::Index oa = offset[a];
     const Eigen::Index ob = offset[b];
-    if (oa >= 0) J.block<2, 2>(oa, oa) += block;
-    if (ob >= 0) J.block<2, 2>(ob, ob) += block;
+    if (oa >= 0) J.template block<D, D>(oa, oa) += block;
+    if (ob >= 0) J.template block<D, D>(ob, ob) += block;
     if (oa >= 0 && ob >= 0) {
-      J.block<2, 2>(oa, ob) -= block;
-      J.block<2, 2>(ob, oa) -= block;
+      J.template block<D, D>(oa, ob) -= block;
+      J.template block<D, D>(ob, oa) -= block;
     }
   }
   // GPS/absolute: R⁻¹ into (i,i).
@@ -74,27 +95,28 @@ MatX range_network_fisher(const RangeNetwork& network, double snapshots,
     check_id(obs.agent, n, "absolute");
     const Eigen::Index o = offset[static_cast<std::size_t>(obs.agent)];
     if (o < 0) continue;
-    const Eigen::LLT<Mat2> llt(obs.covariance);
+    const Eigen::LLT<CrlbMat<D>> llt(obs.covariance);
     if (llt.info() != Eigen::Success) throw std::invalid_argument("crlb: absolute covariance must be PD");
-    J.block<2, 2>(o, o) += snapshots * llt.solve(Mat2::Identity());
+    J.template block<D, D>(o, o) += snapshots * llt.solve(CrlbMat<D>::Identity());
   }
   if (prior_information != nullptr) {
     for (std::size_t i = 0; i < n; ++i) {
-      if (offset[i] >= 0) J.block<2, 2>(offset[i], offset[i]) += (*prior_information)[i];
+      if (offset[i] >= 0) J.template block<D, D>(offset[i], offset[i]) += (*prior_information)[i];
     }
   }
   return J;
 }
 
-CrlbResult network_crlb(const RangeNetwork& network, double snapshots,
-                        const std::vector<Mat2>* prior_information) {
-  const MatX J = range_network_fisher(network, snapshots, prior_information);
+template <int D>
+CrlbResultOf<D> crlb_in(const RangeNetworkOf<D>& network, double snapshots,
+                        const std::vector<CrlbMat<D>>* prior_information) {
+  const MatX J = crlb_fisher_in<D>(network, snapshots, prior_information);
   const std::vector<Eigen::Index> offset = unknown_offsets(network);
   const std::size_t n = network.truth.size();
   const Eigen::Index dim = J.rows();
 
-  CrlbResult result;
-  result.per_agent.assign(n, Mat2::Zero());
+  CrlbResultOf<D> result;
+  result.per_agent.assign(n, CrlbMat<D>::Zero());
   result.per_agent_rmse_m.assign(n, 0.0);
   if (dim == 0) {
     result.network_rmse_m = 0.0;
@@ -125,7 +147,7 @@ CrlbResult network_crlb(const RangeNetwork& network, double snapshots,
         continue;
       }
       for (std::size_t i = 0; i < n; ++i) {
-        if (offset[i] >= 0 && V.block(offset[i], k, 2, 1).norm() > 1e-6) unbounded[i] = true;
+        if (offset[i] >= 0 && V.block(offset[i], k, D, 1).norm() > 1e-6) unbounded[i] = true;
       }
     }
     crb = V * inv_lambda.asDiagonal() * V.transpose();
@@ -138,18 +160,40 @@ CrlbResult network_crlb(const RangeNetwork& network, double snapshots,
     if (offset[i] < 0) continue;
     ++unknowns;
     if (unbounded[i]) {
-      result.per_agent[i] = Mat2::Constant(kInf);
+      result.per_agent[i] = CrlbMat<D>::Constant(kInf);
       result.per_agent_rmse_m[i] = kInf;
       result.localizable = false;
       continue;
     }
-    const Mat2 block = crb.block<2, 2>(offset[i], offset[i]);
+    const CrlbMat<D> block = crb.template block<D, D>(offset[i], offset[i]);
     result.per_agent[i] = 0.5 * (block + block.transpose());
     result.per_agent_rmse_m[i] = std::sqrt(std::max(0.0, block.trace()));
     trace += block.trace();
   }
   result.network_rmse_m = result.localizable ? std::sqrt(std::max(0.0, trace) / unknowns) : kInf;
   return result;
+}
+
+}  // namespace
+
+MatX range_network_fisher(const RangeNetwork& network, double snapshots,
+                          const std::vector<Mat2>* prior_information) {
+  return crlb_fisher_in<2>(network, snapshots, prior_information);
+}
+
+MatX range_network_fisher(const RangeNetwork3& network, double snapshots,
+                          const std::vector<Mat3>* prior_information) {
+  return crlb_fisher_in<3>(network, snapshots, prior_information);
+}
+
+CrlbResult network_crlb(const RangeNetwork& network, double snapshots,
+                        const std::vector<Mat2>* prior_information) {
+  return crlb_in<2>(network, snapshots, prior_information);
+}
+
+CrlbResult3 network_crlb(const RangeNetwork3& network, double snapshots,
+                         const std::vector<Mat3>* prior_information) {
+  return crlb_in<3>(network, snapshots, prior_information);
 }
 
 CrlbResult range_network_crlb(const std::vector<Vec2>& truth, const std::vector<bool>& is_anchor,

@@ -1,5 +1,6 @@
 // The run's optimum in the run record (docs/algorithms.md §1.3.2): fed by every runtime as it generates
 // the batches, solved at checkpoints, written to summary.json, metrics.csv and the result table.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -39,12 +40,23 @@ void note_scored_estimates(RunRecord& record,
     const auto& estimate = estimates[i];
     record.scored_positions[i] = estimate && estimate->valid ? estimate->mean_m : none;
   }
+  // A 3-D estimate starts the optimum only with its z (a planar world's estimates have none: left empty).
+  const bool spatial = std::any_of(estimates.begin(), estimates.end(),
+                                   [](const auto& estimate) { return estimate && estimate->altitude; });
+  record.scored_z.clear();
+  if (!spatial) return;
+  record.scored_z.resize(estimates.size(), std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t i = 0; i < estimates.size(); ++i) {
+    const auto& estimate = estimates[i];
+    if (estimate && estimate->valid && estimate->altitude) record.scored_z[i] = estimate->altitude->z_m;
+  }
 }
 
 void update_run_optimum(RunRecord& record, bool final) {
   if (!record.optimum_data) return;
   record.optimum_data->solve_pending(
-      final, final && !record.scored_positions.empty() ? &record.scored_positions : nullptr);
+      final, final && !record.scored_positions.empty() ? &record.scored_positions : nullptr,
+      final && !record.scored_z.empty() ? &record.scored_z : nullptr);
   record.optimum = record.optimum_data->result();
   if (!final) {
     if (!record.metrics.empty()) {
@@ -59,6 +71,7 @@ void update_run_optimum(RunRecord& record, bool final) {
   }
   record.optimum_data.reset();
   record.scored_positions = {};
+  record.scored_z = {};
 }
 
 std::string optimum_csv(const RunRecord& record) {
@@ -66,6 +79,21 @@ std::string optimum_csv(const RunRecord& record) {
   if (optimum.final_position.empty()) return {};
   std::ostringstream out;
   out.precision(9);
+  if (!optimum.final_altitude.empty()) {  // a 3-D world: (x, y, z), the 3×3 covariance's upper triangle
+    out << "agent,unknown,x_m,y_m,z_m,cov_xx,cov_xy,cov_xz,cov_yy,cov_yz,cov_zz,truth_x_m,truth_y_m,truth_z_"
+           "m,"
+           "error_m\n";
+    for (std::size_t i = 0; i < optimum.final_position.size(); ++i) {
+      const Vec3 x = join(optimum.final_position[i], optimum.final_altitude[i].z_m);
+      const Mat3 p = join(optimum.final_covariance[i], optimum.final_altitude[i]);
+      const Vec3 truth = join(optimum.final_truth[i], optimum.final_truth_z[i]);
+      out << i << ',' << (optimum.final_in_state[i] ? 1 : 0) << ',' << x.x() << ',' << x.y() << ',' << x.z()
+          << ',' << p(0, 0) << ',' << p(0, 1) << ',' << p(0, 2) << ',' << p(1, 1) << ',' << p(1, 2) << ','
+          << p(2, 2) << ',' << truth.x() << ',' << truth.y() << ',' << truth.z() << ',' << (x - truth).norm()
+          << '\n';
+    }
+    return out.str();
+  }
   out << "agent,unknown,x_m,y_m,cov_xx,cov_xy,cov_yy,truth_x_m,truth_y_m,error_m\n";
   for (std::size_t i = 0; i < optimum.final_position.size(); ++i) {
     const Vec2& x = optimum.final_position[i];

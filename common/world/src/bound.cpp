@@ -37,17 +37,21 @@ int draws_used(bool at_lo, bool at_hi, bool shared) {
 
 /// Offsets of the network's unknowns in θ (−1: known anchor), as estimators::range_network_fisher orders
 /// them.
-std::vector<Eigen::Index> state_offsets(const estimators::RangeNetwork& network) {
+template <int D>
+std::vector<Eigen::Index> state_offsets(const estimators::RangeNetworkOf<D>& network) {
   std::vector<Eigen::Index> offset(network.truth.size(), -1);
   Eigen::Index next = 0;
   for (std::size_t i = 0; i < network.truth.size(); ++i) {
-    if (!network.is_anchor[i]) offset[i] = next, next += 2;
+    if (!network.is_anchor[i]) offset[i] = next, next += D;
   }
   return offset;
 }
 
-/// Mean over the world's non-anchors of the static network's CRB (+inf if one is not localizable).
-double static_network_rmse(const estimators::RangeNetwork& network, const std::vector<bool>& world_anchor) {
+/// Mean over the world's non-anchors of the static network's CRB (+inf if one is not localizable); D
+/// coordinates per agent.
+template <int D>
+double static_network_rmse(const estimators::RangeNetworkOf<D>& network,
+                           const std::vector<bool>& world_anchor) {
   const auto crlb = estimators::network_crlb(network);
   double total = 0.0;
   int scored = 0;
@@ -84,7 +88,7 @@ std::vector<double> pcrb_series(const World& world, const config::Scenario& s,
       information = estimators::range_network_fisher(network, 1.0, &prior);
       // The world's random walk moves the non-anchors only (world.cpp advance_truth).
       process_variance = VecX::Zero(information.rows());
-      const auto offset = state_offsets(network);
+      const auto offset = state_offsets<2>(network);
       for (std::size_t i = 0; i < offset.size(); ++i) {
         if (offset[i] >= 0 && !world.is_anchor[i])
           process_variance.segment<2>(offset[i]).setConstant(motion_variance);
@@ -107,20 +111,28 @@ RunBound no_bound(RunBound bound, std::string reason) {
   return bound;
 }
 
+/// The static network's single-snapshot RMSE bound of `draws`: planar, or in space in a 3-D world (3
+/// coordinates per agent).
+double static_snapshot_rmse(const World& world, const config::Scenario& s, RangeDraws draws,
+                            AnchorData anchors) {
+  if (world.dimensions == 3)
+    return static_network_rmse(snapshot_network3(world, s, true_positions3(world), draws, anchors),
+                               world.is_anchor);
+  return static_network_rmse(snapshot_network(world, s, world.truth, draws, anchors), world.is_anchor);
+}
+
 RunBound static_range_bound(RunBound bound, const World& world, const config::Scenario& s,
                             const RangeCrlb& legacy) {
   bound.kind = BoundKind::kCrlbStaticAccumulated;
   bound.fresh_draws_per_step = s.noise.draw == config::NoiseDraw::kPerStep;
-  bound.single_rmse_m = static_network_rmse(
-      snapshot_network(world, s, world.truth, bound.draws, bound.anchors), world.is_anchor);
+  bound.single_rmse_m = static_snapshot_rmse(world, s, bound.draws, bound.anchors);
   if (bound.draws == kAllDraws) {
     bound.all_data_single_rmse_m = bound.single_rmse_m;
   } else if (!anchors_in_state(s, bound.anchors)) {
     // scenario_crlb's is this bound (every draw, known anchors): not computed twice.
     bound.all_data_single_rmse_m = legacy.single_snapshot_rmse_m;
   } else {
-    bound.all_data_single_rmse_m = static_network_rmse(
-        snapshot_network(world, s, world.truth, kAllDraws, bound.anchors), world.is_anchor);
+    bound.all_data_single_rmse_m = static_snapshot_rmse(world, s, kAllDraws, bound.anchors);
   }
   if (!std::isfinite(bound.single_rmse_m))
     return no_bound(bound, "not localizable from the algorithm's data");
@@ -241,10 +253,14 @@ double RunBound::all_data_rmse_at(std::int64_t step) const {
                               : all_data_single_rmse_m;
 }
 
-estimators::RangeNetwork snapshot_network(const World& world, const config::Scenario& s,
-                                          const std::vector<Vec2>& truth, RangeDraws draws,
-                                          AnchorData anchors) {
-  estimators::RangeNetwork network;
+namespace {
+
+/// snapshot_network in D dimensions: `truth` holds each agent's position (with its z in 3-D).
+template <int D>
+estimators::RangeNetworkOf<D> snapshot_network_of(const World& world, const config::Scenario& s,
+                                                  const std::vector<Eigen::Matrix<double, D, 1>>& truth,
+                                                  RangeDraws draws, AnchorData anchors) {
+  estimators::RangeNetworkOf<D> network;
   network.truth = truth;
   const bool anchors_unknown = anchors_in_state(s, anchors);
   network.is_anchor = anchors_unknown ? std::vector<bool>(truth.size(), false) : world.is_anchor;
@@ -266,15 +282,36 @@ estimators::RangeNetwork snapshot_network(const World& world, const config::Scen
     const double variance = s.noise.anchor_fix_std_m * s.noise.anchor_fix_std_m;
     for (int i = 0; i < world.size(); ++i) {
       if (world.is_anchor[static_cast<std::size_t>(i)])
-        network.absolute.push_back({i, Mat2::Identity() * variance});
+        network.absolute.push_back({i, Eigen::Matrix<double, D, D>::Identity() * variance});
     }
   }
   return network;
 }
 
+}  // namespace
+
+estimators::RangeNetwork snapshot_network(const World& world, const config::Scenario& s,
+                                          const std::vector<Vec2>& truth, RangeDraws draws,
+                                          AnchorData anchors) {
+  return snapshot_network_of<2>(world, s, truth, draws, anchors);
+}
+
+estimators::RangeNetwork3 snapshot_network3(const World& world, const config::Scenario& s,
+                                            const std::vector<Vec3>& truth, RangeDraws draws,
+                                            AnchorData anchors) {
+  return snapshot_network_of<3>(world, s, truth, draws, anchors);
+}
+
+std::vector<Vec3> true_positions3(const World& world) {
+  std::vector<Vec3> positions;
+  positions.reserve(static_cast<std::size_t>(world.size()));
+  for (AgentId i = 0; i < world.size(); ++i) positions.push_back(world.position3(i));
+  return positions;
+}
+
 double non_anchor_rmse(const MatX& covariance, const estimators::RangeNetwork& network,
                        const std::vector<bool>& world_anchor) {
-  const auto offset = state_offsets(network);
+  const auto offset = state_offsets<2>(network);
   double total = 0.0;
   int scored = 0;
   for (std::size_t i = 0; i < offset.size(); ++i) {
@@ -305,6 +342,8 @@ RunBound run_bound(const World& world, const config::Scenario& s, const RangeCrl
       return moving_target_bound(bound, world, s);
     if (truth_moves(s))
       return no_bound(bound, "moving agents: the posterior CRB is implemented for ranges and targets only");
+    if (world.dimensions == 3 && std::isnan(legacy.single_snapshot_rmse_m))
+      return no_bound(bound, "3-D world: the bound is implemented for ranges only");
     if (std::isnan(legacy.single_snapshot_rmse_m))
       return no_bound(bound,
                       "no bound: not implemented for this measurement model, or the world is too large");
@@ -316,6 +355,8 @@ RunBound run_bound(const World& world, const config::Scenario& s, const RangeCrl
   }
   if (world.size() - world.anchor_count() > kMaxDenseBoundUnknowns)
     return no_bound(bound, "more than 1000 unknown agents: the dense bound is not computed");
+  if (world.dimensions == 3 && truth_moves(s))
+    return no_bound(bound, "3-D moving truth: the posterior CRB is implemented for planar worlds only");
   return truth_moves(s) ? moving_range_bound(bound, world, s) : static_range_bound(bound, world, s, legacy);
 }
 

@@ -147,6 +147,26 @@ Mat2 target_information(const World& world, const config::Scenario& s, const Vec
   return information;
 }
 
+namespace {
+
+/// The CRLB of a 3-D world's ranges (World::dimensions == 3): `observations` over the agents' (x, y, z),
+/// anchors known, 3 coordinates per agent.
+RangeCrlb spatial_range_crlb(const World& world, std::vector<estimators::RangeObservation> observations) {
+  estimators::RangeNetwork3 network;
+  network.truth.reserve(static_cast<std::size_t>(world.size()));
+  for (AgentId i = 0; i < world.size(); ++i) network.truth.push_back(world.position3(i));
+  network.is_anchor = world.is_anchor;
+  network.ranges = std::move(observations);
+  const auto result = estimators::network_crlb(network);
+  RangeCrlb crlb;
+  crlb.single_snapshot_rmse_m = result.network_rmse_m;
+  crlb.per_agent_single_rmse_m = result.per_agent_rmse_m;
+  crlb.localizable = result.localizable;
+  return crlb;
+}
+
+}  // namespace
+
 RangeCrlb range_crlb(const World& world, double range_std_m) {
   std::vector<estimators::RangeObservation> observations;
   for (int i = 0; i < world.size(); ++i) {
@@ -154,6 +174,7 @@ RangeCrlb range_crlb(const World& world, double range_std_m) {
       observations.push_back({i, j, range_std_m});
     }
   }
+  if (world.dimensions == 3) return spatial_range_crlb(world, std::move(observations));
   const auto result = estimators::range_network_crlb(world.truth, world.is_anchor, observations, 1.0);
   RangeCrlb crlb;
   crlb.single_snapshot_rmse_m = result.network_rmse_m;
@@ -311,7 +332,17 @@ RangeCrlb scenario_crlb(const World& world, const config::Scenario& scenario) {
     crlb.single_snapshot_rmse_m = std::numeric_limits<double>::quiet_NaN();
     return crlb;
   }
-  if (kinds.targets) {
+  if (world.dimensions == 3 && (!kinds.ranges || kinds.targets || kinds.relative || kinds.paths)) {
+    // A 3-D world's bound is that of its ranges (docs/algorithms.md §1.3): the others are planar.
+    crlb.single_snapshot_rmse_m = std::numeric_limits<double>::quiet_NaN();
+  } else if (world.dimensions == 3 && scenario.noise.range_model != config::RangeNoise::kAdditive) {
+    std::vector<estimators::RangeObservation> observations;
+    for (int i = 0; i < world.size(); ++i) {
+      for (AgentId j : world.neighbours[static_cast<std::size_t>(i)])
+        observations.push_back({i, j, std::max(1e-9, scenario.noise.range_std_at(world.distance(i, j)))});
+    }
+    crlb = spatial_range_crlb(world, std::move(observations));
+  } else if (kinds.targets) {
     crlb = target_crlb(world, scenario);
   } else if (kinds.relative) {
     crlb = relative_crlb(world, scenario.noise.relative_std_m);

@@ -48,6 +48,7 @@ struct OptimumSelection {
   bool anchors_in_state = false;  ///< anchors are unknowns with fixes (else their positions are known)
   bool shared = false;            ///< both ends hold one draw: it counts once
   std::vector<bool> is_anchor;
+  std::vector<double> altitude;                    ///< a 3-D world's true z per agent (empty: planar)
   std::vector<std::vector<AgentId>> neighbours;    ///< the step-0 graph (sorted)
   std::vector<std::vector<int>> edge_of;           ///< parallel to neighbours: the undirected edge's index
   std::vector<std::pair<AgentId, AgentId>> edges;  ///< (lo, hi)
@@ -86,6 +87,7 @@ Selection make_selection(const World& world, const config::Scenario& s, const Bo
   sel.anchors_in_state = data.anchors == kFixes && s.noise.anchor_fix_std_m > 0.0;
   sel.shared = s.noise.shared_range_draws;
   sel.is_anchor = world.is_anchor;
+  if (world.dimensions == 3) sel.altitude = world.altitude;  // static truth: z does not change
   sel.neighbours = world.neighbours;
   sel.edge_of.resize(world.neighbours.size());
   for (std::size_t i = 0; i < world.neighbours.size(); ++i) {
@@ -152,25 +154,31 @@ void add_fixes(const Selection& sel, const std::vector<estimators::MeasurementBa
 
 /// RMSE and mean NEES of `estimate` over the world's non-anchor agents.
 OptimumPoint score_point(std::int64_t step, const Selection& sel, const std::vector<Vec2>& truth,
-                         const OptimumEstimate& estimate, const OptimumSolution& solution) {
+                         const OptimumEstimate& estimate, bool singular, bool covariance) {
   OptimumPoint point;
   point.step = step;
-  point.iterations = solution.iterations;
-  point.converged = solution.converged;
-  point.singular_at_solution = solution.singular_at_solution;
-  point.localizable = !solution.singular;
-  const bool covariance = !solution.covariance.empty();
+  point.localizable = !singular;
   double squared = 0.0;
   double nees = 0.0;
   int scored = 0;
+  const bool spatial = !estimate.altitude.empty();
   for (std::size_t i = 0; i < truth.size(); ++i) {
     if (sel.is_anchor[i]) continue;
+    if (spatial) {  // a 3-D world: the error in space, a NEES of 3 degrees of freedom
+      const Vec3 error =
+          join(estimate.position[i], estimate.altitude[i].z_m) - join(truth[i], estimate.truth_z[i]);
+      squared += error.squaredNorm();
+      if (covariance)
+        nees += error.dot(join(estimate.covariance[i], estimate.altitude[i]).ldlt().solve(error));
+      ++scored;
+      continue;
+    }
     const Vec2 error = estimate.position[i] - truth[i];
     squared += error.squaredNorm();
     if (covariance) nees += error.dot(estimate.covariance[i].ldlt().solve(error));
     ++scored;
   }
-  if (scored > 0 && !solution.singular) point.rmse_m = std::sqrt(squared / scored);
+  if (scored > 0 && !singular) point.rmse_m = std::sqrt(squared / scored);
   if (scored > 0 && covariance) point.nees = nees / scored;
   return point;
 }
@@ -180,10 +188,28 @@ OptimumPoint score_point(std::int64_t step, const Selection& sel, const std::vec
 bool same_solution(const OptimumEstimate& a, const OptimumEstimate& b) {
   double scale = 1.0;
   for (const Vec2& x : a.position) scale = std::max(scale, x.cwiseAbs().maxCoeff());
+  for (const Altitude& z : a.altitude) scale = std::max(scale, std::abs(z.z_m));
   const double tolerance = 1e-5 * scale;
-  for (std::size_t i = 0; i < a.position.size(); ++i)
-    if ((a.position[i] - b.position[i]).norm() > tolerance) return false;
+  for (std::size_t i = 0; i < a.position.size(); ++i) {
+    if (!a.altitude.empty()) {
+      const Vec3 difference = join(a.position[i] - b.position[i], a.altitude[i].z_m - b.altitude[i].z_m);
+      if (difference.norm() > tolerance) return false;
+    } else if ((a.position[i] - b.position[i]).norm() > tolerance) {
+      return false;
+    }
+  }
   return true;
+}
+
+/// An agent's point in the optimum's D dimensions: its planar part, with its z in 3-D.
+template <int D>
+Eigen::Matrix<double, D, 1> optimum_point_of(const Vec2& planar, const std::vector<double>& z,
+                                             std::size_t i) {
+  if constexpr (D == 2) {
+    return planar;
+  } else {
+    return join(planar, z[i]);
+  }
 }
 
 }  // namespace
@@ -202,10 +228,10 @@ class OptimumAccumulator::Data {
                        const std::vector<estimators::MeasurementBatch>& batches) = 0;
   /// Keeps the data through `step` (the step just observed) for a later solve.
   virtual void checkpoint(std::int64_t step) = 0;
-  /// The optimum of the data through `step` (a kept checkpoint or the last observed step); `estimates`: a
-  /// second start (static truth only).
-  [[nodiscard]] virtual OptimumEstimate solve(std::int64_t step,
-                                              const std::vector<Vec2>* estimates) const = 0;
+  /// The optimum of the data through `step` (a kept checkpoint or the last observed step); `estimates` (with
+  /// their z in a 3-D world): a second start (static truth only).
+  [[nodiscard]] virtual OptimumEstimate solve(std::int64_t step, const std::vector<Vec2>* estimates,
+                                              const std::vector<double>* estimate_z) const = 0;
   /// Drops what was kept for `step`'s checkpoint.
   virtual void release(std::int64_t /*step*/) {}
 
@@ -236,23 +262,13 @@ class StaticData final : public OptimumAccumulator::Data {
 
   void checkpoint(std::int64_t step) override { kept_[step] = current_; }
 
-  [[nodiscard]] OptimumEstimate solve(std::int64_t step, const std::vector<Vec2>* estimates) const override {
+  [[nodiscard]] OptimumEstimate solve(std::int64_t step, const std::vector<Vec2>* estimates,
+                                      const std::vector<double>* estimate_z) const override {
     const auto it = kept_.find(step);
     if (it == kept_.end() && step != last_step_) return {};
     const Snapshot& snap = it != kept_.end() ? it->second : current_;
-    OptimumEstimate from_truth = solve_snapshot(step, snap, snap.truth);
-    if (estimates == nullptr || estimates->size() != snap.truth.size()) return from_truth;
-    std::vector<Vec2> start = snap.truth;
-    for (std::size_t i = 0; i < start.size(); ++i)
-      if ((*estimates)[i].allFinite()) start[i] = (*estimates)[i];
-    OptimumEstimate from_estimates = solve_snapshot(step, snap, start);
-    // Within rounding the two fit equally (a mirror image the data cannot tell apart): both are the ML.
-    const double tie = 1e-9 * std::max(1.0, from_truth.cost);
-    if (!from_estimates.solved || from_estimates.cost > from_truth.cost + tie ||
-        same_solution(from_truth, from_estimates))
-      return from_truth;
-    from_estimates.point.from_estimates = true;
-    return from_estimates;
+    return sel_.altitude.empty() ? solve_from<2>(step, snap, estimates, estimate_z)
+                                 : solve_from<3>(step, snap, estimates, estimate_z);
   }
 
   void release(std::int64_t step) override { kept_.erase(step); }
@@ -263,25 +279,61 @@ class StaticData final : public OptimumAccumulator::Data {
     std::vector<FixStat> fixes;
     std::vector<Vec2> truth;
   };
+  template <int D>
+  using Point = Eigen::Matrix<double, D, 1>;
 
-  /// The problem of one snapshot: an unknown per non-anchor (and per anchor with fixes), from `start`.
+  /// The optimum from the truth and, with `estimates`, from them: the one that fits the data better.
+  template <int D>
+  OptimumEstimate solve_from(std::int64_t step, const Snapshot& snap, const std::vector<Vec2>* estimates,
+                             const std::vector<double>* estimate_z) const {
+    std::vector<Point<D>> truth;
+    truth.reserve(snap.truth.size());
+    for (std::size_t i = 0; i < snap.truth.size(); ++i)
+      truth.push_back(optimum_point_of<D>(snap.truth[i], sel_.altitude, i));
+    OptimumEstimate from_truth = solve_snapshot<D>(step, snap, truth);
+    if (estimates == nullptr || estimates->size() != snap.truth.size()) return from_truth;
+    std::vector<Point<D>> start = truth;
+    for (std::size_t i = 0; i < start.size(); ++i) {
+      if (!(*estimates)[i].allFinite()) continue;
+      if constexpr (D == 2) {
+        start[i] = (*estimates)[i];
+      } else if (estimate_z != nullptr && estimate_z->size() == start.size() &&
+                 std::isfinite((*estimate_z)[i])) {
+        start[i] = join((*estimates)[i], (*estimate_z)[i]);  // an estimate without its z is no 3-D start
+      }
+    }
+    OptimumEstimate from_estimates = solve_snapshot<D>(step, snap, start);
+    // Within rounding the two fit equally (a mirror image the data cannot tell apart): both are the ML.
+    const double tie = 1e-9 * std::max(1.0, from_truth.cost);
+    if (!from_estimates.solved || from_estimates.cost > from_truth.cost + tie ||
+        same_solution(from_truth, from_estimates))
+      return from_truth;
+    from_estimates.point.from_estimates = true;
+    return from_estimates;
+  }
+
+  /// The problem of one snapshot: an unknown per non-anchor (and per anchor with fixes), from `start`; D = 3
+  /// in a 3-D world (no fixes there: none_reason).
+  template <int D>
   OptimumEstimate solve_snapshot(std::int64_t step, const Snapshot& snap,
-                                 const std::vector<Vec2>& start) const {
+                                 const std::vector<Point<D>>& start) const {
     const std::size_t n = snap.truth.size();
     std::vector<int> block(n, -1);
-    OptimumProblem problem;
+    OptimumProblemOf<D> problem;
     for (std::size_t i = 0; i < n; ++i) {
       if (sel_.is_anchor[i] && !sel_.anchors_in_state) continue;
       block[i] = static_cast<int>(problem.start.size());
       problem.start.push_back(start[i]);
     }
-    add_range_factors(snap, block, problem);
-    for (std::size_t i = 0; i < n; ++i) {
-      const FixStat& fix = snap.fixes[i];
-      if (block[i] < 0 || !(fix.information.determinant() > 0.0)) continue;
-      problem.linear.push_back({block[i], -1, fix.information.ldlt().solve(fix.weighted), fix.information});
+    add_range_factors<D>(snap, block, problem);
+    if constexpr (D == 2) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const FixStat& fix = snap.fixes[i];
+        if (block[i] < 0 || !(fix.information.determinant() > 0.0)) continue;
+        problem.linear.push_back({block[i], -1, fix.information.ldlt().solve(fix.weighted), fix.information});
+      }
     }
-    const OptimumSolution solution = solve_optimum_problem(problem, true);
+    const OptimumSolutionOf<D> solution = solve_optimum_problem(problem, true);
     OptimumEstimate estimate;
     estimate.step = step;
     estimate.solved = !solution.singular;
@@ -290,18 +342,35 @@ class StaticData final : public OptimumAccumulator::Data {
     estimate.truth = snap.truth;
     estimate.covariance.assign(n, Mat2::Zero());
     estimate.in_state.assign(n, false);
+    if constexpr (D == 3) {
+      estimate.truth_z = sel_.altitude;
+      for (std::size_t i = 0; i < n; ++i) estimate.altitude.push_back(Altitude{sel_.altitude[i]});
+    }
     for (std::size_t i = 0; i < n; ++i) {
       if (block[i] < 0) continue;
       const auto b = static_cast<std::size_t>(block[i]);
       estimate.in_state[i] = true;
-      estimate.position[i] = solution.x[b];
-      if (!solution.covariance.empty()) estimate.covariance[i] = solution.covariance[b];
+      if constexpr (D == 2) {
+        estimate.position[i] = solution.x[b];
+        if (!solution.covariance.empty()) estimate.covariance[i] = solution.covariance[b];
+      } else {
+        const Mat3 covariance = solution.covariance.empty() ? Mat3::Zero() : solution.covariance[b];
+        estimate.position[i] = solution.x[b].template head<2>();
+        estimate.covariance[i] = covariance.topLeftCorner<2, 2>();
+        estimate.altitude[i] = altitude_of(solution.x[b], covariance);
+      }
     }
-    estimate.point = score_point(step, sel_, snap.truth, estimate, solution);
+    estimate.point =
+        score_point(step, sel_, snap.truth, estimate, solution.singular, !solution.covariance.empty());
+    estimate.point.iterations = solution.iterations;
+    estimate.point.converged = solution.converged;
+    estimate.point.singular_at_solution = solution.singular_at_solution;
     return estimate;
   }
 
-  void add_range_factors(const Snapshot& snap, const std::vector<int>& block, OptimumProblem& problem) const {
+  template <int D>
+  void add_range_factors(const Snapshot& snap, const std::vector<int>& block,
+                         OptimumProblemOf<D>& problem) const {
     for (std::size_t e = 0; e < sel_.edges.size(); ++e) {
       const EdgeStat& stat = snap.edges[e];
       if (!(stat.information > 0.0)) continue;
@@ -310,8 +379,9 @@ class StaticData final : public OptimumAccumulator::Data {
       const int a = block[static_cast<std::size_t>(lo)];
       if (a < 0) continue;  // two known anchors: no unknown
       const int b = block[static_cast<std::size_t>(hi)];
-      problem.ranges.push_back({a, b, snap.truth[static_cast<std::size_t>(hi)], stat.information,
-                                stat.weighted / stat.information});
+      const auto known = static_cast<std::size_t>(hi);
+      problem.ranges.push_back({a, b, optimum_point_of<D>(snap.truth[known], sel_.altitude, known),
+                                stat.information, stat.weighted / stat.information});
     }
   }
 
@@ -357,7 +427,8 @@ class MovingData final : public OptimumAccumulator::Data {
 
   void checkpoint(std::int64_t /*step*/) override {}  // every step is kept
 
-  [[nodiscard]] OptimumEstimate solve(std::int64_t step, const std::vector<Vec2>* estimates) const override;
+  [[nodiscard]] OptimumEstimate solve(std::int64_t step, const std::vector<Vec2>* estimates,
+                                      const std::vector<double>* estimate_z) const override;
 
  private:
   /// Block indices: non-anchor i at step k, k·moving + slot(i); an anchor with fixes, one block after them.
@@ -438,7 +509,8 @@ void MovingData::add_step_factors(std::size_t k, const Layout& lay, OptimumProbl
   }
 }
 
-OptimumEstimate MovingData::solve(std::int64_t step, const std::vector<Vec2>* /*estimates*/) const {
+OptimumEstimate MovingData::solve(std::int64_t step, const std::vector<Vec2>* /*estimates*/,
+                                  const std::vector<double>* /*estimate_z*/) const {
   OptimumEstimate estimate;
   if (step < 0 || static_cast<std::size_t>(step) >= steps_.size()) return estimate;
   const auto steps = static_cast<std::size_t>(step) + 1;
@@ -475,7 +547,10 @@ OptimumEstimate MovingData::solve(std::int64_t step, const std::vector<Vec2>* /*
     if (!solution.covariance.empty())
       estimate.covariance[i] = solution.covariance[static_cast<std::size_t>(b)];
   }
-  estimate.point = score_point(step, sel_, truth, estimate, solution);
+  estimate.point = score_point(step, sel_, truth, estimate, solution.singular, !solution.covariance.empty());
+  estimate.point.iterations = solution.iterations;
+  estimate.point.converged = solution.converged;
+  estimate.point.singular_at_solution = solution.singular_at_solution;
   return estimate;
 }
 
@@ -495,6 +570,10 @@ std::string none_reason(const World& world, const config::Scenario& s, const Bou
   for (const auto& list : world.neighbours) edges += static_cast<std::int64_t>(list.size());
   if (edges / 2 > kMaxOptimumEdges)
     return "more than " + std::to_string(kMaxOptimumEdges) + " edges: the optimum is not computed";
+  if (world.dimensions == 3 && truth_moves(s))
+    return "3-D moving truth: the smoother is implemented for planar worlds only";
+  if (world.dimensions == 3 && data.anchors == kFixes && s.noise.anchor_fix_std_m > 0.0)
+    return "3-D world with anchor fixes: no optimum implemented (the fixes are planar)";
   if (!truth_moves(s)) return {};
   if (s.noise.draw == config::NoiseDraw::kOnce)
     return "moving truth with noise.draw = once (repeated draws): no optimum implemented";
@@ -568,7 +647,8 @@ void OptimumAccumulator::observe(std::int64_t step, const std::vector<Vec2>& tru
   result_.observe_cpu_s += thread_cpu_s() - started;
 }
 
-void OptimumAccumulator::solve_pending(bool final, const std::vector<Vec2>* estimates) {
+void OptimumAccumulator::solve_pending(bool final, const std::vector<Vec2>* estimates,
+                                       const std::vector<double>* estimate_z) {
   if (!data_) return;
   const double started = thread_cpu_s();
   const std::int64_t solved_to = result_.points.empty() ? -1 : result_.points.back().step;
@@ -576,8 +656,9 @@ void OptimumAccumulator::solve_pending(bool final, const std::vector<Vec2>* esti
       std::find(pending_.begin(), pending_.end(), last_observed_) == pending_.end())
     pending_.push_back(last_observed_);
   for (const std::int64_t step : pending_) {
+    const bool last = final && step == last_observed_;
     const OptimumEstimate estimate =
-        data_->solve(step, final && step == last_observed_ ? estimates : nullptr);
+        data_->solve(step, last ? estimates : nullptr, last ? estimate_z : nullptr);
     data_->release(step);
     if (estimate.step >= 0) result_.points.push_back(estimate.point);
     if (final && step == last_observed_ && estimate.solved) {
@@ -585,6 +666,8 @@ void OptimumAccumulator::solve_pending(bool final, const std::vector<Vec2>* esti
       result_.final_covariance = estimate.covariance;
       result_.final_truth = estimate.truth;
       result_.final_in_state = estimate.in_state;
+      result_.final_altitude = estimate.altitude;
+      result_.final_truth_z = estimate.truth_z;
     }
   }
   pending_.clear();
@@ -595,7 +678,7 @@ const RunOptimum& OptimumAccumulator::result() const { return result_; }
 
 OptimumEstimate OptimumAccumulator::solve_now() const {
   if (!data_ || last_observed_ < 0) return {};
-  return data_->solve(last_observed_, nullptr);
+  return data_->solve(last_observed_, nullptr, nullptr);
 }
 
 }  // namespace swarmloc::world

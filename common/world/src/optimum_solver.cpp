@@ -27,24 +27,33 @@ constexpr double kStepTolerance = 1e-7;
 /// A pivot below this fraction of the largest one: the information is singular (not localizable).
 constexpr double kSingularPivot = 1e-13;
 
-Vec2 other_end(const OptimumRangeFactor& f, const std::vector<Vec2>& x) {
+/// A block's point and matrix: D = 2 (planar) or 3.
+template <int D>
+using BlockVec = Eigen::Matrix<double, D, 1>;
+template <int D>
+using BlockMat = Eigen::Matrix<double, D, D>;
+
+template <int D>
+BlockVec<D> other_end(const OptimumRangeFactorOf<D>& f, const std::vector<BlockVec<D>>& x) {
   return f.b < 0 ? f.known_b : x[static_cast<std::size_t>(f.b)];
 }
 
 /// Residual of a linear factor: value − x_a (unary) or value − (x_b − x_a).
-Vec2 linear_residual(const OptimumLinearFactor& f, const std::vector<Vec2>& x) {
-  const Vec2& xa = x[static_cast<std::size_t>(f.a)];
-  return f.b < 0 ? Vec2(f.value - xa) : Vec2(f.value - (x[static_cast<std::size_t>(f.b)] - xa));
+template <int D>
+BlockVec<D> linear_residual(const OptimumLinearFactorOf<D>& f, const std::vector<BlockVec<D>>& x) {
+  const BlockVec<D>& xa = x[static_cast<std::size_t>(f.a)];
+  return f.b < 0 ? BlockVec<D>(f.value - xa) : BlockVec<D>(f.value - (x[static_cast<std::size_t>(f.b)] - xa));
 }
 
-double cost_of(const OptimumProblem& p, const std::vector<Vec2>& x) {
+template <int D>
+double cost_of(const OptimumProblemOf<D>& p, const std::vector<BlockVec<D>>& x) {
   double cost = 0.0;
   for (const auto& f : p.ranges) {
     const double e = f.mean_range_m - (x[static_cast<std::size_t>(f.a)] - other_end(f, x)).norm();
     cost += f.information * e * e;
   }
   for (const auto& f : p.linear) {
-    const Vec2 e = linear_residual(f, x);
+    const BlockVec<D> e = linear_residual(f, x);
     cost += e.dot(f.information * e);
   }
   return cost;
@@ -54,11 +63,12 @@ double cost_of(const OptimumProblem& p, const std::vector<Vec2>& x) {
 /// or Newton's Hessian ½∇²cost. The entries come in the same order at every iterate: the first assembly
 /// builds the pattern from triplets and records each entry's slot in the compressed matrix, later ones add
 /// each value into its slot (no triplets, no sort).
+template <int D>
 class NormalSystem {
  public:
   explicit NormalSystem(Eigen::Index size) : H(size, size), gradient(VecX::Zero(size)) {}
 
-  void assemble(const OptimumProblem& p, const std::vector<Vec2>& x, bool newton) {
+  void assemble(const OptimumProblemOf<D>& p, const std::vector<BlockVec<D>>& x, bool newton) {
     const bool first = slot_.empty();
     gradient.setZero();
     cursor_ = 0;
@@ -71,20 +81,21 @@ class NormalSystem {
       cursor_ = static_cast<std::size_t>(H.rows());  // the diagonal's zeros
     }
     for (const auto& f : p.ranges) {
-      const Vec2 d = x[static_cast<std::size_t>(f.a)] - other_end(f, x);
+      const BlockVec<D> d = x[static_cast<std::size_t>(f.a)] - other_end(f, x);
       const double distance = d.norm();
-      const Vec2 u = distance > 0.0 ? Vec2(d / distance) : Vec2::Zero();  // ∂‖x_a − x_b‖/∂x_a
+      const BlockVec<D> u =
+          distance > 0.0 ? BlockVec<D>(d / distance) : BlockVec<D>::Zero();  // ∂‖x_a − x_b‖/∂x_a
       const double e = f.mean_range_m - distance;
-      Mat2 block = f.information * u * u.transpose();
+      BlockMat<D> block = f.information * u * u.transpose();
       // Newton: − w e ∂²‖x_a − x_b‖/∂x_a² = − w e (I − uuᵀ)/‖x_a − x_b‖ (indefinite far from the minimum).
       if (newton && distance > 0.0)
-        block -= f.information * e / distance * (Mat2::Identity() - u * u.transpose());
+        block -= f.information * e / distance * (BlockMat<D>::Identity() - u * u.transpose());
       add_pair(f.a, f.b, block, f.information * e * u);
     }
     for (const auto& f : p.linear) {
-      const Vec2 weighted = f.information * linear_residual(f, x);
+      const BlockVec<D> weighted = f.information * linear_residual(f, x);
       // Unary: ∂r/∂x_a = −I; binary: ∂r/∂x_a = I, ∂r/∂x_b = −I. Both give JᵀΛe = ∓Λe at a.
-      add_pair(f.a, f.b, f.information, f.b < 0 ? weighted : Vec2(-weighted));
+      add_pair(f.a, f.b, f.information, f.b < 0 ? weighted : BlockVec<D>(-weighted));
     }
     if (first) {
       H.setFromTriplets(triplets_.begin(), triplets_.end());
@@ -97,11 +108,11 @@ class NormalSystem {
   VecX gradient;
 
  private:
-  void add_block(int row_block, int column_block, const Mat2& block) {
-    for (int r = 0; r < 2; ++r) {
-      for (int c = 0; c < 2; ++c) {
+  void add_block(int row_block, int column_block, const BlockMat<D>& block) {
+    for (int r = 0; r < D; ++r) {
+      for (int c = 0; c < D; ++c) {
         if (slot_.empty()) {
-          triplets_.emplace_back(2 * row_block + r, 2 * column_block + c, block(r, c));
+          triplets_.emplace_back(D * row_block + r, D * column_block + c, block(r, c));
         } else {
           H.valuePtr()[slot_[cursor_++]] += block(r, c);
         }
@@ -110,14 +121,14 @@ class NormalSystem {
   }
 
   /// The four blocks of a factor between a and b (b < 0: a's diagonal only), ∂r/∂x_a = −∂r/∂x_b.
-  void add_pair(int a, int b, const Mat2& block, const Vec2& gradient_a) {
+  void add_pair(int a, int b, const BlockMat<D>& block, const BlockVec<D>& gradient_a) {
     add_block(a, a, block);
-    gradient.segment<2>(2 * a) += gradient_a;
+    gradient.template segment<D>(D * a) += gradient_a;
     if (b < 0) return;
     add_block(b, b, block);
     add_block(a, b, -block);
     add_block(b, a, -block);
-    gradient.segment<2>(2 * b) -= gradient_a;
+    gradient.template segment<D>(D * b) -= gradient_a;
   }
 
   /// Each triplet's index in H's values (setFromTriplets leaves each column's rows sorted).
@@ -154,9 +165,9 @@ enum class StepResult { kAccepted, kConverged, kStuck };
 /// and lowers the cost (λ adapted in place). Converged when the undamped step, taken, moves no coordinate by
 /// more than `tolerance` (taken without a cost test: that close to the minimum, rounding decides the sign
 /// of the change); stuck if no damping lowers the cost.
-template <typename Factor>
-StepResult lm_step(const OptimumProblem& p, NormalSystem& system, Factor& factor, std::vector<Vec2>& x,
-                   double& cost, double& lambda, double tolerance) {
+template <int D, typename Factor>
+StepResult lm_step(const OptimumProblemOf<D>& p, NormalSystem<D>& system, Factor& factor,
+                   std::vector<BlockVec<D>>& x, double& cost, double& lambda, double tolerance) {
   const VecX diagonal = system.H.diagonal();
   const double floor = 1e-12 * std::max(1.0, diagonal.cwiseAbs().maxCoeff());
   for (int attempt = 0; attempt < kMaxDampingTries; ++attempt) {
@@ -165,8 +176,9 @@ StepResult lm_step(const OptimumProblem& p, NormalSystem& system, Factor& factor
     factor.factorize(system.H);
     if (positive_definite(factor)) {
       const VecX dx = factor.solve(system.gradient);
-      std::vector<Vec2> trial = x;
-      for (std::size_t b = 0; b < x.size(); ++b) trial[b] += dx.segment<2>(2 * static_cast<Eigen::Index>(b));
+      std::vector<BlockVec<D>> trial = x;
+      for (std::size_t b = 0; b < x.size(); ++b)
+        trial[b] += dx.template segment<D>(D * static_cast<Eigen::Index>(b));
       const bool small = dx.allFinite() && dx.cwiseAbs().maxCoeff() < tolerance;
       const double trial_cost = cost_of(p, trial);
       if (small || (dx.allFinite() && trial_cost <= cost)) {
@@ -182,41 +194,48 @@ StepResult lm_step(const OptimumProblem& p, NormalSystem& system, Factor& factor
   return StepResult::kStuck;
 }
 
-double coordinate_scale(const std::vector<Vec2>& x) {
+template <int D>
+double coordinate_scale(const std::vector<BlockVec<D>>& x) {
   double scale = 1.0;
   for (const auto& v : x) scale = std::max(scale, v.cwiseAbs().maxCoeff());
   return scale;
 }
 
-/// Each block's 2×2 marginal of H⁻¹ by selected inversion (selected_inversion.hpp). Column j needs only the
+/// Each block's D×D marginal of H⁻¹ by selected inversion (selected_inversion.hpp). Column j needs only the
 /// columns after it: the recursion stops at the first column a wanted block uses.
-template <typename Factor>
-std::vector<Mat2> marginal_covariances(const Factor& factor, std::size_t blocks, std::size_t first_block) {
+template <int D, typename Factor>
+std::vector<BlockMat<D>> marginal_covariances(const Factor& factor, std::size_t blocks,
+                                              std::size_t first_block) {
   const auto& permutation = factor.permutationP().indices();  // empty: the identity
   auto permuted = [&](std::size_t k) {
     return permutation.size() == 0 ? static_cast<int>(k) : permutation(static_cast<Eigen::Index>(k));
   };
   int first = static_cast<int>(factor.matrixL().nestedExpression().cols());
-  for (std::size_t k = 2 * first_block; k < 2 * blocks; ++k) first = std::min(first, permuted(k));
+  for (std::size_t k = D * first_block; k < D * blocks; ++k) first = std::min(first, permuted(k));
   const SelectedInverse z(factor, first);
-  std::vector<Mat2> out(blocks, Mat2::Zero());
+  std::vector<BlockMat<D>> out(blocks, BlockMat<D>::Zero());
   for (std::size_t b = first_block; b < blocks; ++b) {
-    const double xy = z.inverse(2 * b, 2 * b + 1);
-    out[b] << z.inverse(2 * b, 2 * b), xy, xy, z.inverse(2 * b + 1, 2 * b + 1);
+    for (std::size_t r = 0; r < D; ++r) {
+      for (std::size_t c = r; c < D; ++c) {
+        const auto row = static_cast<Eigen::Index>(r);
+        const auto column = static_cast<Eigen::Index>(c);
+        out[b](row, column) = out[b](column, row) = z.inverse(D * b + r, D * b + c);
+      }
+    }
   }
   return out;
 }
 
-template <typename Factor>
-OptimumSolution solve_with(const OptimumProblem& p, bool covariance) {
-  OptimumSolution solution;
+template <int D, typename Factor>
+OptimumSolutionOf<D> solve_with(const OptimumProblemOf<D>& p, bool covariance) {
+  OptimumSolutionOf<D> solution;
   solution.x = p.start;
-  const auto size = static_cast<Eigen::Index>(2 * p.start.size());
+  const auto size = static_cast<Eigen::Index>(D * p.start.size());
   if (size == 0) {
     solution.converged = true;
     return solution;
   }
-  NormalSystem system(size);
+  NormalSystem<D> system(size);
   Factor factor;
   // Localizable at all? The Fisher information at the start (the truth) must be positive definite; if it is
   // not, no iteration can fix it (a world of 10⁴ agents, not checked by world.require_localizable, spent
@@ -253,14 +272,18 @@ OptimumSolution solve_with(const OptimumProblem& p, bool covariance) {
   }
   if (covariance)
     solution.covariance =
-        marginal_covariances(factor, p.start.size(), std::min(p.marginals_from, p.start.size()));
+        marginal_covariances<D>(factor, p.start.size(), std::min(p.marginals_from, p.start.size()));
   return solution;
 }
 
 }  // namespace
 
 OptimumSolution solve_optimum_problem(const OptimumProblem& p, bool covariance) {
-  return p.keep_order ? solve_with<BandFactor>(p, covariance) : solve_with<AmdFactor>(p, covariance);
+  return p.keep_order ? solve_with<2, BandFactor>(p, covariance) : solve_with<2, AmdFactor>(p, covariance);
+}
+
+OptimumSolution3 solve_optimum_problem(const OptimumProblem3& p, bool covariance) {
+  return p.keep_order ? solve_with<3, BandFactor>(p, covariance) : solve_with<3, AmdFactor>(p, covariance);
 }
 
 }  // namespace swarmloc::world

@@ -73,6 +73,8 @@ struct RunRecord {
   /// During the run: the last scored step's estimated positions (non-finite where none), the optimum's
   /// second start at the final step (note_scored_estimates).
   std::vector<Vec2> scored_positions;
+  /// A 3-D world: their z (Estimate::altitude; non-finite where none), without which a 3-D start is none.
+  std::vector<double> scored_z;
   /// A dataset world's steps (World::recorded, set by compute_run_bounds): the truth headings the pose
   /// estimators' 3-DOF NEES is scored against. Null for generated worlds.
   std::shared_ptr<const world::RecordedSteps> recorded;

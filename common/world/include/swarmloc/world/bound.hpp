@@ -85,6 +85,15 @@ estimators::RangeNetwork snapshot_network(const World& world, const config::Scen
                                           const std::vector<Vec2>& truth, RangeDraws draws,
                                           AnchorData anchors);
 
+/// snapshot_network in space (a 3-D world, World::dimensions == 3): `truth` holds each agent's (x, y, z),
+/// the ranges are 3-D distances, an anchor's fixes have covariance anchor_fix_std_m² I₃.
+estimators::RangeNetwork3 snapshot_network3(const World& world, const config::Scenario& scenario,
+                                            const std::vector<Vec3>& truth, RangeDraws draws,
+                                            AnchorData anchors);
+
+/// Every agent's true (x, y, z) (World::position3).
+std::vector<Vec3> true_positions3(const World& world);
+
 /// sqrt(mean over the world's non-anchor agents of tr([J⁻¹]_ii)) for a Fisher matrix over the network's
 /// unknowns (anchors in θ are in J but not in the mean); +inf if J is singular.
 double non_anchor_rmse(const MatX& covariance, const estimators::RangeNetwork& network,

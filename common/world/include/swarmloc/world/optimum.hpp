@@ -12,6 +12,7 @@
 
 #include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/config/scenario.hpp"
+#include "swarmloc/core/altitude.hpp"
 #include "swarmloc/estimators/messages.hpp"
 #include "swarmloc/world/world.hpp"
 
@@ -20,29 +21,37 @@ namespace swarmloc::world {
 // ---- The sparse least-squares problem and its solver ----
 
 /// ‖x_a − x_b‖ observed as `mean_range_m` with information `information` (the sufficient statistic of any
-/// number of draws of one edge: Σ 1/σ² and the information-weighted mean). b < 0: x_b is `known_b`.
-struct OptimumRangeFactor {
+/// number of draws of one edge: Σ 1/σ² and the information-weighted mean). b < 0: x_b is `known_b`. D = 2
+/// (planar) or 3 (a 3-D world's (x, y, z)).
+template <int D>
+struct OptimumRangeFactorOf {
   int a = 0;
   int b = -1;
-  Vec2 known_b = Vec2::Zero();
+  Eigen::Matrix<double, D, 1> known_b = Eigen::Matrix<double, D, 1>::Zero();
   double information = 0.0;
   double mean_range_m = 0.0;
 };
+using OptimumRangeFactor = OptimumRangeFactorOf<2>;
+using OptimumRangeFactor3 = OptimumRangeFactorOf<3>;
 
 /// b < 0: x_a ~ N(value, information⁻¹) (an anchor's fixes, a prior); else x_b − x_a ~ N(value,
 /// information⁻¹) (a random-walk step, value 0).
-struct OptimumLinearFactor {
+template <int D>
+struct OptimumLinearFactorOf {
   int a = 0;
   int b = -1;
-  Vec2 value = Vec2::Zero();
-  Mat2 information = Mat2::Zero();
+  Eigen::Matrix<double, D, 1> value = Eigen::Matrix<double, D, 1>::Zero();
+  Eigen::Matrix<double, D, D> information = Eigen::Matrix<double, D, D>::Zero();
 };
+using OptimumLinearFactor = OptimumLinearFactorOf<2>;
+using OptimumLinearFactor3 = OptimumLinearFactorOf<3>;
 
-/// Unknown 2-D blocks (one agent at one step), the point each starts from, and the factors over them.
-struct OptimumProblem {
-  std::vector<Vec2> start;
-  std::vector<OptimumRangeFactor> ranges;
-  std::vector<OptimumLinearFactor> linear;
+/// Unknown D-blocks (one agent at one step), the point each starts from, and the factors over them.
+template <int D>
+struct OptimumProblemOf {
+  std::vector<Eigen::Matrix<double, D, 1>> start;
+  std::vector<OptimumRangeFactorOf<D>> ranges;
+  std::vector<OptimumLinearFactorOf<D>> linear;
   /// The blocks' order is a good elimination order (a trajectory numbered step by step): factor in it
   /// instead of an AMD ordering.
   bool keep_order = false;
@@ -50,13 +59,16 @@ struct OptimumProblem {
   /// a trajectory's last step costs a few columns of the recursion instead of all of them.
   std::size_t marginals_from = 0;
 };
+using OptimumProblem = OptimumProblemOf<2>;
+using OptimumProblem3 = OptimumProblemOf<3>;
 
-struct OptimumSolution {
-  std::vector<Vec2> x;           ///< one per block
-  std::vector<Mat2> covariance;  ///< each block's marginal of the inverse information (if asked;
-                                 ///< zero before problem.marginals_from)
-  int iterations = 0;            ///< Gauss–Newton / Levenberg–Marquardt steps taken
-  bool converged = false;        ///< the last step moved no block by more than ~1e-10 m
+template <int D>
+struct OptimumSolutionOf {
+  std::vector<Eigen::Matrix<double, D, 1>> x;           ///< one per block
+  std::vector<Eigen::Matrix<double, D, D>> covariance;  ///< each block's marginal of the inverse information
+                                                        ///< (if asked; zero before problem.marginals_from)
+  int iterations = 0;      ///< Gauss–Newton / Levenberg–Marquardt steps taken
+  bool converged = false;  ///< the last step moved no block by more than ~1e-10 m
   /// The information is singular at the start (the truth) too: the data do not localize every block
   /// (not localizable; the solution is arbitrary along the singular directions).
   bool singular = false;
@@ -66,12 +78,15 @@ struct OptimumSolution {
   bool singular_at_solution = false;
   double cost = 0.0;  ///< Σ weighted squared residuals (up to the draws' constant)
 };
+using OptimumSolution = OptimumSolutionOf<2>;
+using OptimumSolution3 = OptimumSolutionOf<3>;
 
 /// Levenberg–Marquardt on Newton's Hessian from problem.start, on the sparse normal equations (Eigen's
-/// SimplicialLDLT, AMD ordering unless keep_order), and, if `covariance`, every block's 2×2 marginal of the
+/// SimplicialLDLT, AMD ordering unless keep_order), and, if `covariance`, every block's D×D marginal of the
 /// inverse Fisher (Gauss–Newton) information at the solution by selected inversion of its factor
 /// (Takahashi's recursion on the factor's pattern: never the dense inverse).
 OptimumSolution solve_optimum_problem(const OptimumProblem& problem, bool covariance);
+OptimumSolution3 solve_optimum_problem(const OptimumProblem3& problem, bool covariance);
 
 // ---- The run's optimum ----
 
@@ -86,7 +101,8 @@ std::string_view to_string(OptimumKind kind);
 struct OptimumPoint {
   std::int64_t step = 0;
   double rmse_m = std::numeric_limits<double>::quiet_NaN();  ///< over the world's non-anchor agents
-  double nees = std::numeric_limits<double>::quiet_NaN();    ///< mean eᵀP⁻¹e over the same agents
+  /// Mean eᵀP⁻¹e over the same agents: 2 degrees of freedom each, 3 in a 3-D world.
+  double nees = std::numeric_limits<double>::quiet_NaN();
   /// The information is singular at the solution (a degenerate ML): rmse_m stands, nees is NaN.
   bool singular_at_solution = false;
   /// False: the information is singular at the truth, the data do not localize every agent (rmse_m NaN).
@@ -112,6 +128,10 @@ struct RunOptimum {
   std::vector<Mat2> final_covariance;
   std::vector<Vec2> final_truth;
   std::vector<bool> final_in_state;
+  /// A 3-D world only (empty in a planar one): each agent's z with the z row of its (x, y, z) covariance,
+  /// and its true z; the planar parts are in final_position, final_covariance and final_truth.
+  std::vector<Altitude> final_altitude;
+  std::vector<double> final_truth_z;
   double observe_cpu_s = 0.0;  ///< CPU time taking the batches in (the calling thread's)
   double solve_cpu_s = 0.0;    ///< CPU time solving
   /// The point at `step`, or nullptr.
@@ -125,6 +145,10 @@ struct OptimumEstimate {
   std::vector<Mat2> covariance;  ///< per agent; zero for a known anchor
   std::vector<bool> in_state;    ///< the agent is an unknown of the problem
   std::vector<Vec2> truth;       ///< per agent, at the step
+  /// A 3-D world only (empty in a planar one): per agent its z and the z row of its covariance (a known
+  /// anchor: its true z, zero covariance), and its true z.
+  std::vector<Altitude> altitude;
+  std::vector<double> truth_z;
   OptimumPoint point;
   bool solved = false;  ///< false: kind kNone, nothing observed, or not localizable
   double cost = 0.0;    ///< Σ weighted squared residuals at the solution
@@ -154,8 +178,10 @@ class OptimumAccumulator {
   /// Solves the checkpoints observed and not solved yet; `final`: the last observed step as well. With
   /// `estimates` (per agent, non-finite where it has none), a static world's last observed step is solved
   /// from them too and the solution that fits the data better is kept (the estimates' on a tie within
-  /// rounding).
-  void solve_pending(bool final, const std::vector<Vec2>* estimates = nullptr);
+  /// rounding). A 3-D world's estimates need their z in `estimate_z` (per agent, non-finite where it has
+  /// none): an agent without one starts from the truth.
+  void solve_pending(bool final, const std::vector<Vec2>* estimates = nullptr,
+                     const std::vector<double>* estimate_z = nullptr);
   [[nodiscard]] const RunOptimum& result() const;
   /// The optimum of every batch observed so far, with each agent's position and covariance.
   [[nodiscard]] OptimumEstimate solve_now() const;
