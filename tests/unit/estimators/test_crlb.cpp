@@ -133,5 +133,122 @@ TEST(Crlb, HandlesThreeHundredAgentsFullyConnected) {
   EXPECT_LT(r.network_rmse_m, 0.01);
 }
 
+// ---- 3-D networks (World::dimensions == 3) ----
+
+/// The ranges of `network`, as a function of θ (the non-anchors' (x, y, z) in index order).
+VecX ranges3_at(const RangeNetwork3& network, const VecX& theta) {
+  std::vector<Vec3> x = network.truth;
+  Eigen::Index next = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (!network.is_anchor[i]) x[i] = theta.segment<3>(next), next += 3;
+  }
+  VecX out(static_cast<Eigen::Index>(network.ranges.size()));
+  for (std::size_t m = 0; m < network.ranges.size(); ++m) {
+    const auto& r = network.ranges[m];
+    out(static_cast<Eigen::Index>(m)) =
+        (x[static_cast<std::size_t>(r.a)] - x[static_cast<std::size_t>(r.b)]).norm();
+  }
+  return out;
+}
+
+TEST(Crlb3, FisherEqualsTheFiniteDifferenceJacobians) {
+  // Anchors at several heights, three unknowns; every pair measured from both ends, σ varying per link.
+  RangeNetwork3 network;
+  network.truth = {Vec3(0.0, 0.0, 0.0), Vec3(20.0, 0.0, 5.0), Vec3(0.0, 20.0, 10.0), Vec3(20.0, 20.0, 2.0),
+                   Vec3(6.0, 7.0, 3.0), Vec3(13.0, 5.0, 8.0), Vec3(9.0, 15.0, 1.0)};
+  network.is_anchor = {true, true, true, true, false, false, false};
+  for (AgentId a = 0; a < 7; ++a) {
+    for (AgentId b = 0; b < 7; ++b) {
+      if (a != b && !(a < 4 && b < 4)) network.ranges.push_back({a, b, 0.05 + 0.01 * (a + 2 * b)});
+    }
+  }
+  VecX theta(9);
+  theta << network.truth[4], network.truth[5], network.truth[6];
+  // H by central differences of the range function; J = Σ HᵀH/σ² = Hᵀ R⁻¹ H.
+  constexpr double kStep = 1e-6;
+  const auto rows = static_cast<Eigen::Index>(network.ranges.size());
+  MatX H(rows, 9);
+  for (Eigen::Index k = 0; k < 9; ++k) {
+    VecX plus = theta, minus = theta;
+    plus(k) += kStep;
+    minus(k) -= kStep;
+    H.col(k) = (ranges3_at(network, plus) - ranges3_at(network, minus)) / (2.0 * kStep);
+  }
+  VecX weight(rows);
+  for (Eigen::Index m = 0; m < rows; ++m) {
+    const double s = network.ranges[static_cast<std::size_t>(m)].std_m;
+    weight(m) = 1.0 / (s * s);
+  }
+  const MatX expected = 3.0 * H.transpose() * weight.asDiagonal() * H;
+  const MatX fisher = range_network_fisher(network, 3.0);
+  ASSERT_EQ(fisher.rows(), 9);
+  EXPECT_LT((fisher - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff());
+  // The CRB is the inverse of it, block by block; the network RMSE averages 3 coordinates per agent.
+  const CrlbResult3 crlb = network_crlb(network, 3.0);
+  const MatX crb = expected.inverse();
+  ASSERT_TRUE(crlb.localizable);
+  for (int i = 0; i < 3; ++i) {
+    const Mat3 block = crb.block<3, 3>(3 * i, 3 * i);
+    EXPECT_LT((crlb.per_agent[static_cast<std::size_t>(4 + i)] - block).cwiseAbs().maxCoeff(),
+              1e-6 * block.cwiseAbs().maxCoeff());
+  }
+  EXPECT_NEAR(crlb.network_rmse_m, std::sqrt(crb.trace() / 3.0), 1e-6 * crlb.network_rmse_m);
+}
+
+TEST(Crlb3, OneUnknownAndFourAnchorsMatchHandArithmetic) {
+  // Unknown at the origin; anchors on +x, +y, +z and −x: u = (∓1, 0, 0), (0, −1, 0), (0, 0, −1).
+  // σ = 0.2: J = diag(2, 1, 1)/0.04 → CRB = diag(0.02, 0.04, 0.04), RMSE = sqrt(0.1).
+  RangeNetwork3 network;
+  network.truth = {Vec3(5.0, 0.0, 0.0), Vec3(0.0, 7.0, 0.0), Vec3(0.0, 0.0, 3.0), Vec3(-4.0, 0.0, 0.0),
+                   Vec3::Zero()};
+  network.is_anchor = {true, true, true, true, false};
+  for (AgentId a = 0; a < 4; ++a) network.ranges.push_back({4, a, 0.2});
+  const CrlbResult3 symmetric = network_crlb(network);
+  ASSERT_TRUE(symmetric.localizable);
+  EXPECT_LT(
+      (symmetric.per_agent[4] - Vec3(0.02, 0.04, 0.04).asDiagonal().toDenseMatrix()).cwiseAbs().maxCoeff(),
+      1e-15);
+  EXPECT_NEAR(symmetric.network_rmse_m, std::sqrt(0.1), 1e-15);
+  EXPECT_EQ(symmetric.per_agent_rmse_m[0], 0.0);  // a known anchor
+
+  // A general placement: (HᵀR⁻¹H)⁻¹ with the unit vectors written out.
+  network.truth = {Vec3(10.0, 1.0, 0.0), Vec3(-2.0, 9.0, 4.0), Vec3(1.0, -3.0, 12.0), Vec3(-6.0, -5.0, -1.0),
+                   Vec3(1.0, 2.0, 3.0)};
+  const std::vector<double> sigma = {0.1, 0.2, 0.3, 0.4};
+  for (std::size_t m = 0; m < 4; ++m) network.ranges[m].std_m = sigma[m];
+  Eigen::Matrix<double, 4, 3> H;
+  Eigen::Vector4d r_inverse;
+  for (int m = 0; m < 4; ++m) {
+    const Vec3 d = network.truth[4] - network.truth[static_cast<std::size_t>(m)];
+    H.row(m) = d.transpose() / d.norm();
+    r_inverse(m) = 1.0 / (sigma[static_cast<std::size_t>(m)] * sigma[static_cast<std::size_t>(m)]);
+  }
+  const Mat3 expected = (H.transpose() * r_inverse.asDiagonal() * H).inverse();
+  const CrlbResult3 general = network_crlb(network);
+  EXPECT_LT((general.per_agent[4] - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+  EXPECT_NEAR(general.network_rmse_m, std::sqrt(expected.trace()), 1e-12);
+}
+
+TEST(Crlb3, AnchorsAndUnknownsInOnePlaneAreNotLocalizableAlongItsNormal) {
+  // Every anchor and both unknowns at z = 2: the ranges' gradients lie in the plane, so J has a null
+  // direction along z for each unknown (J is singular, per agent +inf).
+  RangeNetwork3 network;
+  network.truth = {Vec3(0.0, 0.0, 2.0),  Vec3(10.0, 0.0, 2.0), Vec3(10.0, 10.0, 2.0),
+                   Vec3(0.0, 10.0, 2.0), Vec3(3.0, 4.0, 2.0),  Vec3(7.0, 6.0, 2.0)};
+  network.is_anchor = {true, true, true, true, false, false};
+  network.ranges = mutual_range_observations(std::vector<Vec2>(6, Vec2::Zero()), network.is_anchor, 0.1);
+  const CrlbResult3 flat = network_crlb(network);
+  EXPECT_FALSE(flat.localizable);
+  EXPECT_TRUE(std::isinf(flat.network_rmse_m));
+  EXPECT_TRUE(std::isinf(flat.per_agent_rmse_m[4]));
+  EXPECT_TRUE(std::isinf(flat.per_agent_rmse_m[5]));
+  // One anchor lifted out of the plane breaks the degeneracy: finite, and of the order of σ.
+  network.truth[2].z() = 8.0;
+  const CrlbResult3 lifted = network_crlb(network);
+  EXPECT_TRUE(lifted.localizable);
+  EXPECT_TRUE(std::isfinite(lifted.network_rmse_m));
+  EXPECT_LT(lifted.network_rmse_m, 1.0);
+}
+
 }  // namespace
 }  // namespace swarmloc::estimators

@@ -1,0 +1,302 @@
+// The bound and the optimum of a 3-D range world (World::dimensions == 3, docs/algorithms.md §1.3.1,
+// §1.3.2): the bound against a Fisher matrix built in space by hand, the batch ML against many restarts of a
+// dense Gauss–Newton on the raw draws and its covariance against the dense inverse Fisher, the optimum's
+// RMSE over many draws against the CRLB with a NEES of 3, and the second start that needs the estimate's z.
+// The worlds and draws are built here (σ per endpoint, as generate_batch draws them), not generated.
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/world/bound.hpp"
+#include "swarmloc/world/optimum.hpp"
+#include "swarmloc/world/world.hpp"
+
+namespace swarmloc::world {
+namespace {
+
+/// A 3-D world of `points` (x, y, z), every pair in range; the first `anchors` agents are anchors.
+World spatial_world(const std::vector<Vec3>& points, int anchors) {
+  World world;
+  world.dimensions = 3;
+  for (const Vec3& p : points) {
+    world.truth.push_back(p.head<2>());
+    world.altitude.push_back(p.z());
+  }
+  const std::size_t n = points.size();
+  world.is_anchor.assign(n, false);
+  for (int a = 0; a < anchors; ++a) world.is_anchor[static_cast<std::size_t>(a)] = true;
+  world.neighbours.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = 0; j < n; ++j) {
+      if (i != j) world.neighbours[i].push_back(static_cast<AgentId>(j));
+    }
+  }
+  world.initial_guess = world.truth;
+  world.initial_altitude = world.altitude;
+  world.comm_radius_m = 100.0;
+  return world;
+}
+
+/// Anchors 0–4 at several heights around a 20 m box, unknowns 5–7 inside it.
+World box_world() {
+  return spatial_world({{0.0, 0.0, 0.0},
+                        {20.0, 0.0, 6.0},
+                        {20.0, 20.0, 1.0},
+                        {0.0, 20.0, 9.0},
+                        {10.0, 10.0, 12.0},
+                        {6.0, 7.0, 3.0},
+                        {13.0, 5.0, 8.0},
+                        {9.0, 15.0, 2.0}},
+                       5);
+}
+
+config::Scenario spatial_scenario(double range_std_m, int steps) {
+  config::Scenario s;
+  s.seed = 31;
+  s.algorithm.name = "dml";
+  s.world.agents = 8;
+  s.world.anchors = 5;
+  s.world.comm_radius_m = 100.0;
+  s.noise.range_std_m = range_std_m;
+  s.run.steps = steps;
+  return s;
+}
+
+/// One step's batches: every agent's draw of the range to each neighbour (per endpoint, σ from the
+/// scenario's noise model at the 3-D distance).
+std::vector<estimators::MeasurementBatch> draw_batches(const World& world, const config::Scenario& s,
+                                                       std::int64_t step, std::mt19937_64& rng) {
+  std::normal_distribution<double> normal;
+  std::vector<estimators::MeasurementBatch> batches(static_cast<std::size_t>(world.size()));
+  for (AgentId i = 0; i < world.size(); ++i) {
+    auto& batch = batches[static_cast<std::size_t>(i)];
+    batch.world_step = step;
+    for (const AgentId j : world.neighbours[static_cast<std::size_t>(i)]) {
+      const double distance = world.distance(i, j);
+      const double std_m = s.noise.range_std_at(distance);
+      batch.ranges.push_back({j, distance + std_m * normal(rng), std_m});
+    }
+  }
+  return batches;
+}
+
+/// One raw draw: ‖x_a − x_b‖ = range, b < 0: x_b is the known point.
+struct RawRange3 {
+  int a = 0;
+  int b = -1;
+  Vec3 known = Vec3::Zero();
+  double range = 0.0;
+  double variance = 1.0;
+};
+
+std::vector<RawRange3> raw_ranges3(const World& world,
+                                   const std::vector<std::vector<estimators::MeasurementBatch>>& steps) {
+  std::vector<int> variable(static_cast<std::size_t>(world.size()), -1);
+  int next = 0;
+  for (std::size_t i = 0; i < variable.size(); ++i)
+    if (!world.is_anchor[i]) variable[i] = next++;
+  std::vector<RawRange3> terms;
+  for (const auto& batches : steps) {
+    for (AgentId i = 0; i < world.size(); ++i) {
+      for (const auto& r : batches[static_cast<std::size_t>(i)].ranges) {
+        int a = variable[static_cast<std::size_t>(i)];
+        int b = variable[static_cast<std::size_t>(r.peer)];
+        AgentId known = r.peer;
+        if (a < 0) std::swap(a, b), known = i;
+        if (a < 0) continue;
+        terms.push_back({a, b, world.position3(known), r.range_m, r.std_m * r.std_m});
+      }
+    }
+  }
+  return terms;
+}
+
+Vec3 raw_other(const RawRange3& t, const VecX& x) { return t.b < 0 ? t.known : Vec3(x.segment<3>(3 * t.b)); }
+
+double raw_cost3(const std::vector<RawRange3>& terms, const VecX& x) {
+  double cost = 0.0;
+  for (const auto& t : terms) {
+    const double e = t.range - (x.segment<3>(3 * t.a) - raw_other(t, x)).norm();
+    cost += e * e / t.variance;
+  }
+  return cost;
+}
+
+/// JᵀR⁻¹J of the raw draws at x, and JᵀR⁻¹e in `gradient`.
+MatX raw_information3(const std::vector<RawRange3>& terms, const VecX& x, VecX* gradient = nullptr) {
+  MatX H = MatX::Zero(x.size(), x.size());
+  if (gradient != nullptr) *gradient = VecX::Zero(x.size());
+  for (const auto& t : terms) {
+    const Vec3 d = x.segment<3>(3 * t.a) - raw_other(t, x);
+    VecX row = VecX::Zero(x.size());
+    row.segment<3>(3 * t.a) = d / d.norm();
+    if (t.b >= 0) row.segment<3>(3 * t.b) = -d / d.norm();
+    H += row * row.transpose() / t.variance;
+    if (gradient != nullptr) *gradient += row * (t.range - d.norm()) / t.variance;
+  }
+  return H;
+}
+
+/// Dense Gauss–Newton with step halving from x: a local minimum.
+VecX dense_minimum3(const std::vector<RawRange3>& terms, VecX x) {
+  for (int iteration = 0; iteration < 200; ++iteration) {
+    VecX g;
+    const MatX H = raw_information3(terms, x, &g);
+    const VecX dx = H.ldlt().solve(g);
+    const double cost = raw_cost3(terms, x);
+    double scale = 1.0;
+    VecX trial = x;
+    for (int halving = 0; halving < 40; ++halving, scale /= 2.0) {
+      trial = x + scale * dx;
+      if (raw_cost3(terms, trial) <= cost) break;
+    }
+    x = trial;
+    if (!(scale * dx.cwiseAbs().maxCoeff() >= 1e-13)) break;
+  }
+  return x;
+}
+
+OptimumEstimate spatial_optimum(const World& world, const config::Scenario& s,
+                                const std::vector<std::vector<estimators::MeasurementBatch>>& steps) {
+  OptimumAccumulator accumulator(world, s);
+  for (std::size_t k = 0; k < steps.size(); ++k)
+    accumulator.observe(static_cast<std::int64_t>(k), world.truth, steps[k]);
+  return accumulator.solve_now();
+}
+
+// ---- The bound ----
+
+TEST(Bound3, TheStaticBoundOfA3dWorldIsTheCrlbOfItsRangesInSpace) {
+  // Proportional noise (σ = 1 % of the 3-D distance), every edge drawn at both ends: J built entry by entry.
+  const World world = box_world();
+  auto s = spatial_scenario(0.0, 4);
+  s.noise.range_model = config::RangeNoise::kProportional;
+  s.noise.range_factor = 0.01;
+  MatX J = MatX::Zero(9, 9);
+  for (AgentId i = 5; i < 8; ++i) {
+    for (AgentId j = 0; j < 8; ++j) {
+      if (j == i) continue;
+      const Vec3 d = world.position3(i) - world.position3(j);
+      const double sigma = 0.01 * d.norm();
+      const Mat3 block = 2.0 * d * d.transpose() / d.squaredNorm() / (sigma * sigma);  // two draws
+      const int a = 3 * (i - 5);
+      J.block<3, 3>(a, a) += block;
+      if (j >= 5) J.block<3, 3>(a, 3 * (j - 5)) -= block;
+    }
+  }
+  const double expected = std::sqrt(J.inverse().trace() / 3.0);
+  const RangeCrlb legacy = scenario_crlb(world, s);
+  EXPECT_NEAR(legacy.single_snapshot_rmse_m, expected, 1e-12 * expected);
+  const RunBound bound = run_bound(world, s, legacy);
+  ASSERT_EQ(bound.kind, BoundKind::kCrlbStaticAccumulated) << bound.reason;
+  EXPECT_NEAR(bound.single_rmse_m, expected, 1e-12 * expected);
+  EXPECT_NEAR(bound.rmse_at(3), expected / 2.0, 1e-12 * expected);  // four steps of fresh draws
+  RecordProperty("single_snapshot_bound_m", std::to_string(expected));
+}
+
+// ---- The batch ML ----
+
+TEST(Optimum3, EqualsTheBestOfManyRestartsAndItsCovarianceIsTheInverseFisher) {
+  const World world = box_world();
+  const auto s = spatial_scenario(0.4, 3);
+  std::mt19937_64 rng(101);
+  std::vector<std::vector<estimators::MeasurementBatch>> steps;
+  for (std::int64_t k = 0; k < s.run.steps; ++k) steps.push_back(draw_batches(world, s, k, rng));
+  const OptimumEstimate optimum = spatial_optimum(world, s, steps);
+  ASSERT_TRUE(optimum.solved);
+  ASSERT_EQ(optimum.altitude.size(), 8U);
+  ASSERT_EQ(optimum.truth_z.size(), 8U);
+
+  const auto terms = raw_ranges3(world, steps);
+  std::uniform_real_distribution<double> coordinate(-5.0, 25.0);
+  VecX best;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (int restart = 0; restart < 300; ++restart) {
+    VecX start(9);
+    for (Eigen::Index k = 0; k < 9; ++k) start(k) = coordinate(rng);
+    const VecX x = dense_minimum3(terms, start);
+    if (const double cost = raw_cost3(terms, x); cost < best_cost) best_cost = cost, best = x;
+  }
+  const MatX covariance = raw_information3(terms, best).inverse();
+  for (std::size_t i = 5; i < 8; ++i) {
+    const auto v = static_cast<Eigen::Index>(3 * (i - 5));
+    const Vec3 x = join(optimum.position[i], optimum.altitude[i].z_m);
+    EXPECT_LT((x - best.segment<3>(v)).norm(), 1e-6) << "agent " << i;
+    EXPECT_GT((x - world.position3(static_cast<AgentId>(i))).norm(), 1e-3) << "the ML is not the truth";
+    const Mat3 expected = covariance.block<3, 3>(v, v);
+    const Mat3 solved = join(optimum.covariance[i], optimum.altitude[i]);
+    EXPECT_LT((solved - expected).norm(), 1e-8 * expected.norm()) << "agent " << i;
+    EXPECT_EQ(optimum.truth_z[i], world.altitude[i]);
+  }
+  // A known anchor keeps its position with its z.
+  EXPECT_FALSE(optimum.in_state[4]);
+  EXPECT_EQ(optimum.altitude[4].z_m, 12.0);
+}
+
+TEST(Optimum3, OverManyDrawsItsRmseIsTheCrlbAndItsNeesThree) {
+  // 500 independent one-step draws of the fixed box world (σ = 0.1 m, both ends): the ML's mean squared
+  // error over draws and agents against tr(CRB)/n_u, and its NEES against 3 degrees of freedom.
+  constexpr int kDraws = 500;
+  const World world = box_world();
+  const auto s = spatial_scenario(0.1, 1);
+  const RangeCrlb crlb = scenario_crlb(world, s);
+  std::mt19937_64 rng(7);
+  double mse = 0.0;
+  double nees = 0.0;
+  for (int draw = 0; draw < kDraws; ++draw) {
+    const OptimumEstimate optimum = spatial_optimum(world, s, {draw_batches(world, s, 0, rng)});
+    ASSERT_TRUE(optimum.solved);
+    mse += optimum.point.rmse_m * optimum.point.rmse_m / kDraws;
+    nees += optimum.point.nees / kDraws;
+  }
+  const double ratio = std::sqrt(mse) / crlb.single_snapshot_rmse_m;
+  EXPECT_NEAR(ratio, 1.0, 0.1);
+  EXPECT_NEAR(nees, 3.0, 0.3);
+  RecordProperty("optimum_over_crlb", std::to_string(ratio));
+  RecordProperty("mean_nees", std::to_string(nees));
+  std::printf("3-D optimum over %d draws: RMSE / CRLB %.4f (CRLB %.5f m), mean NEES %.4f\n", kDraws, ratio,
+              crlb.single_snapshot_rmse_m, nees);
+}
+
+TEST(Optimum3, AMirrorImageIsTheOptimumWhereAnEstimateWithItsZFoundIt) {
+  // Anchors 0–2 at z = 0 and agent 3 at z = 3 ranging to them: its mirror at z = −3 fits the same ranges.
+  World world = spatial_world({{0.0, 0.0, 0.0}, {10.0, 0.0, 0.0}, {0.0, 10.0, 0.0}, {4.0, 3.0, 3.0}}, 3);
+  const auto s = spatial_scenario(0.05, 5);
+  std::mt19937_64 rng(5);
+  std::vector<std::vector<estimators::MeasurementBatch>> steps;
+  for (std::int64_t k = 0; k < s.run.steps; ++k) steps.push_back(draw_batches(world, s, k, rng));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Vec2> planar = {{nan, nan}, {nan, nan}, {nan, nan}, {4.05, 2.95}};
+  auto final_optimum = [&](const std::vector<double>* z) {
+    OptimumAccumulator accumulator(world, s);
+    for (std::size_t k = 0; k < steps.size(); ++k)
+      accumulator.observe(static_cast<std::int64_t>(k), world.truth, steps[k]);
+    accumulator.solve_pending(true, &planar, z);
+    return accumulator.result();
+  };
+  const std::vector<double> mirror_z = {nan, nan, nan, -2.9};
+  const RunOptimum mirror = final_optimum(&mirror_z);
+  ASSERT_FALSE(mirror.points.empty());
+  EXPECT_TRUE(mirror.points.back().from_estimates);
+  EXPECT_NEAR(mirror.points.back().rmse_m, 6.0, 0.1)
+      << "the optimum in the mirror basin, 6 m below the truth";
+  ASSERT_EQ(mirror.final_altitude.size(), 4U);
+  EXPECT_NEAR(mirror.final_altitude[3].z_m, -3.0, 0.1);
+  EXPECT_EQ(mirror.final_truth_z[3], 3.0);
+
+  // Without its z the estimate is no 3-D start: the truth's solution.
+  const RunOptimum no_z = final_optimum(nullptr);
+  EXPECT_FALSE(no_z.points.back().from_estimates);
+  EXPECT_LT(no_z.points.back().rmse_m, 0.1);
+  EXPECT_NEAR(no_z.final_altitude[3].z_m, 3.0, 0.1);
+}
+
+}  // namespace
+}  // namespace swarmloc::world
