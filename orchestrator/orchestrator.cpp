@@ -560,8 +560,9 @@ class Orchestrator {
     record_.metrics.push_back(metrics);
     for (std::size_t i = 0; i < scored.size(); ++i) {
       if (scored[i])
-        record_.estimates.push_back(
-            {step, static_cast<AgentId>(i), *scored[i], world_.scored_truth(static_cast<AgentId>(i))});
+        record_.estimates.push_back({step, static_cast<AgentId>(i), *scored[i],
+                                     world_.scored_truth(static_cast<AgentId>(i)),
+                                     world_.scored_truth_z(static_cast<AgentId>(i))});
     }
   }
 

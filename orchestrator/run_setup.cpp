@@ -63,6 +63,8 @@ world::World prepare_run(config::Scenario& scenario, const RunOptions& options,
   rundir::prepare_run_directory(run_dir, options.force);
   // Placement and algorithm errors are bad input, found before anything starts; the world built for
   // the check is the run's.
+  if (options.record && scenario.world.dimensions == 3)
+    throw config::ScenarioError("--record keeps planar worlds only; this one has world.dimensions: 3");
   if (options.trial > 0 && config::runs_in_fusion_centre(scenario.algorithm.name))
     throw config::ScenarioError(
         "--trial: the fusion centre of '" + scenario.algorithm.name +

@@ -93,6 +93,10 @@ int check_options(const config::Scenario& scenario, const SimCommandOptions& opt
     std::fprintf(stderr, "error: --trial runs one trial; it cannot be combined with --trials\n");
     return 2;
   }
+  if (options.record && scenario.world.dimensions == 3) {
+    std::fprintf(stderr, "error: --record keeps planar worlds only; this one has world.dimensions: 3\n");
+    return 2;
+  }
   if ((options.record || options.recorded) && options.trials > 1) {
     std::fprintf(stderr,
                  "error: --record and replay are single runs; they cannot be combined with --trials\n");

@@ -352,13 +352,13 @@ FinalPositions collect_final_positions(const RunRecord& record, const FinalRows&
     const bool anchor = is_anchor(record, agent);
     const auto& e = row->estimate;
     positions << agent << ',' << (anchor ? 1 : 0) << ',' << row->truth.x() << ',' << row->truth.y() << ','
-              << e.mean_m.x() << ',' << e.mean_m.y() << ',' << (e.mean_m - row->truth).norm() << ','
+              << e.mean_m.x() << ',' << e.mean_m.y() << ',' << row->error_m() << ','
               << (is_lost(record, agent) ? 1 : 0) << '\n';
     low = low.cwiseMin(row->truth);
     high = high.cwiseMax(row->truth);
     if (anchor) continue;
     // Only an error there is: no ground truth (recorded gaps) or a broken estimate has none to bin.
-    if (e.mean_m.allFinite() && row->truth.allFinite()) out.errors.push_back((e.mean_m - row->truth).norm());
+    if (e.mean_m.allFinite() && row->truth.allFinite()) out.errors.push_back(row->error_m());
     if (!e.valid) continue;
     auto curve = covariance_ellipse(e.mean_m, e.covariance);
     if (curve.empty()) continue;

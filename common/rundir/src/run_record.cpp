@@ -12,6 +12,7 @@
 #include <ctime>
 #include <functional>
 #include <iomanip>
+#include <limits>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -212,6 +213,7 @@ nlohmann::json summary_json(const RunRecord& record) {
   summary["agents"] = record.agents;
   summary["anchors"] = record.anchors;
   summary["mean_degree"] = record.mean_degree;
+  summary["dimensions"] = record.scenario.world.dimensions;
   summary["steps"] = record.metrics.size();
   summary["seed"] = record.scenario.seed;
   summary["scenario_hash"] = config::scenario_hash(record.scenario);
@@ -315,15 +317,24 @@ void write_run_directory(const std::filesystem::path& directory, const RunRecord
     runtime::OutputFile file(directory / "estimates.csv");
     std::ostringstream out;
     // `inconsistent` (the self-check's verdict) comes last, so older readers keep their columns.
-    out << "step,agent,x_m,y_m,cov_xx,cov_xy,cov_yy,valid,truth_x_m,truth_y_m,error_m,inconsistent\n";
+    // A 3-D world's z columns come last too; error_m is then the distance in space.
+    const bool spatial = record.scenario.world.dimensions == 3;
+    out << "step,agent,x_m,y_m,cov_xx,cov_xy,cov_yy,valid,truth_x_m,truth_y_m,error_m,inconsistent"
+        << (spatial ? ",z_m,cov_xz,cov_yz,cov_zz,truth_z_m\n" : "\n");
     out << std::setprecision(9);
     std::size_t rows = 0;
     for (const auto& row : record.estimates) {
       const auto& e = row.estimate;
       out << row.step << ',' << row.agent << ',' << e.mean_m.x() << ',' << e.mean_m.y() << ','
           << e.covariance(0, 0) << ',' << e.covariance(0, 1) << ',' << e.covariance(1, 1) << ','
-          << (e.valid ? 1 : 0) << ',' << row.truth.x() << ',' << row.truth.y() << ','
-          << (e.mean_m - row.truth).norm() << ',' << (e.inconsistent ? 1 : 0) << '\n';
+          << (e.valid ? 1 : 0) << ',' << row.truth.x() << ',' << row.truth.y() << ',' << row.error_m() << ','
+          << (e.inconsistent ? 1 : 0);
+      if (spatial) {
+        const Altitude altitude = e.altitude.value_or(Altitude{std::numeric_limits<double>::quiet_NaN()});
+        out << ',' << altitude.z_m << ',' << altitude.cross_m2.x() << ',' << altitude.cross_m2.y() << ','
+            << altitude.variance_m2 << ',' << row.truth_z_m;
+      }
+      out << '\n';
       if (++rows % 4096 == 0) {
         file.write(out.view());
         out.str({});

@@ -11,8 +11,8 @@
 namespace swarmloc::rundir {
 namespace {
 
-void write_line(std::ostringstream& out, double time_s, const Vec2& position) {
-  out << time_s << ' ' << position.x() << ' ' << position.y() << " 0 0 0 0 1\n";
+void write_line(std::ostringstream& out, double time_s, const Vec2& position, double z_m) {
+  out << time_s << ' ' << position.x() << ' ' << position.y() << ' ' << z_m << " 0 0 0 1\n";
 }
 
 }  // namespace
@@ -45,8 +45,10 @@ int write_tum_trajectories(const std::filesystem::path& directory, const RunReco
     for (const auto& [step, row] : by_step) {
       const double t = time_of(step);
       if (!std::isfinite(t)) continue;
-      if (row->estimate.mean_m.allFinite()) write_line(estimate, t, row->estimate.mean_m);
-      if (row->truth.allFinite()) write_line(truth, t, row->truth);
+      const auto& altitude = row->estimate.altitude;
+      if (row->estimate.mean_m.allFinite())
+        write_line(estimate, t, row->estimate.mean_m, altitude ? altitude->z_m : 0.0);
+      if (row->truth.allFinite()) write_line(truth, t, row->truth, row->truth_z_m);
     }
     runtime::write_text_file(stem.string() + ".tum", estimate.str());
     runtime::write_text_file(stem.string() + "_truth.tum", truth.str());

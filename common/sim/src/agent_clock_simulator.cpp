@@ -276,7 +276,8 @@ class AgentClockSimulation {
       for (std::size_t k = 0; k < n; ++k) {
         if (estimates[k])
           record.estimates.push_back({score_step.step, static_cast<AgentId>(k), *estimates[k],
-                                      world_.scored_truth(static_cast<AgentId>(k))});
+                                      world_.scored_truth(static_cast<AgentId>(k)),
+                                      world_.scored_truth_z(static_cast<AgentId>(k))});
       }
     }
     if (options_.on_step && !score_step.settled) options_.on_step(score_step.step, metrics.errors);

@@ -362,7 +362,8 @@ void LockstepSimulation::score_step(std::int64_t step, rundir::RunRecord& record
   if (options_.record_estimates) {
     for (AgentId i = 0; i < n_; ++i) {
       if (!estimates_[static_cast<std::size_t>(i)]) continue;  // down (faults)
-      record.estimates.push_back({step, i, *estimates_[static_cast<std::size_t>(i)], world_.scored_truth(i)});
+      record.estimates.push_back({step, i, *estimates_[static_cast<std::size_t>(i)], world_.scored_truth(i),
+                                  world_.scored_truth_z(i)});
     }
   }
   if (report && options_.on_step) options_.on_step(step, metrics.errors);

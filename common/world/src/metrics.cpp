@@ -20,8 +20,30 @@ bool holds_non_finite(const estimators::Estimate& estimate) {
 
 }  // namespace
 
+namespace {
+
+/// One estimate's error against its truth: its length, whether a covariance it calls valid is broken, and
+/// eᵀP⁻¹e for a valid positive definite covariance.
+struct AgentError {
+  double norm = 0.0;
+  bool broken_covariance = false;
+  std::optional<double> nees;
+};
+
+template <int D>
+AgentError agent_error(const Eigen::Matrix<double, D, 1>& error,
+                       const Eigen::Matrix<double, D, D>& covariance, bool valid) {
+  AgentError result{error.norm(), valid && !covariance.allFinite(), std::nullopt};
+  if (valid && covariance.allFinite() && covariance.determinant() > 0.0)
+    result.nees = error.dot(covariance.ldlt().solve(error));
+  return result;
+}
+
+}  // namespace
+
 ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anchor,
-                 const std::vector<std::optional<estimators::Estimate>>& estimates) {
+                 const std::vector<std::optional<estimators::Estimate>>& estimates,
+                 const std::vector<double>* truth_z) {
   ErrorStats stats;
   double squared = 0.0;
   double sum = 0.0;
@@ -39,10 +61,18 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
       ++stats.missing;
       continue;
     }
-    const Vec2 error = estimates[i]->mean_m - truth[i];
-    const double norm = error.norm();
-    const Mat2& cov = estimates[i]->covariance;
-    const bool broken_covariance = estimates[i]->valid && !cov.allFinite();
+    const estimators::Estimate& estimate = *estimates[i];
+    if (truth_z != nullptr && !estimate.altitude) {  // a planar estimate of a point in space: none
+      ++stats.missing;
+      continue;
+    }
+    const AgentError error =
+        truth_z == nullptr
+            ? agent_error<2>(estimate.mean_m - truth[i], estimate.covariance, estimate.valid)
+            : agent_error<3>(join(estimate.mean_m, estimate.altitude->z_m) - join(truth[i], (*truth_z)[i]),
+                             join(estimate.covariance, *estimate.altitude), estimate.valid);
+    const double norm = error.norm;
+    const bool broken_covariance = error.broken_covariance;
     if (!std::isfinite(norm) || broken_covariance) ++stats.non_finite;
     if (broken_covariance) broken_nees = true;
     if (!std::isfinite(norm)) {
@@ -54,8 +84,8 @@ ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anc
     stats.max_error_m = std::max(stats.max_error_m, norm);
     ++stats.scored;
     if (estimates[i]->inconsistent) ++stats.flagged;
-    if (estimates[i]->valid && cov.allFinite() && cov.determinant() > 0.0) {
-      nees_sum += error.dot(cov.ldlt().solve(error));
+    if (error.nees) {
+      nees_sum += *error.nees;
       ++nees_count;
     }
   }
@@ -75,9 +105,10 @@ ErrorStats score(const World& world, const std::vector<std::optional<estimators:
   // Localization worlds score against the truth as it is (no per-step copies); a target world scores every
   // sensor against the target.
   const auto n = static_cast<std::size_t>(world.size());
-  ErrorStats stats = world.estimates_target() ? score(std::vector<Vec2>(n, world.scored_truth(0)),
-                                                      std::vector<bool>(n, false), estimates)
-                                              : score(world.truth, world.is_anchor, estimates);
+  ErrorStats stats =
+      world.estimates_target()
+          ? score(std::vector<Vec2>(n, world.scored_truth(0)), std::vector<bool>(n, false), estimates)
+          : score(world.truth, world.is_anchor, estimates, world.dimensions == 3 ? &world.altitude : nullptr);
   if (world.field.size() == 0) return stats;
   double squared = 0.0;
   bool broken_field = false;

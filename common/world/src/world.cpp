@@ -78,8 +78,31 @@ std::vector<Vec2> place(const Scenario& s, int attempt) {
   return positions;
 }
 
-std::vector<std::vector<AgentId>> disk_graph(const std::vector<Vec2>& positions, double radius,
-                                             const WorkControl& control, const std::string& draw) {
+/// The z of every agent, one per agent in a 3-D world, empty in a planar one.
+std::vector<double> place_altitudes(const Scenario& s, int attempt) {
+  if (s.world.dimensions != 3) return {};
+  // Its own stream, so a planar world's draws are what they were.
+  auto rng = core::make_engine(s.seed, core::Stream::kPlacement, attempt, -3);
+  std::uniform_real_distribution<double> u(0.0, s.world.height_m);
+  std::vector<double> z(static_cast<std::size_t>(s.world.agents));
+  for (auto& value : z) value = u(rng);
+  return z;
+}
+
+/// Anchors at evenly spread heights, (k + ½)/A of the box in id order: a uniform draw can leave all of them
+/// near one plane, which fixes nothing across it.
+void spread_anchor_heights(std::vector<double>& z, const std::vector<bool>& is_anchor, double height_m) {
+  if (z.empty()) return;
+  const auto anchors = static_cast<double>(std::count(is_anchor.begin(), is_anchor.end(), true));
+  double k = 0.0;
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    if (is_anchor[i]) z[i] = height_m * (k++ + 0.5) / anchors;
+  }
+}
+
+std::vector<std::vector<AgentId>> disk_graph(const std::vector<Vec2>& positions, const std::vector<double>& z,
+                                             double radius, const WorkControl& control,
+                                             const std::string& draw) {
   const int n = static_cast<int>(positions.size());
   std::vector<std::vector<AgentId>> neighbours(static_cast<std::size_t>(n));
   // Grid bucketing keeps this O(N · degree) for the 10^4–10^5 agent simulations.
@@ -109,7 +132,12 @@ std::vector<std::vector<AgentId>> disk_graph(const std::vector<Vec2>& positions,
         const auto it = buckets.find(key(p, dx, dy));
         if (it == buckets.end()) continue;
         for (int j : it->second) {
-          if (j != i && (positions[static_cast<std::size_t>(j)] - p).norm() <= radius) {
+          const auto k = static_cast<std::size_t>(j);
+          // In space the planar buckets still hold every neighbour: a distance is at least its planar part.
+          const double distance =
+              z.empty() ? (positions[k] - p).norm()
+                        : (join(positions[k], z[k]) - join(p, z[static_cast<std::size_t>(i)])).norm();
+          if (j != i && distance <= radius) {
             neighbours[static_cast<std::size_t>(i)].push_back(j);
           }
         }
@@ -169,19 +197,30 @@ constexpr int kMaxLocalizabilityCheckUnknowns = 1000;  // dense 2n × 2n LDLT pe
 
 /// Every non-anchor agent localizable from its ranges: the Fisher information at the truth (unit range std;
 /// the scale does not matter) has no (near-)zero pivot. Skipped (true) above the size limit.
-bool range_localizable(const std::vector<Vec2>& truth, const std::vector<bool>& is_anchor,
-                       const std::vector<std::vector<AgentId>>& neighbours) {
+bool range_localizable(const World& world) {
+  const auto& is_anchor = world.is_anchor;
   const auto unknowns = std::count(is_anchor.begin(), is_anchor.end(), false);
   if (unknowns == 0 || unknowns > kMaxLocalizabilityCheckUnknowns) return true;
-  estimators::RangeNetwork network;
-  network.truth = truth;
-  network.is_anchor = is_anchor;
-  for (std::size_t i = 0; i < neighbours.size(); ++i) {
-    for (const AgentId j : neighbours[i]) {
-      if (static_cast<std::size_t>(j) > i) network.ranges.push_back({static_cast<AgentId>(i), j, 1.0});
+  std::vector<estimators::RangeObservation> ranges;
+  for (std::size_t i = 0; i < world.neighbours.size(); ++i) {
+    for (const AgentId j : world.neighbours[i]) {
+      if (static_cast<std::size_t>(j) > i) ranges.push_back({static_cast<AgentId>(i), j, 1.0});
     }
   }
-  const MatX fisher = estimators::range_network_fisher(network);
+  MatX fisher;
+  if (world.dimensions == 3) {
+    estimators::RangeNetwork3 network;
+    for (AgentId i = 0; i < world.size(); ++i) network.truth.push_back(world.position3(i));
+    network.is_anchor = is_anchor;
+    network.ranges = std::move(ranges);
+    fisher = estimators::range_network_fisher(network);
+  } else {
+    estimators::RangeNetwork network;
+    network.truth = world.truth;
+    network.is_anchor = is_anchor;
+    network.ranges = std::move(ranges);
+    fisher = estimators::range_network_fisher(network);
+  }
   const Eigen::LDLT<MatX> ldlt(fisher);
   if (ldlt.info() != Eigen::Success) return false;
   const auto pivots = ldlt.vectorD().cwiseAbs();
@@ -203,6 +242,10 @@ double World::mean_degree() const {
 
 Vec2 World::scored_truth(AgentId id) const {
   return estimates_target() ? Vec2(target.head<2>()) : truth.at(static_cast<std::size_t>(id));
+}
+
+double World::scored_truth_z(AgentId id) const {
+  return dimensions == 3 && !estimates_target() ? altitude.at(static_cast<std::size_t>(id)) : 0.0;
 }
 
 bool World::scored(AgentId id) const {
@@ -251,7 +294,9 @@ void draw_placement(World& world, const Scenario& s, int accepted_draw, const Wo
     const std::string draw = attempt == 0 ? "" : " (draw " + std::to_string(attempt + 1) + ")";
     world.truth = place(s, attempt);
     world.is_anchor = choose_anchors(s, attempt);
-    world.neighbours = disk_graph(world.truth, s.world.comm_radius_m, control, draw);
+    world.altitude = place_altitudes(s, attempt);
+    spread_anchor_heights(world.altitude, world.is_anchor, s.world.height_m);
+    world.neighbours = disk_graph(world.truth, world.altitude, s.world.comm_radius_m, control, draw);
     world.placement_attempts = attempt + 1;
     const bool connected =
         !s.world.require_connected || acceptable(world.neighbours, world.is_anchor, control, draw);
@@ -262,8 +307,7 @@ void draw_placement(World& world, const Scenario& s, int accepted_draw, const Wo
       break;
     }
     const bool localizable = !connected || !s.world.require_localizable ||
-                             !measurement_kinds(s.algorithm.name).ranges ||
-                             range_localizable(world.truth, world.is_anchor, world.neighbours);
+                             !measurement_kinds(s.algorithm.name).ranges || range_localizable(world);
     if (connected && localizable) break;
     if (attempt + 1 == kMaxAttempts || (!random_placement && attempt >= s.world.anchors)) {
       throw config::ScenarioError(
@@ -275,6 +319,21 @@ void draw_placement(World& world, const Scenario& s, int accepted_draw, const Wo
                     " draws connects every agent to an anchor with >= 2 neighbours; raise the radius or "
                     "set world.require_connected: false");
     }
+  }
+}
+
+/// The z of every initial guess, from its own stream (a planar world's guesses stay what they were): the
+/// truth's plus the same per-axis noise, or uniform over the box's height; anchors know theirs.
+void draw_initial_altitudes(World& world, const Scenario& s, std::uint64_t trial) {
+  auto rng = core::make_engine(trial_seed(s.seed, trial), core::Stream::kInitialGuess, -3);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(0.0, s.world.height_m);
+  world.initial_altitude.resize(world.altitude.size());
+  for (std::size_t i = 0; i < world.altitude.size(); ++i) {
+    world.initial_altitude[i] = s.world.initial_guess == config::InitialGuess::kUniform
+                                    ? uniform(rng)
+                                    : world.altitude[i] + s.world.initial_guess_std_m * gauss(rng);
+    if (world.is_anchor[i]) world.initial_altitude[i] = world.altitude[i];
   }
 }
 
@@ -301,6 +360,7 @@ void draw_initial_guesses(World& world, const Scenario& s, std::uint64_t trial,
     // II).
     if (world.is_anchor[i] || kinds.targets) world.initial_guess[i] = world.truth[i];
   }
+  if (world.dimensions == 3) draw_initial_altitudes(world, s, trial);
 }
 
 /// What the algorithm measures besides its peers (a field, a target, walls), and every agent's clock.
@@ -331,6 +391,7 @@ World build_world(const Scenario& s, std::uint64_t trial, int accepted_draw, con
   if (s.world.source == config::WorldSource::kMrclam) return build_mrclam_world(s);
   World world;
   world.trial = trial;
+  world.dimensions = s.world.dimensions;
   if (accepted_draw >= kMaxAttempts)
     throw config::ScenarioError("accepted world draw " + std::to_string(accepted_draw) +
                                 " is >= " + std::to_string(kMaxAttempts));
@@ -495,8 +556,7 @@ estimators::MeasurementBatch generate_batch(const World& world, const Scenario& 
   const Vec2& xi = world.truth[i];
   batch.neighbours = world.neighbours[i];
   for (AgentId j : world.neighbours[i]) {
-    const Vec2& xj = world.truth[static_cast<std::size_t>(j)];
-    const double distance = (xi - xj).norm();
+    const double distance = world.distance(agent, j);
     if (distance > s.world.comm_radius_m) continue;  // moved out of range
     const AgentId lo = std::min(agent, j);
     const AgentId hi = std::max(agent, j);

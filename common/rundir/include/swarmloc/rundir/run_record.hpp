@@ -40,6 +40,13 @@ struct EstimateRow {
   AgentId agent = 0;
   estimators::Estimate estimate;
   Vec2 truth = Vec2::Zero();
+  double truth_z_m = 0.0;  ///< 3-D worlds: the truth's z
+  /// The distance from the truth: in space when the estimate has a z (a 3-D world), else in the plane.
+  [[nodiscard]] double error_m() const {
+    if (estimate.altitude)
+      return (join(estimate.mean_m, estimate.altitude->z_m) - join(truth, truth_z_m)).norm();
+    return (estimate.mean_m - truth).norm();
+  }
 };
 
 struct AgentSummary {

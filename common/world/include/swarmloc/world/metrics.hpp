@@ -16,7 +16,8 @@ struct ErrorStats {
   double rmse_m = 0.0;
   double mean_error_m = 0.0;
   double max_error_m = 0.0;
-  double nees = 0.0;    ///< mean of eᵀP⁻¹e over agents with a valid covariance (2 if consistent)
+  double nees =
+      0.0;  ///< mean of eᵀP⁻¹e over agents with a valid covariance (2 if consistent, 3 in a 3-D world)
   int nees_agents = 0;  ///< scored agents whose covariance is valid and positive definite: the NEES's sample
   int scored = 0;       ///< non-anchor agents with an estimate
   int missing = 0;  ///< non-anchor agents without any estimate yet, or without ground truth (recorded gaps)
@@ -32,9 +33,11 @@ struct ErrorStats {
 };
 
 /// `estimates[i]` may be nullopt (no report from agent i yet): counted as missing, not scored. A non-finite
-/// estimate is counted in ErrorStats::non_finite and poisons the step's figures.
+/// estimate is counted in ErrorStats::non_finite and poisons the step's figures. `truth_z` (a 3-D world):
+/// each truth's z; errors and NEES are then in space, and an estimate without a z counts as missing.
 ErrorStats score(const std::vector<Vec2>& truth, const std::vector<bool>& is_anchor,
-                 const std::vector<std::optional<estimators::Estimate>>& estimates);
+                 const std::vector<std::optional<estimators::Estimate>>& estimates,
+                 const std::vector<double>* truth_z = nullptr);
 
 /// Scores every agent World::scored says is scored against World::scored_truth: the non-anchor agents'
 /// positions, or every sensor's estimate of the target. In a field world it also scores every agent's

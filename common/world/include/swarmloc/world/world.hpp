@@ -131,6 +131,8 @@ struct World {
   [[nodiscard]] bool estimates_target() const { return target.size() > 0; }
   /// What agent `id`'s estimate is scored against: its own true position, or the target's.
   [[nodiscard]] Vec2 scored_truth(AgentId id) const;
+  /// The z of scored_truth in a 3-D world (0 in a planar one).
+  [[nodiscard]] double scored_truth_z(AgentId id) const;
   /// Whether agent `id` is scored: anchors know their position, but every sensor estimates a target.
   [[nodiscard]] bool scored(AgentId id) const;
   [[nodiscard]] int anchor_count() const;
