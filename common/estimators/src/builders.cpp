@@ -2,6 +2,8 @@
 #include "swarmloc/estimators/builders.hpp"
 
 #include <memory>
+#include <stdexcept>
+#include <string>
 
 #include "swarmloc/estimators/bp/multipath_bp.hpp"
 #include "swarmloc/estimators/consensus/dle.hpp"
@@ -46,9 +48,14 @@ std::unique_ptr<Estimator> iekf(const AgentSetup& setup, const EstimatorParams& 
 }
 // docs/algorithms.md §9, §9.8 (moving worlds)
 std::unique_ptr<Estimator> dml(const AgentSetup& setup, const EstimatorParams& params) {
-  return kalman_filter<Dml>(setup, params);
+  if (setup.dimensions == 3) return kalman_filter<DmlT<3>>(setup, params);
+  if (setup.dimensions == 2) return kalman_filter<DmlT<2>>(setup, params);
+  throw std::invalid_argument("dml: world.dimensions must be 2 or 3, not " +
+                              std::to_string(setup.dimensions));
 }
 std::unique_ptr<Estimator> dml_track(const AgentSetup& setup, const EstimatorParams& params) {
+  if (setup.dimensions != 2)
+    throw std::invalid_argument("dml_track: planar worlds only (world.dimensions: 2)");
   return kalman_filter<DmlTracking>(setup, params);
 }
 // pose states (x, y, θ), estimators/pose/pose_ekf.hpp; its information form; odometry only (baseline)

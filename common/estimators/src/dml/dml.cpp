@@ -5,6 +5,7 @@
 #include <limits>
 #include <map>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "dml/rank_one_message.hpp"
@@ -29,7 +30,8 @@ using rank_one::message_scale;
 
 /// a^T P a for the variance of position `covariance` along unit vector `a`, after the rank-one message
 /// s·aaᵀ is taken out of its information (Sherman–Morrison): q / (1 − s q), +inf if nothing is left.
-double cavity_variance(const Mat2& covariance, const Vec2& a, double message_scale) {
+template <int D>
+double cavity_variance(const MatD<D>& covariance, const VecD<D>& a, double message_scale) {
   const double q = a.dot(covariance * a);
   if (!std::isfinite(q)) return kInfinity;
   const double remaining = 1.0 - message_scale * q;
@@ -41,7 +43,8 @@ double cavity_variance(const Mat2& covariance, const Vec2& a, double message_sca
 /// holds s·aaᵀ has s·q < 1 (Sherman–Morrison); well above 1 for both, the neighbour formed its belief without
 /// either (it heard this agent while this agent's belief was undefined): nothing is there to take out
 /// (docs/algorithms.md §9.3).
-double far_cavity_variance(const Mat2& covariance, const Vec2& a, double sent_scale,
+template <int D>
+double far_cavity_variance(const MatD<D>& covariance, const VecD<D>& a, double sent_scale,
                            double previous_sent_scale) {
   const double q = a.dot(covariance * a);
   if (!std::isfinite(q)) return kInfinity;
@@ -53,33 +56,51 @@ double far_cavity_variance(const Mat2& covariance, const Vec2& a, double sent_sc
   return kInfinity;
 }
 
-bool exactly_known(const StateMessage& state) { return state.anchor && state.covariance.isZero(); }
+/// An anchor that published a zero covariance (3-D: its altitude's too).
+template <int D>
+bool exactly_known(bool anchor, const MatD<D>& covariance) {
+  return anchor && covariance.isZero();
+}
 
 /// The sender published a covariance: exactly known, or a belief (not the undefined one).
-bool has_belief(const StateMessage& state) {
-  return exactly_known(state) ||
-         (positive_definite(state.covariance) && state.covariance.trace() < kUndefinedVarianceM2);
+template <int D>
+bool has_belief(bool anchor, const MatD<D>& covariance) {
+  return exactly_known<D>(anchor, covariance) ||
+         (dml_dimension::positive_definite_d<D>(covariance) && covariance.trace() < kUndefinedVarianceM2);
 }
 
 }  // namespace
 
-double Dml::Edge::mean_range_m() const {
+template <int D>
+double DmlT<D>::Edge::mean_range_m() const {
   const double total = information();
   return total > 0.0 ? (own_weighted_range + peer_information * peer_mean_range_m) / total : 0.0;
 }
 
-bool Dml::Edge::usable() const {
-  return has_state && state.active && information() > 0.0 && state.mean_m.allFinite();
+template <int D>
+bool DmlT<D>::Edge::usable() const {
+  return has_state && has_position && state.active && information() > 0.0 && mean_m.allFinite();
 }
 
-Dml::Dml(const AgentSetup& setup, const KalmanFilterParams& /*params*/)
-    : setup_(setup), x_(setup.initial_guess_m), localized_(setup.anchor), two_hop_(setup.comm_radius_m) {
-  if (!setup.initial_guess_m.allFinite()) throw std::invalid_argument("dml: initial guess is not finite");
+template <int D>
+DmlT<D>::DmlT(const AgentSetup& setup, const KalmanFilterParams& /*params*/)
+    : setup_(setup),
+      x_(dml_dimension::position<D>(setup.initial_guess_m, setup.initial_altitude_m)),
+      localized_(setup.anchor),
+      two_hop_(setup.comm_radius_m) {
+  if (!x_.allFinite()) throw std::invalid_argument("dml: initial guess is not finite");
+  if (setup.dimensions != D)
+    throw std::invalid_argument("dml: built for " + std::to_string(D) + " dimensions, the world has " +
+                                std::to_string(setup.dimensions));
 }
 
-bool Dml::exact_anchor() const { return setup_.anchor && fix_information_.isZero(); }
+template <int D>
+bool DmlT<D>::exact_anchor() const {
+  return setup_.anchor && fix_information_.isZero();
+}
 
-void Dml::absorb_measurements(const MeasurementBatch& batch) {
+template <int D>
+void DmlT<D>::absorb_measurements(const MeasurementBatch& batch) {
   for (const auto& range : batch.ranges) {
     if (range.peer == setup_.id || !(range.std_m > 0.0) || !std::isfinite(range.range_m)) continue;
     const double information = 1.0 / (range.std_m * range.std_m);
@@ -92,39 +113,48 @@ void Dml::absorb_measurements(const MeasurementBatch& batch) {
     edge.own_weighted_range += information * range.range_m;
   }
   if (batch.fix && positive_definite(batch.fix->covariance) && batch.fix->position_m.allFinite()) {
+    // A fix is planar: in 3-D it informs x and y only.
     const Mat2 fix_information = batch.fix->covariance.inverse();
-    fix_information_ += fix_information;
-    fix_information_vector_ += fix_information * batch.fix->position_m;
+    fix_information_.template topLeftCorner<2, 2>() += fix_information;
+    fix_information_vector_.template head<2>() += fix_information * batch.fix->position_m;
   }
 }
 
-void Dml::absorb_states(const Inbox& inbox) {
+template <int D>
+void DmlT<D>::absorb_states(const Inbox& inbox) {
   for (const auto& received : inbox.states) {
     if (received.sender == setup_.id) continue;
     Edge& edge = edges_[received.sender];
     edge.has_state = true;
     edge.state = received.message;
+    // A 3-D agent cannot use a state without an altitude: it keeps the planar part as a guess (local maps).
+    const auto position = dml_dimension::read_state<D>(received.message);
+    edge.has_position = position.has_value();
+    edge.mean_m = position ? position->first : dml_dimension::position<D>(received.message.mean_m, 0.0);
+    edge.covariance = position ? position->second : Mat(kUndefinedVarianceM2 * Mat::Identity());
     for (const auto& summary : received.message.edge_ranges) {
       if (summary.peer != setup_.id || !(summary.information > 0.0) || !std::isfinite(summary.mean_range_m))
         continue;
       edge.peer_information = summary.information;
       edge.peer_mean_range_m = summary.mean_range_m;
     }
-    if (received.message.active)
-      two_hop_.absorb(setup_.id, received.message.mean_m, received.message.edge_ranges);
-    relays_.absorb(setup_.id, received.sender, received.message.mean_m, received.message.edge_ranges);
+    if (!edge.has_position) continue;  // nor its summaries' peer positions
+    if (received.message.active) two_hop_.absorb(setup_.id, edge.mean_m, received.message.edge_ranges);
+    relays_.absorb(setup_.id, received.sender, edge.mean_m, received.message.edge_ranges);
   }
 }
 
-std::vector<Dml::Reference> Dml::references() const {
+template <int D>
+std::vector<typename DmlT<D>::Reference> DmlT<D>::references() const {
   std::vector<Reference> refs;
   for (const auto& [id, edge] : edges_) {
-    if (edge.usable()) refs.push_back({id, edge.state.mean_m, edge.mean_range_m(), edge.information()});
+    if (edge.usable()) refs.push_back({id, edge.mean_m, edge.mean_range_m(), edge.information()});
   }
   return refs;
 }
 
-double Dml::local_cost(const Vec2& x, const std::vector<Reference>& refs) const {
+template <int D>
+double DmlT<D>::local_cost(const Vec& x, const std::vector<Reference>& refs) const {
   double cost = x.dot(fix_information_ * x) - 2.0 * fix_information_vector_.dot(x);
   for (const auto& ref : refs) {
     const double residual = ref.mean_range_m - (x - ref.position_m).norm();
@@ -133,20 +163,21 @@ double Dml::local_cost(const Vec2& x, const std::vector<Reference>& refs) const 
   return cost;
 }
 
-Vec2 Dml::solve_position(Vec2 x, const std::vector<Reference>& refs) const {
+template <int D>
+typename DmlT<D>::Vec DmlT<D>::solve_position(Vec x, const std::vector<Reference>& refs) const {
   for (int iteration = 0; iteration < kSolveIterations; ++iteration) {
-    Mat2 hessian = fix_information_;
-    Vec2 gradient = fix_information_vector_ - fix_information_ * x;
+    Mat hessian = fix_information_;
+    Vec gradient = fix_information_vector_ - fix_information_ * x;
     for (const auto& ref : refs) {
-      const Vec2 offset = x - ref.position_m;
+      const Vec offset = x - ref.position_m;
       const double distance = offset.norm();
       if (distance < kShortestDistanceM) continue;
-      const Vec2 a = offset / distance;
+      const Vec a = offset / distance;
       hessian += ref.information * a * a.transpose();
       gradient += ref.information * (ref.mean_range_m - distance) * a;
     }
-    if (!positive_definite(hessian)) break;
-    const Vec2 step = hessian.ldlt().solve(gradient);
+    if (!dml_dimension::positive_definite_d<D>(hessian)) break;
+    const Vec step = hessian.ldlt().solve(gradient);
     // Backtrack so a step never raises the local cost (the Gauss–Newton step can overshoot far from x).
     const double cost = local_cost(x, refs);
     double fraction = 1.0;
@@ -158,17 +189,18 @@ Vec2 Dml::solve_position(Vec2 x, const std::vector<Reference>& refs) const {
   return x;
 }
 
-std::optional<Vec2> Dml::multilaterate(const std::vector<Reference>& refs) const {
-  if (refs.size() < 3) return std::nullopt;
+template <int D>
+std::optional<typename DmlT<D>::Vec> DmlT<D>::multilaterate(const std::vector<Reference>& refs) const {
+  if (refs.size() < static_cast<std::size_t>(D + 1)) return std::nullopt;
   // Linear least squares on the differences of squared ranges to the first reference (row k:
   // 2(p_k − p_0)ᵀx = r_0² − r_k² + |p_k|² − |p_0|²), then refined on the ranges themselves.
-  Mat2 normal = Mat2::Zero();
-  Vec2 rhs = Vec2::Zero();
-  Mat2 noise = Mat2::Zero();  // Σ row rowᵀ var(value): the linear solution's spread is N⁻¹ (this) N⁻¹
+  Mat normal = Mat::Zero();
+  Vec rhs = Vec::Zero();
+  Mat noise = Mat::Zero();  // Σ row rowᵀ var(value): the linear solution's spread is N⁻¹ (this) N⁻¹
   const Reference& base = refs.front();
   const double base_variance = 4.0 * base.mean_range_m * base.mean_range_m / base.information;
   for (std::size_t k = 1; k < refs.size(); ++k) {
-    const Vec2 row = 2.0 * (refs[k].position_m - base.position_m);
+    const Vec row = 2.0 * (refs[k].position_m - base.position_m);
     const double value = base.mean_range_m * base.mean_range_m - refs[k].mean_range_m * refs[k].mean_range_m +
                          refs[k].position_m.squaredNorm() - base.position_m.squaredNorm();
     normal += row * row.transpose();
@@ -176,57 +208,116 @@ std::optional<Vec2> Dml::multilaterate(const std::vector<Reference>& refs) const
     noise += row * row.transpose() *
              (base_variance + 4.0 * refs[k].mean_range_m * refs[k].mean_range_m / refs[k].information);
   }
-  if (!positive_definite(normal)) return std::nullopt;
-  const Mat2 inverse = normal.inverse();
-  // Nearly collinear references (a mirror solution) or ranges too noisy for their geometry leave the
-  // linear solution too uncertain to say which basin the position is in: wait for more neighbours.
-  const double spread_m2 = Eigen::SelfAdjointEigenSolver<Mat2>(inverse * noise * inverse).eigenvalues()(1);
+  if (!dml_dimension::positive_definite_d<D>(normal)) return std::nullopt;
+  const Mat inverse = normal.inverse();
+  // Nearly collinear (coplanar) references (a mirror solution) or ranges too noisy for their geometry leave
+  // the linear solution too uncertain to say which basin the position is in: wait for more neighbours.
+  const double spread_m2 = Eigen::SelfAdjointEigenSolver<Mat>(inverse * noise * inverse).eigenvalues()(D - 1);
   double shortest_range_m = kInfinity;
   for (const auto& ref : refs) shortest_range_m = std::min(shortest_range_m, ref.mean_range_m);
   if (!(std::sqrt(spread_m2) < kMultilaterationSpreadFraction * shortest_range_m)) return std::nullopt;
   return solve_position(inverse * rhs, refs);
 }
 
-std::optional<Dml::GuessedStart> Dml::start_from_guess(const std::vector<Reference>& refs) const {
-  if (refs.empty() || steps_ <= kInitializationPatienceSteps) return std::nullopt;
-  const bool out_of_patience = steps_ > 3 * kInitializationPatienceSteps;
+template <int D>
+typename DmlT<D>::Vec DmlT<D>::on_continuum_nearest(const std::vector<Reference>& refs) const {
   const Reference& first = refs.front();
-  if (refs.size() == 1 || (refs[1].position_m - first.position_m).norm() < kShortestDistanceM) {
-    if (!out_of_patience) return std::nullopt;  // a whole circle: the guess can only pick a point of it
-    const Vec2 toward = x_ - first.position_m;
-    const Vec2 direction =
-        toward.norm() > kShortestDistanceM ? Vec2(toward.normalized()) : Vec2(Vec2::UnitX());
-    return GuessedStart{solve_position(first.position_m + first.mean_range_m * direction, refs), true,
-                        std::nullopt};
+  const bool circle_of_two =
+      D == 3 && refs.size() >= 2 && (refs[1].position_m - first.position_m).norm() >= kShortestDistanceM;
+  if (!circle_of_two) {
+    // One reference: a circle (2-D) or a sphere (3-D) about it.
+    const Vec toward = x_ - first.position_m;
+    const Vec direction = toward.norm() > kShortestDistanceM ? Vec(toward.normalized()) : Vec(Vec::UnitX());
+    return first.position_m + first.mean_range_m * direction;
   }
-  // Two references leave a mirror pair: the guess picks the one nearer to it if the pair is far apart
-  // for the guess's uncertainty (or once waiting for a third reference has not helped).
+  // Two references in 3-D: the circle where their spheres meet, about the line through them.
   const Reference& second = refs[1];
-  const Vec2 baseline = second.position_m - first.position_m;
+  const Vec baseline = second.position_m - first.position_m;
   const double separation = baseline.norm();
+  const Vec e = baseline / separation;
   const double along = (first.mean_range_m * first.mean_range_m - second.mean_range_m * second.mean_range_m +
                         separation * separation) /
                        (2.0 * separation);
   const double across = std::sqrt(std::max(0.0, first.mean_range_m * first.mean_range_m - along * along));
-  const Vec2 e = baseline / separation;
-  const Vec2 foot = first.position_m + along * e;
-  const Vec2 left = foot + across * Vec2(-e.y(), e.x());
-  const Vec2 right = foot - across * Vec2(-e.y(), e.x());
-  const auto hinge = std::pair{first.id, second.id};
-  // The graph: a member that lands within the radius of an agent this one does not hear is impossible.
-  if (const auto allowed = allowed_by_graph(left, right))
-    return GuessedStart{solve_position(*allowed == 0 ? left : right, refs), false, hinge};
-  const bool distinguishable = 2.0 * across > kMirrorSeparationSigmas * setup_.initial_guess_std_m;
-  if (!distinguishable && !out_of_patience) return std::nullopt;
-  return GuessedStart{solve_position((left - x_).norm() <= (right - x_).norm() ? left : right, refs),
-                      !distinguishable, hinge};
+  const Vec foot = first.position_m + along * e;
+  Vec sideways = x_ - foot;
+  sideways -= sideways.dot(e) * e;
+  const Vec direction =
+      sideways.norm() > kShortestDistanceM ? Vec(sideways.normalized()) : Vec(e.unitOrthogonal());
+  return foot + across * direction;
 }
 
-Dml::LocalMap Dml::draw_local_map(bool beliefs_only) const {
+template <int D>
+std::optional<typename DmlT<D>::MirrorPair> DmlT<D>::mirror_pair(const std::vector<Reference>& refs) const {
+  if (refs.size() < static_cast<std::size_t>(D)) return std::nullopt;
+  const Reference& first = refs[0];
+  const Reference& second = refs[1];
+  const Vec baseline = second.position_m - first.position_m;
+  const double separation = baseline.norm();
+  if (separation < kShortestDistanceM) return std::nullopt;
+  const Vec e = baseline / separation;
+  const double along = (first.mean_range_m * first.mean_range_m - second.mean_range_m * second.mean_range_m +
+                        separation * separation) /
+                       (2.0 * separation);
+  if constexpr (D == 2) {
+    // The two points where the circles meet, either side of the line through the references.
+    const double across = std::sqrt(std::max(0.0, first.mean_range_m * first.mean_range_m - along * along));
+    const Vec2 foot = first.position_m + along * e;
+    const Vec2 left = foot + across * Vec2(-e.y(), e.x());
+    const Vec2 right = foot - across * Vec2(-e.y(), e.x());
+    return MirrorPair{left, right, across, Hinge{first.id, second.id}};
+  } else {
+    // Three spheres: in the frame (e, f, n) of the references' plane the third fixes the coordinate along f,
+    // and the two points lie either side of the plane (along n).
+    const Reference& third = refs[2];
+    const Vec to_third = third.position_m - first.position_m;
+    const double third_along = e.dot(to_third);
+    const Vec off_line = to_third - third_along * e;
+    const double third_across = off_line.norm();
+    if (third_across < kShortestDistanceM) return std::nullopt;
+    const Vec f = off_line / third_across;
+    const Vec n = e.cross(f);
+    const double sideways =
+        (first.mean_range_m * first.mean_range_m - third.mean_range_m * third.mean_range_m +
+         third_along * third_along + third_across * third_across - 2.0 * third_along * along) /
+        (2.0 * third_across);
+    const double across = std::sqrt(
+        std::max(0.0, first.mean_range_m * first.mean_range_m - along * along - sideways * sideways));
+    const Vec foot = first.position_m + along * e + sideways * f;
+    return MirrorPair{foot + across * n, foot - across * n, across, Hinge{first.id, second.id, third.id}};
+  }
+}
+
+template <int D>
+std::optional<typename DmlT<D>::GuessedStart> DmlT<D>::start_from_guess(
+    const std::vector<Reference>& refs) const {
+  if (refs.empty() || steps_ <= kInitializationPatienceSteps) return std::nullopt;
+  const bool out_of_patience = steps_ > 3 * kInitializationPatienceSteps;
+  const auto pair = mirror_pair(refs);
+  if (!pair) {
+    // Fewer than D references that span: a continuum the guess can only pick a point of.
+    if (!out_of_patience) return std::nullopt;
+    return GuessedStart{solve_position(on_continuum_nearest(refs), refs), true, std::nullopt};
+  }
+  // D references leave a mirror pair: the guess picks the one nearer to it if the pair is far apart for the
+  // guess's uncertainty (or once waiting for one more reference has not helped).
+  const Vec& left = pair->left;
+  const Vec& right = pair->right;
+  // The graph: a member that lands within the radius of an agent this one does not hear is impossible.
+  if (const auto allowed = allowed_by_graph(left, right))
+    return GuessedStart{solve_position(*allowed == 0 ? left : right, refs), false, pair->hinge};
+  const bool distinguishable = 2.0 * pair->across > kMirrorSeparationSigmas * setup_.initial_guess_std_m;
+  if (!distinguishable && !out_of_patience) return std::nullopt;
+  return GuessedStart{solve_position((left - x_).norm() <= (right - x_).norm() ? left : right, refs),
+                      !distinguishable, pair->hinge};
+}
+
+template <int D>
+typename DmlT<D>::LocalMap DmlT<D>::draw_local_map(bool beliefs_only) const {
   LocalMap map;
   map.nodes.push_back({false, x_});
   std::map<AgentId, int> index{{setup_.id, 0}};
-  const auto add_node = [&](AgentId id, bool known, const Vec2& position) {
+  const auto add_node = [&](AgentId id, bool known, const Vec& position) {
     const auto [at, added] = index.emplace(id, static_cast<int>(map.nodes.size()));
     if (added) map.nodes.push_back({known, position});
     return at->second;
@@ -247,16 +338,17 @@ Dml::LocalMap Dml::draw_local_map(bool beliefs_only) const {
     if (!(edge.information() > 0.0)) continue;
     if (beliefs_only && !edge.usable()) continue;  // no place to linearize at
     // A neighbour's own flag puts its position in doubt: the map places it instead of holding it.
-    const bool known = edge.usable() && !edge.state.inconsistent && (!beliefs_only || has_belief(edge.state));
-    add_range(0, add_node(id, known, edge.state.mean_m), edge.mean_range_m(), edge.information(),
+    const bool known = edge.usable() && !edge.state.inconsistent &&
+                       (!beliefs_only || has_belief<D>(edge.state.anchor, edge.covariance));
+    add_range(0, add_node(id, known, edge.mean_m), edge.mean_range_m(), edge.information(),
               edge.peer_information > 0.0 ? 2 : 1);
     map.shortest_range_m = std::min(map.shortest_range_m, edge.mean_range_m());
   }
   // Agents two hops away enter only where a neighbour knows their position.
-  relays_.for_each_range([&](AgentId, AgentId peer, double, double, const Vec2* peer_mean) {
+  relays_.for_each_range([&](AgentId, AgentId peer, double, double, const Vec* peer_mean) {
     if (peer_mean != nullptr) add_node(peer, true, *peer_mean);
   });
-  relays_.for_each_range([&](AgentId via, AgentId peer, double range_m, double information, const Vec2*) {
+  relays_.for_each_range([&](AgentId via, AgentId peer, double range_m, double information, const Vec*) {
     const auto from = index.find(via);
     const auto to = index.find(peer);
     if (from != index.end() && to != index.end())
@@ -273,18 +365,21 @@ Dml::LocalMap Dml::draw_local_map(bool beliefs_only) const {
   return map;
 }
 
-std::optional<Mat2> Dml::map_covariance() const {
+template <int D>
+std::optional<typename DmlT<D>::Mat> DmlT<D>::map_covariance() const {
   const LocalMap map = draw_local_map(true);
   return local_map::covariance_at(map.nodes, map.ranges);
 }
 
-std::optional<local_map::Placement> Dml::place_in_local_map() const {
+template <int D>
+std::optional<local_map::PlacementT<D>> DmlT<D>::place_in_local_map() const {
   const LocalMap map = draw_local_map(false);
   return local_map::place(map.nodes, map.ranges, kLocalMapFalseAlarm,
                           kMultilaterationSpreadFraction * map.shortest_range_m);
 }
 
-std::optional<Dml::MapStart> Dml::start_from_local_map() const {
+template <int D>
+std::optional<typename DmlT<D>::MapStart> DmlT<D>::start_from_local_map() const {
   const auto mapped = place_in_local_map();
   if (!mapped) return std::nullopt;
   if (!mapped->alternative_m) return MapStart{mapped->position_m, true};
@@ -295,7 +390,8 @@ std::optional<Dml::MapStart> Dml::start_from_local_map() const {
   return MapStart{first_nearer ? mapped->position_m : *mapped->alternative_m, false};
 }
 
-void Dml::start(const std::vector<Reference>& refs) {
+template <int D>
+void DmlT<D>::start(const std::vector<Reference>& refs) {
   if (const auto multilaterated = multilaterate(refs)) {
     x_ = *multilaterated;
     localized_ = true;
@@ -323,11 +419,13 @@ void Dml::start(const std::vector<Reference>& refs) {
   }
 }
 
-double Dml::penetration(const Vec2& x) const {
+template <int D>
+double DmlT<D>::penetration(const Vec& x) const {
   return two_hop_.penetration(x, [this](AgentId id) { return id == setup_.id || edges_.contains(id); });
 }
 
-std::optional<int> Dml::allowed_by_graph(const Vec2& first, const Vec2& second) const {
+template <int D>
+std::optional<int> DmlT<D>::allowed_by_graph(const Vec& first, const Vec& second) const {
   const double margin = two_hop_.margin_m();
   const double first_inside = impossibility(first);
   const double second_inside = impossibility(second);
@@ -336,7 +434,8 @@ std::optional<int> Dml::allowed_by_graph(const Vec2& first, const Vec2& second) 
   return std::nullopt;
 }
 
-double Dml::impossibility(const Vec2& x) const {
+template <int D>
+double DmlT<D>::impossibility(const Vec& x) const {
   const double through_neighbours = relays_.violation(x, [this](AgentId via) {
     const auto edge = edges_.find(via);
     return edge != edges_.end() && edge->second.information() > 0.0 ? edge->second.mean_range_m() : -1.0;
@@ -346,21 +445,34 @@ double Dml::impossibility(const Vec2& x) const {
   return std::max(penetration(x), through_neighbours - 0.5 * two_hop_.margin_m());
 }
 
-std::optional<Vec2> Dml::mirror_of_current() const {
+template <int D>
+std::optional<typename DmlT<D>::Vec> DmlT<D>::mirror_of_current() const {
   if (!hinge_) return std::nullopt;
-  const auto a = edges_.find(hinge_->first);
-  const auto b = edges_.find(hinge_->second);
-  if (a == edges_.end() || b == edges_.end() || !a->second.usable() || !b->second.usable())
-    return std::nullopt;
-  const Vec2 p = a->second.state.mean_m;
-  const Vec2 line = b->second.state.mean_m - p;
+  std::array<Vec, static_cast<std::size_t>(D)> hinge_m;
+  for (std::size_t k = 0; k < hinge_m.size(); ++k) {
+    const auto edge = edges_.find((*hinge_)[k]);
+    if (edge == edges_.end() || !edge->second.usable()) return std::nullopt;
+    hinge_m[k] = edge->second.mean_m;
+  }
+  const Vec p = hinge_m[0];
+  const Vec line = hinge_m[1] - p;
   if (line.norm() < kShortestDistanceM) return std::nullopt;
-  const Vec2 e = line.normalized();
-  const Vec2 offset = x_ - p;
-  return Vec2(p + 2.0 * offset.dot(e) * e - offset);
+  const Vec offset = x_ - p;
+  if constexpr (D == 2) {
+    // Across the line through the two references.
+    const Vec2 e = line.normalized();
+    return Vec2(p + 2.0 * offset.dot(e) * e - offset);
+  } else {
+    // Across the plane through the three.
+    const Vec normal = line.cross(hinge_m[2] - p);
+    if (!(normal.norm() >= kShortestDistanceM * line.norm())) return std::nullopt;
+    const Vec n = normal.normalized();
+    return Vec(x_ - 2.0 * offset.dot(n) * n);
+  }
 }
 
-void Dml::check_mirror() {
+template <int D>
+void DmlT<D>::check_mirror() {
   // A start from two references: the graph may tell the pair apart once more of it is known. It confirms
   // the start (the mirror image is impossible), or moves the agent to the mirror image (this one is).
   const auto mirror = mirror_of_current();
@@ -372,24 +484,25 @@ void Dml::check_mirror() {
   hinge_.reset();
 }
 
-void Dml::update_information() {
-  const bool have_belief = positive_definite(information_);
-  const Mat2 covariance = have_belief ? Mat2(information_.inverse()) : Mat2(kInfinity * Mat2::Identity());
-  Mat2 information = fix_information_;
+template <int D>
+void DmlT<D>::update_information() {
+  const bool have_belief = dml_dimension::positive_definite_d<D>(information_);
+  const Mat covariance = have_belief ? Mat(information_.inverse()) : Mat(kInfinity * Mat::Identity());
+  Mat information = fix_information_;
   for (auto& [id, edge] : edges_) {
-    const Vec2 offset = x_ - edge.state.mean_m;
+    const Vec offset = x_ - edge.mean_m;
     if (!edge.usable() || offset.norm() < kShortestDistanceM) {
       edge.message_scale = 0.0;
       continue;
     }
-    const Vec2 a = offset.normalized();
+    const Vec a = offset.normalized();
     // What this agent told the neighbour (its belief without the neighbour's message), then the
     // neighbour's belief without that: the cavity, so no range is counted twice around the edge.
     const double sent_scale = message_scale(
-        edge.information(), have_belief ? cavity_variance(covariance, a, edge.message_scale) : kInfinity);
-    const double far_variance = exactly_known(edge.state) ? 0.0
-                                                          : far_cavity_variance(edge.state.covariance, a,
-                                                                                sent_scale, edge.sent_scale);
+        edge.information(), have_belief ? cavity_variance<D>(covariance, a, edge.message_scale) : kInfinity);
+    const double far_variance = exactly_known<D>(edge.state.anchor, edge.covariance)
+                                    ? 0.0
+                                    : far_cavity_variance<D>(edge.covariance, a, sent_scale, edge.sent_scale);
     edge.message_scale = message_scale(edge.information(), far_variance);
     edge.sent_scale = sent_scale;
     information += edge.message_scale * a * a.transpose();
@@ -397,16 +510,17 @@ void Dml::update_information() {
   information_ = information;
 }
 
-std::optional<Mat2> Dml::region_covariance() const {
-  std::vector<region::Member> members;
+template <int D>
+std::optional<typename DmlT<D>::Mat> DmlT<D>::region_covariance() const {
+  std::vector<region::MemberT<D>> members;
   std::vector<AgentId> member_ids;
-  std::vector<region::Known> known;
+  std::vector<region::KnownT<D>> known;
   for (const auto& [id, edge] : edges_) {
     if (!edge.usable()) continue;
-    if (exactly_known(edge.state)) {
-      known.push_back({edge.state.mean_m, edge.information()});
+    if (exactly_known<D>(edge.state.anchor, edge.covariance)) {
+      known.push_back({edge.mean_m, edge.information()});
     } else {
-      members.push_back({edge.state.mean_m, edge.state.covariance, edge.information(), edge.sent_scale,
+      members.push_back({edge.mean_m, edge.covariance, edge.information(), edge.sent_scale,
                          edge.state.anchor ? std::size_t{0} : std::size_t{edge.state.degree}});
       member_ids.push_back(id);
     }
@@ -429,19 +543,21 @@ std::optional<Mat2> Dml::region_covariance() const {
         links.push_back({static_cast<std::size_t>(p), static_cast<std::size_t>(q), information});
     }
   }
-  return region::centre_covariance(x_, fix_information_, members, links, known);
+  return region::centre_covariance<D>(x_, fix_information_, members, links, known);
 }
 
-double Dml::residual_statistic(int& degrees_of_freedom) const {
+template <int D>
+double DmlT<D>::residual_statistic(int& degrees_of_freedom) const {
   degrees_of_freedom = 0;
-  if (!positive_definite(information_)) return 0.0;
-  const Mat2 covariance = information_.inverse();
+  if (!dml_dimension::positive_definite_d<D>(information_)) return 0.0;
+  const Mat covariance = information_.inverse();
   double statistic = 0.0;
   for (const auto& [id, edge] : edges_) {
-    const Vec2 offset = x_ - edge.state.mean_m;
+    const Vec offset = x_ - edge.mean_m;
     if (!edge.usable() || offset.norm() < kShortestDistanceM) continue;
-    const Vec2 a = offset.normalized();
-    const double far_variance = exactly_known(edge.state) ? 0.0 : a.dot(edge.state.covariance * a);
+    const Vec a = offset.normalized();
+    const double far_variance =
+        exactly_known<D>(edge.state.anchor, edge.covariance) ? 0.0 : a.dot(edge.covariance * a);
     if (!std::isfinite(far_variance)) continue;
     const double variance = 1.0 / edge.information() + a.dot(covariance * a) + far_variance;
     const double residual = edge.mean_range_m() - offset.norm();
@@ -451,22 +567,24 @@ double Dml::residual_statistic(int& degrees_of_freedom) const {
   return statistic;
 }
 
-bool Dml::leans_on_flagged_neighbours(const std::vector<Reference>& refs) const {
+template <int D>
+bool DmlT<D>::leans_on_flagged_neighbours(const std::vector<Reference>& refs) const {
   std::size_t flagged = 0;
   for (const auto& ref : refs) {
     if (edges_.at(ref.id).state.inconsistent) ++flagged;
   }
-  // Three references fix a position in the plane; fewer unflagged ones leave it resting on the flagged.
-  return flagged > 0 && refs.size() - flagged < 3;
+  // D + 1 references fix a position; fewer unflagged ones leave it resting on the flagged.
+  return flagged > 0 && refs.size() - flagged < static_cast<std::size_t>(D + 1);
 }
 
-StepOutput Dml::step(const StepInput& input) {
+template <int D>
+StepOutput DmlT<D>::step(const StepInput& input) {
   StepOutput out;
   ++steps_;
   if (input.measurements != nullptr) absorb_measurements(*input.measurements);
   if (input.inbox != nullptr) absorb_states(*input.inbox);
   if (exact_anchor()) {
-    x_ = setup_.initial_guess_m;
+    x_ = dml_dimension::position<D>(setup_.initial_guess_m, setup_.initial_altitude_m);
     out.outbox = published();
     return out;
   }
@@ -478,7 +596,8 @@ StepOutput Dml::step(const StepInput& input) {
     update_information();
     // Belief propagation leaves an agent without a belief where its neighbours have none either (a group
     // rigid only with agents two hops away): its local map gives the covariance then.
-    reported_covariance_ = positive_definite(information_) ? region_covariance() : map_covariance();
+    reported_covariance_ =
+        dml_dimension::positive_definite_d<D>(information_) ? region_covariance() : map_covariance();
     int dof = 0;
     const double statistic = residual_statistic(dof);
     inconsistent_ = (dof > 0 && statistic > chi_square_upper_quantile(dof, kSelfCheckFalseAlarm)) ||
@@ -498,30 +617,34 @@ StepOutput Dml::step(const StepInput& input) {
   return out;
 }
 
-StateMessage Dml::state_message() const {
+template <int D>
+typename DmlT<D>::Mat DmlT<D>::published_covariance() const {
+  if (exact_anchor()) return Mat::Zero();
+  if (localized_ && dml_dimension::positive_definite_d<D>(information_))
+    return dml_dimension::symmetrized_d<D>(information_.inverse());
+  return kUndefinedVarianceM2 * Mat::Identity();
+}
+
+template <int D>
+StateMessage DmlT<D>::state_message() const {
   StateMessage state;
-  state.mean_m = x_;
+  dml_dimension::write_state<D>(x_, published_covariance(), state);
   state.anchor = setup_.anchor;
   state.active = localized_;
   state.inconsistent = inconsistent_ || ambiguous_start_;
-  if (exact_anchor()) {
-    state.covariance = Mat2::Zero();
-  } else if (localized_ && positive_definite(information_)) {
-    state.covariance = core::symmetrized(information_.inverse());
-  } else {
-    state.covariance = kUndefinedVarianceM2 * Mat2::Identity();
-  }
   state.degree = static_cast<std::uint16_t>(std::min<std::size_t>(edges_.size(), UINT16_MAX));
   return state;
 }
 
-Outbox Dml::initial_outbox() const {
+template <int D>
+Outbox DmlT<D>::initial_outbox() const {
   Outbox outbox;
   outbox.state = state_message();
   return outbox;
 }
 
-Outbox Dml::published() {
+template <int D>
+Outbox DmlT<D>::published() {
   StateMessage state = state_message();
   std::vector<AgentId> measured;
   for (const auto& [id, edge] : edges_) {
@@ -531,8 +654,9 @@ Outbox Dml::published() {
     const AgentId peer = measured[(summary_cursor_ + k) % measured.size()];
     const Edge& edge = edges_.at(peer);
     // The peer's mean rides along for the receivers' negative connectivity; this agent's own: not known.
-    state.edge_ranges.push_back({peer, edge.own_information, edge.own_weighted_range / edge.own_information,
-                                 edge.usable() ? edge.state.mean_m : state.mean_m});
+    state.edge_ranges.push_back(dml_dimension::summary<D>(peer, edge.own_information,
+                                                          edge.own_weighted_range / edge.own_information,
+                                                          edge.usable() ? edge.mean_m : x_));
   }
   summary_cursor_ += kSummariesPerMessage;
   Outbox outbox;
@@ -540,15 +664,18 @@ Outbox Dml::published() {
   return outbox;
 }
 
-Estimate Dml::estimate() const {
+template <int D>
+Estimate DmlT<D>::estimate() const {
   Estimate estimate;
-  estimate.mean_m = x_;
-  const StateMessage state = state_message();
-  estimate.covariance = reported_covariance_.value_or(state.covariance);
+  dml_dimension::write_estimate<D>(x_, reported_covariance_.value_or(published_covariance()), estimate);
   estimate.valid =
-      exact_anchor() || (localized_ && (positive_definite(information_) || reported_covariance_));
+      exact_anchor() ||
+      (localized_ && (dml_dimension::positive_definite_d<D>(information_) || reported_covariance_));
   estimate.inconsistent = inconsistent_ || ambiguous_start_ || doubtful_support_;
   return estimate;
 }
+
+template class DmlT<2>;
+template class DmlT<3>;
 
 }  // namespace swarmloc::estimators

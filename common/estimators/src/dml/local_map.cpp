@@ -16,9 +16,11 @@ constexpr double kShortestRangeM = 1e-9;
 constexpr double kSeparationSigmas = 6.0;  // two fitting maps this far apart place the agent differently
 constexpr double kSingularPivot = 1e-12;   // relative to the largest: a map that does not fix a node
 
-using Coordinates = std::vector<Vec2>;
+template <int D>
+using Coordinates = std::vector<VecD<D>>;
 
-bool usable_range(const Range& range, const std::vector<Node>& nodes) {
+template <int D>
+bool usable_range(const Range& range, const std::vector<NodeT<D>>& nodes) {
   const auto a = static_cast<std::size_t>(range.first);
   const auto b = static_cast<std::size_t>(range.second);
   return range.first >= 0 && range.second >= 0 && a < nodes.size() && b < nodes.size() && a != b &&
@@ -26,7 +28,8 @@ bool usable_range(const Range& range, const std::vector<Node>& nodes) {
 }
 
 /// The nodes a map keeps: every known node, and the nodes to place that keep `minimum` ranges to kept nodes.
-std::vector<bool> ranged_at_least(const std::vector<Node>& nodes, const std::vector<Range>& ranges,
+template <int D>
+std::vector<bool> ranged_at_least(const std::vector<NodeT<D>>& nodes, const std::vector<Range>& ranges,
                                   int minimum) {
   std::vector<bool> kept(nodes.size(), true);
   for (bool changed = true; changed;) {
@@ -53,7 +56,8 @@ std::vector<bool> ranged_at_least(const std::vector<Node>& nodes, const std::vec
 
 /// Every pair's distance: measured where ranged, exact between known nodes, else the shortest path
 /// through the ranges (an overestimate the refinement removes). Empty if a node is unreached.
-MatX completed_distances(const std::vector<Node>& nodes, const std::vector<Range>& ranges) {
+template <int D>
+MatX completed_distances(const std::vector<NodeT<D>>& nodes, const std::vector<Range>& ranges) {
   const auto n = static_cast<Eigen::Index>(nodes.size());
   MatX distance = MatX::Constant(n, n, kUnreached);
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -75,14 +79,15 @@ MatX completed_distances(const std::vector<Node>& nodes, const std::vector<Range
   return distance.allFinite() ? distance : MatX();
 }
 
-/// Classical scaling: the two leading eigenvectors of the double-centred squared distances.
-Coordinates scaled_coordinates(const MatX& distance) {
+/// Classical scaling: the D leading eigenvectors of the double-centred squared distances.
+template <int D>
+Coordinates<D> scaled_coordinates(const MatX& distance) {
   const Eigen::Index n = distance.rows();
   const MatX centring = MatX::Identity(n, n) - MatX::Constant(n, n, 1.0 / static_cast<double>(n));
   const MatX gram = -0.5 * centring * distance.cwiseProduct(distance) * centring;
   const Eigen::SelfAdjointEigenSolver<MatX> eigen(gram);
-  Coordinates coordinates(static_cast<std::size_t>(n), Vec2::Zero());
-  for (int axis = 0; axis < 2; ++axis) {
+  Coordinates<D> coordinates(static_cast<std::size_t>(n), VecD<D>::Zero());
+  for (int axis = 0; axis < D; ++axis) {
     const Eigen::Index column = n - 1 - axis;  // eigenvalues ascending
     const double scale = std::sqrt(std::max(0.0, eigen.eigenvalues()(column)));
     for (Eigen::Index i = 0; i < n; ++i)
@@ -92,9 +97,11 @@ Coordinates scaled_coordinates(const MatX& distance) {
 }
 
 /// The map moved onto the known nodes by the best rotation (first) and the best reflection (second).
-std::pair<Coordinates, Coordinates> fitted_to_known(const Coordinates& map, const std::vector<Node>& nodes) {
-  Vec2 map_centre = Vec2::Zero();
-  Vec2 world_centre = Vec2::Zero();
+template <int D>
+std::pair<Coordinates<D>, Coordinates<D>> fitted_to_known(const Coordinates<D>& map,
+                                                          const std::vector<NodeT<D>>& nodes) {
+  VecD<D> map_centre = VecD<D>::Zero();
+  VecD<D> world_centre = VecD<D>::Zero();
   double known = 0.0;
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     if (!nodes[i].known) continue;
@@ -104,30 +111,34 @@ std::pair<Coordinates, Coordinates> fitted_to_known(const Coordinates& map, cons
   }
   map_centre /= known;
   world_centre /= known;
-  Mat2 cross = Mat2::Zero();
+  MatD<D> cross = MatD<D>::Zero();
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     if (nodes[i].known) cross += (map[i] - map_centre) * (nodes[i].position_m - world_centre).transpose();
   }
-  const Eigen::JacobiSVD<Mat2> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::JacobiSVD<MatD<D>> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const double handedness = (svd.matrixV() * svd.matrixU().transpose()).determinant() > 0.0 ? 1.0 : -1.0;
   const auto moved = [&](double sign) {
-    const Mat2 turn = svd.matrixV() * Eigen::Vector2d(1.0, sign).asDiagonal() * svd.matrixU().transpose();
-    Coordinates out(map.size());
+    VecD<D> axes = VecD<D>::Ones();
+    axes(D - 1) = sign;  // the last axis turned over: the reflection
+    const MatD<D> turn = svd.matrixV() * axes.asDiagonal() * svd.matrixU().transpose();
+    Coordinates<D> out(map.size());
     for (std::size_t i = 0; i < map.size(); ++i)
-      out[i] = nodes[i].known ? nodes[i].position_m : Vec2(world_centre + turn * (map[i] - map_centre));
+      out[i] = nodes[i].known ? nodes[i].position_m : VecD<D>(world_centre + turn * (map[i] - map_centre));
     return out;
   };
   return {moved(handedness), moved(-handedness)};
 }
 
 /// Levenberg–Marquardt on the ranges with the known nodes held: the cost Σ W (r − ‖x_a − x_b‖)².
+template <int D>
 struct Refined {
-  Coordinates x;
+  Coordinates<D> x;
   double cost;
   MatX information;  // Gauss–Newton, over the unknown nodes' coordinates
 };
 
-double range_cost(const Coordinates& x, const std::vector<Range>& ranges) {
+template <int D>
+double range_cost(const Coordinates<D>& x, const std::vector<Range>& ranges) {
   double cost = 0.0;
   for (const auto& range : ranges) {
     const double residual =
@@ -139,7 +150,8 @@ double range_cost(const Coordinates& x, const std::vector<Range>& ranges) {
 }
 
 /// The Gauss–Newton normal equations of the range cost at `at`, over the unknown nodes' coordinates.
-void normal_equations(const Coordinates& at, const std::vector<Range>& ranges,
+template <int D>
+void normal_equations(const Coordinates<D>& at, const std::vector<Range>& ranges,
                       const std::vector<int>& unknown_index, Eigen::Index size, MatX& hessian,
                       VecX& gradient) {
   hessian = MatX::Zero(size, size);
@@ -147,33 +159,34 @@ void normal_equations(const Coordinates& at, const std::vector<Range>& ranges,
   for (const auto& range : ranges) {
     const auto a = static_cast<std::size_t>(range.first);
     const auto b = static_cast<std::size_t>(range.second);
-    const Vec2 offset = at[a] - at[b];
+    const VecD<D> offset = at[a] - at[b];
     const double length = offset.norm();
     if (length < kShortestRangeM) continue;
-    const Vec2 direction = offset / length;
+    const VecD<D> direction = offset / length;
     const double residual = range.range_m - length;
     const int ends[2] = {unknown_index[a], unknown_index[b]};
     const double signs[2] = {1.0, -1.0};
     for (int p = 0; p < 2; ++p) {
       if (ends[p] < 0) continue;
-      gradient.segment<2>(2 * ends[p]) += signs[p] * range.information * residual * direction;
+      gradient.template segment<D>(D * ends[p]) += signs[p] * range.information * residual * direction;
       for (int q = 0; q < 2; ++q) {
         if (ends[q] < 0) continue;
-        hessian.block<2, 2>(2 * ends[p], 2 * ends[q]) +=
+        hessian.template block<D, D>(D * ends[p], D * ends[q]) +=
             signs[p] * signs[q] * range.information * direction * direction.transpose();
       }
     }
   }
 }
 
-Refined refined(Coordinates x, const std::vector<Node>& nodes, const std::vector<Range>& ranges,
-                const std::vector<int>& unknown_index) {
+template <int D>
+Refined<D> refined(Coordinates<D> x, const std::vector<NodeT<D>>& nodes, const std::vector<Range>& ranges,
+                   const std::vector<int>& unknown_index) {
   const auto size = static_cast<Eigen::Index>(
-      2 * std::count_if(nodes.begin(), nodes.end(), [](const Node& n) { return !n.known; }));
-  const auto normal_equations_at = [&](const Coordinates& at, MatX& hessian, VecX& gradient) {
-    normal_equations(at, ranges, unknown_index, size, hessian, gradient);
+      D * std::count_if(nodes.begin(), nodes.end(), [](const NodeT<D>& n) { return !n.known; }));
+  const auto normal_equations_at = [&](const Coordinates<D>& at, MatX& hessian, VecX& gradient) {
+    normal_equations<D>(at, ranges, unknown_index, size, hessian, gradient);
   };
-  double cost = range_cost(x, ranges);
+  double cost = range_cost<D>(x, ranges);
   double damping = 1e-3;
   MatX hessian;
   VecX gradient;
@@ -182,11 +195,11 @@ Refined refined(Coordinates x, const std::vector<Node>& nodes, const std::vector
     const MatX damped =
         hessian + damping * MatX(hessian.diagonal().asDiagonal()) + 1e-12 * MatX::Identity(size, size);
     const VecX step = damped.ldlt().solve(gradient);
-    Coordinates trial = x;
+    Coordinates<D> trial = x;
     for (std::size_t i = 0; i < x.size(); ++i) {
-      if (unknown_index[i] >= 0) trial[i] += step.segment<2>(2 * unknown_index[i]);
+      if (unknown_index[i] >= 0) trial[i] += step.template segment<D>(D * unknown_index[i]);
     }
-    const double trial_cost = range_cost(trial, ranges);
+    const double trial_cost = range_cost<D>(trial, ranges);
     if (trial_cost < cost) {
       const bool settled = cost - trial_cost < 1e-12 * (1.0 + cost);
       x = std::move(trial);
@@ -204,21 +217,22 @@ Refined refined(Coordinates x, const std::vector<Node>& nodes, const std::vector
 
 }  // namespace
 
-std::optional<Mat2> covariance_at(const std::vector<Node>& nodes, const std::vector<Range>& ranges) {
+template <int D>
+std::optional<MatD<D>> covariance_at(const std::vector<NodeT<D>>& nodes, const std::vector<Range>& ranges) {
   if (nodes.empty() || nodes.front().known) return std::nullopt;
   std::vector<Range> usable;
   for (const auto& range : ranges) {
     if (usable_range(range, nodes)) usable.push_back(range);
   }
-  // A node to place held by a single range turns freely about its other end and informs no one.
-  const std::vector<bool> kept = ranged_at_least(nodes, usable, 2);
+  // A node to place held by fewer than D ranges turns freely about their other ends and informs no one.
+  const std::vector<bool> kept = ranged_at_least(nodes, usable, D);
   if (!kept.front()) return std::nullopt;
   std::vector<int> unknown_index(nodes.size(), -1);
   int unknowns = 0;
   for (std::size_t i = 0; i < nodes.size(); ++i) {
     if (kept[i] && !nodes[i].known) unknown_index[i] = unknowns++;
   }
-  Coordinates at(nodes.size());
+  Coordinates<D> at(nodes.size());
   for (std::size_t i = 0; i < nodes.size(); ++i) at[i] = nodes[i].position_m;
   std::vector<Range> used;
   for (const auto& range : usable) {
@@ -227,26 +241,28 @@ std::optional<Mat2> covariance_at(const std::vector<Node>& nodes, const std::vec
   }
   MatX information;
   VecX gradient;
-  normal_equations(at, used, unknown_index, 2 * unknowns, information, gradient);
+  normal_equations<D>(at, used, unknown_index, D * unknowns, information, gradient);
   const Eigen::LDLT<MatX> factor(information);
   if (factor.info() != Eigen::Success) return std::nullopt;
   const VecX pivots = factor.vectorD();
   if (!(pivots.minCoeff() > kSingularPivot * pivots.maxCoeff())) return std::nullopt;
   // Node 0 is unknown index 0: its marginal is the top-left block of the inverse.
-  MatX unit = MatX::Zero(information.rows(), 2);
-  unit.topRows<2>().setIdentity();
-  const Mat2 covariance = factor.solve(unit).topRows<2>();
-  return Mat2(0.5 * (covariance + covariance.transpose()));
+  MatX unit = MatX::Zero(information.rows(), D);
+  unit.template topRows<D>().setIdentity();
+  const MatD<D> covariance = factor.solve(unit).template topRows<D>();
+  return MatD<D>(0.5 * (covariance + covariance.transpose()));
 }
 
-std::optional<Placement> place(const std::vector<Node>& nodes, const std::vector<Range>& ranges,
-                               double false_alarm, double max_std_m) {
+template <int D>
+std::optional<PlacementT<D>> place(const std::vector<NodeT<D>>& nodes, const std::vector<Range>& ranges,
+                                   double false_alarm, double max_std_m) {
   if (nodes.empty() || nodes.front().known) return std::nullopt;
-  // One held by two ranges can flip across the line through their other ends, and the ranges cannot tell.
-  const std::vector<bool> kept = ranged_at_least(nodes, ranges, 3);
+  // One held by D ranges can flip across the line (plane) through their other ends, and the ranges cannot
+  // tell.
+  const std::vector<bool> kept = ranged_at_least(nodes, ranges, D + 1);
   if (!kept.front()) return std::nullopt;
   std::vector<int> compact(nodes.size(), -1);
-  std::vector<Node> map;
+  std::vector<NodeT<D>> map;
   std::vector<int> unknown_index;
   int unknowns = 0;
   int known = 0;
@@ -267,29 +283,31 @@ std::optional<Placement> place(const std::vector<Node>& nodes, const std::vector
       continue;
     used.push_back({a, b, range.range_m, range.information});
   }
-  const int dof = static_cast<int>(used.size()) - 2 * unknowns;
-  if (known < 2 || dof < 1) return std::nullopt;
+  const int dof = static_cast<int>(used.size()) - D * unknowns;
+  if (known < D || dof < 1) return std::nullopt;
   const MatX distance = completed_distances(map, used);
   if (distance.size() == 0) return std::nullopt;
-  const auto [rotated, reflected] = fitted_to_known(scaled_coordinates(distance), map);
-  Coordinates guessed(map.size());
+  const auto [rotated, reflected] = fitted_to_known<D>(scaled_coordinates<D>(distance), map);
+  Coordinates<D> guessed(map.size());
   for (std::size_t i = 0; i < map.size(); ++i) guessed[i] = map[i].position_m;
   // Three starts: the scaled map both ways round, and the agents' own guesses. Each ends in a minimum;
   // the best must fit the ranges, and no other that fits them may put this agent elsewhere.
-  std::vector<Refined> minima;
-  for (const Coordinates* start : {&rotated, &reflected, static_cast<const Coordinates*>(&guessed)})
-    minima.push_back(refined(*start, map, used, unknown_index));
-  std::sort(minima.begin(), minima.end(), [](const Refined& a, const Refined& b) { return a.cost < b.cost; });
-  const Refined& best = minima.front();
+  std::vector<Refined<D>> minima;
+  for (const Coordinates<D>* start : {&rotated, &reflected, static_cast<const Coordinates<D>*>(&guessed)})
+    minima.push_back(refined<D>(*start, map, used, unknown_index));
+  std::sort(minima.begin(), minima.end(),
+            [](const Refined<D>& a, const Refined<D>& b) { return a.cost < b.cost; });
+  const Refined<D>& best = minima.front();
   const double threshold = chi_square_upper_quantile(dof, false_alarm);
   if (!(best.cost <= threshold)) return std::nullopt;
   const Eigen::LDLT<MatX> factor(best.information);
   if (factor.info() != Eigen::Success || !(factor.vectorD().minCoeff() > 0.0)) return std::nullopt;
-  const Mat2 covariance =
-      factor.solve(MatX::Identity(best.information.rows(), best.information.rows())).topLeftCorner<2, 2>();
-  const double largest_std = std::sqrt(Eigen::SelfAdjointEigenSolver<Mat2>(covariance).eigenvalues()(1));
+  const MatD<D> covariance = factor.solve(MatX::Identity(best.information.rows(), best.information.rows()))
+                                 .template topLeftCorner<D, D>();
+  const double largest_std =
+      std::sqrt(Eigen::SelfAdjointEigenSolver<MatD<D>>(covariance).eigenvalues()(D - 1));
   if (!(largest_std <= max_std_m)) return std::nullopt;
-  Placement placement{best.x.front(), std::nullopt};
+  PlacementT<D> placement{best.x.front(), std::nullopt};
   for (std::size_t k = 1; k < minima.size() && !placement.alternative_m; ++k) {
     if (minima[k].cost <= threshold &&
         (minima[k].x.front() - best.x.front()).norm() > kSeparationSigmas * largest_std) {
@@ -298,5 +316,12 @@ std::optional<Placement> place(const std::vector<Node>& nodes, const std::vector
   }
   return placement;
 }
+
+template std::optional<PlacementT<2>> place(const std::vector<NodeT<2>>&, const std::vector<Range>&, double,
+                                            double);
+template std::optional<PlacementT<3>> place(const std::vector<NodeT<3>>&, const std::vector<Range>&, double,
+                                            double);
+template std::optional<Mat2> covariance_at(const std::vector<NodeT<2>>&, const std::vector<Range>&);
+template std::optional<Mat3> covariance_at(const std::vector<NodeT<3>>&, const std::vector<Range>&);
 
 }  // namespace swarmloc::estimators::local_map

@@ -24,80 +24,93 @@ double fixed_point_message(double own, double other, double w) {
 }
 
 /// The rank-one messages the two ends of a range put into each other's beliefs (docs/algorithms.md §9.3).
-std::pair<double, double> link_messages(const Mat2& first_covariance, const Mat2& second_covariance,
-                                        const Vec2& a, double information) {
+template <int D>
+std::pair<double, double> link_messages(const MatD<D>& first_covariance, const MatD<D>& second_covariance,
+                                        const VecD<D>& a, double information) {
   const double first = 1.0 / a.dot(first_covariance * a);  // belief precisions along a
   const double second = 1.0 / a.dot(second_covariance * a);
   return {fixed_point_message(first, second, information), fixed_point_message(second, first, information)};
 }
 
-/// The information of a range between variables `p` and `q` (2×2 blocks at 2p, 2q) along `a`.
-void add_range(MatX& information, Eigen::Index p, Eigen::Index q, const Vec2& a, double weight) {
-  const Mat2 block = weight * a * a.transpose();
-  information.block<2, 2>(2 * p, 2 * p) += block;
-  information.block<2, 2>(2 * q, 2 * q) += block;
-  information.block<2, 2>(2 * p, 2 * q) -= block;
-  information.block<2, 2>(2 * q, 2 * p) -= block;
+/// The information of a range between variables `p` and `q` (D×D blocks at Dp, Dq) along `a`.
+template <int D>
+void add_range(MatX& information, Eigen::Index p, Eigen::Index q, const VecD<D>& a, double weight) {
+  const MatD<D> block = weight * a * a.transpose();
+  information.block<D, D>(D * p, D * p) += block;
+  information.block<D, D>(D * q, D * q) += block;
+  information.block<D, D>(D * p, D * q) -= block;
+  information.block<D, D>(D * q, D * p) -= block;
 }
 
 /// `m` with negative eigenvalues set to zero: what is left of a belief after its inside messages are
 /// taken out is information, never less than none.
-Mat2 clamped_to_psd(const Mat2& m) {
-  if (m.trace() >= 0.0 && m.determinant() >= 0.0) return m;
-  Eigen::SelfAdjointEigenSolver<Mat2> eigen;
-  eigen.computeDirect(core::symmetrized(m));
-  const Vec2 values = eigen.eigenvalues().cwiseMax(0.0);
+template <int D>
+MatD<D> clamped_to_psd(const MatD<D>& m) {
+  Eigen::SelfAdjointEigenSolver<MatD<D>> eigen;
+  if constexpr (D == 2) {
+    if (m.trace() >= 0.0 && m.determinant() >= 0.0) return m;  // both eigenvalues ≥ 0
+    eigen.computeDirect(core::symmetrized(m));
+  } else {
+    eigen.compute(dml_dimension::symmetrized_d<D>(m));
+    if (eigen.eigenvalues()(0) >= 0.0) return m;
+  }
+  const VecD<D> values = eigen.eigenvalues().cwiseMax(0.0);
   return eigen.eigenvectors() * values.asDiagonal() * eigen.eigenvectors().transpose();
 }
 
 /// A member with a belief (not the placeholder of one without, whose messages are nil) and a range to
 /// linearize along.
-bool usable(const Member& member, const Vec2& centre_m) {
-  return member.information > 0.0 && member.mean_m.allFinite() && positive_definite(member.covariance) &&
+template <int D>
+bool usable(const MemberT<D>& member, const VecD<D>& centre_m) {
+  return member.information > 0.0 && member.mean_m.allFinite() &&
+         dml_dimension::positive_definite_d<D>(member.covariance) &&
          member.covariance.trace() < kUndefinedVarianceM2 &&
          (centre_m - member.mean_m).norm() >= kShortestDistanceM;
 }
 
 }  // namespace
 
-std::optional<Mat2> centre_covariance(const Vec2& centre_m, const Mat2& prior_information,
-                                      const std::vector<Member>& members, const std::vector<Link>& links,
-                                      const std::vector<Known>& known) {
+template <int D>
+std::optional<MatD<D>> centre_covariance(const std::type_identity_t<VecD<D>>& centre_m,
+                                         const std::type_identity_t<MatD<D>>& prior_information,
+                                         const std::vector<MemberT<D>>& members,
+                                         const std::vector<Link>& links,
+                                         const std::vector<KnownT<D>>& known) {
   // Variable 0 is the centre; usable members follow in order.
   std::vector<Eigen::Index> slot(members.size(), -1);
   Eigen::Index size = 1;
   for (std::size_t k = 0; k < members.size(); ++k)
-    if (usable(members[k], centre_m)) slot[k] = size++;
-  MatX information = MatX::Zero(2 * size, 2 * size);
-  information.topLeftCorner<2, 2>() = prior_information;
+    if (usable<D>(members[k], centre_m)) slot[k] = size++;
+  MatX information = MatX::Zero(D * size, D * size);
+  information.topLeftCorner<D, D>() = prior_information;
   for (const auto& anchor : known) {
-    const Vec2 offset = centre_m - anchor.mean_m;
+    const VecD<D> offset = centre_m - anchor.mean_m;
     if (offset.norm() < kShortestDistanceM) continue;
-    const Vec2 a = offset.normalized();
-    information.topLeftCorner<2, 2>() += anchor.information * a * a.transpose();
+    const VecD<D> a = offset.normalized();
+    information.topLeftCorner<D, D>() += anchor.information * a * a.transpose();
   }
-  std::vector<Mat2> outside(members.size(), Mat2::Zero());
+  std::vector<MatD<D>> outside(members.size(), MatD<D>::Zero());
   for (std::size_t k = 0; k < members.size(); ++k) {
     if (slot[k] < 0) continue;
-    const Member& member = members[k];
-    const Vec2 a = (centre_m - member.mean_m).normalized();
+    const MemberT<D>& member = members[k];
+    const VecD<D> a = (centre_m - member.mean_m).normalized();
     outside[k] = member.covariance.inverse() - member.sent_scale * a * a.transpose();
-    add_range(information, 0, slot[k], a, member.information);
+    add_range<D>(information, 0, slot[k], a, member.information);
   }
   std::vector<std::size_t> inside_links(members.size(), 0);  // its links to other members
   for (const auto& link : links) {
-    const Member& first = members[link.first];
-    const Member& second = members[link.second];
-    const Vec2 offset = first.mean_m - second.mean_m;
+    const MemberT<D>& first = members[link.first];
+    const MemberT<D>& second = members[link.second];
+    const VecD<D> offset = first.mean_m - second.mean_m;
     if (slot[link.first] < 0 || slot[link.second] < 0 || !(link.information > 0.0) ||
         offset.norm() < kShortestDistanceM)
       continue;
-    const Vec2 a = offset.normalized();
+    const VecD<D> a = offset.normalized();
     const auto [to_first, to_second] =
-        link_messages(first.covariance, second.covariance, a, link.information);
+        link_messages<D>(first.covariance, second.covariance, a, link.information);
     outside[link.first] -= to_first * a * a.transpose();
     outside[link.second] -= to_second * a * a.transpose();
-    add_range(information, slot[link.first], slot[link.second], a, link.information);
+    add_range<D>(information, slot[link.first], slot[link.second], a, link.information);
     ++inside_links[link.first];
     ++inside_links[link.second];
   }
@@ -106,14 +119,19 @@ std::optional<Mat2> centre_covariance(const Vec2& centre_m, const Mat2& prior_in
   for (std::size_t k = 0; k < members.size(); ++k) {
     if (slot[k] < 0) continue;
     const bool closed = members[k].degree > 0 && members[k].degree == 1 + inside_links[k];
-    if (!closed) information.block<2, 2>(2 * slot[k], 2 * slot[k]) += clamped_to_psd(outside[k]);
+    if (!closed) information.block<D, D>(D * slot[k], D * slot[k]) += clamped_to_psd<D>(outside[k]);
   }
   const Eigen::LLT<MatX> factor(information);
   if (factor.info() != Eigen::Success) return std::nullopt;
-  const MatX columns = factor.solve(MatX::Identity(2 * size, 2));
-  const Mat2 covariance = core::symmetrized(columns.topRows<2>());
-  if (!covariance.allFinite() || !positive_definite(covariance)) return std::nullopt;
+  const MatX columns = factor.solve(MatX::Identity(D * size, D));
+  const MatD<D> covariance = dml_dimension::symmetrized_d<D>(columns.topRows<D>());
+  if (!covariance.allFinite() || !dml_dimension::positive_definite_d<D>(covariance)) return std::nullopt;
   return covariance;
 }
+
+template std::optional<Mat2> centre_covariance(const Vec2&, const Mat2&, const std::vector<MemberT<2>>&,
+                                               const std::vector<Link>&, const std::vector<KnownT<2>>&);
+template std::optional<Mat3> centre_covariance(const Vec3&, const Mat3&, const std::vector<MemberT<3>>&,
+                                               const std::vector<Link>&, const std::vector<KnownT<3>>&);
 
 }  // namespace swarmloc::estimators::region

@@ -9,24 +9,26 @@
 #include <utility>
 #include <vector>
 
+#include "swarmloc/estimators/dml/dimension.hpp"
 #include "swarmloc/estimators/messages.hpp"
 
 namespace swarmloc::estimators {
 
-class TwoHopPositions {
+template <int D>
+class TwoHopPositionsT {
  public:
   /// radius_m: the communication radius (+inf or not positive: unknown, nothing is ever kept).
-  explicit TwoHopPositions(double radius_m);
+  explicit TwoHopPositionsT(double radius_m);
 
   [[nodiscard]] bool enabled() const { return enabled_; }
   /// Keeps the peer means a localized neighbour relays (its edge summaries). Skips entries about `self`,
   /// entries marked unknown (the sender's own mean) and garbled ones: a peer mean that disagrees with the
   /// sender's own range to that peer, or lies beyond the radius from the sender. Returns the entries kept.
-  int absorb(AgentId self, const Vec2& sender_mean_m, const std::vector<EdgeRangeSummary>& summaries);
+  int absorb(AgentId self, const VecD<D>& sender_mean_m, const std::vector<EdgeRangeSummary>& summaries);
   /// How far `x` lies inside the radius of the nearest known agent that `heard` says this agent does not
   /// hear (> 0: x contradicts the graph); -inf if none is known.
   template <typename Heard>
-  [[nodiscard]] double penetration(const Vec2& x, const Heard& heard) const {
+  [[nodiscard]] double penetration(const VecD<D>& x, const Heard& heard) const {
     double worst = -std::numeric_limits<double>::infinity();
     for (const auto& [id, position] : positions_) {
       if (!heard(id)) worst = std::max(worst, radius_m_ - (x - position).norm());
@@ -42,18 +44,19 @@ class TwoHopPositions {
  private:
   double radius_m_;
   bool enabled_;
-  std::map<AgentId, Vec2> positions_;  // newest relayed mean per agent
+  std::map<AgentId, VecD<D>> positions_;  // newest relayed mean per agent
 };
 
 /// Ranges through a neighbour (docs/algorithms.md §9.4): neighbour c measured r_cm to agent m and relays
 /// m's mean p_m, so with this agent's own range r_c to c the triangle inequality bounds its distance to m:
 /// |r_c − r_cm| ≤ ‖x − p_m‖ ≤ r_c + r_cm. Kept from every neighbour, localized or not (c's own position
 /// plays no part).
-class RelayedRanges {
+template <int D>
+class RelayedRangesT {
  public:
   /// Keeps `sender`'s summaries: with the peer's mean where they carry one (not the sender's own mean, its
   /// "unknown"), else the range alone (for local maps only).
-  void absorb(AgentId self, AgentId sender, const Vec2& sender_mean_m,
+  void absorb(AgentId self, AgentId sender, const VecD<D>& sender_mean_m,
               const std::vector<EdgeRangeSummary>& summaries);
   /// Calls visit(p, q, information) for what agent ids[p] relayed of its own draws of its range to
   /// ids[q]; `ids` ascending.
@@ -77,13 +80,13 @@ class RelayedRanges {
     for (const auto& entry : entries_)
       visit(entry.via, entry.peer, entry.range_m, entry.information, &entry.peer_mean_m);
     for (const auto& [key, entry] : unplaced_)
-      visit(key.first, key.second, entry.range_m, entry.information, static_cast<const Vec2*>(nullptr));
+      visit(key.first, key.second, entry.range_m, entry.information, static_cast<const VecD<D>*>(nullptr));
   }
   /// The worst violation at `x` of the bounds through the neighbours `own_range` gives a range to
   /// (> 0: x contradicts the data by that much); -inf if no bound is known. `own_range(c)` returns this
   /// agent's mean range to c, or a negative value if it has none.
   template <typename OwnRange>
-  [[nodiscard]] double violation(const Vec2& x, const OwnRange& own_range) const {
+  [[nodiscard]] double violation(const VecD<D>& x, const OwnRange& own_range) const {
     double worst = -std::numeric_limits<double>::infinity();
     double r_via = -1.0;
     for (std::size_t k = 0; k < entries_.size(); ++k) {
@@ -101,7 +104,7 @@ class RelayedRanges {
   struct Entry {
     AgentId via;
     AgentId peer;
-    Vec2 peer_mean_m;
+    VecD<D> peer_mean_m;
     double range_m;
     double information;
   };
@@ -113,5 +116,12 @@ class RelayedRanges {
   std::vector<Entry> entries_;        // newest per (via, peer), sorted by (via, peer): scanned every step
   std::map<Key, Unplaced> unplaced_;  // ranges to peers the neighbour had no position of (not in entries_)
 };
+
+extern template class TwoHopPositionsT<2>;
+extern template class TwoHopPositionsT<3>;
+extern template class RelayedRangesT<2>;
+extern template class RelayedRangesT<3>;
+using TwoHopPositions = TwoHopPositionsT<2>;
+using RelayedRanges = RelayedRangesT<2>;
 
 }  // namespace swarmloc::estimators

@@ -7,16 +7,18 @@
 #include <optional>
 #include <vector>
 
-#include "swarmloc/core/types.hpp"
+#include "swarmloc/estimators/dml/dimension.hpp"
 
 namespace swarmloc::estimators::local_map {
 
 /// An agent in the map: one whose position is known (a localized neighbour, or one a neighbour relays) or
 /// one to place. Node 0 is the agent that draws the map.
-struct Node {
+template <int D>
+struct NodeT {
   bool known = false;
-  Vec2 position_m = Vec2::Zero();  // known nodes: the position; the others: a guess, one start of the fit
+  VecD<D> position_m = VecD<D>::Zero();  // known nodes: the position; the others: a guess, a start of the fit
 };
+using Node = NodeT<2>;
 /// A measured range between two nodes (indices), with the information of its draws (Σ 1/σ²).
 struct Range {
   int first = 0;
@@ -25,22 +27,33 @@ struct Range {
   double information = 0.0;
 };
 
-struct Placement {
-  Vec2 position_m;                    // node 0's place in the best map
-  std::optional<Vec2> alternative_m;  // its place in another map that fits the ranges too (a mirror image)
+template <int D>
+struct PlacementT {
+  VecD<D> position_m;                    // node 0's place in the best map
+  std::optional<VecD<D>> alternative_m;  // its place in another map that fits the ranges too (a mirror image)
 };
+using Placement = PlacementT<2>;
 
-/// Node 0's place, or nothing if the map does not fix it. Nodes to place that keep fewer than three ranges
-/// are left out (they could flip). Then node 0 must be in the map, the map must hold two known nodes (with
-/// two, every map has a mirror image across the line through them), reach every node by its ranges, have
-/// more ranges than coordinates to fit, fit them within a χ² test at `false_alarm`, and fix node 0 to a
-/// standard deviation of at most `max_std_m`.
-std::optional<Placement> place(const std::vector<Node>& nodes, const std::vector<Range>& ranges,
-                               double false_alarm, double max_std_m);
+/// Node 0's place, or nothing if the map does not fix it. Nodes to place that keep fewer than D + 1 ranges
+/// are left out (they could flip). Then node 0 must be in the map, the map must hold D known nodes (with
+/// D, every map has a mirror image across the line, or plane, through them), reach every node by its
+/// ranges, have more ranges than coordinates to fit, fit them within a χ² test at `false_alarm`, and fix
+/// node 0 to a standard deviation of at most `max_std_m`.
+template <int D>
+std::optional<PlacementT<D>> place(const std::vector<NodeT<D>>& nodes, const std::vector<Range>& ranges,
+                                   double false_alarm, double max_std_m);
 
 /// Node 0's covariance in the map linearized where the nodes are (the inverse of the ranges' Fisher
 /// information over the nodes to place, the known nodes held), or nothing if the map does not fix it.
-/// Nodes to place held by a single range are left out (they inform no other node).
-std::optional<Mat2> covariance_at(const std::vector<Node>& nodes, const std::vector<Range>& ranges);
+/// Nodes to place held by fewer than D ranges are left out (they turn freely and inform no other node).
+template <int D>
+std::optional<MatD<D>> covariance_at(const std::vector<NodeT<D>>& nodes, const std::vector<Range>& ranges);
+
+extern template std::optional<PlacementT<2>> place(const std::vector<NodeT<2>>&, const std::vector<Range>&,
+                                                   double, double);
+extern template std::optional<PlacementT<3>> place(const std::vector<NodeT<3>>&, const std::vector<Range>&,
+                                                   double, double);
+extern template std::optional<Mat2> covariance_at(const std::vector<NodeT<2>>&, const std::vector<Range>&);
+extern template std::optional<Mat3> covariance_at(const std::vector<NodeT<3>>&, const std::vector<Range>&);
 
 }  // namespace swarmloc::estimators::local_map
