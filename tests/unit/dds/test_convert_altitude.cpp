@@ -132,7 +132,11 @@ TEST(ConvertAltitude, BrokenAltitudeIsRejectedWithThePlanarReasons) {
       {RejectReason::kNonFinite, [](estimators::StateMessage& m) { m.altitude->variance_m2 = kAltNan; }},
       {RejectReason::kNonFinite, [](estimators::StateMessage& m) { m.altitude->cross_m2.y() = -kAltNan; }},
       // Below the PSD check's tolerance: only var(z) >= 0 refuses it.
-      {RejectReason::kNotSymmetricPsd, [](estimators::StateMessage& m) { m.altitude->variance_m2 = -1e-12; }},
+      {RejectReason::kNotSymmetricPsd,
+       [](estimators::StateMessage& m) {
+         m.altitude->variance_m2 = -1e-12;
+         m.altitude->cross_m2.setZero();
+       }},
       // Each 2x2 block PSD, the 3x3 not: (x, z) correlation 0.9 / sqrt(0.5 * 0.7) > 1.
       {RejectReason::kNotSymmetricPsd, [](estimators::StateMessage& m) { m.altitude->cross_m2.x() = 0.9; }},
       // |(x, y)| is 12.6 m, |(x, y, z)| beyond the 1e5 m bound.
