@@ -6,6 +6,8 @@
 #include <string>
 
 #include "convert_support.hpp"
+#include "dds/ddsi/ddsi_cdrstream.h"
+#include "swarmloc/core/gaussian.hpp"
 
 namespace swarmloc::dds {
 
@@ -59,6 +61,14 @@ std::optional<MatX> unpack_upper(std::span<const double> packed, std::size_t n) 
     }
   }
   return matrix;
+}
+
+bool plausible_altitude(const Mat2& planar_covariance, const Altitude& altitude) {
+  if (!std::isfinite(altitude.z_m) || !std::isfinite(altitude.variance_m2) ||
+      !altitude.cross_m2.allFinite() || altitude.variance_m2 < 0.0) {
+    return false;
+  }
+  return core::is_symmetric_psd_dynamic(MatX(join(planar_covariance, altitude)), 1e-9);
 }
 
 std::uint8_t state_flags(const estimators::StateMessage& message) {
@@ -137,6 +147,14 @@ WireState::WireState(const runtime::Header& header, const estimators::StateMessa
     edge_ranges.push_back(wire);
   }
   point_at(sample.edge_ranges, edge_ranges);
+  if (const auto& z = message.altitude) {  // 3-D: the z part, and the z of every edge's peer mean
+    swarmloc_msg_Altitude wire{z->z_m, z->variance_m2, {}};
+    put_vec2(z->cross_m2, wire.cross_m2);
+    altitude.push_back(wire);
+    for (const auto& edge : message.edge_ranges) edge_peer_z.push_back(edge.peer_z_m);
+  }
+  point_at(sample.altitude, altitude);
+  point_at(sample.edge_peer_z, edge_peer_z);
 }
 
 WireInformation::WireInformation(const runtime::Header& header,
@@ -314,6 +332,10 @@ WireEstimate::WireEstimate(const runtime::EstimateReport& report)
                pose->position_cov_m_rad.y()};
   }
   point_at(sample.heading, heading);
+  if (const auto& z = report.estimate.altitude) {
+    altitude = {z->z_m, z->variance_m2, z->cross_m2.x(), z->cross_m2.y()};
+  }
+  point_at(sample.altitude, altitude);
 }
 
 WireControl::WireControl(const runtime::ControlMessage& message) {
@@ -345,17 +367,28 @@ Inbound<estimators::StateMessage> decode(const swarmloc_msg_State& wire) {
   inbound.message.degree = wire.degree;
   const bool flags_ok = codec::apply_state_flags(wire.flags, inbound.message);
   const auto edge_ranges = view(wire.edge_ranges);
+  const auto altitude = view(wire.altitude);
+  const auto edge_peer_z = view(wire.edge_peer_z);
+  // A 3-D sender gives every edge's peer z, a planar one none (its z is 0).
   inbound.well_formed = flags_ok && wire.agent_id == wire.header.agent_id && edge_ranges &&
-                        edge_ranges->size() <= codec::kMaxEdgeRanges;
+                        edge_ranges->size() <= codec::kMaxEdgeRanges && altitude && altitude->size() <= 1 &&
+                        edge_peer_z && edge_peer_z->size() == (altitude->empty() ? 0 : edge_ranges->size());
   if (!inbound.well_formed) return inbound;
-  for (const auto& edge : *edge_ranges) {
+  if (!altitude->empty()) {
+    const auto& z = (*altitude)[0];
+    inbound.message.altitude = Altitude{z.z_m, z.variance_m2, get_vec2(z.cross_m2)};
+  }
+  for (std::size_t k = 0; k < edge_ranges->size(); ++k) {
+    const auto& edge = (*edge_ranges)[k];
     const Vec2 peer_mean = get_vec2(edge.peer_mean_m);
+    const double peer_z = edge_peer_z->empty() ? 0.0 : (*edge_peer_z)[k];
     if (!std::isfinite(edge.information) || !(edge.information >= 0.0) || !std::isfinite(edge.mean_range_m) ||
-        !peer_mean.allFinite()) {
+        !peer_mean.allFinite() || !std::isfinite(peer_z)) {
       inbound.well_formed = false;
       return inbound;
     }
-    inbound.message.edge_ranges.push_back({edge.peer, edge.information, edge.mean_range_m, peer_mean});
+    inbound.message.edge_ranges.push_back(
+        {edge.peer, edge.information, edge.mean_range_m, peer_mean, peer_z});
   }
   return inbound;
 }
@@ -518,8 +551,15 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
       heading &&
       (heading->empty() || (heading->size() == 4 && std::all_of(heading->begin(), heading->end(),
                                                                 [](double v) { return std::isfinite(v); })));
-  if (!links || !reasons || !field || !heading_ok || reasons->size() > runtime::kRejectReasonCount ||
-      field->size() > codec::kMaxFieldValues || wire.agent_id != wire.header.agent_id || !health_ok) {
+  const auto altitude = view(wire.altitude);
+  const bool altitude_ok =
+      altitude && (altitude->empty() || (altitude->size() == 4 && [&] {
+                     const Altitude z{(*altitude)[0], (*altitude)[1], Vec2((*altitude)[2], (*altitude)[3])};
+                     return codec::plausible_altitude(report.estimate.covariance, z);
+                   }()));
+  if (!links || !reasons || !field || !heading_ok || !altitude_ok ||
+      reasons->size() > runtime::kRejectReasonCount || field->size() > codec::kMaxFieldValues ||
+      wire.agent_id != wire.header.agent_id || !health_ok) {
     decoded.well_formed = false;
     return decoded;
   }
@@ -527,6 +567,9 @@ codec::DecodedEstimate decode(const swarmloc_msg_Estimate& wire) {
   if (!heading->empty()) {
     report.estimate.heading =
         estimators::HeadingEstimate{(*heading)[0], (*heading)[1], Vec2((*heading)[2], (*heading)[3])};
+  }
+  if (!altitude->empty()) {
+    report.estimate.altitude = Altitude{(*altitude)[0], (*altitude)[1], Vec2((*altitude)[2], (*altitude)[3])};
   }
   report.links.reserve(links->size());
   for (const auto& link : *links) {
@@ -596,6 +639,25 @@ DecodedEstimate round_trip(const runtime::EstimateReport& report) {
 DecodedControl round_trip(const runtime::ControlMessage& message) {
   const WireControl wire(message);
   return decode(wire.sample);
+}
+
+Inbound<estimators::StateMessage> round_trip_with_edge_peer_z(const runtime::Header& header,
+                                                              const estimators::StateMessage& message,
+                                                              std::vector<double> edge_peer_z) {
+  WireState wire(header, message);
+  wire.edge_peer_z = std::move(edge_peer_z);
+  point_at(wire.sample.edge_peer_z, wire.edge_peer_z);
+  return decode(wire.sample);
+}
+
+std::size_t state_xcdr1_size(const runtime::Header& header, const estimators::StateMessage& message) {
+  const WireState wire(header, message);
+  dds_ostream_t stream;
+  dds_ostream_init(&stream, 0, CDR_ENC_VERSION_1);
+  dds_stream_write(&stream, reinterpret_cast<const char*>(&wire.sample), swarmloc_msg_State_desc.m_ops);
+  const std::size_t size = stream.m_index;
+  dds_ostream_fini(&stream);
+  return size;
 }
 
 }  // namespace codec

@@ -18,6 +18,8 @@ struct WireState {
   WireState(const WireState&) = delete;
   WireState& operator=(const WireState&) = delete;
   std::vector<swarmloc_msg_EdgeRange> edge_ranges;
+  std::vector<swarmloc_msg_Altitude> altitude;  ///< 3-D: one entry
+  std::vector<double> edge_peer_z;              ///< 3-D: one per edge range
   swarmloc_msg_State sample{};
 };
 
@@ -95,6 +97,7 @@ struct WireEstimate {
   std::vector<uint32_t> rejected_by_reason;
   std::vector<double> field;
   std::vector<double> heading;
+  std::vector<double> altitude;
   swarmloc_msg_Estimate sample{};
 };
 

@@ -47,6 +47,7 @@ void require_finite_fields(const ManifestFields& f, const std::string& source) {
       {f.initial_guess_m[0], "setup.initial_guess_m"},
       {f.initial_guess_m[1], "setup.initial_guess_m"},
       {f.initial_heading_rad, "setup.initial_heading_rad"},
+      {f.initial_altitude_m, "setup.initial_altitude_m"},
       {f.clock_offset_s, "clock.offset_s"},
       {f.clock_drift_ppm, "clock.drift_ppm"},
       {f.loss_probability, "runtime.loss_probability"},
@@ -93,7 +94,9 @@ json file_document(const ManifestFields& f, const std::string& source) {
                       {"initial_guess_m", {f.initial_guess_m[0], f.initial_guess_m[1]}},
                       {"initial_heading_rad", f.initial_heading_rad},
                       {"initial_guess_std_m", finite_or_null(f.initial_guess_std_m)},
-                      {"comm_radius_m", finite_or_null(f.comm_radius_m)}};
+                      {"comm_radius_m", finite_or_null(f.comm_radius_m)},
+                      {"dimensions", f.dimensions},
+                      {"initial_altitude_m", f.initial_altitude_m}};
   return {{"format", kManifestFormat},
           {"version", f.version},
           {"id", f.agent_id},
@@ -125,6 +128,8 @@ struct WireManifest {
     s.initial_heading_rad = f.initial_heading_rad;
     s.initial_guess_std_m = f.initial_guess_std_m;
     s.comm_radius_m = f.comm_radius_m;
+    s.dimensions = f.dimensions;
+    s.initial_altitude_m = f.initial_altitude_m;
     s.neighbours = {static_cast<uint32_t>(neighbours.size()), static_cast<uint32_t>(neighbours.size()),
                     neighbours.data(), false};
     s.clock_offset_s = f.clock_offset_s;
@@ -165,6 +170,8 @@ ManifestFields decode(const swarmloc_msg_AgentManifest& s) {
   f.initial_heading_rad = s.initial_heading_rad;
   f.initial_guess_std_m = s.initial_guess_std_m;
   f.comm_radius_m = s.comm_radius_m;
+  f.dimensions = s.dimensions;
+  f.initial_altitude_m = s.initial_altitude_m;
   if (s.neighbours._buffer != nullptr)
     f.neighbours.assign(s.neighbours._buffer, s.neighbours._buffer + s.neighbours._length);
   f.clock_offset_s = s.clock_offset_s;
@@ -209,6 +216,8 @@ ManifestFields manifest_fields(const runtime::AgentManifest& m, const std::strin
   f.initial_heading_rad = m.setup.initial_heading_rad;
   f.initial_guess_std_m = m.setup.initial_guess_std_m;
   f.comm_radius_m = m.setup.comm_radius_m;
+  f.dimensions = m.setup.dimensions;
+  f.initial_altitude_m = m.setup.initial_altitude_m;
   f.neighbours.assign(m.neighbours.begin(), m.neighbours.end());
   f.clock_offset_s = m.clock.offset_s;
   f.clock_drift_ppm = m.clock.drift_ppm;

@@ -43,6 +43,10 @@ std::vector<double> pack_upper(const MatX& matrix);
 /// nullopt unless packed.size() == n (n + 1) / 2.
 std::optional<MatX> unpack_upper(std::span<const double> packed, std::size_t n);
 
+/// A 3-D position's z part is usable: finite, var(z) >= 0, and the (x, y, z) covariance
+/// join(planar_covariance, altitude) symmetric PSD (what the orchestrator asks of an Estimate's).
+bool plausible_altitude(const Mat2& planar_covariance, const Altitude& altitude);
+
 std::uint8_t state_flags(const estimators::StateMessage& message);
 /// False if flags has bits other than ANCHOR | ACTIVE | INCONSISTENT set (message left untouched then).
 bool apply_state_flags(std::uint8_t flags, estimators::StateMessage& message);
@@ -86,5 +90,11 @@ DecodedBatch round_trip(AgentId recipient, const runtime::Header& header,
                         const estimators::MeasurementBatch& batch);
 DecodedEstimate round_trip(const runtime::EstimateReport& report);
 DecodedControl round_trip(const runtime::ControlMessage& message);
+/// The State round trip with the wire's edge_peer_z replaced (a garbled or hostile writer's sample).
+Inbound<estimators::StateMessage> round_trip_with_edge_peer_z(const runtime::Header& header,
+                                                              const estimators::StateMessage& message,
+                                                              std::vector<double> edge_peer_z);
+/// The State sample's XCDR1 size in bytes, without the 4-byte encapsulation header before it.
+std::size_t state_xcdr1_size(const runtime::Header& header, const estimators::StateMessage& message);
 
 }  // namespace swarmloc::dds::codec

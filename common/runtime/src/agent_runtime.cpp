@@ -100,14 +100,25 @@ std::optional<RejectReason> AgentRuntime::check_content(const estimators::StateM
     return RejectReason::kAbsurdMagnitude;
   }
   if (!core::is_symmetric_psd(m.covariance, 1e-9)) return RejectReason::kNotSymmetricPsd;
+  if (const auto& z = m.altitude) {  // 3-D: the same rules for the (x, y, z) position and covariance
+    if (!std::isfinite(z->z_m) || !std::isfinite(z->variance_m2) || !z->cross_m2.allFinite())
+      return RejectReason::kNonFinite;
+    if (join(m.mean_m, z->z_m).norm() > params_.absurd_position_bound_m ||
+        std::max(std::abs(z->variance_m2), z->cross_m2.cwiseAbs().maxCoeff()) > params_.absurd_variance_m2) {
+      return RejectReason::kAbsurdMagnitude;
+    }
+    if (z->variance_m2 < 0.0 || !core::is_symmetric_psd_dynamic(MatX(join(m.covariance, *z)), 1e-9))
+      return RejectReason::kNotSymmetricPsd;
+  }
   if (m.edge_ranges.size() > kMaxEdgeRanges) return RejectReason::kAbsurdMagnitude;
   for (const auto& edge : m.edge_ranges) {
     if (!std::isfinite(edge.information) || !std::isfinite(edge.mean_range_m) ||
-        !edge.peer_mean_m.allFinite())
+        !edge.peer_mean_m.allFinite() || !std::isfinite(edge.peer_z_m))
       return RejectReason::kNonFinite;
+    // peer_z_m is 0 in planar worlds: the norm is the planar one there, to the bit.
     if (edge.information < 0.0 || edge.information > kAbsurdScalar || edge.mean_range_m < 0.0 ||
         edge.mean_range_m > 2.0 * params_.absurd_position_bound_m ||
-        edge.peer_mean_m.norm() > params_.absurd_position_bound_m) {
+        join(edge.peer_mean_m, edge.peer_z_m).norm() > params_.absurd_position_bound_m) {
       return RejectReason::kAbsurdMagnitude;
     }
   }

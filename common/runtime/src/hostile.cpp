@@ -15,6 +15,14 @@ void garble_state(estimators::StateMessage& state, int variant) {
   if (variant == 0) state.mean_m.x() = kNan;
   if (variant == 1) state.covariance << 1.0, 5.0, 5.0, 1.0;  // eigenvalues 6 and −4
   if (variant == 2) state.mean_m = Vec2(1e12, -1e12);
+  if (state.altitude) {  // 3-D: the fault moves to the z part, which its own checks must catch
+    state.mean_m = Vec2(20.0, 20.0);
+    state.covariance = Mat2::Identity() * 0.01;
+    state.altitude = Altitude{20.0, 0.01, Vec2::Zero()};
+    if (variant == 0) state.altitude->z_m = kNan;
+    if (variant == 1) state.altitude->cross_m2 = Vec2(0.05, 0.0);  // each 2x2 block PSD, the 3x3 not
+    if (variant == 2) state.altitude->z_m = 1e12;
+  }
 }
 
 void garble_belief(estimators::BeliefMessage& belief, int variant) {

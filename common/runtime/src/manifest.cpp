@@ -126,6 +126,8 @@ estimators::AgentSetup read_setup(const Reader& r, AgentId id) {
     setup.comm_radius_m = r.number("comm_radius_m", true);
     if (!(setup.comm_radius_m > 0.0)) r.fail("comm_radius_m", "must be > 0 (null: unknown)");
   }
+  if (r.has("dimensions")) setup.dimensions = static_cast<int>(r.integer("dimensions", 2, 3));  // else planar
+  if (r.has("initial_altitude_m")) setup.initial_altitude_m = r.number("initial_altitude_m");
   return setup;
 }
 
@@ -207,11 +209,15 @@ std::filesystem::path manifest_path(const std::filesystem::path& run_dir, AgentI
 }
 
 std::string to_json_text(const AgentManifest& m) {
-  const json setup = {{"anchor", m.setup.anchor},
-                      {"initial_guess_m", {m.setup.initial_guess_m.x(), m.setup.initial_guess_m.y()}},
-                      {"initial_heading_rad", m.setup.initial_heading_rad},
-                      {"initial_guess_std_m", finite_or_null(m.setup.initial_guess_std_m)},
-                      {"comm_radius_m", finite_or_null(m.setup.comm_radius_m)}};
+  json setup = {{"anchor", m.setup.anchor},
+                {"initial_guess_m", {m.setup.initial_guess_m.x(), m.setup.initial_guess_m.y()}},
+                {"initial_heading_rad", m.setup.initial_heading_rad},
+                {"initial_guess_std_m", finite_or_null(m.setup.initial_guess_std_m)},
+                {"comm_radius_m", finite_or_null(m.setup.comm_radius_m)}};
+  if (m.setup.dimensions != 2) {  // planar manifests stay as they were
+    setup["dimensions"] = m.setup.dimensions;
+    setup["initial_altitude_m"] = m.setup.initial_altitude_m;
+  }
   const json manifest = {{"format", kFormat},
                          {"version", kManifestVersion},
                          {"id", m.id},

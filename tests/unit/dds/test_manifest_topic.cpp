@@ -102,6 +102,27 @@ TEST(ManifestTopic, HostileFieldsAreRejectedWithTheFieldsName) {
   }
 }
 
+TEST(ManifestTopic, SpatialSetupIsCheckedLikeTheFiles) {
+  auto m = topic_manifest();
+  m.setup.dimensions = 3;
+  m.setup.initial_altitude_m = -1.0 / 3.0;
+  const ManifestFields fields = manifest_fields(m, kManifestYaml);
+  EXPECT_EQ(fields.dimensions, 3);
+  EXPECT_EQ(fields.initial_altitude_m, -1.0 / 3.0);
+  const ManifestOffer back = read_manifest_fields(fields, "sample");
+  EXPECT_EQ(back.manifest.setup.dimensions, 3);
+  EXPECT_EQ(back.manifest.setup.initial_altitude_m, -1.0 / 3.0);
+  EXPECT_EQ(runtime::to_json_text(back.manifest), runtime::to_json_text(m));
+  for (const int dimensions : {0, 1, 4}) {
+    ManifestFields hostile = fields;
+    hostile.dimensions = dimensions;
+    EXPECT_NE(field_rejection(hostile).find("setup.dimensions "), std::string::npos) << dimensions;
+  }
+  ManifestFields hostile = fields;
+  hostile.initial_altitude_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(field_rejection(hostile).find("setup.initial_altitude_m must be finite"), std::string::npos);
+}
+
 /// Random garbage in every field: accepted or a ManifestError, never anything else; what is accepted
 /// obeys the file's rules (it re-reads as a file).
 TEST(ManifestTopic, GarbledFieldsNeverEscapeAsAnythingButManifestError) {
@@ -128,6 +149,8 @@ TEST(ManifestTopic, GarbledFieldsNeverEscapeAsAnythingButManifestError) {
     if (random() % 8 == 0) f.neighbours.resize(random() % 40, static_cast<std::int32_t>(random()));
     f.initial_guess_m[0] = number(f.initial_guess_m[0]);
     f.initial_guess_std_m = number(f.initial_guess_std_m);
+    f.dimensions = static_cast<std::int32_t>(integer(f.dimensions));
+    f.initial_altitude_m = number(f.initial_altitude_m);
     f.clock_drift_ppm = number(f.clock_drift_ppm);
     f.loss_probability = number(f.loss_probability);
     f.world_period_s = number(f.world_period_s);
@@ -189,6 +212,26 @@ TEST(ManifestTopic, AgentTakesItsOwnSampleAndRefusesAHostileOne) {
   EXPECT_EQ(any_run.manifest.run_id, "r-mt186");
   EXPECT_THROW((void)receive_manifest(manifest_scenario(kDomain, "r-other"), 5, 1.0), ManifestTimeout);
   EXPECT_THROW((void)receive_manifest(scenario, 4, 1.0), ManifestTimeout);  // nothing offered to agent 4
+}
+
+// Over DDS (domain 187): a planar and a 3-D agent's manifests, each exactly as the file holds it.
+TEST(ManifestTopic, PlanarAndSpatialManifestsCrossTheWireExactly) {
+  constexpr int kDomain = 187;
+  const auto scenario = manifest_scenario(kDomain, "r-mt187");
+  ManifestPublisher publisher(scenario, 7);
+  const auto planar = topic_manifest(3, "r-mt187");
+  auto spatial = topic_manifest(5, "r-mt187");
+  spatial.setup.dimensions = 3;
+  spatial.setup.initial_altitude_m = 0.1 + 0.7;  // no short decimal form
+  publisher.publish({planar, spatial}, kManifestYaml);
+  const ManifestOffer planar_back = receive_manifest(scenario, 3, 10.0);
+  EXPECT_EQ(planar_back.manifest.setup.dimensions, 2);
+  EXPECT_EQ(planar_back.manifest.setup.initial_altitude_m, 0.0);
+  EXPECT_EQ(runtime::to_json_text(planar_back.manifest), runtime::to_json_text(planar));
+  const ManifestOffer spatial_back = receive_manifest(scenario, 5, 10.0);
+  EXPECT_EQ(spatial_back.manifest.setup.dimensions, 3);
+  EXPECT_EQ(spatial_back.manifest.setup.initial_altitude_m, 0.1 + 0.7);
+  EXPECT_EQ(runtime::to_json_text(spatial_back.manifest), runtime::to_json_text(spatial));
 }
 
 }  // namespace

@@ -79,6 +79,28 @@ TEST(AgentManifest, UnknownInitialGuessStdIsNullAndRoundTripsAsInfinity) {
   EXPECT_TRUE(back.runtime.partition_group.empty());
 }
 
+TEST(AgentManifest, PlanarSetupWritesNoDimensionsAndReadsAsPlanar) {
+  const auto json = sample_json();
+  EXPECT_FALSE(json["setup"].contains("dimensions"));  // planar manifests as before the 3-D fields
+  EXPECT_FALSE(json["setup"].contains("initial_altitude_m"));
+  const AgentManifest back = parse_manifest(json.dump(), "memory");
+  EXPECT_EQ(back.setup.dimensions, 2);
+  EXPECT_EQ(back.setup.initial_altitude_m, 0.0);
+}
+
+TEST(AgentManifest, SpatialSetupRoundTripsExactly) {
+  AgentManifest m = sample_manifest();
+  m.setup.dimensions = 3;
+  m.setup.initial_altitude_m = 2.0 / 3.0;
+  const auto json = nlohmann::json::parse(to_json_text(m));
+  EXPECT_EQ(json["setup"]["dimensions"], 3);
+  const AgentManifest back = parse_manifest(to_json_text(m), "memory");
+  EXPECT_EQ(back.setup.dimensions, 3);
+  EXPECT_EQ(back.setup.initial_altitude_m, 2.0 / 3.0);  // bit for bit
+  EXPECT_EQ(back.setup.initial_guess_m, m.setup.initial_guess_m);
+  EXPECT_EQ(to_json_text(back), to_json_text(m));
+}
+
 TEST(AgentManifest, FileRoundTripAndPathNaming) {
   const auto dir = swarmloc::testing::fresh_directory("manifest-file");
   const auto path = manifest_path(dir, 7);
@@ -133,6 +155,14 @@ TEST(AgentManifest, RejectsInvalidFieldsNamingThem) {
                   "runtime.partition.groups.6");
   expect_rejected([](auto& j) { j["runtime"]["partition"]["groups"]["0"] = 2; },
                   "runtime.partition.groups.0");
+}
+
+TEST(AgentManifest, RejectsABadSpatialSetupNamingIt) {
+  expect_rejected([](auto& j) { j["setup"]["dimensions"] = 4; }, "setup.dimensions");
+  expect_rejected([](auto& j) { j["setup"]["dimensions"] = 1; }, "setup.dimensions");
+  expect_rejected([](auto& j) { j["setup"]["dimensions"] = "3"; }, "setup.dimensions");
+  expect_rejected([](auto& j) { j["setup"]["initial_altitude_m"] = nullptr; }, "setup.initial_altitude_m");
+  expect_rejected([](auto& j) { j["setup"]["initial_altitude_m"] = "1.5"; }, "setup.initial_altitude_m");
 }
 
 TEST(AgentManifest, MissingOrHugeFileIsAManifestError) {

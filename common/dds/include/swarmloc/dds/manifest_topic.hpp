@@ -37,6 +37,8 @@ struct ManifestFields {
   double initial_heading_rad = 0.0;
   double initial_guess_std_m = 0.0;
   double comm_radius_m = 0.0;
+  std::int32_t dimensions = 2;
+  double initial_altitude_m = 0.0;
   std::vector<std::int32_t> neighbours;
   double clock_offset_s = 0.0;
   double clock_drift_ppm = 0.0;
