@@ -164,15 +164,17 @@ std::string efficiency_script(const RunRecord& record) {
 }
 
 std::string nees_script(const RunRecord& record) {
+  const std::string d = std::to_string(record.scenario.world.dimensions);  // the NEES expected per agent
   std::ostringstream gp;
   gp << preamble("nees.png") << "set key top right box opaque\nset logscale y\n"
      << "set xlabel 'world step'\nset ylabel 'mean NEES (log scale)'\n"
-     << "set title \"" << header_title(record)
-     << "\\nmean NEES over the scored agents (2 = consistent), 95 % chi-square band\"\n"
+     << "set title \"" << header_title(record) << "\\nmean NEES over the scored agents (" << d
+     << " = consistent), 95 % chi-square band\"\n"
      << "plot 'nees_band.csv' using 1:3:4 with filledcurves fs transparent solid 0.25 noborder "
-        "lc rgb '#2ca02c' title '95 % band [χ²_{2n}(0.025), χ²_{2n}(0.975)]/n', "
-        "2 with lines dt 2 lw 2 lc rgb 'black' title 'expected (2)', "
-        "'' using 1:2 with lines lw 2 lc rgb '#1f77b4' title 'NEES'\n";
+        "lc rgb '#2ca02c' title '95 % band [χ²_{"
+     << d << "n}(0.025), χ²_{" << d << "n}(0.975)]/n', " << d
+     << " with lines dt 2 lw 2 lc rgb 'black' title 'expected (" << d
+     << ")', '' using 1:2 with lines lw 2 lc rgb '#1f77b4' title 'NEES'\n";
   return gp.str();
 }
 
@@ -278,11 +280,12 @@ double chi_square_quantile(double p, double dof) {
   return dof * std::max(0.0, cube_root * cube_root * cube_root);
 }
 
-NeesBand nees_band(int agents, double coverage) {
+NeesBand nees_band(int agents, double coverage, int dimensions) {
   if (agents <= 0) return {kNaN, kNaN};
   const double n = static_cast<double>(agents);
+  const double dof = dimensions * n;
   const double tail = 0.5 * (1.0 - coverage);
-  return {chi_square_quantile(tail, 2.0 * n) / n, chi_square_quantile(1.0 - tail, 2.0 * n) / n};
+  return {chi_square_quantile(tail, dof) / n, chi_square_quantile(1.0 - tail, dof) / n};
 }
 
 std::vector<Vec2> covariance_ellipse(const Vec2& mean, const Mat2& covariance, double chi_square,
@@ -327,7 +330,7 @@ void write_nees_band(const std::filesystem::path& plots, const RunRecord& record
   std::ostringstream out;
   out << "# step,nees,band_lower,band_upper,scored_agents\n" << std::setprecision(9);
   for (const auto& m : record.metrics) {
-    const auto band = nees_band(m.errors.scored);
+    const auto band = nees_band(m.errors.scored, 0.95, record.scenario.world.dimensions);
     out << m.step << ',' << m.errors.nees << ',' << band.lower << ',' << band.upper << ',' << m.errors.scored
         << '\n';
   }

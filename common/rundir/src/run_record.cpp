@@ -548,7 +548,8 @@ std::string result_table(const RunRecord& record) {
     row("final RMSE", last->errors.rmse_m, "m");
     row("final mean error", last->errors.mean_error_m, "m");
     row("final max error", last->errors.max_error_m, "m");
-    row("final NEES (2 = consistent)", last->errors.nees, "");
+    row(record.scenario.world.dimensions == 3 ? "final NEES (3 = consistent)" : "final NEES (2 = consistent)",
+        last->errors.nees, "");
     if (last->errors.nees_agents < last->errors.scored) {  // some agents publish no covariance to judge
       const std::string over =
           std::to_string(last->errors.nees_agents) + " of " + std::to_string(last->errors.scored);

@@ -49,6 +49,9 @@ TEST(ChiSquare, NeesBandOfTheMeanOfNAgents) {
   EXPECT_NEAR(nees_band(10000).lower, 2.0, 0.06);
   EXPECT_NEAR(nees_band(10000).upper, 2.0, 0.06);
   EXPECT_TRUE(std::isnan(nees_band(0).lower));
+  // A 3-D world: 3 degrees of freedom per agent.
+  EXPECT_NEAR(nees_band(10000, 0.95, 3).lower, 3.0, 0.07);
+  EXPECT_NEAR(nees_band(10000, 0.95, 3).upper, 3.0, 0.07);
 }
 
 TEST(CovarianceEllipse, PointsLieOnTheChiSquareContour) {

@@ -33,9 +33,9 @@ struct NeesBand {
   double upper = 0.0;
 };
 
-/// The two-sided `coverage` band of the mean NEES of `agents` consistent agents with 2 dof each:
-/// [χ²_{2n}((1−c)/2)/n, χ²_{2n}((1+c)/2)/n]. NaN bounds when agents <= 0.
-NeesBand nees_band(int agents, double coverage = 0.95);
+/// The two-sided `coverage` band of the mean NEES of `agents` consistent agents with d = `dimensions` dof
+/// each: [χ²_{dn}((1−c)/2)/n, χ²_{dn}((1+c)/2)/n]. NaN bounds when agents <= 0.
+NeesBand nees_band(int agents, double coverage = 0.95, int dimensions = 2);
 
 /// `points` points on the ellipse (x − mean)ᵀ covariance⁻¹ (x − mean) = chi_square; the first point
 /// is repeated at the end so the curve closes. Empty if the covariance is not finite and positive definite.
