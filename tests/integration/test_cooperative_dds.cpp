@@ -200,6 +200,8 @@ INSTANTIATE_TEST_SUITE_P(
                            " --set run.steps=30 --set network.loss=0.2 --set algorithm.name=dml_track"
                            " --trial 2",
                            "dml_track"},
+                      // A 3-D world (docs/design.md §3.1): positions and covariances carry their z.
+                      Case{"default3d", 81, " --set run.steps=60 --set network.loss=0.2", "dml_3d"},
                       Case{"jacobi", 38, " --set run.steps=60 --set network.loss=0.2"},
                       Case{"dgbb", 39, " --set run.steps=150"},
                       Case{"multipath_bp", 40, " --set run.steps=30 --set network.loss=0.2"},
