@@ -1,0 +1,86 @@
+// A simulated 3-D world end to end (docs/design.md §3.1): every agent reports its z, the run is scored in
+// space against the 3-D bound and optimum, and the run directory carries the third coordinate.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "swarmloc/config/scenario.hpp"
+#include "swarmloc/rundir/run_record.hpp"
+#include "swarmloc/sim/simulator.hpp"
+#include "swarmloc/world/world.hpp"
+
+namespace swarmloc::sim {
+namespace {
+
+const std::string kSpatialScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default3d.yaml";
+
+std::string first_line_of(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  return line;
+}
+
+TEST(Simulated3d, ScoresInSpaceAgainstTheSpatialBoundAndOptimum) {
+  const auto s = config::load_scenario(kSpatialScenario, {"run.steps=60"});
+  const rundir::RunRecord record = run_simulation(s);
+  const world::World world = world::build_world(s);
+  const auto* last = record.final_metrics();
+  ASSERT_NE(last, nullptr);
+  EXPECT_EQ(last->errors.scored, world.size() - world.anchor_count());
+  // The final rows: each agent's z and its distance from the truth in space.
+  double squared = 0.0;
+  int rows = 0;
+  for (const auto& row : record.estimates) {
+    if (row.step != last->step || world.is_anchor[static_cast<std::size_t>(row.agent)]) continue;
+    ASSERT_TRUE(row.estimate.altitude.has_value()) << row.agent;
+    EXPECT_EQ(row.truth_z_m, world.altitude[static_cast<std::size_t>(row.agent)]);
+    const Vec3 error = join(row.estimate.mean_m, row.estimate.altitude->z_m) - world.position3(row.agent);
+    EXPECT_NEAR(row.error_m(), error.norm(), 1e-12);
+    squared += error.squaredNorm();
+    ++rows;
+  }
+  ASSERT_EQ(rows, last->errors.scored);
+  EXPECT_NEAR(last->errors.rmse_m, std::sqrt(squared / rows), 1e-12);
+  const auto summary = rundir::summary_json(record);
+  EXPECT_EQ(summary["dimensions"], 3);
+  EXPECT_EQ(summary["optimum"]["kind"], "batch_ml");
+  EXPECT_EQ(summary["bound"]["kind"], "crlb_static_accumulated");
+  // The optimum of 60 steps of 0.1 m draws is centimetres off, as is its bound; both in space.
+  const double optimum = summary["optimum"]["rmse_m"].get<double>();
+  const double bound = summary["bound"]["rmse_m"].get<double>();
+  EXPECT_GT(optimum, 0.3 * bound);
+  EXPECT_LT(optimum, 3.0 * bound);
+  EXPECT_LT(bound, 0.1);
+}
+
+TEST(Simulated3d, TheRunDirectoryCarriesTheThirdCoordinate) {
+  const auto s = config::load_scenario(kSpatialScenario, {"run.steps=20"});
+  const rundir::RunRecord record = run_simulation(s);
+  const auto directory =
+      std::filesystem::temp_directory_path() / ("swarmloc-3d-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(directory);
+  rundir::write_run_directory(directory, record);
+  EXPECT_EQ(
+      first_line_of(directory / "estimates.csv"),
+      "step,agent,x_m,y_m,cov_xx,cov_xy,cov_yy,valid,truth_x_m,truth_y_m,error_m,inconsistent,z_m,cov_xz,"
+      "cov_yz,cov_zz,truth_z_m");
+  // TUM lines: time x y z and a unit quaternion; the truth's z is the world's.
+  const world::World world = world::build_world(s);
+  std::istringstream truth_line(first_line_of(directory / "trajectories" / "agent_0_truth.tum"));
+  double time = 0.0;
+  double x = 0.0;
+  double y = 0.0;
+  double z = 0.0;
+  truth_line >> time >> x >> y >> z;
+  EXPECT_NEAR(z, world.altitude[0], 1e-9);
+  std::filesystem::remove_all(directory);
+}
+
+}  // namespace
+}  // namespace swarmloc::sim
