@@ -334,7 +334,7 @@ TEST(Dml3d, AStateWithoutAltitudeIsNotUsable) {
   rounds.strip_altitudes_to(4);
   std::mt19937_64 rng(28);
   Draws3d log;
-  rounds.run(20, 0, rng, log, 0.0);
+  rounds.run(3 * static_cast<int>(DmlT<3>::kInitializationPatienceSteps) + 5, 0, rng, log, 0.0);
   EXPECT_FALSE(rounds.estimate(4).valid);
 }
 
