@@ -50,8 +50,9 @@ TEST(AlgorithmKeys, NoWarningForABlockTheAlgorithmReadsOrAFileDefault) {
   // A file that lists keys at their defaults is a template (scenarios/default.yaml lists the gradient
   // and kalman keys for dml).
   EXPECT_TRUE(warnings_of("algorithm:\n  consensus_rounds: 20\n  path_variance: range_only\n").empty());
-  for (const char* file : {"default.yaml", "ieif.yaml", "dgbb.yaml", "dle.yaml", "dle_tracking.yaml",
-                           "ea2.yaml", "jacobi.yaml", "joint_field.yaml", "multipath_bp.yaml"}) {
+  for (const char* file :
+       {"default.yaml", "ieif.yaml", "dgbb.yaml", "dle.yaml", "dle_tracking.yaml", "ea2.yaml", "jacobi.yaml",
+        "joint_field.yaml", "multipath_bp.yaml", "default3d.yaml"}) {
     EXPECT_EQ(file_warnings(file, {}), std::vector<std::string>{}) << file;
   }
   // ieif.yaml's update_iterations: 10 is not a default, and dgbb does not read it.

@@ -333,7 +333,7 @@ TEST(Scenario, KnownKeysIncludeTheCanonicalDesignKeys) {
         "run.rate_hz", "run.mode", "qos.control.durability", "dds.domain_id"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), key), keys.end()) << key;
   }
-  EXPECT_EQ(keys.size(), 2U + 19U + 34U + 23U + 4U + 2U + 9U + 7U * 5U + 3U + 7U);
+  EXPECT_EQ(keys.size(), 2U + 19U + 36U + 23U + 4U + 2U + 9U + 7U * 5U + 3U + 7U);
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -133,7 +133,7 @@ struct StateMessage {
   /// that leans on it knows its support is in doubt.
   bool inconsistent = false;
   /// 3-D worlds: z and the z row of the covariance (core/altitude.hpp); empty in planar worlds.
-  std::optional<Altitude> altitude;
+  std::optional<Altitude> altitude = std::nullopt;
 };
 
 /// INFO-VEC + INFO-MAT (DLE priors).
@@ -243,7 +243,7 @@ struct Estimate {
   /// the ROS 2 pose uses it too.
   std::optional<HeadingEstimate> heading;
   /// 3-D worlds: z and the z row of the (x, y, z) covariance (core/altitude.hpp); empty in planar worlds.
-  std::optional<Altitude> altitude;
+  std::optional<Altitude> altitude = std::nullopt;
 };
 
 }  // namespace swarmloc::estimators
