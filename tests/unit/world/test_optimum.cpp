@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "linked_world.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/run/fusion_centre.hpp"
 #include "swarmloc/world/bound.hpp"
@@ -22,19 +23,7 @@ namespace {
 
 /// Every pair of `truth` within range of each other; the first `anchors` agents are anchors.
 World optimum_world(std::vector<Vec2> truth, int anchors) {
-  World world;
-  world.truth = std::move(truth);
-  const std::size_t n = world.truth.size();
-  world.is_anchor.assign(n, false);
-  for (int a = 0; a < anchors; ++a) world.is_anchor[static_cast<std::size_t>(a)] = true;
-  world.neighbours.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t j = 0; j < n; ++j) {
-      if (i != j) world.neighbours[i].push_back(static_cast<AgentId>(j));
-    }
-  }
-  world.initial_guess = world.truth;
-  return world;
+  return testing::fully_linked_world(std::move(truth), anchors);
 }
 
 /// Anchors 0–3 at the corners of a 10 m square, unknowns 4–6 inside (test_bound.cpp's small world).

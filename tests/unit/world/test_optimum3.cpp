@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "linked_world.hpp"
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/world/bound.hpp"
 #include "swarmloc/world/optimum.hpp"
@@ -23,23 +24,13 @@ namespace {
 
 /// A 3-D world of `points` (x, y, z), every pair in range; the first `anchors` agents are anchors.
 World spatial_world(const std::vector<Vec3>& points, int anchors) {
-  World world;
-  world.dimensions = 3;
+  std::vector<Vec2> planar;
+  std::vector<double> altitude;
   for (const Vec3& p : points) {
-    world.truth.push_back(p.head<2>());
-    world.altitude.push_back(p.z());
+    planar.push_back(p.head<2>());
+    altitude.push_back(p.z());
   }
-  const std::size_t n = points.size();
-  world.is_anchor.assign(n, false);
-  for (int a = 0; a < anchors; ++a) world.is_anchor[static_cast<std::size_t>(a)] = true;
-  world.neighbours.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t j = 0; j < n; ++j) {
-      if (i != j) world.neighbours[i].push_back(static_cast<AgentId>(j));
-    }
-  }
-  world.initial_guess = world.truth;
-  world.initial_altitude = world.altitude;
+  World world = testing::fully_linked_world(std::move(planar), anchors, std::move(altitude));
   world.comm_radius_m = 100.0;
   return world;
 }
