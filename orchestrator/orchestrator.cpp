@@ -558,11 +558,10 @@ class Orchestrator {
     rundir::note_scored_estimates(record_, scored);
     rundir::set_step_bounds(record_, metrics);
     record_.metrics.push_back(metrics);
-    for (std::size_t i = 0; i < scored.size(); ++i) {
-      if (scored[i])
-        record_.estimates.push_back({step, static_cast<AgentId>(i), *scored[i],
-                                     world_.scored_truth(static_cast<AgentId>(i)),
-                                     world_.scored_truth_z(static_cast<AgentId>(i))});
+    for (AgentId i = 0; i < static_cast<AgentId>(scored.size()); ++i) {
+      const auto& estimate = scored[static_cast<std::size_t>(i)];
+      if (estimate)
+        record_.estimates.push_back({step, i, *estimate, world_.scored_truth(i), world_.scored_truth_z(i)});
     }
   }
 
