@@ -190,7 +190,9 @@ std::optional<typename DmlT<D>::Vec> DmlT<D>::multilaterate(const std::vector<Re
   const double spread_m2 = Eigen::SelfAdjointEigenSolver<Mat>(inverse * noise * inverse).eigenvalues()(D - 1);
   double shortest_range_m = kInfinity;
   for (const auto& ref : refs) shortest_range_m = std::min(shortest_range_m, ref.mean_range_m);
-  if (!(std::sqrt(spread_m2) < kMultilaterationSpreadFraction * shortest_range_m)) return std::nullopt;
+  const double spread_fraction =
+      D == 3 ? dml_thresholds::kMultilaterationSpreadFraction3d : kMultilaterationSpreadFraction;
+  if (!(std::sqrt(spread_m2) < spread_fraction * shortest_range_m)) return std::nullopt;
   const Vec solution = solve_position(inverse * rhs, refs);
   if constexpr (D == 3) return unless_mirrored(solution, refs);
   return solution;

@@ -9,6 +9,9 @@ inline constexpr double kSelfCheckFalseAlarm = 1e-6;  // per agent and step: a h
 inline constexpr double kMirrorSeparationSigmas =
     6.0;  // a mirror pair the guess tells apart: 3σ on each side
 inline constexpr double kMultilaterationSpreadFraction = 0.1;  // its std, as a fraction of the shortest range
+// 3-D: a start's error along a weakly anchored turn of a group decays by only 0.995 per sweep (§9.9), so a
+// multilateration must be five times as sure before it starts an agent.
+inline constexpr double kMultilaterationSpreadFraction3d = 0.02;
 
 /// 3-D: a mirror image that fits the ranges within this of the best place (χ², one degree of freedom at the
 /// self-check's false alarm) is not ruled out: neighbours' means can lag their covariances by many σ
