@@ -324,18 +324,7 @@ typename DmlT<D>::LocalMap DmlT<D>::draw_local_map(bool beliefs_only) const {
     // A neighbour's own flag puts its position in doubt: the map places it instead of holding it.
     const bool known = edge.usable() && !edge.state.inconsistent &&
                        (!beliefs_only || has_belief<D>(edge.state.anchor, edge.covariance));
-    double information = edge.information();
-    if constexpr (D == 3) {
-      // A held neighbour's own variance along the range adds to the range's: held exactly, its centimetres of
-      // error fail the map's χ² test on the true side, and a mirror image passes alone (docs/algorithms.md
-      // §9.9).
-      const Vec offset = x_ - edge.mean_m;
-      if (!beliefs_only && known && !exactly_known<D>(edge.state.anchor, edge.covariance) &&
-          offset.norm() > kShortestDistanceM)
-        information =
-            1.0 / (1.0 / information + offset.normalized().dot(edge.covariance * offset.normalized()));
-    }
-    add_range(0, add_node(id, known, edge.mean_m), edge.mean_range_m(), information,
+    add_range(0, add_node(id, known, edge.mean_m), edge.mean_range_m(), edge.information(),
               edge.peer_information > 0.0 ? 2 : 1);
     map.shortest_range_m = std::min(map.shortest_range_m, edge.mean_range_m());
   }
