@@ -16,6 +16,7 @@
 #include "swarmloc/estimators/builders.hpp"
 #include "swarmloc/estimators/dml/dml.hpp"
 #include "swarmloc/estimators/dml/local_map.hpp"
+#include "swarmloc/estimators/self_check.hpp"
 
 namespace swarmloc::estimators {
 namespace {
@@ -251,12 +252,18 @@ Vec3 reflected_3d(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c) {
   return x - 2.0 * (x - a).dot(n) * n;
 }
 
-TEST(Dml3d, MultilateratesExactlyFromFourReferencesAtTheFirstStep) {
+TEST(Dml3d, MultilateratesExactlyFromFourReferencesOnceSureEnough) {
+  // One draw per range leaves the linear solution's spread above 2 % of the shortest range (the 3-D bound,
+  // docs/algorithms.md §9.9; the planar 10 % would start it): the agent waits for more draws.
   const Net3d net = four_references();
   Rounds3d rounds(net, std::vector<Vec3>(5, Vec3(40, -30, 20)), kNoInformation);
   std::mt19937_64 rng(24);
   Draws3d log;
   rounds.run(1, 0, rng, log, 0.0);
+  EXPECT_FALSE(rounds.estimate(4).valid);
+  int steps = 1;
+  for (; steps < 50 && !rounds.estimate(4).valid; ++steps) rounds.run(1, 0, rng, log, 0.0);
+  EXPECT_LT(steps, 50);
   const Estimate estimate = rounds.estimate(4);
   ASSERT_TRUE(estimate.valid);
   EXPECT_LT((position_of(estimate) - net.truth[4]).norm(), 1e-9);
@@ -405,6 +412,59 @@ TEST(Dml3dLocalMap, ThreeKnownNodesLeaveAMirrorImageAcrossTheirPlaneFourFixTheMa
   ASSERT_TRUE(fixed.has_value());
   EXPECT_FALSE(fixed->alternative_m.has_value());
   EXPECT_LT((fixed->position_m - pocket.truth[0]).norm(), 1e-6);
+}
+
+TEST(Dml3d, AGuessFarFromBothMirrorMembersPicksNeither) {
+  // Three references leave a mirror pair far apart for the guess's std (6σ), but the guess lies 20 m from
+  // both: it allows neither (a reference would be off), so the agent waits, and after the patience starts
+  // ambiguous (flagged). Before (docs/algorithms.md §9.9) it started at the nearer member, unflagged.
+  Net3d net = four_references();
+  net.edges.pop_back();
+  const Vec3 mirror = reflected_3d(net.truth[4], net.truth[0], net.truth[1], net.truth[2]);
+  const double guess_std_m = 0.5;
+  ASSERT_GT((mirror - net.truth[4]).norm(), 6.0 * guess_std_m);
+  const Vec3 along_plane = (net.truth[1] - net.truth[0]).normalized();
+  const std::vector<Vec3> guesses(5, net.truth[4] + 20.0 * along_plane);
+  Rounds3d rounds(net, guesses, guess_std_m);
+  std::mt19937_64 rng(31);
+  Draws3d log;
+  rounds.run(static_cast<int>(DmlT<3>::kInitializationPatienceSteps) + 5, 0, rng, log, 0.0);
+  EXPECT_FALSE(rounds.estimate(4).valid);
+  rounds.run(2 * static_cast<int>(DmlT<3>::kInitializationPatienceSteps), 0, rng, log, 0.0);
+  const Estimate estimate = rounds.estimate(4);
+  ASSERT_TRUE(estimate.valid);
+  EXPECT_TRUE(estimate.inconsistent);
+  const double to_truth = (position_of(estimate) - net.truth[4]).norm();
+  const double to_mirror = (position_of(estimate) - mirror).norm();
+  EXPECT_LT(std::min(to_truth, to_mirror), 1e-6);
+}
+
+TEST(Dml3dLocalMap, AMirrorImageWithinTheGapOfTheBestIsAnAlternative) {
+  // Three known nodes in a plane and a fourth known one held at the mirror image of where it is (held nodes
+  // can be off by more than their covariance): the mirror image of node 0 fits all four ranges exactly, the
+  // true place fails the χ² test at 10⁻³ but lies within the gap χ²₁(10⁻⁶) of the best fit.
+  const Vec3 a(0, 0, 0), b(20, 0, 2), c(3, 18, 1), truth(9, 7, 6);
+  const Vec3 normal = (b - a).cross(c - a).normalized();
+  const Vec3 on_plane = Vec3(16, 14, 0) - (Vec3(16, 14, 0) - a).dot(normal) * normal;
+  const Vec3 e = on_plane + 0.8 * normal;
+  const Vec3 e_held = on_plane - 0.8 * normal;
+  const std::vector<local_map::NodeT<3>> nodes = {
+      {false, truth + Vec3(0.3, -0.2, 0.1)}, {true, a}, {true, b}, {true, c}, {true, e_held}};
+  std::vector<local_map::Range> ranges;
+  for (int k = 1; k <= 4; ++k)
+    ranges.push_back(
+        {0, k, (truth - std::vector<Vec3>{a, b, c, e}[static_cast<std::size_t>(k - 1)]).norm(), 100.0});
+  const Vec3 image = reflected_3d(truth, a, b, c);
+  const auto alone = local_map::place<3>(nodes, ranges, 1e-3, 1.0);
+  ASSERT_TRUE(alone.has_value());
+  EXPECT_LT((alone->position_m - image).norm(), 1e-6);
+  EXPECT_FALSE(alone->alternative_m.has_value());  // the wrong place, decided
+  const double gap = chi_square_upper_quantile(1.0, 1e-6);
+  const auto seen = local_map::place<3>(nodes, ranges, 1e-3, 1.0, {}, gap);
+  ASSERT_TRUE(seen.has_value());
+  EXPECT_LT((seen->position_m - image).norm(), 1e-6);
+  ASSERT_TRUE(seen->alternative_m.has_value());
+  EXPECT_LT((*seen->alternative_m - truth).norm(), 1.0);
 }
 
 TEST(Dml3d, BuildersPickTheDimensionAndDmlTrackStaysPlanar) {

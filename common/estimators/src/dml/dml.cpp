@@ -8,7 +8,9 @@
 #include <string>
 #include <utility>
 
+#include "dml/cavity.hpp"
 #include "dml/rank_one_message.hpp"
+#include "dml/thresholds.hpp"
 #include "swarmloc/core/gaussian.hpp"
 #include "swarmloc/estimators/dml/region.hpp"
 #include "swarmloc/estimators/kalman/kernels.hpp"
@@ -18,43 +20,13 @@ namespace swarmloc::estimators {
 namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
-constexpr double kSelfCheckFalseAlarm = 1e-6;    // per agent and step: a healthy network never flags
-constexpr double kMirrorSeparationSigmas = 6.0;  // a mirror pair the guess tells apart: 3σ on each side
-constexpr double kMultilaterationSpreadFraction = 0.1;  // its std, as a fraction of the shortest range
+using dml_thresholds::kMirrorSeparationSigmas;
+using dml_thresholds::kMultilaterationSpreadFraction;
+using dml_thresholds::kSelfCheckFalseAlarm;
 constexpr int kSolveIterations = 5;
-constexpr double kMessageAbsentRatio = 2.0;   // s·q beyond this: the neighbour's belief lacks the message
 constexpr double kLocalMapFalseAlarm = 1e-3;  // a local map that fits its ranges worse is folded
-using rank_one::kCavityTolerance;
 using rank_one::kShortestDistanceM;
 using rank_one::message_scale;
-
-/// a^T P a for the variance of position `covariance` along unit vector `a`, after the rank-one message
-/// s·aaᵀ is taken out of its information (Sherman–Morrison): q / (1 − s q), +inf if nothing is left.
-template <int D>
-double cavity_variance(const MatD<D>& covariance, const VecD<D>& a, double message_scale) {
-  const double q = a.dot(covariance * a);
-  if (!std::isfinite(q)) return kInfinity;
-  const double remaining = 1.0 - message_scale * q;
-  return remaining > kCavityTolerance ? q / remaining : kInfinity;
-}
-
-/// The neighbour's variance along `a` without the message this agent sent it (`sent_scale`, or the one of the
-/// step before, `previous_sent_scale`, which the neighbour's last belief may hold instead). A belief that
-/// holds s·aaᵀ has s·q < 1 (Sherman–Morrison); well above 1 for both, the neighbour formed its belief without
-/// either (it heard this agent while this agent's belief was undefined): nothing is there to take out
-/// (docs/algorithms.md §9.3).
-template <int D>
-double far_cavity_variance(const MatD<D>& covariance, const VecD<D>& a, double sent_scale,
-                           double previous_sent_scale) {
-  const double q = a.dot(covariance * a);
-  if (!std::isfinite(q)) return kInfinity;
-  for (const double scale : {sent_scale, previous_sent_scale}) {
-    const double remaining = 1.0 - scale * q;
-    if (remaining > kCavityTolerance) return q / remaining;
-  }
-  if (std::min(sent_scale, previous_sent_scale) * q > kMessageAbsentRatio) return q;
-  return kInfinity;
-}
 
 /// An anchor that published a zero covariance (3-D: its altitude's too).
 template <int D>
@@ -70,6 +42,9 @@ bool has_belief(bool anchor, const MatD<D>& covariance) {
 }
 
 }  // namespace
+
+using dml_cavity::cavity_variance;
+using dml_cavity::far_cavity_variance;
 
 template <int D>
 double DmlT<D>::Edge::mean_range_m() const {
@@ -215,8 +190,12 @@ std::optional<typename DmlT<D>::Vec> DmlT<D>::multilaterate(const std::vector<Re
   const double spread_m2 = Eigen::SelfAdjointEigenSolver<Mat>(inverse * noise * inverse).eigenvalues()(D - 1);
   double shortest_range_m = kInfinity;
   for (const auto& ref : refs) shortest_range_m = std::min(shortest_range_m, ref.mean_range_m);
-  if (!(std::sqrt(spread_m2) < kMultilaterationSpreadFraction * shortest_range_m)) return std::nullopt;
-  return solve_position(inverse * rhs, refs);
+  const double spread_fraction =
+      D == 3 ? dml_thresholds::kMultilaterationSpreadFraction3d : kMultilaterationSpreadFraction;
+  if (!(std::sqrt(spread_m2) < spread_fraction * shortest_range_m)) return std::nullopt;
+  const Vec solution = solve_position(inverse * rhs, refs);
+  if constexpr (D == 3) return unless_mirrored(solution, refs);
+  return solution;
 }
 
 template <int D>
@@ -306,10 +285,15 @@ std::optional<typename DmlT<D>::GuessedStart> DmlT<D>::start_from_guess(
   // The graph: a member that lands within the radius of an agent this one does not hear is impossible.
   if (const auto allowed = allowed_by_graph(left, right))
     return GuessedStart{solve_position(*allowed == 0 ? left : right, refs), false, pair->hinge};
-  const bool distinguishable = 2.0 * pair->across > kMirrorSeparationSigmas * setup_.initial_guess_std_m;
+  const Vec& nearer = (left - x_).norm() <= (right - x_).norm() ? left : right;
+  bool distinguishable = 2.0 * pair->across > kMirrorSeparationSigmas * setup_.initial_guess_std_m;
+  // 3-D: the guess decides only for a member it allows itself (a member far from it says a reference is off).
+  if constexpr (D == 3)
+    distinguishable = distinguishable && (nearer - x_).squaredNorm() <= dml_thresholds::guess_allowance() *
+                                                                            setup_.initial_guess_std_m *
+                                                                            setup_.initial_guess_std_m;
   if (!distinguishable && !out_of_patience) return std::nullopt;
-  return GuessedStart{solve_position((left - x_).norm() <= (right - x_).norm() ? left : right, refs),
-                      !distinguishable, pair->hinge};
+  return GuessedStart{solve_position(nearer, refs), !distinguishable, pair->hinge};
 }
 
 template <int D>
@@ -372,15 +356,25 @@ std::optional<typename DmlT<D>::Mat> DmlT<D>::map_covariance() const {
 }
 
 template <int D>
-std::optional<local_map::PlacementT<D>> DmlT<D>::place_in_local_map() const {
+std::optional<local_map::PlacementT<D>> DmlT<D>::place_in_local_map(
+    const std::vector<Reference>& refs) const {
   const LocalMap map = draw_local_map(false);
+  // 3-D: the map's reflection need not reach the mirror image of the agent alone across its references'
+  // plane; refined from there too, a mirror image that fits is seen (docs/algorithms.md §9.9).
+  std::vector<Vec> agent_starts;
+  double mirror_gap = 0.0;
+  if constexpr (D == 3) {
+    if (const auto pair = mirror_pair(refs)) agent_starts = {pair->left, pair->right};
+    mirror_gap = dml_thresholds::mirror_gap();
+  }
   return local_map::place(map.nodes, map.ranges, kLocalMapFalseAlarm,
-                          kMultilaterationSpreadFraction * map.shortest_range_m);
+                          kMultilaterationSpreadFraction * map.shortest_range_m, agent_starts, mirror_gap);
 }
 
 template <int D>
-std::optional<typename DmlT<D>::MapStart> DmlT<D>::start_from_local_map() const {
-  const auto mapped = place_in_local_map();
+std::optional<typename DmlT<D>::MapStart> DmlT<D>::start_from_local_map(
+    const std::vector<Reference>& refs) const {
+  const auto mapped = place_in_local_map(refs);
   if (!mapped) return std::nullopt;
   if (!mapped->alternative_m) return MapStart{mapped->position_m, true};
   // Two maps fit the ranges: the graph may rule one out, as it does for a start from two references.
@@ -403,7 +397,7 @@ void DmlT<D>::start(const std::vector<Reference>& refs) {
     // fix it where no single neighbour's ranges do. An undecided map still fits every range of the
     // neighbourhood: when the guess has to pick now, it picks between the map's two places, not a point on
     // one reference's circle.
-    if (const auto mapped = start_from_local_map(); mapped && (mapped->decided || guessed)) {
+    if (const auto mapped = start_from_local_map(refs); mapped && (mapped->decided || guessed)) {
       x_ = solve_position(mapped->position_m, refs);
       ambiguous_start_ = !mapped->decided;
       hinge_.reset();

@@ -255,7 +255,8 @@ std::optional<MatD<D>> covariance_at(const std::vector<NodeT<D>>& nodes, const s
 
 template <int D>
 std::optional<PlacementT<D>> place(const std::vector<NodeT<D>>& nodes, const std::vector<Range>& ranges,
-                                   double false_alarm, double max_std_m) {
+                                   double false_alarm, double max_std_m,
+                                   const std::vector<VecD<D>>& agent_starts, double mirror_gap) {
   if (nodes.empty() || nodes.front().known) return std::nullopt;
   // One held by D ranges can flip across the line (plane) through their other ends, and the ranges cannot
   // tell.
@@ -295,6 +296,11 @@ std::optional<PlacementT<D>> place(const std::vector<NodeT<D>>& nodes, const std
   std::vector<Refined<D>> minima;
   for (const Coordinates<D>* start : {&rotated, &reflected, static_cast<const Coordinates<D>*>(&guessed)})
     minima.push_back(refined<D>(*start, map, used, unknown_index));
+  for (const VecD<D>& agent_start : agent_starts) {
+    Coordinates<D> start = guessed;
+    start.front() = agent_start;
+    minima.push_back(refined<D>(start, map, used, unknown_index));
+  }
   std::sort(minima.begin(), minima.end(),
             [](const Refined<D>& a, const Refined<D>& b) { return a.cost < b.cost; });
   const Refined<D>& best = minima.front();
@@ -309,7 +315,7 @@ std::optional<PlacementT<D>> place(const std::vector<NodeT<D>>& nodes, const std
   if (!(largest_std <= max_std_m)) return std::nullopt;
   PlacementT<D> placement{best.x.front(), std::nullopt};
   for (std::size_t k = 1; k < minima.size() && !placement.alternative_m; ++k) {
-    if (minima[k].cost <= threshold &&
+    if (minima[k].cost <= std::max(threshold, best.cost + mirror_gap) &&
         (minima[k].x.front() - best.x.front()).norm() > kSeparationSigmas * largest_std) {
       placement.alternative_m = minima[k].x.front();
     }
@@ -318,9 +324,9 @@ std::optional<PlacementT<D>> place(const std::vector<NodeT<D>>& nodes, const std
 }
 
 template std::optional<PlacementT<2>> place(const std::vector<NodeT<2>>&, const std::vector<Range>&, double,
-                                            double);
+                                            double, const std::vector<Vec2>&, double);
 template std::optional<PlacementT<3>> place(const std::vector<NodeT<3>>&, const std::vector<Range>&, double,
-                                            double);
+                                            double, const std::vector<Vec3>&, double);
 template std::optional<Mat2> covariance_at(const std::vector<NodeT<2>>&, const std::vector<Range>&);
 template std::optional<Mat3> covariance_at(const std::vector<NodeT<3>>&, const std::vector<Range>&);
 

@@ -79,6 +79,13 @@ class DmlT final : public Estimator {
   [[nodiscard]] double local_cost(const Vec& x, const std::vector<Reference>& refs) const;
   [[nodiscard]] Vec solve_position(Vec x, const std::vector<Reference>& refs) const;
   [[nodiscard]] std::optional<Vec> multilaterate(const std::vector<Reference>& refs) const;
+  /// Σ ν²/(1/W + aᵀP_j a) over the references at x: how well x fits them, the neighbours' covariances in.
+  [[nodiscard]] double fit_statistic(const Vec& x, const std::vector<Reference>& refs) const;
+  /// 3-D: a multilateration's solution, its mirror image across the references' plane if that fits clearly
+  /// better, or the one the graph or the guess picks when both fit; nothing if none of them decides
+  /// (docs/algorithms.md §9.9).
+  [[nodiscard]] std::optional<Vec> unless_mirrored(const Vec& solution,
+                                                   const std::vector<Reference>& refs) const;
   struct GuessedStart {
     Vec position_m;
     bool ambiguous;  // the ranges left a mirror pair or a continuum (circle, sphere), and neither the guess
@@ -114,7 +121,9 @@ class DmlT final : public Estimator {
   /// beliefs_only: hold only neighbours that publish a covariance (the others are placed), and leave out
   /// neighbours not localized.
   [[nodiscard]] LocalMap draw_local_map(bool beliefs_only) const;
-  [[nodiscard]] std::optional<local_map::PlacementT<D>> place_in_local_map() const;
+  /// refs: 3-D, their mirror pair seeds the map too.
+  [[nodiscard]] std::optional<local_map::PlacementT<D>> place_in_local_map(
+      const std::vector<Reference>& refs) const;
   /// This agent's covariance in its local map linearized at the current means (docs/algorithms.md §9.3).
   [[nodiscard]] std::optional<Mat> map_covariance() const;
   struct MapStart {
@@ -122,7 +131,7 @@ class DmlT final : public Estimator {
     bool
         decided;  // false: a mirror image fits too and the graph cannot rule it out (the nearer to the guess)
   };
-  [[nodiscard]] std::optional<MapStart> start_from_local_map() const;
+  [[nodiscard]] std::optional<MapStart> start_from_local_map(const std::vector<Reference>& refs) const;
   /// Localizes the agent if it can: multilateration, a start the guess or the graph decides, its local map,
   /// and last an ambiguous start from the guess.
   void start(const std::vector<Reference>& refs);

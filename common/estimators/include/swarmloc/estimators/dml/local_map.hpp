@@ -40,8 +40,13 @@ using Placement = PlacementT<2>;
 /// ranges, have more ranges than coordinates to fit, fit them within a χ² test at `false_alarm`, and fix
 /// node 0 to a standard deviation of at most `max_std_m`.
 template <int D>
+/// `agent_starts`: more places to refine a map from, node 0 there and the others where they are (3-D: the
+/// mirror pair of node 0's references, which the whole map's scaling and reflection need not reach).
+/// `mirror_gap`: another map within this much of the best one's cost is a mirror image too, even if it fails
+/// the test (3-D: held nodes' errors beyond their covariance can tip the test toward the wrong side).
 std::optional<PlacementT<D>> place(const std::vector<NodeT<D>>& nodes, const std::vector<Range>& ranges,
-                                   double false_alarm, double max_std_m);
+                                   double false_alarm, double max_std_m,
+                                   const std::vector<VecD<D>>& agent_starts = {}, double mirror_gap = 0.0);
 
 /// Node 0's covariance in the map linearized where the nodes are (the inverse of the ranges' Fisher
 /// information over the nodes to place, the known nodes held), or nothing if the map does not fix it.
@@ -50,9 +55,9 @@ template <int D>
 std::optional<MatD<D>> covariance_at(const std::vector<NodeT<D>>& nodes, const std::vector<Range>& ranges);
 
 extern template std::optional<PlacementT<2>> place(const std::vector<NodeT<2>>&, const std::vector<Range>&,
-                                                   double, double);
+                                                   double, double, const std::vector<Vec2>&, double);
 extern template std::optional<PlacementT<3>> place(const std::vector<NodeT<3>>&, const std::vector<Range>&,
-                                                   double, double);
+                                                   double, double, const std::vector<Vec3>&, double);
 extern template std::optional<Mat2> covariance_at(const std::vector<NodeT<2>>&, const std::vector<Range>&);
 extern template std::optional<Mat3> covariance_at(const std::vector<NodeT<3>>&, const std::vector<Range>&);
 
