@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "dense_range_ml.hpp"
 #include "swarmloc/estimators/dml/dml.hpp"
 #include "swarmloc/estimators/dml/region.hpp"
 
@@ -106,35 +107,7 @@ class DmlRounds {
 /// Gauss–Newton on Σ (r − ‖x_i − x_j‖)²/σ² over every draw, anchors fixed, from the truth. Returns the
 /// solution and the Fisher information at it (unknowns' coordinates in agent order).
 std::pair<std::vector<Vec2>, MatX> batch_ml(const DmlNetwork& net, const DrawLog& log) {
-  std::vector<int> slot(net.truth.size(), -1);
-  int unknowns = 0;
-  for (std::size_t i = 0; i < net.truth.size(); ++i)
-    if (!net.anchor[i]) slot[i] = unknowns++;
-  std::vector<Vec2> x = net.truth;
-  MatX fisher;
-  for (int iteration = 0; iteration < 50; ++iteration) {
-    fisher = MatX::Zero(2 * unknowns, 2 * unknowns);
-    VecX gradient = VecX::Zero(2 * unknowns);
-    for (const auto& [i, j, range] : log.draws) {
-      const Vec2 offset = x[static_cast<std::size_t>(i)] - x[static_cast<std::size_t>(j)];
-      const Vec2 a = offset.normalized();
-      const double weight = 1.0 / (kRangeStdM * kRangeStdM);
-      const double residual = range - offset.norm();
-      for (const auto& [node, sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
-        const int s = slot[static_cast<std::size_t>(node)];
-        if (s < 0) continue;
-        gradient.segment<2>(2 * s) += weight * residual * sign * a;
-        for (const auto& [other, other_sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
-          const int t = slot[static_cast<std::size_t>(other)];
-          if (t >= 0) fisher.block<2, 2>(2 * s, 2 * t) += weight * sign * other_sign * a * a.transpose();
-        }
-      }
-    }
-    const VecX step = fisher.ldlt().solve(gradient);
-    for (std::size_t i = 0; i < x.size(); ++i)
-      if (slot[i] >= 0) x[i] += step.segment<2>(2 * slot[i]);
-  }
-  return {x, fisher};
+  return testing::dense_range_ml<2>(net.truth, net.anchor, log.draws, kRangeStdM);
 }
 
 DmlNetwork loopy_network() {

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "dense_range_ml.hpp"
 #include "swarmloc/estimators/builders.hpp"
 #include "swarmloc/estimators/dml/dml.hpp"
 #include "swarmloc/estimators/dml/local_map.hpp"
@@ -110,35 +111,7 @@ class Rounds3d {
 /// Dense Gauss–Newton on Σ (r − ‖x_i − x_j‖)²/σ² over every draw, anchors fixed, from the truth: the 3-D
 /// batch ML and its Fisher information (unknowns' coordinates in agent order).
 std::pair<std::vector<Vec3>, MatX> ml_3d(const Net3d& net, const Draws3d& log) {
-  std::vector<int> slot(net.truth.size(), -1);
-  int unknowns = 0;
-  for (std::size_t i = 0; i < net.truth.size(); ++i)
-    if (!net.anchor[i]) slot[i] = unknowns++;
-  std::vector<Vec3> x = net.truth;
-  MatX fisher;
-  for (int iteration = 0; iteration < 50; ++iteration) {
-    fisher = MatX::Zero(3 * unknowns, 3 * unknowns);
-    VecX gradient = VecX::Zero(3 * unknowns);
-    for (const auto& [i, j, range] : log.draws) {
-      const Vec3 offset = x[static_cast<std::size_t>(i)] - x[static_cast<std::size_t>(j)];
-      const Vec3 a = offset.normalized();
-      const double weight = 1.0 / (kRange3dStdM * kRange3dStdM);
-      const double residual = range - offset.norm();
-      for (const auto& [node, sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
-        const int s = slot[static_cast<std::size_t>(node)];
-        if (s < 0) continue;
-        gradient.segment<3>(3 * s) += weight * residual * sign * a;
-        for (const auto& [other, other_sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
-          const int t = slot[static_cast<std::size_t>(other)];
-          if (t >= 0) fisher.block<3, 3>(3 * s, 3 * t) += weight * sign * other_sign * a * a.transpose();
-        }
-      }
-    }
-    const VecX step = fisher.ldlt().solve(gradient);
-    for (std::size_t i = 0; i < x.size(); ++i)
-      if (slot[i] >= 0) x[i] += step.segment<3>(3 * slot[i]);
-  }
-  return {x, fisher};
+  return testing::dense_range_ml<3>(net.truth, net.anchor, log.draws, kRange3dStdM);
 }
 
 /// 24 agents in a 30 × 30 × 10 m box, 6 of them anchors at several heights, linked within the radius that
