@@ -79,7 +79,7 @@ MatX crlb_fisher_in(const RangeNetworkOf<D>& network, double snapshots,
     const auto b = static_cast<std::size_t>(obs.b);
     const auto direction = crlb_range_direction<D>(network.truth[a], network.truth[b]);
     if (!direction) continue;  // coincident positions: no direction, no information
-    const CrlbVec<D> u = *direction;
+    const CrlbVec<D>& u = *direction;
     const CrlbMat<D> block = snapshots * u * u.transpose() / (obs.std_m * obs.std_m);
     const Eigen::Index oa = offset[a];
     const Eigen::Index ob = offset[b];
