@@ -366,7 +366,7 @@ class Orchestrator {
       transport.publish_batches(
           runtime::Header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns},
           batches);
-      transport.publish_ros2_world(step, stamp_ns, world_.truth, batches);  // dds.ros2 only (docs/ros2.md)
+      transport.publish_ros2_world(step, stamp_ns, world_.truth, world_.altitude, batches);  // docs/ros2.md
       mark(Phase::kPublish);
       if (lockstep_) {
         wait_for_step(transport, step);

@@ -128,6 +128,7 @@ struct Ros2EstimateRow {
   double x = 0, y = 0, cov_xx = 0, cov_xy = 0, cov_yy = 0;
   bool valid = false;
   double truth_x = 0, truth_y = 0;
+  double z = 0, cov_zz = 0, truth_z = 0;  ///< a 3-D world's columns (0 in a planar one)
 };
 
 std::vector<Ros2EstimateRow> read_ros2_estimates_csv(const std::filesystem::path& path) {
@@ -143,6 +144,8 @@ std::vector<Ros2EstimateRow> read_ros2_estimates_csv(const std::filesystem::path
     in >> row.step >> row.agent >> row.x >> row.y >> row.cov_xx >> row.cov_xy >> row.cov_yy >> valid >>
         row.truth_x >> row.truth_y;
     row.valid = valid != 0;
+    double error = 0.0, inconsistent = 0.0, cov_xz = 0.0, cov_yz = 0.0;
+    in >> error >> inconsistent >> row.z >> cov_xz >> cov_yz >> row.cov_zz >> row.truth_z;
     rows.push_back(row);
   }
   return rows;
@@ -158,7 +161,8 @@ struct Ros2Run {
   std::string reader_stderr;
 };
 
-Ros2Run run_with_ros2_reader(const std::string& name, int domain, int agents, const std::string& flags) {
+Ros2Run run_with_ros2_reader(const std::string& name, int domain, int agents, const std::string& flags,
+                             const std::string& scenario = "ieif") {
   Ros2Run run;
   run.dir = fresh_directory(name);
   const auto reader_out = run.dir.parent_path() / (run.dir.filename().string() + "-reader.out");
@@ -166,8 +170,8 @@ Ros2Run run_with_ros2_reader(const std::string& name, int domain, int agents, co
   const std::string command =
       "CYCLONEDDS_URI=file://" + kRos2Source + "/deploy/ros2/cyclonedds.xml " + kRos2Reader + " " +
       std::to_string(domain) + " " + std::to_string(agents) + " 120 >" + reader_out.string() + " 2>" +
-      reader_err.string() + " & reader=$!; " + kRos2Binary + " run " + kRos2Source +
-      "/scenarios/ieif.yaml -q --out " + run.dir.string() + " --set world.agents=" + std::to_string(agents) +
+      reader_err.string() + " & reader=$!; " + kRos2Binary + " run " + kRos2Source + "/scenarios/" +
+      scenario + ".yaml -q --out " + run.dir.string() + " --set world.agents=" + std::to_string(agents) +
       " --set world.anchors=" + std::to_string(agents >= 10 ? 6 : 3) +
       " --set run.steps=" + std::to_string(kRos2Steps) + " --set dds.domain_id=" + std::to_string(domain) +
       flags + "; code=$?; sleep 1; kill $reader 2>/dev/null; wait $reader; exit $code";
@@ -326,6 +330,43 @@ TEST_F(Ros2OverDds, DcpsPublicationShowsTheRos2TypeNamesOnRtSwarmlocTopics) {
     if (publication.first.rfind("rt/", 0) == 0) ros_topics.insert(publication);
   }
   EXPECT_EQ(ros_topics, expected);
+}
+
+// A 3-D world (docs/design.md §3.1): every pose carries its z and z's row of the covariance, and the truth
+// array the truth's z.
+TEST(Ros2In3d, PosesAndTruthCarryTheirZ) {
+  constexpr int kAgents = 30;
+  const Ros2Run run = run_with_ros2_reader("ros2-3d", 73, kAgents, " --set dds.ros2=true", "default3d");
+  ASSERT_TRUE(swarmloc::testing::completed_run(run.exit_code)) << run.output;
+  const auto rows = read_ros2_estimates_csv(run.dir / "estimates.csv");
+  std::size_t matched = 0;
+  for (const auto& row : rows) {
+    if (!row.valid) continue;
+    const auto found = run.reader.poses.find(row.agent);
+    ASSERT_NE(found, run.reader.poses.end()) << "no pose from agent " << row.agent;
+    const bool carried =
+        std::any_of(found->second.begin(), found->second.end(), [&row](const Ros2Pose& pose) {
+          return ros2_near(pose.values[0], row.x) && ros2_near(pose.values[1], row.y) &&
+                 ros2_near(pose.values[2], row.z) && ros2_near(pose.covariance(2, 2), row.cov_zz) &&
+                 pose.covariance(2, 0) == pose.covariance(0, 2);
+        });
+    EXPECT_TRUE(carried) << "agent " << row.agent << " step " << row.step << ": z " << row.z;
+    if (carried) ++matched;
+  }
+  EXPECT_GT(matched, 0U);
+  std::map<std::int64_t, const Ros2TruthArray*> by_step;
+  for (const auto& array : run.reader.truth) {
+    by_step.emplace(std::llround(static_cast<double>(array.stamp_ns) * 1e-9 * kRos2RateHz), &array);
+  }
+  std::size_t compared = 0;
+  for (const auto& row : rows) {
+    const auto found = by_step.find(row.step);
+    if (found == by_step.end()) continue;
+    EXPECT_TRUE(ros2_near(found->second->poses.at(static_cast<std::size_t>(row.agent))[2], row.truth_z))
+        << "step " << row.step << " agent " << row.agent;
+    ++compared;
+  }
+  EXPECT_GT(compared, 0U);
 }
 
 TEST(Ros2OffByDefault, NoRosTopicIsPublishedWithoutTheKey) {

@@ -204,8 +204,6 @@ void validate_dimensions(const Scenario& scenario, const AlgorithmSpec& spec) {
   if (world.placement != Placement::kUniform)
     fail("world.placement", "must be uniform when world.dimensions is 3");
   if (world.motion != Motion::kStatic) fail("world.motion", "must be static when world.dimensions is 3");
-  if (scenario.dds.ros2)
-    fail("dds.ros2", "is planar only for now: set world.dimensions: 2 to publish ROS 2 topics");
 }
 
 void validate_world(const Scenario& scenario, const AlgorithmSpec& spec) {

@@ -66,7 +66,7 @@ std::array<double, 4> yaw_quaternion(double yaw_rad) {
 }
 
 std::array<double, 36> pose_covariance(const estimators::Estimate& estimate) {
-  constexpr int kX = 0, kY = 1, kYaw = 5, kSize = 6;
+  constexpr int kX = 0, kY = 1, kZ = 2, kYaw = 5, kSize = 6;
   std::array<double, 36> covariance{};
   auto at = [&covariance](int row, int col) -> double& {
     const int index = row * kSize + col;
@@ -77,6 +77,11 @@ std::array<double, 36> pose_covariance(const estimators::Estimate& estimate) {
   at(kX, kY) = estimate.covariance(0, 1);
   at(kY, kX) = estimate.covariance(1, 0);
   at(kY, kY) = estimate.covariance(1, 1);
+  if (estimate.altitude) {  // a 3-D world: z's row and column
+    at(kZ, kZ) = estimate.altitude->variance_m2;
+    at(kX, kZ) = at(kZ, kX) = estimate.altitude->cross_m2.x();
+    at(kY, kZ) = at(kZ, kY) = estimate.altitude->cross_m2.y();
+  }
   if (estimate.heading) {
     at(kYaw, kYaw) = estimate.heading->variance_rad2;
     at(kX, kYaw) = at(kYaw, kX) = estimate.heading->position_cov_m_rad.x();
@@ -91,7 +96,7 @@ WirePose::WirePose(const runtime::EstimateReport& report) {
   auto& pose = sample.pose.pose;
   pose.position.x = estimate.mean_m.x();
   pose.position.y = estimate.mean_m.y();
-  pose.position.z = 0.0;
+  pose.position.z = estimate.altitude ? estimate.altitude->z_m : 0.0;
   const auto quaternion = yaw_quaternion(estimate.heading ? estimate.heading->heading_rad : 0.0);
   pose.orientation.x = quaternion[0];
   pose.orientation.y = quaternion[1];
@@ -101,12 +106,14 @@ WirePose::WirePose(const runtime::EstimateReport& report) {
   std::copy(covariance.begin(), covariance.end(), sample.pose.covariance);
 }
 
-WirePoseArray::WirePoseArray(std::int64_t world_stamp_ns, const std::vector<Vec2>& truth) {
+WirePoseArray::WirePoseArray(std::int64_t world_stamp_ns, const std::vector<Vec2>& truth,
+                             const std::vector<double>& z) {
   poses.resize(truth.size());
   for (std::size_t i = 0; i < truth.size(); ++i) {
     poses[i] = geometry_msgs_msg_dds__Pose_{};
     poses[i].position.x = truth[i].x();
     poses[i].position.y = truth[i].y();
+    poses[i].position.z = i < z.size() ? z[i] : 0.0;
     poses[i].orientation.w = 1.0;
   }
   sample.header = ros2_header_of(world_stamp_ns);

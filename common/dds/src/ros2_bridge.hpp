@@ -21,9 +21,10 @@ struct WirePose {
   geometry_msgs_msg_dds__PoseWithCovarianceStamped_ sample{};
 };
 
-/// geometry_msgs/PoseArray of the true positions (poses[i] = agent i, identity orientation).
+/// geometry_msgs/PoseArray of the true positions (poses[i] = agent i, identity orientation; z from `z` in a
+/// 3-D world, else 0).
 struct WirePoseArray {
-  WirePoseArray(std::int64_t world_stamp_ns, const std::vector<Vec2>& truth);
+  WirePoseArray(std::int64_t world_stamp_ns, const std::vector<Vec2>& truth, const std::vector<double>& z);
   WirePoseArray(const WirePoseArray&) = delete;
   WirePoseArray& operator=(const WirePoseArray&) = delete;
   std::vector<geometry_msgs_msg_dds__Pose_> poses;

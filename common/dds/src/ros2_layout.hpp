@@ -17,7 +17,8 @@ std::string pose_topic(AgentId agent);
 
 /// Every pose and array is in this frame (the world's coordinates, metres).
 inline constexpr const char* kFrameId = "map";
-/// The variance of a pose coordinate swarmloc does not estimate (z, roll, pitch; yaw without a heading):
+/// The variance of a pose coordinate swarmloc does not estimate (roll, pitch; z in a planar world; yaw
+/// without a heading):
 /// large enough for any ROS consumer to ignore the coordinate.
 inline constexpr double kUnknownVariance = 1e9;
 
@@ -31,9 +32,9 @@ RosTime ros_time(std::int64_t stamp_ns);
 /// Quaternion (x, y, z, w) of a rotation by `yaw_rad` about z.
 std::array<double, 4> yaw_quaternion(double yaw_rad);
 
-/// The row-major 6×6 covariance over (x, y, z, rot x, rot y, rot z) of a 2-D estimate: the x-y block from
-/// the estimate, yaw's row and column from its heading if it has one, every other diagonal entry
-/// kUnknownVariance, every other off-diagonal entry 0.
+/// The row-major 6×6 covariance over (x, y, z, rot x, rot y, rot z) of an estimate: the x-y block from the
+/// estimate, z's row and column from its altitude (a 3-D world) and yaw's from its heading if it has them,
+/// every other diagonal entry kUnknownVariance, every other off-diagonal entry 0.
 std::array<double, 36> pose_covariance(const estimators::Estimate& estimate);
 
 /// Whether a report becomes a ROS 2 pose: a valid estimate from a step the agent ran (not a hello).

@@ -483,10 +483,10 @@ void OrchestratorTransport::publish_batches(const runtime::Header& header,
 }
 
 void OrchestratorTransport::publish_ros2_world(std::int64_t step, std::int64_t world_stamp_ns,
-                                               const std::vector<Vec2>& truth,
+                                               const std::vector<Vec2>& truth, const std::vector<double>& z,
                                                const std::vector<estimators::MeasurementBatch>& batches) {
   if (impl_->ros2_truth_writer == 0) return;
-  const ros2::WirePoseArray poses(world_stamp_ns, truth);
+  const ros2::WirePoseArray poses(world_stamp_ns, truth, z);
   write(impl_->ros2_truth_writer, &poses.sample, "ROS 2 truth");
   const ros2::WireRangeArray ranges(step, world_stamp_ns, batches);
   write(impl_->ros2_ranges_writer, &ranges.sample, "ROS 2 ranges");

@@ -1,5 +1,5 @@
 // dds.ros2's field layout (common/dds/src/ros2_layout.hpp, docs/ros2.md): topic names, stamps, the yaw
-// quaternion and where a 2-D estimate's covariance goes in ROS's 6×6.
+// quaternion and where an estimate's covariance (its z row in a 3-D world) goes in ROS's 6×6.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -70,6 +70,20 @@ TEST(Ros2Layout, HeadingFillsYawsRowAndColumn) {
   EXPECT_EQ(covariance[11], -0.03);  // (y, yaw)
   EXPECT_EQ(covariance[31], -0.03);  // (yaw, y)
   for (const int diagonal : {14, 21, 28})
+    EXPECT_EQ(covariance[static_cast<std::size_t>(diagonal)], kUnknownVariance);
+}
+
+TEST(Ros2Layout, AltitudeFillsZsRowAndColumn) {
+  estimators::Estimate estimate;
+  estimate.covariance << 4.0, 0.5, 0.5, 9.0;
+  estimate.altitude = Altitude{7.0, 0.25, Vec2(0.04, -0.06)};
+  const auto covariance = pose_covariance(estimate);
+  EXPECT_EQ(covariance[14], 0.25);   // (z, z)
+  EXPECT_EQ(covariance[2], 0.04);    // (x, z)
+  EXPECT_EQ(covariance[12], 0.04);   // (z, x)
+  EXPECT_EQ(covariance[8], -0.06);   // (y, z)
+  EXPECT_EQ(covariance[13], -0.06);  // (z, y)
+  for (const int diagonal : {21, 28, 35})
     EXPECT_EQ(covariance[static_cast<std::size_t>(diagonal)], kUnknownVariance);
 }
 

@@ -110,11 +110,8 @@ TEST(World3d, APlanarWorldHasNoZ) {
 
 TEST(World3d, ScenarioRulesKeepThreeDimensionsToWhatRunsInThem) {
   EXPECT_NO_THROW(scenario_3d());
-  for (const auto& bad : std::vector<std::vector<std::string>>{{"world.dimensions=4"},
-                                                               {"algorithm.name=ieif"},
-                                                               {"world.placement=grid"},
-                                                               {"world.height_m=0"},
-                                                               {"dds.ros2=true"}}) {
+  for (const auto& bad : std::vector<std::vector<std::string>>{
+           {"world.dimensions=4"}, {"algorithm.name=ieif"}, {"world.placement=grid"}, {"world.height_m=0"}}) {
     EXPECT_THROW(scenario_3d(bad), config::ScenarioError) << bad.front();
   }
 }

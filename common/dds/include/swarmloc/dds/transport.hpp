@@ -181,10 +181,12 @@ class OrchestratorTransport {
   void publish_batches(const runtime::Header& header,
                        const std::vector<estimators::MeasurementBatch>& batches);
   void publish_control(const runtime::ControlMessage& message);
-  /// With scenario.dds.ros2 (docs/ros2.md): the world step's truth (truth[i] = agent i) as
-  /// geometry_msgs/PoseArray on rt/swarmloc/truth and its ranges (batches[i] = agent i's) as
-  /// swarmloc_msgs/RangeArray on rt/swarmloc/ranges, both stamped with the world time. Otherwise nothing.
+  /// With scenario.dds.ros2 (docs/ros2.md): the world step's truth (truth[i] = agent i, z[i] its z in a 3-D
+  /// world, z empty in a planar one) as geometry_msgs/PoseArray on rt/swarmloc/truth and its ranges
+  /// (batches[i] = agent i's) as swarmloc_msgs/RangeArray on rt/swarmloc/ranges, both stamped with the world
+  /// time. Otherwise nothing.
   void publish_ros2_world(std::int64_t step, std::int64_t world_stamp_ns, const std::vector<Vec2>& truth,
+                          const std::vector<double>& z,
                           const std::vector<estimators::MeasurementBatch>& batches);
 
   /// Blocks up to timeout_s, then takes every estimate report available (well-formed ones only;
