@@ -82,5 +82,21 @@ TEST(Simulated3d, TheRunDirectoryCarriesTheThirdCoordinate) {
   std::filesystem::remove_all(directory);
 }
 
+// The default 3-D world on its first three seeds, 300 steps in synchronous rounds: dml ends on the optimum of
+// its own draws, with a covariance that covers its error (docs/algorithms.md §9.9, "The world's density").
+TEST(Simulated3d, TheDefaultWorldEndsOnTheOptimumOfItsDraws) {
+  for (const int seed : {1, 2, 3}) {
+    const auto s = config::load_scenario(kSpatialScenario, {"seed=" + std::to_string(seed)});
+    const auto summary = rundir::summary_json(run_simulation(s));
+    const double efficiency = summary["efficiency"].get<double>();
+    const double nees = summary["final"]["nees"].get<double>();
+    EXPECT_LT(efficiency, 1.10) << "seed " << seed;
+    EXPECT_GT(efficiency, 0.90) << "seed " << seed;
+    EXPECT_LT(nees, 4.0) << "seed " << seed;
+    EXPECT_EQ(summary["final"]["flagged_agents"], 0) << "seed " << seed;
+    EXPECT_EQ(summary["final"]["scored_agents"], 22) << "seed " << seed;
+  }
+}
+
 }  // namespace
 }  // namespace swarmloc::sim
