@@ -20,6 +20,22 @@ nlohmann::json point(const Vec2& p) {
   return nlohmann::json::array({view_number_or_null(p.x()), view_number_or_null(p.y())});
 }
 
+/// The third coordinate of a 3-D agent: the truth's z, the estimate's z and its standard deviation (null
+/// where the estimate has none or its covariance is not valid).
+void add_altitude(nlohmann::json& a, const ViewAgent& agent) {
+  a["truth_z"] = view_number_or_null(agent.truth_z_m);
+  const auto* altitude = agent.estimate && agent.estimate->altitude ? &*agent.estimate->altitude : nullptr;
+  if (altitude == nullptr || a["estimate"].is_null()) {
+    a["estimate_z"] = nullptr;
+    a["z_std"] = nullptr;
+    return;
+  }
+  a["estimate_z"] = view_number_or_null(altitude->z_m);
+  a["z_std"] = agent.estimate->valid && altitude->variance_m2 >= 0.0
+                   ? view_number_or_null(std::sqrt(altitude->variance_m2))
+                   : nlohmann::json();
+}
+
 }  // namespace
 
 nlohmann::json snapshot_json(const ViewSnapshot& s) {
@@ -36,6 +52,7 @@ nlohmann::json snapshot_json(const ViewSnapshot& s) {
       a["estimate"] = nullptr;
       a["covariance"] = nullptr;
     }
+    if (s.dimensions == 3) add_altitude(a, agent);
     agents.push_back(std::move(a));
   }
   nlohmann::json links = nlohmann::json::array();
@@ -61,6 +78,8 @@ nlohmann::json snapshot_json(const ViewSnapshot& s) {
           {"rate_hz", s.rate_hz},
           {"time_s", s.step >= 0 && s.rate_hz > 0.0 ? static_cast<double>(s.step) / s.rate_hz : 0.0},
           {"area_m", s.area_m},
+          {"dimensions", s.dimensions},
+          {"height_m", s.height_m},
           {"agents", std::move(agents)},
           {"target", s.target ? point(*s.target) : nlohmann::json()},
           {"links", std::move(links)},
@@ -86,11 +105,14 @@ ViewSnapshot view_snapshot(const config::Scenario& scenario, const world::World&
   s.steps = static_cast<int>(scenario.run.steps);
   s.rate_hz = scenario.run.rate_hz;
   s.area_m = scenario.world.area_m;
+  s.dimensions = world.dimensions;
+  if (world.dimensions == 3) s.height_m = scenario.world.height_m;
   if (world.estimates_target()) s.target = world.scored_truth(0);
   s.agents.reserve(static_cast<std::size_t>(world.size()));
   for (AgentId i = 0; i < world.size(); ++i) {
     const auto index = static_cast<std::size_t>(i);
-    s.agents.push_back({i, static_cast<bool>(world.is_anchor[index]), world.truth[index], std::nullopt});
+    const double z = world.dimensions == 3 ? world.altitude[index] : 0.0;
+    s.agents.push_back({i, static_cast<bool>(world.is_anchor[index]), world.truth[index], z, std::nullopt});
     for (AgentId j : world.neighbours[index]) {
       if (i < j) s.links.push_back({i, j, 0, 0});
     }

@@ -33,6 +33,7 @@ struct ViewAgent {
   AgentId id = 0;
   bool anchor = false;
   Vec2 truth = Vec2::Zero();
+  double truth_z_m = 0.0;                        ///< the truth's z (3-D worlds; docs/design.md §3.1)
   std::optional<estimators::Estimate> estimate;  ///< nullopt: nothing scored from this agent yet
 };
 
@@ -51,6 +52,8 @@ struct ViewSnapshot {
   int steps = 0;
   double rate_hz = 0.0;
   double area_m = 0.0;
+  int dimensions = 2;     ///< 3: agents carry z, and the page adds a side view (x against z)
+  double height_m = 0.0;  ///< the box's height in 3-D
   std::vector<ViewAgent> agents;
   /// The true target when the agents estimate it (dle): each estimate is scored against it, while the
   /// agents' truths stay their own positions.

@@ -99,7 +99,7 @@ class MonitorBook {
     for (std::size_t i = 0; i < poses_.size(); ++i) {
       const Vec2 fallback = poses_[i] ? poses_[i]->mean_m : Vec2::Zero();
       view.agents.push_back(
-          {static_cast<AgentId>(i), is_anchor_[i], truth_[i].value_or(fallback), poses_[i]});
+          {static_cast<AgentId>(i), is_anchor_[i], truth_[i].value_or(fallback), 0.0, poses_[i]});
     }
     if (const auto* metrics = record.final_metrics(); metrics != nullptr && metrics->step == view.step)
       set_metrics(view, *metrics);

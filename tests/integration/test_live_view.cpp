@@ -261,6 +261,56 @@ TEST(LiveView, ADleRunShowsTheTargetAndEveryEstimatesErrorIsItsDistanceToIt) {
   EXPECT_EQ(sim.stop(0), 0);
 }
 
+/// The drawn side view of a 3-D run: the <svg id="side"> element only.
+std::string side_of(const std::string& dom) {
+  const auto begin = dom.find("<svg id=\"side\"");
+  if (begin == std::string::npos) return {};
+  const auto end = dom.find("</svg>", begin);
+  return dom.substr(begin, end == std::string::npos ? std::string::npos : end - begin);
+}
+
+// A 3-D world (docs/design.md §3.1): state.json carries each agent's z, its truth's z and z's standard
+// deviation, so the error in space it implies is summary.json's; the page adds a side view with every agent.
+TEST(LiveView, A3dRunShowsEveryAgentsAltitudeInASideView) {
+  const auto dir = fresh_directory("live-view-3d");
+  const int port = free_port();
+  ASSERT_GT(port, 0);
+  const std::string url = "http://127.0.0.1:" + std::to_string(port) + "/";
+  Background sim(kBinary + " sim " + std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default3d.yaml --out " +
+                     dir.string() + " -q --set run.steps=20 --set run.rate_hz=40 --view=" +
+                     std::to_string(port) + " --view-hold 30",
+                 dir.parent_path() / (dir.filename().string() + ".log"));
+  const auto final_state = wait_for_state(port, 20.0, [](const auto& s) { return s.value("done", false); });
+  ASSERT_TRUE(final_state);
+  const auto& state = *final_state;
+  EXPECT_EQ(state["dimensions"], 3);
+  EXPECT_EQ(state["height_m"], 10.0);
+  double squared = 0.0;
+  int estimates = 0;
+  for (const auto& agent : state["agents"]) {
+    ASSERT_TRUE(agent["truth_z"].is_number());
+    if (agent["anchor"].get<bool>() || agent["estimate"].is_null()) continue;
+    ASSERT_TRUE(agent["estimate_z"].is_number());
+    EXPECT_GT(agent["z_std"].get<double>(), 0.0);
+    squared += std::pow(agent["estimate"][0].get<double>() - agent["truth"][0].get<double>(), 2) +
+               std::pow(agent["estimate"][1].get<double>() - agent["truth"][1].get<double>(), 2) +
+               std::pow(agent["estimate_z"].get<double>() - agent["truth_z"].get<double>(), 2);
+    ++estimates;
+  }
+  const auto summary = read_json(dir / "summary.json");
+  const double rmse = summary["final"]["rmse_m"];
+  EXPECT_EQ(estimates, 22);
+  EXPECT_NEAR(std::sqrt(squared / estimates), rmse, 1e-9 * rmse);
+  if (const auto chromium = find_chromium()) {
+    const auto dom = dump_dom(*chromium, url, dir / "chromium-profile");
+    EXPECT_EQ(count_of(side_of(dom), "class=\"side-truth"), 30) << dom;
+    EXPECT_EQ(count_of(side_of(dom), "class=\"side-estimate\""), 22);
+    EXPECT_EQ(count_of(side_of(dom), "class=\"side-bar\""), 22) << "a z interval per estimate";
+    EXPECT_EQ(element_text(dom, "neesdof"), "3");
+  }
+  EXPECT_EQ(sim.stop(SIGINT), 0) << "Ctrl-C ends the hold";
+}
+
 TEST(LiveView, BusyPortIsReportedBeforeAnythingStarts) {
   // Hold a port, then ask for it: the run fails at once naming the port (no agents started).
   httplib::Server blocker;
