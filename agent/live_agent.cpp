@@ -162,7 +162,7 @@ class LiveAgent {
     batch.neighbours.erase(std::unique(batch.neighbours.begin(), batch.neighbours.end()),
                            batch.neighbours.end());
     if (manifest_.setup.anchor)
-      batch.fix = estimators::AbsoluteFix{manifest_.setup.initial_guess_m, Mat2::Zero()};
+      batch.fix = estimators::AbsoluteFix{manifest_.setup.initial_guess_m, Mat2::Zero(), std::nullopt};
     return batch;
   }
 

@@ -635,7 +635,8 @@ void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
     }
     auto batch = plausible_batch(rng, static_cast<std::int64_t>(i % kSession));
     if (rng.chance(0.3))
-      batch.fix = estimators::AbsoluteFix{Vec2(rng.uniform(0, 40), rng.uniform(0, 40)), random_psd(rng, 1.0)};
+      batch.fix = estimators::AbsoluteFix{Vec2(rng.uniform(0, 40), rng.uniform(0, 40)), random_psd(rng, 1.0),
+                                          std::nullopt};
     if (rng.chance(0.3))
       batch.motion =
           estimators::MotionInput{Vec2(rng.uniform(-1, 1), rng.uniform(-1, 1)), 0.1, random_psd(rng, 0.1)};

@@ -249,6 +249,7 @@ WireBatch::WireBatch(AgentId recipient, const runtime::Header& header,
     put_vec2(batch.fix->position_m, fix.position_m);
     put_sym2(batch.fix->covariance, fix.covariance);
     fixes.push_back(fix);
+    if (batch.fix->z_m) fix_z.push_back(*batch.fix->z_m);
   }
   if (batch.motion) {
     swarmloc_msg_MotionInput input{};
@@ -278,6 +279,7 @@ WireBatch::WireBatch(AgentId recipient, const runtime::Header& header,
   point_at(sample.targets, targets);
   point_at(sample.paths, paths);
   point_at(sample.fixes, fixes);
+  point_at(sample.fix_z, fix_z);
   point_at(sample.motion, motion);
   point_at(sample.neighbours, neighbours);
 }
@@ -452,6 +454,7 @@ codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire) {
   decoded.batch.world_time_s = wire.world_time_s;
   const auto ranges = view(wire.ranges);
   const auto fixes = view(wire.fixes);
+  const auto fix_z = view(wire.fix_z);
   const auto motion = view(wire.motion);
   const auto neighbours = view(wire.neighbours);
   const auto bearings = view(wire.bearings);
@@ -461,8 +464,8 @@ codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire) {
   const auto odometry = view(wire.odometry);
   const auto range_bearings = view(wire.range_bearings);
   if (!ranges || !fixes || !motion || !neighbours || !bearings || !relative || !targets || !paths ||
-      !odometry || !range_bearings || fixes->size() > 1 || motion->size() > 1 ||
-      (!wire.has_odometry && !odometry->empty())) {
+      !odometry || !range_bearings || !fix_z || fixes->size() > 1 || fix_z->size() > fixes->size() ||
+      motion->size() > 1 || (!wire.has_odometry && !odometry->empty())) {
     decoded.well_formed = false;
     return decoded;
   }
@@ -489,6 +492,7 @@ codec::DecodedBatch decode(const swarmloc_msg_MeasurementBatch& wire) {
     estimators::AbsoluteFix fix;
     fix.position_m = get_vec2((*fixes)[0].position_m);
     fix.covariance = get_sym2((*fixes)[0].covariance);
+    if (!fix_z->empty()) fix.z_m = (*fix_z)[0];
     decoded.batch.fix = fix;
   }
   if (!motion->empty()) {

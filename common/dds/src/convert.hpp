@@ -68,6 +68,7 @@ struct WireBatch {
   std::vector<swarmloc_msg_TargetObservation> targets;
   std::vector<swarmloc_msg_MultipathPath> paths;
   std::vector<swarmloc_msg_AbsoluteFix> fixes;
+  std::vector<double> fix_z;
   std::vector<swarmloc_msg_MotionInput> motion;
   std::vector<int32_t> neighbours;
   std::vector<swarmloc_msg_OdometrySegment> odometry;

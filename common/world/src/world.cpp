@@ -582,6 +582,9 @@ estimators::MeasurementBatch generate_batch(const World& world, const Scenario& 
     fix.position_m = xi + s.noise.anchor_fix_std_m *
                               Vec2(core::standard_normal(fix_key), core::standard_normal(fix_key + 1));
     fix.covariance = Mat2::Identity() * s.noise.anchor_fix_std_m * s.noise.anchor_fix_std_m;
+    if (world.dimensions == 3) {
+      fix.z_m = world.altitude[i] + s.noise.anchor_fix_std_m * core::standard_normal(fix_key + 2);
+    }
     batch.fix = fix;
   }
   if (kinds.targets) add_target_reading(world, s, agent, step, batch);

@@ -156,6 +156,7 @@ inline void expect_batch_eq(const estimators::MeasurementBatch& a, const estimat
   if (a.fix) {
     EXPECT_MATRIX_NEAR(a.fix->position_m, b.fix->position_m, 0.0);
     EXPECT_MATRIX_NEAR(a.fix->covariance, b.fix->covariance, 0.0);
+    EXPECT_EQ(a.fix->z_m, b.fix->z_m);
   }
   ASSERT_EQ(a.motion.has_value(), b.motion.has_value());
   if (a.motion) {

@@ -183,6 +183,23 @@ TEST(ConvertAltitude, HostileSpatialStatesBreakTheirZPartAndAreCaughtByIt) {
   }
 }
 
+// An anchor's fix in a 3-D world carries its z (the fusion centre's beacon in space); a planar fix has none.
+TEST(ConvertAltitude, AFixCarriesItsZExactlyOrNone) {
+  const auto header = test::make_header(kOrchestratorId, 8);
+  auto batch = test::make_batch(header.step, header.world_stamp_ns);
+  ASSERT_TRUE(batch.fix.has_value());
+  const auto planar = codec::round_trip(5, header, batch);
+  ASSERT_TRUE(planar.well_formed);
+  ASSERT_TRUE(planar.batch.fix.has_value());
+  EXPECT_FALSE(planar.batch.fix->z_m.has_value());
+  batch.fix->z_m = 1.0 / 7.0;
+  const auto spatial = codec::round_trip(5, header, batch);
+  ASSERT_TRUE(spatial.well_formed);
+  test::expect_batch_eq(spatial.batch, batch);
+  ASSERT_TRUE(spatial.batch.fix->z_m.has_value());
+  EXPECT_EQ(*spatial.batch.fix->z_m, 1.0 / 7.0);
+}
+
 TEST(ConvertAltitude, EstimateCarriesTheAltitudeExactlyOrNone) {
   auto report = test::make_estimate(11, 2);
   const auto planar = codec::round_trip(report);

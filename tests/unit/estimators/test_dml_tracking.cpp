@@ -137,7 +137,8 @@ TEST(DmlTracking, ABeaconKeepsToItsFixes) {
     MeasurementBatch beacon_batch;
     beacon_batch.world_step = k;
     beacon_batch.ranges.push_back({1, ranges[k], kRangeStdM});
-    beacon_batch.fix = AbsoluteFix{Vec2(fixes[k][0], fixes[k][1]), variance(kFixStdM) * Mat2::Identity()};
+    beacon_batch.fix =
+        AbsoluteFix{Vec2(fixes[k][0], fixes[k][1]), variance(kFixStdM) * Mat2::Identity(), std::nullopt};
     MeasurementBatch agent_batch;
     agent_batch.world_step = k;
     agent_batch.ranges.push_back({0, ranges[k], kRangeStdM});

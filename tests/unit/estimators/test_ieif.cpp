@@ -298,7 +298,7 @@ TEST(Ieif, AbsoluteFixIsFusedAsALinearMeasurement) {
   setup.initial_guess_m = Vec2(0.0, 0.0);
   Ieif ieif(setup, params);
   MeasurementBatch batch;
-  batch.fix = AbsoluteFix{Vec2(2.0, -4.0), 0.5 * Mat2::Identity()};
+  batch.fix = AbsoluteFix{Vec2(2.0, -4.0), 0.5 * Mat2::Identity(), std::nullopt};
   ieif.step(StepInput{0, &batch, nullptr});
   // Ψ = I + 2I = 3I, ŷ = 0 + 2·(2, −4): x̂ = (4/3, −8/3).
   EXPECT_MATRIX_NEAR(ieif.information(), Mat2(3.0 * Mat2::Identity()), 1e-12);

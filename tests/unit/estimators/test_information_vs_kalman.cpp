@@ -37,7 +37,8 @@ TEST(InformationForm, EqualsKalmanFormForALinearMeasurement) {
     rows.innovation = VecX::Random(4);
     rows.variance = VecX::Random(4).cwiseAbs() + VecX::Constant(4, 0.1);
     const Mat2 C = Mat2::Random();
-    rows.fix = AbsoluteFix{Vec2(normal(rng), normal(rng)), C * C.transpose() + 0.2 * Mat2::Identity()};
+    rows.fix =
+        AbsoluteFix{Vec2(normal(rng), normal(rng)), C * C.transpose() + 0.2 * Mat2::Identity(), std::nullopt};
 
     const InformationUpdate info = information_update(x, Psi, rows);
     const KalmanUpdate kalman = kalman_update(x, Psi.inverse(), rows);
@@ -103,7 +104,7 @@ TEST(InformationForm, IeifAndIekfAgreeOnAGpsOnlyStep) {
   Ieif ieif(setup, params);
   Iekf iekf(setup, params);
   MeasurementBatch batch;
-  batch.fix = AbsoluteFix{Vec2(2.0, 0.5), Mat2{{0.5, 0.2}, {0.2, 0.3}}};
+  batch.fix = AbsoluteFix{Vec2(2.0, 0.5), Mat2{{0.5, 0.2}, {0.2, 0.3}}, std::nullopt};
   const StepInput input{0, &batch, nullptr};
   EXPECT_TRUE(ieif.step(input).diagnostics.updated);
   EXPECT_TRUE(iekf.step(input).diagnostics.updated);
@@ -142,7 +143,8 @@ TEST(Iekf, TwoByTwoUpdateEqualsTheMByMInnovationCovarianceForm) {
     rows.innovation = VecX::Random(ranges);
     rows.variance = VecX::Random(ranges).cwiseAbs() + VecX::Constant(ranges, 0.01);
     const Mat2 C = Mat2::Random();
-    rows.fix = AbsoluteFix{Vec2(normal(rng), normal(rng)), C * C.transpose() + 0.2 * Mat2::Identity()};
+    rows.fix =
+        AbsoluteFix{Vec2(normal(rng), normal(rng)), C * C.transpose() + 0.2 * Mat2::Identity(), std::nullopt};
 
     const KalmanUpdate expected = testing::kalman_update_innovation_form(x, P, rows);
     const KalmanUpdate update = kalman_update(x, P, rows);

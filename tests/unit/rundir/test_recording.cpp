@@ -138,7 +138,7 @@ estimators::MeasurementBatch full_batch(AgentId agent, std::int64_t step, int ag
   b.relative = {{peer, Vec2(odd[2], -2.0), skew}};
   b.paths = {{peer, 3, 12.5, -0.7, 2.9}};
   b.targets = {{7, Vec2(1.0, odd[0]), skew.transpose(), 1}};
-  b.fix = estimators::AbsoluteFix{Vec2(5.0 + step, 6.0), skew};
+  b.fix = estimators::AbsoluteFix{Vec2(5.0 + step, 6.0), skew, std::nullopt};
   b.motion = estimators::MotionInput{Vec2(0.3, odd[3]), 0.1, skew * 2.0};
   b.odometry = estimators::OdometryInput{{{0.5, -0.1, 0.02}, {0.6, odd[0], 0.03}}, 0.01, 0.02};
   estimators::RangeBearingMeasurement to_peer;

@@ -108,7 +108,8 @@ TEST(AgentRuntime, BatchEntriesNoSensorCouldProduceAreDroppedAndCounted) {
   batch.ranges = {{1, 5.0, 0.1},  {1, 6.0, 0.1}, {7, 5.0, 0.1},  {2, nan, 0.1},
                   {2, -1.0, 0.1}, {2, 1e9, 0.1}, {3, 5.0, -0.1}, {3, 8.0, 0.1}};
   for (int k = 0; k < 10000; ++k) batch.ranges.push_back({2, 5.0, 0.1});
-  batch.fix = estimators::AbsoluteFix{Vec2(1.0, 1.0), (Mat2() << 1.0, 2.0, 2.0, 1.0).finished()};
+  batch.fix =
+      estimators::AbsoluteFix{Vec2(1.0, 1.0), (Mat2() << 1.0, 2.0, 2.0, 1.0).finished(), std::nullopt};
   batch.motion = estimators::MotionInput{Vec2(nan, 0.0), 0.1, Mat2::Zero()};
   runtime.on_batch(Header{}, batch);
   const auto& reasons = runtime.rejected_by_reason();

@@ -35,7 +35,7 @@ TEST(CentralizedRunner, OneRangePerEdgeFromTheLowerEndpointUnlessItsBatchIsMissi
   b0.ranges = {{1, 10.0, 2.0}, {2, 20.0, 2.0}};
   b1.ranges = {{0, 11.0, 2.0}, {2, 30.0, 2.0}};
   b2.ranges = {{0, 21.0, 2.0}, {1, 31.0, 2.0}};
-  b0.fix = estimators::AbsoluteFix{Vec2(1.0, 2.0), Mat2::Zero()};
+  b0.fix = estimators::AbsoluteFix{Vec2(1.0, 2.0), Mat2::Zero(), std::nullopt};
 
   auto all = run::centralized_measurements(scenario, {&b0, &b1, &b2});
   ASSERT_EQ(all.ranges.size(), 3U);

@@ -77,6 +77,22 @@ TEST(World3d, NoiselessRangesAreTheDistancesInSpace) {
   }
 }
 
+TEST(World3d, AnAnchorsFixCarriesItsZ) {
+  const auto scenario = scenario_3d();
+  const World world = build_world(scenario);
+  int fixes = 0;
+  for (AgentId i = 0; i < world.size(); ++i) {
+    const auto batch = generate_batch(world, scenario, i, 5);
+    const auto k = static_cast<std::size_t>(i);
+    ASSERT_EQ(batch.fix.has_value(), static_cast<bool>(world.is_anchor[k])) << i;
+    if (!batch.fix) continue;
+    ASSERT_TRUE(batch.fix->z_m.has_value()) << i;
+    EXPECT_EQ(*batch.fix->z_m, world.altitude[k]) << "exact anchors: the fix is the truth";
+    ++fixes;
+  }
+  EXPECT_EQ(fixes, world.anchor_count());
+}
+
 TEST(World3d, EachAgentIsToldItsZAndTheWorldsDimension) {
   const auto scenario = scenario_3d({"world.initial_guess_std_m=1.5"});
   const World world = build_world(scenario, 3);

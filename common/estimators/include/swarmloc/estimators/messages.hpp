@@ -20,6 +20,8 @@ struct RangeMeasurement {
 struct AbsoluteFix {
   Vec2 position_m = Vec2::Zero();
   Mat2 covariance = Mat2::Zero();  ///< zero = exactly known (anchor)
+  /// 3-D worlds: the fix's z, with covariance(0, 0)'s variance, independent of x and y (docs/design.md §3.1).
+  std::optional<double> z_m;
 };
 
 struct MotionInput {
