@@ -3,7 +3,6 @@
 // and LB-EKF-I (banded information, docs/algorithms.md §2.4 ). Not per-agent estimators: one object
 // holds the whole network state. No transport, clock, RNG, I/O or logging inside.
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <string_view>
 #include <utility>
@@ -24,8 +23,11 @@ struct RangeEdgeMeasurement {
 
 /// Everything the fusion centre receives for step k (docs/algorithms.md §2.7). Missing data: leave it out.
 struct CentralizedMeasurements {
-  std::vector<std::pair<int, Vec2>> beacon_fixes;  ///< (agent, y_b)
-  double beacon_var = 2.0;                         ///< σ_q, a variance (m²) per coordinate
+  std::vector<std::pair<int, Vec2>> beacon_fixes;  ///< (agent, y_b); 3-D: the planar part of y_b
+  /// 3-D: the z of each beacon_fixes entry, in the same order (a fix informs all three axes). 2-D: empty
+  /// (a planar filter does not read it).
+  std::vector<double> beacon_fix_z;
+  double beacon_var = 2.0;  ///< σ_q, a variance (m²) per coordinate
   std::vector<RangeEdgeMeasurement> ranges;
   double range_var = 10.0;            ///< σ_r, a variance (m²)
   std::vector<Vec2> velocity_inputs;  ///< v_i(k) (m per step, original labels); empty = zero
@@ -52,10 +54,16 @@ struct MeasurementInformation {
 MeasurementInformation assemble_measurement_information(const CentralizedMeasurements& measurements,
                                                         const VecX& linearization_point,
                                                         const std::vector<int>& labels);
+/// The same in 3-D: `linearization_point` is 3N (x, y, z per agent), S_k is 3N×3N; beacon fixes read
+/// beacon_fix_z.
+MeasurementInformation assemble_measurement_information_3d(const CentralizedMeasurements& measurements,
+                                                           const VecX& linearization_point,
+                                                           const std::vector<int>& labels);
 
 /// Shared step API. step(k) performs (with) the prediction from step k−1 (k >= 1; it applies the
 /// velocity inputs given at step k−1) and the measurement update of step k. mean() and
-/// covariance_block() then describe the posterior at step k.
+/// covariance_block() then describe the posterior at step k. The state has D = dimension() coordinates
+/// per agent (2: x, y; 3: x, y, z); the filters themselves are templates on D (src/centralized/).
 class CentralizedFilter {
  public:
   virtual ~CentralizedFilter() = default;
@@ -66,12 +74,19 @@ class CentralizedFilter {
 
   [[nodiscard]] virtual std::string_view name() const = 0;
   virtual void step(const CentralizedMeasurements& measurements) = 0;
-  /// Posterior mean, 2N, original labels.
+  /// 2 or 3.
+  [[nodiscard]] int dimension() const { return dimension_; }
+  /// Posterior mean, D·N, original labels.
   [[nodiscard]] VecX mean() const;
+  /// The planar part (x, y) of `agent`'s mean.
   [[nodiscard]] Vec2 agent_mean(int agent) const;
-  /// 2×2 diagonal block of the (approximate) posterior covariance of `agent` (original label).
+  /// The D coordinates of `agent`'s mean.
+  [[nodiscard]] VecX agent_mean_full(int agent) const;
+  /// Planar (x, y) 2×2 block of the (approximate) posterior covariance of `agent` (original label).
   [[nodiscard]] virtual Mat2 covariance_block(int agent) const = 0;
-  /// The filter's full posterior covariance as a dense 2N×2N matrix in original labels (EKF: M_k;
+  /// The D×D diagonal block of `agent`.
+  [[nodiscard]] virtual MatX covariance_block_full(int agent) const = 0;
+  /// The filter's full posterior covariance as a dense D·N×D·N matrix in original labels (EKF: M_k;
   /// LB-EKF: the banded M̆_k; LB-EKF-I: Y_k⁻¹). O(n²) memory: for tests and small networks.
   [[nodiscard]] virtual MatX covariance_dense() const = 0;
 
@@ -86,52 +101,29 @@ class CentralizedFilter {
   /// Bandwidth of S_k in the internal order at the last step (Lemma 1), and how many of its
   /// lower-triangle entries fell outside the band L and were dropped ([A-5]: information truncated).
   /// LB-EKF keeps the band of S_k (Alg. 2 reads only windows, which stay PSD); LB-EKF-I needs all of
-  /// Y_k PD, so it leaves out every range edge whose 2×2 cross block does not fit in the band.
+  /// Y_k PD, so it leaves out every range edge whose D×D cross block does not fit in the band.
   [[nodiscard]] int last_measurement_bandwidth() const { return last_measurement_bandwidth_; }
   [[nodiscard]] int last_truncated_entries() const { return last_truncated_entries_; }
 
  protected:
-  /// initial_mean: x̂(0), 2N, original labels. initial_cov: Σ_0 blocks (Assumption 3), one per agent.
-  CentralizedFilter(const VecX& initial_mean, const std::vector<Mat2>& initial_cov,
+  /// initial_mean: x̂(0), D·N, original labels, for `agents` agents. Validates the sizes and the labels.
+  CentralizedFilter(int dimension, const VecX& initial_mean, std::size_t agents,
                     const CentralizedFilterParams& params);
   /// Internal scalar index of coordinate c of `agent`.
   [[nodiscard]] int index(int agent, int c = 0) const {
-    return 2 * labels_[static_cast<std::size_t>(agent)] + c;
+    return dimension_ * labels_[static_cast<std::size_t>(agent)] + c;
   }
-  /// k >= 1: x̂⁻ = x̂⁺ + v(k−1). Returns true if this is a prediction step (k >= 1).
-  bool predict_mean();
-  void store_velocity(const CentralizedMeasurements& measurements);
-  /// Call with the predicted mean in x_, before the update: adds every range edge's innovation
-  /// ν = y_ij − ‖x̂_i − x̂_j‖ over s = σ_r² + projected_variance(li, lj, u) to both endpoints' self-checks and
-  /// closes their step. projected_variance gives uᵀ(P_ii + P_jj − P_ij − P_ji)u of the predicted covariance
-  /// for internal indices li, lj and the unit vector u from x̂_j to x̂_i (a filter without the cross blocks
-  /// leaves them out).
-  void check_innovations(const CentralizedMeasurements& measurements,
-                         const std::function<double(int li, int lj, const Vec2& u)>& projected_variance);
 
   std::vector<int> labels_;
-  std::vector<Mat2> initial_cov_;  ///< Σ_0 blocks, original labels
-  double process_var_ = 0.0;
-  VecX x_;                 ///< internal order
-  VecX pending_velocity_;  ///< v(k−1), internal order
+  VecX x_;  ///< internal order
   std::int64_t steps_done_ = 0;
   int last_measurement_bandwidth_ = 0;
   int last_truncated_entries_ = 0;
   std::vector<RangeResidualCheck> self_checks_;  ///< one per agent, original labels
+  std::vector<std::uint8_t> off_graph_;          ///< the disk-graph verdict, original labels
 
  private:
-  using ProjectedVariance = std::function<double(int li, int lj, const Vec2& u)>;
-  /// The disk-graph verdict of every agent at the predicted mean (docs/algorithms.md §1.6, "Graph").
-  void check_graph(const ProjectedVariance& projected_variance);
-  [[nodiscard]] std::size_t pair_index(int i, int j) const {
-    return static_cast<std::size_t>(i) * labels_.size() + static_cast<std::size_t>(j);
-  }
-
-  double disk_radius_m_ = 0.0;
-  std::vector<std::uint8_t> ranged_;  ///< N×N, original labels: the pair has been ranged
-  std::vector<std::uint8_t> anchor_;  ///< has had a beacon fix
-  std::vector<std::uint8_t> off_graph_;
-  int ranged_steps_ = 0;
+  int dimension_ = 2;
 };
 
 /// Builds a filter. `initial_mean` 2N (original labels), `initial_cov` N blocks of Σ_0.
@@ -139,6 +131,12 @@ class CentralizedFilter {
 std::unique_ptr<CentralizedFilter> make_centralized_filter(CentralizedKind kind, const VecX& initial_mean,
                                                            const std::vector<Mat2>& initial_cov,
                                                            const CentralizedFilterParams& params);
+
+/// The same in 3-D: `initial_mean` 3N (x, y, z per agent, original labels), `initial_cov` N 3×3 blocks.
+/// `params.bandwidth` stays in scalar state indices (3 per agent).
+std::unique_ptr<CentralizedFilter> make_centralized_filter_3d(CentralizedKind kind, const VecX& initial_mean,
+                                                              const std::vector<Mat3>& initial_cov,
+                                                              const CentralizedFilterParams& params);
 
 /// "ekf", "lb-ekf", "lb-ekf-i".
 std::string_view to_string(CentralizedKind kind);
