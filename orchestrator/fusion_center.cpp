@@ -60,8 +60,8 @@ class FusionProcess {
         results_hash_(config::results_hash(scenario)) {}
 
   int run() {
-    logger_->info("started: {} for {} agents, L = {}", filter_->name(), agent_count_,
-                  run::kCentralizedBandwidth);
+    logger_->info("started: {} for {} agents in {}-D, L = {}", filter_->name(), agent_count_,
+                  filter_->dimension(), run::centralized_bandwidth(filter_->dimension()));
     auto last_hello = Clock::now() - std::chrono::seconds(10);
     auto last_batch_seen = Clock::now();
     bool matched_logged = false;

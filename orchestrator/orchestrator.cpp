@@ -592,10 +592,10 @@ class Orchestrator {
           const bool current = liveness_.current(static_cast<AgentId>(i), last_scored_at_s_);
           if (reports_[i] && reports_[i]->steps_run > 0 && current) scored[i] = reports_[i]->estimate;
         }
-        record_.extra["final_total_mse_m2"] = run::total_squared_error(world_.truth, scored);
+        record_.extra["final_total_mse_m2"] = run::total_squared_error(world_.truth, scored, world_.altitude);
         record_.extra["fusion_center"] = {
             {"filter", scenario_.algorithm.name},
-            {"bandwidth", run::kCentralizedBandwidth},
+            {"bandwidth", run::centralized_bandwidth(world_.dimensions)},
             {"estimated_agents",
              std::count_if(scored.begin(), scored.end(), [](const auto& e) { return e.has_value(); })}};
       }

@@ -644,6 +644,7 @@ void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
     swarmloc_msg_MeasurementBatch s = wire.sample;
     std::vector<swarmloc_msg_Range> ranges;
     std::vector<swarmloc_msg_AbsoluteFix> fixes;
+    std::vector<double> fix_z;
     std::vector<swarmloc_msg_MotionInput> motion;
     std::vector<std::int32_t> neighbours;
     std::vector<swarmloc_msg_OdometrySegment> odometry;
@@ -669,6 +670,7 @@ void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
             for (auto& v : fix.position_m) v = hostile_double(rng);
             for (auto& v : fix.covariance) v = hostile_double(rng);
           });
+          reshape(s.fix_z, fix_z, 2, rng, [&](double& z) { z = hostile_double(rng); });
           break;
         case 4:
           reshape(s.motion, motion, 1, rng, [&](swarmloc_msg_MotionInput& input) {
@@ -717,6 +719,7 @@ void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
           s.bearings = saved.bearings;
           s.relative = saved.relative;
           s.fixes = saved.fixes;
+          s.fix_z = saved.fix_z;
           s.targets = saved.targets;
           s.paths = saved.paths;
           s.motion = saved.motion;
@@ -733,7 +736,8 @@ void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
     };
     const bool expect_well_formed = buffer_ok(s.ranges) && buffer_ok(s.fixes) && buffer_ok(s.motion) &&
                                     buffer_ok(s.neighbours) && buffer_ok(s.odometry) &&
-                                    buffer_ok(s.range_bearings) && s.fixes._length <= 1 &&
+                                    buffer_ok(s.range_bearings) && buffer_ok(s.fix_z) &&
+                                    s.fixes._length <= 1 && s.fix_z._length <= s.fixes._length &&
                                     s.motion._length <= 1 && (s.has_odometry || s.odometry._length == 0);
     record.check(decoded.well_formed == expect_well_formed, i, "batch: well_formed differs from the rule");
     record.check(decoded.recipient == s.agent_id && decoded.batch.world_step == s.header.step, i,
@@ -745,6 +749,7 @@ void fuzz_batch(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
     ++result.accepted;
     record.check(decoded.batch.ranges.size() == s.ranges._length &&
                      decoded.batch.fix.has_value() == (s.fixes._length == 1) &&
+                     (decoded.batch.fix && decoded.batch.fix->z_m.has_value()) == (s.fix_z._length == 1) &&
                      decoded.batch.motion.has_value() == (s.motion._length == 1) &&
                      decoded.batch.neighbours.size() == s.neighbours._length,
                  i, "batch: decoded sizes differ from the wire");

@@ -144,13 +144,13 @@ const std::vector<AlgorithmSpec>& algorithm_registry() {
       {"iekf", kKalman, kAgent, kRangesAndFixes, kOwnRanges, false, nullptr, kKalmanKeys, kStateMessages,
        agent_build(&builders::iekf)},  // docs/algorithms.md §3.5
       {"ekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys, kNoMessages,
-       fusion_build(CentralizedKind::kEkf, false)},
+       fusion_build(CentralizedKind::kEkf, false), true},
       {"lbekf", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
-       kNoMessages, fusion_build(CentralizedKind::kLbEkf, false)},
+       kNoMessages, fusion_build(CentralizedKind::kLbEkf, false), true},
       {"lbekf_vr", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
-       kNoMessages, fusion_build(CentralizedKind::kLbEkf, true)},
+       kNoMessages, fusion_build(CentralizedKind::kLbEkf, true), true},
       {"lbekf_i", kCentralized, kCentre, kRangesAndFixes, kFusionRanges, false, nullptr, kKalmanKeys,
-       kNoMessages, fusion_build(CentralizedKind::kLbEkfI, true)},
+       kNoMessages, fusion_build(CentralizedKind::kLbEkfI, true), true},
       {"jacobi", kConsensus, kAgent, kRelative, kScenarioBound, true, &validate_jacobi, kNoKeys,
        kStateMessages, agent_build(&builders::jacobi)},  // Atanasov et al. (9)
       {"dle", kConsensus, kAgent, kTargets, kScenarioBound, true, &validate_dle, kKalmanKeys,

@@ -197,8 +197,8 @@ void validate_dimensions(const Scenario& scenario, const AlgorithmSpec& spec) {
   require_positive(world.height_m, "world.height_m");
   if (world.dimensions == 2) return;
   if (!spec.three_dimensional) {
-    fail("world.dimensions",
-         "3 needs an algorithm that runs in 3-D (dml); '" + scenario.algorithm.name + "' is planar");
+    fail("world.dimensions", "3 needs an algorithm that runs in 3-D (dml, ekf, lbekf, lbekf_vr, lbekf_i); '" +
+                                 scenario.algorithm.name + "' is planar");
   }
   if (world.source != WorldSource::kGenerated) fail("world.dimensions", "3 needs a generated world");
   if (world.placement != Placement::kUniform)

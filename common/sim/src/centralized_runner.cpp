@@ -63,10 +63,11 @@ rundir::RunRecord run_centralized_simulation(const config::Scenario& scenario, c
     rundir::note_scored_estimates(record, estimates);
     rundir::set_step_bounds(record, metrics);
     record.metrics.push_back(metrics);
-    total_mse.push_back(run::total_squared_error(world.truth, estimates));
+    total_mse.push_back(run::total_squared_error(world.truth, estimates, world.altitude));
     if (options.record_estimates) {
       for (AgentId i = 0; i < n; ++i) {
-        record.estimates.push_back({step, i, *estimates[static_cast<std::size_t>(i)], world.scored_truth(i)});
+        record.estimates.push_back({step, i, *estimates[static_cast<std::size_t>(i)], world.scored_truth(i),
+                                    world.scored_truth_z(i)});
       }
     }
     if (options.on_step) options.on_step(step, metrics.errors);
@@ -84,7 +85,7 @@ rundir::RunRecord run_centralized_simulation(const config::Scenario& scenario, c
   record.extra["total_mse_m2"] = std::move(total_mse);
   record.extra["fusion_center"] = {
       {"filter", std::string(filter->name())},
-      {"bandwidth", run::kCentralizedBandwidth},
+      {"bandwidth", run::centralized_bandwidth(world.dimensions)},
       {"graph_bandwidth", centralized::graph_bandwidth(graph_edges(world), filter->labels())},
       {"truncated_steps", truncated_steps}};
   record.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

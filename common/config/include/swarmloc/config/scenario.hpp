@@ -138,7 +138,8 @@ struct Scenario {
     int agents = 30;
     int anchors = 8;
     double area_m = 40.0;  ///< square side
-    /// 2: the plane; 3: agents in a box area_m × area_m × height_m (dml only; docs/scenario.md).
+    /// 2: the plane; 3: agents in a box area_m × area_m × height_m (dml and the centralized filters;
+    /// docs/scenario.md).
     int dimensions = 2;
     double height_m = 10.0;       ///< the box's height when dimensions = 3
     double comm_radius_m = 15.0;  ///< communication = sensing radius
