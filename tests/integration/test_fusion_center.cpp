@@ -2,6 +2,8 @@
 // the fusion centre, the orchestrator) on the E-A2 scenario matches the simulator's final total MSE.
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include "process_helpers.hpp"
 
 namespace {
@@ -18,24 +20,36 @@ const std::string kScenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/ea2
 // batch of that step has arrived, so it uses the same measurements as the simulator.
 const std::string kFlags = " -q --set run.rate_hz=10 --set run.steps=100";
 
-TEST(FusionCenter, LbEkfVrOverDdsMatchesTheSimulatorsFinalTotalMse) {
-  const auto sim_dir = fresh_directory("fusion-sim");
-  const auto sim = run_command(kBinary + " sim " + kScenario + " --out " + sim_dir.string() + kFlags);
-  ASSERT_EQ(sim.exit_code, 0) << sim.output;
-  const auto dds_dir = fresh_directory("fusion-dds");
-  const auto dds = run_command(kBinary + " run " + kScenario + " --out " + dds_dir.string() + kFlags +
-                               " --set dds.domain_id=15");
-  ASSERT_TRUE(swarmloc::testing::completed_run(dds.exit_code)) << dds.output;
+/// The summaries of one scenario run by the simulator and over DDS (agent processes, the fusion centre, the
+/// orchestrator) with the same flags; nullopt (after a test failure) if a run failed.
+struct SimAndDds {
+  nlohmann::json sim;
+  nlohmann::json dds;
+};
+std::optional<SimAndDds> run_in_sim_and_over_dds(const std::string& scenario, const std::string& flags,
+                                                 const std::string& name, int domain) {
+  const auto sim_dir = fresh_directory(name + "-sim");
+  const auto sim = run_command(kBinary + " sim " + scenario + " --out " + sim_dir.string() + flags);
+  EXPECT_EQ(sim.exit_code, 0) << sim.output;
+  const auto dds_dir = fresh_directory(name + "-dds");
+  const auto dds = run_command(kBinary + " run " + scenario + " --out " + dds_dir.string() + flags +
+                               " --set dds.domain_id=" + std::to_string(domain));
+  EXPECT_TRUE(swarmloc::testing::completed_run(dds.exit_code)) << dds.output;
   EXPECT_EQ(count_processes_matching(dds_dir.string()), 0)
       << "agent or fusion-centre processes outlived the run";
+  if (sim.exit_code != 0 || !swarmloc::testing::completed_run(dds.exit_code)) return std::nullopt;
+  return SimAndDds{read_json(sim_dir / "summary.json"), read_json(dds_dir / "summary.json")};
+}
 
-  const auto sim_summary = read_json(sim_dir / "summary.json");
-  const auto dds_summary = read_json(dds_dir / "summary.json");
+TEST(FusionCenter, LbEkfVrOverDdsMatchesTheSimulatorsFinalTotalMse) {
+  const auto runs = run_in_sim_and_over_dds(kScenario, kFlags, "fusion", 15);
+  ASSERT_TRUE(runs);
+  const auto& dds_summary = runs->dds;
   EXPECT_EQ(dds_summary["agents"], 30);
   EXPECT_EQ(dds_summary["processes"], 32);  // 30 agents + the fusion centre + the orchestrator
   EXPECT_EQ(dds_summary["final"]["scored_agents"], 22);
   EXPECT_EQ(dds_summary["fusion_center"]["estimated_agents"], 30);
-  const double sim_total = sim_summary["final_total_mse_m2"];
+  const double sim_total = runs->sim["final_total_mse_m2"];
   const double dds_total = dds_summary["final_total_mse_m2"];
   std::printf("final total MSE: DDS %.4f m², simulator %.4f m²\n", dds_total, sim_total);
   ASSERT_GT(sim_total, 0.0);
@@ -45,25 +59,17 @@ TEST(FusionCenter, LbEkfVrOverDdsMatchesTheSimulatorsFinalTotalMse) {
 // The centralized EKF in a 3-D world (docs/design.md §3.1): the fusion-centre process reads the anchors' z
 // from their fixes and publishes every agent's z, so the DDS run is scored in space as the simulator's is.
 TEST(FusionCenter, EkfInA3dWorldOverDdsMatchesTheSimulator) {
-  const std::string scenario = std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default3d.yaml";
-  const std::string flags = " -q --set algorithm.name=ekf --set run.steps=60";
-  const auto sim_dir = fresh_directory("fusion-3d-sim");
-  const auto sim = run_command(kBinary + " sim " + scenario + " --out " + sim_dir.string() + flags);
-  ASSERT_EQ(sim.exit_code, 0) << sim.output;
-  const auto dds_dir = fresh_directory("fusion-3d-dds");
-  const auto dds = run_command(kBinary + " run " + scenario + " --out " + dds_dir.string() + flags +
-                               " --set dds.domain_id=16");
-  ASSERT_TRUE(swarmloc::testing::completed_run(dds.exit_code)) << dds.output;
-  const auto sim_summary = read_json(sim_dir / "summary.json");
-  const auto dds_summary = read_json(dds_dir / "summary.json");
-  EXPECT_EQ(dds_summary["dimensions"], 3);
-  EXPECT_EQ(dds_summary["final"]["scored_agents"], 22);
-  const double sim_rmse = sim_summary["final"]["rmse_m"];
-  const double dds_rmse = dds_summary["final"]["rmse_m"];
+  const auto runs =
+      run_in_sim_and_over_dds(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default3d.yaml",
+                              " -q --set algorithm.name=ekf --set run.steps=60", "fusion-3d", 16);
+  ASSERT_TRUE(runs);
+  EXPECT_EQ(runs->dds["dimensions"], 3);
+  EXPECT_EQ(runs->dds["final"]["scored_agents"], 22);
+  const double sim_rmse = runs->sim["final"]["rmse_m"];
+  const double dds_rmse = runs->dds["final"]["rmse_m"];
   std::printf("3-D EKF final RMSE: DDS %.6f m, simulator %.6f m\n", dds_rmse, sim_rmse);
-  EXPECT_LT(sim_rmse, 3.0 * sim_summary["bound"]["rmse_m"].get<double>());
+  EXPECT_LT(sim_rmse, 3.0 * runs->sim["bound"]["rmse_m"].get<double>());
   EXPECT_NEAR(dds_rmse, sim_rmse, 0.10 * sim_rmse);
-  EXPECT_EQ(count_processes_matching(dds_dir.string()), 0);
 }
 
 TEST(FusionCenter, FusionRoleRejectsADistributedAlgorithm) {
