@@ -221,6 +221,22 @@ std::string positions_script(const RunRecord& record, bool have_links, bool have
   return gp.str();
 }
 
+/// 3-D runs: the side view, x across and z up (final_positions.csv columns 9-11), with z's 95 % interval.
+std::string altitude_script(const RunRecord& record, double magnification) {
+  std::ostringstream gp;
+  gp << preamble("altitude.png") << "set size ratio -1\nset key outside bottom center horizontal box\n"
+     << "set xlabel 'x [m]'\nset ylabel 'z [m]'\n"
+     << "set title \"" << header_title(record) << "\\nfinal positions, side view (x against altitude)\"\n";
+  gp << "plot 'final_positions.csv' using ($2==0?$3:1/0):9 skip 1 with points pt 6 ps 1.6 lw 1.5 "
+        "lc rgb 'black' title 'truth', "
+        "'' using ($2==0&&$8==0?$5:1/0):10:("
+     << 1.96 * magnification
+     << "*$11) skip 1 with yerrorbars pt 7 ps 0.7 lc rgb '#1f77b4' title 'estimate, 95 % interval of z";
+  if (magnification != 1.0) gp << " (drawn ×" << magnification << ")";
+  gp << "', '' using ($2==1?$3:1/0):9 skip 1 with points pt 5 ps 1.6 lc rgb '#d62728' title 'anchor'\n";
+  return gp.str();
+}
+
 std::string histogram_script(const RunRecord& record, int agents, int most, double mean_m, double rmse_m,
                              double bound_m) {
   std::ostringstream gp;
@@ -349,14 +365,24 @@ struct FinalPositions {
 FinalPositions collect_final_positions(const RunRecord& record, const FinalRows& finals) {
   FinalPositions out;
   std::ostringstream positions;
-  positions << "agent,anchor,truth_x,truth_y,est_x,est_y,error_m,lost\n" << std::setprecision(9);
+  const bool spatial = record.scenario.world.dimensions == 3;
+  positions << "agent,anchor,truth_x,truth_y,est_x,est_y,error_m,lost"
+            << (spatial ? ",truth_z,est_z,z_std" : "") << '\n'
+            << std::setprecision(9);
   Vec2 low = finals.begin()->second->truth, high = low;
   for (const auto& [agent, row] : finals) {
     const bool anchor = is_anchor(record, agent);
     const auto& e = row->estimate;
     positions << agent << ',' << (anchor ? 1 : 0) << ',' << row->truth.x() << ',' << row->truth.y() << ','
               << e.mean_m.x() << ',' << e.mean_m.y() << ',' << row->error_m() << ','
-              << (is_lost(record, agent) ? 1 : 0) << '\n';
+              << (is_lost(record, agent) ? 1 : 0);
+    if (spatial) {
+      const bool has_z = e.altitude.has_value();
+      positions << ',' << row->truth_z_m << ',' << (has_z ? e.altitude->z_m : kNaN) << ','
+                << (has_z && e.valid && e.altitude->variance_m2 >= 0.0 ? std::sqrt(e.altitude->variance_m2)
+                                                                       : kNaN);
+    }
+    positions << '\n';
     low = low.cwiseMin(row->truth);
     high = high.cwiseMax(row->truth);
     if (anchor) continue;
@@ -501,6 +527,7 @@ void add_final_position_plots(const std::filesystem::path& plots, const RunRecor
   scripts["positions.gp"] =
       positions_script(record, links.have_links, links.have_lost_links, have_ellipses, magnification);
   if (!positions.errors.empty()) add_error_histogram(plots, record, positions.errors, scripts);
+  if (record.scenario.world.dimensions == 3) scripts["altitude.gp"] = altitude_script(record, magnification);
 }
 
 /// Each script, and plots.gp that loads them all.

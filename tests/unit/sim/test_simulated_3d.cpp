@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/rundir/run_record.hpp"
@@ -79,6 +80,18 @@ TEST(Simulated3d, TheRunDirectoryCarriesTheThirdCoordinate) {
   double z = 0.0;
   truth_line >> time >> x >> y >> z;
   EXPECT_NEAR(z, world.altitude[0], 1e-9);
+  // The plots' table carries z, and a side view (x against z) is drawn from it.
+  std::ifstream positions(directory / "plots" / "final_positions.csv");
+  std::string line;
+  std::getline(positions, line);
+  EXPECT_EQ(line, "agent,anchor,truth_x,truth_y,est_x,est_y,error_m,lost,truth_z,est_z,z_std");
+  std::getline(positions, line);  // agent 0
+  std::vector<std::string> cells;
+  std::istringstream row(line);
+  for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+  ASSERT_EQ(cells.size(), 11U) << line;
+  EXPECT_NEAR(std::stod(cells[8]), world.altitude[0], 1e-6) << line;
+  EXPECT_TRUE(std::filesystem::exists(directory / "plots" / "altitude.gp"));
   std::filesystem::remove_all(directory);
 }
 
