@@ -59,9 +59,9 @@ TEST(FusionCenter, LbEkfVrOverDdsMatchesTheSimulatorsFinalTotalMse) {
 // The centralized EKF in a 3-D world (docs/design.md §3.1): the fusion-centre process reads the anchors' z
 // from their fixes and publishes every agent's z, so the DDS run is scored in space as the simulator's is.
 TEST(FusionCenter, EkfInA3dWorldOverDdsMatchesTheSimulator) {
-  const auto runs =
-      run_in_sim_and_over_dds(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default3d.yaml",
-                              " -q --set algorithm.name=ekf --set run.steps=60", "fusion-3d", 16);
+  const auto runs = run_in_sim_and_over_dds(
+      std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default3d.yaml",
+      " -q --set algorithm.name=ekf --set run.steps=40 --set run.rate_hz=20", "fusion-3d", 16);
   ASSERT_TRUE(runs);
   EXPECT_EQ(runs->dds["dimensions"], 3);
   EXPECT_EQ(runs->dds["final"]["scored_agents"], 22);
