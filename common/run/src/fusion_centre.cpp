@@ -66,11 +66,11 @@ centralized::CentralizedMeasurements centralized_measurements(
   out.beacon_var = std::max(kMinVariance, scenario.noise.anchor_fix_std_m * scenario.noise.anchor_fix_std_m);
   out.range_var = std::max(kMinVariance, scenario.noise.range_std_m * scenario.noise.range_std_m);
   const int n = static_cast<int>(batches.size());
+  const bool spatial = scenario.world.dimensions == 3;
   for (int i = 0; i < n; ++i) {
     const auto* batch = batches[static_cast<std::size_t>(i)];
     if (batch == nullptr) continue;
     // In 3-D a fix is used with its z only; one without it fixes nothing the filter can use.
-    const bool spatial = scenario.world.dimensions == 3;
     if (batch->fix && (!spatial || batch->fix->z_m)) {
       out.beacon_fixes.emplace_back(i, batch->fix->position_m);
       if (spatial) out.beacon_fix_z.push_back(*batch->fix->z_m);
