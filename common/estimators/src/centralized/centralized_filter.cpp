@@ -190,32 +190,36 @@ void CentralizedFilterOf<D>::store_velocity(const CentralizedMeasurements& measu
 template class CentralizedFilterOf<2>;
 template class CentralizedFilterOf<3>;
 
+namespace {
+
+/// The filter of `kind` in D dimensions (both factories below).
+template <int D>
+std::unique_ptr<CentralizedFilter> make_filter_of(CentralizedKind kind, const VecX& initial_mean,
+                                                  const std::vector<filter_kernels::Mat<D>>& initial_cov,
+                                                  const CentralizedFilterParams& params) {
+  switch (kind) {
+    case CentralizedKind::kEkf:
+      return filter_kernels::make_ekf<D>(initial_mean, initial_cov, params);
+    case CentralizedKind::kLbEkf:
+      return filter_kernels::make_lb_ekf<D>(initial_mean, initial_cov, params);
+    case CentralizedKind::kLbEkfI:
+      return filter_kernels::make_lb_ekf_i<D>(initial_mean, initial_cov, params);
+  }
+  throw std::invalid_argument("make_centralized_filter: unknown kind");
+}
+
+}  // namespace
+
 std::unique_ptr<CentralizedFilter> make_centralized_filter(CentralizedKind kind, const VecX& initial_mean,
                                                            const std::vector<Mat2>& initial_cov,
                                                            const CentralizedFilterParams& params) {
-  switch (kind) {
-    case CentralizedKind::kEkf:
-      return filter_kernels::make_ekf<2>(initial_mean, initial_cov, params);
-    case CentralizedKind::kLbEkf:
-      return filter_kernels::make_lb_ekf<2>(initial_mean, initial_cov, params);
-    case CentralizedKind::kLbEkfI:
-      return filter_kernels::make_lb_ekf_i<2>(initial_mean, initial_cov, params);
-  }
-  throw std::invalid_argument("make_centralized_filter: unknown kind");
+  return make_filter_of<2>(kind, initial_mean, initial_cov, params);
 }
 
 std::unique_ptr<CentralizedFilter> make_centralized_filter_3d(CentralizedKind kind, const VecX& initial_mean,
                                                               const std::vector<Mat3>& initial_cov,
                                                               const CentralizedFilterParams& params) {
-  switch (kind) {
-    case CentralizedKind::kEkf:
-      return filter_kernels::make_ekf<3>(initial_mean, initial_cov, params);
-    case CentralizedKind::kLbEkf:
-      return filter_kernels::make_lb_ekf<3>(initial_mean, initial_cov, params);
-    case CentralizedKind::kLbEkfI:
-      return filter_kernels::make_lb_ekf_i<3>(initial_mean, initial_cov, params);
-  }
-  throw std::invalid_argument("make_centralized_filter_3d: unknown kind");
+  return make_filter_of<3>(kind, initial_mean, initial_cov, params);
 }
 
 std::string_view to_string(CentralizedKind kind) {
