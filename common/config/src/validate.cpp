@@ -190,7 +190,8 @@ void validate_target_and_field(const Scenario::World& world) {
   require_positive(world.field_sensing_radius_m, "world.field_sensing_radius_m");
 }
 
-/// world.dimensions: 3 is a static range world of generated positions, for the algorithms that run in 3-D.
+/// world.dimensions: 3 is a range world of generated positions, for the algorithms that run in 3-D (its truth
+/// may move: the fusion-centre filters predict in every coordinate; dml's own rule keeps it static).
 void validate_dimensions(const Scenario& scenario, const AlgorithmSpec& spec) {
   const auto& world = scenario.world;
   if (world.dimensions != 2 && world.dimensions != 3) fail("world.dimensions", "must be 2 or 3");
@@ -203,7 +204,6 @@ void validate_dimensions(const Scenario& scenario, const AlgorithmSpec& spec) {
   if (world.source != WorldSource::kGenerated) fail("world.dimensions", "3 needs a generated world");
   if (world.placement != Placement::kUniform)
     fail("world.placement", "must be uniform when world.dimensions is 3");
-  if (world.motion != Motion::kStatic) fail("world.motion", "must be static when world.dimensions is 3");
 }
 
 void validate_world(const Scenario& scenario, const AlgorithmSpec& spec) {

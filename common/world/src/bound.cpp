@@ -67,40 +67,91 @@ double static_network_rmse(const estimators::RangeNetworkOf<D>& network,
 
 /// J_0's prior: the spread of the world's initial guesses (noisy_truth: initial_guess_std_m² I; uniform:
 /// the placement's area_m²/12 I) for every agent in θ, the anchors with fixes included.
-std::vector<Mat2> prior_information(const World& world, const config::Scenario& s) {
-  return std::vector<Mat2>(static_cast<std::size_t>(world.size()),
-                           Mat2::Identity() / start_prior_variance(s));
+template <int D>
+std::vector<Eigen::Matrix<double, D, D>> prior_information(const World& world, const config::Scenario& s) {
+  return std::vector<Eigen::Matrix<double, D, D>>(
+      static_cast<std::size_t>(world.size()),
+      Eigen::Matrix<double, D, D>::Identity() / start_prior_variance(s));
 }
 
-/// The PCRB series along the truth `trajectory` (one position list per world step).
+template <int D>
+double non_anchor_rmse_of(const MatX& covariance, const estimators::RangeNetworkOf<D>& network,
+                          const std::vector<bool>& world_anchor) {
+  const auto offset = state_offsets<D>(network);
+  double total = 0.0;
+  int scored = 0;
+  for (std::size_t i = 0; i < offset.size(); ++i) {
+    if (world_anchor[i] || offset[i] < 0) continue;
+    total += covariance.diagonal().segment<D>(offset[i]).sum();
+    ++scored;
+  }
+  return scored > 0 ? std::sqrt(std::max(0.0, total) / scored) : 0.0;
+}
+
+/// snapshot_network in D dimensions: `truth` holds each agent's position (with its z in 3-D).
+template <int D>
+estimators::RangeNetworkOf<D> snapshot_network_of(const World& world, const config::Scenario& s,
+                                                  const std::vector<Eigen::Matrix<double, D, 1>>& truth,
+                                                  RangeDraws draws, AnchorData anchors) {
+  estimators::RangeNetworkOf<D> network;
+  network.truth = truth;
+  const bool anchors_unknown = anchors_in_state(s, anchors);
+  network.is_anchor = anchors_unknown ? std::vector<bool>(truth.size(), false) : world.is_anchor;
+  for (int lo = 0; lo < world.size(); ++lo) {
+    for (const AgentId hi : world.neighbours[static_cast<std::size_t>(lo)]) {
+      if (hi <= lo) continue;
+      const double distance =
+          (truth[static_cast<std::size_t>(lo)] - truth[static_cast<std::size_t>(hi)]).norm();
+      if (distance > s.world.comm_radius_m) continue;  // moved out of range: not measured (generate_batch)
+      const double std_m = std::max(1e-9, s.noise.range_std_at(distance));
+      const bool at_lo = draws != kOwnDraws || !world.is_anchor[static_cast<std::size_t>(lo)];
+      const bool at_hi =
+          draws == kAllDraws || (draws == kOwnDraws && !world.is_anchor[static_cast<std::size_t>(hi)]);
+      for (int k = draws_used(at_lo, at_hi, s.noise.shared_range_draws); k > 0; --k)
+        network.ranges.push_back({lo, hi, std_m});
+    }
+  }
+  if (anchors_unknown) {
+    const double variance = s.noise.anchor_fix_std_m * s.noise.anchor_fix_std_m;
+    for (int i = 0; i < world.size(); ++i) {
+      if (world.is_anchor[static_cast<std::size_t>(i)])
+        network.absolute.push_back({i, Eigen::Matrix<double, D, D>::Identity() * variance});
+    }
+  }
+  return network;
+}
+
+/// The PCRB series along the truth `trajectory` (one position list per world step, D coordinates each).
+template <int D>
 std::vector<double> pcrb_series(const World& world, const config::Scenario& s,
-                                const std::vector<std::vector<Vec2>>& trajectory, RangeDraws draws,
-                                AnchorData anchors) {
+                                const std::vector<std::vector<Eigen::Matrix<double, D, 1>>>& trajectory,
+                                RangeDraws draws, AnchorData anchors) {
   std::vector<double> series;
   series.reserve(trajectory.size());
-  const auto prior = prior_information(world, s);
+  const auto prior = prior_information<D>(world, s);
   const double motion_variance = s.world.motion_std_m * s.world.motion_std_m;
   MatX information;
   VecX process_variance;
   for (std::size_t k = 0; k < trajectory.size(); ++k) {
-    const auto network = snapshot_network(world, s, trajectory[k], draws, anchors);
+    const auto network = snapshot_network_of<D>(world, s, trajectory[k], draws, anchors);
     if (k == 0) {
       information = estimators::range_network_fisher(network, 1.0, &prior);
-      // The world's random walk moves the non-anchors only (world.cpp advance_truth).
+      // The world's random walk moves the non-anchors only, in every coordinate (world.cpp advance_truth).
       process_variance = VecX::Zero(information.rows());
-      const auto offset = state_offsets<2>(network);
+      const auto offset = state_offsets<D>(network);
       for (std::size_t i = 0; i < offset.size(); ++i) {
         if (offset[i] >= 0 && !world.is_anchor[i])
-          process_variance.segment<2>(offset[i]).setConstant(motion_variance);
+          process_variance.segment<D>(offset[i]).setConstant(motion_variance);
       }
     } else {
       information = pcrb_predict(information, process_variance) + estimators::range_network_fisher(network);
     }
     const Eigen::LLT<MatX> llt(information);
-    series.push_back(llt.info() == Eigen::Success
-                         ? non_anchor_rmse(llt.solve(MatX::Identity(information.rows(), information.cols())),
-                                           network, world.is_anchor)
-                         : kUnbounded);
+    series.push_back(
+        llt.info() == Eigen::Success
+            ? non_anchor_rmse_of<D>(llt.solve(MatX::Identity(information.rows(), information.cols())),
+                                    network, world.is_anchor)
+            : kUnbounded);
   }
   return series;
 }
@@ -139,12 +190,13 @@ RunBound static_range_bound(RunBound bound, const World& world, const config::Sc
   return bound;
 }
 
+template <int D>
 RunBound moving_range_bound(RunBound bound, const World& world, const config::Scenario& s) {
   if (s.noise.draw == config::NoiseDraw::kOnce)
     return no_bound(bound, "moving truth with noise.draw = once (repeated draws): no bound implemented");
   const auto unknowns = static_cast<double>(
       anchors_in_state(s, bound.anchors) ? world.size() : world.size() - world.anchor_count());
-  const double dimension = 2.0 * unknowns;
+  const double dimension = D * unknowns;
   if (static_cast<double>(s.run.steps) * dimension * dimension * dimension > kMaxPcrbWork)
     return no_bound(bound, "posterior CRB too costly for this size and run length (dense, O(steps·n³))");
   // The trajectory the run will see: advance_truth is seeded by (seed, trial, step).
@@ -152,17 +204,21 @@ RunBound moving_range_bound(RunBound bound, const World& world, const config::Sc
   // A recorded world (replay of a --record directory) holds its own number of steps.
   const std::int64_t steps =
       world.recorded ? std::min<std::int64_t>(s.run.steps, world.recorded->steps()) : s.run.steps;
-  std::vector<std::vector<Vec2>> trajectory;
+  std::vector<std::vector<Eigen::Matrix<double, D, 1>>> trajectory;
   trajectory.reserve(static_cast<std::size_t>(steps));
   for (std::int64_t step = 0; step < steps; ++step) {
     if (step > 0) advance_truth(replay, s, step);
-    trajectory.push_back(replay.truth);
+    if constexpr (D == 3) {
+      trajectory.push_back(true_positions3(replay));
+    } else {
+      trajectory.push_back(replay.truth);
+    }
   }
   bound.kind = BoundKind::kPcrb;
-  bound.pcrb_rmse_m = pcrb_series(world, s, trajectory, bound.draws, bound.anchors);
+  bound.pcrb_rmse_m = pcrb_series<D>(world, s, trajectory, bound.draws, bound.anchors);
   bound.all_data_pcrb_rmse_m = bound.draws == kAllDraws
                                    ? bound.pcrb_rmse_m
-                                   : pcrb_series(world, s, trajectory, kAllDraws, bound.anchors);
+                                   : pcrb_series<D>(world, s, trajectory, kAllDraws, bound.anchors);
   return bound;
 }
 
@@ -253,43 +309,6 @@ double RunBound::all_data_rmse_at(std::int64_t step) const {
                               : all_data_single_rmse_m;
 }
 
-namespace {
-
-/// snapshot_network in D dimensions: `truth` holds each agent's position (with its z in 3-D).
-template <int D>
-estimators::RangeNetworkOf<D> snapshot_network_of(const World& world, const config::Scenario& s,
-                                                  const std::vector<Eigen::Matrix<double, D, 1>>& truth,
-                                                  RangeDraws draws, AnchorData anchors) {
-  estimators::RangeNetworkOf<D> network;
-  network.truth = truth;
-  const bool anchors_unknown = anchors_in_state(s, anchors);
-  network.is_anchor = anchors_unknown ? std::vector<bool>(truth.size(), false) : world.is_anchor;
-  for (int lo = 0; lo < world.size(); ++lo) {
-    for (const AgentId hi : world.neighbours[static_cast<std::size_t>(lo)]) {
-      if (hi <= lo) continue;
-      const double distance =
-          (truth[static_cast<std::size_t>(lo)] - truth[static_cast<std::size_t>(hi)]).norm();
-      if (distance > s.world.comm_radius_m) continue;  // moved out of range: not measured (generate_batch)
-      const double std_m = std::max(1e-9, s.noise.range_std_at(distance));
-      const bool at_lo = draws != kOwnDraws || !world.is_anchor[static_cast<std::size_t>(lo)];
-      const bool at_hi =
-          draws == kAllDraws || (draws == kOwnDraws && !world.is_anchor[static_cast<std::size_t>(hi)]);
-      for (int k = draws_used(at_lo, at_hi, s.noise.shared_range_draws); k > 0; --k)
-        network.ranges.push_back({lo, hi, std_m});
-    }
-  }
-  if (anchors_unknown) {
-    const double variance = s.noise.anchor_fix_std_m * s.noise.anchor_fix_std_m;
-    for (int i = 0; i < world.size(); ++i) {
-      if (world.is_anchor[static_cast<std::size_t>(i)])
-        network.absolute.push_back({i, Eigen::Matrix<double, D, D>::Identity() * variance});
-    }
-  }
-  return network;
-}
-
-}  // namespace
-
 estimators::RangeNetwork snapshot_network(const World& world, const config::Scenario& s,
                                           const std::vector<Vec2>& truth, RangeDraws draws,
                                           AnchorData anchors) {
@@ -311,15 +330,7 @@ std::vector<Vec3> true_positions3(const World& world) {
 
 double non_anchor_rmse(const MatX& covariance, const estimators::RangeNetwork& network,
                        const std::vector<bool>& world_anchor) {
-  const auto offset = state_offsets<2>(network);
-  double total = 0.0;
-  int scored = 0;
-  for (std::size_t i = 0; i < offset.size(); ++i) {
-    if (world_anchor[i] || offset[i] < 0) continue;
-    total += covariance(offset[i], offset[i]) + covariance(offset[i] + 1, offset[i] + 1);
-    ++scored;
-  }
-  return scored > 0 ? std::sqrt(std::max(0.0, total) / scored) : 0.0;
+  return non_anchor_rmse_of<2>(covariance, network, world_anchor);
 }
 
 MatX pcrb_predict(const MatX& information, const VecX& process_variance) {
@@ -355,9 +366,9 @@ RunBound run_bound(const World& world, const config::Scenario& s, const RangeCrl
   }
   if (world.size() - world.anchor_count() > kMaxDenseBoundUnknowns)
     return no_bound(bound, "more than 1000 unknown agents: the dense bound is not computed");
-  if (world.dimensions == 3 && truth_moves(s))
-    return no_bound(bound, "3-D moving truth: the posterior CRB is implemented for planar worlds only");
-  return truth_moves(s) ? moving_range_bound(bound, world, s) : static_range_bound(bound, world, s, legacy);
+  if (!truth_moves(s)) return static_range_bound(bound, world, s, legacy);
+  return world.dimensions == 3 ? moving_range_bound<3>(bound, world, s)
+                               : moving_range_bound<2>(bound, world, s);
 }
 
 bool truth_moves(const config::Scenario& scenario) {

@@ -466,6 +466,8 @@ void advance_truth(World& world, const Scenario& s, std::int64_t step) {
     auto rng = core::make_engine(trial_seed(s.seed, world.trial), core::Stream::kMotion, step,
                                  static_cast<std::int64_t>(i));
     world.truth[i] += Vec2(gauss(rng), gauss(rng));
+    // In space the same stream's third draw moves z, so a planar world's walk is unchanged.
+    if (world.dimensions == 3) world.altitude[i] += gauss(rng);
   }
 }
 

@@ -192,6 +192,54 @@ TEST(Bound3, TheStaticBoundOfA3dWorldIsTheCrlbOfItsRangesInSpace) {
   RecordProperty("single_snapshot_bound_m", std::to_string(expected));
 }
 
+// Moving truth in space: the world's random walk moves x, y and z of every non-anchor, and the PCRB is the
+// information recursion J_k = (J_{k-1}^{-1} + q I)^{-1} + H_k^T R^{-1} H_k along that trajectory, built here
+// block by block in space from the prior of the initial guesses.
+TEST(Bound3, TheBoundOfMovingTruthInSpaceIsThePosteriorCrbOfItsWalk) {
+  const World world = box_world();
+  auto s = spatial_scenario(0.3, 6);
+  s.world.motion = config::Motion::kRandomWalk;
+  s.world.motion_std_m = 0.4;
+  s.world.initial_guess_std_m = 1.5;
+  const double q = s.world.motion_std_m * s.world.motion_std_m;
+  const double sigma = s.noise.range_std_m;
+  MatX J = MatX::Identity(9, 9) / (s.world.initial_guess_std_m * s.world.initial_guess_std_m);
+  World walked = world;
+  std::vector<double> expected;
+  for (std::int64_t step = 0; step < s.run.steps; ++step) {
+    if (step > 0) {
+      const std::vector<double> z_before = walked.altitude;
+      advance_truth(walked, s, step);
+      for (AgentId i = 0; i < walked.size(); ++i) {
+        const double dz =
+            walked.altitude[static_cast<std::size_t>(i)] - z_before[static_cast<std::size_t>(i)];
+        if (walked.is_anchor[static_cast<std::size_t>(i)]) {
+          EXPECT_EQ(dz, 0.0) << "anchor " << i << " step " << step;
+        } else {
+          EXPECT_NE(dz, 0.0) << "agent " << i << " step " << step;
+        }
+      }
+      J = (J.inverse() + q * MatX::Identity(9, 9)).inverse();
+    }
+    for (AgentId i = 5; i < 8; ++i) {
+      for (AgentId j = 0; j < 8; ++j) {
+        if (j == i) continue;
+        const Vec3 d = walked.position3(i) - walked.position3(j);
+        const Mat3 block = 2.0 * d * d.transpose() / d.squaredNorm() / (sigma * sigma);  // two draws
+        const int a = 3 * (i - 5);
+        J.block<3, 3>(a, a) += block;
+        if (j >= 5) J.block<3, 3>(a, 3 * (j - 5)) -= block;
+      }
+    }
+    expected.push_back(std::sqrt(J.inverse().trace() / 3.0));
+  }
+  const RunBound bound = run_bound(world, s, scenario_crlb(world, s));
+  ASSERT_EQ(bound.kind, BoundKind::kPcrb) << bound.reason;
+  ASSERT_EQ(bound.pcrb_rmse_m.size(), expected.size());
+  for (std::size_t k = 0; k < expected.size(); ++k)
+    EXPECT_NEAR(bound.pcrb_rmse_m[k], expected[k], 1e-9 * expected[k]) << "step " << k;
+}
+
 // ---- The batch ML ----
 
 TEST(Optimum3, EqualsTheBestOfManyRestartsAndItsCovarianceIsTheInverseFisher) {

@@ -126,10 +126,16 @@ TEST(World3d, APlanarWorldHasNoZ) {
 
 TEST(World3d, ScenarioRulesKeepThreeDimensionsToWhatRunsInThem) {
   EXPECT_NO_THROW(scenario_3d());
-  for (const auto& bad : std::vector<std::vector<std::string>>{
-           {"world.dimensions=4"}, {"algorithm.name=ieif"}, {"world.placement=grid"}, {"world.height_m=0"}}) {
+  for (const auto& bad : std::vector<std::vector<std::string>>{{"world.dimensions=4"},
+                                                               {"algorithm.name=ieif"},
+                                                               {"world.placement=grid"},
+                                                               {"world.height_m=0"},
+                                                               {"world.motion=random_walk"}}) {
     EXPECT_THROW(scenario_3d(bad), config::ScenarioError) << bad.front();
   }
+  // Truth moves in space for the fusion-centre filters, which predict with process noise.
+  for (const std::string algorithm : {"ekf", "lbekf", "lbekf_vr", "lbekf_i"})
+    EXPECT_NO_THROW(scenario_3d({"algorithm.name=" + algorithm, "world.motion=random_walk"})) << algorithm;
 }
 
 estimators::Estimate spatial_estimate(const Vec3& mean, const Mat3& covariance) {
