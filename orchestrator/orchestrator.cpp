@@ -361,7 +361,7 @@ class Orchestrator {
       for (AgentId i = 0; i < world_.size(); ++i)
         batches.push_back(world::generate_batch(world_, scenario_, i, step));
       if (recording_) recording_->append_step(step, world_.truth, batches);
-      rundir::observe_world_step(record_, step, world_.truth, batches);
+      rundir::observe_world_step(record_, step, world_, batches);
       mark(Phase::kGenerate);
       transport.publish_batches(
           runtime::Header{kOrchestratorId, static_cast<std::uint32_t>(step), step, stamp_ns, stamp_ns},

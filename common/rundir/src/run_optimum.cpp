@@ -26,9 +26,9 @@ std::string_view reference_text(world::OptimumKind kind) {
 
 }  // namespace
 
-void observe_world_step(RunRecord& record, std::int64_t step, const std::vector<Vec2>& truth,
+void observe_world_step(RunRecord& record, std::int64_t step, const world::World& world,
                         const std::vector<estimators::MeasurementBatch>& batches) {
-  if (record.optimum_data) record.optimum_data->observe(step, truth, batches);
+  if (record.optimum_data) record.optimum_data->observe(step, world.truth, batches, world.altitude);
 }
 
 void note_scored_estimates(RunRecord& record,

@@ -293,7 +293,7 @@ class AgentClockSimulation {
     for (AgentId i = 0; i < world_.size(); ++i)
       batches.push_back(world::generate_batch(world_, scenario_, i, step));
     if (options_.recorder) options_.recorder->world_step(step, world_.truth, batches);
-    rundir::observe_world_step(record, step, world_.truth, batches);
+    rundir::observe_world_step(record, step, world_, batches);
     for (AgentId i = 0; i < world_.size(); ++i) {
       auto batch = std::make_shared<const estimators::MeasurementBatch>(
           std::move(batches[static_cast<std::size_t>(i)]));

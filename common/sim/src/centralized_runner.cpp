@@ -51,7 +51,7 @@ rundir::RunRecord run_centralized_simulation(const config::Scenario& scenario, c
       pointers[static_cast<std::size_t>(i)] = &batches[static_cast<std::size_t>(i)];
     }
     if (options.recorder) options.recorder->world_step(step, world.truth, batches);
-    rundir::observe_world_step(record, step, world.truth, batches);
+    rundir::observe_world_step(record, step, world, batches);
     filter->step(run::centralized_measurements(scenario, pointers));
     if (filter->last_truncated_entries() > 0) ++truncated_steps;
     for (AgentId i = 0; i < n; ++i) estimates[static_cast<std::size_t>(i)] = run::fusion_estimate(*filter, i);

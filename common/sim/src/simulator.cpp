@@ -249,7 +249,7 @@ void LockstepSimulation::run_step(std::int64_t step, rundir::RunRecord& record) 
     batches_[static_cast<std::size_t>(i)] = world::generate_batch(world_, scenario_, i, step);
   });
   if (options_.recorder) options_.recorder->world_step(step, world_.truth, batches_);
-  rundir::observe_world_step(record, step, world_.truth, batches_);
+  rundir::observe_world_step(record, step, world_, batches_);
   const double stepping = runtime::thread_cpu_s();
   for_each_agent(n_, threads_, control_, step_phase_, [&](AgentId i) { step_agent_with_batch(i, step); });
   run_extra_rounds(step);

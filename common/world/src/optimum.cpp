@@ -7,6 +7,7 @@
 #include <ctime>
 #include <map>
 
+#include "optimum_data.hpp"
 #include "swarmloc/world/bound.hpp"
 
 namespace swarmloc::world {
@@ -41,45 +42,10 @@ double thread_cpu_s() {
 
 }  // namespace
 
-/// What the algorithm's data hold (config::BoundSpec, docs/algorithms.md §1.3.1) and the world's static
-/// facts. Not in the anonymous namespace: OptimumAccumulator::Data, which has external linkage, holds one.
-struct OptimumSelection {
-  config::RangeDraws draws = kAllDraws;
-  bool anchors_in_state = false;  ///< anchors are unknowns with fixes (else their positions are known)
-  bool shared = false;            ///< both ends hold one draw: it counts once
-  std::vector<bool> is_anchor;
-  std::vector<double> altitude;                    ///< a 3-D world's true z per agent (empty: planar)
-  std::vector<std::vector<AgentId>> neighbours;    ///< the step-0 graph (sorted)
-  std::vector<std::vector<int>> edge_of;           ///< parallel to neighbours: the undirected edge's index
-  std::vector<std::pair<AgentId, AgentId>> edges;  ///< (lo, hi)
-
-  [[nodiscard]] bool anchor(AgentId i) const { return is_anchor[static_cast<std::size_t>(i)]; }
-
-  /// Whether agent i's draw of the range to j is in the data (snapshot_network's rule, with the values).
-  [[nodiscard]] bool uses(AgentId i, AgentId j) const {
-    switch (draws) {
-      case kOnePerEdge:
-        return i < j;  // the fusion centre's: the lower id's draw (centralized_measurements)
-      case kOwnDraws:
-        return !anchor(i) && (!shared || i < j || anchor(j));
-      case kAllDraws:
-        break;
-    }
-    return !shared || i < j;
-  }
-
-  /// The undirected edge i–j of the step-0 graph, or −1.
-  [[nodiscard]] int edge(AgentId i, AgentId j) const {
-    const auto& list = neighbours[static_cast<std::size_t>(i)];
-    const auto it = std::lower_bound(list.begin(), list.end(), j);
-    if (it == list.end() || *it != j) return -1;
-    return edge_of[static_cast<std::size_t>(i)][static_cast<std::size_t>(it - list.begin())];
-  }
-};
-
 namespace {
 
 using Selection = OptimumSelection;
+using namespace optimum_parts;
 
 Selection make_selection(const World& world, const config::Scenario& s, const BoundData& data) {
   Selection sel;
@@ -87,7 +53,7 @@ Selection make_selection(const World& world, const config::Scenario& s, const Bo
   sel.anchors_in_state = data.anchors == kFixes && s.noise.anchor_fix_std_m > 0.0;
   sel.shared = s.noise.shared_range_draws;
   sel.is_anchor = world.is_anchor;
-  if (world.dimensions == 3) sel.altitude = world.altitude;  // static truth: z does not change
+  if (world.dimensions == 3) sel.altitude = world.altitude;  // step 0's z: static truth's throughout
   sel.neighbours = world.neighbours;
   sel.edge_of.resize(world.neighbours.size());
   for (std::size_t i = 0; i < world.neighbours.size(); ++i) {
@@ -110,20 +76,29 @@ Selection make_selection(const World& world, const config::Scenario& s, const Bo
   return sel;
 }
 
-/// Σ 1/σ² and Σ r/σ² of an edge's draws: their ML is that of one draw of the weighted mean.
-struct EdgeStat {
-  double information = 0.0;
-  double weighted = 0.0;
-};
+/// Both starts reached one solution: within 100 times the solver's stopping step (10⁻⁷ of the largest
+/// coordinate, at least of 1 m), far below any range noise or mirror distance.
+bool same_solution(const OptimumEstimate& a, const OptimumEstimate& b) {
+  double scale = 1.0;
+  for (const Vec2& x : a.position) scale = std::max(scale, x.cwiseAbs().maxCoeff());
+  for (const Altitude& z : a.altitude) scale = std::max(scale, std::abs(z.z_m));
+  const double tolerance = 1e-5 * scale;
+  for (std::size_t i = 0; i < a.position.size(); ++i) {
+    if (!a.altitude.empty()) {
+      const Vec3 difference = join(a.position[i] - b.position[i], a.altitude[i].z_m - b.altitude[i].z_m);
+      if (difference.norm() > tolerance) return false;
+    } else if ((a.position[i] - b.position[i]).norm() > tolerance) {
+      return false;
+    }
+  }
+  return true;
+}
 
-/// Σ C⁻¹ and Σ C⁻¹ y of an anchor's fixes.
-struct FixStat {
-  Mat2 information = Mat2::Zero();
-  Vec2 weighted = Vec2::Zero();
-};
+}  // namespace
 
-/// Adds the selected range draws of one step's batches into `stats` (indexed by edge).
-void add_ranges(const Selection& sel, const std::vector<estimators::MeasurementBatch>& batches,
+namespace optimum_parts {
+
+void add_ranges(const OptimumSelection& sel, const std::vector<estimators::MeasurementBatch>& batches,
                 std::vector<EdgeStat>& stats) {
   for (std::size_t i = 0; i < batches.size() && i < sel.is_anchor.size(); ++i) {
     const auto agent = static_cast<AgentId>(i);
@@ -139,8 +114,7 @@ void add_ranges(const Selection& sel, const std::vector<estimators::MeasurementB
   }
 }
 
-/// Adds the anchors' fixes of one step's batches into `fixes` (indexed by agent), if anchors are unknowns.
-void add_fixes(const Selection& sel, const std::vector<estimators::MeasurementBatch>& batches,
+void add_fixes(const OptimumSelection& sel, const std::vector<estimators::MeasurementBatch>& batches,
                std::vector<FixStat>& fixes) {
   if (!sel.anchors_in_state) return;
   for (std::size_t i = 0; i < batches.size() && i < fixes.size(); ++i) {
@@ -149,11 +123,14 @@ void add_fixes(const Selection& sel, const std::vector<estimators::MeasurementBa
     const Mat2 information = fix->covariance.inverse();
     fixes[i].information += information;
     fixes[i].weighted += information * fix->position_m;
+    if (!sel.altitude.empty() && fix->z_m) {
+      fixes[i].z_information += 1.0 / fix->covariance(0, 0);
+      fixes[i].z_weighted += *fix->z_m / fix->covariance(0, 0);
+    }
   }
 }
 
-/// RMSE and mean NEES of `estimate` over the world's non-anchor agents.
-OptimumPoint score_point(std::int64_t step, const Selection& sel, const std::vector<Vec2>& truth,
+OptimumPoint score_point(std::int64_t step, const OptimumSelection& sel, const std::vector<Vec2>& truth,
                          const OptimumEstimate& estimate, bool singular, bool covariance) {
   OptimumPoint point;
   point.step = step;
@@ -183,61 +160,7 @@ OptimumPoint score_point(std::int64_t step, const Selection& sel, const std::vec
   return point;
 }
 
-/// Both starts reached one solution: within 100 times the solver's stopping step (10⁻⁷ of the largest
-/// coordinate, at least of 1 m), far below any range noise or mirror distance.
-bool same_solution(const OptimumEstimate& a, const OptimumEstimate& b) {
-  double scale = 1.0;
-  for (const Vec2& x : a.position) scale = std::max(scale, x.cwiseAbs().maxCoeff());
-  for (const Altitude& z : a.altitude) scale = std::max(scale, std::abs(z.z_m));
-  const double tolerance = 1e-5 * scale;
-  for (std::size_t i = 0; i < a.position.size(); ++i) {
-    if (!a.altitude.empty()) {
-      const Vec3 difference = join(a.position[i] - b.position[i], a.altitude[i].z_m - b.altitude[i].z_m);
-      if (difference.norm() > tolerance) return false;
-    } else if ((a.position[i] - b.position[i]).norm() > tolerance) {
-      return false;
-    }
-  }
-  return true;
-}
-
-/// An agent's point in the optimum's D dimensions: its planar part, with its z in 3-D.
-template <int D>
-Eigen::Matrix<double, D, 1> optimum_point_of(const Vec2& planar, const std::vector<double>& z,
-                                             std::size_t i) {
-  if constexpr (D == 2) {
-    return planar;
-  } else {
-    return join(planar, z[i]);
-  }
-}
-
-}  // namespace
-
-// ---- The data, static or moving ----
-
-class OptimumAccumulator::Data {
- public:
-  explicit Data(Selection selection) : sel_(std::move(selection)) {}
-  virtual ~Data() = default;
-  Data(const Data&) = delete;
-  Data& operator=(const Data&) = delete;
-  Data(Data&&) = delete;
-  Data& operator=(Data&&) = delete;
-  virtual void observe(std::int64_t step, const std::vector<Vec2>& truth,
-                       const std::vector<estimators::MeasurementBatch>& batches) = 0;
-  /// Keeps the data through `step` (the step just observed) for a later solve.
-  virtual void checkpoint(std::int64_t step) = 0;
-  /// The optimum of the data through `step` (a kept checkpoint or the last observed step); `estimates` (with
-  /// their z in a 3-D world): a second start (static truth only).
-  [[nodiscard]] virtual OptimumEstimate solve(std::int64_t step, const std::vector<Vec2>* estimates,
-                                              const std::vector<double>* estimate_z) const = 0;
-  /// Drops what was kept for `step`'s checkpoint.
-  virtual void release(std::int64_t /*step*/) {}
-
- protected:
-  Selection sel_;
-};
+}  // namespace optimum_parts
 
 namespace {
 
@@ -249,9 +172,10 @@ class StaticData final : public OptimumAccumulator::Data {
         once_(once),
         current_{std::vector<EdgeStat>(sel_.edges.size()), std::vector<FixStat>(sel_.is_anchor.size()), {}} {}
 
-  void observe(std::int64_t step, const std::vector<Vec2>& truth,
+  void observe(std::int64_t step, const std::vector<Vec2>& truth, const std::vector<double>& /*altitude*/,
                const std::vector<estimators::MeasurementBatch>& batches) override {
-    // noise.draw = once repeats step 0's draws bit for bit: one draw, not many.
+    // Static truth: z is the selection's. noise.draw = once repeats step 0's draws bit for bit: one draw, not
+    // many.
     if (!once_ || step == 0) {
       add_ranges(sel_, batches, current_.edges);
       add_fixes(sel_, batches, current_.fixes);
@@ -313,7 +237,7 @@ class StaticData final : public OptimumAccumulator::Data {
   }
 
   /// The problem of one snapshot: an unknown per non-anchor (and per anchor with fixes), from `start`; D = 3
-  /// in a 3-D world (no fixes there: none_reason).
+  /// in a 3-D world.
   template <int D>
   OptimumEstimate solve_snapshot(std::int64_t step, const Snapshot& snap,
                                  const std::vector<Point<D>>& start) const {
@@ -326,12 +250,9 @@ class StaticData final : public OptimumAccumulator::Data {
       problem.start.push_back(start[i]);
     }
     add_range_factors<D>(snap, block, problem);
-    if constexpr (D == 2) {
-      for (std::size_t i = 0; i < n; ++i) {
-        const FixStat& fix = snap.fixes[i];
-        if (block[i] < 0 || !(fix.information.determinant() > 0.0)) continue;
-        problem.linear.push_back({block[i], -1, fix.information.ldlt().solve(fix.weighted), fix.information});
-      }
+    for (std::size_t i = 0; i < n; ++i) {
+      if (block[i] >= 0 && informs<D>(snap.fixes[i]))
+        problem.linear.push_back(fix_factor<D>(block[i], snap.fixes[i]));
     }
     const OptimumSolutionOf<D> solution = solve_optimum_problem(problem, true);
     OptimumEstimate estimate;
@@ -391,169 +312,6 @@ class StaticData final : public OptimumAccumulator::Data {
   std::map<std::int64_t, Snapshot> kept_;
 };
 
-/// One step's selected data of a moving world.
-struct StepData {
-  std::vector<std::pair<int, EdgeStat>> edges;  ///< (edge, its draws this step)
-  std::vector<std::pair<int, FixStat>> fixes;   ///< (anchor, its fix this step)
-  std::vector<Vec2> truth;
-};
-
-/// Moving truth: every step's data, and the MAP of the trajectory up to a step (docs/algorithms.md §1.3.2).
-class MovingData final : public OptimumAccumulator::Data {
- public:
-  MovingData(Selection selection, const World& world, const config::Scenario& s)
-      : Data(std::move(selection)),
-        initial_guess_(world.initial_guess),
-        prior_variance_(start_prior_variance(s)),
-        motion_variance_(s.world.motion_std_m * s.world.motion_std_m),
-        scratch_(sel_.edges.size()) {}
-
-  void observe(std::int64_t /*step*/, const std::vector<Vec2>& truth,
-               const std::vector<estimators::MeasurementBatch>& batches) override {
-    StepData data;
-    data.truth = truth;
-    std::fill(scratch_.begin(), scratch_.end(), EdgeStat{});
-    add_ranges(sel_, batches, scratch_);
-    for (std::size_t e = 0; e < scratch_.size(); ++e) {
-      if (scratch_[e].information > 0.0) data.edges.emplace_back(static_cast<int>(e), scratch_[e]);
-    }
-    std::vector<FixStat> fixes(sel_.anchors_in_state ? sel_.is_anchor.size() : 0);
-    add_fixes(sel_, batches, fixes);
-    for (std::size_t i = 0; i < fixes.size(); ++i) {
-      if (fixes[i].information.determinant() > 0.0) data.fixes.emplace_back(static_cast<int>(i), fixes[i]);
-    }
-    steps_.push_back(std::move(data));
-  }
-
-  void checkpoint(std::int64_t /*step*/) override {}  // every step is kept
-
-  [[nodiscard]] OptimumEstimate solve(std::int64_t step, const std::vector<Vec2>* estimates,
-                                      const std::vector<double>* estimate_z) const override;
-
- private:
-  /// Block indices: non-anchor i at step k, k·moving + slot(i); an anchor with fixes, one block after them.
-  struct Layout {
-    std::vector<int> slot;    ///< per agent: its index among the moving agents, or −1
-    std::vector<int> anchor;  ///< per agent: its block if it is a static unknown (anchor with fixes), or −1
-    int moving = 0;
-    [[nodiscard]] int at(std::size_t agent, std::size_t step) const {
-      if (anchor[agent] >= 0) return anchor[agent];
-      return slot[agent] < 0 ? -1 : static_cast<int>(step) * moving + slot[agent];
-    }
-  };
-
-  Layout layout(std::size_t steps, OptimumProblem& problem) const;
-  void add_step_factors(std::size_t k, const Layout& layout, OptimumProblem& problem) const;
-
-  std::vector<Vec2> initial_guess_;
-  double prior_variance_ = 1.0;
-  double motion_variance_ = 0.0;
-  std::vector<EdgeStat> scratch_;
-  std::vector<StepData> steps_;
-  /// The last solve's blocks and its steps: a later checkpoint starts its earlier steps there (the
-  /// trajectory up to the previous checkpoint is nearly solved already), its new steps from the truth.
-  mutable std::vector<Vec2> warm_;
-  mutable std::size_t warm_steps_ = 0;
-};
-
-MovingData::Layout MovingData::layout(std::size_t steps, OptimumProblem& problem) const {
-  const std::size_t n = sel_.is_anchor.size();
-  Layout out;
-  out.slot.assign(n, -1);
-  out.anchor.assign(n, -1);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!sel_.is_anchor[i]) out.slot[i] = out.moving++;
-  }
-  const auto moving = static_cast<std::size_t>(out.moving);
-  const std::size_t warm = warm_steps_ <= steps ? warm_steps_ : 0;
-  problem.start.resize(moving * steps);
-  for (std::size_t k = 0; k < steps; ++k) {
-    for (std::size_t i = 0; i < n; ++i) {
-      const auto b = static_cast<std::size_t>(out.at(i, k));
-      if (out.slot[i] >= 0) problem.start[b] = k < warm ? warm_[b] : steps_[k].truth[i];
-    }
-  }
-  std::size_t anchors = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!sel_.is_anchor[i] || !sel_.anchors_in_state) continue;
-    out.anchor[i] = static_cast<int>(problem.start.size());
-    // Anchors do not move (world.cpp advance_truth): one block each, after the moving ones.
-    problem.start.push_back(warm > 0 ? warm_[moving * warm + anchors] : steps_[0].truth[i]);
-    ++anchors;
-  }
-  return out;
-}
-
-void MovingData::add_step_factors(std::size_t k, const Layout& lay, OptimumProblem& problem) const {
-  const StepData& data = steps_[k];
-  for (const auto& [e, stat] : data.edges) {
-    auto [lo, hi] = sel_.edges[static_cast<std::size_t>(e)];
-    if (lay.at(static_cast<std::size_t>(lo), k) < 0) std::swap(lo, hi);
-    const int a = lay.at(static_cast<std::size_t>(lo), k);
-    if (a < 0) continue;
-    const int b = lay.at(static_cast<std::size_t>(hi), k);
-    problem.ranges.push_back(
-        {a, b, data.truth[static_cast<std::size_t>(hi)], stat.information, stat.weighted / stat.information});
-  }
-  for (const auto& [i, fix] : data.fixes) {
-    const int a = lay.at(static_cast<std::size_t>(i), k);
-    if (a >= 0)
-      problem.linear.push_back({a, -1, fix.information.ldlt().solve(fix.weighted), fix.information});
-  }
-  if (k == 0) return;
-  // The world's random walk (world.cpp advance_truth): x_i(k) − x_i(k−1) ~ N(0, motion_std² I).
-  const Mat2 step_information = Mat2::Identity() / motion_variance_;
-  for (std::size_t i = 0; i < lay.slot.size(); ++i) {
-    if (lay.slot[i] >= 0)
-      problem.linear.push_back({lay.at(i, k - 1), lay.at(i, k), Vec2::Zero(), step_information});
-  }
-}
-
-OptimumEstimate MovingData::solve(std::int64_t step, const std::vector<Vec2>* /*estimates*/,
-                                  const std::vector<double>* /*estimate_z*/) const {
-  OptimumEstimate estimate;
-  if (step < 0 || static_cast<std::size_t>(step) >= steps_.size()) return estimate;
-  const auto steps = static_cast<std::size_t>(step) + 1;
-  OptimumProblem problem;
-  problem.keep_order = true;  // blocks step by step, the anchors' last: a band with a border
-  const Layout lay = layout(steps, problem);
-  // The prior of x(0) the PCRB starts from (bound.cpp): the initial guesses with their spread, for every
-  // unknown (the anchors with fixes included: their guess is their position).
-  const Mat2 prior = Mat2::Identity() / prior_variance_;
-  for (std::size_t i = 0; i < lay.slot.size(); ++i) {
-    const int a = lay.at(i, 0);
-    if (a >= 0) problem.linear.push_back({a, -1, initial_guess_[i], prior});
-  }
-  problem.ranges.reserve(steps * (steps_[0].edges.size() + 1));
-  problem.linear.reserve(steps * (lay.slot.size() + 1));
-  for (std::size_t k = 0; k < steps; ++k) add_step_factors(k, lay, problem);
-  problem.marginals_from = (steps - 1) * static_cast<std::size_t>(lay.moving);  // the last step, the anchors
-  const OptimumSolution solution = solve_optimum_problem(problem, true);
-  warm_ = solution.x;
-  warm_steps_ = steps;
-  const std::vector<Vec2>& truth = steps_[steps - 1].truth;
-  const std::size_t n = truth.size();
-  estimate.step = step;
-  estimate.solved = !solution.singular;
-  estimate.position = truth;
-  estimate.truth = truth;
-  estimate.covariance.assign(n, Mat2::Zero());
-  estimate.in_state.assign(n, false);
-  for (std::size_t i = 0; i < n; ++i) {
-    const int b = lay.at(i, steps - 1);
-    if (b < 0) continue;
-    estimate.in_state[i] = true;
-    estimate.position[i] = solution.x[static_cast<std::size_t>(b)];
-    if (!solution.covariance.empty())
-      estimate.covariance[i] = solution.covariance[static_cast<std::size_t>(b)];
-  }
-  estimate.point = score_point(step, sel_, truth, estimate, solution.singular, !solution.covariance.empty());
-  estimate.point.iterations = solution.iterations;
-  estimate.point.converged = solution.converged;
-  estimate.point.singular_at_solution = solution.singular_at_solution;
-  return estimate;
-}
-
 /// The steps the run will observe (a recorded world holds its own number).
 std::int64_t run_steps(const World& world, const config::Scenario& s) {
   return world.recorded ? std::min<std::int64_t>(s.run.steps, world.recorded->steps()) : s.run.steps;
@@ -570,10 +328,6 @@ std::string none_reason(const World& world, const config::Scenario& s, const Bou
   for (const auto& list : world.neighbours) edges += static_cast<std::int64_t>(list.size());
   if (edges / 2 > kMaxOptimumEdges)
     return "more than " + std::to_string(kMaxOptimumEdges) + " edges: the optimum is not computed";
-  if (world.dimensions == 3 && truth_moves(s))
-    return "3-D moving truth: the smoother is implemented for planar worlds only";
-  if (world.dimensions == 3 && data.anchors == kFixes && s.noise.anchor_fix_std_m > 0.0)
-    return "3-D world with anchor fixes: no optimum implemented (the fixes are planar)";
   if (!truth_moves(s)) return {};
   if (s.noise.draw == config::NoiseDraw::kOnce)
     return "moving truth with noise.draw = once (repeated draws): no optimum implemented";
@@ -623,7 +377,7 @@ OptimumAccumulator::OptimumAccumulator(const World& world, const config::Scenari
   Selection selection = make_selection(world, s, data);
   if (truth_moves(s)) {
     result_.kind = OptimumKind::kMapSmoother;
-    data_ = std::make_unique<MovingData>(std::move(selection), world, s);
+    data_ = make_moving_data(std::move(selection), world, s);
   } else {
     result_.kind = OptimumKind::kBatchMl;
     data_ = std::make_unique<StaticData>(std::move(selection), s.noise.draw == config::NoiseDraw::kOnce);
@@ -635,10 +389,11 @@ OptimumAccumulator::OptimumAccumulator(OptimumAccumulator&&) noexcept = default;
 OptimumAccumulator& OptimumAccumulator::operator=(OptimumAccumulator&&) noexcept = default;
 
 void OptimumAccumulator::observe(std::int64_t step, const std::vector<Vec2>& truth,
-                                 const std::vector<estimators::MeasurementBatch>& batches) {
+                                 const std::vector<estimators::MeasurementBatch>& batches,
+                                 const std::vector<double>& altitude) {
   if (!data_) return;
   const double started = thread_cpu_s();
-  data_->observe(step, truth, batches);
+  data_->observe(step, truth, altitude, batches);
   last_observed_ = step;
   if ((step + 1) % result_.interval == 0 || step + 1 == steps_) {
     data_->checkpoint(step);

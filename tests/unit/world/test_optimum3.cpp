@@ -337,5 +337,135 @@ TEST(Optimum3, AMirrorImageIsTheOptimumWhereAnEstimateWithItsZFoundIt) {
   EXPECT_NEAR(no_z.final_altitude[3].z_m, 3.0, 0.1);
 }
 
+// ---- Anchor fixes in space and moving truth ----
+
+/// One raw term of a MAP in space over blocks of 3: a point x_a ~ N(value, v I), a step x_b − x_a ~ N(0, v
+/// I), or a range ‖x_a − x_b‖ (b < 0: to `value`).
+struct RawTerm3 {
+  enum Kind { kPoint, kStep, kRange } kind = kPoint;
+  int a = 0;
+  int b = -1;
+  Vec3 value = Vec3::Zero();
+  double range = 0.0;
+  double variance = 1.0;
+};
+
+/// The whitened residuals of `terms` at x and their Jacobian.
+void raw_residuals3(const std::vector<RawTerm3>& terms, const VecX& x, VecX& r, MatX& J) {
+  Eigen::Index rows = 0;
+  for (const auto& t : terms) rows += t.kind == RawTerm3::kRange ? 1 : 3;
+  r = VecX::Zero(rows);
+  J = MatX::Zero(rows, x.size());
+  Eigen::Index row = 0;
+  for (const auto& t : terms) {
+    const double w = 1.0 / std::sqrt(t.variance);
+    const Vec3 xa = x.segment<3>(3 * t.a);
+    if (t.kind == RawTerm3::kPoint) {
+      r.segment<3>(row) = w * (xa - t.value);
+      J.block<3, 3>(row, 3 * t.a) = w * Mat3::Identity();
+    } else if (t.kind == RawTerm3::kStep) {
+      r.segment<3>(row) = w * (x.segment<3>(3 * t.b) - xa);
+      J.block<3, 3>(row, 3 * t.a) = -w * Mat3::Identity();
+      J.block<3, 3>(row, 3 * t.b) = w * Mat3::Identity();
+    } else {
+      const Vec3 d = xa - (t.b < 0 ? t.value : Vec3(x.segment<3>(3 * t.b)));
+      r(row) = w * (d.norm() - t.range);
+      J.block<1, 3>(row, 3 * t.a) = w * d.transpose() / d.norm();
+      if (t.b >= 0) J.block<1, 3>(row, 3 * t.b) = -w * d.transpose() / d.norm();
+    }
+    row += t.kind == RawTerm3::kRange ? 1 : 3;
+  }
+}
+
+/// Dense Gauss–Newton from x (started at the truth: one basin); its inverse information in `covariance`.
+VecX dense_map3(const std::vector<RawTerm3>& terms, VecX x, MatX& covariance) {
+  VecX r;
+  MatX J;
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    raw_residuals3(terms, x, r, J);
+    const VecX dx = (J.transpose() * J).ldlt().solve(-J.transpose() * r);
+    x += dx;
+    if (dx.cwiseAbs().maxCoeff() < 1e-13) break;
+  }
+  raw_residuals3(terms, x, r, J);
+  covariance = (J.transpose() * J).inverse();
+  return x;
+}
+
+// The anchors are unknowns with noisy fixes whose z travels with them (AbsoluteFix::z_m), and the agents walk
+// in space: the optimum is the MAP of the whole trajectory (priors on the initial guesses, the world's walk
+// in x, y and z, every range and fix), built here densely from the raw draws; without the walk it is the
+// batch ML of every draw and fix.
+TEST(Optimum3, WithFixesAndWalkingTruthItIsTheDenseMapOfTheRawData) {
+  for (const bool moving : {false, true}) {
+    SCOPED_TRACE(moving ? "walking truth" : "static truth");
+    World world = box_world();
+    auto s = spatial_scenario(0.3, 6);
+    s.noise.anchor_fix_std_m = 0.7;  // dml's data: every draw, the anchors in the state with their fixes
+    s.world.initial_guess_std_m = 1.5;
+    if (moving) {
+      s.world.motion = config::Motion::kRandomWalk;
+      s.world.motion_std_m = 0.3;
+    }
+    std::mt19937_64 rng(17);
+    std::normal_distribution<double> gauss;
+    for (std::size_t i = 0; i < world.truth.size(); ++i) {
+      world.initial_guess[i] = world.truth[i] + 1.5 * Vec2(gauss(rng), gauss(rng));
+      world.initial_altitude[i] = world.altitude[i] + 1.5 * gauss(rng);
+    }
+    const World start = world;
+    OptimumAccumulator accumulator(start, s);
+    const int steps = static_cast<int>(s.run.steps);
+    // Blocks: agents 5–7 at each step (once if static), then anchors 0–4.
+    const int moving_blocks = moving ? 3 * steps : 3;
+    auto block = [&](int agent, int step) {
+      return agent < 5 ? moving_blocks + agent : (moving ? 3 * step : 0) + agent - 5;
+    };
+    std::vector<RawTerm3> terms;
+    VecX x0 = VecX::Zero(3 * (moving_blocks + 5));
+    for (int k = 0; k < steps; ++k) {
+      if (k > 0) advance_truth(world, s, k);
+      auto batches = draw_batches(world, s, k, rng);
+      for (AgentId i = 0; i < 8; ++i) {
+        x0.segment<3>(3 * block(i, k)) = world.position3(i);
+        if (i < 5) {
+          const Vec3 fix = world.position3(i) + 0.7 * Vec3(gauss(rng), gauss(rng), gauss(rng));
+          batches[static_cast<std::size_t>(i)].fix =
+              estimators::AbsoluteFix{fix.head<2>(), 0.49 * Mat2::Identity(), fix.z()};
+          terms.push_back({RawTerm3::kPoint, block(i, k), -1, fix, 0.0, 0.49});
+        } else if (k > 0 && moving) {
+          terms.push_back({RawTerm3::kStep, block(i, k - 1), block(i, k), Vec3::Zero(), 0.0, 0.09});
+        }
+        for (const auto& r : batches[static_cast<std::size_t>(i)].ranges)
+          terms.push_back(
+              {RawTerm3::kRange, block(i, k), block(r.peer, k), Vec3::Zero(), r.range_m, r.std_m * r.std_m});
+      }
+      accumulator.observe(k, world.truth, batches, world.altitude);
+    }
+    for (AgentId i = 0; i < 8 && moving; ++i) {
+      const auto at = static_cast<std::size_t>(i);
+      terms.push_back({RawTerm3::kPoint, block(i, 0), -1,
+                       join(start.initial_guess[at], start.initial_altitude[at]), 0.0, 2.25});
+    }
+    MatX covariance;
+    const VecX reference = dense_map3(terms, x0, covariance);
+    const OptimumEstimate optimum = accumulator.solve_now();
+    ASSERT_TRUE(optimum.solved);
+    ASSERT_EQ(optimum.altitude.size(), 8U);
+    for (AgentId i = 0; i < 8; ++i) {
+      const auto at = static_cast<std::size_t>(i);
+      const int b = block(i, steps - 1);
+      const Vec3 solved = join(optimum.position[at], optimum.altitude[at].z_m);
+      EXPECT_LT((solved - reference.segment<3>(3 * b)).norm(), 1e-8) << "agent " << i;
+      EXPECT_GT((solved - world.position3(i)).norm(), 1e-3) << "agent " << i << ": the MAP is not the truth";
+      const Mat3 expected = covariance.block<3, 3>(3 * b, 3 * b);
+      EXPECT_LT((join(optimum.covariance[at], optimum.altitude[at]) - expected).norm(),
+                1e-8 * expected.norm())
+          << "agent " << i;
+      EXPECT_EQ(optimum.truth_z[at], world.altitude[at]) << "agent " << i;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace swarmloc::world

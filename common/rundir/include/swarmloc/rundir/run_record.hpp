@@ -110,9 +110,9 @@ LinkTotals link_totals(const RunRecord& record);
 /// Sets record.crlb (scenario_crlb) and record.bound (run_bound) from `world` at world step 0, and starts
 /// the run's optimum (record.optimum_data).
 void compute_run_bounds(RunRecord& record, const world::World& world);
-/// Hands world step `step`'s truth and batches (index = agent id) to the run's optimum; every runtime calls
-/// it where it generates them (docs/algorithms.md §1.3.2).
-void observe_world_step(RunRecord& record, std::int64_t step, const std::vector<Vec2>& truth,
+/// Hands world step `step`'s truth (`world`'s, with its z in 3-D) and batches (index = agent id) to the run's
+/// optimum; every runtime calls it where it generates them (docs/algorithms.md §1.3.2).
+void observe_world_step(RunRecord& record, std::int64_t step, const world::World& world,
                         const std::vector<estimators::MeasurementBatch>& batches);
 /// Keeps a scored step's estimates as the optimum's second start; every runtime calls it where it scores.
 void note_scored_estimates(RunRecord& record,

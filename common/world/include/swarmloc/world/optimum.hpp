@@ -172,9 +172,11 @@ class OptimumAccumulator {
   OptimumAccumulator(const OptimumAccumulator&) = delete;
   OptimumAccumulator& operator=(const OptimumAccumulator&) = delete;
 
-  /// World step `step`'s truth and every agent's batch (index = agent id), in step order.
+  /// World step `step`'s truth and every agent's batch (index = agent id), in step order; `altitude`: a 3-D
+  /// world's true z per agent at the step (World::altitude; empty in a planar one).
   void observe(std::int64_t step, const std::vector<Vec2>& truth,
-               const std::vector<estimators::MeasurementBatch>& batches);
+               const std::vector<estimators::MeasurementBatch>& batches,
+               const std::vector<double>& altitude = {});
   /// Solves the checkpoints observed and not solved yet; `final`: the last observed step as well. With
   /// `estimates` (per agent, non-finite where it has none), a static world's last observed step is solved
   /// from them too and the solution that fits the data better is kept (the estimates' on a tie within
