@@ -349,6 +349,14 @@ void add_replay_command(CLI::App& app, SharedFlags& shared, ReplayCommand& repla
   command->add_flag("--no-cooperation", replay.no_cooperation,
                     "--murp: each vehicle on its own ranges (no loop closure with the others' estimates)");
   command->add_option("--domain", replay.murp.domain_id, "--murp: the DDS domain (default 0)");
+  command->add_flag("--ros2", replay.murp.ros2,
+                    "--murp over DDS: also publish every vehicle's relative pose of each peer and its truth "
+                    "on ROS 2 topics /swarmloc/murp/vehicle_A/vehicle_B/{pose,truth} (docs/ros2.md)");
+  command
+      ->add_option("--ros2-subscribers", replay.murp.ros2_subscribers,
+                   "--ros2: before the first window, wait (at most 30 s) until N ROS 2 readers have matched "
+                   "those topics, one per subscriber and topic (default 0: no wait)")
+      ->check(CLI::NonNegativeNumber);
   command->add_flag("--sim", options.in_process,
                     "--mrclam, --murp: run in the in-process simulator, not over DDS");
   command->add_option("--noise", options.noise_path,
@@ -374,6 +382,16 @@ int execute_murp_replay(ReplayCommand& replay, const SharedFlags& shared, const 
     return 2;
   }
   auto& murp = replay.murp;
+  if (murp.ros2 && options.in_process) {
+    std::fprintf(
+        stderr,
+        "error: --ros2 publishes from the DDS run's orchestrator; --sim runs without DDS (drop one)\n");
+    return 2;
+  }
+  if (murp.ros2_subscribers > 0 && !murp.ros2) {
+    std::fprintf(stderr, "error: --ros2-subscribers applies to --ros2\n");
+    return 2;
+  }
   murp.cooperate = !replay.no_cooperation;
   murp.in_process = options.in_process;
   murp.out_dir = shared.out_dir;
@@ -385,8 +403,12 @@ int execute_murp_replay(ReplayCommand& replay, const SharedFlags& shared, const 
 
 int execute_replay(ReplayCommand& replay, const SharedFlags& shared, const char* argv0) {
   if (!replay.murp.trial_dir.empty()) return execute_murp_replay(replay, shared, argv0);
-  if (!replay.murp.bias_path.empty() || replay.murp.no_bias || replay.no_cooperation) {
-    std::fprintf(stderr, "error: --bias, --no-bias and --no-cooperation apply to --murp DIR\n");
+  if (!replay.murp.bias_path.empty() || replay.murp.no_bias || replay.no_cooperation || replay.murp.ros2 ||
+      replay.murp.ros2_subscribers > 0) {
+    std::fprintf(
+        stderr,
+        "error: --bias, --no-bias, --no-cooperation, --ros2 and --ros2-subscribers apply to --murp DIR "
+        "(other runs publish on ROS 2 with --set dds.ros2=true)\n");
     return 2;
   }
   auto& options = replay.options;

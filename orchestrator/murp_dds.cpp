@@ -57,12 +57,17 @@ dds::UwbWindowInput window_input(const world::MurpTeamWindow& window, AgentId ve
   return input;
 }
 
-nlohmann::json counters_json(const dds::UwbTeamCounters& counters) {
-  return {{"samples_sent", counters.sent},
-          {"write_timeouts", counters.write_timeouts},
-          {"samples_received", counters.received},
-          {"samples_rejected", counters.rejected},
-          {"rejected_by_reason", counters.rejected_by_reason}};
+nlohmann::json counters_json(const dds::UwbTeamCounters& counters, bool ros2) {
+  nlohmann::json json{{"samples_sent", counters.sent},
+                      {"write_timeouts", counters.write_timeouts},
+                      {"samples_received", counters.received},
+                      {"samples_rejected", counters.rejected},
+                      {"rejected_by_reason", counters.rejected_by_reason}};
+  if (ros2) {
+    json["ros2_samples_sent"] = counters.ros2_sent;
+    json["ros2_write_timeouts"] = counters.ros2_write_timeouts;
+  }
+  return json;
 }
 
 class MurpDdsDriver {
@@ -71,13 +76,14 @@ class MurpDdsDriver {
       : windows_(windows),
         options_(options),
         team_(murp_team(windows)),
-        io_(dds::UwbTeamEndpoint{options.domain_id, team_, kOrchestratorId}) {}
+        io_(dds::UwbTeamEndpoint{options.domain_id, team_, kOrchestratorId}, options.ros2) {}
 
   MurpDdsRun run() {
     launch();
     const auto started = Clock::now();
-    if (wait_for_team()) {
-      match_s_ = seconds_since(started);
+    const bool team_ready = wait_for_team();
+    if (team_ready) match_s_ = seconds_since(started);
+    if (team_ready && wait_for_ros2_subscribers()) {
       Progress progress(options_.progress);
       for (const auto& window : windows_) {
         if (!run_window(window)) break;
@@ -124,6 +130,36 @@ class MurpDdsDriver {
     return true;
   }
 
+  /// With --ros2-subscribers N: until N ROS 2 readers (per subscriber and topic) have matched our writers.
+  bool wait_for_ros2_subscribers() {
+    if (!options_.ros2 || options_.ros2_subscribers <= 0) return true;
+    const auto deadline = Clock::now() + std::chrono::duration<double>(kMatchTimeoutS);
+    while (io_.ros2_matched_readers() < options_.ros2_subscribers) {
+      if (!alive()) return false;
+      if (Clock::now() > deadline) {
+        return fail("--ros2-subscribers " + std::to_string(options_.ros2_subscribers) + ": " +
+                    std::to_string(io_.ros2_matched_readers()) +
+                    " ROS 2 readers had matched the rt/swarmloc/murp/ topics after " +
+                    seconds_text(kMatchTimeoutS) + " (docs/ros2.md, \"MURP relative poses\")");
+      }
+      io_.wait_and_take_estimates(kPollS);  // only hellos until the first window
+    }
+    return true;
+  }
+
+  /// Window k's reports and truth on ROS 2, each peer with its IMU's tilt (its last one if it has none in
+  /// this window, as its observers' filters use it).
+  void publish_ros2(const world::MurpTeamWindow& window,
+                    const std::map<AgentId, std::map<AgentId, uwb::PoseEstimate>>& reports) {
+    for (const auto& [vehicle, sensing] : window.sensing) last_tilt_[vehicle] = sensing.tilt;
+    if (!options_.ros2) return;
+    dds::UwbRos2Window ros2{window.time_s, last_tilt_, {}, window.truth};
+    for (const auto& [observer, peers] : reports) {
+      for (const auto& [peer, estimate] : peers) ros2.estimates[{observer, peer}] = estimate;
+    }
+    io_.publish_ros2_window(ros2);
+  }
+
   /// Sends window k to every vehicle and collects every vehicle's fused estimates of it as rows.
   bool run_window(const world::MurpTeamWindow& window) {
     for (const AgentId vehicle : team_) io_.publish_window(window_input(window, vehicle));
@@ -149,6 +185,7 @@ class MurpDdsDriver {
       for (const auto& [peer, estimate] : peers)
         result_.rows.push_back({window.index, vehicle, peer, estimate});
     }
+    publish_ros2(window, reports);
     ++windows_completed_;
     return true;
   }
@@ -186,7 +223,7 @@ class MurpDdsDriver {
   }
 
   nlohmann::json counters() const {
-    nlohmann::json counters = counters_json(io_.counters());
+    nlohmann::json counters = counters_json(io_.counters(), options_.ros2);
     counters.update({{"domain_id", options_.domain_id},
                      {"windows_completed", windows_completed_},
                      {"window_timeouts", window_timeouts_},
@@ -218,6 +255,7 @@ class MurpDdsDriver {
   dds::UwbOrchestratorIo io_;
   ProcessLauncher launcher_;  // declared after io_: destroyed (children killed) before the participant
   MurpDdsRun result_;
+  std::map<AgentId, uwb::Tilt> last_tilt_;  ///< each vehicle's newest IMU tilt (ROS 2 orientations)
   std::int64_t windows_completed_ = 0;
   int window_timeouts_ = 0;
   std::uint64_t stale_reports_ = 0;

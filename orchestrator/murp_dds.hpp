@@ -19,6 +19,12 @@ struct MurpDdsOptions {
   int domain_id = 0;
   bool progress = true;
   double window_timeout_s = 20.0;  ///< longest wait for every vehicle's estimates of one window
+  /// Also publish every window's relative poses and their truth on ROS 2 topics (docs/ros2.md, "MURP
+  /// relative poses").
+  bool ros2 = false;
+  /// With ros2: before the first window, wait (at most 30 s) until this many ROS 2 readers have matched
+  /// those topics, counted once per subscriber and topic (subscribers started before the run); 0: no wait.
+  int ros2_subscribers = 0;
 };
 
 struct MurpDdsRun {

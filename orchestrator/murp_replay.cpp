@@ -120,6 +120,8 @@ int run_murp_replay(const MurpReplayOptions& options) {
     } else {
       MurpDdsOptions dds{options.agent_binary, out_dir,           model_path,
                          options.cooperate,    options.domain_id, options.progress};
+      dds.ros2 = options.ros2;
+      dds.ros2_subscribers = options.ros2_subscribers;
       auto run = run_murp_over_dds(windows, dds);
       if (run.bad_input) {
         std::fprintf(stderr, "error: %s\n", run.failure.c_str());

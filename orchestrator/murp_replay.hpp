@@ -20,6 +20,10 @@ struct MurpReplayOptions {
   bool progress = true;
   std::string agent_binary;  ///< DDS: the swarmloc executable that agents run
   int domain_id = 0;         ///< DDS domain
+  /// --ros2: the orchestrator also publishes the relative poses and their truth on ROS 2 topics (DDS only;
+  /// docs/ros2.md, "MURP relative poses").
+  bool ros2 = false;
+  int ros2_subscribers = 0;  ///< --ros2-subscribers: ROS 2 readers (per topic) to wait for before window 0
 };
 
 /// Returns the process exit code: 0 ok; 1 runtime failure (an agent died or the run was interrupted);

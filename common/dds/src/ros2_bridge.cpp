@@ -36,14 +36,30 @@ const dds_topic_descriptor_t& ros2_descriptor_without_type_information(
   return *copy;
 }
 
-std_msgs_msg_dds__Header_ ros2_header_of(std::int64_t stamp_ns) {
+/// `frame_id` must outlive the header's use.
+std_msgs_msg_dds__Header_ ros2_header_of(std::int64_t stamp_ns, const char* frame_id = kFrameId) {
   std_msgs_msg_dds__Header_ header{};
   const RosTime time = ros_time(stamp_ns);
   header.stamp.sec = time.sec;
   header.stamp.nanosec = time.nanosec;
   // dds_write only reads the string; the IDL's char* is not const.
-  header.frame_id = const_cast<char*>(kFrameId);
+  header.frame_id = const_cast<char*>(frame_id);
   return header;
+}
+
+/// A relative pose (position, heading ψ) with the peer's tilt as a geometry_msgs/Pose.
+geometry_msgs_msg_dds__Pose_ relative_pose_of(const estimators::uwb::RelativePose& pose,
+                                              const estimators::uwb::Tilt& peer_tilt) {
+  geometry_msgs_msg_dds__Pose_ out{};
+  out.position.x = pose.position_m.x();
+  out.position.y = pose.position_m.y();
+  out.position.z = pose.position_m.z();
+  const auto quaternion = attitude_quaternion(pose.heading_rad, peer_tilt.pitch_rad, peer_tilt.roll_rad);
+  out.orientation.x = quaternion[0];
+  out.orientation.y = quaternion[1];
+  out.orientation.z = quaternion[2];
+  out.orientation.w = quaternion[3];
+  return out;
 }
 
 }  // namespace
@@ -88,6 +104,63 @@ std::array<double, 36> pose_covariance(const estimators::Estimate& estimate) {
     at(kY, kYaw) = at(kYaw, kY) = estimate.heading->position_cov_m_rad.y();
   }
   return covariance;
+}
+
+std::string murp_vehicle_name(AgentId vehicle) { return "vehicle_" + std::to_string(vehicle); }
+
+std::string murp_pose_topic(AgentId observer, AgentId peer) {
+  return "rt/swarmloc/murp/" + murp_vehicle_name(observer) + "/" + murp_vehicle_name(peer) + "/pose";
+}
+
+std::string murp_truth_topic(AgentId observer, AgentId peer) {
+  return "rt/swarmloc/murp/" + murp_vehicle_name(observer) + "/" + murp_vehicle_name(peer) + "/truth";
+}
+
+std::string murp_level_frame(AgentId observer) { return murp_vehicle_name(observer) + "/level"; }
+
+std::int64_t murp_stamp_ns(double time_s) { return std::llround(time_s * 1e9); }
+
+std::array<double, 4> attitude_quaternion(double yaw_rad, double pitch_rad, double roll_rad) {
+  const double cy = std::cos(0.5 * yaw_rad), sy = std::sin(0.5 * yaw_rad);
+  const double cp = std::cos(0.5 * pitch_rad), sp = std::sin(0.5 * pitch_rad);
+  const double cr = std::cos(0.5 * roll_rad), sr = std::sin(0.5 * roll_rad);
+  // q_z(yaw)·q_y(pitch)·q_x(roll), (x, y, z, w)
+  return {sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
+          cr * cp * cy + sr * sp * sy};
+}
+
+std::array<double, 36> relative_pose_covariance(const estimators::uwb::Mat4& covariance) {
+  constexpr int kSize = 6;
+  constexpr std::array<int, 4> kAxisOf{0, 1, 2, 5};  // x, y, z, ψ -> x, y, z, rot z
+  std::array<double, 36> out{};
+  constexpr std::size_t kRollDiagonal = 3 * kSize + 3, kPitchDiagonal = 4 * kSize + 4;
+  out[kRollDiagonal] = out[kPitchDiagonal] = kUnknownVariance;
+  for (int row = 0; row < 4; ++row) {
+    for (int col = 0; col < 4; ++col) {
+      const int index =
+          kAxisOf[static_cast<std::size_t>(row)] * kSize + kAxisOf[static_cast<std::size_t>(col)];
+      out[static_cast<std::size_t>(index)] = 0.5 * (covariance(row, col) + covariance(col, row));
+    }
+  }
+  return out;
+}
+
+WireRelativePose::WireRelativePose(AgentId observer, double time_s,
+                                   const estimators::uwb::PoseEstimate& estimate,
+                                   const estimators::uwb::Tilt& peer_tilt)
+    : frame_id(murp_level_frame(observer)) {
+  sample.header = ros2_header_of(murp_stamp_ns(time_s), frame_id.c_str());
+  sample.pose.pose = relative_pose_of(estimate.pose, peer_tilt);
+  const auto covariance = relative_pose_covariance(estimate.covariance);
+  std::copy(covariance.begin(), covariance.end(), sample.pose.covariance);
+}
+
+WireRelativeTruth::WireRelativeTruth(AgentId observer, double time_s,
+                                     const estimators::uwb::RelativePose& truth,
+                                     const estimators::uwb::Tilt& peer_tilt)
+    : frame_id(murp_level_frame(observer)) {
+  sample.header = ros2_header_of(murp_stamp_ns(time_s), frame_id.c_str());
+  sample.pose = relative_pose_of(truth, peer_tilt);
 }
 
 WirePose::WirePose(const runtime::EstimateReport& report) {

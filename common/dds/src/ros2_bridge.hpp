@@ -4,6 +4,7 @@
 // and must outlive the dds_write call.
 #include <dds/dds.h>
 
+#include <string>
 #include <vector>
 
 #include "ros2.h"
@@ -39,6 +40,28 @@ struct WireRangeArray {
   WireRangeArray& operator=(const WireRangeArray&) = delete;
   std::vector<swarmloc_msgs_msg_dds__Range_> ranges;
   swarmloc_msgs_msg_dds__RangeArray_ sample{};
+};
+
+/// geometry_msgs/PoseWithCovarianceStamped of a MURP relative pose estimate (docs/ros2.md, "MURP relative
+/// poses"): the peer in `observer`'s level frame at trial time `time_s`, oriented Rz(ψ)·Ry(pitch)·Rx(roll)
+/// with the peer's roll and pitch `peer_tilt`; covariance relative_pose_covariance.
+struct WireRelativePose {
+  WireRelativePose(AgentId observer, double time_s, const estimators::uwb::PoseEstimate& estimate,
+                   const estimators::uwb::Tilt& peer_tilt);
+  WireRelativePose(const WireRelativePose&) = delete;
+  WireRelativePose& operator=(const WireRelativePose&) = delete;
+  std::string frame_id;
+  geometry_msgs_msg_dds__PoseWithCovarianceStamped_ sample{};
+};
+
+/// geometry_msgs/PoseStamped of a MURP relative pose's truth, laid out as WireRelativePose.
+struct WireRelativeTruth {
+  WireRelativeTruth(AgentId observer, double time_s, const estimators::uwb::RelativePose& truth,
+                    const estimators::uwb::Tilt& peer_tilt);
+  WireRelativeTruth(const WireRelativeTruth&) = delete;
+  WireRelativeTruth& operator=(const WireRelativeTruth&) = delete;
+  std::string frame_id;
+  geometry_msgs_msg_dds__PoseStamped_ sample{};
 };
 
 /// A writer on ROS 2 topic `topic` (DDS name, "rt/…") of type `descriptor`, in the default partition

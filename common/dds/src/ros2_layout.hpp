@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <string>
 
+#include "swarmloc/estimators/uwb/relative_pose.hpp"
 #include "swarmloc/runtime/envelope.hpp"
 
 namespace swarmloc::dds::ros2 {
@@ -41,5 +42,30 @@ std::array<double, 36> pose_covariance(const estimators::Estimate& estimate);
 inline bool publishes_pose(const runtime::EstimateReport& report) {
   return report.steps_run > 0 && report.estimate.valid;
 }
+
+// MURP relative poses (`replay --murp --ros2`, docs/ros2.md, "MURP relative poses").
+
+/// "vehicle_<id>": the run directory's name of a vehicle (agents/vehicle_<id>.log); a ROS name token must
+/// not start with a digit.
+std::string murp_vehicle_name(AgentId vehicle);
+/// "rt/swarmloc/murp/vehicle_<observer>/vehicle_<peer>/pose": the observer's estimate of the peer.
+std::string murp_pose_topic(AgentId observer, AgentId peer);
+/// "rt/swarmloc/murp/vehicle_<observer>/vehicle_<peer>/truth": what the run scores that estimate against.
+std::string murp_truth_topic(AgentId observer, AgentId peer);
+/// "vehicle_<observer>/level": the observer's level frame (relative_pose.hpp: origin at its body origin, z
+/// up, x along its heading).
+std::string murp_level_frame(AgentId observer);
+/// A trial time in seconds as a nanosecond stamp (rounded to the nearest nanosecond).
+std::int64_t murp_stamp_ns(double time_s);
+
+/// Quaternion (x, y, z, w) of Rz(yaw)·Ry(pitch)·Rx(roll): the product q_z(yaw)·q_y(pitch)·q_x(roll) of the
+/// axis quaternions (as tf2's setRPY(roll, pitch, yaw)); unit norm, w < 0 possible beyond |yaw| = π.
+std::array<double, 4> attitude_quaternion(double yaw_rad, double pitch_rad, double roll_rad);
+
+/// The row-major 6×6 covariance over (x, y, z, rot x, rot y, rot z) of a relative pose estimate whose 4×4
+/// covariance is over (x, y, z, ψ): its rows and columns go to x, y, z and rot z, symmetrized ((C + Cᵀ)/2:
+/// an estimator's C is symmetric only to rounding); roll and pitch (the peer's IMU tilt, not estimated) get
+/// kUnknownVariance and no correlation.
+std::array<double, 36> relative_pose_covariance(const estimators::uwb::Mat4& covariance);
 
 }  // namespace swarmloc::dds::ros2

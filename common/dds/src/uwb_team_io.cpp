@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "endpoints.hpp"
+#include "ros2_bridge.hpp"
 #include "uwb_team_wire.hpp"
 
 namespace swarmloc::dds {
@@ -196,17 +197,43 @@ UwbTeamCounters UwbVehicleIo::counters() const { return impl_->counters; }
 // Orchestrator
 
 struct UwbOrchestratorIo::Impl : UwbParticipant {
-  explicit Impl(const UwbTeamEndpoint& endpoint)
+  Impl(const UwbTeamEndpoint& endpoint, bool ros2)
       : UwbParticipant(endpoint),
         window_writer(writer(window_topic, kTopicUwbWindow)),
-        estimates_reader(reader(estimates_topic, kTopicUwbEstimates)) {}
+        estimates_reader(reader(estimates_topic, kTopicUwbEstimates)) {
+    if (!ros2) return;
+    for (const AgentId observer : team) {
+      for (const AgentId peer : team) {
+        if (peer == observer) continue;
+        ros2_writers[{observer, peer}] = {
+            ros2::create_writer(participant.get(), geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc,
+                                ros2::murp_pose_topic(observer, peer)),
+            ros2::create_writer(participant.get(), geometry_msgs_msg_dds__PoseStamped__desc,
+                                ros2::murp_truth_topic(observer, peer))};
+      }
+    }
+  }
+
+  void send_ros2(dds_entity_t writer, const void* sample, const char* what) {
+    if (write(writer, sample, what)) {
+      ++counters.ros2_sent;
+    } else {
+      ++counters.ros2_write_timeouts;
+    }
+  }
 
   dds_entity_t window_writer;
   dds_entity_t estimates_reader;
+  struct Ros2Writers {
+    dds_entity_t pose = 0;
+    dds_entity_t truth = 0;
+  };
+  std::map<std::pair<AgentId, AgentId>, Ros2Writers> ros2_writers;  ///< (observer, peer); empty: ros2 off
 };
 
-UwbOrchestratorIo::UwbOrchestratorIo(const UwbTeamEndpoint& endpoint)
-    : impl_(std::make_unique<Impl>(UwbTeamEndpoint{endpoint.domain_id, endpoint.team, kOrchestratorId})) {}
+UwbOrchestratorIo::UwbOrchestratorIo(const UwbTeamEndpoint& endpoint, bool ros2)
+    : impl_(std::make_unique<Impl>(UwbTeamEndpoint{endpoint.domain_id, endpoint.team, kOrchestratorId},
+                                   ros2)) {}
 UwbOrchestratorIo::~UwbOrchestratorIo() = default;
 
 void UwbOrchestratorIo::publish_window(const UwbWindowInput& input) {
@@ -231,6 +258,34 @@ bool UwbOrchestratorIo::matched() const {
   const auto vehicles = static_cast<int>(impl_->team.size());
   return matched_reader_count(impl_->window_writer) >= vehicles &&
          matched_count(impl_->estimates_reader) >= vehicles;
+}
+
+void UwbOrchestratorIo::publish_ros2_window(const UwbRos2Window& window) {
+  Impl& io = *impl_;
+  if (io.ros2_writers.empty()) return;
+  const auto tilt_of = [&window](AgentId vehicle) {
+    const auto found = window.tilts.find(vehicle);
+    return found != window.tilts.end() ? found->second : estimators::uwb::Tilt{};
+  };
+  for (const auto& [pair, estimate] : window.estimates) {
+    const auto writers = io.ros2_writers.find(pair);
+    if (writers == io.ros2_writers.end()) continue;
+    const ros2::WireRelativePose wire(pair.first, window.time_s, estimate, tilt_of(pair.second));
+    io.send_ros2(writers->second.pose, &wire.sample, "ROS 2 MURP pose");
+  }
+  for (const auto& [pair, truth] : window.truth) {
+    const auto writers = io.ros2_writers.find(pair);
+    if (writers == io.ros2_writers.end()) continue;
+    const ros2::WireRelativeTruth wire(pair.first, window.time_s, truth, tilt_of(pair.second));
+    io.send_ros2(writers->second.truth, &wire.sample, "ROS 2 MURP truth");
+  }
+}
+
+int UwbOrchestratorIo::ros2_matched_readers() const {
+  int readers = 0;
+  for (const auto& [pair, writers] : impl_->ros2_writers)
+    readers += matched_reader_count(writers.pose) + matched_reader_count(writers.truth);
+  return readers;
 }
 
 UwbTeamCounters UwbOrchestratorIo::counters() const { return impl_->counters; }

@@ -51,7 +51,8 @@ void write_relative_csv(const std::filesystem::path& directory,
   std::ostringstream out;
   out << "window,time_s,base,target,x_m,y_m,z_m,heading_rad,std_x_m,std_y_m,std_z_m,std_heading_rad,"
          "truth_x_m,truth_y_m,truth_z_m,truth_heading_rad,distance_m,position_error_m,heading_error_deg\n";
-  out << std::setprecision(9);
+  // Round-trip precision: a reader (the ROS 2 test, docs/ros2.md) can compare the estimates exactly.
+  out << std::setprecision(17);
   for (const auto& row : rows) {
     const auto truth = truth_of(windows, row);
     const auto [position_error, heading_error] = world::relative_errors(row.estimate.pose, truth);

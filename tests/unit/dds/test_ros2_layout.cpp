@@ -1,11 +1,15 @@
 // dds.ros2's field layout (common/dds/src/ros2_layout.hpp, docs/ros2.md): topic names, stamps, the yaw
-// quaternion and where an estimate's covariance (its z row in a 3-D world) goes in ROS's 6×6.
+// quaternion and where an estimate's covariance (its z row in a 3-D world) goes in ROS's 6×6; and the MURP
+// relative poses' (replay --murp --ros2): names, the full attitude quaternion and the 6×6 of a 4×4.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <cmath>
 #include <numbers>
 
 #include "../../../common/dds/src/ros2_layout.hpp"
+#include "eigen_gtest.hpp"
 
 namespace swarmloc::dds::ros2 {
 namespace {
@@ -95,6 +99,80 @@ TEST(Ros2Layout, OnlyValidEstimatesOfStepsRunBecomePoses) {
   EXPECT_TRUE(publishes_pose(report));
   report.estimate.valid = false;
   EXPECT_FALSE(publishes_pose(report));
+}
+
+TEST(Ros2Layout, MurpTopicsAndFramesNameTheVehiclesAsTheRunDirectoryDoes) {
+  EXPECT_EQ(murp_vehicle_name(2), "vehicle_2");
+  EXPECT_EQ(murp_pose_topic(1, 3), "rt/swarmloc/murp/vehicle_1/vehicle_3/pose");
+  EXPECT_EQ(murp_truth_topic(3, 1), "rt/swarmloc/murp/vehicle_3/vehicle_1/truth");
+  EXPECT_EQ(murp_level_frame(2), "vehicle_2/level");
+  EXPECT_EQ(murp_stamp_ns(13.0), 13'000'000'000);
+  EXPECT_EQ(murp_stamp_ns(0.1), 100'000'000);  // nearest, not truncated (0.1 · 1e9 = 99999999.99…)
+}
+
+/// Rz(yaw)·Ry(pitch)·Rx(roll) from Eigen's angle-axis rotations.
+Mat3 eigen_zyx(double yaw_rad, double pitch_rad, double roll_rad) {
+  return (Eigen::AngleAxisd(yaw_rad, Vec3::UnitZ()) * Eigen::AngleAxisd(pitch_rad, Vec3::UnitY()) *
+          Eigen::AngleAxisd(roll_rad, Vec3::UnitX()))
+      .toRotationMatrix();
+}
+
+TEST(Ros2Layout, AttitudeQuaternionIsRzRyRxAsEigenRotatesIt) {
+  struct Angles {
+    double yaw, pitch, roll;
+  };
+  // Headings beyond ±π/2 and beyond π, non-zero roll and pitch of either sign.
+  for (const Angles& a : {Angles{0.3, 0.2, -0.1}, Angles{2.4, -0.35, 0.25}, Angles{-2.9, 0.15, 0.4},
+                          Angles{3.6, 0.5, -0.45}, Angles{-1.7, -0.05, -0.3}}) {
+    const auto q = attitude_quaternion(a.yaw, a.pitch, a.roll);
+    const Eigen::Quaterniond quaternion(q[3], q[0], q[1], q[2]);
+    EXPECT_NEAR(quaternion.norm(), 1.0, 1e-15);
+    EXPECT_MATRIX_NEAR(quaternion.toRotationMatrix(), eigen_zyx(a.yaw, a.pitch, a.roll), 1e-14)
+        << "yaw " << a.yaw << " pitch " << a.pitch << " roll " << a.roll;
+    // relative_pose.hpp's frames: the peer's body -> my level frame is Rz(ψ)·T_peer, T = Ry(pitch)·Rx(roll).
+    const Mat3 peer_body_to_level =
+        estimators::uwb::yaw_rotation(a.yaw) * estimators::uwb::level_rotation({a.roll, a.pitch});
+    EXPECT_MATRIX_NEAR(quaternion.toRotationMatrix(), peer_body_to_level, 1e-14);
+  }
+  // No tilt: the yaw quaternion exactly.
+  EXPECT_EQ(attitude_quaternion(2.4, 0.0, 0.0), yaw_quaternion(2.4));
+}
+
+TEST(Ros2Layout, RelativePoseCovarianceMapsXyzHeadingToXyzRotZAndIsSymmetricPsd) {
+  // A full, correlated 4×4 over (x, y, z, ψ): L·Lᵀ with every entry of L non-zero.
+  estimators::uwb::Mat4 lower;
+  lower << 0.3, 0, 0, 0, -0.1, 0.25, 0, 0, 0.05, 0.07, 0.12, 0, 0.02, -0.03, 0.04, 0.09;
+  const estimators::uwb::Mat4 covariance = lower * lower.transpose();
+  // An estimator's covariance is symmetric to rounding only: ROS gets the symmetric part.
+  estimators::uwb::Mat4 rounded = covariance;
+  rounded(0, 3) += 1e-17;
+  rounded(3, 0) -= 1e-17;
+  rounded(1, 2) *= 1.0 + 1e-15;
+  const auto flat = relative_pose_covariance(rounded);
+  const Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>> ros(flat.data());
+  constexpr std::array<int, 4> kRosAxis{0, 1, 2, 5};
+  for (int row = 0; row < 4; ++row) {
+    for (int col = 0; col < 4; ++col) {
+      EXPECT_NEAR(ros(kRosAxis[static_cast<std::size_t>(row)], kRosAxis[static_cast<std::size_t>(col)]),
+                  covariance(row, col), 1e-16)
+          << "(" << row << ", " << col << ")";
+    }
+  }
+  for (const int tilt : {3, 4}) {  // roll, pitch: not estimated
+    EXPECT_EQ(ros(tilt, tilt), kUnknownVariance);
+    for (int other = 0; other < 6; ++other) {
+      if (other == tilt) continue;
+      EXPECT_EQ(ros(tilt, other), 0.0);
+      EXPECT_EQ(ros(other, tilt), 0.0);
+    }
+  }
+  EXPECT_EQ((ros - ros.transpose()).cwiseAbs().maxCoeff(), 0.0);  // exactly
+  for (int axis = 0; axis < 4; ++axis) {                          // the variances as they were
+    const auto ros_axis = static_cast<Eigen::Index>(kRosAxis[static_cast<std::size_t>(axis)]);
+    EXPECT_EQ(ros(ros_axis, ros_axis), covariance(axis, axis));
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(Eigen::Matrix<double, 6, 6>{ros});
+  EXPECT_GT(eigen.eigenvalues().minCoeff(), 0.0);  // L is full rank: positive definite
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "swarmloc/config/scenario.hpp"
@@ -66,6 +67,19 @@ struct UwbTeamCounters {
   std::uint64_t ignored = 0;
   std::uint64_t rejected = 0;
   std::map<std::string, std::uint64_t> rejected_by_reason;
+  std::uint64_t ros2_sent = 0;            ///< ROS 2 samples (the orchestrator with ros2 on)
+  std::uint64_t ros2_write_timeouts = 0;  ///< ROS 2 writes dropped after blocking 100 ms
+};
+
+/// One window's relative poses as the orchestrator publishes them on ROS 2 (docs/ros2.md, "MURP relative
+/// poses"): every observer's reported estimate of every peer, and the truth the run scores them against.
+struct UwbRos2Window {
+  double time_s = 0.0;  ///< the window's trial time: the stamp of every sample
+  /// Each vehicle's roll and pitch (its IMU's) in this window: a peer's orientation in an observer's level
+  /// frame is Rz(ψ)·Ry(pitch)·Rx(roll). A vehicle missing here: roll = pitch = 0.
+  std::map<AgentId, estimators::uwb::Tilt> tilts;
+  std::map<std::pair<AgentId, AgentId>, estimators::uwb::PoseEstimate> estimates;  ///< (observer, peer)
+  std::map<std::pair<AgentId, AgentId>, estimators::uwb::RelativePose> truth;      ///< (observer, peer)
 };
 
 /// The scenario whose DDS keys the team's participants use: `domain_id`, fixed ports with vehicle k of the
@@ -101,10 +115,12 @@ class UwbVehicleIo {
   std::unique_ptr<Impl> impl_;
 };
 
-/// The orchestrator's side: writes window inputs, reads every vehicle's estimates.
+/// The orchestrator's side: writes window inputs, reads every vehicle's estimates; with `ros2`, also
+/// writes every ordered pair's relative pose and its truth on ROS 2 topics (docs/ros2.md, "MURP relative
+/// poses"; without it no ROS entity is created).
 class UwbOrchestratorIo {
  public:
-  explicit UwbOrchestratorIo(const UwbTeamEndpoint& endpoint);
+  explicit UwbOrchestratorIo(const UwbTeamEndpoint& endpoint, bool ros2 = false);
   ~UwbOrchestratorIo();
   UwbOrchestratorIo(const UwbOrchestratorIo&) = delete;
   UwbOrchestratorIo& operator=(const UwbOrchestratorIo&) = delete;
@@ -114,6 +130,12 @@ class UwbOrchestratorIo {
   std::vector<UwbEstimates> wait_and_take_estimates(double timeout_s);
   /// Every vehicle's window reader and estimates writer are matched to ours.
   [[nodiscard]] bool matched() const;
+  /// With ros2: each estimate on rt/swarmloc/murp/vehicle_<observer>/vehicle_<peer>/pose, each truth on
+  /// …/truth. Pairs off the roster are skipped. Without ros2: nothing.
+  void publish_ros2_window(const UwbRos2Window& window);
+  /// ROS 2 readers matched to the ROS 2 writers, summed over the writers (one per subscriber and topic; 0
+  /// without ros2).
+  [[nodiscard]] int ros2_matched_readers() const;
   [[nodiscard]] UwbTeamCounters counters() const;
 
  private:
