@@ -60,12 +60,8 @@ TEST(FusionCenter, LbEkfVrOverDdsMatchesTheSimulatorsFinalTotalMse) {
 // process reads the anchors' z from their fixes and publishes every agent's z, the orchestrator moves z with
 // x and y, so the DDS run is scored in space against the 3-D posterior CRB as the simulator's is.
 TEST(FusionCenter, EkfInA3dWorldOverDdsMatchesTheSimulator) {
-  const auto runs =
-      run_in_sim_and_over_dds(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/default3d.yaml",
-                              " -q --set algorithm.name=ekf --set run.steps=40 --set run.rate_hz=20"
-                              " --set world.motion=random_walk --set world.motion_std_m=0.05"
-                              " --set algorithm.process_noise_std_m=0.05",
-                              "fusion-3d", 16);
+  const auto runs = run_in_sim_and_over_dds(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/drones3d.yaml",
+                                            " -q --set run.steps=40 --set run.rate_hz=20", "fusion-3d", 16);
   ASSERT_TRUE(runs);
   EXPECT_EQ(runs->dds["dimensions"], 3);
   EXPECT_EQ(runs->dds["bound"]["kind"], "pcrb");

@@ -52,7 +52,7 @@ TEST(AlgorithmKeys, NoWarningForABlockTheAlgorithmReadsOrAFileDefault) {
   EXPECT_TRUE(warnings_of("algorithm:\n  consensus_rounds: 20\n  path_variance: range_only\n").empty());
   for (const char* file :
        {"default.yaml", "ieif.yaml", "dgbb.yaml", "dle.yaml", "dle_tracking.yaml", "ea2.yaml", "jacobi.yaml",
-        "joint_field.yaml", "multipath_bp.yaml", "default3d.yaml"}) {
+        "joint_field.yaml", "multipath_bp.yaml", "default3d.yaml", "drones3d.yaml"}) {
     EXPECT_EQ(file_warnings(file, {}), std::vector<std::string>{}) << file;
   }
   // ieif.yaml's update_iterations: 10 is not a default, and dgbb does not read it.

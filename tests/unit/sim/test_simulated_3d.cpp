@@ -143,9 +143,8 @@ TEST(Simulated3d, TheCentralizedFiltersEstimateInSpace) {
 // on the final state of the MAP smoother of each trial's own data. Seeded, so the figures are fixed: 10
 // trials, 100 steps: 0.958x the PCRB, 0.997x the smoother, NEES 2.88 when written.
 TEST(Simulated3d, TheEkfTracksDronesWalkingInSpaceOnTheirPosteriorCrb) {
-  const auto s = config::load_scenario(kSpatialScenario,
-                                       {"algorithm.name=ekf", "run.steps=100", "world.motion=random_walk",
-                                        "world.motion_std_m=0.1", "algorithm.process_noise_std_m=0.1"});
+  const auto s =
+      config::load_scenario(std::string(SWARMLOC_SOURCE_DIR) + "/scenarios/drones3d.yaml", {"run.steps=100"});
   const MonteCarloResult result = run_monte_carlo(s, 10, 1);
   const MonteCarloStep& last = result.steps.back();
   const double ratio = std::sqrt(last.mse_mean) / last.bound_rmse_m;
