@@ -160,6 +160,51 @@ OptimumPoint score_point(std::int64_t step, const OptimumSelection& sel, const s
   return point;
 }
 
+template <int D>
+OptimumEstimate estimate_of(std::int64_t step, const OptimumSelection& sel, const std::vector<Vec2>& truth,
+                            const std::vector<double>& truth_z, const std::vector<int>& block,
+                            const OptimumSolutionOf<D>& solution) {
+  const std::size_t n = truth.size();
+  OptimumEstimate estimate;
+  estimate.step = step;
+  estimate.solved = !solution.singular;
+  estimate.cost = solution.cost;
+  estimate.position = truth;
+  estimate.truth = truth;
+  estimate.covariance.assign(n, Mat2::Zero());
+  estimate.in_state.assign(n, false);
+  if constexpr (D == 3) {
+    estimate.truth_z = truth_z;
+    for (std::size_t i = 0; i < n; ++i) estimate.altitude.push_back(Altitude{truth_z[i]});
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (block[i] < 0) continue;
+    const auto b = static_cast<std::size_t>(block[i]);
+    estimate.in_state[i] = true;
+    if constexpr (D == 2) {
+      estimate.position[i] = solution.x[b];
+      if (!solution.covariance.empty()) estimate.covariance[i] = solution.covariance[b];
+    } else {
+      const Mat3 covariance = solution.covariance.empty() ? Mat3::Zero() : solution.covariance[b];
+      estimate.position[i] = solution.x[b].template head<2>();
+      estimate.covariance[i] = covariance.topLeftCorner<2, 2>();
+      estimate.altitude[i] = altitude_of(solution.x[b], covariance);
+    }
+  }
+  estimate.point = score_point(step, sel, truth, estimate, solution.singular, !solution.covariance.empty());
+  estimate.point.iterations = solution.iterations;
+  estimate.point.converged = solution.converged;
+  estimate.point.singular_at_solution = solution.singular_at_solution;
+  return estimate;
+}
+
+template OptimumEstimate estimate_of<2>(std::int64_t, const OptimumSelection&, const std::vector<Vec2>&,
+                                        const std::vector<double>&, const std::vector<int>&,
+                                        const OptimumSolutionOf<2>&);
+template OptimumEstimate estimate_of<3>(std::int64_t, const OptimumSelection&, const std::vector<Vec2>&,
+                                        const std::vector<double>&, const std::vector<int>&,
+                                        const OptimumSolutionOf<3>&);
+
 }  // namespace optimum_parts
 
 namespace {
@@ -254,39 +299,7 @@ class StaticData final : public OptimumAccumulator::Data {
       if (block[i] >= 0 && informs<D>(snap.fixes[i]))
         problem.linear.push_back(fix_factor<D>(block[i], snap.fixes[i]));
     }
-    const OptimumSolutionOf<D> solution = solve_optimum_problem(problem, true);
-    OptimumEstimate estimate;
-    estimate.step = step;
-    estimate.solved = !solution.singular;
-    estimate.cost = solution.cost;
-    estimate.position = snap.truth;
-    estimate.truth = snap.truth;
-    estimate.covariance.assign(n, Mat2::Zero());
-    estimate.in_state.assign(n, false);
-    if constexpr (D == 3) {
-      estimate.truth_z = sel_.altitude;
-      for (std::size_t i = 0; i < n; ++i) estimate.altitude.push_back(Altitude{sel_.altitude[i]});
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-      if (block[i] < 0) continue;
-      const auto b = static_cast<std::size_t>(block[i]);
-      estimate.in_state[i] = true;
-      if constexpr (D == 2) {
-        estimate.position[i] = solution.x[b];
-        if (!solution.covariance.empty()) estimate.covariance[i] = solution.covariance[b];
-      } else {
-        const Mat3 covariance = solution.covariance.empty() ? Mat3::Zero() : solution.covariance[b];
-        estimate.position[i] = solution.x[b].template head<2>();
-        estimate.covariance[i] = covariance.topLeftCorner<2, 2>();
-        estimate.altitude[i] = altitude_of(solution.x[b], covariance);
-      }
-    }
-    estimate.point =
-        score_point(step, sel_, snap.truth, estimate, solution.singular, !solution.covariance.empty());
-    estimate.point.iterations = solution.iterations;
-    estimate.point.converged = solution.converged;
-    estimate.point.singular_at_solution = solution.singular_at_solution;
-    return estimate;
+    return estimate_of<D>(step, sel_, snap.truth, sel_.altitude, block, solve_optimum_problem(problem, true));
   }
 
   template <int D>

@@ -87,6 +87,12 @@ OptimumLinearFactorOf<D> fix_factor(int a, const FixStat& fix) {
             information};
   }
 }
+/// The optimum of `solution` at `step`: agent i at its block block[i] (−1: a known anchor, at its truth), its
+/// z in 3-D (a known anchor's: truth_z), scored against `truth` and `truth_z`.
+template <int D>
+OptimumEstimate estimate_of(std::int64_t step, const OptimumSelection& sel, const std::vector<Vec2>& truth,
+                            const std::vector<double>& truth_z, const std::vector<int>& block,
+                            const OptimumSolutionOf<D>& solution);
 /// RMSE and mean NEES of `estimate` over the world's non-anchor agents (in space if it has altitudes).
 OptimumPoint score_point(std::int64_t step, const OptimumSelection& sel, const std::vector<Vec2>& truth,
                          const OptimumEstimate& estimate, bool singular, bool covariance);

@@ -145,8 +145,7 @@ void MovingData<D>::add_step_factors(std::size_t k, const Layout& lay, OptimumPr
 template <int D>
 OptimumEstimate MovingData<D>::solve(std::int64_t step, const std::vector<Vec2>* /*estimates*/,
                                      const std::vector<double>* /*estimate_z*/) const {
-  OptimumEstimate estimate;
-  if (step < 0 || static_cast<std::size_t>(step) >= steps_.size()) return estimate;
+  if (step < 0 || static_cast<std::size_t>(step) >= steps_.size()) return {};
   const auto steps = static_cast<std::size_t>(step) + 1;
   OptimumProblemOf<D> problem;
   problem.keep_order = true;  // blocks step by step, the anchors' last: a band with a border
@@ -167,38 +166,9 @@ OptimumEstimate MovingData<D>::solve(std::int64_t step, const std::vector<Vec2>*
   warm_ = solution.x;
   warm_steps_ = steps;
   const StepData& last = steps_[steps - 1];
-  const std::size_t n = last.truth.size();
-  estimate.step = step;
-  estimate.solved = !solution.singular;
-  estimate.position = last.truth;
-  estimate.truth = last.truth;
-  estimate.covariance.assign(n, Mat2::Zero());
-  estimate.in_state.assign(n, false);
-  if constexpr (D == 3) {
-    estimate.truth_z = last.altitude;
-    for (std::size_t i = 0; i < n; ++i) estimate.altitude.push_back(Altitude{last.altitude[i]});
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    const int b = lay.at(i, steps - 1);
-    if (b < 0) continue;
-    const auto block = static_cast<std::size_t>(b);
-    estimate.in_state[i] = true;
-    if constexpr (D == 2) {
-      estimate.position[i] = solution.x[block];
-      if (!solution.covariance.empty()) estimate.covariance[i] = solution.covariance[block];
-    } else {
-      const Mat3 covariance = solution.covariance.empty() ? Mat3::Zero() : solution.covariance[block];
-      estimate.position[i] = solution.x[block].template head<2>();
-      estimate.covariance[i] = covariance.topLeftCorner<2, 2>();
-      estimate.altitude[i] = altitude_of(solution.x[block], covariance);
-    }
-  }
-  estimate.point =
-      score_point(step, sel_, last.truth, estimate, solution.singular, !solution.covariance.empty());
-  estimate.point.iterations = solution.iterations;
-  estimate.point.converged = solution.converged;
-  estimate.point.singular_at_solution = solution.singular_at_solution;
-  return estimate;
+  std::vector<int> block(last.truth.size());
+  for (std::size_t i = 0; i < block.size(); ++i) block[i] = lay.at(i, steps - 1);
+  return estimate_of<D>(step, sel_, last.truth, last.altitude, block, solution);
 }
 
 }  // namespace
