@@ -302,5 +302,30 @@ TEST(DmlTracking, CovariancesStaySymmetricPositiveDefiniteOnALoop) {
   }
 }
 
+// The self-check (docs/algorithms.md §1.6): an agent whose draws fit its prediction and the anchor's position
+// is not flagged; when its draws jump 4 m (8 σ) away from where its belief says it is, the window's residuals
+// exceed the χ² quantile at once and it says so, and keeps saying so while the jump is in its window.
+TEST(DmlTracking, DrawsItsBeliefCannotExplainAreFlagged) {
+  Rounds rounds({Vec2(0.0, 0.0), Vec2(10.0, 0.0)}, {true, false});
+  std::int64_t step = 0;
+  auto world_step = [&](double range) {
+    rounds.round(step, {{0, {{1, range}}}, {1, {{0, range}}}}, true);
+    for (int extra = 0; extra < 2; ++extra) rounds.round(step, {}, false);
+    ++step;
+  };
+  const double fitting[] = {10.2, 9.8, 10.1, 9.9, 10.3, 9.7, 10.0, 10.2, 9.9, 10.1, 9.8, 10.0};
+  for (const double range : fitting) {
+    world_step(range);
+    EXPECT_FALSE(rounds.estimate(1).inconsistent) << "step " << step - 1 << ": draws that fit";
+  }
+  world_step(14.0);
+  EXPECT_TRUE(rounds.estimate(1).inconsistent) << "a draw 8 sigma from the belief";
+  EXPECT_FALSE(rounds.estimate(0).inconsistent) << "an anchor runs no check";
+  for (int k = 0; k < 5; ++k) {
+    world_step(14.0 + 0.1 * (k % 3 - 1));
+    EXPECT_TRUE(rounds.estimate(1).inconsistent) << k + 1 << " steps after the jump";
+  }
+}
+
 }  // namespace dml_tracking_test
 }  // namespace swarmloc::estimators

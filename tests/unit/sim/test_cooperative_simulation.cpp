@@ -98,6 +98,26 @@ TEST(CooperativeSimulation, DmlTrackCountsARepeatedDrawOnceWithSeveralExchangesP
               once.nees, thrice.nees);
 }
 
+// dml_track on the default world with its agents walking 0.1 m a step (0.1 m range noise, exact anchors): on
+// seed 3 the pair of degree-3 agents 5 and 13 flips and the solution runs away, kilometres off with
+// centimetre covariances. The self-check (docs/algorithms.md §1.6) must say so in every such trial.
+TEST(CooperativeSimulation, DmlTrackFlagsATrackThatRunsAway) {
+  const auto result =
+      run_monte_carlo(scenario_named("default.yaml", {"algorithm.name=dml_track", "seed=3", "run.steps=120",
+                                                      "world.motion=random_walk", "world.motion_std_m=0.1",
+                                                      "algorithm.process_noise_std_m=0.1"}),
+                      3, 1);
+  for (int trial = 0; trial < result.trials; ++trial) {
+    const auto t = static_cast<std::size_t>(trial);
+    std::printf("[ dml_track ] seed 3 walk, trial %d: %.3g m, %.3g x its optimum, %d agents flagged\n", trial,
+                result.final_rmse_per_trial[t],
+                result.final_rmse_per_trial[t] / result.final_optimum_per_trial[t],
+                result.final_flagged_per_trial[t]);
+    EXPECT_GT(result.final_rmse_per_trial[t], 2.0 * result.final_optimum_per_trial[t]) << "trial " << trial;
+    EXPECT_GT(result.final_flagged_per_trial[t], 0) << "trial " << trial;
+  }
+}
+
 TEST(CooperativeSimulation, DmlGivesEveryAgentOfAWeaklyAnchoredWorldABelief) {
   // 200 agents, 20 % anchors, mean degree about 9 (docs/validation.md, weakly anchored worlds), seed 2. Agent
   // 119 has four neighbours that each heard it while its belief was undefined: taking its message out of

@@ -63,6 +63,7 @@ void DmlTracking::start_world_step(const MeasurementBatch& batch) {
     slot.fix_information_vector = slot.fix_information * batch.fix->position_m;
     noisy_fix_ = true;
   }
+  if (!setup_.anchor) check_ranges(batch, slot);
   world_step_ = batch.world_step;
   window_.push_back(std::move(slot));
   if (window_.size() > kWindowSteps) {
@@ -72,6 +73,23 @@ void DmlTracking::start_world_step(const MeasurementBatch& batch) {
     tail_mean_ = window_.front().predicted_mean_m;
     tail_information_ = core::symmetrized(window_.front().predicted_covariance.inverse());
   }
+}
+
+void DmlTracking::check_ranges(const MeasurementBatch& batch, const Slot& slot) {
+  for (const auto& range : batch.ranges) {
+    const auto peer = peers_.find(range.peer);
+    if (peer == peers_.end() || !peer->second.has_belief || !(range.std_m > 0.0)) continue;
+    const PeerMarginal& newest = peer->second.window.at(peer->second.tag);
+    const Vec2 offset = slot.predicted_mean_m - newest.mean_m;
+    if (offset.norm() < kShortestDistanceM) continue;
+    const Vec2 u = offset.normalized();
+    const auto elapsed = static_cast<double>(std::max<std::int64_t>(0, batch.world_step - peer->second.tag));
+    const double peer_variance =
+        peer->second.exact ? 0.0 : u.dot(newest.covariance * u) + elapsed * params_process_variance_m2_;
+    self_check_.add(range.range_m - offset.norm(),
+                    range.std_m * range.std_m + u.dot(slot.predicted_covariance * u) + peer_variance);
+  }
+  self_check_.end_step();
 }
 
 void DmlTracking::absorb_beliefs(const Inbox& inbox) {
@@ -294,6 +312,7 @@ Estimate DmlTracking::estimate() const {
     estimate.covariance = window_.back().covariance;
   }
   estimate.valid = true;
+  estimate.inconsistent = self_check_.inconsistent();
   return estimate;
 }
 

@@ -12,6 +12,7 @@
 
 #include "swarmloc/estimators/estimator.hpp"
 #include "swarmloc/estimators/kalman/params.hpp"
+#include "swarmloc/estimators/self_check.hpp"
 
 namespace swarmloc::estimators {
 
@@ -73,6 +74,9 @@ class DmlTracking final : public Estimator {
   };
 
   void start_world_step(const MeasurementBatch& batch);
+  /// The self-check's residuals of a new step's own draws (docs/algorithms.md §1.6), against this agent's
+  /// prediction of the step and each neighbour's newest belief predicted to it.
+  void check_ranges(const MeasurementBatch& batch, const Slot& slot);
   void absorb_beliefs(const Inbox& inbox);
   [[nodiscard]] Factor factor_of(const SlotEdge& edge) const;
   [[nodiscard]] RankOne message_to_self(const Slot& slot, const SlotEdge& edge, const Peer& peer) const;
@@ -92,6 +96,7 @@ class DmlTracking final : public Estimator {
   Mat2 tail_information_ = Mat2::Zero();
   std::deque<Slot> window_;
   std::map<AgentId, Peer> peers_;
+  RangeResidualCheck self_check_;
 };
 
 }  // namespace swarmloc::estimators
