@@ -25,6 +25,7 @@
 
 #include "dataset_paths.hpp"
 #include "process_helpers.hpp"
+#include "ros2_reader_lines.hpp"
 
 namespace {
 
@@ -76,18 +77,12 @@ struct MurpRos2ReaderOutput {
 
 MurpRos2ReaderOutput parse_murp_ros2_reader(const std::string& text) {
   MurpRos2ReaderOutput out;
-  std::istringstream lines(text);
-  std::string line;
-  while (std::getline(lines, line)) {
-    std::istringstream in(line);
-    std::string kind;
-    in >> kind;
+  swarmloc::testing::for_each_ros2_reader_line(text, [&](const std::string& kind, std::istringstream& in) {
     if (kind == "murp_pose" || kind == "murp_truth") {
       MurpRos2Sample sample;
-      std::int64_t sec = 0;
-      std::uint64_t nanosec = 0;
-      in >> sample.observer >> sample.peer >> sec >> nanosec >> sample.frame;
-      sample.stamp_ns = sec * 1'000'000'000 + static_cast<std::int64_t>(nanosec);
+      in >> sample.observer >> sample.peer;
+      sample.stamp_ns = swarmloc::testing::read_ros2_stamp_ns(in);
+      in >> sample.frame;
       for (double value = 0.0; in >> value;) sample.values.push_back(value);
       const MurpRos2Key key{sample.observer, sample.peer, sample.stamp_ns};
       auto& into = kind == "murp_pose" ? out.poses : out.truth;
@@ -98,7 +93,7 @@ MurpRos2ReaderOutput parse_murp_ros2_reader(const std::string& text) {
       in >> topic >> type;
       out.publications.emplace(topic, type);
     }
-  }
+  });
   return out;
 }
 

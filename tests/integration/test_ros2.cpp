@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "process_helpers.hpp"
+#include "ros2_reader_lines.hpp"
 
 namespace {
 
@@ -70,33 +71,22 @@ struct Ros2ReaderOutput {
   std::multiset<std::pair<std::string, std::string>> publications;  ///< (topic name, type name) per writer
 };
 
-std::int64_t ros2_stamp_ns(std::istringstream& in) {
-  std::int64_t sec = 0;
-  std::uint64_t nanosec = 0;
-  in >> sec >> nanosec;
-  return sec * 1'000'000'000 + static_cast<std::int64_t>(nanosec);
-}
-
 Ros2ReaderOutput parse_ros2_reader_output(const std::string& text) {
+  using swarmloc::testing::read_ros2_stamp_ns;
   Ros2ReaderOutput out;
-  std::istringstream lines(text);
-  std::string line;
-  while (std::getline(lines, line)) {
-    std::istringstream in(line);
-    std::string kind;
-    in >> kind;
+  swarmloc::testing::for_each_ros2_reader_line(text, [&](const std::string& kind, std::istringstream& in) {
     if (kind == "pose") {
       int agent = -1;
       in >> agent;
       Ros2Pose pose;
-      pose.stamp_ns = ros2_stamp_ns(in);
+      pose.stamp_ns = read_ros2_stamp_ns(in);
       in >> pose.frame;
       double value = 0.0;
       while (in >> value) pose.values.push_back(value);
       out.poses[agent].push_back(std::move(pose));
     } else if (kind == "truth") {
       Ros2TruthArray array;
-      array.stamp_ns = ros2_stamp_ns(in);
+      array.stamp_ns = read_ros2_stamp_ns(in);
       std::size_t count = 0;
       in >> array.frame >> count;
       array.poses.resize(count);
@@ -105,7 +95,7 @@ Ros2ReaderOutput parse_ros2_reader_output(const std::string& text) {
     } else if (kind == "ranges") {
       Ros2RangeArray array;
       in >> array.step;
-      array.stamp_ns = ros2_stamp_ns(in);
+      array.stamp_ns = read_ros2_stamp_ns(in);
       std::string frame;
       std::size_t count = 0;
       in >> frame >> count;
@@ -117,7 +107,7 @@ Ros2ReaderOutput parse_ros2_reader_output(const std::string& text) {
       in >> topic >> type;
       out.publications.emplace(topic, type);
     }
-  }
+  });
   return out;
 }
 
