@@ -101,20 +101,25 @@ TEST(CooperativeSimulation, DmlTrackCountsARepeatedDrawOnceWithSeveralExchangesP
 // dml_track on the default world with its agents walking 0.1 m a step (0.1 m range noise, exact anchors): on
 // seed 3 the pair of degree-3 agents 5 and 13 flips and the solution runs away, kilometres off with
 // centimetre covariances. The self-check (docs/algorithms.md §1.6) must say so in every such trial.
-TEST(CooperativeSimulation, DmlTrackFlagsATrackThatRunsAway) {
-  const auto result =
-      run_monte_carlo(scenario_named("default.yaml", {"algorithm.name=dml_track", "seed=3", "run.steps=120",
-                                                      "world.motion=random_walk", "world.motion_std_m=0.1",
-                                                      "algorithm.process_noise_std_m=0.1"}),
-                      3, 1);
-  for (int trial = 0; trial < result.trials; ++trial) {
-    const auto t = static_cast<std::size_t>(trial);
-    std::printf("[ dml_track ] seed 3 walk, trial %d: %.3g m, %.3g x its optimum, %d agents flagged\n", trial,
-                result.final_rmse_per_trial[t],
-                result.final_rmse_per_trial[t] / result.final_optimum_per_trial[t],
-                result.final_flagged_per_trial[t]);
-    EXPECT_GT(result.final_rmse_per_trial[t], 2.0 * result.final_optimum_per_trial[t]) << "trial " << trial;
-    EXPECT_GT(result.final_flagged_per_trial[t], 0) << "trial " << trial;
+TEST(CooperativeSimulation, DmlTrackHoldsLowNoiseWalksWhereTheCavityMeanRanAway) {
+  // 0.1 m ranges and 0.1 m walks on the default world: when the mean of a neighbour's marginal was taken
+  // out with the cavity, every one of these trials ran away to kilometres (docs/algorithms.md §9.8).
+  for (const char* seed : {"seed=3", "seed=6"}) {
+    const auto result =
+        run_monte_carlo(scenario_named("default.yaml", {"algorithm.name=dml_track", seed, "run.steps=120",
+                                                        "world.motion=random_walk", "world.motion_std_m=0.1",
+                                                        "algorithm.process_noise_std_m=0.1"}),
+                        3, 1);
+    for (int trial = 0; trial < result.trials; ++trial) {
+      const auto t = static_cast<std::size_t>(trial);
+      std::printf("[ dml_track ] %s walk, trial %d: %.3g m, %.3g x its optimum, %d agents flagged\n", seed,
+                  trial, result.final_rmse_per_trial[t],
+                  result.final_rmse_per_trial[t] / result.final_optimum_per_trial[t],
+                  result.final_flagged_per_trial[t]);
+      EXPECT_LT(result.final_rmse_per_trial[t], 3.0 * result.final_optimum_per_trial[t])
+          << seed << " trial " << trial;
+      EXPECT_EQ(result.final_flagged_per_trial[t], 0) << seed << " trial " << trial;
+    }
   }
 }
 

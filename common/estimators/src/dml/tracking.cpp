@@ -130,16 +130,14 @@ DmlTracking::Factor DmlTracking::factor_of(const SlotEdge& edge) const {
   return Factor{information, information > 0.0 ? weighted / information : 0.0};
 }
 
-DmlTracking::RankOne DmlTracking::message_to_peer(const Slot& slot, const SlotEdge& edge,
-                                                  const Factor& factor, const Vec2& a) {
-  // m_{f→j} as the neighbour computes it: from this agent's marginal of the step without m_{f→i}.
+double DmlTracking::scale_to_peer(const Slot& slot, const SlotEdge& edge, const Factor& factor,
+                                  const Vec2& a) {
+  // The scale of m_{f→j} as the neighbour computes it: from this agent's marginal of the step without
+  // m_{f→i}.
   const RankOne& in = edge.incoming;
   const Mat2 own_cavity = slot.information - in.scale * in.direction * in.direction.transpose();
-  if (!positive_definite(own_cavity)) return {};
-  const Mat2 own_cavity_covariance = own_cavity.inverse();
-  const Vec2 own_cavity_vector = slot.information * slot.mean_m - in.scale * in.mean * in.direction;
-  return RankOne{message_scale(factor.information, a.dot(own_cavity_covariance * a)),
-                 a.dot(own_cavity_covariance * own_cavity_vector) - factor.range_m, a};
+  if (!positive_definite(own_cavity)) return 0.0;
+  return message_scale(factor.information, a.dot(own_cavity.inverse() * a));
 }
 
 DmlTracking::RankOne DmlTracking::message_to_self(const Slot& slot, const SlotEdge& edge,
@@ -161,19 +159,16 @@ DmlTracking::RankOne DmlTracking::message_to_self(const Slot& slot, const SlotEd
   if (offset.norm() < kShortestDistanceM) return {};
   const Vec2 a = offset.normalized();
   const double q = peer.exact ? 0.0 : a.dot(far->second.covariance * a);
-  const double m = a.dot(far->second.mean_m);
   double far_variance = q + predicted_variance;
-  double far_mean = m;
   if (same_step) {
-    // The neighbour's marginal holds this factor's message to it: take it out (the cavity), so the
-    // factor's data does not come back.
-    const RankOne sent = message_to_peer(slot, edge, factor, a);
-    const double remaining = 1.0 - sent.scale * q;
+    // The neighbour's marginal holds this factor's message to it: take its information out (the cavity),
+    // so the factor's data is not counted twice. The mean stays the marginal's (docs/algorithms.md §9.8).
+    const double remaining = 1.0 - scale_to_peer(slot, edge, factor, a) * q;
     if (!(remaining > kCavityTolerance)) return {};  // all the neighbour knows along a came from here
     far_variance = q / remaining;
-    far_mean = far_variance * (m / q - sent.scale * sent.mean);
   }
-  return RankOne{message_scale(factor.information, far_variance), far_mean + factor.range_m, a};
+  return RankOne{message_scale(factor.information, far_variance), a.dot(far->second.mean_m) + factor.range_m,
+                 a};
 }
 
 void DmlTracking::update_window() {

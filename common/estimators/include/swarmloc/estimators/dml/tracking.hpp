@@ -80,8 +80,8 @@ class DmlTracking final : public Estimator {
   void absorb_beliefs(const Inbox& inbox);
   [[nodiscard]] Factor factor_of(const SlotEdge& edge) const;
   [[nodiscard]] RankOne message_to_self(const Slot& slot, const SlotEdge& edge, const Peer& peer) const;
-  [[nodiscard]] static RankOne message_to_peer(const Slot& slot, const SlotEdge& edge, const Factor& factor,
-                                               const Vec2& a);
+  [[nodiscard]] static double scale_to_peer(const Slot& slot, const SlotEdge& edge, const Factor& factor,
+                                            const Vec2& a);
   void update_window();
   void solve_chain();
   [[nodiscard]] bool exact_anchor() const;
