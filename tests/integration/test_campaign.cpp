@@ -13,7 +13,7 @@
 #include "campaign.hpp"
 #include "process_helpers.hpp"
 
-namespace swarmloc::research {
+namespace swarmloc::research::campaign_test {
 namespace {
 
 using swarmloc::testing::fresh_directory;
@@ -205,4 +205,4 @@ TEST(Campaign, StillFallingFlagsARunWhoseLastTenthIsWellBelowItsSeventhToEighthT
 }
 
 }  // namespace
-}  // namespace swarmloc::research
+}  // namespace swarmloc::research::campaign_test

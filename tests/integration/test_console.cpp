@@ -13,7 +13,7 @@
 #include "console.hpp"
 #include "process_helpers.hpp"
 
-namespace swarmloc::orchestrator {
+namespace swarmloc::orchestrator::console_test {
 namespace {
 
 /// Everything written to stderr while `body` runs.
@@ -63,4 +63,4 @@ TEST(Console, OffATerminalEveryProgressLineIsItsOwnLineAndLogLinesAreUntouched) 
 }
 
 }  // namespace
-}  // namespace swarmloc::orchestrator
+}  // namespace swarmloc::orchestrator::console_test

@@ -14,6 +14,7 @@
 
 #include "process_helpers.hpp"
 
+namespace cooperative_dds_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -218,3 +219,4 @@ INSTANTIATE_TEST_SUITE_P(
     case_name);
 
 }  // namespace
+}  // namespace cooperative_dds_test

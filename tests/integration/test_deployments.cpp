@@ -24,6 +24,7 @@
 #include "deployment_helpers.hpp"
 #include "process_helpers.hpp"
 
+namespace deployments_test {
 namespace {
 
 using swarmloc::testing::completed_run;
@@ -268,3 +269,4 @@ TEST(Deployments, KubernetesManifestsUnderPodmanKubePlayMatchProcesses) {
 }
 
 }  // namespace
+}  // namespace deployments_test

@@ -8,6 +8,7 @@
 
 #include "process_helpers.hpp"
 
+namespace faults_dds_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -116,3 +117,4 @@ TEST(FaultsOverDds, BothSidesOfAPartitionKeepEstimatingAndTheErrorHeals) {
 }
 
 }  // namespace
+}  // namespace faults_dds_test

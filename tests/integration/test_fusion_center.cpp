@@ -6,6 +6,7 @@
 
 #include "process_helpers.hpp"
 
+namespace fusion_center_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -81,3 +82,4 @@ TEST(FusionCenter, FusionRoleRejectsADistributedAlgorithm) {
 }
 
 }  // namespace
+}  // namespace fusion_center_test

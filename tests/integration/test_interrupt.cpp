@@ -22,6 +22,7 @@
 
 #include "process_helpers.hpp"
 
+namespace interrupt_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -182,3 +183,4 @@ TEST(Interrupt, SigtermMidRunExitsPromptlyWithACompleteRunDirectoryAndNoAgentLef
 }
 
 }  // namespace
+}  // namespace interrupt_test

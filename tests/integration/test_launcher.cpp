@@ -17,6 +17,7 @@
 #include "launcher.hpp"
 #include "process_helpers.hpp"
 
+namespace launcher_test {
 namespace {
 
 using swarmloc::orchestrator::ProcessLauncher;
@@ -80,3 +81,4 @@ TEST(Launcher, ChildrenRunNicerByTheRequestedIncrementCappedAtNineteen) {
 }
 
 }  // namespace
+}  // namespace launcher_test

@@ -10,6 +10,7 @@
 
 #include "live_helpers.hpp"
 
+namespace live_test {
 namespace {
 
 using swarmloc::testing::CommandResult;
@@ -163,3 +164,4 @@ TEST(Live, OneRunPosesMatchReplayTfAndRosTypesMonitorAndViewAreRight) {
 }
 
 }  // namespace
+}  // namespace live_test

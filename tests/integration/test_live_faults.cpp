@@ -5,6 +5,7 @@
 
 #include "live_helpers.hpp"
 
+namespace live_faults_test {
 namespace {
 
 using swarmloc::testing::kLiveRateHz;
@@ -81,3 +82,4 @@ TEST(LiveFaults, EachFaultIsCountedOnceNothingCrashesAndTheEstimateRecovers) {
 }
 
 }  // namespace
+}  // namespace live_faults_test

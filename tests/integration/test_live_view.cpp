@@ -19,6 +19,7 @@
 
 #include "process_helpers.hpp"
 
+namespace live_view_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -324,3 +325,4 @@ TEST(LiveView, BusyPortIsReportedBeforeAnythingStarts) {
 }
 
 }  // namespace
+}  // namespace live_view_test

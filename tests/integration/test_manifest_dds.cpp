@@ -8,6 +8,7 @@
 
 #include "process_helpers.hpp"
 
+namespace manifest_dds_test {
 namespace {
 
 using swarmloc::testing::fresh_directory;
@@ -68,3 +69,4 @@ TEST(ManifestOverDds, AnAgentWithNoRunToJoinExitsOneNamingTheDomain) {
 }
 
 }  // namespace
+}  // namespace manifest_dds_test

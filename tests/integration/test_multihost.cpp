@@ -17,6 +17,7 @@
 #include "deployment_helpers.hpp"
 #include "process_helpers.hpp"
 
+namespace multihost_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -182,3 +183,4 @@ TEST(MultiHost, SixtyAgentsOnThreeHostsOverWifiLikeLinksWithUnicastDiscoveryMatc
 }
 
 }  // namespace
+}  // namespace multihost_test

@@ -17,6 +17,7 @@
 #include "dataset_paths.hpp"
 #include "process_helpers.hpp"
 
+namespace murp_dds_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -150,3 +151,4 @@ TEST(MurpDds, AVehicleThatDiesMidRunFailsTheRunAndLeavesNoProcess) {
 }
 
 }  // namespace
+}  // namespace murp_dds_test

@@ -11,6 +11,7 @@
 #include "dataset_paths.hpp"
 #include "process_helpers.hpp"
 
+namespace murp_replay_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -137,3 +138,4 @@ TEST(MurpReplay, BadTrialsAndCalibrationsAreRejectedWithExitTwo) {
 }
 
 }  // namespace
+}  // namespace murp_replay_test

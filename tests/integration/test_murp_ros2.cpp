@@ -27,6 +27,7 @@
 #include "process_helpers.hpp"
 #include "ros2_reader_lines.hpp"
 
+namespace murp_ros2_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -419,3 +420,4 @@ TEST(MurpRos2BadInput, Ros2IsRefusedWithSimAndWithoutMurp) {
 }
 
 }  // namespace
+}  // namespace murp_ros2_test

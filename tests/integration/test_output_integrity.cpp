@@ -24,6 +24,7 @@
 
 #include "process_helpers.hpp"
 
+namespace output_integrity_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -294,3 +295,4 @@ TEST(Cli, OneTrialOfAMonteCarloSetIsItsRowRunInFull) {
 }
 
 }  // namespace
+}  // namespace output_integrity_test

@@ -18,6 +18,7 @@
 #include "dataset_paths.hpp"
 #include "process_helpers.hpp"
 
+namespace real_data_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -197,3 +198,4 @@ TEST(RealData, ReplayWithANoiseFileUsesItAndRefusesAnythingButANoiseBlock) {
 }
 
 }  // namespace
+}  // namespace real_data_test

@@ -10,6 +10,7 @@
 #include "process_helpers.hpp"
 #include "swarmloc/rundir/recording.hpp"
 
+namespace record_replay_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -136,3 +137,4 @@ TEST(RecordReplay, LockstepDdsRunRecordsBatchesAndSamplesAndReplaysInBothRuntime
 }
 
 }  // namespace
+}  // namespace record_replay_test

@@ -11,7 +11,7 @@
 
 #include "reproduce.hpp"
 
-namespace swarmloc::research {
+namespace swarmloc::research::reproduce_test {
 namespace {
 
 // Gasparri & Pascucci Table I, noise std 0.2 m column, 8 trials: the paper's mean error is 4.38 cm (IEIF) and
@@ -72,4 +72,4 @@ TEST(ReproduceCommands, Ea2WritesItsCsvIntoANewDirectory) {
 }
 
 }  // namespace
-}  // namespace swarmloc::research
+}  // namespace swarmloc::research::reproduce_test

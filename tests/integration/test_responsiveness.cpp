@@ -24,6 +24,7 @@
 
 #include "process_helpers.hpp"
 
+namespace responsiveness_test {
 namespace {
 
 using swarmloc::testing::free_port;
@@ -295,3 +296,4 @@ TEST(Replay, ADirectoryAnEmptyOrADamagedFileIsBadInput) {
 }
 
 }  // namespace
+}  // namespace responsiveness_test

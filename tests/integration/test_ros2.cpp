@@ -21,6 +21,7 @@
 #include "process_helpers.hpp"
 #include "ros2_reader_lines.hpp"
 
+namespace ros2_test {
 namespace {
 
 using swarmloc::testing::fresh_directory;
@@ -381,3 +382,4 @@ TEST(Ros2BadInput, InvalidRos2ValueExitsTwoNamingTheKey) {
 }
 
 }  // namespace
+}  // namespace ros2_test

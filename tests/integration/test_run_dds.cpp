@@ -10,6 +10,7 @@
 
 #include "process_helpers.hpp"
 
+namespace run_dds_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -203,3 +204,4 @@ INSTANTIATE_TEST_SUITE_P(
     [](const auto& test_info) { return std::string(test_info.param.name); });
 
 }  // namespace
+}  // namespace run_dds_test

@@ -23,6 +23,7 @@
 #include "swarmloc/config/scenario.hpp"
 #include "swarmloc/runtime/manifest.hpp"
 
+namespace run_integrity_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -369,3 +370,4 @@ TEST(RunIntegrity, AClosedStdoutNeverKillsTheRun) {
 }
 
 }  // namespace
+}  // namespace run_integrity_test

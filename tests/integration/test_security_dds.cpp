@@ -15,6 +15,7 @@
 
 #include "process_helpers.hpp"
 
+namespace security_dds_test {
 namespace {
 
 using swarmloc::testing::count_processes_matching;
@@ -222,3 +223,4 @@ TEST(Security, SecuredRunConvergesAndRoguesNeitherReceiveNorInject) {
 }
 
 }  // namespace
+}  // namespace security_dds_test
