@@ -12,6 +12,11 @@
 //     either not well-formed (and rejected), or rejected by the runtime with a reason, or accepted, and
 //     an accepted State is finite, symmetric PSD and within the absurd-magnitude bounds; after every
 //     estimator step the agent's estimate is finite.
+//   - Half the States are 3-D (an altitude and one peer z per edge summary; a third of the sessions run
+//     dml in 3-D, which reads them): their z parts get the same value and sequence mutations, plus peer
+//     z's that disagree with the edge summaries and _maximum / _release changes, which the decoder must
+//     ignore. A well-formed 3-D State carries its z part bit for bit; one refused for its z part alone is
+//     refused with the reason of the runtime's first failed z check.
 // Scenario parser: a valid YAML text (the default scenario, to_yaml of varied scenarios, hand-written
 // fragments) gets 1–6 text mutations (bit flips, random/structural bytes, deletions, truncation,
 // duplicated/swapped lines, inserted keys, values replaced by huge numbers, special floats, YAML tags and
@@ -23,11 +28,13 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <exception>
 #include <fstream>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string_view>
 #include <typeinfo>
@@ -209,15 +216,17 @@ class Recorder {
 };
 
 // ---------------------------------------------------------------------------------------------------
-// The agent under test for States and batches: agent 0 with neighbours 1, 2, 3, running the IEIF.
+// The agent under test for States and batches: agent 0 with neighbours 1, 2, 3, running the IEIF or the
+// IEKF in a planar world, or (State sessions) dml in a 3-D one, which reads the accepted z parts.
 
 constexpr AgentId kSelf = 0;
 const std::vector<AgentId> kNeighbours{1, 2, 3};
 
-runtime::AgentRuntime make_runtime(std::uint64_t seed, const std::string& algorithm) {
+runtime::AgentRuntime make_runtime(std::uint64_t seed, const std::string& algorithm, int dimensions = 2) {
   estimators::AgentSetup setup;
   setup.id = kSelf;
   setup.initial_guess_m = Vec2(5.0, 5.0);
+  setup.dimensions = dimensions;
   const estimators::EstimatorParams params;
   runtime::AgentRuntimeParams runtime;
   runtime.seed = seed;
@@ -235,11 +244,28 @@ estimators::MeasurementBatch plausible_batch(Rng& rng, std::int64_t step) {
 
 bool estimate_is_finite(const runtime::AgentRuntime& runtime) {
   const auto estimate = runtime.estimate();
-  return estimate.mean_m.allFinite() && estimate.covariance.allFinite();
+  const auto& z = estimate.altitude;
+  return estimate.mean_m.allFinite() && estimate.covariance.allFinite() &&
+         (!z || (std::isfinite(z->z_m) && std::isfinite(z->variance_m2) && z->cross_m2.allFinite()));
 }
 
 // ---------------------------------------------------------------------------------------------------
 // State
+
+/// A 3-D sender's z part: a random (x, y, z) covariance split into its planar block and its z row, so the
+/// joined covariance is PSD by construction (an anchor's stays zero), and every edge gets its peer's z.
+void add_random_altitude(estimators::StateMessage& state, Rng& rng) {
+  Mat3 factor;
+  for (Eigen::Index k = 0; k < factor.size(); ++k) factor(k) = rng.uniform(-2.0, 2.0);
+  Mat3 covariance = Mat3::Zero();
+  if (!state.anchor) {
+    covariance = factor * factor.transpose() + 1e-6 * Mat3::Identity();
+    covariance = (0.5 * (covariance + covariance.transpose())).eval();
+  }
+  state.covariance = covariance.topLeftCorner<2, 2>();
+  state.altitude = Altitude{rng.uniform(-30.0, 30.0), covariance(2, 2), covariance.topRightCorner<2, 1>()};
+  for (auto& edge : state.edge_ranges) edge.peer_z_m = rng.uniform(-30.0, 30.0);
+}
 
 estimators::StateMessage random_state(Rng& rng) {
   estimators::StateMessage state;
@@ -254,35 +280,172 @@ estimators::StateMessage random_state(Rng& rng) {
                                  rng.uniform(0.0, 30.0),
                                  Vec2(rng.uniform(-50.0, 50.0), rng.uniform(-50.0, 50.0))});
   }
+  if (rng.chance(0.5)) add_random_altitude(state, rng);
   return state;
 }
 
-/// The decoder's rule for a State's edge summaries: finite, information >= 0, at most the IDL bound.
-bool edge_ranges_acceptable(const swarmloc_msg_State& s) {
-  if (s.edge_ranges._length > dds::codec::kMaxEdgeRanges) return false;
+template <typename Sequence>
+bool has_buffer_for_length(const Sequence& sequence) {
+  return sequence._length == 0 || sequence._buffer != nullptr;
+}
+
+/// The decoder's structural rule for a State (dds::decode): known flags, key = sender, a buffer behind every
+/// sequence's length, at most 16 edge summaries and one altitude, one peer z per edge in a 3-D sample and
+/// none in a planar one, and every edge finite with information >= 0 (its peer z included). Elements are
+/// read only once the lengths are known to be backed by a buffer.
+bool state_well_formed_by_rule(const swarmloc_msg_State& s) {
+  if ((s.flags & ~dds::codec::kStateFlagsKnown) != 0 || s.agent_id != s.header.agent_id) return false;
+  if (!has_buffer_for_length(s.edge_ranges) || !has_buffer_for_length(s.altitude) ||
+      !has_buffer_for_length(s.edge_peer_z)) {
+    return false;
+  }
+  const bool spatial = s.altitude._length == 1;
+  if (s.edge_ranges._length > dds::codec::kMaxEdgeRanges || s.altitude._length > 1 ||
+      s.edge_peer_z._length != (spatial ? s.edge_ranges._length : 0)) {
+    return false;
+  }
   for (std::uint32_t k = 0; k < s.edge_ranges._length; ++k) {
     const auto& edge = s.edge_ranges._buffer[k];
     if (!std::isfinite(edge.information) || !(edge.information >= 0.0) || !std::isfinite(edge.mean_range_m) ||
-        !std::isfinite(edge.peer_mean_m[0]) || !std::isfinite(edge.peer_mean_m[1])) {
+        !std::isfinite(edge.peer_mean_m[0]) || !std::isfinite(edge.peer_mean_m[1]) ||
+        (spatial && !std::isfinite(s.edge_peer_z._buffer[k]))) {
       return false;
     }
   }
   return true;
 }
 
-void mutate(swarmloc_msg_State& s, Rng& rng) {
-  switch (rng.below(9)) {
+/// A well-formed State's z part as decoded equals the wire's bit for bit: the altitude exactly when the
+/// wire has one, and every edge's peer z (+0 in a planar sample). Reads the wire only where its lengths
+/// are backed: a sample wrongly called well-formed makes it return false, not read past a buffer.
+bool state_z_part_as_on_wire(const estimators::StateMessage& decoded, const swarmloc_msg_State& s) {
+  if (decoded.altitude.has_value() != (s.altitude._length == 1 && s.altitude._buffer != nullptr))
+    return false;
+  if (const auto& z = decoded.altitude) {
+    const auto& wire = s.altitude._buffer[0];
+    if (!same_bits(z->z_m, wire.z_m) || !same_bits(z->variance_m2, wire.variance_m2) ||
+        !same_bits(z->cross_m2.x(), wire.cross_m2[0]) || !same_bits(z->cross_m2.y(), wire.cross_m2[1])) {
+      return false;
+    }
+  }
+  const std::size_t edges = decoded.edge_ranges.size();
+  const bool peer_z_backed =
+      edges == 0 || (s.edge_peer_z._length == edges && s.edge_peer_z._buffer != nullptr);
+  if (edges != s.edge_ranges._length || (decoded.altitude && !peer_z_backed)) return false;
+  for (std::size_t k = 0; k < edges; ++k) {
+    const double wire_z = decoded.altitude ? s.edge_peer_z._buffer[k] : 0.0;
+    if (!same_bits(decoded.edge_ranges[k].peer_z_m, wire_z)) return false;
+  }
+  return true;
+}
+
+// The runtime's bounds (runtime::AgentRuntimeParams' defaults, which make_runtime keeps).
+constexpr double kFuzzPositionBoundM = 1e6;
+constexpr double kFuzzVarianceBoundM2 = 1e14;
+
+/// A State's planar part passes the runtime's checks: finite, within the absurd bounds, symmetric PSD;
+/// every edge summary's planar numbers finite and within them.
+bool state_planar_part_plausible(const estimators::StateMessage& m) {
+  if (!m.mean_m.allFinite() || !m.covariance.allFinite() || m.mean_m.norm() > kFuzzPositionBoundM ||
+      m.covariance.cwiseAbs().maxCoeff() > kFuzzVarianceBoundM2 ||
+      !core::is_symmetric_psd(m.covariance, 1e-9)) {
+    return false;
+  }
+  return std::all_of(m.edge_ranges.begin(), m.edge_ranges.end(), [](const auto& edge) {
+    return std::isfinite(edge.information) && edge.information >= 0.0 && edge.information <= 1e30 &&
+           std::isfinite(edge.mean_range_m) && edge.mean_range_m >= 0.0 &&
+           edge.mean_range_m <= 2.0 * kFuzzPositionBoundM && edge.peer_mean_m.allFinite() &&
+           edge.peer_mean_m.norm() <= kFuzzPositionBoundM;
+  });
+}
+
+/// Why the runtime must refuse a State whose planar part is plausible, for its z part alone (its checks in
+/// their order: the altitude non-finite, beyond the bounds, not PSD; then each edge's peer (x, y, z));
+/// nullopt if the z part is plausible.
+std::optional<runtime::RejectReason> state_z_part_fault(const estimators::StateMessage& m) {
+  using runtime::RejectReason;
+  if (const auto& z = m.altitude) {
+    if (!std::isfinite(z->z_m) || !std::isfinite(z->variance_m2) || !z->cross_m2.allFinite())
+      return RejectReason::kNonFinite;
+    if (join(m.mean_m, z->z_m).norm() > kFuzzPositionBoundM ||
+        std::abs(z->variance_m2) > kFuzzVarianceBoundM2 ||
+        z->cross_m2.cwiseAbs().maxCoeff() > kFuzzVarianceBoundM2) {
+      return RejectReason::kAbsurdMagnitude;
+    }
+    if (z->variance_m2 < 0.0 || !core::is_symmetric_psd_dynamic(MatX(join(m.covariance, *z)), 1e-9))
+      return RejectReason::kNotSymmetricPsd;
+  }
+  for (const auto& edge : m.edge_ranges) {
+    if (!std::isfinite(edge.peer_z_m)) return RejectReason::kNonFinite;
+    if (join(edge.peer_mean_m, edge.peer_z_m).norm() > kFuzzPositionBoundM)
+      return RejectReason::kAbsurdMagnitude;
+  }
+  return std::nullopt;
+}
+
+/// What a mutated State's sequences point into once a mutation gives one a new length (until then, into
+/// the WireState's own vectors).
+struct StateSequenceStorage {
+  std::vector<swarmloc_msg_EdgeRange> edge_ranges;
+  std::vector<swarmloc_msg_Altitude> altitude;
+  std::vector<double> edge_peer_z;
+};
+
+/// Points a State sequence at `storage`, as the writer does (_maximum = _length, not released).
+template <typename Sequence, typename Element>
+void point_state_sequence_at(Sequence& sequence, std::vector<Element>& storage) {
+  sequence._length = static_cast<std::uint32_t>(storage.size());
+  sequence._maximum = sequence._length;
+  sequence._buffer = storage.empty() ? nullptr : storage.data();
+  sequence._release = false;
+}
+
+/// One of the State's three sequences, at random.
+template <typename Visit>
+void visit_random_state_sequence(swarmloc_msg_State& s, Rng& rng, Visit visit) {
+  switch (rng.below(3)) {
+    case 0:
+      visit(s.edge_ranges);
+      break;
+    case 1:
+      visit(s.altitude);
+      break;
+    default:
+      visit(s.edge_peer_z);
+  }
+}
+
+void fill_edge_range(swarmloc_msg_EdgeRange& edge, Rng& rng) {
+  edge.peer = static_cast<std::int32_t>(rng.below(8));
+  edge.information = rng.chance(0.8) ? rng.uniform(0.0, 1e4) : hostile_double(rng);
+  edge.mean_range_m = rng.chance(0.8) ? rng.uniform(0.0, 30.0) : hostile_double(rng);
+  for (auto& v : edge.peer_mean_m) v = rng.chance(0.9) ? rng.uniform(-50.0, 50.0) : hostile_double(rng);
+}
+
+/// Mostly a usable z part (var(z) > 0 and no correlation is PSD beside any PSD planar block).
+void fill_altitude(swarmloc_msg_Altitude& altitude, Rng& rng) {
+  altitude.z_m = rng.chance(0.8) ? rng.uniform(-30.0, 30.0) : hostile_double(rng);
+  altitude.variance_m2 = rng.chance(0.8) ? rng.uniform(0.01, 4.0) : hostile_double(rng);
+  for (auto& v : altitude.cross_m2) v = rng.chance(0.8) ? 0.0 : hostile_double(rng);
+}
+
+void fill_peer_z(double& z, Rng& rng) {
+  z = rng.chance(0.8) ? rng.uniform(-30.0, 30.0) : hostile_double(rng);
+}
+
+// random_bytes below leaves the sample well-defined only because it restores every sequence member: a
+// member added to State after edge_peer_z must be restored there too.
+static_assert(offsetof(swarmloc_msg_State, edge_peer_z) + sizeof(swarmloc_msg_State::edge_peer_z) ==
+              sizeof(swarmloc_msg_State));
+
+/// Every mutation keeps the invariant the decoder relies on: a non-null _buffer holds _length elements.
+void mutate(swarmloc_msg_State& s, StateSequenceStorage& storage, Rng& rng) {
+  switch (rng.below(17)) {
     case 0:
       s.agent_id = hostile_int<std::int32_t>(rng);
       break;
     case 1:
       mutate_header(s.header, rng);
-      break;
-    case 7:
-      if (s.edge_ranges._length > 0) {
-        auto& edge = s.edge_ranges._buffer[rng.below(s.edge_ranges._length)];
-        (rng.chance(0.5) ? edge.information : edge.mean_range_m) = hostile_double(rng);
-      }
       break;
     case 2:
       s.mean_m[rng.below(2)] = hostile_double(rng);
@@ -299,10 +462,85 @@ void mutate(swarmloc_msg_State& s, Rng& rng) {
     case 6:
       s.covariance[1] = rng.uniform(-10.0, 10.0);  // plausible numbers, not PSD
       break;
+    case 7:
+      if (s.edge_ranges._length > 0 && s.edge_ranges._buffer != nullptr) {
+        auto& edge = s.edge_ranges._buffer[rng.below(s.edge_ranges._length)];
+        (rng.chance(0.5) ? edge.information : edge.mean_range_m) = hostile_double(rng);
+      }
+      break;
+    case 8:
+      if (s.altitude._length > 0 && s.altitude._buffer != nullptr) {
+        auto& z = s.altitude._buffer[rng.below(s.altitude._length)];
+        switch (rng.below(3)) {
+          case 0:
+            z.z_m = hostile_double(rng);
+            break;
+          case 1:
+            z.variance_m2 = hostile_double(rng);
+            break;
+          default:
+            z.cross_m2[rng.below(2)] = hostile_double(rng);
+        }
+      }
+      break;
+    case 9:
+      if (s.edge_peer_z._length > 0 && s.edge_peer_z._buffer != nullptr)
+        s.edge_peer_z._buffer[rng.below(s.edge_peer_z._length)] = hostile_double(rng);
+      break;
+    case 10:
+      reshape(s.altitude, storage.altitude, 1, rng, [&](swarmloc_msg_Altitude& z) { fill_altitude(z, rng); });
+      break;
+    case 11:
+      reshape(s.edge_peer_z, storage.edge_peer_z, dds::codec::kMaxEdgeRanges, rng,
+              [&](double& z) { fill_peer_z(z, rng); });
+      break;
+    case 12: {
+      // Peer z's that disagree with the planar part: one too few or too many for the edges, or some in a
+      // sample without an altitude.
+      // (An absurd edge count, which case 15 may have set without a buffer, is malformed anyway.)
+      const std::size_t edges = std::min<std::size_t>(s.edge_ranges._length, dds::codec::kMaxEdgeRanges + 1);
+      std::size_t length = rng.chance(0.5) ? edges + 1 : (edges > 0 ? edges - 1 : 2);
+      if (rng.chance(0.3)) {
+        storage.altitude.clear();
+        point_state_sequence_at(s.altitude, storage.altitude);
+        length = std::max<std::size_t>(edges, 1);
+      }
+      storage.edge_peer_z.resize(length);
+      for (auto& z : storage.edge_peer_z) fill_peer_z(z, rng);
+      point_state_sequence_at(s.edge_peer_z, storage.edge_peer_z);
+      break;
+    }
+    case 13:
+      reshape(s.edge_ranges, storage.edge_ranges, dds::codec::kMaxEdgeRanges, rng,
+              [&](swarmloc_msg_EdgeRange& edge) { fill_edge_range(edge, rng); });
+      break;
+    case 14:
+      // The decoder reads _length elements and frees nothing: _maximum below or far above _length and a
+      // set _release change nothing.
+      visit_random_state_sequence(s, rng, [&](auto& sequence) {
+        sequence._maximum = rng.chance(0.5) && sequence._length > 0
+                                ? static_cast<std::uint32_t>(rng.below(sequence._length))
+                                : hostile_int<std::uint32_t>(rng);
+        sequence._release = rng.chance(0.5);
+      });
+      break;
+    case 15:
+      // A length without a buffer, up to an absurd one.
+      visit_random_state_sequence(s, rng, [&](auto& sequence) {
+        sequence._length = rng.chance(0.5) ? static_cast<std::uint32_t>(1 + rng.below(100))
+                                           : std::max<std::uint32_t>(1, hostile_int<std::uint32_t>(rng));
+        sequence._buffer = nullptr;
+      });
+      break;
     default: {
-      const auto edge_ranges = s.edge_ranges;  // the one pointer in State: keep it valid
+      // Random bytes over everything but the sequences: a CDR reader never hands over a wild pointer.
+      const auto edge_ranges = s.edge_ranges;
+      const auto altitude = s.altitude;
+      const auto edge_peer_z = s.edge_peer_z;
       random_bytes(s, rng);
       s.edge_ranges = edge_ranges;
+      s.altitude = altitude;
+      s.edge_peer_z = edge_peer_z;
     }
   }
 }
@@ -316,21 +554,28 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
   for (std::uint64_t i = first; i < first + inputs; ++i) {
     Rng rng(core::hash_keys(seed, 1, i));
     if (runtime == nullptr || i % kSession == 0 || i == first) {
-      runtime =
-          std::make_unique<runtime::AgentRuntime>(make_runtime(seed, rng.chance(0.5) ? "ieif" : "iekf"));
+      const auto pick = rng.below(3);
+      runtime = std::make_unique<runtime::AgentRuntime>(
+          pick == 2 ? make_runtime(seed, "dml", 3) : make_runtime(seed, pick == 0 ? "ieif" : "iekf"));
     }
     const AgentId sender = rng.chance(0.9) ? kNeighbours[rng.below(3)] : hostile_int<std::int32_t>(rng);
-    const dds::WireState wire(random_header(rng, sender, static_cast<std::uint32_t>(i % kSession)),
-                              random_state(rng));
+    dds::WireState wire(random_header(rng, sender, static_cast<std::uint32_t>(i % kSession)),
+                        random_state(rng));
     swarmloc_msg_State sample = wire.sample;
+    StateSequenceStorage storage;
     const auto mutations = rng.below(6);
-    for (std::uint64_t m = 0; m < mutations; ++m) mutate(sample, rng);
+    for (std::uint64_t m = 0; m < mutations; ++m) mutate(sample, storage, rng);
 
     const auto decoded = dds::decode(sample);
-    const bool expect_well_formed = (sample.flags & ~dds::codec::kStateFlagsKnown) == 0 &&
-                                    sample.agent_id == sample.header.agent_id &&
-                                    edge_ranges_acceptable(sample);
+    const bool expect_well_formed = state_well_formed_by_rule(sample);
     record.check(decoded.well_formed == expect_well_formed, i, "state: well_formed differs from the rule");
+    const bool spatial = sample.altitude._length != 0 || sample.edge_peer_z._length != 0;
+    if (!decoded.well_formed && spatial) {
+      auto planar = sample;  // the same sample without its 3-D part: was the 3-D part what broke it?
+      planar.altitude = {};
+      planar.edge_peer_z = {};
+      if (state_well_formed_by_rule(planar)) ++result.reached["3d malformed by its z part"];
+    }
     if (decoded.well_formed) {
       record.check(same_bits(decoded.message.mean_m.x(), sample.mean_m[0]) &&
                        same_bits(decoded.message.mean_m.y(), sample.mean_m[1]) &&
@@ -338,6 +583,8 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
                        same_bits(decoded.message.covariance(1, 0), sample.covariance[1]) &&
                        decoded.header.seq == sample.header.seq,
                    i, "state: decoded values differ from the wire");
+      record.check(state_z_part_as_on_wire(decoded.message, sample), i,
+                   "state: decoded z part differs from the wire");
     }
     const auto before = runtime->rejected_by_reason();
     const bool accepted = runtime->on_state(decoded.header, decoded.message, decoded.well_formed);
@@ -350,20 +597,35 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
                      i, "state: a malformed sample was not counted as malformed");
       }
     }
+    const auto& m = decoded.message;
     if (accepted) {
       ++result.accepted;
-      const auto& m = decoded.message;
       record.check(m.mean_m.allFinite() && m.covariance.allFinite(), i,
                    "state: accepted a non-finite sample");
       record.check(core::is_symmetric_psd(m.covariance, 1e-9), i, "state: accepted a non-PSD covariance");
       record.check(m.mean_m.norm() <= 1e6 && m.covariance.cwiseAbs().maxCoeff() <= 1e14, i,
                    "state: accepted an absurd magnitude");
+      record.check(!state_z_part_fault(m), i, "state: accepted an implausible z part");
+      if (m.altitude) ++result.reached["3d accepted"];
     } else {
       ++result.rejected;
       if (decoded.header.agent_id != kSelf) {
         std::uint64_t counted = 0;
-        for (std::size_t r = 0; r < after.size(); ++r) counted += after[r] - before[r];
+        std::size_t reason = 0;
+        for (std::size_t r = 0; r < after.size(); ++r) {
+          counted += after[r] - before[r];
+          if (after[r] != before[r]) reason = r;
+        }
         record.check(counted == 1, i, "state: a rejection was not counted under exactly one reason");
+        // A well-formed 3-D sample from a neighbour whose planar part is plausible: its z part alone decides,
+        // with the reason of the first failed check.
+        const auto z_fault = state_z_part_fault(m);
+        if (decoded.well_formed && m.altitude && z_fault && state_planar_part_plausible(m) &&
+            std::find(kNeighbours.begin(), kNeighbours.end(), decoded.header.agent_id) != kNeighbours.end()) {
+          record.check(counted == 1 && reason == static_cast<std::size_t>(*z_fault), i,
+                       "state: a z part was refused for another reason");
+          ++result.reached[std::string("3d refused for its z part: ") + runtime::to_string(*z_fault)];
+        }
       }
     }
     if (i % 4 == 3) {
@@ -373,6 +635,182 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
     }
   }
 }
+
+/// A State sample that owns what its sequences point at, so a case can give any of them any length.
+struct OwnedStateSample {
+  explicit OwnedStateSample(const dds::WireState& wire)
+      : edge_ranges(wire.edge_ranges),
+        altitude(wire.altitude),
+        edge_peer_z(wire.edge_peer_z),
+        sample(wire.sample) {
+    repoint();
+  }
+  OwnedStateSample(const OwnedStateSample&) = delete;
+  OwnedStateSample& operator=(const OwnedStateSample&) = delete;
+  /// Re-points the sample after a case resized a vector; each buffer then holds exactly its length, so
+  /// AddressSanitizer sees a read past _length.
+  void repoint() {
+    edge_ranges.shrink_to_fit();
+    altitude.shrink_to_fit();
+    edge_peer_z.shrink_to_fit();
+    point_state_sequence_at(sample.edge_ranges, edge_ranges);
+    point_state_sequence_at(sample.altitude, altitude);
+    point_state_sequence_at(sample.edge_peer_z, edge_peer_z);
+  }
+  std::vector<swarmloc_msg_EdgeRange> edge_ranges;
+  std::vector<swarmloc_msg_Altitude> altitude;
+  std::vector<double> edge_peer_z;
+  swarmloc_msg_State sample{};
+};
+
+/// A plausible 3-D State with two edge summaries (doubles without short decimal forms, to see any rounding).
+estimators::StateMessage spatial_case_state() {
+  estimators::StateMessage state;
+  state.mean_m = Vec2(3.0, -4.0);
+  state.covariance << 0.5, 0.1, 0.1, 0.6;
+  state.degree = 2;
+  state.edge_ranges = {{2, 1e4 / 3.0, 12.25, Vec2(0.1 + 0.2, -1.0 / 7.0), 2.0 / 7.0},
+                       {3, 0.5, 7.5, Vec2(-4.0, 2.0 / 3.0), -1e-300}};
+  // The (x, y, z) covariance is diagonally dominant, hence positive definite.
+  state.altitude = Altitude{1.0 / 3.0, 0.7, Vec2(-0.1, 1.0 / 9.0)};
+  return state;
+}
+
+struct SpatialStateSpoiler {
+  const char* name;
+  void (*spoil)(OwnedStateSample&);
+};
+
+constexpr double kCaseNan = std::numeric_limits<double>::quiet_NaN();
+constexpr double kCaseInf = std::numeric_limits<double>::infinity();
+constexpr std::uint32_t kCaseAbsurdLength = std::numeric_limits<std::uint32_t>::max();
+
+const SpatialStateSpoiler kSpatialStateSpoilers[] = {
+    {"valid", [](OwnedStateSample&) {}},
+    {"valid without edge summaries",
+     [](OwnedStateSample& o) {
+       o.edge_ranges.clear();
+       o.edge_peer_z.clear();
+       o.repoint();
+     }},
+    {"planar",
+     [](OwnedStateSample& o) {
+       o.altitude.clear();
+       o.edge_peer_z.clear();
+       o.repoint();
+     }},
+    {"-0 z and a denormal peer z",
+     [](OwnedStateSample& o) {
+       o.altitude[0].z_m = -0.0;
+       o.edge_peer_z[1] = std::numeric_limits<double>::denorm_min();
+     }},
+    {"lengths above _maximum, released",
+     [](OwnedStateSample& o) {
+       o.sample.altitude._maximum = 0;
+       o.sample.edge_peer_z._maximum = 1;
+       o.sample.altitude._release = true;  // nothing here frees the sample
+       o.sample.edge_peer_z._release = true;
+     }},
+    {"_maximum far above the lengths",
+     [](OwnedStateSample& o) {
+       o.sample.altitude._maximum = kCaseAbsurdLength;
+       o.sample.edge_peer_z._maximum = kCaseAbsurdLength;
+     }},
+    {"two altitudes",
+     [](OwnedStateSample& o) {
+       o.altitude.push_back(o.altitude[0]);
+       o.repoint();
+     }},
+    {"altitude length without a buffer", [](OwnedStateSample& o) { o.sample.altitude._buffer = nullptr; }},
+    {"absurd altitude length without a buffer",
+     [](OwnedStateSample& o) {
+       o.sample.altitude._length = kCaseAbsurdLength;
+       o.sample.altitude._buffer = nullptr;
+     }},
+    {"one peer z too few",
+     [](OwnedStateSample& o) {
+       o.edge_peer_z.pop_back();
+       o.repoint();
+     }},
+    {"one peer z too many",
+     [](OwnedStateSample& o) {
+       o.edge_peer_z.push_back(0.5);
+       o.repoint();
+     }},
+    {"peer z's without an altitude",
+     [](OwnedStateSample& o) {
+       o.altitude.clear();
+       o.repoint();
+     }},
+    {"an altitude without peer z's",
+     [](OwnedStateSample& o) {
+       o.edge_peer_z.clear();
+       o.repoint();
+     }},
+    {"peer z length without a buffer", [](OwnedStateSample& o) { o.sample.edge_peer_z._buffer = nullptr; }},
+    {"absurd peer z length without a buffer",
+     [](OwnedStateSample& o) {
+       o.sample.edge_peer_z._length = kCaseAbsurdLength;
+       o.sample.edge_peer_z._buffer = nullptr;
+     }},
+    {"17 edge summaries and 17 peer z's",
+     [](OwnedStateSample& o) {
+       o.edge_ranges.resize(17, o.edge_ranges[0]);
+       o.edge_peer_z.resize(17, 1.0);
+       o.repoint();
+     }},
+    {"NaN peer z", [](OwnedStateSample& o) { o.edge_peer_z[0] = kCaseNan; }},
+    {"-Inf peer z", [](OwnedStateSample& o) { o.edge_peer_z[1] = -kCaseInf; }},
+    {"NaN z", [](OwnedStateSample& o) { o.altitude[0].z_m = kCaseNan; }},
+    {"+Inf var(z)", [](OwnedStateSample& o) { o.altitude[0].variance_m2 = kCaseInf; }},
+    {"NaN cov(y, z)", [](OwnedStateSample& o) { o.altitude[0].cross_m2[1] = -kCaseNan; }},
+    {"z beyond the position bound", [](OwnedStateSample& o) { o.altitude[0].z_m = 2e6; }},
+    {"var(z) beyond the variance bound", [](OwnedStateSample& o) { o.altitude[0].variance_m2 = 1e15; }},
+    {"peer z beyond the position bound", [](OwnedStateSample& o) { o.edge_peer_z[1] = -2e6; }},
+    {"negative var(z)",
+     [](OwnedStateSample& o) {
+       o.altitude[0].variance_m2 = -1e-12;  // below the PSD check's tolerance: only var(z) >= 0 refuses it
+       o.altitude[0].cross_m2[0] = o.altitude[0].cross_m2[1] = 0.0;
+     }},
+    {"(x, z) correlation above 1", [](OwnedStateSample& o) { o.altitude[0].cross_m2[0] = 0.9; }},
+};
+
+}  // namespace
+
+std::vector<SpatialStateCase> spatial_state_cases() {
+  auto agent = make_runtime(1, "ieif");
+  std::vector<SpatialStateCase> cases;
+  std::uint32_t seq = 0;
+  for (const auto& spoiler : kSpatialStateSpoilers) {
+    ++seq;  // never a duplicate or a reordered sample
+    runtime::Header header;
+    header.agent_id = 1;
+    header.seq = seq;
+    header.step = seq;
+    header.world_stamp_ns = static_cast<std::int64_t>(seq) * 100000000;
+    const dds::WireState wire(header, spatial_case_state());
+    OwnedStateSample owned(wire);
+    spoiler.spoil(owned);
+    const auto decoded = dds::decode(owned.sample);
+    SpatialStateCase outcome;
+    outcome.name = spoiler.name;
+    outcome.well_formed = decoded.well_formed;
+    outcome.z_intact = decoded.well_formed && state_z_part_as_on_wire(decoded.message, owned.sample);
+    const auto before = agent.rejected_by_reason();
+    outcome.accepted = agent.on_state(decoded.header, decoded.message, decoded.well_formed);
+    const auto after = agent.rejected_by_reason();
+    for (std::size_t r = 0; r < after.size(); ++r) {  // every count that moved, so a double count shows
+      for (auto n = before[r]; n < after[r]; ++n) {
+        if (!outcome.reason.empty()) outcome.reason += "+";
+        outcome.reason += runtime::to_string(static_cast<runtime::RejectReason>(r));
+      }
+    }
+    cases.push_back(outcome);
+  }
+  return cases;
+}
+
+namespace {
 
 // ---------------------------------------------------------------------------------------------------
 // Information

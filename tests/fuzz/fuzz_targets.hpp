@@ -8,6 +8,7 @@
 // the duplicate / reordered / mailbox paths), so reproduce those from the session start,
 // `--first I - I % 64`.
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,9 @@ struct FuzzResult {
   std::uint64_t rejected = 0;  ///< marked not well-formed, rejected by the runtime, or ScenarioError
   std::uint64_t violations = 0;
   std::vector<std::string> failures;  ///< the first few violations, with the input index
+  /// How often the inputs reached a named outcome the totals cannot show (state: its 3-D samples accepted,
+  /// malformed by their z part, refused for it by reason), so a test can tell a path is exercised at all.
+  std::map<std::string, std::uint64_t> reached;
 };
 
 /// Names of the targets: state, information, consensus, belief, batch, estimate, control, scenario.
@@ -35,5 +39,19 @@ struct ScenarioInput {
   std::vector<std::string> overrides;
 };
 ScenarioInput scenario_input(std::uint64_t seed, std::uint64_t i);
+
+/// One hand-made 3-D State sample (spatial_state_cases), as the decoder and a runtime took it.
+struct SpatialStateCase {
+  std::string name;
+  bool well_formed = false;  ///< the decoder's verdict
+  bool accepted = false;     ///< the runtime's verdict
+  std::string reason;     ///< the one reject reason the runtime counted (runtime::to_string); "" if accepted
+  bool z_intact = false;  ///< decoded: z, var(z), cross and every edge's peer z equal the wire's, bit for bit
+};
+
+/// Valid and hostile 3-D State samples built by hand (sequence lengths above _maximum, without a buffer,
+/// absurd, disagreeing with the edge summaries; non-finite, absurd and non-PSD z parts), each decoded and
+/// fed from neighbour 1 with a fresh seq to one planar IEIF runtime.
+std::vector<SpatialStateCase> spatial_state_cases();
 
 }  // namespace swarmloc::fuzz
