@@ -3,8 +3,9 @@
 // the space-time factor graph of a sliding window. The agent keeps its last kWindowSteps positions as a
 // chain (random-walk motion factors, the prior of the steps that left the window, a beacon's fixes) and one
 // rank-one range factor per edge and window step holding both ends' draws of that step; the chain is solved
-// exactly (forward filter, backward smoother) given the range messages, which are taken with the cavity
-// out of the neighbour's published marginal of the same step and relinearized every iteration.
+// exactly (forward filter, backward smoother) given the range messages, which take the neighbour's published
+// marginal of the same step (its variance with the cavity out, its mean as it is) and are relinearized every
+// iteration.
 #include <cstdint>
 #include <deque>
 #include <map>
