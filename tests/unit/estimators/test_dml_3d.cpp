@@ -167,7 +167,9 @@ TEST(Dml3d, ReachesTheBatchMaximumLikelihoodOfEveryDrawInABox) {
     ASSERT_TRUE(estimate.valid) << i;
     ASSERT_TRUE(estimate.altitude.has_value()) << i;
     EXPECT_FALSE(estimate.inconsistent) << i;
-    EXPECT_LT((position_of(estimate) - ml[static_cast<std::size_t>(i)]).norm(), 1e-4) << "agent " << i;
+    // Not to the last digits: where a belief is almost all one neighbour's message no cavity goes back to it,
+    // and that edge's messages miss the ML's fixed point slightly (docs/algorithms.md §9.2; 0.59 mm here).
+    EXPECT_LT((position_of(estimate) - ml[static_cast<std::size_t>(i)]).norm(), 1e-3) << "agent " << i;
     const Mat3 p = covariance_of(estimate);
     EXPECT_LT((p - p.transpose()).norm(), 1e-12 * p.norm()) << i;
     EXPECT_GT(Eigen::SelfAdjointEigenSolver<Mat3>(p).eigenvalues().minCoeff(), 0.0) << i;

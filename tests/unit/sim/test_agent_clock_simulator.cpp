@@ -103,9 +103,9 @@ TEST(AgentClockSimulator, SpreadTimersFireAtTheDdsAgentsPhasesAndLaterPhasesSeeT
 
 TEST(AgentClockSimulator, SeveralExchangesPerWorldStepBringDmlsSchedulesToOneFixedPoint) {
   // dml's sweep lags its fixed point on a slow world, by how much depends on the schedule: seed 4 of the
-  // default scenario ends 11.7 % apart in rounds and on spread agent clocks with one exchange per world
-  // step. Each extra exchange is one more sweep on the same data (docs/algorithms.md §9.2), so with five
-  // both reach the fixed point (0.2 % apart).
+  // default scenario ends 4.3 % apart in rounds and on spread agent clocks with one exchange per world
+  // step (11.7 % with the block-Jacobi sweep). Each extra exchange is one more sweep on the same data
+  // (docs/algorithms.md §9.2), so with five both reach the fixed point.
   const auto final_rmse = [](const std::string& clock, const std::string& exchanges) {
     const auto s = config::load_scenario(kDefault, {"algorithm.name=dml", "seed=4", "run.sim_clock=" + clock,
                                                     "run.agent_steps_per_world_step=" + exchanges});
@@ -115,7 +115,7 @@ TEST(AgentClockSimulator, SeveralExchangesPerWorldStepBringDmlsSchedulesToOneFix
     const double rounds = final_rmse("rounds", exchanges);
     return std::abs(final_rmse("agents", exchanges) - rounds) / rounds;
   };
-  EXPECT_GT(apart("1"), 0.05);
+  EXPECT_GT(apart("1"), 0.02);
   EXPECT_LT(apart("5"), 0.01);
 }
 

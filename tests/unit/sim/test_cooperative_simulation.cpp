@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <utility>
 
 #include "eigen_gtest.hpp"
 #include "named_estimators.hpp"
@@ -117,6 +118,27 @@ TEST(CooperativeSimulation, DmlTrackHoldsLowNoiseWalksWhereTheCavityMeanRanAway)
                   result.final_rmse_per_trial[t] / result.final_optimum_per_trial[t],
                   result.final_flagged_per_trial[t]);
       EXPECT_LT(result.final_rmse_per_trial[t], 3.0 * result.final_optimum_per_trial[t])
+          << seed << " trial " << trial;
+      EXPECT_EQ(result.final_flagged_per_trial[t], 0) << seed << " trial " << trial;
+    }
+  }
+}
+
+TEST(CooperativeSimulation, DmlCrossesTheSlowModesOfWeaklyHeldClusters) {
+  // Seeds 13 and 43 of the default world hold clusters that turn about the few anchors holding them. With
+  // the neighbours' means held fixed (a block-Jacobi sweep) such a turn contracted by about 0.995 per step,
+  // and trial 3 of seed 13 and trial 9 of seed 43 ended 4.7 and 3.5 times their optimum's error, unflagged.
+  // Belief propagation's means against each neighbour's cavity cross it (docs/algorithms.md §9.2): 1.49 and
+  // 1.03 times, none above 1.5.
+  for (const auto& [seed, trials] : {std::pair{"seed=13", 4}, std::pair{"seed=43", 10}}) {
+    const auto result =
+        run_monte_carlo(scenario_named("default.yaml", {"algorithm.name=dml", seed}), trials, 1);
+    for (int trial = 0; trial < result.trials; ++trial) {
+      const auto t = static_cast<std::size_t>(trial);
+      std::printf("[ dml ] %s trial %d: %.3g x its optimum, %d agents flagged\n", seed, trial,
+                  result.final_rmse_per_trial[t] / result.final_optimum_per_trial[t],
+                  result.final_flagged_per_trial[t]);
+      EXPECT_LT(result.final_rmse_per_trial[t], 1.6 * result.final_optimum_per_trial[t])
           << seed << " trial " << trial;
       EXPECT_EQ(result.final_flagged_per_trial[t], 0) << seed << " trial " << trial;
     }

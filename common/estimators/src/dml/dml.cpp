@@ -24,6 +24,9 @@ using dml_thresholds::kMirrorSeparationSigmas;
 using dml_thresholds::kMultilaterationSpreadFraction;
 using dml_thresholds::kSelfCheckFalseAlarm;
 constexpr int kSolveIterations = 5;
+// 1 − s·q at or below this: the belief holds little besides the message, and the cavity's mean would
+// amplify any change in it more than 20-fold (3-D worlds at a 15 m radius diverged at 1e-3).
+constexpr double kCavityRemainingFloor = 0.05;
 constexpr double kLocalMapFalseAlarm = 1e-3;  // a local map that fits its ranges worse is folded
 using rank_one::kShortestDistanceM;
 using rank_one::message_scale;
@@ -113,6 +116,13 @@ void DmlT<D>::absorb_states(const Inbox& inbox) {
       edge.peer_information = summary.information;
       edge.peer_mean_range_m = summary.mean_range_m;
     }
+    edge.cavity.reset();
+    for (const auto& cavity : received.message.cavities) {
+      if (cavity.peer != setup_.id) continue;
+      Vec offset = dml_dimension::position<D>(cavity.offset_m, cavity.offset_z_m);
+      if (offset.allFinite() && std::isfinite(cavity.variance_m2) && cavity.variance_m2 >= 0.0)
+        edge.cavity = typename Edge::Cavity{offset, cavity.variance_m2};
+    }
     if (!edge.has_position) continue;  // nor its summaries' peer positions
     if (received.message.active) two_hop_.absorb(setup_.id, edge.mean_m, received.message.edge_ranges);
     relays_.absorb(setup_.id, received.sender, edge.mean_m, received.message.edge_ranges);
@@ -124,6 +134,22 @@ std::vector<typename DmlT<D>::Reference> DmlT<D>::references() const {
   std::vector<Reference> refs;
   for (const auto& [id, edge] : edges_) {
     if (edge.usable()) refs.push_back({id, edge.mean_m, edge.mean_range_m(), edge.information()});
+  }
+  return refs;
+}
+
+template <int D>
+std::vector<typename DmlT<D>::Reference> DmlT<D>::message_references() const {
+  std::vector<Reference> refs;
+  for (const auto& [id, edge] : edges_) {
+    if (!edge.usable() || !(edge.message_scale > 0.0)) continue;
+    // Linearized where both ends linearize the range, at the two published means: the distance to the
+    // neighbour's mean is the range plus how far its cavity lies toward this agent.
+    const Vec offset = x_ - edge.mean_m;
+    const double toward_m = edge.cavity && offset.norm() >= kShortestDistanceM
+                                ? offset.normalized().dot(edge.cavity->offset_m)
+                                : 0.0;
+    refs.push_back({id, edge.mean_m, edge.mean_range_m() + toward_m, edge.message_scale});
   }
   return refs;
 }
@@ -494,9 +520,12 @@ void DmlT<D>::update_information() {
     // neighbour's belief without that: the cavity, so no range is counted twice around the edge.
     const double sent_scale = message_scale(
         edge.information(), have_belief ? cavity_variance<D>(covariance, a, edge.message_scale) : kInfinity);
-    const double far_variance = exactly_known<D>(edge.state.anchor, edge.covariance)
-                                    ? 0.0
-                                    : far_cavity_variance<D>(edge.covariance, a, sent_scale, edge.sent_scale);
+    // The neighbour's own cavity variance when it sent one; otherwise taken out of its belief here.
+    double far_variance = 0.0;
+    if (!exactly_known<D>(edge.state.anchor, edge.covariance)) {
+      far_variance = edge.cavity ? edge.cavity->variance_m2
+                                 : far_cavity_variance<D>(edge.covariance, a, sent_scale, edge.sent_scale);
+    }
     edge.message_scale = message_scale(edge.information(), far_variance);
     edge.sent_scale = sent_scale;
     information += edge.message_scale * a * a.transpose();
@@ -586,7 +615,9 @@ StepOutput DmlT<D>::step(const StepInput& input) {
   if (!localized_) start(refs);
   if (localized_) {
     if (hinge_) check_mirror();
-    x_ = solve_position(x_, refs);
+    // Belief propagation's mean once the agent has a belief; until then, the neighbours' means as they are.
+    x_ =
+        solve_position(x_, dml_dimension::positive_definite_d<D>(information_) ? message_references() : refs);
     update_information();
     // Belief propagation leaves an agent without a belief where its neighbours have none either (a group
     // rigid only with agents two hops away): its local map gives the covariance then.
@@ -631,6 +662,34 @@ StateMessage DmlT<D>::state_message() const {
 }
 
 template <int D>
+std::vector<EdgeCavity> DmlT<D>::cavities() const {
+  std::vector<EdgeCavity> cavities;
+  if (!localized_ || exact_anchor() || !dml_dimension::positive_definite_d<D>(information_)) return cavities;
+  const Mat covariance = information_.inverse();
+  for (const auto& ref : message_references()) {
+    if (cavities.size() == StateMessage::kMaxCavities) break;
+    const Vec offset = x_ - ref.position_m;
+    if (offset.norm() < kShortestDistanceM) continue;
+    const Vec a = offset.normalized();
+    const double scale = ref.information;
+    const double q = a.dot(covariance * a);
+    const double remaining = 1.0 - scale * q;
+    if (!(remaining > kCavityRemainingFloor)) continue;  // the belief is (almost) all this message
+    // x_ minimizes the message terms; without this one, a Newton step from x_ on the others
+    // (Sherman–Morrison).
+    const double residual = ref.mean_range_m - offset.norm();
+    const Vec shift = -(covariance * a) * (scale * residual / remaining);
+    EdgeCavity cavity;
+    cavity.peer = ref.id;
+    cavity.offset_m = shift.template head<2>();
+    if constexpr (D == 3) cavity.offset_z_m = shift(2);
+    cavity.variance_m2 = q / remaining;
+    cavities.push_back(cavity);
+  }
+  return cavities;
+}
+
+template <int D>
 Outbox DmlT<D>::initial_outbox() const {
   Outbox outbox;
   outbox.state = state_message();
@@ -653,6 +712,7 @@ Outbox DmlT<D>::published() {
                                                           edge.usable() ? edge.mean_m : x_));
   }
   summary_cursor_ += kSummariesPerMessage;
+  state.cavities = cavities();
   Outbox outbox;
   outbox.state = std::move(state);
   return outbox;

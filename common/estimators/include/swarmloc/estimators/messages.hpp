@@ -123,8 +123,21 @@ struct EdgeRangeSummary {
   double peer_z_m = 0.0;  ///< 3-D worlds: the z of peer_mean_m (0 in planar worlds)
 };
 
+/// dml: the sender's belief without the message one neighbour sent it, the cavity (docs/algorithms.md §9.2).
+/// The neighbour solves against this mean and weighs the edge by this variance, so nothing it told the sender
+/// comes back to it.
+struct EdgeCavity {
+  AgentId peer = 0;
+  Vec2 offset_m = Vec2::Zero();  ///< the cavity's mean minus the sender's mean_m
+  double offset_z_m = 0.0;       ///< 3-D worlds: the z of that offset (0 in planar worlds)
+  double variance_m2 = 0.0;      ///< the cavity's variance along the edge (finite, >= 0)
+};
+
 /// STATE + COV of the sender's own position.
 struct StateMessage {
+  /// At most this many cavities per state (the wire's bound); neighbours beyond it get none.
+  static constexpr std::size_t kMaxCavities = 64;
+
   Vec2 mean_m = Vec2::Zero();
   Mat2 covariance = Mat2::Zero();
   bool anchor = false;
@@ -136,6 +149,8 @@ struct StateMessage {
   bool inconsistent = false;
   /// 3-D worlds: z and the z row of the covariance (core/altitude.hpp); empty in planar worlds.
   std::optional<Altitude> altitude = std::nullopt;
+  /// dml only: one cavity per neighbour whose message the sender's belief holds.
+  std::vector<EdgeCavity> cavities;
 };
 
 /// INFO-VEC + INFO-MAT (DLE priors).

@@ -62,6 +62,13 @@ class DmlT final : public Estimator {
     Mat covariance = Mat::Zero();
     double message_scale = 0.0;  // m_{j→i} = s·aaᵀ, the BP message last added to the belief
     double sent_scale = 0.0;     // m_{i→j}, the message this agent's belief sends the neighbour
+    // The neighbour's belief without this agent's message, as the neighbour published it: its mean as an
+    // offset from mean_m, and its variance along the edge (docs/algorithms.md §9.2).
+    struct Cavity {
+      Vec offset_m = Vec::Zero();
+      double variance_m2 = 0.0;
+    };
+    std::optional<Cavity> cavity;
     [[nodiscard]] double information() const { return own_information + peer_information; }
     [[nodiscard]] double mean_range_m() const;
     [[nodiscard]] bool usable() const;
@@ -78,6 +85,11 @@ class DmlT final : public Estimator {
   [[nodiscard]] std::vector<Reference> references() const;
   [[nodiscard]] double local_cost(const Vec& x, const std::vector<Reference>& refs) const;
   [[nodiscard]] Vec solve_position(Vec x, const std::vector<Reference>& refs) const;
+  /// The neighbours as belief propagation's messages to this agent: each one's cavity mean, weighed by its
+  /// message's scale (docs/algorithms.md §9.2).
+  [[nodiscard]] std::vector<Reference> message_references() const;
+  /// For each neighbour whose message the belief holds, the belief without it (published).
+  [[nodiscard]] std::vector<EdgeCavity> cavities() const;
   [[nodiscard]] std::optional<Vec> multilaterate(const std::vector<Reference>& refs) const;
   /// Σ ν²/(1/W + aᵀP_j a) over the references at x: how well x fits them, the neighbours' covariances in.
   [[nodiscard]] double fit_statistic(const Vec& x, const std::vector<Reference>& refs) const;
