@@ -512,10 +512,12 @@ void fill_peer_z(double& z, Rng& rng) {
   z = rng.chance(0.8) ? rng.uniform(-30.0, 30.0) : hostile_double(rng);
 }
 
-void fill_cavity(swarmloc_msg_EdgeCavity& cavity, Rng& rng) {
+/// Mostly a plausible cavity; always one if `plausible`.
+void fill_cavity(swarmloc_msg_EdgeCavity& cavity, Rng& rng, bool plausible) {
   cavity.peer = static_cast<std::int32_t>(rng.below(8));
-  for (auto& v : cavity.offset_m) v = rng.chance(0.9) ? rng.uniform(-5.0, 5.0) : hostile_double(rng);
-  cavity.variance_m2 = rng.chance(0.8) ? rng.uniform(0.0, 10.0) : hostile_double(rng);
+  for (auto& v : cavity.offset_m)
+    v = plausible || rng.chance(0.9) ? rng.uniform(-5.0, 5.0) : hostile_double(rng);
+  cavity.variance_m2 = plausible || rng.chance(0.8) ? rng.uniform(0.0, 10.0) : hostile_double(rng);
 }
 
 void fill_offset_z(double& z, Rng& rng) {
@@ -631,10 +633,14 @@ void mutate(swarmloc_msg_State& s, StateSequenceStorage& storage, Rng& rng) {
       if (s.cavity_offset_z._length > 0 && s.cavity_offset_z._buffer != nullptr)
         s.cavity_offset_z._buffer[rng.below(s.cavity_offset_z._length)] = hostile_double(rng);
       break;
-    case 18:
+    case 18: {
+      // Half the time every cavity is plausible: a long sequence of them is then malformed only by its
+      // length.
+      const bool plausible = rng.chance(0.5);
       reshape(s.cavities, storage.cavities, dds::codec::kMaxCavities, rng,
-              [&](swarmloc_msg_EdgeCavity& cavity) { fill_cavity(cavity, rng); });
+              [&](swarmloc_msg_EdgeCavity& cavity) { fill_cavity(cavity, rng, plausible); });
       break;
+    }
     case 19:
       reshape(s.cavity_offset_z, storage.cavity_offset_z, dds::codec::kMaxCavities, rng,
               [&](double& z) { fill_offset_z(z, rng); });
