@@ -17,6 +17,9 @@
 //     z's that disagree with the edge summaries and _maximum / _release changes, which the decoder must
 //     ignore. A well-formed 3-D State carries its z part bit for bit; one refused for its z part alone is
 //     refused with the reason of the runtime's first failed z check.
+//   - States carry dml's cavities (one offset z each in 3-D): they get hostile values, other lengths and
+//     offset z's that disagree with them; a well-formed State carries them bit for bit, and one refused for
+//     its cavities alone is refused with the reason of the runtime's first failed cavity check.
 // Scenario parser: a valid YAML text (the default scenario, to_yaml of varied scenarios, hand-written
 // fragments) gets 1–6 text mutations (bit flips, random/structural bytes, deletions, truncation,
 // duplicated/swapped lines, inserted keys, values replaced by huge numbers, special floats, YAML tags and
@@ -265,6 +268,7 @@ void add_random_altitude(estimators::StateMessage& state, Rng& rng) {
   state.covariance = covariance.topLeftCorner<2, 2>();
   state.altitude = Altitude{rng.uniform(-30.0, 30.0), covariance(2, 2), covariance.topRightCorner<2, 1>()};
   for (auto& edge : state.edge_ranges) edge.peer_z_m = rng.uniform(-30.0, 30.0);
+  for (auto& cavity : state.cavities) cavity.offset_z_m = rng.uniform(-5.0, 5.0);
 }
 
 estimators::StateMessage random_state(Rng& rng) {
@@ -280,6 +284,11 @@ estimators::StateMessage random_state(Rng& rng) {
                                  rng.uniform(0.0, 30.0),
                                  Vec2(rng.uniform(-50.0, 50.0), rng.uniform(-50.0, 50.0))});
   }
+  for (std::uint64_t k = rng.below(4); k > 0; --k) {  // dml's cavities
+    state.cavities.push_back({static_cast<AgentId>(rng.below(8)),
+                              Vec2(rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0)), 0.0,
+                              rng.uniform(0.0, 10.0)});
+  }
   if (rng.chance(0.5)) add_random_altitude(state, rng);
   return state;
 }
@@ -290,19 +299,31 @@ bool has_buffer_for_length(const Sequence& sequence) {
 }
 
 /// The decoder's structural rule for a State (dds::decode): known flags, key = sender, a buffer behind every
-/// sequence's length, at most 16 edge summaries and one altitude, one peer z per edge in a 3-D sample and
-/// none in a planar one, and every edge finite with information >= 0 (its peer z included). Elements are
+/// sequence's length, at most 16 edge summaries, 64 cavities and one altitude, one peer z per edge and one
+/// offset z per cavity in a 3-D sample and none in a planar one, every edge finite with information >= 0
+/// (its peer z included) and every cavity finite with variance >= 0 (its offset z included). Elements are
 /// read only once the lengths are known to be backed by a buffer.
 bool state_well_formed_by_rule(const swarmloc_msg_State& s) {
   if ((s.flags & ~dds::codec::kStateFlagsKnown) != 0 || s.agent_id != s.header.agent_id) return false;
   if (!has_buffer_for_length(s.edge_ranges) || !has_buffer_for_length(s.altitude) ||
-      !has_buffer_for_length(s.edge_peer_z)) {
+      !has_buffer_for_length(s.edge_peer_z) || !has_buffer_for_length(s.cavities) ||
+      !has_buffer_for_length(s.cavity_offset_z)) {
     return false;
   }
   const bool spatial = s.altitude._length == 1;
   if (s.edge_ranges._length > dds::codec::kMaxEdgeRanges || s.altitude._length > 1 ||
-      s.edge_peer_z._length != (spatial ? s.edge_ranges._length : 0)) {
+      s.edge_peer_z._length != (spatial ? s.edge_ranges._length : 0) ||
+      s.cavities._length > dds::codec::kMaxCavities ||
+      s.cavity_offset_z._length != (spatial ? s.cavities._length : 0)) {
     return false;
+  }
+  for (std::uint32_t k = 0; k < s.cavities._length; ++k) {
+    const auto& cavity = s.cavities._buffer[k];
+    if (!std::isfinite(cavity.offset_m[0]) || !std::isfinite(cavity.offset_m[1]) ||
+        !std::isfinite(cavity.variance_m2) || !(cavity.variance_m2 >= 0.0) ||
+        (spatial && !std::isfinite(s.cavity_offset_z._buffer[k]))) {
+      return false;
+    }
   }
   for (std::uint32_t k = 0; k < s.edge_ranges._length; ++k) {
     const auto& edge = s.edge_ranges._buffer[k];
@@ -339,29 +360,74 @@ bool state_z_part_as_on_wire(const estimators::StateMessage& decoded, const swar
   return true;
 }
 
+/// A well-formed State's cavities as decoded equal the wire's bit for bit: peer, offset, variance, and the
+/// offset z (+0 in a planar sample). Reads the wire only where its lengths are backed.
+bool state_cavities_as_on_wire(const estimators::StateMessage& decoded, const swarmloc_msg_State& s) {
+  const std::size_t cavities = decoded.cavities.size();
+  if (cavities != s.cavities._length || (cavities > 0 && s.cavities._buffer == nullptr)) return false;
+  const bool offset_z_backed =
+      cavities == 0 || (s.cavity_offset_z._length == cavities && s.cavity_offset_z._buffer != nullptr);
+  if (decoded.altitude && !offset_z_backed) return false;
+  for (std::size_t k = 0; k < cavities; ++k) {
+    const auto& got = decoded.cavities[k];
+    const auto& wire = s.cavities._buffer[k];
+    const double wire_z = decoded.altitude ? s.cavity_offset_z._buffer[k] : 0.0;
+    if (got.peer != wire.peer || !same_bits(got.offset_m.x(), wire.offset_m[0]) ||
+        !same_bits(got.offset_m.y(), wire.offset_m[1]) || !same_bits(got.offset_z_m, wire_z) ||
+        !same_bits(got.variance_m2, wire.variance_m2)) {
+      return false;
+    }
+  }
+  return true;
+}
+
 // The runtime's bounds (runtime::AgentRuntimeParams' defaults, which make_runtime keeps).
 constexpr double kFuzzPositionBoundM = 1e6;
 constexpr double kFuzzVarianceBoundM2 = 1e14;
 
 /// A State's planar part passes the runtime's checks: finite, within the absurd bounds, symmetric PSD;
-/// every edge summary's planar numbers finite and within them.
+/// every edge summary's and every cavity's planar numbers finite and within them.
 bool state_planar_part_plausible(const estimators::StateMessage& m) {
   if (!m.mean_m.allFinite() || !m.covariance.allFinite() || m.mean_m.norm() > kFuzzPositionBoundM ||
       m.covariance.cwiseAbs().maxCoeff() > kFuzzVarianceBoundM2 ||
       !core::is_symmetric_psd(m.covariance, 1e-9)) {
     return false;
   }
-  return std::all_of(m.edge_ranges.begin(), m.edge_ranges.end(), [](const auto& edge) {
+  const bool edges_plausible = std::all_of(m.edge_ranges.begin(), m.edge_ranges.end(), [](const auto& edge) {
     return std::isfinite(edge.information) && edge.information >= 0.0 && edge.information <= 1e30 &&
            std::isfinite(edge.mean_range_m) && edge.mean_range_m >= 0.0 &&
            edge.mean_range_m <= 2.0 * kFuzzPositionBoundM && edge.peer_mean_m.allFinite() &&
            edge.peer_mean_m.norm() <= kFuzzPositionBoundM;
   });
+  return edges_plausible && m.cavities.size() <= estimators::StateMessage::kMaxCavities &&
+         std::all_of(m.cavities.begin(), m.cavities.end(), [](const auto& cavity) {
+           return cavity.offset_m.allFinite() && cavity.offset_m.norm() <= kFuzzPositionBoundM &&
+                  std::isfinite(cavity.variance_m2) && cavity.variance_m2 >= 0.0 &&
+                  cavity.variance_m2 <= kFuzzVarianceBoundM2;
+         });
+}
+
+/// Why the runtime must refuse a State for its cavities (its checks in their order: too many; then each
+/// cavity non-finite, or its variance negative or absurd, or its offset (with z) beyond the position bound);
+/// nullopt if they are plausible.
+std::optional<runtime::RejectReason> state_cavity_fault(const estimators::StateMessage& m) {
+  using runtime::RejectReason;
+  if (m.cavities.size() > estimators::StateMessage::kMaxCavities) return RejectReason::kAbsurdMagnitude;
+  for (const auto& cavity : m.cavities) {
+    if (!cavity.offset_m.allFinite() || !std::isfinite(cavity.offset_z_m) ||
+        !std::isfinite(cavity.variance_m2))
+      return RejectReason::kNonFinite;
+    if (cavity.variance_m2 < 0.0 || cavity.variance_m2 > kFuzzVarianceBoundM2 ||
+        join(cavity.offset_m, cavity.offset_z_m).norm() > kFuzzPositionBoundM) {
+      return RejectReason::kAbsurdMagnitude;
+    }
+  }
+  return std::nullopt;
 }
 
 /// Why the runtime must refuse a State whose planar part is plausible, for its z part alone (its checks in
-/// their order: the altitude non-finite, beyond the bounds, not PSD; then each edge's peer (x, y, z));
-/// nullopt if the z part is plausible.
+/// their order: the altitude non-finite, beyond the bounds, not PSD; then each edge's peer (x, y, z); then
+/// each cavity's offset (x, y, z)); nullopt if the z part is plausible.
 std::optional<runtime::RejectReason> state_z_part_fault(const estimators::StateMessage& m) {
   using runtime::RejectReason;
   if (const auto& z = m.altitude) {
@@ -380,6 +446,11 @@ std::optional<runtime::RejectReason> state_z_part_fault(const estimators::StateM
     if (join(edge.peer_mean_m, edge.peer_z_m).norm() > kFuzzPositionBoundM)
       return RejectReason::kAbsurdMagnitude;
   }
+  for (const auto& cavity : m.cavities) {
+    if (!std::isfinite(cavity.offset_z_m)) return RejectReason::kNonFinite;
+    if (join(cavity.offset_m, cavity.offset_z_m).norm() > kFuzzPositionBoundM)
+      return RejectReason::kAbsurdMagnitude;
+  }
   return std::nullopt;
 }
 
@@ -389,6 +460,8 @@ struct StateSequenceStorage {
   std::vector<swarmloc_msg_EdgeRange> edge_ranges;
   std::vector<swarmloc_msg_Altitude> altitude;
   std::vector<double> edge_peer_z;
+  std::vector<swarmloc_msg_EdgeCavity> cavities;
+  std::vector<double> cavity_offset_z;
 };
 
 /// Points a State sequence at `storage`, as the writer does (_maximum = _length, not released).
@@ -400,18 +473,24 @@ void point_state_sequence_at(Sequence& sequence, std::vector<Element>& storage) 
   sequence._release = false;
 }
 
-/// One of the State's three sequences, at random.
+/// One of the State's five sequences, at random.
 template <typename Visit>
 void visit_random_state_sequence(swarmloc_msg_State& s, Rng& rng, Visit visit) {
-  switch (rng.below(3)) {
+  switch (rng.below(5)) {
     case 0:
       visit(s.edge_ranges);
       break;
     case 1:
       visit(s.altitude);
       break;
-    default:
+    case 2:
       visit(s.edge_peer_z);
+      break;
+    case 3:
+      visit(s.cavities);
+      break;
+    default:
+      visit(s.cavity_offset_z);
   }
 }
 
@@ -433,14 +512,26 @@ void fill_peer_z(double& z, Rng& rng) {
   z = rng.chance(0.8) ? rng.uniform(-30.0, 30.0) : hostile_double(rng);
 }
 
+/// Mostly a plausible cavity; always one if `plausible`.
+void fill_cavity(swarmloc_msg_EdgeCavity& cavity, Rng& rng, bool plausible) {
+  cavity.peer = static_cast<std::int32_t>(rng.below(8));
+  for (auto& v : cavity.offset_m)
+    v = plausible || rng.chance(0.9) ? rng.uniform(-5.0, 5.0) : hostile_double(rng);
+  cavity.variance_m2 = plausible || rng.chance(0.8) ? rng.uniform(0.0, 10.0) : hostile_double(rng);
+}
+
+void fill_offset_z(double& z, Rng& rng) {
+  z = rng.chance(0.8) ? rng.uniform(-5.0, 5.0) : hostile_double(rng);
+}
+
 // random_bytes below leaves the sample well-defined only because it restores every sequence member: a
-// member added to State after edge_peer_z must be restored there too.
-static_assert(offsetof(swarmloc_msg_State, edge_peer_z) + sizeof(swarmloc_msg_State::edge_peer_z) ==
+// member added to State after cavity_offset_z must be restored there too.
+static_assert(offsetof(swarmloc_msg_State, cavity_offset_z) + sizeof(swarmloc_msg_State::cavity_offset_z) ==
               sizeof(swarmloc_msg_State));
 
 /// Every mutation keeps the invariant the decoder relies on: a non-null _buffer holds _length elements.
 void mutate(swarmloc_msg_State& s, StateSequenceStorage& storage, Rng& rng) {
-  switch (rng.below(17)) {
+  switch (rng.below(22)) {
     case 0:
       s.agent_id = hostile_int<std::int32_t>(rng);
       break;
@@ -532,15 +623,56 @@ void mutate(swarmloc_msg_State& s, StateSequenceStorage& storage, Rng& rng) {
         sequence._buffer = nullptr;
       });
       break;
+    case 16:
+      if (s.cavities._length > 0 && s.cavities._buffer != nullptr) {
+        auto& cavity = s.cavities._buffer[rng.below(s.cavities._length)];
+        (rng.chance(0.6) ? cavity.variance_m2 : cavity.offset_m[rng.below(2)]) = hostile_double(rng);
+      }
+      break;
+    case 17:
+      if (s.cavity_offset_z._length > 0 && s.cavity_offset_z._buffer != nullptr)
+        s.cavity_offset_z._buffer[rng.below(s.cavity_offset_z._length)] = hostile_double(rng);
+      break;
+    case 18: {
+      // Half the time every cavity is plausible: a long sequence of them is then malformed only by its
+      // length.
+      const bool plausible = rng.chance(0.5);
+      reshape(s.cavities, storage.cavities, dds::codec::kMaxCavities, rng,
+              [&](swarmloc_msg_EdgeCavity& cavity) { fill_cavity(cavity, rng, plausible); });
+      break;
+    }
+    case 19:
+      reshape(s.cavity_offset_z, storage.cavity_offset_z, dds::codec::kMaxCavities, rng,
+              [&](double& z) { fill_offset_z(z, rng); });
+      break;
+    case 20: {
+      // Offset z's that disagree with the cavities: one too few or too many, or some in a sample without an
+      // altitude (an absurd cavity count without a buffer is malformed anyway).
+      const std::size_t cavities = std::min<std::size_t>(s.cavities._length, dds::codec::kMaxCavities + 1);
+      std::size_t length = rng.chance(0.5) ? cavities + 1 : (cavities > 0 ? cavities - 1 : 2);
+      if (rng.chance(0.3)) {
+        storage.altitude.clear();
+        point_state_sequence_at(s.altitude, storage.altitude);
+        length = std::max<std::size_t>(cavities, 1);
+      }
+      storage.cavity_offset_z.resize(length);
+      for (auto& z : storage.cavity_offset_z) fill_offset_z(z, rng);
+      point_state_sequence_at(s.cavity_offset_z, storage.cavity_offset_z);
+      break;
+    }
     default: {
       // Random bytes over everything but the sequences: a CDR reader never hands over a wild pointer.
       const auto edge_ranges = s.edge_ranges;
       const auto altitude = s.altitude;
       const auto edge_peer_z = s.edge_peer_z;
+      const auto cavities = s.cavities;
+      const auto cavity_offset_z = s.cavity_offset_z;
       random_bytes(s, rng);
       s.edge_ranges = edge_ranges;
       s.altitude = altitude;
       s.edge_peer_z = edge_peer_z;
+      s.cavities = cavities;
+      s.cavity_offset_z = cavity_offset_z;
     }
   }
 }
@@ -569,12 +701,20 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
     const auto decoded = dds::decode(sample);
     const bool expect_well_formed = state_well_formed_by_rule(sample);
     record.check(decoded.well_formed == expect_well_formed, i, "state: well_formed differs from the rule");
-    const bool spatial = sample.altitude._length != 0 || sample.edge_peer_z._length != 0;
+    const bool spatial = sample.altitude._length != 0 || sample.edge_peer_z._length != 0 ||
+                         sample.cavity_offset_z._length != 0;
     if (!decoded.well_formed && spatial) {
       auto planar = sample;  // the same sample without its 3-D part: was the 3-D part what broke it?
       planar.altitude = {};
       planar.edge_peer_z = {};
+      planar.cavity_offset_z = {};
       if (state_well_formed_by_rule(planar)) ++result.reached["3d malformed by its z part"];
+    }
+    if (!decoded.well_formed && (sample.cavities._length != 0 || sample.cavity_offset_z._length != 0)) {
+      auto without = sample;  // the same sample without its cavities: were they what broke it?
+      without.cavities = {};
+      without.cavity_offset_z = {};
+      if (state_well_formed_by_rule(without)) ++result.reached["malformed by its cavities"];
     }
     if (decoded.well_formed) {
       record.check(same_bits(decoded.message.mean_m.x(), sample.mean_m[0]) &&
@@ -585,6 +725,8 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
                    i, "state: decoded values differ from the wire");
       record.check(state_z_part_as_on_wire(decoded.message, sample), i,
                    "state: decoded z part differs from the wire");
+      record.check(state_cavities_as_on_wire(decoded.message, sample), i,
+                   "state: decoded cavities differ from the wire");
     }
     const auto before = runtime->rejected_by_reason();
     const bool accepted = runtime->on_state(decoded.header, decoded.message, decoded.well_formed);
@@ -606,7 +748,9 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
       record.check(m.mean_m.norm() <= 1e6 && m.covariance.cwiseAbs().maxCoeff() <= 1e14, i,
                    "state: accepted an absurd magnitude");
       record.check(!state_z_part_fault(m), i, "state: accepted an implausible z part");
+      record.check(!state_cavity_fault(m), i, "state: accepted an implausible cavity");
       if (m.altitude) ++result.reached["3d accepted"];
+      if (!m.cavities.empty()) ++result.reached[m.altitude ? "3d cavities accepted" : "cavities accepted"];
     } else {
       ++result.rejected;
       if (decoded.header.agent_id != kSelf) {
@@ -626,6 +770,17 @@ void fuzz_state(std::uint64_t seed, std::uint64_t first, std::uint64_t inputs, F
                        "state: a z part was refused for another reason");
           ++result.reached[std::string("3d refused for its z part: ") + runtime::to_string(*z_fault)];
         }
+        // A well-formed sample from a neighbour that would pass without its cavities: they alone decide.
+        auto rest = m;
+        rest.cavities.clear();
+        const auto cavity_fault = state_cavity_fault(m);
+        if (decoded.well_formed && cavity_fault && state_planar_part_plausible(rest) &&
+            !state_z_part_fault(rest) &&
+            std::find(kNeighbours.begin(), kNeighbours.end(), decoded.header.agent_id) != kNeighbours.end()) {
+          record.check(counted == 1 && reason == static_cast<std::size_t>(*cavity_fault), i,
+                       "state: cavities were refused for another reason");
+          ++result.reached[std::string("refused for its cavities: ") + runtime::to_string(*cavity_fault)];
+        }
       }
     }
     if (i % 4 == 3) {
@@ -642,6 +797,8 @@ struct OwnedStateSample {
       : edge_ranges(wire.edge_ranges),
         altitude(wire.altitude),
         edge_peer_z(wire.edge_peer_z),
+        cavities(wire.cavities),
+        cavity_offset_z(wire.cavity_offset_z),
         sample(wire.sample) {
     repoint();
   }
@@ -653,17 +810,24 @@ struct OwnedStateSample {
     edge_ranges.shrink_to_fit();
     altitude.shrink_to_fit();
     edge_peer_z.shrink_to_fit();
+    cavities.shrink_to_fit();
+    cavity_offset_z.shrink_to_fit();
     point_state_sequence_at(sample.edge_ranges, edge_ranges);
     point_state_sequence_at(sample.altitude, altitude);
     point_state_sequence_at(sample.edge_peer_z, edge_peer_z);
+    point_state_sequence_at(sample.cavities, cavities);
+    point_state_sequence_at(sample.cavity_offset_z, cavity_offset_z);
   }
   std::vector<swarmloc_msg_EdgeRange> edge_ranges;
   std::vector<swarmloc_msg_Altitude> altitude;
   std::vector<double> edge_peer_z;
+  std::vector<swarmloc_msg_EdgeCavity> cavities;
+  std::vector<double> cavity_offset_z;
   swarmloc_msg_State sample{};
 };
 
-/// A plausible 3-D State with two edge summaries (doubles without short decimal forms, to see any rounding).
+/// A plausible 3-D State with two edge summaries and two cavities (doubles without short decimal forms, to
+/// see any rounding).
 estimators::StateMessage spatial_case_state() {
   estimators::StateMessage state;
   state.mean_m = Vec2(3.0, -4.0);
@@ -673,6 +837,8 @@ estimators::StateMessage spatial_case_state() {
                        {3, 0.5, 7.5, Vec2(-4.0, 2.0 / 3.0), -1e-300}};
   // The (x, y, z) covariance is diagonally dominant, hence positive definite.
   state.altitude = Altitude{1.0 / 3.0, 0.7, Vec2(-0.1, 1.0 / 9.0)};
+  state.cavities = {{2, Vec2(1.0 / 3.0, -0.1 - 0.2), 3.0 / 7.0, 2.0 / 9.0},
+                    {3, Vec2(-2.5, 1e-300), -1.0 / 11.0, 0.0}};
   return state;
 }
 
@@ -697,6 +863,7 @@ const SpatialStateSpoiler kSpatialStateSpoilers[] = {
      [](OwnedStateSample& o) {
        o.altitude.clear();
        o.edge_peer_z.clear();
+       o.cavity_offset_z.clear();
        o.repoint();
      }},
     {"-0 z and a denormal peer z",
@@ -773,6 +940,30 @@ const SpatialStateSpoiler kSpatialStateSpoilers[] = {
        o.altitude[0].cross_m2[0] = o.altitude[0].cross_m2[1] = 0.0;
      }},
     {"(x, z) correlation above 1", [](OwnedStateSample& o) { o.altitude[0].cross_m2[0] = 0.9; }},
+    {"-0 cavity variance", [](OwnedStateSample& o) { o.cavities[0].variance_m2 = -0.0; }},
+    {"one cavity z too few",
+     [](OwnedStateSample& o) {
+       o.cavity_offset_z.pop_back();
+       o.repoint();
+     }},
+    {"an altitude without cavity z's",
+     [](OwnedStateSample& o) {
+       o.cavity_offset_z.clear();
+       o.repoint();
+     }},
+    {"cavity length without a buffer", [](OwnedStateSample& o) { o.sample.cavities._buffer = nullptr; }},
+    {"65 cavities and 65 cavity z's",
+     [](OwnedStateSample& o) {
+       o.cavities.resize(65, o.cavities[0]);
+       o.cavity_offset_z.resize(65, 1.0);
+       o.repoint();
+     }},
+    {"NaN cavity offset", [](OwnedStateSample& o) { o.cavities[1].offset_m[0] = kCaseNan; }},
+    {"+Inf cavity z", [](OwnedStateSample& o) { o.cavity_offset_z[0] = kCaseInf; }},
+    {"negative cavity variance", [](OwnedStateSample& o) { o.cavities[1].variance_m2 = -1e-300; }},
+    {"cavity variance beyond the variance bound",
+     [](OwnedStateSample& o) { o.cavities[0].variance_m2 = 1e15; }},
+    {"cavity offset z beyond the position bound", [](OwnedStateSample& o) { o.cavity_offset_z[1] = 2e6; }},
 };
 
 }  // namespace
@@ -795,7 +986,8 @@ std::vector<SpatialStateCase> spatial_state_cases() {
     SpatialStateCase outcome;
     outcome.name = spoiler.name;
     outcome.well_formed = decoded.well_formed;
-    outcome.z_intact = decoded.well_formed && state_z_part_as_on_wire(decoded.message, owned.sample);
+    outcome.z_intact = decoded.well_formed && state_z_part_as_on_wire(decoded.message, owned.sample) &&
+                       state_cavities_as_on_wire(decoded.message, owned.sample);
     const auto before = agent.rejected_by_reason();
     outcome.accepted = agent.on_state(decoded.header, decoded.message, decoded.well_formed);
     const auto after = agent.rejected_by_reason();

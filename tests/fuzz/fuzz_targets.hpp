@@ -22,7 +22,8 @@ struct FuzzResult {
   std::uint64_t violations = 0;
   std::vector<std::string> failures;  ///< the first few violations, with the input index
   /// How often the inputs reached a named outcome the totals cannot show (state: its 3-D samples accepted,
-  /// malformed by their z part, refused for it by reason), so a test can tell a path is exercised at all.
+  /// malformed by their z part, refused for it by reason; samples with cavities accepted, malformed by them,
+  /// refused for them by reason), so a test can tell a path is exercised at all.
   std::map<std::string, std::uint64_t> reached;
 };
 
@@ -45,12 +46,15 @@ struct SpatialStateCase {
   std::string name;
   bool well_formed = false;  ///< the decoder's verdict
   bool accepted = false;     ///< the runtime's verdict
-  std::string reason;     ///< the one reject reason the runtime counted (runtime::to_string); "" if accepted
-  bool z_intact = false;  ///< decoded: z, var(z), cross and every edge's peer z equal the wire's, bit for bit
+  std::string reason;  ///< the one reject reason the runtime counted (runtime::to_string); "" if accepted
+  /// decoded: z, var(z), cross, every edge's peer z and every cavity (its offset z included) equal the
+  /// wire's, bit for bit
+  bool z_intact = false;
 };
 
 /// Valid and hostile 3-D State samples built by hand (sequence lengths above _maximum, without a buffer,
-/// absurd, disagreeing with the edge summaries; non-finite, absurd and non-PSD z parts), each decoded and
+/// absurd, disagreeing with the edge summaries or the cavities; non-finite, absurd and non-PSD z parts and
+/// cavities), each decoded and
 /// fed from neighbour 1 with a fresh seq to one planar IEIF runtime.
 std::vector<SpatialStateCase> spatial_state_cases();
 

@@ -51,16 +51,22 @@ TEST(Fuzz, InputsAreReproducibleFromSeedAndIndex) {
 TEST(Fuzz, StateTargetReachesEveryOutcomeOfA3DSample) {
   // The state target's 3-D samples (half its inputs) reach each outcome often: accepted with their z part
   // carried bit for bit, malformed by the z part alone, refused for it under each reason it can have (the
-  // right one, and the z part intact, are checked per input as contract violations). The floors are about a
-  // third of what seed kSeed reaches (2253, 3944, 60, 126, 91), so a mutator that stops producing one of
-  // them fails here.
+  // right one, and the z part intact, are checked per input as contract violations). So do its samples with
+  // dml's cavities: accepted (planar and 3-D) with the cavities carried bit for bit, malformed by the
+  // cavities alone, refused for them (as absurd: a non-finite or negative one is already malformed). The
+  // floors are a third to a half of what seed kSeed reaches (2229, 4832, 36, 150, 51; 2048, 1627, 2486, 113),
+  // so a mutator that stops producing one of them fails here.
   const FuzzResult& result = fuzz_run_of("state");
   EXPECT_EQ(result.violations, 0U);
   const std::map<std::string, std::uint64_t> floors{{"3d accepted", 700},
                                                     {"3d malformed by its z part", 1300},
                                                     {"3d refused for its z part: non_finite", 20},
                                                     {"3d refused for its z part: absurd_magnitude", 40},
-                                                    {"3d refused for its z part: not_symmetric_psd", 30}};
+                                                    {"3d refused for its z part: not_symmetric_psd", 30},
+                                                    {"cavities accepted", 650},
+                                                    {"3d cavities accepted", 500},
+                                                    {"malformed by its cavities", 850},
+                                                    {"refused for its cavities: absurd_magnitude", 35}};
   for (const auto& [outcome, floor] : floors) {
     const auto it = result.reached.find(outcome);
     const std::uint64_t reached = it == result.reached.end() ? 0 : it->second;
@@ -68,7 +74,7 @@ TEST(Fuzz, StateTargetReachesEveryOutcomeOfA3DSample) {
   }
 }
 
-TEST(FuzzSpatialState, HandMadeZPartsAreRefusedForTheirReasonOrCarriedExactly) {
+TEST(FuzzSpatialState, HandMadeZPartsAndCavitiesAreRefusedForTheirReasonOrCarriedExactly) {
   // Case -> the reject reason the runtime must count ("" = accepted); "malformed" is the decoder's verdict.
   const std::map<std::string, std::string> expected{
       {"valid", ""},
@@ -96,7 +102,17 @@ TEST(FuzzSpatialState, HandMadeZPartsAreRefusedForTheirReasonOrCarriedExactly) {
       {"var(z) beyond the variance bound", "absurd_magnitude"},
       {"peer z beyond the position bound", "absurd_magnitude"},
       {"negative var(z)", "not_symmetric_psd"},
-      {"(x, z) correlation above 1", "not_symmetric_psd"}};
+      {"(x, z) correlation above 1", "not_symmetric_psd"},
+      {"-0 cavity variance", ""},
+      {"one cavity z too few", "malformed"},
+      {"an altitude without cavity z's", "malformed"},
+      {"cavity length without a buffer", "malformed"},
+      {"65 cavities and 65 cavity z's", "malformed"},
+      {"NaN cavity offset", "malformed"},
+      {"+Inf cavity z", "malformed"},
+      {"negative cavity variance", "malformed"},
+      {"cavity variance beyond the variance bound", "absurd_magnitude"},
+      {"cavity offset z beyond the position bound", "absurd_magnitude"}};
   const auto cases = spatial_state_cases();
   ASSERT_EQ(cases.size(), expected.size());
   std::map<std::string, int> by_reason;
@@ -111,7 +127,7 @@ TEST(FuzzSpatialState, HandMadeZPartsAreRefusedForTheirReasonOrCarriedExactly) {
     ++by_reason[c.reason];
   }
   const std::map<std::string, int> totals{
-      {"", 6}, {"malformed", 12}, {"non_finite", 3}, {"absurd_magnitude", 3}, {"not_symmetric_psd", 2}};
+      {"", 7}, {"malformed", 19}, {"non_finite", 3}, {"absurd_magnitude", 5}, {"not_symmetric_psd", 2}};
   EXPECT_EQ(by_reason, totals);
 }
 

@@ -155,6 +155,18 @@ WireState::WireState(const runtime::Header& header, const estimators::StateMessa
   }
   point_at(sample.altitude, altitude);
   point_at(sample.edge_peer_z, edge_peer_z);
+  if (message.cavities.size() > codec::kMaxCavities) {
+    throw DdsError("publish_state: " + std::to_string(message.cavities.size()) + " cavities (IDL bound 64)");
+  }
+  cavities.reserve(message.cavities.size());
+  for (const auto& cavity : message.cavities) {
+    swarmloc_msg_EdgeCavity wire{cavity.peer, {}, cavity.variance_m2};
+    put_vec2(cavity.offset_m, wire.offset_m);
+    cavities.push_back(wire);
+    if (message.altitude) cavity_offset_z.push_back(cavity.offset_z_m);  // 3-D only, like edge_peer_z
+  }
+  point_at(sample.cavities, cavities);
+  point_at(sample.cavity_offset_z, cavity_offset_z);
 }
 
 WireInformation::WireInformation(const runtime::Header& header,
@@ -371,10 +383,14 @@ Inbound<estimators::StateMessage> decode(const swarmloc_msg_State& wire) {
   const auto edge_ranges = view(wire.edge_ranges);
   const auto altitude = view(wire.altitude);
   const auto edge_peer_z = view(wire.edge_peer_z);
-  // A 3-D sender gives every edge's peer z, a planar one none (its z is 0).
+  const auto cavities = view(wire.cavities);
+  const auto cavity_offset_z = view(wire.cavity_offset_z);
+  // A 3-D sender gives every edge's peer z and every cavity's offset z, a planar one none (its z is 0).
   inbound.well_formed = flags_ok && wire.agent_id == wire.header.agent_id && edge_ranges &&
                         edge_ranges->size() <= codec::kMaxEdgeRanges && altitude && altitude->size() <= 1 &&
-                        edge_peer_z && edge_peer_z->size() == (altitude->empty() ? 0 : edge_ranges->size());
+                        edge_peer_z && edge_peer_z->size() == (altitude->empty() ? 0 : edge_ranges->size()) &&
+                        cavities && cavities->size() <= codec::kMaxCavities && cavity_offset_z &&
+                        cavity_offset_z->size() == (altitude->empty() ? 0 : cavities->size());
   if (!inbound.well_formed) return inbound;
   if (!altitude->empty()) {
     const auto& z = (*altitude)[0];
@@ -391,6 +407,17 @@ Inbound<estimators::StateMessage> decode(const swarmloc_msg_State& wire) {
     }
     inbound.message.edge_ranges.push_back(
         {edge.peer, edge.information, edge.mean_range_m, peer_mean, peer_z});
+  }
+  for (std::size_t k = 0; k < cavities->size(); ++k) {
+    const auto& cavity = (*cavities)[k];
+    const Vec2 offset = get_vec2(cavity.offset_m);
+    const double offset_z = cavity_offset_z->empty() ? 0.0 : (*cavity_offset_z)[k];
+    if (!offset.allFinite() || !std::isfinite(offset_z) || !std::isfinite(cavity.variance_m2) ||
+        !(cavity.variance_m2 >= 0.0)) {
+      inbound.well_formed = false;
+      return inbound;
+    }
+    inbound.message.cavities.push_back({cavity.peer, offset, offset_z, cavity.variance_m2});
   }
   return inbound;
 }
@@ -651,6 +678,22 @@ Inbound<estimators::StateMessage> round_trip_with_edge_peer_z(const runtime::Hea
   WireState wire(header, message);
   wire.edge_peer_z = std::move(edge_peer_z);
   point_at(wire.sample.edge_peer_z, wire.edge_peer_z);
+  return decode(wire.sample);
+}
+
+Inbound<estimators::StateMessage> round_trip_with_cavities(
+    const runtime::Header& header, const estimators::StateMessage& message,
+    const std::vector<estimators::EdgeCavity>& cavities, std::vector<double> cavity_offset_z) {
+  WireState wire(header, message);
+  wire.cavities.clear();
+  for (const auto& cavity : cavities) {
+    swarmloc_msg_EdgeCavity written{cavity.peer, {}, cavity.variance_m2};
+    put_vec2(cavity.offset_m, written.offset_m);
+    wire.cavities.push_back(written);
+  }
+  wire.cavity_offset_z = std::move(cavity_offset_z);
+  point_at(wire.sample.cavities, wire.cavities);
+  point_at(wire.sample.cavity_offset_z, wire.cavity_offset_z);
   return decode(wire.sample);
 }
 

@@ -20,6 +20,8 @@ struct WireState {
   std::vector<swarmloc_msg_EdgeRange> edge_ranges;
   std::vector<swarmloc_msg_Altitude> altitude;  ///< 3-D: one entry
   std::vector<double> edge_peer_z;              ///< 3-D: one per edge range
+  std::vector<swarmloc_msg_EdgeCavity> cavities;
+  std::vector<double> cavity_offset_z;  ///< 3-D: one per cavity
   swarmloc_msg_State sample{};
 };
 

@@ -24,6 +24,9 @@ inline constexpr std::size_t kMaxFieldValues = 64;
 /// Belief.contributions' bound: exact GaBP's messages, one per neighbour.
 inline constexpr std::size_t kMaxBeliefContributions = 1024;
 inline constexpr std::size_t kMaxEdgeRanges = 16;
+/// State.cavities' bound: dml's cavities, one per neighbour.
+inline constexpr std::size_t kMaxCavities = 64;
+static_assert(kMaxCavities == estimators::StateMessage::kMaxCavities);
 /// Observations' bounds (team_pose_ekf).
 inline constexpr std::size_t kMaxObservedSpans = 64;
 inline constexpr std::size_t kMaxSpanOdometry = 1024;
@@ -94,6 +97,11 @@ DecodedControl round_trip(const runtime::ControlMessage& message);
 Inbound<estimators::StateMessage> round_trip_with_edge_peer_z(const runtime::Header& header,
                                                               const estimators::StateMessage& message,
                                                               std::vector<double> edge_peer_z);
+/// The State round trip with the wire's cavities and cavity_offset_z replaced, unchecked (any count: a
+/// garbled or hostile writer's sample).
+Inbound<estimators::StateMessage> round_trip_with_cavities(
+    const runtime::Header& header, const estimators::StateMessage& message,
+    const std::vector<estimators::EdgeCavity>& cavities, std::vector<double> cavity_offset_z);
 /// The State sample's XCDR1 size in bytes, without the 4-byte encapsulation header before it.
 std::size_t state_xcdr1_size(const runtime::Header& header, const estimators::StateMessage& message);
 

@@ -35,6 +35,13 @@ runtime::ReceivedSample decode_sample(Decoder& in, int agents, std::uint16_t ver
         }
       }
       if (version >= 8) state.inconsistent = in.boolean();  // older logs predate dml's flag
+      if (version >= 9) {                                   // older logs predate dml's cavities
+        state.cavities.resize(in.count(4 + 4 * 8, "cavities"));
+        for (auto& cavity : state.cavities) {
+          cavity.peer = in.i32(), cavity.offset_m = in.vec2(), cavity.offset_z_m = in.f64();
+          cavity.variance_m2 = in.f64();
+        }
+      }
       break;
     }
     case 1: {

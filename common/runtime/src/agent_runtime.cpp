@@ -122,6 +122,17 @@ std::optional<RejectReason> AgentRuntime::check_content(const estimators::StateM
       return RejectReason::kAbsurdMagnitude;
     }
   }
+  if (m.cavities.size() > estimators::StateMessage::kMaxCavities) return RejectReason::kAbsurdMagnitude;
+  for (const auto& cavity : m.cavities) {
+    if (!cavity.offset_m.allFinite() || !std::isfinite(cavity.offset_z_m) ||
+        !std::isfinite(cavity.variance_m2))
+      return RejectReason::kNonFinite;
+    // offset_z_m is 0 in planar worlds: the norm is the planar one there, to the bit.
+    if (cavity.variance_m2 < 0.0 || cavity.variance_m2 > params_.absurd_variance_m2 ||
+        join(cavity.offset_m, cavity.offset_z_m).norm() > params_.absurd_position_bound_m) {
+      return RejectReason::kAbsurdMagnitude;
+    }
+  }
   return std::nullopt;
 }
 

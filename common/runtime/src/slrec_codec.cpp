@@ -62,7 +62,10 @@ void encode(Encoder& out, const estimators::StateMessage& m) {
   out.count(m.edge_ranges.size());        // version 5
   for (const auto& edge : m.edge_ranges)  // version 6: and the peer's mean
     out.i32(edge.peer), out.f64(edge.information), out.f64(edge.mean_range_m), out.vec2(edge.peer_mean_m);
-  out.boolean(m.inconsistent);  // version 8
+  out.boolean(m.inconsistent);   // version 8
+  out.count(m.cavities.size());  // version 9
+  for (const auto& cavity : m.cavities)
+    out.i32(cavity.peer), out.vec2(cavity.offset_m), out.f64(cavity.offset_z_m), out.f64(cavity.variance_m2);
 }
 void encode(Encoder& out, const estimators::InformationMessage& m) {
   out.i32(m.target);

@@ -59,15 +59,16 @@ TEST(ConvertAltitude, PlanarStateHasNoAltitudeOnEitherSide) {
 
 TEST(ConvertAltitude, PlanarStateGrowsByTwoEmptySequencesOnly) {
   // XCDR1 body without the encapsulation header: 88 bytes before State.altitude and .edge_peer_z (measured
-  // on the previous IDL), + 40 per edge range; now 4 + 4 for the two empty sequences' lengths.
+  // on the previous IDL), + 40 per edge range; now 4 + 4 for the two empty sequences' lengths, and 4 + 4 for
+  // the empty State.cavities and .cavity_offset_z after them (dml's cavities, test_convert_cavities.cpp).
   const auto header = test::make_header(4, 17);
   auto message = test::make_state(0.0);
-  EXPECT_EQ(codec::state_xcdr1_size(header, message), 96U);
+  EXPECT_EQ(codec::state_xcdr1_size(header, message), 96U + 8U);
   message = planar_state_with_edges();
-  EXPECT_EQ(codec::state_xcdr1_size(header, message), 88U + 2 * 40U + 8U);
+  EXPECT_EQ(codec::state_xcdr1_size(header, message), 88U + 2 * 40U + 8U + 8U);
   // 3-D: the altitude (length, padding to 8, four doubles) and one double per edge (length, padding).
   EXPECT_EQ(codec::state_xcdr1_size(header, spatial_state_with_edges()),
-            88U + 2 * 40U + 4U + 4U + 32U + 8U + 16U);
+            88U + 2 * 40U + 4U + 4U + 32U + 8U + 16U + 8U);
 }
 
 TEST(ConvertAltitude, SpatialStateRoundTripsExactly) {

@@ -343,6 +343,10 @@ std::vector<runtime::ReceivedSample> every_family() {
   state.anchor = true, state.active = false, state.inconsistent = true, state.degree = 65535;
   state.edge_ranges = {{-4, 1e4, 12.25, Vec2(-3.5, 1e-300)},
                        {7, 5e-310, std::numeric_limits<double>::infinity(), Vec2(2.0, 0.25)}};
+  // A log records what arrived, hostile values included: NaN, -0, denormals, a negative variance.
+  state.cavities = {{-2, Vec2(-0.0, 1e-300), 5e-310, 1.0 / 3.0},
+                    {9, Vec2(3.5, std::numeric_limits<double>::quiet_NaN()),
+                     -std::numeric_limits<double>::infinity(), -0.25}};
   estimators::InformationMessage information;
   information.target = -3;
   information.info_vec = VecX::LinSpaced(3, -1.0, 1.0);
@@ -387,6 +391,13 @@ void expect_same(const runtime::ReceivedSample& a, const runtime::ReceivedSample
         EXPECT_EQ(x.edge_ranges[k].information, y.edge_ranges[k].information);
         EXPECT_EQ(x.edge_ranges[k].mean_range_m, y.edge_ranges[k].mean_range_m);
         EXPECT_EQ(x.edge_ranges[k].peer_mean_m, y.edge_ranges[k].peer_mean_m);
+      }
+      ASSERT_EQ(x.cavities.size(), y.cavities.size());
+      for (std::size_t k = 0; k < x.cavities.size(); ++k) {
+        EXPECT_EQ(x.cavities[k].peer, y.cavities[k].peer);
+        expect_same(x.cavities[k].offset_m, y.cavities[k].offset_m);
+        EXPECT_BITS(x.cavities[k].offset_z_m, y.cavities[k].offset_z_m);
+        EXPECT_BITS(x.cavities[k].variance_m2, y.cavities[k].variance_m2);
       }
       break;
     }
@@ -568,7 +579,7 @@ TEST(SampleLog, AVersionOneLogReadsWithItsInformationSamplesNotTiedToAWorldStep)
     ADD_FAILURE() << "a version from the future was read";
   } catch (const RecordingError& e) {
     EXPECT_NE(
-        std::string(e.what()).find("format version 9 is not supported (this build reads versions 1 to 8)"),
+        std::string(e.what()).find("format version 10 is not supported (this build reads versions 1 to 9)"),
         std::string::npos)
         << e.what();
   }
@@ -598,6 +609,77 @@ TEST(SampleLog, AVersionTwoLogReadsWithItsBeliefsWithoutContributions) {
   expect_same(log.samples[0], expected);
 }
 
+/// A sample log holding one state sample as version 8 wrote it: the same file without the state's
+/// cavities (the payload's last field: a count and 36 bytes each), its lengths and checksums rewritten.
+std::vector<std::uint8_t> as_version_eight(const std::vector<std::uint8_t>& bytes, std::size_t cavities) {
+  std::vector<std::uint8_t> old(bytes.begin(), bytes.begin() + 12);
+  old[6] = 8;
+  for (const auto& r : records_of(bytes)) {
+    const bool state = r.tag == 'R' && bytes[r.payload_at + testing::kSampleFamilyAt] == 0;
+    const std::size_t length = state ? r.length - 4 - 36 * cavities : r.length;
+    const std::size_t at = old.size();
+    old.insert(old.end(), bytes.begin() + static_cast<std::ptrdiff_t>(r.at),
+               bytes.begin() + static_cast<std::ptrdiff_t>(r.payload_at + length));
+    put_u32(old, at + 1, static_cast<std::uint32_t>(length));
+    old.insert(old.end(), 4, 0);  // the payload's checksum, which reseal computes
+  }
+  reseal(old);
+  return old;
+}
+
+TEST(SampleLog, CavitiesRoundTripFromVersionNineAndAVersionEightLogReadsWithout) {
+  const auto dir = temp_dir("samples_v8");
+  const auto path = dir / "agent_002.slrec";
+  const runtime::ReceivedSample state = every_family()[0];
+  const auto& cavities = std::get<estimators::StateMessage>(state.message).cavities;
+  ASSERT_EQ(cavities.size(), 2u);
+  {
+    runtime::SampleLogWriter writer(path, 4, 7);
+    writer.append(state);
+    writer.close();
+  }
+  const auto bytes = read_bytes(path);
+  ASSERT_EQ(bytes[6], 9);
+  const auto log = parse_sample_log(bytes, "v9.slrec");
+  ASSERT_EQ(log.samples.size(), 1u);
+  expect_same(log.samples[0], state);
+  const auto& read = std::get<estimators::StateMessage>(log.samples[0].message).cavities;
+  ASSERT_EQ(read.size(), 2u);
+  EXPECT_EQ(read[0].peer, -2);
+  EXPECT_BITS(read[0].offset_m.x(), -0.0);
+  EXPECT_BITS(read[0].offset_z_m, 5e-310);
+  EXPECT_BITS(read[1].offset_z_m, -std::numeric_limits<double>::infinity());
+  EXPECT_BITS(read[1].variance_m2, -0.25);
+
+  const auto v8 = as_version_eight(bytes, cavities.size());
+  ASSERT_EQ(v8.size(), bytes.size() - 4 - 2 * 36);
+  const auto old = parse_sample_log(v8, "v8.slrec");
+  EXPECT_EQ(old.version, 8);
+  EXPECT_TRUE(old.complete);
+  ASSERT_EQ(old.samples.size(), 1u);
+  auto expected = state;
+  std::get<estimators::StateMessage>(expected.message).cavities.clear();
+  expect_same(old.samples[0], expected);
+  EXPECT_TRUE(std::get<estimators::StateMessage>(old.samples[0].message).inconsistent);
+
+  // A cavity count beyond the record's bytes is refused before anything is allocated.
+  const auto sample = records_of(bytes)[1];
+  ASSERT_EQ(sample.tag, 'R');
+  const std::size_t count_at = sample.payload_at + sample.length - 4 - 2 * 36;
+  ASSERT_EQ(get_u32(bytes, count_at), 2u);
+  auto hostile = bytes;
+  put_u32(hostile, count_at, 3);
+  reseal(hostile);
+  try {
+    (void)parse_sample_log(hostile, "hostile.slrec");
+    ADD_FAILURE() << "a cavity count beyond the record was read";
+  } catch (const RecordingError& e) {
+    EXPECT_NE(std::string(e.what()).find("byte " + std::to_string(count_at) + ": cavities: count 3 exceeds"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(SampleLog, AVersionThreeLogReadsEveryFamilyAndItsUnfinishedFormToo) {
   const auto dir = temp_dir("samples_v3");
   const auto path = dir / "agent_002.slrec";
@@ -617,6 +699,7 @@ TEST(SampleLog, AVersionThreeLogReadsEveryFamilyAndItsUnfinishedFormToo) {
   auto& state = std::get<estimators::StateMessage>(expected[0].message);
   state.edge_ranges.clear();   // new in version 5
   state.inconsistent = false;  // new in version 8
+  state.cavities.clear();      // new in version 9
   for (std::size_t k = 0; k < samples.size(); ++k) expect_same(log.samples[k], expected[k]);
   const std::vector<std::uint8_t> cut(v3.begin(), v3.end() - 9 - 20);
   EXPECT_THROW((void)parse_sample_log(cut, "v3-cut.slrec"), RecordingError);

@@ -59,6 +59,55 @@ TEST(AgentRuntime, RejectsNanAndNonPsdStatesAndKeepsRunning) {
   EXPECT_EQ(runtime.steps_run(), 1);
 }
 
+TEST(AgentRuntime, RejectsEachImplausibleCavityForItsReason) {
+  // make_runtime: positions beyond 1e5 m and variances beyond 1e14 m² are absurd.
+  auto good = anchor_state(Vec2(1.0, 2.0));
+  good.cavities = {{0, Vec2(0.5, -0.25), 0.0, 0.04}, {2, Vec2(-6e4, 8e4), 0.0, 1e14}};
+  struct Case {
+    const char* name;
+    RejectReason reason;
+    void (*spoil)(estimators::StateMessage&);
+  };
+  constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const Case cases[] = {
+      {"65 cavities", RejectReason::kAbsurdMagnitude,
+       [](estimators::StateMessage& m) {
+         const auto first = m.cavities[0];
+         m.cavities.resize(65, first);
+       }},
+      {"NaN offset x", RejectReason::kNonFinite,
+       [](estimators::StateMessage& m) { m.cavities[1].offset_m.x() = kNan; }},
+      {"-Inf offset y", RejectReason::kNonFinite,
+       [](estimators::StateMessage& m) { m.cavities[0].offset_m.y() = -kInf; }},
+      {"+Inf offset z", RejectReason::kNonFinite,
+       [](estimators::StateMessage& m) { m.cavities[1].offset_z_m = kInf; }},
+      {"NaN variance", RejectReason::kNonFinite,
+       [](estimators::StateMessage& m) { m.cavities[0].variance_m2 = kNan; }},
+      {"negative variance", RejectReason::kAbsurdMagnitude,
+       [](estimators::StateMessage& m) { m.cavities[0].variance_m2 = -1e-300; }},
+      {"variance beyond the bound", RejectReason::kAbsurdMagnitude,
+       [](estimators::StateMessage& m) { m.cavities[1].variance_m2 = 1.0000001e14; }},
+      {"planar offset beyond the bound", RejectReason::kAbsurdMagnitude,
+       [](estimators::StateMessage& m) { m.cavities[1].offset_m.y() = 8.0001e4; }},
+      // |(x, y)| is exactly the bound; with z the offset is beyond it.
+      {"offset with z beyond the bound", RejectReason::kAbsurdMagnitude,
+       [](estimators::StateMessage& m) { m.cavities[1].offset_z_m = 1.0; }},
+  };
+  auto runtime = make_runtime();
+  std::uint32_t seq = 0;
+  ASSERT_TRUE(runtime.on_state(header_from(1, seq++), good)) << "at the bounds, a cavity is plausible";
+  std::array<std::uint32_t, kRejectReasonCount> expected{};
+  for (const auto& c : cases) {
+    auto hostile = good;
+    c.spoil(hostile);
+    EXPECT_FALSE(runtime.on_state(header_from(1, seq++), hostile)) << c.name;
+    ++expected[static_cast<std::size_t>(c.reason)];
+    EXPECT_EQ(runtime.rejected_by_reason(), expected) << c.name;
+  }
+  EXPECT_TRUE(runtime.on_state(header_from(1, seq), good));
+}
+
 TEST(AgentRuntime, DropsDuplicateAndReorderedSamples) {
   auto runtime = make_runtime();
   EXPECT_TRUE(runtime.on_state(header_from(1, 5), anchor_state(Vec2(0.0, 0.0))));

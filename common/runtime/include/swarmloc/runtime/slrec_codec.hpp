@@ -17,11 +17,11 @@ namespace swarmloc::runtime {
 /// step, version 3 a belief sample's contributions (exact GaBP), version 4 checksummed records (a CRC-32
 /// of the file header, and of each record's header and payload), version 5 a state sample's edge range
 /// summaries (dml), version 6 each summary's peer mean, version 7 observation samples (team_pose_ekf),
-/// version 8 a state's self-check flag (dml).
-/// Readers accept versions 1 to 8 (a version 1 sample's world step reads as −1, an older belief has no
-/// contributions, an older state no edge summaries or peer means (zero) and no flag, files before 4 have no
-/// checksums to check).
-inline constexpr std::uint16_t kRecordingVersion = 8;
+/// version 8 a state's self-check flag (dml), version 9 a state's cavities (dml).
+/// Readers accept versions 1 to 9 (a version 1 sample's world step reads as −1, an older belief has no
+/// contributions, an older state no edge summaries or peer means (zero), no flag and no cavities, files
+/// before 4 have no checksums to check).
+inline constexpr std::uint16_t kRecordingVersion = 9;
 inline constexpr std::uint16_t kOldestReadableRecordingVersion = 1;
 inline constexpr std::uint16_t kFirstChecksummedRecordingVersion = 4;
 
