@@ -31,8 +31,12 @@ Neighbourhood eight_neighbours() {
   for (int j = 1; j <= 8; ++j) {
     const double angle = 0.785 * j;
     const Vec2 x_j = self + 5.0 * Vec2(std::cos(angle), std::sin(angle));
-    n.inbox.states.push_back(est::Received<est::StateMessage>{
-        j, 0, est::StateMessage{x_j, 0.01 * Mat2::Identity(), j <= 3, true, 8, {}}});
+    est::StateMessage state;
+    state.mean_m = x_j;
+    state.covariance = 0.01 * Mat2::Identity();
+    state.anchor = j <= 3;
+    state.degree = 8;
+    n.inbox.states.push_back(est::Received<est::StateMessage>{j, 0, state});
     n.batch.ranges.push_back(est::RangeMeasurement{j, 5.02, 0.1});
   }
   return n;
