@@ -9,6 +9,9 @@
 
 namespace swarmloc::dds::codec {
 
+using wire::point_at;
+using wire::put_vec2;
+
 Inbound<estimators::StateMessage> round_trip(const runtime::Header& header,
                                              const estimators::StateMessage& message) {
   const WireState wire(header, message);

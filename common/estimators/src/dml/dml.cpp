@@ -24,9 +24,6 @@ using dml_thresholds::kMirrorSeparationSigmas;
 using dml_thresholds::kMultilaterationSpreadFraction;
 using dml_thresholds::kSelfCheckFalseAlarm;
 constexpr int kSolveIterations = 5;
-// 1 − s·q at or below this: the belief holds little besides the message, and the cavity's mean would
-// amplify any change in it more than 20-fold (3-D worlds at a 15 m radius diverged at 1e-3).
-constexpr double kCavityRemainingFloor = 0.05;
 constexpr double kLocalMapFalseAlarm = 1e-3;  // a local map that fits its ranges worse is folded
 using rank_one::kShortestDistanceM;
 using rank_one::message_scale;
@@ -134,22 +131,6 @@ std::vector<typename DmlT<D>::Reference> DmlT<D>::references() const {
   std::vector<Reference> refs;
   for (const auto& [id, edge] : edges_) {
     if (edge.usable()) refs.push_back({id, edge.mean_m, edge.mean_range_m(), edge.information()});
-  }
-  return refs;
-}
-
-template <int D>
-std::vector<typename DmlT<D>::Reference> DmlT<D>::message_references() const {
-  std::vector<Reference> refs;
-  for (const auto& [id, edge] : edges_) {
-    if (!edge.usable() || !(edge.message_scale > 0.0)) continue;
-    // Linearized where both ends linearize the range, at the two published means: the distance to the
-    // neighbour's mean is the range plus how far its cavity lies toward this agent.
-    const Vec offset = x_ - edge.mean_m;
-    const double toward_m = edge.cavity && offset.norm() >= kShortestDistanceM
-                                ? offset.normalized().dot(edge.cavity->offset_m)
-                                : 0.0;
-    refs.push_back({id, edge.mean_m, edge.mean_range_m() + toward_m, edge.message_scale});
   }
   return refs;
 }
@@ -659,34 +640,6 @@ StateMessage DmlT<D>::state_message() const {
   state.inconsistent = inconsistent_ || ambiguous_start_;
   state.degree = static_cast<std::uint16_t>(std::min<std::size_t>(edges_.size(), UINT16_MAX));
   return state;
-}
-
-template <int D>
-std::vector<EdgeCavity> DmlT<D>::cavities() const {
-  std::vector<EdgeCavity> cavities;
-  if (!localized_ || exact_anchor() || !dml_dimension::positive_definite_d<D>(information_)) return cavities;
-  const Mat covariance = information_.inverse();
-  for (const auto& ref : message_references()) {
-    if (cavities.size() == StateMessage::kMaxCavities) break;
-    const Vec offset = x_ - ref.position_m;
-    if (offset.norm() < kShortestDistanceM) continue;
-    const Vec a = offset.normalized();
-    const double scale = ref.information;
-    const double q = a.dot(covariance * a);
-    const double remaining = 1.0 - scale * q;
-    if (!(remaining > kCavityRemainingFloor)) continue;  // the belief is (almost) all this message
-    // x_ minimizes the message terms; without this one, a Newton step from x_ on the others
-    // (Sherman–Morrison).
-    const double residual = ref.mean_range_m - offset.norm();
-    const Vec shift = -(covariance * a) * (scale * residual / remaining);
-    EdgeCavity cavity;
-    cavity.peer = ref.id;
-    cavity.offset_m = shift.template head<2>();
-    if constexpr (D == 3) cavity.offset_z_m = shift(2);
-    cavity.variance_m2 = q / remaining;
-    cavities.push_back(cavity);
-  }
-  return cavities;
 }
 
 template <int D>
