@@ -16,14 +16,26 @@ inline constexpr double kMessageAbsentRatio = 2.0;
 inline constexpr double kNoVariance = std::numeric_limits<double>::infinity();
 using rank_one::kCavityTolerance;
 
+/// A belief along unit vector `a` and the rank-one message s·aaᵀ it holds: q = aᵀPa, and 1 − s·q, the share
+/// of the belief's information along `a` that is not the message (Sherman–Morrison).
+struct AlongEdge {
+  double variance = kNoVariance;
+  double remaining = 0.0;
+};
+
+template <int D>
+AlongEdge along_edge(const MatD<D>& covariance, const VecD<D>& a, double message_scale) {
+  const double q = a.dot(covariance * a);
+  return {q, 1.0 - message_scale * q};
+}
+
 /// a^T P a for the variance of position `covariance` along unit vector `a`, after the rank-one message
-/// s·aaᵀ is taken out of its information (Sherman–Morrison): q / (1 − s q), +inf if nothing is left.
+/// s·aaᵀ is taken out of its information: q / (1 − s q), +inf if nothing is left.
 template <int D>
 double cavity_variance(const MatD<D>& covariance, const VecD<D>& a, double message_scale) {
-  const double q = a.dot(covariance * a);
-  if (!std::isfinite(q)) return kNoVariance;
-  const double remaining = 1.0 - message_scale * q;
-  return remaining > kCavityTolerance ? q / remaining : kNoVariance;
+  const AlongEdge along = along_edge<D>(covariance, a, message_scale);
+  if (!std::isfinite(along.variance)) return kNoVariance;
+  return along.remaining > kCavityTolerance ? along.variance / along.remaining : kNoVariance;
 }
 
 /// The neighbour's variance along `a` without the message this agent sent it (`sent_scale`, or the one of the

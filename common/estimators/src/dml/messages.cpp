@@ -2,6 +2,7 @@
 // the cavities it sends its neighbours.
 #include <vector>
 
+#include "dml/cavity.hpp"
 #include "dml/rank_one_message.hpp"
 #include "swarmloc/estimators/dml/dml.hpp"
 
@@ -41,19 +42,17 @@ std::vector<EdgeCavity> DmlT<D>::cavities() const {
     const Vec offset = x_ - ref.position_m;
     if (offset.norm() < kShortestDistanceM) continue;
     const Vec a = offset.normalized();
-    const double scale = ref.information;
-    const double q = a.dot(covariance * a);
-    const double remaining = 1.0 - scale * q;
-    if (!(remaining > kCavityRemainingFloor)) continue;  // the belief is (almost) all this message
+    const auto along = dml_cavity::along_edge<D>(covariance, a, ref.information);
+    if (!(along.remaining > kCavityRemainingFloor)) continue;  // the belief is (almost) all this message
     // x_ minimizes the message terms; without this one, a Newton step from x_ on the others
     // (Sherman–Morrison).
     const double residual = ref.mean_range_m - offset.norm();
-    const Vec shift = -(covariance * a) * (scale * residual / remaining);
+    const Vec shift = -(covariance * a) * (ref.information * residual / along.remaining);
     EdgeCavity cavity;
     cavity.peer = ref.id;
     cavity.offset_m = shift.template head<2>();
     if constexpr (D == 3) cavity.offset_z_m = shift(2);
-    cavity.variance_m2 = q / remaining;
+    cavity.variance_m2 = along.variance / along.remaining;
     cavities.push_back(cavity);
   }
   return cavities;
