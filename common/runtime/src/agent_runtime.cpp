@@ -498,27 +498,34 @@ AgentRuntime::Publication AgentRuntime::initial_publication(std::int64_t sender_
 }
 
 namespace {
-/// Appends the stored sample of every neighbour that has one, in slot (= sender id) order.
+/// Copies the stored sample of every neighbour that has one, in slot (= sender id) order, over the copies of
+/// the step before: assigning to them reuses their vectors' storage.
 template <typename Message>
 void copy_newest(const std::vector<estimators::Received<Message>>& newest, const std::vector<bool>& has,
                  std::vector<estimators::Received<Message>>& to) {
-  to.reserve(newest.size());
+  std::size_t count = 0;
   for (std::size_t slot = 0; slot < newest.size(); ++slot) {
-    if (has[slot]) to.push_back(newest[slot]);
+    if (!has[slot]) continue;
+    if (count < to.size()) {
+      to[count] = newest[slot];
+    } else {
+      to.push_back(newest[slot]);
+    }
+    ++count;
   }
+  to.resize(count);
 }
 }  // namespace
 
 AgentRuntime::Publication AgentRuntime::step(std::int64_t sender_stamp_ns) {
-  estimators::Inbox inbox;
-  copy_newest(states_.newest, states_.has, inbox.states);
-  copy_newest(information_.newest, information_.has, inbox.information);
-  copy_newest(consensus_.newest, consensus_.has, inbox.consensus);
-  copy_newest(beliefs_.newest, beliefs_.has, inbox.beliefs);
-  copy_newest(observations_.newest, observations_.has, inbox.observations);
+  copy_newest(states_.newest, states_.has, inbox_.states);
+  copy_newest(information_.newest, information_.has, inbox_.information);
+  copy_newest(consensus_.newest, consensus_.has, inbox_.consensus);
+  copy_newest(beliefs_.newest, beliefs_.has, inbox_.beliefs);
+  copy_newest(observations_.newest, observations_.has, inbox_.observations);
   estimators::StepInput input;
   input.local_step = local_step_;
-  input.inbox = &inbox;
+  input.inbox = &inbox_;
   input.measurements = pending_batch_ ? &*pending_batch_ : nullptr;
   auto output = estimator_->step(input);
   const std::int64_t world_step = pending_batch_ ? pending_batch_->world_step : newest_batch_step_;

@@ -163,6 +163,9 @@ class AgentRuntime {
   Mailbox<estimators::ConsensusMessage> consensus_;
   Mailbox<estimators::BeliefMessage> beliefs_;
   Mailbox<estimators::ObservationMessage> observations_;
+  /// What the estimator steps on; kept between steps so that copying the samples into it reuses their
+  /// buffers instead of allocating them again.
+  estimators::Inbox inbox_;
   std::optional<estimators::MeasurementBatch> pending_batch_;
   std::int64_t newest_batch_step_ = -1;
   double batch_period_s_ = 0.0;
