@@ -25,7 +25,13 @@ int TwoHopPositionsT<D>::absorb(AgentId self, const VecD<D>& sender_mean_m,
     // one of its neighbours, so within the radius of it.
     const double distance = (peer_mean_m - sender_mean_m).norm();
     if (std::abs(distance - summary.mean_range_m) > margin_m() || distance > radius_m_ + margin_m()) continue;
-    positions_[summary.peer] = peer_mean_m;
+    const auto at = std::lower_bound(positions_.begin(), positions_.end(), summary.peer,
+                                     [](const auto& entry, AgentId id) { return entry.first < id; });
+    if (at != positions_.end() && at->first == summary.peer) {
+      at->second = peer_mean_m;
+    } else {
+      positions_.insert(at, {summary.peer, peer_mean_m});
+    }
     ++kept;
   }
   return kept;

@@ -44,7 +44,9 @@ class TwoHopPositionsT {
  private:
   double radius_m_;
   bool enabled_;
-  std::map<AgentId, VecD<D>> positions_;  // newest relayed mean per agent
+  // Newest relayed mean per agent, sorted by id: a flat vector, not a map, keeps an agent's dozens of
+  // entries in one block (1000 agents in one process: docs/scale.md).
+  std::vector<std::pair<AgentId, VecD<D>>> positions_;
 };
 
 /// Ranges through a neighbour (docs/algorithms.md §9.4): neighbour c measured r_cm to agent m and relays
