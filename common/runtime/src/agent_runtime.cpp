@@ -36,9 +36,8 @@ int AgentRuntime::slot_of(AgentId id) const {
 
 template <typename Message>
 void AgentRuntime::init_mailbox(Mailbox<Message>& mailbox) const {
-  mailbox.newest.resize(neighbours_.size());
   mailbox.newest_seq.assign(neighbours_.size(), 0);
-  mailbox.has.assign(neighbours_.size(), false);
+  mailbox.index.assign(neighbours_.size(), -1);
 }
 
 bool AgentRuntime::partitioned(const Header& header) const {
@@ -221,6 +220,7 @@ std::int64_t AgentRuntime::world_stamp_ns(std::int64_t world_step) const {
 
 template <typename Message>
 estimators::Received<Message>* AgentRuntime::on_sample(core::TopicFamily family, Mailbox<Message>& mailbox,
+                                                       std::vector<estimators::Received<Message>>& newest,
                                                        const Header& header, const Message& message,
                                                        bool well_formed) {
   if (header.agent_id == setup_.id) return nullptr;  // own sample (should not be routed here)
@@ -257,7 +257,7 @@ estimators::Received<Message>* AgentRuntime::on_sample(core::TopicFamily family,
   } else {
     reason = check_content(message);
   }
-  if (!reason && mailbox.has[at]) {
+  if (!reason && mailbox.index[at] >= 0) {
     if (header.seq == mailbox.newest_seq[at]) reason = RejectReason::kDuplicate;
     if (header.seq < mailbox.newest_seq[at]) reason = RejectReason::kReordered;
   }
@@ -267,9 +267,17 @@ estimators::Received<Message>* AgentRuntime::on_sample(core::TopicFamily family,
   }
   ++link->delivered;
   if (header.step >= 0) ++link->delivered_in_steps;
-  mailbox.has[at] = true;
   mailbox.newest_seq[at] = header.seq;
-  auto& stored = mailbox.newest[at];
+  if (mailbox.index[at] < 0) {
+    // The neighbour's first sample: its place among the others, in slot order.
+    mailbox.index[at] = 0;
+    int next = 0;
+    for (int& index : mailbox.index) {
+      if (index >= 0) index = next++;
+    }
+    newest.insert(newest.begin() + mailbox.index[at], estimators::Received<Message>{});
+  }
+  auto& stored = newest[static_cast<std::size_t>(mailbox.index[at])];
   stored.sender = header.agent_id;
   stored.sender_step = local_step_ - 1;  // in the receiver's frame: as if sent at its previous step
   stored.message = message;
@@ -277,14 +285,15 @@ estimators::Received<Message>* AgentRuntime::on_sample(core::TopicFamily family,
 }
 
 bool AgentRuntime::on_state(const Header& header, const estimators::StateMessage& message, bool well_formed) {
-  auto* stored = on_sample(core::TopicFamily::kState, states_, header, message, well_formed);
+  auto* stored = on_sample(core::TopicFamily::kState, states_, inbox_.states, header, message, well_formed);
   if (stored != nullptr) stored->message.covariance = core::symmetrized(stored->message.covariance);
   return stored != nullptr;
 }
 
 bool AgentRuntime::on_information(const Header& header, const estimators::InformationMessage& message,
                                   bool well_formed) {
-  auto* stored = on_sample(core::TopicFamily::kInformation, information_, header, message, well_formed);
+  auto* stored = on_sample(core::TopicFamily::kInformation, information_, inbox_.information, header, message,
+                           well_formed);
   if (stored != nullptr) {
     auto& info = stored->message.info_mat;
     info = 0.5 * (info + info.transpose()).eval();
@@ -294,12 +303,14 @@ bool AgentRuntime::on_information(const Header& header, const estimators::Inform
 
 bool AgentRuntime::on_consensus(const Header& header, const estimators::ConsensusMessage& message,
                                 bool well_formed) {
-  return on_sample(core::TopicFamily::kConsensus, consensus_, header, message, well_formed) != nullptr;
+  return on_sample(core::TopicFamily::kConsensus, consensus_, inbox_.consensus, header, message,
+                   well_formed) != nullptr;
 }
 
 bool AgentRuntime::on_observations(const Header& header, const estimators::ObservationMessage& message,
                                    bool well_formed) {
-  auto* stored = on_sample(core::TopicFamily::kObservations, observations_, header, message, well_formed);
+  auto* stored = on_sample(core::TopicFamily::kObservations, observations_, inbox_.observations, header,
+                           message, well_formed);
   if (stored != nullptr) {
     auto& covariance = stored->message.origin_covariance;
     covariance = 0.5 * (covariance + covariance.transpose()).eval();
@@ -309,7 +320,8 @@ bool AgentRuntime::on_observations(const Header& header, const estimators::Obser
 
 bool AgentRuntime::on_belief(const Header& header, const estimators::BeliefMessage& message,
                              bool well_formed) {
-  auto* stored = on_sample(core::TopicFamily::kBelief, beliefs_, header, message, well_formed);
+  auto* stored =
+      on_sample(core::TopicFamily::kBelief, beliefs_, inbox_.beliefs, header, message, well_formed);
   if (stored != nullptr) stored->message.information = core::symmetrized(stored->message.information);
   return stored != nullptr;
 }
@@ -497,32 +509,7 @@ AgentRuntime::Publication AgentRuntime::initial_publication(std::int64_t sender_
   return publish(estimator_->initial_outbox(), local_step_ - 1, sender_stamp_ns, 0);
 }
 
-namespace {
-/// Copies the stored sample of every neighbour that has one, in slot (= sender id) order, over the copies of
-/// the step before: assigning to them reuses their vectors' storage.
-template <typename Message>
-void copy_newest(const std::vector<estimators::Received<Message>>& newest, const std::vector<bool>& has,
-                 std::vector<estimators::Received<Message>>& to) {
-  std::size_t count = 0;
-  for (std::size_t slot = 0; slot < newest.size(); ++slot) {
-    if (!has[slot]) continue;
-    if (count < to.size()) {
-      to[count] = newest[slot];
-    } else {
-      to.push_back(newest[slot]);
-    }
-    ++count;
-  }
-  to.resize(count);
-}
-}  // namespace
-
 AgentRuntime::Publication AgentRuntime::step(std::int64_t sender_stamp_ns) {
-  copy_newest(states_.newest, states_.has, inbox_.states);
-  copy_newest(information_.newest, information_.has, inbox_.information);
-  copy_newest(consensus_.newest, consensus_.has, inbox_.consensus);
-  copy_newest(beliefs_.newest, beliefs_.has, inbox_.beliefs);
-  copy_newest(observations_.newest, observations_.has, inbox_.observations);
   estimators::StepInput input;
   input.local_step = local_step_;
   input.inbox = &inbox_;

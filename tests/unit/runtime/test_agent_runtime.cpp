@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <memory>
+#include <utility>
+#include <vector>
 
 #include "swarmloc/config/algorithms.hpp"
 #include "swarmloc/runtime/agent_runtime.hpp"
@@ -18,7 +21,7 @@ AgentRuntime make_runtime(double loss = 0.0) {
   return AgentRuntime(config::make_estimator("ieif", setup, {}), setup, {1, 2, 3}, params);
 }
 
-estimators::StateMessage anchor_state(Vec2 position) {
+estimators::StateMessage anchor_state(const Vec2& position) {
   estimators::StateMessage m;
   m.mean_m = position;
   m.covariance = Mat2::Zero();
@@ -122,6 +125,54 @@ TEST(AgentRuntime, DropsDuplicateAndReorderedSamples) {
   EXPECT_EQ(link.arrived, 4U);
   EXPECT_EQ(link.delivered, 2U);
   EXPECT_EQ(link.sent(), 3U);  // seqs 4..6
+}
+
+/// Remembers, at each step, the sender and mean x of every state it was handed, in the inbox's order.
+class InboxRecorder final : public estimators::Estimator {
+ public:
+  using Seen = std::vector<std::pair<AgentId, double>>;
+  explicit InboxRecorder(std::vector<Seen>* steps) : steps_(steps) {}
+  [[nodiscard]] std::string_view name() const override { return "inbox_recorder"; }
+  [[nodiscard]] estimators::Outbox initial_outbox() const override { return {}; }
+  estimators::StepOutput step(const estimators::StepInput& input) override {
+    Seen seen;
+    for (const auto& received : input.inbox->states)
+      seen.emplace_back(received.sender, received.message.mean_m.x());
+    steps_->push_back(seen);
+    return {};
+  }
+  [[nodiscard]] estimators::Estimate estimate() const override { return {}; }
+
+ private:
+  std::vector<Seen>* steps_;
+};
+
+TEST(AgentRuntime, EachStepSeesEveryNeighboursNewestSampleInSenderOrder) {
+  std::vector<InboxRecorder::Seen> steps;
+  estimators::AgentSetup setup{0, false, Vec2(5.0, 5.0)};
+  AgentRuntimeParams params;
+  params.absurd_position_bound_m = 1e5;
+  AgentRuntime runtime(std::make_unique<InboxRecorder>(&steps), setup, {1, 2, 3}, params);
+  const auto send = [&](AgentId sender, std::uint32_t seq, double x) {
+    return runtime.on_state(header_from(sender, seq), anchor_state(Vec2(x, 0.0)));
+  };
+  ASSERT_TRUE(send(3, 0, 30.0));
+  runtime.step(0);
+  ASSERT_TRUE(send(1, 0, 10.0));
+  runtime.step(0);
+  ASSERT_TRUE(send(3, 1, 31.0));  // replaces 3's sample where it is
+  runtime.step(0);
+  ASSERT_TRUE(send(2, 0, 20.0));   // goes between 1 and 3
+  EXPECT_FALSE(send(2, 0, 99.0));  // a duplicate changes nothing
+  runtime.step(0);
+  runtime.step(0);  // nothing new: the same newest samples again
+  using Seen = InboxRecorder::Seen;
+  ASSERT_EQ(steps.size(), 5U);
+  EXPECT_EQ(steps[0], (Seen{{3, 30.0}}));
+  EXPECT_EQ(steps[1], (Seen{{1, 10.0}, {3, 30.0}}));
+  EXPECT_EQ(steps[2], (Seen{{1, 10.0}, {3, 31.0}}));
+  EXPECT_EQ(steps[3], (Seen{{1, 10.0}, {2, 20.0}, {3, 31.0}}));
+  EXPECT_EQ(steps[4], steps[3]);
 }
 
 TEST(AgentRuntime, InjectedLossDropsTheConfiguredFraction) {

@@ -109,14 +109,15 @@ class AgentRuntime {
   [[nodiscard]] bool has_pending_batch() const { return pending_batch_.has_value(); }
 
  private:
-  /// The newest sample per neighbour of one family, and the seq it came with (ordering/duplicates),
-  /// indexed by the neighbour's slot (its position in neighbours_). Flat arrays, not maps: at 10^4
-  /// agents the simulator spent most of a step walking per-agent trees (docs/scale.md).
+  /// Where the newest sample per neighbour of one family is kept, and the seq it came with
+  /// (ordering/duplicates), indexed by the neighbour's slot (its position in neighbours_). The samples
+  /// themselves live in the inbox the estimator steps on (inbox_), in slot order, so a step copies none.
+  /// Flat arrays, not maps: at 10^4 agents the simulator spent most of a step walking per-agent trees
+  /// (docs/scale.md).
   template <typename Message>
   struct Mailbox {
-    std::vector<estimators::Received<Message>> newest;
     std::vector<std::uint32_t> newest_seq;
-    std::vector<bool> has;
+    std::vector<int> index;  ///< the slot's sample in the inbox's vector; −1: none yet
   };
   /// The slot of neighbour `id` (its index in neighbours_), or −1 if `id` is not a neighbour.
   [[nodiscard]] int slot_of(AgentId id) const;
@@ -125,6 +126,7 @@ class AgentRuntime {
   /// Stores an accepted sample and returns it; nullptr if dropped or rejected.
   template <typename Message>
   estimators::Received<Message>* on_sample(core::TopicFamily family, Mailbox<Message>& mailbox,
+                                           std::vector<estimators::Received<Message>>& newest,
                                            const Header& header, const Message& message, bool well_formed);
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::StateMessage& m) const;
   [[nodiscard]] std::optional<RejectReason> check_content(const estimators::InformationMessage& m) const;
@@ -163,8 +165,8 @@ class AgentRuntime {
   Mailbox<estimators::ConsensusMessage> consensus_;
   Mailbox<estimators::BeliefMessage> beliefs_;
   Mailbox<estimators::ObservationMessage> observations_;
-  /// What the estimator steps on; kept between steps so that copying the samples into it reuses their
-  /// buffers instead of allocating them again.
+  /// The newest sample of every neighbour that sent one, per family in slot (= sender id) order: what the
+  /// estimator steps on, stored here as the samples arrive.
   estimators::Inbox inbox_;
   std::optional<estimators::MeasurementBatch> pending_batch_;
   std::int64_t newest_batch_step_ = -1;
