@@ -54,7 +54,7 @@ double DmlT<D>::Edge::mean_range_m() const {
 
 template <int D>
 bool DmlT<D>::Edge::usable() const {
-  return has_state && has_position && state.active && information() > 0.0 && mean_m.allFinite();
+  return has_state && has_position && active && information() > 0.0 && mean_m.allFinite();
 }
 
 template <int D>
@@ -101,7 +101,10 @@ void DmlT<D>::absorb_states(const Inbox& inbox) {
     if (received.sender == setup_.id) continue;
     Edge& edge = edges_[received.sender];
     edge.has_state = true;
-    edge.state = received.message;
+    edge.active = received.message.active;
+    edge.anchor = received.message.anchor;
+    edge.inconsistent = received.message.inconsistent;
+    edge.degree = received.message.degree;
     // A 3-D agent cannot use a state without an altitude: it keeps the planar part as a guess (local maps).
     const auto position = dml_dimension::read_state<D>(received.message);
     edge.has_position = position.has_value();
@@ -329,8 +332,8 @@ typename DmlT<D>::LocalMap DmlT<D>::draw_local_map(bool beliefs_only) const {
     if (!(edge.information() > 0.0)) continue;
     if (beliefs_only && !edge.usable()) continue;  // no place to linearize at
     // A neighbour's own flag puts its position in doubt: the map places it instead of holding it.
-    const bool known = edge.usable() && !edge.state.inconsistent &&
-                       (!beliefs_only || has_belief<D>(edge.state.anchor, edge.covariance));
+    const bool known =
+        edge.usable() && !edge.inconsistent && (!beliefs_only || has_belief<D>(edge.anchor, edge.covariance));
     add_range(0, add_node(id, known, edge.mean_m), edge.mean_range_m(), edge.information(),
               edge.peer_information > 0.0 ? 2 : 1);
     map.shortest_range_m = std::min(map.shortest_range_m, edge.mean_range_m());
@@ -503,7 +506,7 @@ void DmlT<D>::update_information() {
         edge.information(), have_belief ? cavity_variance<D>(covariance, a, edge.message_scale) : kInfinity);
     // The neighbour's own cavity variance when it sent one; otherwise taken out of its belief here.
     double far_variance = 0.0;
-    if (!exactly_known<D>(edge.state.anchor, edge.covariance)) {
+    if (!exactly_known<D>(edge.anchor, edge.covariance)) {
       far_variance = edge.cavity ? edge.cavity->variance_m2
                                  : far_cavity_variance<D>(edge.covariance, a, sent_scale, edge.sent_scale);
     }
@@ -521,11 +524,11 @@ std::optional<typename DmlT<D>::Mat> DmlT<D>::region_covariance() const {
   std::vector<region::KnownT<D>> known;
   for (const auto& [id, edge] : edges_) {
     if (!edge.usable()) continue;
-    if (exactly_known<D>(edge.state.anchor, edge.covariance)) {
+    if (exactly_known<D>(edge.anchor, edge.covariance)) {
       known.push_back({edge.mean_m, edge.information()});
     } else {
       members.push_back({edge.mean_m, edge.covariance, edge.information(), edge.sent_scale,
-                         edge.state.anchor ? std::size_t{0} : std::size_t{edge.state.degree}});
+                         edge.anchor ? std::size_t{0} : std::size_t{edge.degree}});
       member_ids.push_back(id);
     }
   }
@@ -561,7 +564,7 @@ double DmlT<D>::residual_statistic(int& degrees_of_freedom) const {
     if (!edge.usable() || offset.norm() < kShortestDistanceM) continue;
     const Vec a = offset.normalized();
     const double far_variance =
-        exactly_known<D>(edge.state.anchor, edge.covariance) ? 0.0 : a.dot(edge.covariance * a);
+        exactly_known<D>(edge.anchor, edge.covariance) ? 0.0 : a.dot(edge.covariance * a);
     if (!std::isfinite(far_variance)) continue;
     const double variance = 1.0 / edge.information() + a.dot(covariance * a) + far_variance;
     const double residual = edge.mean_range_m() - offset.norm();
@@ -575,7 +578,7 @@ template <int D>
 bool DmlT<D>::leans_on_flagged_neighbours(const std::vector<Reference>& refs) const {
   std::size_t flagged = 0;
   for (const auto& ref : refs) {
-    if (edges_.at(ref.id).state.inconsistent) ++flagged;
+    if (edges_.at(ref.id).inconsistent) ++flagged;
   }
   // D + 1 references fix a position; fewer unflagged ones leave it resting on the flagged.
   return flagged > 0 && refs.size() - flagged < static_cast<std::size_t>(D + 1);

@@ -16,7 +16,7 @@ double DmlT<D>::fit_statistic(const Vec& x, const std::vector<Reference>& refs) 
   for (const auto& ref : refs) {
     const Vec offset = x - ref.position_m;
     const Edge& edge = edges_.at(ref.id);
-    const double along = offset.norm() > 0.0 && !(edge.state.anchor && edge.covariance.isZero())
+    const double along = offset.norm() > 0.0 && !(edge.anchor && edge.covariance.isZero())
                              ? offset.normalized().dot(edge.covariance * offset.normalized())
                              : 0.0;
     if (!std::isfinite(along)) continue;

@@ -56,7 +56,11 @@ class DmlT final : public Estimator {
     double peer_information = 0.0;  // the neighbour's summary of its draws of the edge
     double peer_mean_range_m = 0.0;
     bool has_state = false;
-    StateMessage state;         // the neighbour's newest state
+    // What this agent keeps of the neighbour's newest state besides its position and its summaries.
+    bool active = false;
+    bool anchor = false;
+    bool inconsistent = false;
+    std::uint16_t degree = 0;
     bool has_position = false;  // its state holds a position in D (3-D: an altitude)
     Vec mean_m = Vec::Zero();   // its published position and covariance, in D
     Mat covariance = Mat::Zero();
